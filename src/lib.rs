@@ -1,0 +1,27 @@
+//! ledflicker: a conformance test suite and report generator for LED flicker
+//! in automotive cameras.
+//!
+//! The pipeline runs one way:
+//!
+//! ```text
+//! TOML plan --plan::load--> Plan --expand_cases--> Vec<TestCase>
+//!   --runner::run (rayon) + dyn Backend--> Vec<CaseResult>
+//!   --report::build--> Results (results.json) --report::html--> report.html
+//! ```
+//!
+//! - [`plan`]: the TOML format, validation with every error located by line;
+//! - [`physics`]: the exact closed-form PWM integral, global and rolling shutters;
+//! - [`backend`]: where frames come from (the simulator's ideal camera);
+//! - [`metrics`]: Deegan 2018 FDI and Percent Flicker, verdicts;
+//! - [`runner`]: cases in parallel, deterministic whatever the thread count;
+//! - [`report`]: results.json, trace CSVs and the HTML report.
+#![warn(missing_docs)]
+
+pub mod backend;
+pub mod cli;
+pub mod metrics;
+pub mod physics;
+pub mod plan;
+pub mod report;
+pub mod runner;
+pub mod util;

@@ -1,0 +1,11 @@
+//! Flicker metrics on per-frame ROI luma traces, and pass/fail verdicts.
+//!
+//! Sits after the backends: it sees only luma values and segment labels,
+//! never the physics that made them, so simulated and captured traces are
+//! measured the same way.
+
+pub mod flicker;
+pub mod verdict;
+
+pub use flicker::{Levels, Metric, RoiMetrics, evaluate_roi};
+pub use verdict::{Check, Verdict, evaluate_case};

@@ -1,0 +1,375 @@
+//! Test plans: TOML on disk -> [`raw::RawPlan`] (serde) -> validated [`Plan`]
+//! -> [`TestCase`]s (grid expansion).
+//!
+//! First stage of the pipeline. Loading reads the file, records its SHA-256,
+//! collects every unknown key and every out-of-range value with its line,
+//! and fails with all of them at once.
+
+mod grid;
+mod raw;
+mod spans;
+mod validate;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+pub use grid::{TestCase, expand_cases};
+
+/// Upper bound on cases in one plan, to catch a mistyped grid step early.
+pub const MAX_CASES: usize = 20_000;
+
+/// A validated test plan. All values are in range and in SI-prefixed units
+/// named in the field.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// Short id, `[a-z0-9_-]+`; names the report directory.
+    pub id: String,
+    /// Human title.
+    pub title: String,
+    /// Standard or method followed, e.g. "Deegan 2018 (IS&T EI AVM-146)".
+    pub standard: String,
+    /// Free text.
+    pub description: String,
+    /// Test lab, for the report cover.
+    pub lab: String,
+    /// Random seed; each case derives its own from this and its id.
+    pub seed: u64,
+    /// Path the plan was read from.
+    pub path: PathBuf,
+    /// SHA-256 of the plan file, lowercase hex.
+    pub sha256: String,
+    /// ON / OFF / PWM durations.
+    pub sequence: Sequence,
+    /// Ambient illuminance levels in lux (> 0), in plan order.
+    pub light_levels_lux: Vec<f64>,
+    /// PWM frequencies in Hz (> 0), in plan order.
+    pub frequencies_hz: Vec<f64>,
+    /// Duty cycles in (0, 1], in plan order.
+    pub duty_cycles: Vec<f64>,
+    /// Regions of interest, at least one.
+    pub rois: Vec<Roi>,
+    /// Device under test.
+    pub dut: Dut,
+    /// Scene radiometry.
+    pub scene: Scene,
+    /// Pass criteria.
+    pub thresholds: Thresholds,
+}
+
+/// The light sequence of one case: steady ON (luminance matched to the PWM
+/// average), OFF (reference level), then PWM. Durations in seconds (>= 0,
+/// PWM > 0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sequence {
+    /// Steady-ON duration in seconds.
+    pub on_s: f64,
+    /// OFF duration in seconds.
+    pub off_s: f64,
+    /// PWM duration in seconds.
+    pub pwm_s: f64,
+}
+
+/// What an ROI looks at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RoiKind {
+    /// On the LED source: flicker metrics and verdicts apply.
+    Led,
+    /// On the grey background: informational (and, later, auto exposure).
+    Background,
+}
+
+/// A rectangular region of interest in sensor pixels.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Roi {
+    /// Unique name; also the trace CSV column.
+    pub name: String,
+    /// LED or background.
+    pub kind: RoiKind,
+    /// Left column, 0-based.
+    pub x_px: u32,
+    /// Top row, 0-based.
+    pub y_px: u32,
+    /// Width in pixels (>= 1).
+    pub width_px: u32,
+    /// Height in rows (>= 1).
+    pub height_px: u32,
+}
+
+impl Roi {
+    /// Rows covered, start inclusive, end exclusive.
+    pub fn rows(&self) -> std::ops::Range<u32> {
+        self.y_px..self.y_px + self.height_px
+    }
+}
+
+/// Which backend acquires the frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BackendKind {
+    /// The built-in physics simulator.
+    Simulator,
+}
+
+/// Device under test.
+#[derive(Debug, Clone)]
+pub struct Dut {
+    /// Backend.
+    pub backend: BackendKind,
+    /// Supplier, for the report.
+    pub supplier: String,
+    /// Camera model.
+    pub model: String,
+    /// Serial number.
+    pub serial: String,
+    /// Firmware version.
+    pub firmware: String,
+    /// Simulated camera parameters.
+    pub camera: CameraConfig,
+}
+
+/// Shutter type of the simulated camera.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ShutterKind {
+    /// All rows exposed together.
+    Global,
+    /// Rows exposed one line time apart.
+    Rolling,
+}
+
+/// Parameters of the simulator's ideal camera: linear, noiseless, fixed
+/// exposure.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraConfig {
+    /// Global or rolling shutter.
+    pub shutter: ShutterKind,
+    /// Sensor height in rows (>= 1).
+    pub sensor_rows: u32,
+    /// Sensor width in columns (>= 1).
+    pub sensor_columns: u32,
+    /// Line time in seconds (>= 0); 0 for a global shutter.
+    pub line_time_s: f64,
+    /// Exposure time in seconds (> 0, <= frame time).
+    pub exposure_s: f64,
+    /// Frame rate in frames per second (> 0).
+    pub fps: f64,
+    /// First PWM rising edge after the start of frame 0's exposure, seconds.
+    pub pwm_delay_s: f64,
+    /// Linear response: output DN per (cd/m^2 x second of exposure) (> 0).
+    pub response_dn_per_cd_m2_s: f64,
+    /// Output for no light, DN (>= 0).
+    pub black_level_dn: f64,
+    /// Largest output value, DN; the output clips here.
+    pub full_scale_dn: f64,
+    /// An ROI whose luma reaches this is flagged saturated, DN.
+    pub saturation_dn: f64,
+}
+
+/// Scene radiometry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scene {
+    /// Reflectance of the grey background (0..1]; 0.18 for 18% grey.
+    pub background_reflectance: f64,
+    /// Luminance of the LED while ON, cd/m^2 (>= 0).
+    pub led_luminance_cd_m2: f64,
+    /// Share of an LED ROI covered by the LED (0..1].
+    pub led_fill: f64,
+}
+
+impl Scene {
+    /// Luminance of a Lambertian background: `L = rho * E / pi` (cd/m^2).
+    pub fn background_luminance_cd_m2(&self, illuminance_lux: f64) -> f64 {
+        self.background_reflectance * illuminance_lux / std::f64::consts::PI
+    }
+}
+
+/// Which figure the verdict is taken from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum VerdictBasis {
+    /// The worst case over PWM phase (conservative; default).
+    WorstPhase,
+    /// The trace as captured, at the plan's PWM phase.
+    AsCaptured,
+}
+
+/// Pass criteria. A case whose frequency lies outside the mitigation range
+/// is informational.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Thresholds {
+    /// FDI (2018) must be >= this (Deegan 2018: the light appears OFF below 0.1).
+    pub fdi_2018_min: Option<f64>,
+    /// Percent Flicker must be <= this.
+    pub percent_flicker_max: Option<f64>,
+    /// Lowest frequency (Hz) at which the camera claims mitigation.
+    pub mitigation_min_hz: f64,
+    /// Highest frequency (Hz) at which the camera claims mitigation.
+    pub mitigation_max_hz: Option<f64>,
+    /// Which figure the verdict uses.
+    pub basis: VerdictBasis,
+}
+
+/// One problem found in a plan, located by key and line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Diagnostic {
+    /// Dotted key path, e.g. `grid.duty-cycles[1]`.
+    pub key: String,
+    /// 1-based line and column, when the key is in the file.
+    pub location: Option<(usize, usize)>,
+    /// What is wrong.
+    pub message: String,
+    /// How to fix it.
+    pub hint: Option<String>,
+}
+
+impl fmt::Display for Diagnostic {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.location {
+            Some((line, col)) => write!(f, "line {line}, column {col}: ")?,
+            None => write!(f, "(not in file): ")?,
+        }
+        write!(f, "`{}`: {}", self.key, self.message)?;
+        if let Some(hint) = &self.hint {
+            write!(f, "\n    hint: {hint}")?;
+        }
+        Ok(())
+    }
+}
+
+/// Why a plan could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// The file could not be found or read.
+    #[error("cannot read test plan `{path}`: {source}")]
+    Read {
+        /// Path tried.
+        path: PathBuf,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// A bare plan name matched no file.
+    #[error(
+        "test plan `{name}` not found (looked in {tried})\n    hint: give a path to a .toml file, or a plan name from test-plans/"
+    )]
+    NotFound {
+        /// Name given.
+        name: String,
+        /// Places looked, comma separated.
+        tried: String,
+    },
+    /// TOML syntax or type error (the first one; parsing stops there).
+    #[error("invalid test plan `{path}`:\n{message}")]
+    Syntax {
+        /// Path of the plan.
+        path: PathBuf,
+        /// toml's message, with line and column.
+        message: String,
+    },
+    /// One or more keys are unknown, missing or out of range.
+    #[error("invalid test plan `{path}`: {} error{}\n{}", .diagnostics.len(), if .diagnostics.len() == 1 { "" } else { "s" }, render_diagnostics(.diagnostics))]
+    Invalid {
+        /// Path of the plan.
+        path: PathBuf,
+        /// Every problem found, in file order.
+        diagnostics: Vec<Diagnostic>,
+    },
+}
+
+fn render_diagnostics(diagnostics: &[Diagnostic]) -> String {
+    diagnostics
+        .iter()
+        .map(|d| format!("  - {d}"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Finds a plan: a path to a file, or a bare name (with or without `.toml`)
+/// looked up in `./test-plans/` and then in the test-plans/ of this source
+/// tree.
+pub fn resolve_plan_path(arg: &str) -> Result<PathBuf, PlanError> {
+    let direct = PathBuf::from(arg);
+    if direct.is_file() {
+        return Ok(direct);
+    }
+    let bare = !arg.contains('/') && !arg.contains('\\');
+    let mut tried = vec![direct.display().to_string()];
+    if bare {
+        let names = if arg.ends_with(".toml") {
+            vec![arg.to_string()]
+        } else {
+            vec![format!("{arg}.toml"), arg.to_string()]
+        };
+        let roots = [
+            PathBuf::from("test-plans"),
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("test-plans"),
+        ];
+        for root in &roots {
+            for name in &names {
+                let candidate = root.join(name);
+                if candidate.is_file() {
+                    return Ok(candidate);
+                }
+                tried.push(candidate.display().to_string());
+            }
+        }
+    }
+    if !bare {
+        return Err(PlanError::Read {
+            path: direct,
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        });
+    }
+    Err(PlanError::NotFound {
+        name: arg.to_string(),
+        tried: tried.join(", "),
+    })
+}
+
+/// Reads and validates the plan at `path`.
+pub fn load(path: &Path) -> Result<Plan, PlanError> {
+    let bytes = std::fs::read(path).map_err(|source| PlanError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let text = String::from_utf8(bytes.clone()).map_err(|e| PlanError::Syntax {
+        path: path.to_path_buf(),
+        message: format!(
+            "the file is not UTF-8 text (byte {})",
+            e.utf8_error().valid_up_to()
+        ),
+    })?;
+    let sha256 = crate::util::sha256_hex(&bytes);
+    parse(&text, path, sha256)
+}
+
+/// Parses and validates plan text; `path` is used in messages only.
+pub fn parse(text: &str, path: &Path, sha256: String) -> Result<Plan, PlanError> {
+    let syntax = |e: toml::de::Error| PlanError::Syntax {
+        path: path.to_path_buf(),
+        message: e.to_string().trim_end().to_string(),
+    };
+    let index = spans::SpanIndex::build(text).map_err(syntax)?;
+    let deserializer = toml::Deserializer::parse(text).map_err(syntax)?;
+    let mut unknown = Vec::new();
+    let raw: raw::RawPlan = serde_ignored::deserialize(deserializer, |p| {
+        unknown.push(spans::path_string(&p));
+    })
+    .map_err(syntax)?;
+    let mut diags: Vec<Diagnostic> = unknown
+        .into_iter()
+        .map(|key| Diagnostic {
+            location: index.location(&key),
+            message: "unknown key".to_string(),
+            hint: Some(spans::unknown_key_hint(&key)),
+            key,
+        })
+        .collect();
+    let plan = validate::validate(raw, &index, &mut diags, path, sha256);
+    diags.sort_by_key(|d| d.location.unwrap_or((usize::MAX, 0)));
+    match plan {
+        Some(plan) if diags.is_empty() => Ok(plan),
+        _ => Err(PlanError::Invalid {
+            path: path.to_path_buf(),
+            diagnostics: diags,
+        }),
+    }
+}

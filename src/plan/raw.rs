@@ -1,0 +1,142 @@
+//! Serde mirror of the TOML test plan, format version 1.
+//!
+//! Every field is optional or defaulted here so that `validate` can report
+//! all missing and out-of-range values of a file together. Unknown keys are
+//! collected by `serde_ignored` in `plan::load` rather than rejected by
+//! `deny_unknown_fields`, which would stop at the first one.
+//! The documented format is in docs/plan-format.md.
+
+use serde::Deserialize;
+
+/// The whole plan file.
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawPlan {
+    /// Plan format version; 1 is the only one so far.
+    pub format_version: Option<i64>,
+    /// `[plan]`: identity of the plan.
+    pub plan: Option<RawMeta>,
+    /// `[sequence]`: ON / OFF / PWM durations.
+    pub sequence: Option<RawSequence>,
+    /// `[light]`: ambient light levels.
+    pub light: Option<RawLight>,
+    /// `[grid]`: PWM frequencies and duty cycles.
+    pub grid: Option<RawGrid>,
+    /// `[[roi]]`: regions of interest.
+    #[serde(default)]
+    pub roi: Vec<RawRoi>,
+    /// `[dut]`: the device under test.
+    pub dut: Option<RawDut>,
+    /// `[scene]`: what the camera looks at.
+    pub scene: Option<RawScene>,
+    /// `[thresholds]`: pass criteria.
+    pub thresholds: Option<RawThresholds>,
+}
+
+/// `[plan]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawMeta {
+    pub id: Option<String>,
+    pub title: Option<String>,
+    pub standard: Option<String>,
+    pub description: Option<String>,
+    pub lab: Option<String>,
+    pub seed: Option<i64>,
+}
+
+/// `[sequence]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawSequence {
+    pub on_s: Option<f64>,
+    pub off_s: Option<f64>,
+    pub pwm_s: Option<f64>,
+}
+
+/// `[light]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawLight {
+    pub levels_lux: Option<Vec<f64>>,
+}
+
+/// An evenly spaced grid, `start` to `stop` inclusive.
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawRange {
+    pub start: Option<f64>,
+    pub stop: Option<f64>,
+    pub step: Option<f64>,
+}
+
+/// `[grid]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawGrid {
+    pub frequencies_hz: Option<Vec<f64>>,
+    pub frequency_range_hz: Option<RawRange>,
+    pub duty_cycles: Option<Vec<f64>>,
+    pub duty_cycle_range: Option<RawRange>,
+}
+
+/// `[[roi]]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawRoi {
+    pub name: Option<String>,
+    pub kind: Option<String>,
+    pub x_px: Option<i64>,
+    pub y_px: Option<i64>,
+    pub width_px: Option<i64>,
+    pub height_px: Option<i64>,
+}
+
+/// `[dut]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawDut {
+    pub backend: Option<String>,
+    pub supplier: Option<String>,
+    pub model: Option<String>,
+    pub serial: Option<String>,
+    pub firmware: Option<String>,
+    pub camera: Option<RawCamera>,
+}
+
+/// `[dut.camera]`: the simulator's camera.
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawCamera {
+    pub shutter: Option<String>,
+    pub sensor_rows: Option<i64>,
+    pub sensor_columns: Option<i64>,
+    pub line_time_us: Option<f64>,
+    pub exposure_ms: Option<f64>,
+    pub frame_rate_fps: Option<f64>,
+    pub pwm_delay_ms: Option<f64>,
+    pub response_dn_per_cd_m2_s: Option<f64>,
+    pub black_level_dn: Option<f64>,
+    pub full_scale_dn: Option<f64>,
+    pub saturation_dn: Option<f64>,
+}
+
+/// `[scene]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawScene {
+    pub background_reflectance: Option<f64>,
+    pub led_luminance_cd_m2: Option<f64>,
+    pub led_fill: Option<f64>,
+}
+
+/// `[thresholds]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawThresholds {
+    pub fdi_2018_min: Option<f64>,
+    pub percent_flicker_max: Option<f64>,
+    pub mitigation_min_hz: Option<f64>,
+    pub mitigation_max_hz: Option<f64>,
+    pub basis: Option<String>,
+}

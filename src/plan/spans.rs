@@ -1,0 +1,236 @@
+//! Where each key of a plan file is: dotted key path -> line and column.
+//!
+//! serde gives values without positions, so the file is parsed a second time
+//! into toml's spanned document tree and every key path is indexed. Paths
+//! look like `dut.camera.exposure-ms` and `roi[1].x-px`.
+
+use std::collections::HashMap;
+
+use toml::de::{DeTable, DeValue};
+
+/// Key path -> byte offset of the key (or array element) in the file.
+pub struct SpanIndex {
+    offsets: HashMap<String, usize>,
+    line_starts: Vec<usize>,
+}
+
+impl SpanIndex {
+    /// Parses `text` and indexes every key and array element.
+    pub fn build(text: &str) -> Result<Self, toml::de::Error> {
+        let root = DeTable::parse(text)?;
+        let mut offsets = HashMap::new();
+        index_table(root.get_ref(), "", &mut offsets);
+        let line_starts = std::iter::once(0)
+            .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+            .collect();
+        Ok(Self {
+            offsets,
+            line_starts,
+        })
+    }
+
+    /// 1-based line and column of `key`, if it appears in the file.
+    pub fn location(&self, key: &str) -> Option<(usize, usize)> {
+        let offset = *self.offsets.get(key)?;
+        let line = self.line_starts.partition_point(|&s| s <= offset);
+        let col = offset - self.line_starts[line - 1] + 1;
+        Some((line, col))
+    }
+}
+
+fn join(prefix: &str, key: &str) -> String {
+    if prefix.is_empty() {
+        key.to_string()
+    } else {
+        format!("{prefix}.{key}")
+    }
+}
+
+fn index_table(table: &DeTable<'_>, prefix: &str, out: &mut HashMap<String, usize>) {
+    for (key, value) in table.iter() {
+        let path = join(prefix, key.get_ref());
+        out.insert(path.clone(), key.span().start);
+        index_value(value.get_ref(), &path, out);
+    }
+}
+
+fn index_value(value: &DeValue<'_>, path: &str, out: &mut HashMap<String, usize>) {
+    match value {
+        DeValue::Table(t) => index_table(t, path, out),
+        DeValue::Array(items) => {
+            for (i, item) in items.into_iter().enumerate() {
+                let item_path = format!("{path}[{i}]");
+                out.insert(item_path.clone(), item.span().start);
+                index_value(item.get_ref(), &item_path, out);
+            }
+        }
+        _ => {}
+    }
+}
+
+/// Formats a serde_ignored path in the same style as [`SpanIndex`] keys.
+pub fn path_string(path: &serde_ignored::Path<'_>) -> String {
+    use serde_ignored::Path;
+    match path {
+        Path::Root => String::new(),
+        Path::Seq { parent, index } => format!("{}[{index}]", path_string(parent)),
+        Path::Map { parent, key } => join(&path_string(parent), key),
+        Path::Some { parent }
+        | Path::NewtypeStruct { parent }
+        | Path::NewtypeVariant { parent } => path_string(parent),
+    }
+}
+
+/// Keys each table accepts; used for "did you mean" hints only (serde
+/// decides what is unknown). A test checks this list against the structs.
+pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
+    (
+        "",
+        &[
+            "format-version",
+            "plan",
+            "sequence",
+            "light",
+            "grid",
+            "roi",
+            "dut",
+            "scene",
+            "thresholds",
+        ],
+    ),
+    (
+        "plan",
+        &["id", "title", "standard", "description", "lab", "seed"],
+    ),
+    ("sequence", &["on-s", "off-s", "pwm-s"]),
+    ("light", &["levels-lux"]),
+    (
+        "grid",
+        &[
+            "frequencies-hz",
+            "frequency-range-hz",
+            "duty-cycles",
+            "duty-cycle-range",
+        ],
+    ),
+    ("grid.frequency-range-hz", &["start", "stop", "step"]),
+    ("grid.duty-cycle-range", &["start", "stop", "step"]),
+    (
+        "roi",
+        &["name", "kind", "x-px", "y-px", "width-px", "height-px"],
+    ),
+    (
+        "dut",
+        &[
+            "backend", "supplier", "model", "serial", "firmware", "camera",
+        ],
+    ),
+    (
+        "dut.camera",
+        &[
+            "shutter",
+            "sensor-rows",
+            "sensor-columns",
+            "line-time-us",
+            "exposure-ms",
+            "frame-rate-fps",
+            "pwm-delay-ms",
+            "response-dn-per-cd-m2-s",
+            "black-level-dn",
+            "full-scale-dn",
+            "saturation-dn",
+        ],
+    ),
+    (
+        "scene",
+        &["background-reflectance", "led-luminance-cd-m2", "led-fill"],
+    ),
+    (
+        "thresholds",
+        &[
+            "fdi-2018-min",
+            "percent-flicker-max",
+            "mitigation-min-hz",
+            "mitigation-max-hz",
+            "basis",
+        ],
+    ),
+];
+
+/// A hint for an unknown key: the closest known key of its table, or the list.
+pub fn unknown_key_hint(key: &str) -> String {
+    let (table, leaf) = match key.rfind('.') {
+        Some(i) => (&key[..i], &key[i + 1..]),
+        None => ("", key),
+    };
+    // `roi[3]` -> `roi`
+    let table_name = strip_indices(table);
+    let Some((_, known)) = KNOWN_KEYS.iter().find(|(t, _)| *t == table_name) else {
+        return "remove it; see docs/plan-format.md for the plan format".to_string();
+    };
+    let best = known
+        .iter()
+        .map(|k| (edit_distance(leaf, k), *k))
+        .min()
+        .filter(|(d, k)| *d <= 3.max(k.len() / 3));
+    let section = if table_name.is_empty() {
+        "the top level".to_string()
+    } else {
+        format!("[{table_name}]")
+    };
+    match best {
+        Some((_, k)) => format!("did you mean `{k}`? {section} takes: {}", known.join(", ")),
+        None => format!("{section} takes: {}", known.join(", ")),
+    }
+}
+
+fn strip_indices(path: &str) -> String {
+    let mut out = String::with_capacity(path.len());
+    let mut depth = 0;
+    for c in path.chars() {
+        match c {
+            '[' => depth += 1,
+            ']' => depth -= 1,
+            _ if depth == 0 => out.push(c),
+            _ => {}
+        }
+    }
+    out
+}
+
+/// Levenshtein distance, for short key names.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1; b.len() + 1];
+        for (j, &cb) in b.iter().enumerate() {
+            let sub = prev[j] + usize::from(ca != cb);
+            cur[j + 1] = sub.min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn locations_are_one_based_and_reach_array_tables() {
+        let text = "[plan]\nid = \"x\"\n\n[[roi]]\nname = \"a\"\n[[roi]]\nx-px = 5\n";
+        let index = SpanIndex::build(text).unwrap();
+        assert_eq!(index.location("plan.id"), Some((2, 1)));
+        assert_eq!(index.location("roi[1].x-px"), Some((7, 1)));
+        assert_eq!(index.location("nope"), None);
+    }
+
+    #[test]
+    fn unknown_key_hint_suggests_the_nearest_key() {
+        let hint = unknown_key_hint("dut.camera.exposure-us");
+        assert!(hint.starts_with("did you mean `exposure-ms`?"), "{hint}");
+        let hint = unknown_key_hint("roi[2].widht-px");
+        assert!(hint.starts_with("did you mean `width-px`?"), "{hint}");
+    }
+}

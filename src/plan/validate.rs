@@ -1,0 +1,818 @@
+//! Raw plan -> validated [`Plan`]: defaults, ranges and cross-checks.
+//!
+//! Every check pushes a [`Diagnostic`] and carries on, so the user sees all
+//! the problems of a file in one run.
+
+use std::path::Path;
+
+use super::raw::{RawCamera, RawPlan, RawRange};
+use super::spans::SpanIndex;
+use super::{
+    BackendKind, CameraConfig, Diagnostic, Dut, MAX_CASES, Plan, Roi, RoiKind, Scene, Sequence,
+    ShutterKind, Thresholds, VerdictBasis,
+};
+
+/// Default ROI size from Deegan 2018: 100 px wide, 2 rows high (a taller ROI
+/// mixes ON and OFF rows of a rolling shutter).
+const DEFAULT_ROI_WIDTH_PX: u32 = 100;
+const DEFAULT_ROI_HEIGHT_PX: u32 = 2;
+/// Largest grid along one axis.
+const MAX_GRID_POINTS: usize = 10_000;
+/// Longest capture the simulator will make for one case, in frames.
+const MAX_FRAMES: f64 = 10_000_000.0;
+
+struct Checker<'a> {
+    index: &'a SpanIndex,
+    diags: &'a mut Vec<Diagnostic>,
+}
+
+impl Checker<'_> {
+    fn error(&mut self, key: &str, message: impl Into<String>, hint: Option<&str>) {
+        // A key that is absent from the file is reported at its table.
+        let location = self.index.location(key).or_else(|| {
+            let mut k = key;
+            while let Some(i) = k.rfind(['.', '[']) {
+                k = &k[..i];
+                if let Some(loc) = self.index.location(k) {
+                    return Some(loc);
+                }
+            }
+            None
+        });
+        self.diags.push(Diagnostic {
+            key: key.to_string(),
+            location,
+            message: message.into(),
+            hint: hint.map(str::to_string),
+        });
+    }
+
+    fn required<T>(&mut self, value: Option<T>, key: &str, hint: &str) -> Option<T> {
+        if value.is_none() {
+            self.error(key, "missing required key", Some(hint));
+        }
+        value
+    }
+
+    /// `value` must be finite and > 0.
+    fn positive(&mut self, value: f64, key: &str, hint: &str) -> Option<f64> {
+        if value.is_finite() && value > 0.0 {
+            Some(value)
+        } else {
+            self.error(key, format!("must be > 0, got {value}"), Some(hint));
+            None
+        }
+    }
+
+    /// `value` must be finite and >= 0.
+    fn non_negative(&mut self, value: f64, key: &str, hint: &str) -> Option<f64> {
+        if value.is_finite() && value >= 0.0 {
+            Some(value)
+        } else {
+            self.error(key, format!("must be >= 0, got {value}"), Some(hint));
+            None
+        }
+    }
+
+    fn duty(&mut self, value: f64, key: &str) -> Option<f64> {
+        if value.is_finite() && value > 0.0 && value <= 1.0 {
+            Some(value)
+        } else {
+            self.error(
+                key,
+                format!("duty cycle {value} is outside (0, 1]"),
+                Some("a duty cycle is a fraction: write 0.05 for 5% and 1.0 for steady ON"),
+            );
+            None
+        }
+    }
+
+    fn pixels(&mut self, value: i64, key: &str, min: i64) -> Option<u32> {
+        if value >= min && value <= u32::MAX as i64 {
+            Some(value as u32)
+        } else {
+            self.error(
+                key,
+                format!("must be an integer >= {min}, got {value}"),
+                Some("pixel coordinates are 0-based columns and rows of the sensor"),
+            );
+            None
+        }
+    }
+
+    /// A grid given either as an explicit list or as a start/stop/step range.
+    fn grid(
+        &mut self,
+        list: Option<Vec<f64>>,
+        range: Option<RawRange>,
+        list_key: &str,
+        range_key: &str,
+        check: &mut dyn FnMut(&mut Self, f64, &str) -> Option<f64>,
+    ) -> Option<Vec<f64>> {
+        let values = match (list, range) {
+            (Some(_), Some(_)) => {
+                self.error(
+                    range_key,
+                    format!("give either `{list_key}` or `{range_key}`, not both"),
+                    Some("remove one of the two"),
+                );
+                return None;
+            }
+            (None, None) => {
+                self.error(
+                    list_key,
+                    "missing required key",
+                    Some(&format!(
+                        "give a list, `{list_key} = [...]`, or a range, `{range_key} = {{ start = .., stop = .., step = .. }}`"
+                    )),
+                );
+                return None;
+            }
+            (Some(list), None) => {
+                if list.is_empty() {
+                    self.error(
+                        list_key,
+                        "the grid is empty",
+                        Some("list at least one value"),
+                    );
+                    return None;
+                }
+                if list.len() > MAX_GRID_POINTS {
+                    self.error(
+                        list_key,
+                        format!("{} values; at most {MAX_GRID_POINTS}", list.len()),
+                        Some("split the plan"),
+                    );
+                    return None;
+                }
+                let mut ok = Vec::with_capacity(list.len());
+                for (i, v) in list.iter().enumerate() {
+                    ok.push(check(self, *v, &format!("{list_key}[{i}]")));
+                }
+                ok.into_iter().collect::<Option<Vec<f64>>>()?
+            }
+            (None, Some(range)) => self.range(range, range_key, check)?,
+        };
+        for (i, v) in values.iter().enumerate() {
+            if values[..i].contains(v) {
+                self.error(
+                    &format!("{list_key}[{i}]"),
+                    format!("{v} appears twice in the grid"),
+                    Some("each grid value makes its own cases; list it once"),
+                );
+                return None;
+            }
+        }
+        Some(values)
+    }
+
+    fn range(
+        &mut self,
+        range: RawRange,
+        key: &str,
+        check: &mut dyn FnMut(&mut Self, f64, &str) -> Option<f64>,
+    ) -> Option<Vec<f64>> {
+        let hint =
+            "a range is { start = .., stop = .., step = .. } with stop >= start and step > 0";
+        let start = self.required(range.start, &format!("{key}.start"), hint);
+        let stop = self.required(range.stop, &format!("{key}.stop"), hint);
+        let step = self.required(range.step, &format!("{key}.step"), hint);
+        let (start, stop, step) = (start?, stop?, step?);
+        let start = check(self, start, &format!("{key}.start"))?;
+        let stop = check(self, stop, &format!("{key}.stop"))?;
+        let step = self.positive(step, &format!("{key}.step"), hint)?;
+        if stop < start {
+            self.error(
+                &format!("{key}.stop"),
+                format!("stop {stop} is below start {start}; the grid is empty"),
+                Some(hint),
+            );
+            return None;
+        }
+        // Count points by division, not by repeated addition; a stop within
+        // 1e-9 steps of a grid point is included.
+        let count = ((stop - start) / step + 1e-9).floor() + 1.0;
+        if count > MAX_GRID_POINTS as f64 {
+            self.error(
+                &format!("{key}.step"),
+                format!("the range has {count} points; at most {MAX_GRID_POINTS}"),
+                Some("use a larger step"),
+            );
+            return None;
+        }
+        Some(
+            (0..count as usize)
+                .map(|i| start + i as f64 * step)
+                .collect(),
+        )
+    }
+}
+
+/// Validates `raw`, pushing every problem into `diags`. Returns `None` when
+/// something required is missing or invalid.
+pub(super) fn validate(
+    raw: RawPlan,
+    index: &SpanIndex,
+    diags: &mut Vec<Diagnostic>,
+    path: &Path,
+    sha256: String,
+) -> Option<Plan> {
+    let mut c = Checker { index, diags };
+
+    if let Some(v) = raw.format_version
+        && v != 1
+    {
+        c.error(
+            "format-version",
+            format!("unsupported plan format version {v}"),
+            Some("this ledflicker reads format-version = 1"),
+        );
+    }
+
+    // [plan]
+    let meta = c.required(raw.plan, "plan", "add a [plan] table with id and title");
+    let (mut id, mut title, mut standard, mut description, mut lab, mut seed) = (
+        None,
+        None,
+        String::new(),
+        String::new(),
+        String::new(),
+        0u64,
+    );
+    if let Some(meta) = meta {
+        id = c.required(meta.id, "plan.id", "e.g. id = \"daylight\"");
+        if let Some(v) = &id
+            && (v.is_empty()
+                || !v.chars().all(|ch| {
+                    ch.is_ascii_lowercase() || ch.is_ascii_digit() || ch == '-' || ch == '_'
+                }))
+        {
+            c.error(
+                "plan.id",
+                format!("id `{v}` must be non-empty lowercase letters, digits, `-` or `_`"),
+                Some("the id names the report directory, e.g. id = \"daylight-2000lux\""),
+            );
+            id = None;
+        }
+        title = c.required(
+            meta.title,
+            "plan.title",
+            "a human title for the report cover",
+        );
+        standard = meta
+            .standard
+            .unwrap_or_else(|| "Deegan 2018 (IS&T EI AVM-146)".to_string());
+        description = meta.description.unwrap_or_default();
+        lab = meta.lab.unwrap_or_default();
+        seed = match meta.seed {
+            Some(s) if s >= 0 => s as u64,
+            Some(s) => {
+                c.error(
+                    "plan.seed",
+                    format!("must be >= 0, got {s}"),
+                    Some("any non-negative integer"),
+                );
+                0
+            }
+            None => 0,
+        };
+    }
+
+    // [sequence]
+    let hint_seq = "durations in seconds; the paper uses 2 s ON, 2 s OFF, 60 s PWM";
+    let (mut on_s, mut off_s, mut pwm_s) = (Some(2.0), Some(2.0), Some(60.0));
+    if let Some(s) = raw.sequence {
+        if let Some(v) = s.on_s {
+            on_s = c.non_negative(v, "sequence.on-s", hint_seq);
+        }
+        if let Some(v) = s.off_s {
+            off_s = c.non_negative(v, "sequence.off-s", hint_seq);
+        }
+        if let Some(v) = s.pwm_s {
+            pwm_s = c.positive(v, "sequence.pwm-s", hint_seq);
+        }
+    }
+
+    // [light]
+    let light = c.required(raw.light, "light", "add [light] with levels-lux = [2000.0]");
+    let levels = light.and_then(|l| {
+        let list = c.required(
+            l.levels_lux,
+            "light.levels-lux",
+            "e.g. levels-lux = [40.0, 2000.0]",
+        )?;
+        c.grid(
+            Some(list),
+            None,
+            "light.levels-lux",
+            "light.levels-lux",
+            &mut |c, v, k| {
+                c.positive(
+                    v,
+                    k,
+                    "illuminance in lux: 40 for low light, 2000 for daylight",
+                )
+            },
+        )
+    });
+
+    // [grid]
+    let grid = c.required(
+        raw.grid,
+        "grid",
+        "add [grid] with frequencies-hz and duty-cycles",
+    );
+    let (mut freqs, mut duties) = (None, None);
+    if let Some(g) = grid {
+        freqs = c.grid(
+            g.frequencies_hz,
+            g.frequency_range_hz,
+            "grid.frequencies-hz",
+            "grid.frequency-range-hz",
+            &mut |c, v, k| c.positive(v, k, "PWM frequency in Hz, e.g. 90.0"),
+        );
+        duties = c.grid(
+            g.duty_cycles,
+            g.duty_cycle_range,
+            "grid.duty-cycles",
+            "grid.duty-cycle-range",
+            &mut |c, v, k| c.duty(v, k),
+        );
+    }
+    if let (Some(l), Some(f), Some(d)) = (&levels, &freqs, &duties) {
+        let n = l.len() * f.len() * d.len();
+        if n > MAX_CASES {
+            c.error(
+                "grid",
+                format!("the plan expands to {n} cases; at most {MAX_CASES}"),
+                Some("use coarser grids or split the plan"),
+            );
+        }
+    }
+
+    // [dut]
+    let dut = c.required(
+        raw.dut,
+        "dut",
+        "add [dut] with backend = \"simulator\" and [dut.camera]",
+    );
+    let mut dut_v = None;
+    if let Some(d) = dut {
+        let backend = match d.backend.as_deref() {
+            None | Some("simulator") => Some(BackendKind::Simulator),
+            Some(other) => {
+                c.error(
+                    "dut.backend",
+                    format!("unknown backend `{other}`"),
+                    Some("this version has backend = \"simulator\""),
+                );
+                None
+            }
+        };
+        let camera = c.required(d.camera, "dut.camera", "add a [dut.camera] table");
+        let camera = camera.and_then(|cam| camera_config(&mut c, cam));
+        if let (Some(backend), Some(camera)) = (backend, camera) {
+            dut_v = Some(Dut {
+                backend,
+                supplier: d.supplier.unwrap_or_default(),
+                model: d.model.unwrap_or_default(),
+                serial: d.serial.unwrap_or_default(),
+                firmware: d.firmware.unwrap_or_default(),
+                camera,
+            });
+        }
+    }
+
+    // [[roi]]
+    let rois = rois(&mut c, raw.roi, dut_v.as_ref().map(|d| &d.camera));
+
+    // [scene]
+    let hint_scene = "see docs/plan-format.md, [scene]";
+    let mut scene = Some(Scene {
+        background_reflectance: 0.18,
+        led_luminance_cd_m2: 1000.0,
+        led_fill: 1.0,
+    });
+    if let Some(s) = raw.scene {
+        let mut sc = scene.take()?;
+        let mut ok = true;
+        if let Some(v) = s.background_reflectance {
+            match c.non_negative(v, "scene.background-reflectance", hint_scene) {
+                Some(v) if v <= 1.0 => sc.background_reflectance = v,
+                Some(v) => {
+                    c.error(
+                        "scene.background-reflectance",
+                        format!("reflectance {v} is above 1"),
+                        Some("a fraction: 0.18 for 18% grey"),
+                    );
+                    ok = false;
+                }
+                None => ok = false,
+            }
+        }
+        if let Some(v) = s.led_luminance_cd_m2 {
+            match c.non_negative(v, "scene.led-luminance-cd-m2", hint_scene) {
+                Some(v) => sc.led_luminance_cd_m2 = v,
+                None => ok = false,
+            }
+        }
+        if let Some(v) = s.led_fill {
+            match c.positive(v, "scene.led-fill", "a fraction of the ROI in (0, 1]") {
+                Some(v) if v <= 1.0 => sc.led_fill = v,
+                Some(v) => {
+                    c.error(
+                        "scene.led-fill",
+                        format!("{v} is above 1"),
+                        Some("a fraction of the ROI in (0, 1]"),
+                    );
+                    ok = false;
+                }
+                None => ok = false,
+            }
+        }
+        scene = ok.then_some(sc);
+    }
+
+    // [thresholds]
+    let mut thresholds = Some(Thresholds {
+        fdi_2018_min: Some(0.1),
+        percent_flicker_max: None,
+        mitigation_min_hz: 0.0,
+        mitigation_max_hz: None,
+        basis: VerdictBasis::WorstPhase,
+    });
+    if let Some(t) = raw.thresholds {
+        let mut th = thresholds.take()?;
+        let mut ok = true;
+        if let Some(v) = t.fdi_2018_min {
+            if v.is_finite() {
+                th.fdi_2018_min = Some(v);
+            } else {
+                c.error(
+                    "thresholds.fdi-2018-min",
+                    "must be a finite number",
+                    Some("Deegan 2018 uses 0.1"),
+                );
+                ok = false;
+            }
+        }
+        if let Some(v) = t.percent_flicker_max {
+            match c.non_negative(
+                v,
+                "thresholds.percent-flicker-max",
+                "a percentage, e.g. 10.0",
+            ) {
+                Some(v) => th.percent_flicker_max = Some(v),
+                None => ok = false,
+            }
+        }
+        if let Some(v) = t.mitigation_min_hz {
+            match c.non_negative(
+                v,
+                "thresholds.mitigation-min-hz",
+                "e.g. 90.0: cases below are informational",
+            ) {
+                Some(v) => th.mitigation_min_hz = v,
+                None => ok = false,
+            }
+        }
+        if let Some(v) = t.mitigation_max_hz {
+            match c.positive(
+                v,
+                "thresholds.mitigation-max-hz",
+                "omit it for no upper limit",
+            ) {
+                Some(v) if v >= th.mitigation_min_hz => th.mitigation_max_hz = Some(v),
+                Some(v) => {
+                    c.error(
+                        "thresholds.mitigation-max-hz",
+                        format!(
+                            "{v} Hz is below mitigation-min-hz {} Hz",
+                            th.mitigation_min_hz
+                        ),
+                        Some("the range is mitigation-min-hz ..= mitigation-max-hz"),
+                    );
+                    ok = false;
+                }
+                None => ok = false,
+            }
+        }
+        match t.basis.as_deref() {
+            None | Some("worst-phase") => {}
+            Some("as-captured") => th.basis = VerdictBasis::AsCaptured,
+            Some(other) => {
+                c.error(
+                    "thresholds.basis",
+                    format!("unknown basis `{other}`"),
+                    Some("use \"worst-phase\" (default) or \"as-captured\""),
+                );
+                ok = false;
+            }
+        }
+        thresholds = ok.then_some(th);
+    }
+
+    let sequence = Sequence {
+        on_s: on_s?,
+        off_s: off_s?,
+        pwm_s: pwm_s?,
+    };
+    let dut = dut_v?;
+    let total_frames = (sequence.on_s + sequence.off_s + sequence.pwm_s) * dut.camera.fps;
+    if total_frames > MAX_FRAMES {
+        c.error(
+            "sequence.pwm-s",
+            format!("the sequence is {total_frames:.0} frames long; at most {MAX_FRAMES:.0}"),
+            Some("shorten the PWM segment"),
+        );
+        return None;
+    }
+    if (sequence.pwm_s * dut.camera.fps).round() < 2.0 {
+        c.error(
+            "sequence.pwm-s",
+            "the PWM segment holds fewer than 2 frames",
+            Some("make pwm-s at least 2 frame times long"),
+        );
+        return None;
+    }
+    Some(Plan {
+        id: id?,
+        title: title?,
+        standard,
+        description,
+        lab,
+        seed,
+        path: path.to_path_buf(),
+        sha256,
+        sequence,
+        light_levels_lux: levels?,
+        frequencies_hz: freqs?,
+        duty_cycles: duties?,
+        rois: rois?,
+        dut,
+        scene: scene?,
+        thresholds: thresholds?,
+    })
+}
+
+fn camera_config(c: &mut Checker<'_>, cam: RawCamera) -> Option<CameraConfig> {
+    let k = |s: &str| format!("dut.camera.{s}");
+    let shutter = match cam.shutter.as_deref() {
+        Some("global") => Some(ShutterKind::Global),
+        Some("rolling") => Some(ShutterKind::Rolling),
+        Some(other) => {
+            c.error(
+                &k("shutter"),
+                format!("unknown shutter `{other}`"),
+                Some("use \"global\" or \"rolling\""),
+            );
+            None
+        }
+        None => {
+            c.error(
+                &k("shutter"),
+                "missing required key",
+                Some("shutter = \"global\" or \"rolling\""),
+            );
+            None
+        }
+    };
+    let rows = c
+        .required(
+            cam.sensor_rows,
+            &k("sensor-rows"),
+            "sensor height in rows, e.g. 800",
+        )
+        .and_then(|v| c.pixels(v, &k("sensor-rows"), 1));
+    let cols = c
+        .required(
+            cam.sensor_columns,
+            &k("sensor-columns"),
+            "sensor width in columns, e.g. 1280",
+        )
+        .and_then(|v| c.pixels(v, &k("sensor-columns"), 1));
+    let fps = c
+        .required(
+            cam.frame_rate_fps,
+            &k("frame-rate-fps"),
+            "e.g. frame-rate-fps = 30.0",
+        )
+        .and_then(|v| c.positive(v, &k("frame-rate-fps"), "frames per second, e.g. 30.0"));
+    let exposure_s = c
+        .required(
+            cam.exposure_ms,
+            &k("exposure-ms"),
+            "exposure time in milliseconds, e.g. 11.111",
+        )
+        .and_then(|v| c.positive(v, &k("exposure-ms"), "exposure time in milliseconds"))
+        .map(|ms| ms * 1e-3);
+    if let (Some(t), Some(fps)) = (exposure_s, fps)
+        && t > 1.0 / fps * (1.0 + 1e-12)
+    {
+        c.error(
+            &k("exposure-ms"),
+            format!(
+                "exposure {} ms is longer than the frame time {} ms",
+                t * 1e3,
+                1e3 / fps
+            ),
+            Some("lower exposure-ms or frame-rate-fps"),
+        );
+    }
+    let line_time_s = match (shutter, cam.line_time_us) {
+        (Some(ShutterKind::Rolling), None) => {
+            c.error(
+                &k("line-time-us"),
+                "missing required key for a rolling shutter",
+                Some("the time between row starts in microseconds, e.g. 14.565"),
+            );
+            None
+        }
+        (_, Some(v)) => c
+            .non_negative(v, &k("line-time-us"), "line time in microseconds")
+            .map(|us| us * 1e-6),
+        (_, None) => Some(0.0),
+    };
+    if let (Some(ShutterKind::Rolling), Some(lt), Some(rows), Some(fps)) =
+        (shutter, line_time_s, rows, fps)
+        && lt * rows as f64 > 1.0 / fps * (1.0 + 1e-12)
+    {
+        c.error(
+            &k("line-time-us"),
+            format!(
+                "readout of {rows} rows takes {:.3} ms, longer than the frame time {:.3} ms",
+                lt * rows as f64 * 1e3,
+                1e3 / fps
+            ),
+            Some("check line-time-us and sensor-rows"),
+        );
+    }
+    let pwm_delay_s = match cam.pwm_delay_ms {
+        Some(v) if v.is_finite() => Some(v * 1e-3),
+        Some(v) => {
+            c.error(&k("pwm-delay-ms"), format!("must be finite, got {v}"), None);
+            None
+        }
+        None => Some(0.0),
+    };
+    let response = c
+        .required(
+            cam.response_dn_per_cd_m2_s,
+            &k("response-dn-per-cd-m2-s"),
+            "output DN per cd/m^2 per second of exposure, e.g. 20.0",
+        )
+        .and_then(|v| c.positive(v, &k("response-dn-per-cd-m2-s"), "a linear gain > 0"));
+    let black = c.non_negative(
+        cam.black_level_dn.unwrap_or(0.0),
+        &k("black-level-dn"),
+        "DN for no light",
+    );
+    let full = c.positive(
+        cam.full_scale_dn.unwrap_or(255.0),
+        &k("full-scale-dn"),
+        "255 for 8-bit output",
+    );
+    let sat_default = full.map(|f| f * 240.0 / 255.0).unwrap_or(240.0);
+    let sat = c.positive(
+        cam.saturation_dn.unwrap_or(sat_default),
+        &k("saturation-dn"),
+        "the P2020 reference code flags 240 of 255",
+    );
+    if let (Some(b), Some(f)) = (black, full)
+        && b >= f
+    {
+        c.error(
+            &k("black-level-dn"),
+            format!("black level {b} is not below full scale {f}"),
+            None,
+        );
+        return None;
+    }
+    Some(CameraConfig {
+        shutter: shutter?,
+        sensor_rows: rows?,
+        sensor_columns: cols?,
+        line_time_s: line_time_s?,
+        exposure_s: exposure_s?,
+        fps: fps?,
+        pwm_delay_s: pwm_delay_s?,
+        response_dn_per_cd_m2_s: response?,
+        black_level_dn: black?,
+        full_scale_dn: full?,
+        saturation_dn: sat?,
+    })
+}
+
+fn rois(
+    c: &mut Checker<'_>,
+    raw: Vec<super::raw::RawRoi>,
+    camera: Option<&CameraConfig>,
+) -> Option<Vec<Roi>> {
+    if raw.is_empty() {
+        // Default: one LED ROI of 100 x 2 px in the middle of the sensor.
+        let cam = camera?;
+        let w = DEFAULT_ROI_WIDTH_PX.min(cam.sensor_columns);
+        let h = DEFAULT_ROI_HEIGHT_PX.min(cam.sensor_rows);
+        return Some(vec![Roi {
+            name: "led".to_string(),
+            kind: RoiKind::Led,
+            x_px: (cam.sensor_columns - w) / 2,
+            y_px: (cam.sensor_rows - h) / 2,
+            width_px: w,
+            height_px: h,
+        }]);
+    }
+    let mut out = Vec::new();
+    let mut ok = true;
+    for (i, r) in raw.into_iter().enumerate() {
+        let k = |s: &str| format!("roi[{i}].{s}");
+        let name = r.name.unwrap_or_else(|| format!("roi{i}"));
+        if name.is_empty()
+            || !name
+                .chars()
+                .all(|ch| ch.is_ascii_alphanumeric() || ch == '-' || ch == '_')
+        {
+            c.error(
+                &k("name"),
+                format!("ROI name `{name}` must be letters, digits, `-` or `_`"),
+                Some("the name is a CSV column header"),
+            );
+            ok = false;
+        } else if out.iter().any(|o: &Roi| o.name == name) {
+            c.error(
+                &k("name"),
+                format!("ROI name `{name}` is used twice"),
+                Some("give each ROI its own name"),
+            );
+            ok = false;
+        }
+        let kind = match r.kind.as_deref() {
+            None | Some("led") => Some(RoiKind::Led),
+            Some("background") => Some(RoiKind::Background),
+            Some(other) => {
+                c.error(
+                    &k("kind"),
+                    format!("unknown ROI kind `{other}`"),
+                    Some("use \"led\" or \"background\""),
+                );
+                None
+            }
+        };
+        let hint = "ROI position in pixels, 0-based from the top-left corner";
+        let x = c
+            .required(r.x_px, &k("x-px"), hint)
+            .and_then(|v| c.pixels(v, &k("x-px"), 0));
+        let y = c
+            .required(r.y_px, &k("y-px"), hint)
+            .and_then(|v| c.pixels(v, &k("y-px"), 0));
+        let w = c.pixels(
+            r.width_px.unwrap_or(DEFAULT_ROI_WIDTH_PX as i64),
+            &k("width-px"),
+            1,
+        );
+        let h = c.pixels(
+            r.height_px.unwrap_or(DEFAULT_ROI_HEIGHT_PX as i64),
+            &k("height-px"),
+            1,
+        );
+        let (Some(kind), Some(x), Some(y), Some(w), Some(h)) = (kind, x, y, w, h) else {
+            ok = false;
+            continue;
+        };
+        if let Some(cam) = camera {
+            if x as u64 + w as u64 > cam.sensor_columns as u64 {
+                c.error(
+                    &k("x-px"),
+                    format!(
+                        "ROI columns {x}..{} fall outside the sensor's {} columns",
+                        x as u64 + w as u64,
+                        cam.sensor_columns
+                    ),
+                    Some("x-px + width-px must not exceed dut.camera.sensor-columns"),
+                );
+                ok = false;
+            }
+            if y as u64 + h as u64 > cam.sensor_rows as u64 {
+                c.error(
+                    &k("y-px"),
+                    format!(
+                        "ROI rows {y}..{} fall outside the sensor's {} rows",
+                        y as u64 + h as u64,
+                        cam.sensor_rows
+                    ),
+                    Some("y-px + height-px must not exceed dut.camera.sensor-rows"),
+                );
+                ok = false;
+            }
+        }
+        out.push(Roi {
+            name,
+            kind,
+            x_px: x,
+            y_px: y,
+            width_px: w,
+            height_px: h,
+        });
+    }
+    (ok && camera.is_some()).then_some(out)
+}

@@ -1,0 +1,158 @@
+//! The runner: test cases -> backend -> metrics -> verdicts, in parallel.
+//!
+//! Cases run on rayon's pool; results come back in plan order and depend
+//! only on the plan and its seed, never on the thread count or scheduling.
+//! Progress is reported through a callback; the runner never prints.
+
+use rayon::prelude::*;
+
+use crate::backend::{Acquisition, Backend, BackendError};
+use crate::metrics::{Check, RoiMetrics, Verdict, evaluate_case, evaluate_roi};
+use crate::plan::{Plan, TestCase};
+
+/// Everything known about one finished case.
+#[derive(Debug, Clone)]
+pub struct CaseResult {
+    /// The condition tested.
+    pub case: TestCase,
+    /// Frames and traces from the backend.
+    pub acquisition: Acquisition,
+    /// Metrics per plan ROI, in plan order.
+    pub metrics: Vec<RoiMetrics>,
+    /// Verdict of the case.
+    pub verdict: Verdict,
+    /// Every threshold check made.
+    pub checks: Vec<Check>,
+}
+
+/// What the runner tells its caller while it works.
+#[derive(Debug, Clone, Copy)]
+pub enum RunEvent<'a> {
+    /// The run starts with this many cases.
+    Started {
+        /// Number of cases.
+        total: usize,
+    },
+    /// A case finished (cases finish in any order).
+    CaseFinished {
+        /// The case.
+        case: &'a TestCase,
+        /// Its verdict.
+        verdict: Verdict,
+    },
+}
+
+/// Why a run stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// A backend could not acquire a case.
+    #[error(transparent)]
+    Backend(#[from] BackendError),
+    /// A trace came back without PWM frames or with the wrong shape.
+    #[error("case `{case}`: {message}")]
+    BadTrace {
+        /// Case id.
+        case: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The thread pool could not be built.
+    #[error("cannot start {threads} worker threads: {message}")]
+    Threads {
+        /// Threads asked for.
+        threads: usize,
+        /// Cause.
+        message: String,
+    },
+}
+
+/// Runs `cases` of `plan` on `backend`, with `threads` workers (default:
+/// rayon's, one per core). `on_event` is called from worker threads.
+pub fn run(
+    plan: &Plan,
+    cases: &[TestCase],
+    backend: &dyn Backend,
+    threads: Option<usize>,
+    on_event: &(dyn Fn(RunEvent<'_>) + Sync),
+) -> Result<Vec<CaseResult>, RunError> {
+    on_event(RunEvent::Started { total: cases.len() });
+    let work = || -> Result<Vec<CaseResult>, RunError> {
+        cases
+            .par_iter()
+            .map(|case| {
+                let result = run_case(plan, case, backend)?;
+                on_event(RunEvent::CaseFinished {
+                    case,
+                    verdict: result.verdict,
+                });
+                Ok(result)
+            })
+            .collect()
+    };
+    match threads {
+        None => work(),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| RunError::Threads {
+                threads: n,
+                message: e.to_string(),
+            })?
+            .install(work),
+    }
+}
+
+/// Acquires and evaluates one case.
+pub fn run_case(
+    plan: &Plan,
+    case: &TestCase,
+    backend: &dyn Backend,
+) -> Result<CaseResult, RunError> {
+    let acquisition = backend.acquire(case)?;
+    let bad = |message: String| RunError::BadTrace {
+        case: case.id.clone(),
+        message,
+    };
+    if acquisition.rois.len() != plan.rois.len() {
+        return Err(bad(format!(
+            "backend returned {} ROI traces for {} ROIs",
+            acquisition.rois.len(),
+            plan.rois.len()
+        )));
+    }
+    let segments: Vec<_> = acquisition.frames.iter().map(|f| f.segment).collect();
+    let mut metrics = Vec::with_capacity(plan.rois.len());
+    for trace in &acquisition.rois {
+        if trace.luma.len() != segments.len() {
+            return Err(bad(format!(
+                "ROI `{}` has {} luma values for {} frames",
+                trace.name,
+                trace.luma.len(),
+                segments.len()
+            )));
+        }
+        if let Some(i) = trace.luma.iter().position(|x| !x.is_finite()) {
+            return Err(bad(format!(
+                "ROI `{}` luma of frame {i} is not a finite number",
+                trace.name
+            )));
+        }
+        let m = evaluate_roi(
+            &trace.luma,
+            &segments,
+            trace.phase_envelope,
+            acquisition.saturation_dn,
+        )
+        .ok_or_else(|| bad("the trace has no PWM frames".to_string()))?;
+        metrics.push(m);
+    }
+    let pairs: Vec<_> = plan.rois.iter().zip(&metrics).collect();
+    let (verdict, checks) = evaluate_case(case.frequency_hz, &pairs, &plan.thresholds);
+    Ok(CaseResult {
+        case: case.clone(),
+        acquisition,
+        metrics,
+        verdict,
+        checks,
+    })
+}
