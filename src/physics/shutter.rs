@@ -47,9 +47,7 @@ impl Shutter {
     fn distinct_rows(&self, rows: Range<u32>) -> Range<u32> {
         match self.model {
             ShutterModel::Global => rows.start..rows.start + 1,
-            ShutterModel::Rolling { line_time_s: 0.0 } => {
-                rows.start..rows.start + 1
-            }
+            ShutterModel::Rolling { line_time_s: 0.0 } => rows.start..rows.start + 1,
             ShutterModel::Rolling { .. } => rows,
         }
     }

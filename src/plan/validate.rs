@@ -612,7 +612,7 @@ fn camera_config(c: &mut Checker<'_>, cam: RawCamera) -> Option<CameraConfig> {
         c.error(
             &k("exposure-ms"),
             format!(
-                "exposure {} ms is longer than the frame time {} ms",
+                "exposure {} ms is longer than the frame time {:.3} ms",
                 t * 1e3,
                 1e3 / fps
             ),

@@ -1,0 +1,232 @@
+//! The binary: exit codes, outputs, messages.
+
+use std::process::{Command, Output};
+
+use crate::{root, scratch};
+
+fn ledflicker(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn validate_accepts_shipped_plans_by_path_and_by_name() {
+    for arg in [
+        "test-plans/daylight.toml",
+        "daylight",
+        "daylight.toml",
+        "lowlight",
+    ] {
+        let o = ledflicker(&["validate", arg]);
+        assert_eq!(o.status.code(), Some(0), "{arg}: {}", stderr(&o));
+        assert!(String::from_utf8_lossy(&o.stdout).contains("is valid"));
+    }
+}
+
+#[test]
+fn bare_plan_name_is_found_from_another_directory() {
+    let dir = scratch("bare-name");
+    let o = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(["validate", "lowlight"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+#[test]
+fn invalid_plan_exits_2_with_key_line_and_hint() {
+    let o = ledflicker(&["validate", "tests/fixtures/plans/err_out_of_range.toml"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(
+        e.starts_with("error: invalid test plan `tests/fixtures/plans/err_out_of_range.toml`"),
+        "{e}"
+    );
+    assert!(
+        e.contains("grid.duty-cycles[1]") && e.contains("line 15") && e.contains("hint:"),
+        "{e}"
+    );
+}
+
+#[test]
+fn missing_plan_exits_2() {
+    let o = ledflicker(&["plan", "no-such-plan"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("not found"), "{}", stderr(&o));
+    let o = ledflicker(&["validate", "nowhere/plan.toml"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("nowhere/plan.toml"));
+}
+
+#[test]
+fn bad_usage_exits_2() {
+    assert_eq!(ledflicker(&["plan"]).status.code(), Some(2));
+    let o = ledflicker(&[
+        "simulate",
+        "--frequency-hz",
+        "100",
+        "--duty",
+        "1.5",
+        "--exposure-ms",
+        "1",
+        "--fps",
+        "30",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("duty"), "{}", stderr(&o));
+    let o = ledflicker(&[
+        "simulate",
+        "--frequency-hz",
+        "100",
+        "--duty",
+        "0.5",
+        "--exposure-ms",
+        "1",
+        "--fps",
+        "30",
+        "--rows",
+        "5:5",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn plan_run_writes_results_traces_and_report() {
+    let out = scratch("plan-run");
+    let o = ledflicker(&[
+        "plan",
+        "tests/fixtures/plans/base.toml",
+        "--out",
+        out.to_str().unwrap(),
+        "--date",
+        "2026-01-02",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("overall: PASS") && stdout.contains("2000lux-150hz-20pct"),
+        "{stdout}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(json["cases"].as_array().unwrap().len(), 4);
+    let csv = std::fs::read_to_string(out.join("traces/2000lux-60hz-20pct.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("frame,time_s,segment,led"));
+    // 0.5 s ON + 0.5 s OFF + 4 s PWM at 30 fps.
+    assert_eq!(lines.clone().count(), 150);
+    let segments: Vec<&str> = lines.map(|l| l.split(',').nth(2).unwrap()).collect();
+    assert_eq!(segments.iter().filter(|s| **s == "on").count(), 15);
+    assert_eq!(segments.iter().filter(|s| **s == "off").count(), 15);
+    assert_eq!(segments.iter().filter(|s| **s == "pwm").count(), 120);
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("2026-01-02") && html.contains("<svg"));
+    // No temporary files are left behind.
+    for e in std::fs::read_dir(&out).unwrap() {
+        let name = e.unwrap().file_name();
+        assert!(!name.to_string_lossy().starts_with('.'), "{name:?}");
+    }
+}
+
+#[test]
+fn failing_case_exits_1() {
+    let out = scratch("plan-fail");
+    let plan = out.join("strict.toml");
+    let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml"))
+        .unwrap()
+        .replace(
+            "fdi-2018-min = 0.1",
+            "fdi-2018-min = 0.1\npercent-flicker-max = 1.0",
+        );
+    std::fs::write(&plan, text).unwrap();
+    let o = ledflicker(&[
+        "plan",
+        plan.to_str().unwrap(),
+        "--out",
+        out.join("r").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("overall: FAIL"));
+}
+
+#[test]
+fn signed_report_is_not_overwritten_without_force() {
+    let out = scratch("signed");
+    std::fs::write(out.join("signoff.json"), "{}").unwrap();
+    let args = [
+        "plan",
+        "tests/fixtures/plans/base.toml",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let o = ledflicker(&args);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--force"), "{}", stderr(&o));
+    assert!(!out.join("results.json").exists());
+    let o = ledflicker(&[&args[..], &["--force"]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(out.join("results.json").exists());
+}
+
+#[test]
+fn same_plan_gives_identical_files_whatever_the_threads() {
+    let a = scratch("det-a");
+    let b = scratch("det-b");
+    for (dir, threads) in [(&a, "1"), (&b, "3")] {
+        let o = ledflicker(&[
+            "plan",
+            "daylight",
+            "--out",
+            dir.to_str().unwrap(),
+            "--threads",
+            threads,
+            "--date",
+            "2026-01-01",
+            "-q",
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    }
+    for f in [
+        "results.json",
+        "report.html",
+        "traces/2000lux-100hz-5pct.csv",
+    ] {
+        assert_eq!(
+            std::fs::read(a.join(f)).unwrap(),
+            std::fs::read(b.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+}
+
+#[test]
+fn simulate_prints_a_csv_with_frame_and_on_fraction() {
+    let o = ledflicker(&[
+        "simulate",
+        "--frequency-hz",
+        "90",
+        "--duty",
+        "0.5",
+        "--exposure-ms",
+        "5",
+        "--fps",
+        "30",
+        "--frames",
+        "3",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let s = String::from_utf8(o.stdout).unwrap();
+    let lines: Vec<&str> = s.lines().collect();
+    assert_eq!(lines[0], "frame,time_s,on_fraction");
+    assert_eq!(lines.len(), 4);
+    // 5 ms from a rising edge at 90 Hz (period 11.1 ms, ON 5.56 ms): all ON.
+    assert_eq!(lines[1], "0,0,1");
+}

@@ -1,0 +1,124 @@
+//! Plan loading: the shipped plans are valid, bad plans fail with every
+//! error located, and the documented example stays in step with the code.
+
+use ledflicker::plan;
+
+use crate::root;
+
+#[test]
+fn shipped_plans_are_valid() {
+    let mut n = 0;
+    for entry in std::fs::read_dir(root().join("test-plans")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            let p = plan::load(&path).unwrap_or_else(|e| panic!("{e}"));
+            assert!(!plan::expand_cases(&p).is_empty());
+            n += 1;
+        }
+    }
+    assert!(n >= 2);
+}
+
+#[test]
+fn daylight_plan_covers_the_issue_grid() {
+    let p = plan::load(&root().join("test-plans/daylight.toml")).unwrap();
+    assert_eq!(p.light_levels_lux, vec![2000.0]);
+    assert!(p.frequencies_hz.len() >= 6);
+    assert!(
+        p.frequencies_hz
+            .iter()
+            .cloned()
+            .fold(f64::INFINITY, f64::min)
+            <= 50.0
+    );
+    assert!(p.frequencies_hz.iter().cloned().fold(0.0, f64::max) >= 1000.0);
+    assert!(p.duty_cycles.len() >= 4);
+    assert!(p.duty_cycles.contains(&0.05) && p.duty_cycles.contains(&1.0));
+    let low = plan::load(&root().join("test-plans/lowlight.toml")).unwrap();
+    assert_eq!(low.light_levels_lux, vec![40.0]);
+}
+
+#[test]
+fn invalid_plans_report_every_error_with_its_line() {
+    insta::glob!("../fixtures/plans", "err_*.toml", |path| {
+        let rel = path.strip_prefix(root()).unwrap();
+        let err = plan::load(rel).expect_err("fixture must be invalid");
+        insta::assert_snapshot!(err.to_string());
+    });
+}
+
+#[test]
+fn out_of_range_plan_lists_all_problems_at_once() {
+    let err = plan::load(std::path::Path::new(
+        "tests/fixtures/plans/err_out_of_range.toml",
+    ))
+    .unwrap_err();
+    match err {
+        plan::PlanError::Invalid { diagnostics, .. } => {
+            let keys: Vec<&str> = diagnostics.iter().map(|d| d.key.as_str()).collect();
+            for k in [
+                "grid.duty-cycles[1]",
+                "grid.duty-cycles[2]",
+                "grid.frequencies-hz[1]",
+                "grid.frequencies-hz[2]",
+                "light.levels-lux",
+                "sequence.pwm-s",
+                "dut.camera.exposure-ms",
+                "scene.background-reflectance",
+            ] {
+                assert!(keys.contains(&k), "missing {k} in {keys:?}");
+            }
+            assert!(
+                diagnostics
+                    .iter()
+                    .all(|d| d.location.is_some() && d.hint.is_some())
+            );
+        }
+        other => panic!("expected a validation error, got {other}"),
+    }
+}
+
+#[test]
+fn roi_outside_the_sensor_is_rejected() {
+    let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml")).unwrap()
+        + "\n[[roi]]\nname = \"edge\"\nx-px = 1200\ny-px = 10\n";
+    let err = plan::parse(&text, std::path::Path::new("inline.toml"), String::new()).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        text.contains("roi[0].x-px") && text.contains("outside the sensor"),
+        "{text}"
+    );
+}
+
+/// The full example in docs/plan-format.md must be a valid plan that uses
+/// no unknown key.
+#[test]
+fn documented_example_plan_is_valid() {
+    let doc = std::fs::read_to_string(root().join("docs/plan-format.md")).unwrap();
+    let start = doc
+        .find("```toml\n")
+        .expect("docs/plan-format.md has a ```toml block")
+        + 8;
+    let end = start + doc[start..].find("```").unwrap();
+    let p = plan::parse(
+        &doc[start..end],
+        std::path::Path::new("docs/plan-format.md"),
+        String::new(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(p.id, "example");
+}
+
+#[test]
+fn ranges_expand_by_index_and_include_the_stop() {
+    let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml"))
+        .unwrap()
+        .replace(
+            "frequencies-hz = [60.0, 150.0]",
+            "frequency-range-hz = { start = 50.0, stop = 1000.0, step = 0.1 }",
+        );
+    let p = plan::parse(&text, std::path::Path::new("inline.toml"), String::new()).unwrap();
+    assert_eq!(p.frequencies_hz.len(), 9501);
+    assert_eq!(*p.frequencies_hz.last().unwrap(), 50.0 + 9500.0 * 0.1);
+    assert!((p.frequencies_hz[9500] - 1000.0).abs() < 1e-9);
+}

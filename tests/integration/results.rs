@@ -1,0 +1,168 @@
+//! Runs plans in-process: results.json snapshot, determinism across thread
+//! counts, and the physics behind the daylight verdicts.
+
+use ledflicker::backend::sim::Simulator;
+use ledflicker::plan;
+use ledflicker::report;
+use ledflicker::runner;
+use serde_json::Value;
+
+use crate::root;
+
+fn run(path: &str, threads: usize) -> (plan::Plan, Vec<runner::CaseResult>, report::Results) {
+    let p = plan::load(std::path::Path::new(path)).unwrap();
+    let cases = plan::expand_cases(&p);
+    let backend = Simulator::new(&p);
+    let results = runner::run(&p, &cases, &backend, Some(threads), &|_| {}).unwrap();
+    let model = report::build(&p, "sim-ideal", &results);
+    (p, results, model)
+}
+
+/// Rounds every float to 6 significant digits so that the snapshot does not
+/// depend on the last bits of libm.
+fn rounded(v: Value) -> Value {
+    match v {
+        Value::Number(n) if n.is_f64() => {
+            let x = n.as_f64().unwrap();
+            if x == 0.0 {
+                return Value::from(0.0);
+            }
+            let digits = 5 - x.abs().log10().floor() as i32;
+            let scale = 10f64.powi(digits);
+            Value::from((x * scale).round() / scale)
+        }
+        Value::Array(a) => Value::Array(a.into_iter().map(rounded).collect()),
+        Value::Object(o) => Value::Object(o.into_iter().map(|(k, v)| (k, rounded(v))).collect()),
+        other => other,
+    }
+}
+
+#[test]
+fn daylight_results_match_the_snapshot() {
+    let (_, _, model) = run("test-plans/daylight.toml", 2);
+    let mut json = serde_json::to_value(&model).unwrap();
+    // The tool version changes with releases; the numbers must not.
+    json["tool"]["version"] = Value::from("[version]");
+    insta::assert_json_snapshot!("daylight_results", rounded(json));
+}
+
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    let one = serde_json::to_string(&run("test-plans/daylight.toml", 1).2).unwrap();
+    let four = serde_json::to_string(&run("test-plans/daylight.toml", 4).2).unwrap();
+    assert_eq!(one, four);
+    let (_, r1, _) = run("test-plans/lowlight.toml", 1);
+    let (_, r3, _) = run("test-plans/lowlight.toml", 3);
+    for (a, b) in r1.iter().zip(&r3) {
+        assert_eq!(a.acquisition, b.acquisition, "case {}", a.case.id);
+    }
+}
+
+#[test]
+fn results_json_keeps_its_contract() {
+    let (_, _, model) = run("test-plans/daylight.toml", 2);
+    let json = serde_json::to_value(&model).unwrap();
+    assert_eq!(json["schema"], "ledflicker.results/1");
+    for key in ["id", "title", "path", "sha256"] {
+        assert!(json["plan"][key].is_string(), "plan.{key}");
+    }
+    assert!(["pass", "fail"].contains(&json["verdict"].as_str().unwrap()));
+    for case in json["cases"].as_array().unwrap() {
+        for key in ["light_lux", "frequency_hz", "duty"] {
+            assert!(case[key].is_number(), "{key}");
+        }
+        assert!(["pass", "fail", "info"].contains(&case["verdict"].as_str().unwrap()));
+        for roi in case["rois"].as_array().unwrap() {
+            assert!(roi["name"].is_string());
+            for m in ["fdi_2018", "percent_flicker"] {
+                let v = &roi["metrics"][m];
+                assert!(
+                    v.is_number() || (v.is_null() && roi["reasons"][m].is_string()),
+                    "{m}: {v}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn phase_locked_case_shows_its_worst_case_beyond_the_captured_phase() {
+    // 150 Hz at 30 fps locks: every frame sees one phase, so the capture is
+    // flat while other phases flicker.
+    let (_, results, _) = run("test-plans/daylight.toml", 2);
+    let r = results
+        .iter()
+        .find(|r| r.case.id == "2000lux-150hz-20pct")
+        .unwrap();
+    let m = &r.metrics[0];
+    assert!(m.percent_flicker.value.unwrap() < 1e-9);
+    assert!(
+        m.percent_flicker_worst_phase
+            .as_ref()
+            .unwrap()
+            .value
+            .unwrap()
+            > 10.0
+    );
+    assert!(m.fdi_2018_worst_phase.as_ref().unwrap().value.unwrap() < m.fdi_2018.value.unwrap());
+}
+
+#[test]
+fn exposure_of_whole_periods_shows_no_flicker_in_the_plan() {
+    // 11.111 ms is 1/90 s to 4 digits: at 90 Hz the exposure spans one period
+    // (to 1e-4), so the ROI hardly modulates at any phase.
+    let (_, results, _) = run("test-plans/daylight.toml", 2);
+    for r in results.iter().filter(|r| r.case.frequency_hz == 90.0) {
+        let pf = r.metrics[0]
+            .percent_flicker_worst_phase
+            .as_ref()
+            .unwrap()
+            .value
+            .unwrap();
+        assert!(pf < 0.01, "{}: {pf}", r.case.id);
+    }
+}
+
+#[test]
+fn no_nan_reaches_the_report() {
+    let (_, results, model) = run("test-plans/daylight.toml", 2);
+    let json = serde_json::to_string(&model).unwrap();
+    assert!(!json.contains("NaN") && !json.contains("Infinity"));
+    let html = report::html::render(&model, &results, "2026-01-01").unwrap();
+    assert!(!html.contains("NaN"));
+    assert_eq!(html.matches("<svg").count(), results.len());
+    assert!(html.contains("ON level") && html.contains("OFF level"));
+}
+
+#[test]
+fn dark_off_reference_is_reported_as_unbounded() {
+    // No ambient light: L_OFF = 0, so FDI is +inf, stated, never NaN.
+    let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml"))
+        .unwrap()
+        .replace(
+            "levels-lux = [2000.0]",
+            "levels-lux = [2000.0]\n[scene]\nbackground-reflectance = 0.0",
+        );
+    let p = plan::parse(&text, std::path::Path::new("dark.toml"), String::new()).unwrap();
+    let cases = plan::expand_cases(&p);
+    let results = runner::run(&p, &cases, &Simulator::new(&p), Some(1), &|_| {}).unwrap();
+    let model = report::build(&p, "sim-ideal", &results);
+    let json = serde_json::to_value(&model).unwrap();
+    let case = json["cases"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["id"] == "2000lux-150hz-50pct")
+        .unwrap();
+    let roi = &case["rois"][0];
+    assert!(roi["metrics"]["fdi_2018"].is_null());
+    assert_eq!(roi["contrast_unbounded"], true);
+    assert!(
+        roi["reasons"]["fdi_2018"]
+            .as_str()
+            .unwrap()
+            .contains("unbounded")
+    );
+    let html = report::html::render(&model, &results, "2026-01-01").unwrap();
+    assert!(html.contains("+&infin;") && html.contains("unbounded"));
+}
