@@ -1,26 +1,41 @@
-//! The simulator's ideal camera: linear response, no noise, fixed exposure,
-//! global or rolling shutter.
+//! The simulator: a camera looking at a PWM-driven LED in front of a grey
+//! background, through the paper's ON / OFF / PWM sequence.
 //!
-//! Luma mapping (documented in docs/plan-format.md):
+//! Two camera models share the timing (global or rolling shutter, frame `k`
+//! at `k / fps`, exact closed-form integrals for the ROI rows only):
 //!
-//! ```text
-//! k       = response-dn-per-cd-m2-s * exposure_s
-//! L_bg    = background-reflectance * lux / pi          (cd/m^2, Lambertian)
-//! luma    = black-level-dn + k * (L_bg + led-fill * L_led * s)   clipped at full-scale-dn
-//! ```
+//! - the **ideal camera** (no `[sensor]` table): linear, noiseless, fixed
+//!   exposure,
+//!   `luma = black + k (L_bg + fill L_led s)` clipped at full scale, with
+//!   `k = response x exposure`;
+//! - the **physical camera**: photo-electrons per capture, shot and read
+//!   noise, analogue gain, ADC clipping, multi-capture HDR (sequential or
+//!   split pixel) with a merge rule, digital gain, a global tone curve, and
+//!   auto exposure that runs through the whole sequence like a real camera.
+//!   See docs/camera-model.md.
 //!
-//! where `s` is the fraction of the exposure during which the LED was ON,
-//! averaged over the ROI rows: the duty cycle in the steady-ON segment (its
-//! luminance is matched to the PWM average, as Deegan 2018 asks), 0 in the
-//! OFF segment, and the exact closed-form integral in the PWM segment.
-//! Background ROIs see `s = 0` throughout.
+//! `L_bg = rho E / pi` is the grey background's luminance, `s` the fraction
+//! of a capture's exposure during which the LED was ON: the duty cycle in
+//! the ON segment (luminance matched to the PWM average, as Deegan 2018
+//! asks), 0 in the OFF segment, the exact integral in the PWM segment.
+//! Background ROIs see no LED.
 
 use super::{Acquisition, Backend, BackendError, FrameInfo, RoiTrace};
 use crate::metrics::flicker::Segment;
+use crate::physics::ae::ExposureState;
+use crate::physics::hdr::{HdrMode, merge};
+use crate::physics::pwm::{on_fraction, wrap_unit};
+use crate::physics::sensor::{CaptureSample, Rng};
 use crate::physics::{PwmDrive, Shutter, ShutterModel};
-use crate::plan::{CameraConfig, Plan, Roi, RoiKind, Scene, Sequence, ShutterKind, TestCase};
+use crate::plan::{
+    CameraConfig, PhysicalCamera, Plan, Roi, RoiKind, Scene, Sequence, ShutterKind, TestCase,
+};
 
-/// The ideal-camera simulator for one plan.
+/// Phases evaluated, beside the exact corners, when searching a physical
+/// camera's worst case over phase.
+pub const PHASE_GRID: usize = 1024;
+
+/// The simulator for one plan.
 #[derive(Debug, Clone)]
 pub struct Simulator {
     camera: CameraConfig,
@@ -68,23 +83,6 @@ impl SegmentFrames {
     }
 }
 
-impl Simulator {
-    /// A simulator for the plan's camera, scene, sequence and ROIs.
-    pub fn new(plan: &Plan) -> Self {
-        Self {
-            camera: plan.dut.camera,
-            scene: plan.scene,
-            sequence: plan.sequence,
-            rois: plan.rois.clone(),
-        }
-    }
-
-    /// The camera's exposure timing.
-    pub fn shutter(&self) -> Shutter {
-        shutter_of(&self.camera)
-    }
-}
-
 /// Exposure timing of a configured camera.
 pub fn shutter_of(camera: &CameraConfig) -> Shutter {
     Shutter {
@@ -99,30 +97,61 @@ pub fn shutter_of(camera: &CameraConfig) -> Shutter {
     }
 }
 
-impl Backend for Simulator {
-    fn id(&self) -> &str {
-        "sim-ideal"
+/// What the LED does during one frame.
+#[derive(Debug, Clone, Copy)]
+enum Light<'a> {
+    /// Steady at this fraction of its ON luminance.
+    Steady(f64),
+    /// Driven by the PWM.
+    Pwm(&'a PwmDrive),
+}
+
+/// One ROI row of one frame through the physical camera.
+struct RowOutput {
+    luma: f64,
+    linear: f64,
+}
+
+impl Simulator {
+    /// A simulator for the plan's camera, scene, sequence and ROIs.
+    pub fn new(plan: &Plan) -> Self {
+        Self {
+            camera: plan.dut.camera.clone(),
+            scene: plan.scene,
+            sequence: plan.sequence,
+            rois: plan.rois.clone(),
+        }
     }
 
-    fn acquire(&self, case: &TestCase) -> Result<Acquisition, BackendError> {
-        let cam = &self.camera;
-        let pwm =
-            PwmDrive::new(case.frequency_hz, case.duty, cam.pwm_delay_s).map_err(|message| {
-                BackendError {
-                    backend: self.id().to_string(),
-                    case: case.id.clone(),
-                    message,
-                }
-            })?;
-        let shutter = self.shutter();
-        let segments = SegmentFrames::new(&self.sequence, cam.fps);
-        let frames: Vec<FrameInfo> = (0..segments.total())
+    /// The camera's exposure timing.
+    pub fn shutter(&self) -> Shutter {
+        shutter_of(&self.camera)
+    }
+
+    fn pwm_for(&self, case: &TestCase) -> Result<PwmDrive, BackendError> {
+        let f = case.frequency_hz * (1.0 + self.scene.pwm_clock_offset_ppm * 1e-6);
+        PwmDrive::new(f, case.duty, self.camera.pwm_delay_s).map_err(|message| BackendError {
+            backend: self.id().to_string(),
+            case: case.id.clone(),
+            message,
+        })
+    }
+
+    fn frames(&self) -> Vec<FrameInfo> {
+        let segments = SegmentFrames::new(&self.sequence, self.camera.fps);
+        (0..segments.total())
             .map(|k| FrameInfo {
                 index: k,
-                time_s: k as f64 / cam.fps,
+                time_s: k as f64 / self.camera.fps,
                 segment: segments.segment(k),
             })
-            .collect();
+            .collect()
+    }
+
+    fn acquire_ideal(&self, case: &TestCase, pwm: &PwmDrive) -> Acquisition {
+        let cam = &self.camera;
+        let shutter = self.shutter();
+        let frames = self.frames();
         let k = cam.response_dn_per_cd_m2_s * cam.exposure_s;
         let background = k * self.scene.background_luminance_cd_m2(case.light_lux);
         let led_peak = k * self.scene.led_fill * self.scene.led_luminance_cd_m2;
@@ -143,11 +172,11 @@ impl Backend for Simulator {
                         Segment::On => out(case.duty, led),
                         Segment::Off => out(0.0, led),
                         Segment::Pwm => {
-                            out(shutter.frame_on_fraction(&pwm, f.index, roi.rows()), led)
+                            out(shutter.frame_on_fraction(pwm, f.index, roi.rows()), led)
                         }
                     })
                     .collect();
-                let (lo, hi) = shutter.phase_envelope(&pwm, roi.rows());
+                let (lo, hi) = shutter.phase_envelope(pwm, roi.rows());
                 RoiTrace {
                     name: roi.name.clone(),
                     luma,
@@ -155,10 +184,267 @@ impl Backend for Simulator {
                 }
             })
             .collect();
-        Ok(Acquisition {
+        Acquisition {
             frames,
             rois,
             saturation_dn: cam.saturation_dn,
+        }
+    }
+
+    /// Start of capture `c` of row `row`, seconds after the frame starts.
+    fn capture_offset_s(&self, p: &PhysicalCamera, t_ref: f64, row: u32, c: usize) -> f64 {
+        let row_offset = match self.camera.shutter {
+            ShutterKind::Global => 0.0,
+            ShutterKind::Rolling => row as f64 * self.camera.line_time_s,
+        };
+        match p.hdr_mode {
+            HdrMode::SplitPixel => row_offset,
+            HdrMode::Sequential => {
+                row_offset
+                    + p.captures[..c]
+                        .iter()
+                        .map(|cap| cap.exposure_s(t_ref))
+                        .sum::<f64>()
+            }
+        }
+    }
+
+    /// One ROI row of frame `frame` through sensor, merge and tone curve.
+    #[allow(clippy::too_many_arguments)]
+    fn row(
+        &self,
+        p: &PhysicalCamera,
+        state: ExposureState,
+        light: Light<'_>,
+        frame: u64,
+        row: u32,
+        background_cd_m2: f64,
+        led_cd_m2: f64,
+        mut noise: Option<(&mut Rng, u32)>,
+    ) -> RowOutput {
+        let t_ref = state.exposure_s;
+        let mut samples = [CaptureSample {
+            dn: 0.0,
+            saturated: false,
+        }; 4];
+        let mut scale = [1.0; 4];
+        let n = p.captures.len();
+        let ref_gain = p.captures[0].exposure_s(t_ref) * p.captures[0].sensitivity_ratio;
+        for (c, cap) in p.captures.iter().enumerate() {
+            let t_c = cap.exposure_s(t_ref);
+            let on_s = match light {
+                Light::Steady(s) => s * t_c,
+                Light::Pwm(pwm) => {
+                    let phase = pwm.phase_at(
+                        frame,
+                        self.camera.fps,
+                        self.capture_offset_s(p, t_ref, row, c),
+                    );
+                    t_c * on_fraction(phase, t_c * pwm.frequency_hz(), pwm.duty())
+                }
+            };
+            let electrons = p.sensor.sensitivity_e_per_cd_m2_s
+                * cap.sensitivity_ratio
+                * (background_cd_m2 * t_c + led_cd_m2 * on_s);
+            let rng = noise.as_mut().map(|(r, px)| (&mut **r, *px));
+            samples[c] = p.sensor.capture(electrons, state.analog_gain, rng);
+            scale[c] = t_c * cap.sensitivity_ratio / ref_gain;
+        }
+        let (merged, _) = merge(&samples[..n], &scale[..n], p.merge, p.sensor.dn_max());
+        let linear = merged * state.digital_gain;
+        let luma =
+            (self.camera.black_level_dn + p.tone.apply(linear)).min(self.camera.full_scale_dn);
+        RowOutput { luma, linear }
+    }
+
+    /// Mean ROI luma for a frame whose PWM phase (row 0, capture 0) is
+    /// `phase` cycles, noise off, at exposure `state`.
+    #[allow(clippy::too_many_arguments)]
+    fn roi_luma_at_phase(
+        &self,
+        p: &PhysicalCamera,
+        state: ExposureState,
+        pwm: &PwmDrive,
+        phase: f64,
+        roi: &Roi,
+        background: f64,
+        led: f64,
+    ) -> f64 {
+        let f = pwm.frequency_hz();
+        let shifted = match PwmDrive::new(f, pwm.duty(), -phase / f) {
+            Ok(d) => d,
+            Err(_) => return f64::NAN,
+        };
+        let rows = roi.rows();
+        let n = rows.len() as f64;
+        rows.map(|r| {
+            self.row(p, state, Light::Pwm(&shifted), 0, r, background, led, None)
+                .luma
+        })
+        .sum::<f64>()
+            / n
+    }
+
+    /// Lowest and highest ROI luma over every PWM phase, with auto exposure
+    /// held at `state`: the exact corners of every capture's ON-time (where
+    /// a capture edge meets a PWM edge), plus a uniform grid of
+    /// [`PHASE_GRID`] phases for the non-linear merge and tone curve.
+    #[allow(clippy::too_many_arguments)]
+    fn physical_envelope(
+        &self,
+        p: &PhysicalCamera,
+        state: ExposureState,
+        pwm: &PwmDrive,
+        roi: &Roi,
+        background: f64,
+        led: f64,
+    ) -> (f64, f64) {
+        let f = pwm.frequency_hz();
+        let d = pwm.duty();
+        let mut phases: Vec<f64> = (0..PHASE_GRID)
+            .map(|i| i as f64 / PHASE_GRID as f64)
+            .collect();
+        let offset0 = self.capture_offset_s(p, state.exposure_s, roi.y_px, 0);
+        for r in roi.rows() {
+            for (c, cap) in p.captures.iter().enumerate() {
+                let o = (self.capture_offset_s(p, state.exposure_s, r, c) - offset0) * f;
+                let w = cap.exposure_s(state.exposure_s) * f;
+                for corner in [0.0, d, -w, d - w] {
+                    phases.push(wrap_unit(corner - o));
+                }
+            }
+        }
+        let mut lo = f64::INFINITY;
+        let mut hi = f64::NEG_INFINITY;
+        for phi in phases {
+            // Phase of the ROI's first row; `roi_luma_at_phase` measures from row 0.
+            let phi0 = wrap_unit(phi - offset0 * f);
+            let v = self.roi_luma_at_phase(p, state, pwm, phi0, roi, background, led);
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        (lo, hi)
+    }
+
+    fn acquire_physical(&self, case: &TestCase, pwm: &PwmDrive, p: &PhysicalCamera) -> Acquisition {
+        let frames = self.frames();
+        let background = self.scene.background_luminance_cd_m2(case.light_lux);
+        let led = self.scene.led_fill * self.scene.led_luminance_cd_m2;
+        let noisy = p.sensor.shot_noise || p.sensor.read_noise_e > 0.0;
+        let mut rng = Rng::new(case.seed);
+        let a = self.scene.led_frame_fraction;
+        let metering_led_roi = self.rois.iter().find(|r| r.kind == RoiKind::Led);
+
+        // The metered level: the background and, for the lamp's share of the
+        // frame, the LED region, as a fraction of white.
+        let meter =
+            |state: ExposureState, light: Light<'_>, frame: u64, led_linear: Option<f64>| -> f64 {
+                let bg = self
+                    .row(
+                        p,
+                        state,
+                        Light::Steady(0.0),
+                        frame,
+                        0,
+                        background,
+                        0.0,
+                        None,
+                    )
+                    .linear;
+                let lamp = led_linear.unwrap_or_else(|| {
+                    self.row(p, state, light, frame, 0, background, led, None)
+                        .linear
+                });
+                ((1.0 - a) * bg + a * lamp) / p.tone.white
+            };
+
+        let mut state = match &p.auto_exposure {
+            Some(ae) => {
+                // The camera has been running with the light steady ON before
+                // the test starts: settle auto exposure on that scene.
+                let mut s = ae.split(self.camera.exposure_s);
+                for _ in 0..500 {
+                    let next = ae.update(s, meter(s, Light::Steady(case.duty), 0, None));
+                    if next == s {
+                        break;
+                    }
+                    s = next;
+                }
+                s
+            }
+            None => ExposureState {
+                exposure_s: self.camera.exposure_s,
+                analog_gain: p.analog_gain,
+                digital_gain: p.digital_gain,
+            },
+        };
+
+        let mut luma: Vec<Vec<f64>> = vec![Vec::with_capacity(frames.len()); self.rois.len()];
+        for f in &frames {
+            let light = match f.segment {
+                Segment::On => Light::Steady(case.duty),
+                Segment::Off => Light::Steady(0.0),
+                Segment::Pwm => Light::Pwm(pwm),
+            };
+            let mut led_linear = None;
+            for (i, roi) in self.rois.iter().enumerate() {
+                let led_here = if roi.kind == RoiKind::Led { led } else { 0.0 };
+                let mut sum_luma = 0.0;
+                let mut sum_lin = 0.0;
+                for r in roi.rows() {
+                    let noise = noisy.then_some((&mut rng, roi.width_px));
+                    let out = self.row(p, state, light, f.index, r, background, led_here, noise);
+                    sum_luma += out.luma;
+                    sum_lin += out.linear;
+                }
+                let n = roi.height_px as f64;
+                luma[i].push(sum_luma / n);
+                if metering_led_roi.is_some_and(|m| m.name == roi.name) {
+                    led_linear = Some(sum_lin / n);
+                }
+            }
+            if let Some(ae) = &p.auto_exposure {
+                state = ae.update(state, meter(state, light, f.index, led_linear));
+            }
+        }
+
+        let rois = self
+            .rois
+            .iter()
+            .zip(luma)
+            .map(|(roi, luma)| {
+                let led_here = if roi.kind == RoiKind::Led { led } else { 0.0 };
+                RoiTrace {
+                    name: roi.name.clone(),
+                    luma,
+                    phase_envelope: Some(
+                        self.physical_envelope(p, state, pwm, roi, background, led_here),
+                    ),
+                }
+            })
+            .collect();
+        Acquisition {
+            frames,
+            rois,
+            saturation_dn: self.camera.saturation_dn,
+        }
+    }
+}
+
+impl Backend for Simulator {
+    fn id(&self) -> &str {
+        if self.camera.physical.is_some() {
+            "sim-physical"
+        } else {
+            "sim-ideal"
+        }
+    }
+
+    fn acquire(&self, case: &TestCase) -> Result<Acquisition, BackendError> {
+        let pwm = self.pwm_for(case)?;
+        Ok(match &self.camera.physical {
+            None => self.acquire_ideal(case, &pwm),
+            Some(p) => self.acquire_physical(case, &pwm, p),
         })
     }
 }

@@ -144,8 +144,9 @@ fn mean(xs: impl Iterator<Item = f64>) -> Option<f64> {
 }
 
 /// Measures one ROI. `luma[i]` is the ROI mean luma of frame `i` (DN) and
-/// `segments[i]` its segment. `envelope` is the exact (min, max) PWM luma
-/// over every phase, if the backend knows it. Returns `None` when the trace
+/// `segments[i]` its segment. `envelope` is the (min, max) PWM luma over
+/// every phase, if the backend knows it; the worst-phase metrics use it
+/// widened by the captured extremes. Returns `None` when the trace
 /// has no PWM frames.
 pub fn evaluate_roi(
     luma: &[f64],
@@ -170,11 +171,15 @@ pub fn evaluate_roi(
         mean: pwm_mean,
     };
     let saturated = luma.iter().any(|&x| x >= saturation_dn);
+    // The worst case is the worse of what every phase can give (with the
+    // camera settled) and what the capture actually showed (noise, auto
+    // exposure transients).
+    let worst = envelope.map(|(lo, hi)| (lo.min(min), hi.max(max)));
     let mut m = RoiMetrics {
         fdi_2018: fdi_2018(min, levels.off),
         percent_flicker: percent_flicker(min, max),
-        fdi_2018_worst_phase: envelope.map(|(lo, _)| fdi_2018(lo, levels.off)),
-        percent_flicker_worst_phase: envelope.map(|(lo, hi)| percent_flicker(lo, hi)),
+        fdi_2018_worst_phase: worst.map(|(lo, _)| fdi_2018(lo, levels.off)),
+        percent_flicker_worst_phase: worst.map(|(lo, hi)| percent_flicker(lo, hi)),
         saturated,
         levels,
     };

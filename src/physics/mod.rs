@@ -1,11 +1,15 @@
-//! Physics of the light source and the shutter: the exact closed-form
-//! integral of a PWM waveform over each row's exposure.
+//! Physics of the light source and the camera: the exact closed-form
+//! integral of a PWM waveform over each row's exposure, the sensor, HDR
+//! captures and merge, the tone curve and auto exposure.
 //!
-//! Sits under the backends: `backend::sim` asks this module what fraction of
-//! an exposure the LED was ON, and never integrates time-stepped. Nothing in
-//! here knows about plans or reports.
+//! Sits under the backends: `backend::sim` asks this module what each ROI
+//! row of each capture collected, and never integrates time-stepped.
+//! Nothing in here knows about plans or reports.
 
+pub mod ae;
+pub mod hdr;
 pub mod pwm;
+pub mod sensor;
 pub mod shutter;
 
 pub use pwm::PwmDrive;

@@ -136,10 +136,17 @@ pub enum ShutterKind {
     Rolling,
 }
 
-/// Parameters of the simulator's ideal camera: linear, noiseless, fixed
-/// exposure.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Parameters of the simulated camera: timing, and either the ideal linear
+/// response (`physical: None`) or a physical sensor with HDR captures, tone
+/// curve and auto exposure.
+#[derive(Debug, Clone, PartialEq)]
 pub struct CameraConfig {
+    /// Profile name, e.g. "deegan2018-hdr3".
+    pub name: String,
+    /// What the profile says the camera is.
+    pub description: String,
+    /// Where the camera came from: the profile path, or "plan".
+    pub source: String,
     /// Global or rolling shutter.
     pub shutter: ShutterKind,
     /// Sensor height in rows (>= 1).
@@ -148,7 +155,8 @@ pub struct CameraConfig {
     pub sensor_columns: u32,
     /// Line time in seconds (>= 0); 0 for a global shutter.
     pub line_time_s: f64,
-    /// Exposure time in seconds (> 0, <= frame time).
+    /// Exposure time in seconds (> 0, <= frame time); with auto exposure,
+    /// the value before the run settles it.
     pub exposure_s: f64,
     /// Frame rate in frames per second (> 0).
     pub fps: f64,
@@ -162,6 +170,29 @@ pub struct CameraConfig {
     pub full_scale_dn: f64,
     /// An ROI whose luma reaches this is flagged saturated, DN.
     pub saturation_dn: f64,
+    /// The physical model, when the camera has a `[sensor]` table.
+    pub physical: Option<PhysicalCamera>,
+}
+
+/// A physical camera: sensor, HDR captures, merge, tone curve, auto exposure.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PhysicalCamera {
+    /// Sensor.
+    pub sensor: crate::physics::sensor::Sensor,
+    /// Captures, at least one; the first is the reference (L).
+    pub captures: Vec<crate::physics::hdr::Capture>,
+    /// Sequential or split-pixel.
+    pub hdr_mode: crate::physics::hdr::HdrMode,
+    /// Merge rule.
+    pub merge: crate::physics::hdr::MergeRule,
+    /// Tone curve and white point.
+    pub tone: crate::physics::hdr::Tone,
+    /// Auto exposure; `None` keeps exposure and gains fixed.
+    pub auto_exposure: Option<crate::physics::ae::AutoExposure>,
+    /// Analogue gain when auto exposure is off (>= 1).
+    pub analog_gain: f64,
+    /// Digital gain when auto exposure is off (> 0).
+    pub digital_gain: f64,
 }
 
 /// Scene radiometry.
@@ -173,6 +204,11 @@ pub struct Scene {
     pub led_luminance_cd_m2: f64,
     /// Share of an LED ROI covered by the LED (0..1].
     pub led_fill: f64,
+    /// Share of the auto-exposure metering area covered by the lamp (0..1).
+    pub led_frame_fraction: f64,
+    /// PWM clock error against the camera clock, parts per million: the
+    /// actual frequency is `f (1 + ppm 1e-6)`.
+    pub pwm_clock_offset_ppm: f64,
 }
 
 impl Scene {
@@ -211,6 +247,8 @@ pub struct Thresholds {
 /// One problem found in a plan, located by key and line.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Diagnostic {
+    /// The file, when it is not the plan itself (e.g. a camera profile).
+    pub file: Option<PathBuf>,
     /// Dotted key path, e.g. `grid.duty-cycles[1]`.
     pub key: String,
     /// 1-based line and column, when the key is in the file.
@@ -223,6 +261,9 @@ pub struct Diagnostic {
 
 impl fmt::Display for Diagnostic {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let Some(file) = &self.file {
+            write!(f, "{}: ", file.display())?;
+        }
         match self.location {
             Some((line, col)) => write!(f, "line {line}, column {col}: ")?,
             None => write!(f, "(not in file): ")?,
@@ -357,6 +398,7 @@ pub fn parse(text: &str, path: &Path, sha256: String) -> Result<Plan, PlanError>
     let mut diags: Vec<Diagnostic> = unknown
         .into_iter()
         .map(|key| Diagnostic {
+            file: None,
             location: index.location(&key),
             message: "unknown key".to_string(),
             hint: Some(spans::unknown_key_hint(&key)),

@@ -101,6 +101,14 @@ pub struct RawDut {
     pub model: Option<String>,
     pub serial: Option<String>,
     pub firmware: Option<String>,
+    pub camera_profile: Option<String>,
+    pub camera: Option<RawCamera>,
+}
+
+/// A camera profile file: `[camera]` with the keys of `[dut.camera]`.
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawProfile {
     pub camera: Option<RawCamera>,
 }
 
@@ -108,6 +116,8 @@ pub struct RawDut {
 #[derive(Debug, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub struct RawCamera {
+    pub name: Option<String>,
+    pub description: Option<String>,
     pub shutter: Option<String>,
     pub sensor_rows: Option<i64>,
     pub sensor_columns: Option<i64>,
@@ -119,6 +129,69 @@ pub struct RawCamera {
     pub black_level_dn: Option<f64>,
     pub full_scale_dn: Option<f64>,
     pub saturation_dn: Option<f64>,
+    pub analog_gain: Option<f64>,
+    pub digital_gain: Option<f64>,
+    pub sensor: Option<RawSensor>,
+    #[serde(default)]
+    pub capture: Vec<RawCapture>,
+    pub hdr: Option<RawHdr>,
+    pub tone: Option<RawTone>,
+    pub auto_exposure: Option<RawAutoExposure>,
+}
+
+/// `[dut.camera.sensor]`: present for a physical sensor model.
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawSensor {
+    pub sensitivity_e_per_cd_m2_s: Option<f64>,
+    pub full_well_e: Option<f64>,
+    pub read_noise_e: Option<f64>,
+    pub shot_noise: Option<bool>,
+    pub adc_bits: Option<i64>,
+    pub e_per_dn: Option<f64>,
+}
+
+/// `[[dut.camera.capture]]`: one HDR capture.
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawCapture {
+    pub name: Option<String>,
+    pub exposure_ratio: Option<f64>,
+    pub exposure_ms: Option<f64>,
+    pub sensitivity_ratio: Option<f64>,
+}
+
+/// `[dut.camera.hdr]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawHdr {
+    pub mode: Option<String>,
+    pub merge: Option<String>,
+    pub white_dn: Option<f64>,
+}
+
+/// `[dut.camera.tone]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawTone {
+    pub curve: Option<String>,
+    pub gamma: Option<f64>,
+    pub log_a: Option<f64>,
+    pub output_bits: Option<i64>,
+}
+
+/// `[dut.camera.auto-exposure]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawAutoExposure {
+    pub target: Option<f64>,
+    pub damping: Option<f64>,
+    pub deadband: Option<f64>,
+    pub min_exposure_ms: Option<f64>,
+    pub max_exposure_ms: Option<f64>,
+    pub max_analog_gain: Option<f64>,
+    pub min_digital_gain: Option<f64>,
+    pub max_digital_gain: Option<f64>,
 }
 
 /// `[scene]`
@@ -128,6 +201,8 @@ pub struct RawScene {
     pub background_reflectance: Option<f64>,
     pub led_luminance_cd_m2: Option<f64>,
     pub led_fill: Option<f64>,
+    pub led_frame_fraction: Option<f64>,
+    pub pwm_clock_offset_ppm: Option<f64>,
 }
 
 /// `[thresholds]`

@@ -128,6 +128,8 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
     (
         "dut.camera",
         &[
+            "name",
+            "description",
             "shutter",
             "sensor-rows",
             "sensor-columns",
@@ -139,11 +141,57 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "black-level-dn",
             "full-scale-dn",
             "saturation-dn",
+            "analog-gain",
+            "digital-gain",
+            "sensor",
+            "capture",
+            "hdr",
+            "tone",
+            "auto-exposure",
+        ],
+    ),
+    (
+        "dut.camera.sensor",
+        &[
+            "sensitivity-e-per-cd-m2-s",
+            "full-well-e",
+            "read-noise-e",
+            "shot-noise",
+            "adc-bits",
+            "e-per-dn",
+        ],
+    ),
+    (
+        "dut.camera.capture",
+        &["name", "exposure-ratio", "exposure-ms", "sensitivity-ratio"],
+    ),
+    ("dut.camera.hdr", &["mode", "merge", "white-dn"]),
+    (
+        "dut.camera.tone",
+        &["curve", "gamma", "log-a", "output-bits"],
+    ),
+    (
+        "dut.camera.auto-exposure",
+        &[
+            "target",
+            "damping",
+            "deadband",
+            "min-exposure-ms",
+            "max-exposure-ms",
+            "max-analog-gain",
+            "min-digital-gain",
+            "max-digital-gain",
         ],
     ),
     (
         "scene",
-        &["background-reflectance", "led-luminance-cd-m2", "led-fill"],
+        &[
+            "background-reflectance",
+            "led-luminance-cd-m2",
+            "led-fill",
+            "led-frame-fraction",
+            "pwm-clock-offset-ppm",
+        ],
     ),
     (
         "thresholds",
@@ -163,8 +211,11 @@ pub fn unknown_key_hint(key: &str) -> String {
         Some(i) => (&key[..i], &key[i + 1..]),
         None => ("", key),
     };
-    // `roi[3]` -> `roi`
-    let table_name = strip_indices(table);
+    // `roi[3]` -> `roi`; a profile's `camera.x` is `dut.camera.x`.
+    let mut table_name = strip_indices(table);
+    if table_name == "camera" || table_name.starts_with("camera.") {
+        table_name = format!("dut.{table_name}");
+    }
     let Some((_, known)) = KNOWN_KEYS.iter().find(|(t, _)| *t == table_name) else {
         return "remove it; see docs/plan-format.md for the plan format".to_string();
     };

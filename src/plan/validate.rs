@@ -5,12 +5,17 @@
 
 use std::path::Path;
 
-use super::raw::{RawCamera, RawPlan, RawRange};
+use std::path::PathBuf;
+
+use super::raw::{RawCamera, RawPlan, RawProfile, RawRange};
 use super::spans::SpanIndex;
 use super::{
-    BackendKind, CameraConfig, Diagnostic, Dut, MAX_CASES, Plan, Roi, RoiKind, Scene, Sequence,
-    ShutterKind, Thresholds, VerdictBasis,
+    BackendKind, CameraConfig, Diagnostic, Dut, MAX_CASES, PhysicalCamera, Plan, Roi, RoiKind,
+    Scene, Sequence, ShutterKind, Thresholds, VerdictBasis,
 };
+use crate::physics::ae::AutoExposure;
+use crate::physics::hdr::{Capture, CaptureExposure, HdrMode, MergeRule, Tone, ToneCurve};
+use crate::physics::sensor::Sensor;
 
 /// Default ROI size from Deegan 2018: 100 px wide, 2 rows high (a taller ROI
 /// mixes ON and OFF rows of a rolling shutter).
@@ -24,6 +29,8 @@ const MAX_FRAMES: f64 = 10_000_000.0;
 struct Checker<'a> {
     index: &'a SpanIndex,
     diags: &'a mut Vec<Diagnostic>,
+    /// Set while checking a file other than the plan (a camera profile).
+    file: Option<PathBuf>,
 }
 
 impl Checker<'_> {
@@ -40,6 +47,7 @@ impl Checker<'_> {
             None
         });
         self.diags.push(Diagnostic {
+            file: self.file.clone(),
             key: key.to_string(),
             location,
             message: message.into(),
@@ -217,7 +225,11 @@ pub(super) fn validate(
     path: &Path,
     sha256: String,
 ) -> Option<Plan> {
-    let mut c = Checker { index, diags };
+    let mut c = Checker {
+        index,
+        diags,
+        file: None,
+    };
 
     if let Some(v) = raw.format_version
         && v != 1
@@ -369,8 +381,26 @@ pub(super) fn validate(
                 None
             }
         };
-        let camera = c.required(d.camera, "dut.camera", "add a [dut.camera] table");
-        let camera = camera.and_then(|cam| camera_config(&mut c, cam));
+        let camera = match (d.camera_profile, d.camera) {
+            (Some(_), Some(_)) => {
+                c.error(
+                    "dut.camera-profile",
+                    "give either `camera-profile` or a [dut.camera] table, not both",
+                    Some("copy the profile and edit it to change a parameter"),
+                );
+                None
+            }
+            (Some(profile), None) => load_profile(&mut c, &profile, path),
+            (None, Some(cam)) => camera_config(&mut c, cam, "dut.camera", "plan"),
+            (None, None) => {
+                c.error(
+                    "dut.camera",
+                    "missing camera",
+                    Some("add camera-profile = \"reference-data/cameras/<name>.toml\" or a [dut.camera] table"),
+                );
+                None
+            }
+        };
         if let (Some(backend), Some(camera)) = (backend, camera) {
             dut_v = Some(Dut {
                 backend,
@@ -392,6 +422,8 @@ pub(super) fn validate(
         background_reflectance: 0.18,
         led_luminance_cd_m2: 1000.0,
         led_fill: 1.0,
+        led_frame_fraction: 0.0,
+        pwm_clock_offset_ppm: 0.0,
     });
     if let Some(s) = raw.scene {
         let mut sc = scene.take()?;
@@ -428,6 +460,36 @@ pub(super) fn validate(
                     ok = false;
                 }
                 None => ok = false,
+            }
+        }
+        if let Some(v) = s.led_frame_fraction {
+            match c.non_negative(
+                v,
+                "scene.led-frame-fraction",
+                "a fraction of the metering area in [0, 1)",
+            ) {
+                Some(v) if v < 1.0 => sc.led_frame_fraction = v,
+                Some(v) => {
+                    c.error(
+                        "scene.led-frame-fraction",
+                        format!("{v} is not below 1"),
+                        Some("a fraction of the metering area in [0, 1)"),
+                    );
+                    ok = false;
+                }
+                None => ok = false,
+            }
+        }
+        if let Some(v) = s.pwm_clock_offset_ppm {
+            if v.is_finite() && v.abs() < 1e5 {
+                sc.pwm_clock_offset_ppm = v;
+            } else {
+                c.error(
+                    "scene.pwm-clock-offset-ppm",
+                    format!("{v} ppm is out of range"),
+                    Some("crystal clocks differ by tens of ppm; |ppm| must be < 100000"),
+                );
+                ok = false;
             }
         }
         scene = ok.then_some(sc);
@@ -555,8 +617,83 @@ pub(super) fn validate(
     })
 }
 
-fn camera_config(c: &mut Checker<'_>, cam: RawCamera) -> Option<CameraConfig> {
-    let k = |s: &str| format!("dut.camera.{s}");
+/// Reads and checks a camera profile file, `[camera]` with the keys of
+/// `[dut.camera]`. Relative paths are tried from the plan's directory, the
+/// current directory and this source tree.
+fn load_profile(c: &mut Checker<'_>, name: &str, plan_path: &Path) -> Option<CameraConfig> {
+    let candidates = [
+        plan_path.parent().unwrap_or(Path::new(".")).join(name),
+        PathBuf::from(name),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(name),
+    ];
+    let Some(path) = candidates.iter().find(|p| p.is_file()) else {
+        c.error(
+            "dut.camera-profile",
+            format!("camera profile `{name}` not found"),
+            Some("give a path relative to the plan, e.g. \"../reference-data/cameras/ideal-global.toml\""),
+        );
+        return None;
+    };
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) => {
+            c.error(
+                "dut.camera-profile",
+                format!("cannot read `{}`: {e}", path.display()),
+                None,
+            );
+            return None;
+        }
+    };
+    let parsed = SpanIndex::build(&text).and_then(|index| {
+        let de = toml::Deserializer::parse(&text)?;
+        let mut unknown = Vec::new();
+        let raw: RawProfile =
+            serde_ignored::deserialize(de, |p| unknown.push(super::spans::path_string(&p)))?;
+        Ok((index, raw, unknown))
+    });
+    let (index, raw, unknown) = match parsed {
+        Ok(x) => x,
+        Err(e) => {
+            c.error(
+                "dut.camera-profile",
+                format!(
+                    "invalid camera profile `{}`: {}",
+                    path.display(),
+                    e.to_string().trim_end()
+                ),
+                None,
+            );
+            return None;
+        }
+    };
+    let mut pc = Checker {
+        index: &index,
+        diags: c.diags,
+        file: Some(path.clone()),
+    };
+    for key in unknown {
+        let hint = super::spans::unknown_key_hint(&key);
+        pc.error(&key, "unknown key", Some(&hint));
+    }
+    let Some(cam) = raw.camera else {
+        pc.error(
+            "camera",
+            "missing [camera] table",
+            Some("a profile holds one [camera] table"),
+        );
+        return None;
+    };
+    camera_config(&mut pc, cam, "camera", &path.display().to_string())
+}
+
+fn camera_config(
+    c: &mut Checker<'_>,
+    cam: RawCamera,
+    prefix: &str,
+    source: &str,
+) -> Option<CameraConfig> {
+    let k = |s: &str| format!("{prefix}.{s}");
     let shutter = match cam.shutter.as_deref() {
         Some("global") => Some(ShutterKind::Global),
         Some("rolling") => Some(ShutterKind::Rolling),
@@ -655,20 +792,35 @@ fn camera_config(c: &mut Checker<'_>, cam: RawCamera) -> Option<CameraConfig> {
         }
         None => Some(0.0),
     };
-    let response = c
-        .required(
+    let response = if cam.sensor.is_some() {
+        if cam.response_dn_per_cd_m2_s.is_some() {
+            c.error(
+                &k("response-dn-per-cd-m2-s"),
+                "the ideal camera's response does not apply to a camera with a [sensor] table",
+                Some("remove it; the sensor's sensitivity sets the response"),
+            );
+        }
+        Some(0.0)
+    } else {
+        c.required(
             cam.response_dn_per_cd_m2_s,
             &k("response-dn-per-cd-m2-s"),
             "output DN per cd/m^2 per second of exposure, e.g. 20.0",
         )
-        .and_then(|v| c.positive(v, &k("response-dn-per-cd-m2-s"), "a linear gain > 0"));
+        .and_then(|v| c.positive(v, &k("response-dn-per-cd-m2-s"), "a linear gain > 0"))
+    };
+    let physical = match cam.sensor {
+        Some(_) => Some(physical_camera(c, &cam, prefix, exposure_s, fps)?),
+        None => None,
+    };
     let black = c.non_negative(
         cam.black_level_dn.unwrap_or(0.0),
         &k("black-level-dn"),
         "DN for no light",
     );
+    let full_default = physical.as_ref().map_or(255.0, |p| p.tone.output_max);
     let full = c.positive(
-        cam.full_scale_dn.unwrap_or(255.0),
+        cam.full_scale_dn.unwrap_or(full_default),
         &k("full-scale-dn"),
         "255 for 8-bit output",
     );
@@ -689,6 +841,10 @@ fn camera_config(c: &mut Checker<'_>, cam: RawCamera) -> Option<CameraConfig> {
         return None;
     }
     Some(CameraConfig {
+        name: cam.name.clone().unwrap_or_else(|| "inline".to_string()),
+        description: cam.description.clone().unwrap_or_default(),
+        source: source.to_string(),
+        physical,
         shutter: shutter?,
         sensor_rows: rows?,
         sensor_columns: cols?,
@@ -815,4 +971,361 @@ fn rois(
         });
     }
     (ok && camera.is_some()).then_some(out)
+}
+
+/// The physical part of a camera: `sensor`, `capture`, `hdr`, `tone` and
+/// `auto-exposure` tables.
+fn physical_camera(
+    c: &mut Checker<'_>,
+    cam: &RawCamera,
+    prefix: &str,
+    exposure_s: Option<f64>,
+    fps: Option<f64>,
+) -> Option<PhysicalCamera> {
+    let k = |s: &str| format!("{prefix}.{s}");
+    let raw = cam.sensor.as_ref()?;
+    let hint = "see docs/camera-model.md";
+    let sens = c
+        .required(
+            raw.sensitivity_e_per_cd_m2_s,
+            &k("sensor.sensitivity-e-per-cd-m2-s"),
+            hint,
+        )
+        .and_then(|v| c.positive(v, &k("sensor.sensitivity-e-per-cd-m2-s"), hint));
+    let full_well = c
+        .required(
+            raw.full_well_e,
+            &k("sensor.full-well-e"),
+            "full-well capacity in electrons, e.g. 10000",
+        )
+        .and_then(|v| c.positive(v, &k("sensor.full-well-e"), hint));
+    let read_noise = c.non_negative(
+        raw.read_noise_e.unwrap_or(0.0),
+        &k("sensor.read-noise-e"),
+        hint,
+    );
+    let bits = raw.adc_bits.unwrap_or(12);
+    let bits = if (1..=24).contains(&bits) {
+        Some(bits as u32)
+    } else {
+        c.error(
+            &k("sensor.adc-bits"),
+            format!("{bits} bits is outside 1..=24"),
+            Some("e.g. 12"),
+        );
+        None
+    };
+    let e_per_dn = match (raw.e_per_dn, full_well, bits) {
+        (Some(v), _, _) => c.positive(v, &k("sensor.e-per-dn"), "electrons per DN at gain 1"),
+        (None, Some(fw), Some(b)) => Some(fw / ((2f64).powi(b as i32) - 1.0)),
+        _ => None,
+    };
+
+    let mut captures = Vec::new();
+    let mut ok = true;
+    if cam.capture.is_empty() {
+        captures.push(Capture {
+            name: "L".to_string(),
+            exposure: CaptureExposure::Ratio(1.0),
+            sensitivity_ratio: 1.0,
+        });
+    }
+    if cam.capture.len() > 4 {
+        c.error(
+            &k("capture"),
+            format!("{} captures; at most 4", cam.capture.len()),
+            Some("HDR schemes use 1 to 4 captures"),
+        );
+        ok = false;
+    }
+    for (i, cap) in cam.capture.iter().enumerate() {
+        let kk = |s: &str| k(&format!("capture[{i}].{s}"));
+        let exposure = match (cap.exposure_ratio, cap.exposure_ms) {
+            (Some(_), Some(_)) | (None, None) => {
+                c.error(
+                    &kk("exposure-ratio"),
+                    "give exactly one of `exposure-ratio` and `exposure-ms`",
+                    Some("a ratio follows auto exposure; exposure-ms is fixed"),
+                );
+                None
+            }
+            (Some(r), None) => {
+                match c.positive(r, &kk("exposure-ratio"), "a fraction of the L exposure") {
+                    Some(r) if r <= 1.0 => Some(CaptureExposure::Ratio(r)),
+                    Some(r) => {
+                        c.error(
+                            &kk("exposure-ratio"),
+                            format!("{r} is above 1"),
+                            Some("ratios are relative to the first, longest capture"),
+                        );
+                        None
+                    }
+                    None => None,
+                }
+            }
+            (None, Some(ms)) => c
+                .positive(ms, &kk("exposure-ms"), "milliseconds")
+                .map(|ms| CaptureExposure::Fixed(ms * 1e-3)),
+        };
+        let sensitivity = c.positive(
+            cap.sensitivity_ratio.unwrap_or(1.0),
+            &kk("sensitivity-ratio"),
+            "1 for a normal pixel, e.g. 0.0625 for a small split pixel",
+        );
+        match (exposure, sensitivity) {
+            (Some(exposure), Some(sensitivity_ratio)) => captures.push(Capture {
+                name: cap
+                    .name
+                    .clone()
+                    .unwrap_or_else(|| ["L", "M", "S", "VS"][i.min(3)].to_string()),
+                exposure,
+                sensitivity_ratio,
+            }),
+            _ => ok = false,
+        }
+    }
+
+    let hdr = cam.hdr.as_ref();
+    let hdr_mode = match hdr.and_then(|h| h.mode.as_deref()) {
+        None | Some("sequential") => Some(HdrMode::Sequential),
+        Some("split-pixel") => Some(HdrMode::SplitPixel),
+        Some(other) => {
+            c.error(
+                &k("hdr.mode"),
+                format!("unknown HDR mode `{other}`"),
+                Some("use \"sequential\" or \"split-pixel\""),
+            );
+            None
+        }
+    };
+    let merge = match hdr.and_then(|h| h.merge.as_deref()) {
+        None | Some("longest-unsaturated") => Some(MergeRule::LongestUnsaturated),
+        Some("weighted") => Some(MergeRule::Weighted),
+        Some(other) => {
+            c.error(
+                &k("hdr.merge"),
+                format!("unknown merge rule `{other}`"),
+                Some("use \"longest-unsaturated\" or \"weighted\""),
+            );
+            None
+        }
+    };
+
+    let tone_raw = cam.tone.as_ref();
+    let curve = match tone_raw.and_then(|t| t.curve.as_deref()) {
+        None | Some("linear") => Some(ToneCurve::Linear),
+        Some("gamma") => c
+            .positive(
+                tone_raw.and_then(|t| t.gamma).unwrap_or(2.2),
+                &k("tone.gamma"),
+                "e.g. 2.2",
+            )
+            .map(ToneCurve::Gamma),
+        Some("log") => c
+            .positive(
+                tone_raw.and_then(|t| t.log_a).unwrap_or(1000.0),
+                &k("tone.log-a"),
+                "compression, e.g. 1000",
+            )
+            .map(ToneCurve::Log),
+        Some(other) => {
+            c.error(
+                &k("tone.curve"),
+                format!("unknown tone curve `{other}`"),
+                Some("use \"linear\", \"gamma\" or \"log\""),
+            );
+            None
+        }
+    };
+    let out_bits = tone_raw.and_then(|t| t.output_bits).unwrap_or(8);
+    let out_bits = if (8..=16).contains(&out_bits) {
+        Some(out_bits as u32)
+    } else {
+        c.error(
+            &k("tone.output-bits"),
+            format!("{out_bits} is outside 8..=16"),
+            Some("8 or 16"),
+        );
+        None
+    };
+
+    let frame_s = fps.map(|f| 1.0 / f);
+    let ae = match &cam.auto_exposure {
+        None => None,
+        Some(a) => {
+            let kk = |s: &str| k(&format!("auto-exposure.{s}"));
+            let target = c.positive(
+                a.target.unwrap_or(0.18),
+                &kk("target"),
+                "a fraction of white, e.g. 0.18",
+            );
+            let damping = c.positive(
+                a.damping.unwrap_or(0.5),
+                &kk("damping"),
+                "fraction of the error corrected per frame, in (0, 1]",
+            );
+            let deadband = c.non_negative(
+                a.deadband.unwrap_or(0.05),
+                &kk("deadband"),
+                "relative error, e.g. 0.05",
+            );
+            let min_t = c
+                .positive(
+                    a.min_exposure_ms.unwrap_or(0.01),
+                    &kk("min-exposure-ms"),
+                    "e.g. 11.111 for flicker mitigation above 90 Hz",
+                )
+                .map(|v| v * 1e-3);
+            let max_t = match (a.max_exposure_ms, frame_s) {
+                (Some(v), _) => c
+                    .positive(v, &kk("max-exposure-ms"), "at most the frame time")
+                    .map(|v| v * 1e-3),
+                (None, Some(f)) => Some(f),
+                (None, None) => None,
+            };
+            let max_ga = c.positive(
+                a.max_analog_gain.unwrap_or(16.0),
+                &kk("max-analog-gain"),
+                ">= 1",
+            );
+            let min_gd = c.positive(
+                a.min_digital_gain.unwrap_or(1.0),
+                &kk("min-digital-gain"),
+                "> 0",
+            );
+            let max_gd = c.positive(
+                a.max_digital_gain.unwrap_or(1.0),
+                &kk("max-digital-gain"),
+                ">= min-digital-gain",
+            );
+            if target.is_some_and(|t| t >= 1.0) {
+                c.error(&kk("target"), "must be below 1 (white)", Some("e.g. 0.18"));
+            }
+            if damping.is_some_and(|d| d > 1.0) {
+                c.error(
+                    &kk("damping"),
+                    "must be at most 1",
+                    Some("1 corrects the whole error in one frame"),
+                );
+            }
+            if let (Some(lo), Some(hi)) = (min_t, max_t)
+                && lo > hi
+            {
+                c.error(
+                    &kk("min-exposure-ms"),
+                    format!("{} ms is above max-exposure-ms {} ms", lo * 1e3, hi * 1e3),
+                    None,
+                );
+            }
+            if let (Some(hi), Some(f)) = (max_t, frame_s)
+                && hi > f * (1.0 + 1e-12)
+            {
+                c.error(
+                    &kk("max-exposure-ms"),
+                    format!(
+                        "{:.3} ms is longer than the frame time {:.3} ms",
+                        hi * 1e3,
+                        f * 1e3
+                    ),
+                    None,
+                );
+            }
+            if max_ga.is_some_and(|g| g < 1.0) {
+                c.error(&kk("max-analog-gain"), "must be >= 1", None);
+            }
+            if let (Some(lo), Some(hi)) = (min_gd, max_gd)
+                && lo > hi
+            {
+                c.error(&kk("max-digital-gain"), "must be >= min-digital-gain", None);
+            }
+            match (
+                target, damping, deadband, min_t, max_t, max_ga, min_gd, max_gd,
+            ) {
+                (
+                    Some(target),
+                    Some(damping),
+                    Some(deadband),
+                    Some(min_exposure_s),
+                    Some(max_exposure_s),
+                    Some(max_analog_gain),
+                    Some(min_digital_gain),
+                    Some(max_digital_gain),
+                ) => Some(AutoExposure {
+                    target,
+                    damping,
+                    deadband,
+                    min_exposure_s,
+                    max_exposure_s,
+                    max_analog_gain,
+                    min_digital_gain,
+                    max_digital_gain,
+                }),
+                _ => {
+                    ok = false;
+                    None
+                }
+            }
+        }
+    };
+    let analog_gain = c.positive(cam.analog_gain.unwrap_or(1.0), &k("analog-gain"), ">= 1");
+    if analog_gain.is_some_and(|g| g < 1.0) {
+        c.error(
+            &k("analog-gain"),
+            "must be >= 1",
+            Some("analogue gain amplifies; use digital-gain to scale down"),
+        );
+    }
+    let digital_gain = c.positive(cam.digital_gain.unwrap_or(1.0), &k("digital-gain"), "> 0");
+
+    // Sequential captures must fit in the frame at the longest exposure.
+    let longest_t = ae.map(|a| a.max_exposure_s).or(exposure_s);
+    if let (Some(HdrMode::Sequential), Some(t), Some(f)) = (hdr_mode, longest_t, frame_s) {
+        let total: f64 = captures.iter().map(|cap| cap.exposure_s(t)).sum();
+        if total > f * (1.0 + 1e-9) {
+            c.error(
+                &k("capture"),
+                format!("sequential captures take {:.3} ms at the longest exposure, more than the frame time {:.3} ms", total * 1e3, f * 1e3),
+                Some("lower the exposure ratios or auto-exposure.max-exposure-ms"),
+            );
+            ok = false;
+        }
+    }
+
+    let sensor = Sensor {
+        sensitivity_e_per_cd_m2_s: sens?,
+        full_well_e: full_well?,
+        read_noise_e: read_noise?,
+        shot_noise: raw.shot_noise.unwrap_or(true),
+        adc_bits: bits?,
+        e_per_dn: e_per_dn?,
+    };
+    let nominal_t = exposure_s?;
+    let min_scale = captures
+        .iter()
+        .map(|cap| {
+            cap.exposure_s(nominal_t) / captures[0].exposure_s(nominal_t) * cap.sensitivity_ratio
+                / captures[0].sensitivity_ratio
+        })
+        .fold(f64::INFINITY, f64::min);
+    let white = match hdr.and_then(|h| h.white_dn) {
+        Some(w) => c.positive(w, &k("hdr.white-dn"), "L-equivalent DN mapped to white")?,
+        None => sensor.dn_max() / min_scale.min(1.0),
+    };
+    if !ok {
+        return None;
+    }
+    Some(PhysicalCamera {
+        sensor,
+        captures,
+        hdr_mode: hdr_mode?,
+        merge: merge?,
+        tone: Tone {
+            curve: curve?,
+            white,
+            output_max: (2f64).powi(out_bits? as i32) - 1.0,
+        },
+        auto_exposure: ae,
+        analog_gain: analog_gain?,
+        digital_gain: digital_gain?,
+    })
 }
