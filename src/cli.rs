@@ -55,6 +55,12 @@ enum Command {
     },
     /// Probe the ideal camera for one condition; prints a CSV trace.
     Simulate(SimulateArgs),
+    /// Speed against error of the integration methods, and whole-plan times.
+    Bench {
+        /// A CI-sized run (a few seconds).
+        #[arg(long)]
+        quick: bool,
+    },
 }
 
 #[derive(Args, Debug)]
@@ -151,6 +157,7 @@ fn run(cli: Cli) -> anyhow::Result<i32> {
         Command::Plan(args) => run_plan(args),
         Command::Validate { plan } => validate(&plan),
         Command::Simulate(args) => simulate(args),
+        Command::Bench { quick } => bench(quick),
     }
 }
 
@@ -372,5 +379,20 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
         writeln!(w, "{k},{},{s}", k as f64 / a.fps)?;
     }
     w.flush()?;
+    Ok(EXIT_PASS)
+}
+
+fn bench(quick: bool) -> anyhow::Result<i32> {
+    println!("{:<44} {:>14} {:>12}  note", "method", "time", "max error");
+    let mut print_row = |r: &crate::bench::BenchRow| {
+        let time = if r.time_s < 1e-3 {
+            format!("{:.3} us/{}", r.time_s * 1e6, r.per)
+        } else {
+            format!("{:.3} s/{}", r.time_s, r.per)
+        };
+        let err = r.max_error.map_or("-".to_string(), |e| format!("{e:.2e}"));
+        println!("{:<44} {:>14} {:>12}  {}", r.method, time, err, r.note);
+    };
+    crate::bench::run(quick, &mut print_row).map_err(|e| anyhow::anyhow!("bench failed: {e}"))?;
     Ok(EXIT_PASS)
 }

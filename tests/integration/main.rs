@@ -2,6 +2,7 @@
 
 mod cli;
 mod exact;
+mod physics;
 mod plans;
 mod results;
 

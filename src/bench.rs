@@ -1,0 +1,330 @@
+//! `ledflicker bench`: speed against error for the ways of computing a
+//! flicker trace, and the time of whole plans.
+//!
+//! Every row compares a method with the exact closed form on the same
+//! randomly drawn conditions (fixed seed), and times it. Timings are medians
+//! of several repetitions; the machine is noisy, so read ratios, not digits.
+
+use std::time::Instant;
+
+use crate::backend::sim::Simulator;
+use crate::physics::PwmDrive;
+use crate::physics::sensor::Rng;
+use crate::physics::shutter::{Shutter, ShutterModel};
+use crate::plan::{self, Plan};
+use crate::runner;
+
+/// One row of the bench table.
+#[derive(Debug, Clone)]
+pub struct BenchRow {
+    /// Method.
+    pub method: String,
+    /// Unit of `time_s`: "frame" or "case" or "plan".
+    pub per: &'static str,
+    /// Median time per unit, seconds.
+    pub time_s: f64,
+    /// Largest error against the exact result, in ON fraction (0..1);
+    /// `None` for rows that are not compared.
+    pub max_error: Option<f64>,
+    /// What was measured.
+    pub note: String,
+}
+
+/// A random condition: PWM, shutter, ROI rows.
+struct Condition {
+    pwm: PwmDrive,
+    shutter: Shutter,
+    rows: std::ops::Range<u32>,
+}
+
+fn conditions(n: usize) -> Vec<Condition> {
+    let mut rng = Rng::new(2018);
+    (0..n)
+        .map(|_| {
+            let f = 50.0 + rng.uniform() * 1950.0;
+            let d = 0.05 + rng.uniform() * 0.9;
+            let t = 1e-4 + rng.uniform() * 0.02;
+            Condition {
+                pwm: PwmDrive::new(f, d, rng.uniform() * 0.01).expect("valid drive"),
+                shutter: Shutter {
+                    model: ShutterModel::Rolling {
+                        line_time_s: 14.565e-6,
+                    },
+                    exposure_s: t,
+                    fps: 30.0,
+                },
+                rows: 399..401,
+            }
+        })
+        .collect()
+}
+
+/// ON fraction of frame `frame` by time stepping with step `dt_s`
+/// (midpoint samples), averaged over the ROI rows.
+pub fn time_stepped_on_fraction(
+    pwm: &PwmDrive,
+    shutter: &Shutter,
+    frame: u64,
+    rows: std::ops::Range<u32>,
+    dt_s: f64,
+) -> f64 {
+    let steps = (shutter.exposure_s / dt_s).ceil().max(1.0) as u64;
+    let dt = shutter.exposure_s / steps as f64;
+    let period = 1.0 / pwm.frequency_hz();
+    let n = rows.len() as f64;
+    let mut total = 0.0;
+    for r in rows {
+        let start = frame as f64 / shutter.fps + shutter.row_offset_s(r) - pwm.first_rise_s();
+        let mut on = 0u64;
+        for i in 0..steps {
+            let t = start + (i as f64 + 0.5) * dt;
+            let phase = (t / period).rem_euclid(1.0);
+            if phase < pwm.duty() {
+                on += 1;
+            }
+        }
+        total += on as f64 / steps as f64;
+    }
+    total / n
+}
+
+fn median(mut xs: Vec<f64>) -> f64 {
+    xs.sort_by(f64::total_cmp);
+    xs[xs.len() / 2]
+}
+
+/// Runs `f` `reps` times and returns the median wall time in seconds and
+/// the last result.
+fn timed<T>(reps: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut times = Vec::with_capacity(reps);
+    let mut out = None;
+    for _ in 0..reps {
+        let t0 = Instant::now();
+        out = Some(std::hint::black_box(f()));
+        times.push(t0.elapsed().as_secs_f64());
+    }
+    (median(times), out.expect("reps >= 1"))
+}
+
+/// The plan the full-plan rows run: the daylight grid widened to at least
+/// 100 cases (20 frequencies x 5 duty cycles) of 64 s at 30 fps, on the
+/// given camera profile (`None`: the plan's own camera).
+pub fn bench_plan(profile: Option<&str>) -> Result<Plan, plan::PlanError> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text =
+        std::fs::read_to_string(root.join("test-plans/daylight.toml")).map_err(|source| {
+            plan::PlanError::Read {
+                path: root.join("test-plans/daylight.toml"),
+                source,
+            }
+        })?;
+    let mut text = text.replace(
+        "frequencies-hz = [50.0, 90.0, 100.0, 150.0, 200.0, 500.0, 1000.0]",
+        "frequency-range-hz = { start = 50.0, stop = 1000.0, step = 50.0 }",
+    );
+    if let Some(profile) = profile {
+        let start = text.find("[dut.camera]").unwrap_or(text.len());
+        let end = text[start..]
+            .find("[scene]")
+            .map_or(text.len(), |i| start + i);
+        text.replace_range(start..end, "");
+        text = text.replace(
+            "backend = \"simulator\"",
+            &format!(
+                "backend = \"simulator\"\ncamera-profile = \"{}\"",
+                root.join(profile).display()
+            ),
+        );
+    }
+    plan::parse(&text, &root.join("test-plans/daylight.toml"), String::new())
+}
+
+/// Runs the bench. `quick` makes it CI-sized (a few seconds).
+pub fn run(
+    quick: bool,
+    on_row: &mut dyn FnMut(&BenchRow),
+) -> Result<Vec<BenchRow>, Box<dyn std::error::Error>> {
+    let (n_cond, frames, reps) = if quick { (8, 60, 3) } else { (40, 300, 5) };
+    let conds = conditions(n_cond);
+    let mut rows = Vec::new();
+    let mut push = |row: BenchRow, rows: &mut Vec<BenchRow>| {
+        on_row(&row);
+        rows.push(row);
+    };
+    let n_frames = (n_cond * frames) as f64;
+
+    let (t_exact, exact) = timed(reps, || {
+        conds
+            .iter()
+            .map(|c| {
+                (0..frames as u64)
+                    .map(|k| c.shutter.frame_on_fraction(&c.pwm, k, c.rows.clone()))
+                    .collect::<Vec<_>>()
+            })
+            .collect::<Vec<_>>()
+    });
+    push(
+        BenchRow {
+            method: "exact closed form".into(),
+            per: "frame",
+            time_s: t_exact / n_frames,
+            max_error: Some(0.0),
+            note: format!("{n_cond} conditions x {frames} frames, 2-row rolling ROI"),
+        },
+        &mut rows,
+    );
+
+    for dt in [100e-6, 10e-6, 1e-6] {
+        let reps_here = if dt < 5e-6 { 1 } else { reps };
+        let (t, stepped) = timed(reps_here, || {
+            conds
+                .iter()
+                .map(|c| {
+                    (0..frames as u64)
+                        .map(|k| {
+                            time_stepped_on_fraction(&c.pwm, &c.shutter, k, c.rows.clone(), dt)
+                        })
+                        .collect::<Vec<_>>()
+                })
+                .collect::<Vec<_>>()
+        });
+        let err = exact
+            .iter()
+            .flatten()
+            .zip(stepped.iter().flatten())
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        push(
+            BenchRow {
+                method: format!("time-stepped, {} us", dt * 1e6),
+                per: "frame",
+                time_s: t / n_frames,
+                max_error: Some(err),
+                note: "midpoint samples of the square wave".into(),
+            },
+            &mut rows,
+        );
+    }
+
+    let exact_worst: Vec<(f64, f64)> = conds
+        .iter()
+        .map(|c| c.shutter.phase_envelope(&c.pwm, c.rows.clone()))
+        .collect();
+    let (t_env, _) = timed(reps, || {
+        conds
+            .iter()
+            .map(|c| c.shutter.phase_envelope(&c.pwm, c.rows.clone()))
+            .collect::<Vec<_>>()
+    });
+    push(
+        BenchRow {
+            method: "exact worst case over phase".into(),
+            per: "case",
+            time_s: t_env / n_cond as f64,
+            max_error: Some(0.0),
+            note: "corners of the piecewise-linear response".into(),
+        },
+        &mut rows,
+    );
+    for n in [16usize, 64, 256] {
+        let (t, swept) = timed(reps, || {
+            conds
+                .iter()
+                .map(|c| {
+                    let f = c.pwm.frequency_hz();
+                    let mut lo = f64::INFINITY;
+                    let mut hi = f64::NEG_INFINITY;
+                    for i in 0..n {
+                        let pwm = PwmDrive::new(f, c.pwm.duty(), -(i as f64 / n as f64) / f)
+                            .expect("valid drive");
+                        let v = c.shutter.frame_on_fraction(&pwm, 0, c.rows.clone());
+                        lo = lo.min(v);
+                        hi = hi.max(v);
+                    }
+                    (lo, hi)
+                })
+                .collect::<Vec<_>>()
+        });
+        let err = exact_worst
+            .iter()
+            .zip(&swept)
+            .map(|(e, s)| (s.0 - e.0).abs().max((e.1 - s.1).abs()))
+            .fold(0.0, f64::max);
+        push(
+            BenchRow {
+                method: format!("phase sweep, {n} phases"),
+                per: "case",
+                time_s: t / n_cond as f64,
+                max_error: Some(err),
+                note: "min/max over sampled phases vs exact".into(),
+            },
+            &mut rows,
+        );
+    }
+
+    for (label, profile) in [
+        (
+            "daylight plan, ideal rolling profile",
+            "reference-data/cameras/ideal-rolling.toml",
+        ),
+        (
+            "daylight plan, 3-capture HDR + AE profile",
+            "reference-data/cameras/deegan2018-hdr3.toml",
+        ),
+    ] {
+        let plan = bench_plan(Some(profile))?;
+        let cases = plan::expand_cases(&plan);
+        let backend = Simulator::new(&plan);
+        let (t, results) = timed(if quick { 1 } else { 3 }, || {
+            runner::run(&plan, &cases, &backend, None, &|_| {})
+        });
+        results?;
+        let frames =
+            crate::backend::sim::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps).total();
+        push(
+            BenchRow {
+                method: label.into(),
+                per: "plan",
+                time_s: t,
+                max_error: None,
+                note: format!(
+                    "{} cases x {frames} frames ({} s at {} fps), {} threads",
+                    cases.len(),
+                    plan.sequence.on_s + plan.sequence.off_s + plan.sequence.pwm_s,
+                    plan.dut.camera.fps,
+                    rayon::current_num_threads()
+                ),
+            },
+            &mut rows,
+        );
+    }
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn time_stepping_converges_to_the_closed_form() {
+        let c = &conditions(3)[1];
+        let exact = c.shutter.frame_on_fraction(&c.pwm, 5, c.rows.clone());
+        let coarse =
+            (time_stepped_on_fraction(&c.pwm, &c.shutter, 5, c.rows.clone(), 100e-6) - exact).abs();
+        let fine =
+            (time_stepped_on_fraction(&c.pwm, &c.shutter, 5, c.rows.clone(), 1e-6) - exact).abs();
+        // Midpoint sampling errs by at most two samples per edge crossing.
+        let steps = (c.shutter.exposure_s / 1e-6).ceil();
+        assert!(fine <= 2.0 * 2.0 / steps + 1e-12, "{fine}");
+        assert!(fine <= coarse + 1e-12);
+    }
+
+    #[test]
+    fn bench_plan_has_at_least_100_cases_of_64_s() {
+        let plan = bench_plan(Some("reference-data/cameras/deegan2018-hdr3.toml")).unwrap();
+        assert!(plan::expand_cases(&plan).len() >= 100);
+        let s = plan.sequence;
+        assert_eq!(s.on_s + s.off_s + s.pwm_s, 64.0);
+        assert!(plan.dut.camera.physical.is_some());
+    }
+}
