@@ -242,8 +242,10 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
             bar.inc(1);
         }
     };
-    let results = runner::run(&plan, &cases, &backend, args.threads, &on_event)
+    let mut results = runner::run(&plan, &cases, &backend, args.threads, &on_event)
         .with_context(|| format!("run of plan `{}` failed", plan.id))?;
+    runner::render_sample_frames(&plan, &mut results, &backend)
+        .with_context(|| format!("cannot render the sample frames of plan `{}`", plan.id))?;
     bar.finish_and_clear();
 
     let model = report::build(&plan, backend.id(), &results);

@@ -6,8 +6,10 @@
 
 use rayon::prelude::*;
 
-use crate::backend::{Acquisition, Backend, BackendError};
+use crate::backend::{Acquisition, Backend, BackendError, RenderedFrame};
+use crate::metrics::flicker::Segment;
 use crate::metrics::{Check, RoiMetrics, Verdict, evaluate_case, evaluate_roi};
+use crate::plan::RoiKind;
 use crate::plan::{Plan, TestCase};
 
 /// Everything known about one finished case.
@@ -23,6 +25,9 @@ pub struct CaseResult {
     pub verdict: Verdict,
     /// Every threshold check made.
     pub checks: Vec<Check>,
+    /// A picture of the frame with the lowest LED-ROI luma in the PWM
+    /// segment, when one was asked for and the backend can render it.
+    pub sample_frame: Option<RenderedFrame>,
 }
 
 /// What the runner tells its caller while it works.
@@ -154,5 +159,36 @@ pub fn run_case(
         metrics,
         verdict,
         checks,
+        sample_frame: None,
+    })
+}
+
+/// The PWM-segment frame with the lowest luma in the first LED ROI: the
+/// frame where the light looks most OFF (Deegan 2018, Figure 11).
+pub fn darkest_pwm_frame(plan: &Plan, result: &CaseResult) -> Option<u64> {
+    let i = plan.rois.iter().position(|r| r.kind == RoiKind::Led)?;
+    let acq = &result.acquisition;
+    acq.frames
+        .iter()
+        .zip(&acq.rois.get(i)?.luma)
+        .filter(|(f, _)| f.segment == Segment::Pwm)
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(f, _)| f.index)
+}
+
+/// Renders each case's darkest PWM frame, in parallel, where the backend
+/// can; full frames are made only here, never for the metrics.
+pub fn render_sample_frames(
+    plan: &Plan,
+    results: &mut [CaseResult],
+    backend: &dyn Backend,
+) -> Result<(), RunError> {
+    results.par_iter_mut().try_for_each(|r| {
+        if let Some(frame) = darkest_pwm_frame(plan, r)
+            && let Some(rendered) = backend.render_frame(&r.case, frame)
+        {
+            r.sample_frame = Some(rendered?);
+        }
+        Ok(())
     })
 }

@@ -56,10 +56,34 @@ pub struct BackendError {
     pub message: String,
 }
 
+/// A whole frame, as output luma, row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderedFrame {
+    /// Frame number.
+    pub index: u64,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Luma of each pixel, DN, `width * height` values.
+    pub luma: Vec<f64>,
+    /// Output full scale, DN (255 for 8-bit output).
+    pub full_scale_dn: f64,
+}
+
 /// A source of frames for test cases: a camera simulator or captured data.
 pub trait Backend: Send + Sync {
     /// Stable id used in reports, e.g. "sim-ideal".
     fn id(&self) -> &str;
     /// Frames and ROI traces for `case`.
     fn acquire(&self, case: &TestCase) -> Result<Acquisition, BackendError>;
+    /// A full picture of frame `frame` of `case`, for the report, when the
+    /// backend can make one. Traces never need it: only asked for pictures.
+    fn render_frame(
+        &self,
+        _case: &TestCase,
+        _frame: u64,
+    ) -> Option<Result<RenderedFrame, BackendError>> {
+        None
+    }
 }

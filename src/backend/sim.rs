@@ -20,7 +20,7 @@
 //! asks), 0 in the OFF segment, the exact integral in the PWM segment.
 //! Background ROIs see no LED.
 
-use super::{Acquisition, Backend, BackendError, FrameInfo, RoiTrace};
+use super::{Acquisition, Backend, BackendError, FrameInfo, RenderedFrame, RoiTrace};
 use crate::metrics::flicker::Segment;
 use crate::physics::ae::ExposureState;
 use crate::physics::hdr::{HdrMode, merge};
@@ -327,6 +327,17 @@ impl Simulator {
     }
 
     fn acquire_physical(&self, case: &TestCase, pwm: &PwmDrive, p: &PhysicalCamera) -> Acquisition {
+        self.run_physical(case, pwm, p).0
+    }
+
+    /// The physical camera through the sequence; also returns the exposure
+    /// settings auto exposure chose for each frame.
+    fn run_physical(
+        &self,
+        case: &TestCase,
+        pwm: &PwmDrive,
+        p: &PhysicalCamera,
+    ) -> (Acquisition, Vec<ExposureState>) {
         let frames = self.frames();
         let background = self.scene.background_luminance_cd_m2(case.light_lux);
         let led = self.scene.led_fill * self.scene.led_luminance_cd_m2;
@@ -380,7 +391,9 @@ impl Simulator {
         };
 
         let mut luma: Vec<Vec<f64>> = vec![Vec::with_capacity(frames.len()); self.rois.len()];
+        let mut states = Vec::with_capacity(frames.len());
         for f in &frames {
+            states.push(state);
             let light = match f.segment {
                 Segment::On => Light::Steady(case.duty),
                 Segment::Off => Light::Steady(0.0),
@@ -423,11 +436,109 @@ impl Simulator {
                 }
             })
             .collect();
-        Acquisition {
-            frames,
-            rois,
-            saturation_dn: self.camera.saturation_dn,
+        (
+            Acquisition {
+                frames,
+                rois,
+                saturation_dn: self.camera.saturation_dn,
+            },
+            states,
+        )
+    }
+
+    /// The lamp's rectangle in a rendered frame: centred on the first LED
+    /// ROI, three ROI widths wide and 60 % of the sensor high (the paper's
+    /// source fills 10-100 % of the vertical field of view).
+    fn lamp_rect(&self) -> (std::ops::Range<u32>, std::ops::Range<u32>) {
+        let cam = &self.camera;
+        let roi = self.rois.iter().find(|r| r.kind == RoiKind::Led);
+        let (cx, cy, w) = roi.map_or((cam.sensor_columns / 2, cam.sensor_rows / 2, 100), |r| {
+            (
+                r.x_px + r.width_px / 2,
+                r.y_px + r.height_px / 2,
+                r.width_px,
+            )
+        });
+        let half_w = (3 * w / 2).max(1);
+        let half_h = (cam.sensor_rows * 3 / 10).max(1);
+        let cols = cx.saturating_sub(half_w)..(cx + half_w).min(cam.sensor_columns);
+        let rows = cy.saturating_sub(half_h)..(cy + half_h).min(cam.sensor_rows);
+        (cols, rows)
+    }
+
+    fn render(&self, case: &TestCase, frame: u64) -> Result<RenderedFrame, BackendError> {
+        let cam = &self.camera;
+        let pwm = self.pwm_for(case)?;
+        let segments = SegmentFrames::new(&self.sequence, cam.fps);
+        let segment = segments.segment(frame);
+        let background = self.scene.background_luminance_cd_m2(case.light_lux);
+        let led = self.scene.led_fill * self.scene.led_luminance_cd_m2;
+        let (lamp_cols, lamp_rows) = self.lamp_rect();
+        // Each row has two values: lamp and background.
+        let per_row: Vec<(f64, f64)> = match &cam.physical {
+            None => {
+                let shutter = self.shutter();
+                let k = cam.response_dn_per_cd_m2_s * cam.exposure_s;
+                let out = |s: f64, l: f64| {
+                    (cam.black_level_dn + k * (background + l * s)).min(cam.full_scale_dn)
+                };
+                (0..cam.sensor_rows)
+                    .map(|r| {
+                        let s = match segment {
+                            Segment::On => case.duty,
+                            Segment::Off => 0.0,
+                            Segment::Pwm => shutter.frame_on_fraction(&pwm, frame, r..r + 1),
+                        };
+                        (out(s, led), out(0.0, 0.0))
+                    })
+                    .collect()
+            }
+            Some(p) => {
+                let (_, states) = self.run_physical(case, &pwm, p);
+                let state = states
+                    .get(frame as usize)
+                    .copied()
+                    .unwrap_or(ExposureState {
+                        exposure_s: cam.exposure_s,
+                        analog_gain: p.analog_gain,
+                        digital_gain: p.digital_gain,
+                    });
+                let light = match segment {
+                    Segment::On => Light::Steady(case.duty),
+                    Segment::Off => Light::Steady(0.0),
+                    Segment::Pwm => Light::Pwm(&pwm),
+                };
+                (0..cam.sensor_rows)
+                    .map(|r| {
+                        let lamp = self
+                            .row(p, state, light, frame, r, background, led, None)
+                            .luma;
+                        let bg = self
+                            .row(p, state, light, frame, r, background, 0.0, None)
+                            .luma;
+                        (lamp, bg)
+                    })
+                    .collect()
+            }
+        };
+        let mut luma = Vec::with_capacity(cam.sensor_rows as usize * cam.sensor_columns as usize);
+        for (r, &(lamp, bg)) in per_row.iter().enumerate() {
+            let in_rows = lamp_rows.contains(&(r as u32));
+            for c in 0..cam.sensor_columns {
+                luma.push(if in_rows && lamp_cols.contains(&c) {
+                    lamp
+                } else {
+                    bg
+                });
+            }
         }
+        Ok(RenderedFrame {
+            index: frame,
+            width: cam.sensor_columns,
+            height: cam.sensor_rows,
+            luma,
+            full_scale_dn: cam.full_scale_dn,
+        })
     }
 }
 
@@ -446,5 +557,13 @@ impl Backend for Simulator {
             None => self.acquire_ideal(case, &pwm),
             Some(p) => self.acquire_physical(case, &pwm, p),
         })
+    }
+
+    fn render_frame(
+        &self,
+        case: &TestCase,
+        frame: u64,
+    ) -> Option<Result<RenderedFrame, BackendError>> {
+        Some(self.render(case, frame))
     }
 }

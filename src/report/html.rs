@@ -46,11 +46,25 @@ fn environment() -> Result<Environment<'static>, ReportError> {
 pub fn render(model: &Results, results: &[CaseResult], date: &str) -> Result<String, ReportError> {
     let env = environment()?;
     let mut charts = BTreeMap::new();
+    let mut frames = BTreeMap::new();
     for r in results {
         charts.insert(
             r.case.id.clone(),
             Value::from_safe_string(charts::luma_trace_svg(r)?),
         );
+        if let Some(frame) = &r.sample_frame {
+            let png = super::frames::png_bytes(&super::frames::thumbnail(
+                frame,
+                super::frames::THUMBNAIL_WIDTH,
+            ))?;
+            frames.insert(
+                r.case.id.clone(),
+                Value::from_safe_string(format!(
+                    "data:image/png;base64,{}",
+                    super::frames::base64(&png)
+                )),
+            );
+        }
     }
     let template = env
         .get_template("report.html.j2")
@@ -62,6 +76,7 @@ pub fn render(model: &Results, results: &[CaseResult], date: &str) -> Result<Str
         .render(minijinja::context! {
             r => Serde(model),
             charts => charts,
+            frames => frames,
             date => date,
         })
         .map_err(|e| ReportError::Template {

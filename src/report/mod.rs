@@ -5,6 +5,7 @@
 //! plotters.
 
 pub mod charts;
+pub mod frames;
 pub mod html;
 pub mod model;
 
@@ -127,6 +128,27 @@ pub fn write_report(
         let path = staging.join(format!("{}.csv", r.case.id));
         std::fs::write(&path, trace_csv(r)).map_err(io_err(&path))?;
     }
+    let frames_dir = dir.join("frames");
+    let frame_staging = dir.join(format!(".frames.tmp-{}", std::process::id()));
+    if frame_staging.exists() {
+        std::fs::remove_dir_all(&frame_staging).map_err(io_err(&frame_staging))?;
+    }
+    if results.iter().any(|r| r.sample_frame.is_some()) {
+        std::fs::create_dir_all(&frame_staging).map_err(io_err(&frame_staging))?;
+        for r in results {
+            if let Some(frame) = &r.sample_frame {
+                let path = frame_staging.join(format!("{}.png", r.case.id));
+                std::fs::write(&path, frames::png_bytes(frame)?).map_err(io_err(&path))?;
+            }
+        }
+    }
+    if frames_dir.exists() {
+        std::fs::remove_dir_all(&frames_dir).map_err(io_err(&frames_dir))?;
+    }
+    if frame_staging.exists() {
+        std::fs::rename(&frame_staging, &frames_dir).map_err(io_err(&frames_dir))?;
+    }
+
     let traces = dir.join("traces");
     if traces.exists() {
         std::fs::remove_dir_all(&traces).map_err(io_err(&traces))?;

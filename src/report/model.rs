@@ -153,10 +153,26 @@ pub struct CaseInfo {
     pub frames: usize,
     /// Trace CSV, relative to the report directory.
     pub trace: String,
+    /// Picture of the darkest PWM frame, when the backend renders one.
+    pub sample_frame: Option<SampleFrameInfo>,
     /// Per-ROI results.
     pub rois: Vec<RoiInfo>,
     /// Threshold checks.
     pub checks: Vec<Check>,
+}
+
+/// A rendered frame written next to the report.
+#[derive(Debug, Clone, Serialize)]
+pub struct SampleFrameInfo {
+    /// PNG path, relative to the report directory.
+    pub path: String,
+    /// Frame number.
+    pub frame: u64,
+}
+
+/// Relative path of a case's sample frame PNG.
+pub fn frame_path(case_id: &str) -> String {
+    format!("frames/{case_id}.png")
 }
 
 /// One ROI of one case.
@@ -241,6 +257,10 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                 in_mitigation_range: in_mitigation_range(r.case.frequency_hz, &plan.thresholds),
                 frames: r.acquisition.frames.len(),
                 trace: trace_path(&r.case.id),
+                sample_frame: r.sample_frame.as_ref().map(|f| SampleFrameInfo {
+                    path: frame_path(&r.case.id),
+                    frame: f.index,
+                }),
                 rois,
                 checks: r.checks.clone(),
             }

@@ -129,6 +129,14 @@ fn plan_run_writes_results_traces_and_report() {
     assert_eq!(segments.iter().filter(|s| **s == "pwm").count(), 120);
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("2026-01-02") && html.contains("<svg"));
+    // The darkest PWM frame of each case, as a PNG file and inline.
+    let png = image::open(out.join("frames/2000lux-150hz-20pct.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (1280, 800));
+    assert_eq!(html.matches("data:image/png;base64,").count(), 4);
+    assert_eq!(
+        json["cases"][0]["sample_frame"]["path"],
+        "frames/2000lux-60hz-20pct.png"
+    );
     // No temporary files are left behind.
     for e in std::fs::read_dir(&out).unwrap() {
         let name = e.unwrap().file_name();

@@ -306,3 +306,41 @@ fn invalid_profile_errors_name_the_profile_file_and_line() {
     );
     assert!(err.contains("did you mean `full-well-e`"), "{err}");
 }
+
+#[test]
+fn rendered_rolling_shutter_frame_shows_bands_at_the_predicted_spacing() {
+    use ledflicker::backend::Backend;
+    let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml"))
+        .unwrap()
+        .replace(
+            "frequencies-hz = [60.0, 150.0]",
+            "frequencies-hz = [1000.0]",
+        )
+        .replace("duty-cycles = [0.2, 0.5]", "duty-cycles = [0.5]")
+        .replace("exposure-ms = 11.111", "exposure-ms = 0.0625");
+    let p = plan::parse(&text, std::path::Path::new("bands.toml"), String::new()).unwrap();
+    let cases = plan::expand_cases(&p);
+    let sim = Simulator::new(&p);
+    let frame = sim.render_frame(&cases[0], 40).unwrap().unwrap();
+    assert_eq!((frame.width, frame.height), (1280, 800));
+    // The lamp column through the middle of the sensor.
+    let col = (frame.width / 2) as usize;
+    let column: Vec<f64> = (0..frame.height as usize)
+        .map(|r| frame.luma[r * frame.width as usize + col])
+        .collect();
+    let lamp: Vec<f64> = column[170..630].to_vec();
+    let mid = (lamp.iter().cloned().fold(f64::MAX, f64::min)
+        + lamp.iter().cloned().fold(f64::MIN, f64::max))
+        / 2.0;
+    let rises: Vec<usize> = (1..lamp.len())
+        .filter(|&i| lamp[i - 1] < mid && lamp[i] >= mid)
+        .collect();
+    assert!(rises.len() >= 5, "{rises:?}");
+    let spacing = (rises[rises.len() - 1] - rises[0]) as f64 / (rises.len() - 1) as f64;
+    // DESIGN.md: band period 1 / (f * t_line) = 68.66 rows at 1 kHz, 14.565 us.
+    let expected = 1.0 / (1000.0 * 14.565e-6);
+    assert!(
+        (spacing - expected).abs() < 1.0,
+        "spacing {spacing} vs {expected}"
+    );
+}

@@ -1,0 +1,138 @@
+//! Sample frames as PNG: full-size files next to the report, and small
+//! inline copies for the self-contained HTML.
+
+use std::io::Cursor;
+
+use image::{ImageBuffer, ImageFormat, Luma};
+
+use super::ReportError;
+use crate::backend::RenderedFrame;
+
+/// Width of the inline copy in the HTML report, pixels.
+pub const THUMBNAIL_WIDTH: u32 = 480;
+
+fn image_err(e: image::ImageError) -> ReportError {
+    ReportError::Template {
+        template: "sample frame PNG".to_string(),
+        message: e.to_string(),
+    }
+}
+
+/// Encodes a frame as PNG: 8-bit grey for outputs up to 255, else 16-bit.
+pub fn png_bytes(frame: &RenderedFrame) -> Result<Vec<u8>, ReportError> {
+    let mut out = Cursor::new(Vec::new());
+    let scale = |v: f64, max: f64| (v / frame.full_scale_dn * max).round().clamp(0.0, max);
+    if frame.full_scale_dn <= 255.0 {
+        let buf: Vec<u8> = frame.luma.iter().map(|&v| scale(v, 255.0) as u8).collect();
+        ImageBuffer::<Luma<u8>, _>::from_raw(frame.width, frame.height, buf)
+            .ok_or_else(|| {
+                image_err(image::ImageError::Limits(
+                    image::error::LimitError::from_kind(
+                        image::error::LimitErrorKind::DimensionError,
+                    ),
+                ))
+            })?
+            .write_to(&mut out, ImageFormat::Png)
+            .map_err(image_err)?;
+    } else {
+        let buf: Vec<u16> = frame
+            .luma
+            .iter()
+            .map(|&v| scale(v, 65535.0) as u16)
+            .collect();
+        ImageBuffer::<Luma<u16>, _>::from_raw(frame.width, frame.height, buf)
+            .ok_or_else(|| {
+                image_err(image::ImageError::Limits(
+                    image::error::LimitError::from_kind(
+                        image::error::LimitErrorKind::DimensionError,
+                    ),
+                ))
+            })?
+            .write_to(&mut out, ImageFormat::Png)
+            .map_err(image_err)?;
+    }
+    Ok(out.into_inner())
+}
+
+/// A nearest-neighbour copy at most `max_width` wide.
+pub fn thumbnail(frame: &RenderedFrame, max_width: u32) -> RenderedFrame {
+    if frame.width <= max_width || frame.width == 0 {
+        return frame.clone();
+    }
+    let w = max_width;
+    let h = ((frame.height as u64 * w as u64) / frame.width as u64).max(1) as u32;
+    let mut luma = Vec::with_capacity((w * h) as usize);
+    for y in 0..h {
+        let sy = (y as u64 * frame.height as u64 / h as u64) as usize;
+        for x in 0..w {
+            let sx = (x as u64 * frame.width as u64 / w as u64) as usize;
+            luma.push(frame.luma[sy * frame.width as usize + sx]);
+        }
+    }
+    RenderedFrame {
+        index: frame.index,
+        width: w,
+        height: h,
+        luma,
+        full_scale_dn: frame.full_scale_dn,
+    }
+}
+
+/// Standard base64 (RFC 4648) with padding.
+pub fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
+        for i in 0..4 {
+            if i <= chunk.len() {
+                out.push(ALPHABET[(n >> (18 - 6 * i) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_matches_rfc4648_vectors() {
+        for (input, want) in [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foobar", "Zm9vYmFy"),
+        ] {
+            assert_eq!(base64(input.as_bytes()), want);
+        }
+    }
+
+    #[test]
+    fn png_round_trips_8_and_16_bit() {
+        for full in [255.0, 65535.0] {
+            let frame = RenderedFrame {
+                index: 3,
+                width: 4,
+                height: 2,
+                luma: vec![0.0, full / 2.0, full, full / 4.0, 1.0, 2.0, 3.0, 4.0],
+                full_scale_dn: full,
+            };
+            let png = png_bytes(&frame).unwrap();
+            let img = image::load_from_memory(&png).unwrap();
+            assert_eq!((img.width(), img.height()), (4, 2));
+            let back = img.to_luma16();
+            let max = back.pixels().map(|p| p.0[0]).max().unwrap();
+            assert_eq!(max, 65535);
+        }
+    }
+}
