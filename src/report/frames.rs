@@ -3,7 +3,7 @@
 
 use std::io::Cursor;
 
-use image::{ImageBuffer, ImageFormat, Luma};
+use image::{DynamicImage, ImageBuffer, ImageFormat, Luma};
 
 use super::ReportError;
 use crate::backend::RenderedFrame;
@@ -20,37 +20,30 @@ fn image_err(e: image::ImageError) -> ReportError {
 
 /// Encodes a frame as PNG: 8-bit grey for outputs up to 255, else 16-bit.
 pub fn png_bytes(frame: &RenderedFrame) -> Result<Vec<u8>, ReportError> {
-    let mut out = Cursor::new(Vec::new());
     let scale = |v: f64, max: f64| (v / frame.full_scale_dn * max).round().clamp(0.0, max);
-    if frame.full_scale_dn <= 255.0 {
-        let buf: Vec<u8> = frame.luma.iter().map(|&v| scale(v, 255.0) as u8).collect();
-        ImageBuffer::<Luma<u8>, _>::from_raw(frame.width, frame.height, buf)
-            .ok_or_else(|| {
-                image_err(image::ImageError::Limits(
-                    image::error::LimitError::from_kind(
-                        image::error::LimitErrorKind::DimensionError,
-                    ),
-                ))
-            })?
-            .write_to(&mut out, ImageFormat::Png)
-            .map_err(image_err)?;
+    let (w, h) = (frame.width, frame.height);
+    let image = if frame.full_scale_dn <= 255.0 {
+        let buf = frame.luma.iter().map(|&v| scale(v, 255.0) as u8).collect();
+        ImageBuffer::<Luma<u8>, _>::from_raw(w, h, buf).map(DynamicImage::ImageLuma8)
     } else {
-        let buf: Vec<u16> = frame
+        let buf = frame
             .luma
             .iter()
             .map(|&v| scale(v, 65535.0) as u16)
             .collect();
-        ImageBuffer::<Luma<u16>, _>::from_raw(frame.width, frame.height, buf)
-            .ok_or_else(|| {
-                image_err(image::ImageError::Limits(
-                    image::error::LimitError::from_kind(
-                        image::error::LimitErrorKind::DimensionError,
-                    ),
-                ))
-            })?
-            .write_to(&mut out, ImageFormat::Png)
-            .map_err(image_err)?;
-    }
+        ImageBuffer::<Luma<u16>, _>::from_raw(w, h, buf).map(DynamicImage::ImageLuma16)
+    };
+    let image = image.ok_or_else(|| ReportError::Template {
+        template: "sample frame PNG".to_string(),
+        message: format!(
+            "{} luma values do not fill {w} x {h} pixels",
+            frame.luma.len()
+        ),
+    })?;
+    let mut out = Cursor::new(Vec::new());
+    image
+        .write_to(&mut out, ImageFormat::Png)
+        .map_err(image_err)?;
     Ok(out.into_inner())
 }
 
