@@ -136,6 +136,14 @@ pub fn run_case(
                 segments.len()
             )));
         }
+        if let Some((lo, hi)) = trace.phase_envelope
+            && !(lo.is_finite() && hi.is_finite())
+        {
+            return Err(bad(format!(
+                "ROI `{}` worst case over phase is not finite",
+                trace.name
+            )));
+        }
         if let Some(i) = trace.luma.iter().position(|x| !x.is_finite()) {
             return Err(bad(format!(
                 "ROI `{}` luma of frame {i} is not a finite number",

@@ -271,10 +271,9 @@ impl Simulator {
         led: f64,
     ) -> f64 {
         let f = pwm.frequency_hz();
-        let shifted = match PwmDrive::new(f, pwm.duty(), -phase / f) {
-            Ok(d) => d,
-            Err(_) => return f64::NAN,
-        };
+        // A drive of a valid frequency and duty shifted by a finite phase is
+        // valid; fall back to the unshifted drive rather than panic.
+        let shifted = PwmDrive::new(f, pwm.duty(), -phase / f).unwrap_or(*pwm);
         let rows = roi.rows();
         let n = rows.len() as f64;
         rows.map(|r| {
