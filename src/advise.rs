@@ -174,6 +174,83 @@ pub fn advise(req: &AdviseRequest) -> Result<Advice, AdviseError> {
     })
 }
 
+/// The advice as a plain-text table.
+pub fn table(a: &Advice) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    let (f0, d0) = a.binding;
+    let _ = writeln!(
+        out,
+        "shortest exposure that never loses the LED: T > T* = (1 - D_min) / f_min = (1 - {d0}) / {f0} Hz = {:.4} ms",
+        a.min_exposure_s * 1e3
+    );
+    let _ = writeln!(
+        out,
+        "T* is set by the lowest frequency and the lowest duty (Deegan 2018 Eq. 1); raising f_min to {} Hz or D_min to {:.2} halves it.\n",
+        2.0 * f0,
+        (1.0 + d0) / 2.0
+    );
+    let blur = a.candidates.iter().any(|c| c.blur_px.is_some());
+    let _ = writeln!(
+        out,
+        "{:<10} {:>12} {:>9} {:>17} {:>22}{}",
+        "capture",
+        "exposure ms",
+        "x T*",
+        "loses LED (grid)",
+        "worst residual PF %",
+        if blur { "   blur px" } else { "" }
+    );
+    let rows = a
+        .candidates
+        .iter()
+        .map(|c| ("single", c))
+        .chain(a.hdr.iter().map(|c| ("HDR short", c)));
+    for (label, c) in rows {
+        let _ = write!(
+            out,
+            "{:<10} {:>12.4} {:>9.3} {:>16.1}% {:>9.2} @ {:>5} Hz {:>3.0}%",
+            label,
+            c.exposure_s * 1e3,
+            c.times_bound,
+            100.0 * c.loses_led_fraction,
+            c.residual_percent_flicker,
+            c.residual_at.0,
+            100.0 * c.residual_at.1
+        );
+        if let Some(b) = c.blur_px {
+            let _ = write!(out, " {b:>9.2}");
+        }
+        out.push('\n');
+    }
+    let _ = writeln!(
+        out,
+        "\nresidual: worst over phase, frequency and duty ({} grid cells) of the LED-only Percent Flicker; motion blur grows linearly with exposure, so the cost lies in the low-frequency, low-duty corner that sets T*.",
+        a.grid_cells
+    );
+    out
+}
+
+/// Residual modulation against exposure, from `T* / 4` to `4 T*`, for a
+/// chart: (exposure s, candidate).
+pub fn curve(req: &AdviseRequest, points: usize) -> Result<Vec<Candidate>, AdviseError> {
+    let a = advise(&AdviseRequest {
+        hdr_ratios: Vec::new(),
+        ..req.clone()
+    })?;
+    let fa = axis(req.frequency_hz, req.frequency_step_hz);
+    let da = axis(req.duty, req.duty_step);
+    let n = points.max(2);
+    Ok((0..n)
+        .map(|i| {
+            // Log-spaced from T*/4 to 4 T*.
+            let x = -2.0 + 4.0 * i as f64 / (n - 1) as f64;
+            let t = a.min_exposure_s * 2f64.powf(x);
+            evaluate(t, a.min_exposure_s, fa, da, req.speed_px_per_s)
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

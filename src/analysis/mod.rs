@@ -20,6 +20,7 @@ pub mod drive;
 pub mod finemap;
 pub mod hazard;
 pub mod phase_fold;
+pub mod summary;
 
 use serde::Serialize;
 
