@@ -1,4 +1,5 @@
-//! Command-line interface: `plan`, `validate` and `simulate`.
+//! Command-line interface: `plan`, `validate`, `simulate`, `advise` and
+//! `bench`.
 //!
 //! Exit codes (stable; CI scripts depend on them):
 //!
@@ -53,14 +54,63 @@ enum Command {
         /// Plan file, or a plan name from test-plans/ (e.g. `daylight`).
         plan: String,
     },
-    /// Probe the ideal camera for one condition; prints a CSV trace.
+    /// Probe the ideal camera for one condition; prints a CSV trace, or with
+    /// --summary one JSON object of metrics.
     Simulate(SimulateArgs),
-    /// Speed against error of the integration methods, and whole-plan times.
-    Bench {
-        /// A CI-sized run (a few seconds).
-        #[arg(long)]
-        quick: bool,
-    },
+    /// Shortest exposure that never loses a PWM LED over a frequency and a
+    /// duty range, the flicker it leaves and its motion-blur cost.
+    Advise(AdviseArgs),
+    /// Speed against error of the integration methods, whole-plan times, and
+    /// the time of the analytic fine map (worst-phase FDI and Percent Flicker
+    /// over 50 Hz..2 kHz x 1..100 % duty) for a plan's camera.
+    Bench(BenchArgs),
+}
+
+#[derive(Args, Debug)]
+struct AdviseArgs {
+    /// Lowest PWM frequency, Hz (> 0).
+    #[arg(long)]
+    min_hz: f64,
+    /// Highest PWM frequency, Hz (>= --min-hz).
+    #[arg(long)]
+    max_hz: f64,
+    /// Lowest duty cycle, (0, 1).
+    #[arg(long)]
+    min_duty: f64,
+    /// Highest duty cycle, (0, 1] (>= --min-duty).
+    #[arg(long, default_value_t = 1.0)]
+    max_duty: f64,
+    /// Frequency step of the residual grid, Hz.
+    #[arg(long, default_value_t = 1.0)]
+    hz_step: f64,
+    /// Duty step of the residual grid.
+    #[arg(long, default_value_t = 0.01)]
+    duty_step: f64,
+    /// Image speed of a moving object in pixels per second: adds motion blur.
+    #[arg(long)]
+    speed_px_per_s: Option<f64>,
+    /// Exposure ratio of a shorter HDR capture (repeatable), e.g. 4 and 16.
+    #[arg(long)]
+    hdr_ratio: Vec<f64>,
+    /// Also write a plot of residual flicker against exposure to this SVG.
+    #[arg(long)]
+    svg: Option<PathBuf>,
+    /// Print the advice as JSON instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args, Debug)]
+struct BenchArgs {
+    /// A CI-sized run (a few seconds).
+    #[arg(long)]
+    quick: bool,
+    /// Plan file or name whose camera and first LED ROI the fine map uses.
+    #[arg(default_value = "daylight")]
+    plan: String,
+    /// Timed repetitions of the fine map (>= 1); the median is reported.
+    #[arg(long, default_value_t = 11)]
+    repeat: usize,
 }
 
 #[derive(Args, Debug)]
@@ -120,6 +170,17 @@ struct SimulateArgs {
     /// ROI rows `A:B`, A inclusive, B exclusive.
     #[arg(long, default_value = "0:1")]
     rows: String,
+    /// Print one JSON object with this condition's metrics (results.json
+    /// names) instead of the CSV trace.
+    #[arg(long)]
+    summary: bool,
+    /// With --summary: steady light in the ROI (also the OFF reference), in
+    /// units of the LED's full ON level (>= 0). 0 leaves FDI unbounded.
+    #[arg(long, default_value_t = 0.0)]
+    background: f64,
+    /// With --summary: sensor rows rendered for the banding KPIs.
+    #[arg(long, default_value_t = 800)]
+    sensor_rows: u32,
 }
 
 /// A usage or input error (exit code 2) that is not a plan error.
@@ -157,7 +218,8 @@ fn run(cli: Cli) -> anyhow::Result<i32> {
         Command::Plan(args) => run_plan(args),
         Command::Validate { plan } => validate(&plan),
         Command::Simulate(args) => simulate(args),
-        Command::Bench { quick } => bench(quick),
+        Command::Advise(args) => advise(args),
+        Command::Bench(args) => bench(args),
     }
 }
 
@@ -374,6 +436,27 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
         exposure_s: a.exposure_ms * 1e-3,
         fps: a.fps,
     };
+    if a.summary {
+        if !(a.background.is_finite() && a.background >= 0.0) {
+            return Err(usage(format!(
+                "--background must be >= 0, got {}",
+                a.background
+            )));
+        }
+        if a.sensor_rows == 0 {
+            return Err(usage("--sensor-rows must be at least 1".into()));
+        }
+        let summary = crate::analysis::summary::summarise(
+            &shutter,
+            &pwm,
+            rows,
+            a.frames,
+            a.background,
+            a.sensor_rows,
+        );
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+        return Ok(EXIT_PASS);
+    }
     let mut w = std::io::BufWriter::new(std::io::stdout().lock());
     writeln!(w, "frame,time_s,on_fraction")?;
     for k in 0..a.frames {
@@ -384,7 +467,44 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
     Ok(EXIT_PASS)
 }
 
-fn bench(quick: bool) -> anyhow::Result<i32> {
+fn advise(a: AdviseArgs) -> anyhow::Result<i32> {
+    use crate::advise::{AdviseRequest, advise, curve, table};
+    if a.hdr_ratio.iter().any(|r| !(r.is_finite() && *r > 1.0)) {
+        return Err(UsageError("--hdr-ratio must be > 1".into()).into());
+    }
+    if a.speed_px_per_s
+        .is_some_and(|v| !(v.is_finite() && v >= 0.0))
+    {
+        return Err(UsageError("--speed-px-per-s must be >= 0".into()).into());
+    }
+    let req = AdviseRequest {
+        frequency_hz: (a.min_hz, a.max_hz),
+        duty: (a.min_duty, a.max_duty),
+        frequency_step_hz: a.hz_step,
+        duty_step: a.duty_step,
+        speed_px_per_s: a.speed_px_per_s,
+        hdr_ratios: a.hdr_ratio.clone(),
+    };
+    let advice = advise(&req).map_err(|e| UsageError(e.to_string()))?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&advice)?);
+    } else {
+        print!("{}", table(&advice));
+    }
+    if let Some(path) = &a.svg {
+        let points = curve(&req, 49).map_err(|e| UsageError(e.to_string()))?;
+        let svg = report::charts::advise_svg(&points, advice.min_exposure_s)?;
+        crate::util::write_atomic(path, svg.as_bytes())
+            .with_context(|| format!("cannot write `{}`", path.display()))?;
+    }
+    Ok(EXIT_PASS)
+}
+
+fn bench(a: BenchArgs) -> anyhow::Result<i32> {
+    use crate::analysis::{FINE_DUTY, FINE_FREQUENCY, finemap};
+    if a.repeat == 0 {
+        return Err(UsageError("--repeat must be at least 1".into()).into());
+    }
     println!("{:<44} {:>14} {:>12}  note", "method", "time", "max error");
     let mut print_row = |r: &crate::bench::BenchRow| {
         let time = if r.time_s < 1e-3 {
@@ -395,6 +515,40 @@ fn bench(quick: bool) -> anyhow::Result<i32> {
         let err = r.max_error.map_or("-".to_string(), |e| format!("{e:.2e}"));
         println!("{:<44} {:>14} {:>12}  {}", r.method, time, err, r.note);
     };
-    crate::bench::run(quick, &mut print_row).map_err(|e| anyhow::anyhow!("bench failed: {e}"))?;
+    crate::bench::run(a.quick, &mut print_row).map_err(|e| anyhow::anyhow!("bench failed: {e}"))?;
+    let repeat = if a.quick { a.repeat.min(3) } else { a.repeat };
+    let path = plan::resolve_plan_path(&a.plan)?;
+    let plan = plan::load(&path)?;
+    let roi = plan
+        .rois
+        .iter()
+        .find(|r| r.kind == plan::RoiKind::Led)
+        .ok_or_else(|| UsageError(format!("plan `{}` has no LED ROI", plan.id)))?;
+    let shutter = crate::backend::sim::shutter_of(&plan.dut.camera);
+    let lux = plan.light_levels_lux.first().copied().unwrap_or(0.0);
+    let luma = crate::analysis::ideal_luma_model(&plan, lux);
+    let mut times: Vec<f64> = (0..repeat)
+        .map(|_| {
+            let t = std::time::Instant::now();
+            let map = finemap::compute(&shutter, roi.rows(), luma, FINE_FREQUENCY, FINE_DUTY);
+            std::hint::black_box(&map);
+            t.elapsed().as_secs_f64()
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    let cells = FINE_FREQUENCY.count * FINE_DUTY.count;
+    println!(
+        "fine map `{}` ({} rows of ROI `{}`): {} x {} = {cells} cells, {} threads; median {:.1} ms (min {:.1}, max {:.1}) over {} runs",
+        plan.id,
+        roi.rows().len(),
+        roi.name,
+        FINE_FREQUENCY.count,
+        FINE_DUTY.count,
+        rayon::current_num_threads(),
+        1e3 * times[times.len() / 2],
+        1e3 * times[0],
+        1e3 * times[times.len() - 1],
+        repeat
+    );
     Ok(EXIT_PASS)
 }

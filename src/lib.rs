@@ -14,9 +14,14 @@
 //! - [`backend`]: where frames come from (the simulator's ideal camera);
 //! - [`metrics`]: Deegan 2018 FDI and Percent Flicker, verdicts;
 //! - [`runner`]: cases in parallel, deterministic whatever the thread count;
-//! - [`report`]: results.json, trace CSVs and the HTML report.
+//! - [`report`]: results.json, trace CSVs and the HTML report;
+//! - [`analysis`]: apparent frequency, hazard class, IEEE 1789, phase
+//!   coverage, banding and fine maps (beyond the paper);
+//! - [`advise`]: the shortest exposure that never loses a PWM LED.
 #![warn(missing_docs)]
 
+pub mod advise;
+pub mod analysis;
 pub mod backend;
 pub mod bench;
 pub mod cli;

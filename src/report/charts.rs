@@ -164,3 +164,298 @@ pub fn luma_trace_svg(result: &CaseResult) -> Result<String, ChartError> {
     }
     Ok(svg)
 }
+
+/// The flicker signal of one ROI: its trace folded by PWM phase (per-bin
+/// min and max of the frames that fell in each bin), with the exact envelope
+/// over phase dashed when the backend knows it (Sumner, EI 2020).
+pub fn phase_fold_svg(
+    title: &str,
+    bins: &[Option<(f64, f64)>],
+    envelope: Option<(f64, f64)>,
+) -> Result<String, ChartError> {
+    let err = |e: &dyn std::fmt::Display| ChartError {
+        chart: format!("phase fold {title}"),
+        message: e.to_string(),
+    };
+    let n = bins.len().max(1) as f64;
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    for &(a, b) in bins.iter().flatten().chain(envelope.as_ref()) {
+        lo = lo.min(a);
+        hi = hi.max(b);
+    }
+    if !(lo.is_finite() && hi.is_finite()) {
+        return Err(err(&"no samples"));
+    }
+    let pad = ((hi - lo) * 0.1).max(0.5);
+    let (y0, y1) = (lo - pad, hi + pad);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (380, 220)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let mut chart = ChartBuilder::on(&root)
+            .margin(8)
+            .caption(title, (FONT, 12))
+            .x_label_area_size(30)
+            .y_label_area_size(46)
+            .build_cartesian_2d(0.0..1.0, y0..y1)
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("PWM phase at exposure start (cycles)")
+            .y_desc("luma (DN)")
+            .label_style((FONT, 10))
+            .axis_desc_style((FONT, 10))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(|e| err(&e))?;
+        if let Some((a, b)) = envelope {
+            for v in [a, b] {
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        [(0.0, v), (1.0, v)],
+                        5,
+                        4,
+                        RGBColor(214, 39, 40).stroke_width(1),
+                    ))
+                    .map_err(|e| err(&e))?;
+            }
+        }
+        let colour = SERIES_COLOURS[0];
+        for (i, b) in bins.iter().enumerate() {
+            let Some((a, c)) = *b else { continue };
+            let x = (i as f64 + 0.5) / n;
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    [(x, a), (x, c)],
+                    colour.stroke_width(2),
+                )))
+                .map_err(|e| err(&e))?;
+            chart
+                .draw_series([
+                    Circle::new((x, a), 2, colour.filled()),
+                    Circle::new((x, c), 2, colour.filled()),
+                ])
+                .map_err(|e| err(&e))?;
+        }
+        root.present().map_err(|e| err(&e))?;
+    }
+    Ok(svg)
+}
+
+/// Which fine map to draw.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FineMapKind {
+    /// Worst-phase FDI (2018), green at or above the threshold.
+    Fdi,
+    /// Worst-phase Percent Flicker, 0 (white) to 100 % (dark red).
+    PercentFlicker,
+}
+
+/// Heatmap of a fine map over frequency x duty. Cells are merged into
+/// display blocks (at most about 400 x 100) keeping the block's worst value
+/// (lowest FDI, highest Percent Flicker), so the picture never hides a bad
+/// cell; colours come in steps (FDI: 8 per side of the threshold; Percent
+/// Flicker: 5 %).
+pub fn finemap_svg(
+    map: &crate::analysis::finemap::FineMap,
+    kind: FineMapKind,
+    fdi_threshold: Option<f64>,
+) -> Result<String, ChartError> {
+    let err = |e: &dyn std::fmt::Display| ChartError {
+        chart: "fine map".to_string(),
+        message: e.to_string(),
+    };
+    let (nf, nd) = (map.frequency.count, map.duty.count);
+    if nf == 0 || nd == 0 {
+        return Err(err(&"empty map"));
+    }
+    let bf = nf.div_ceil(400);
+    let bd = nd.div_ceil(100);
+    let values = match kind {
+        FineMapKind::Fdi => &map.fdi_worst,
+        FineMapKind::PercentFlicker => &map.pf_worst,
+    };
+    let colour = |v: Option<f64>| -> RGBColor {
+        match (kind, v) {
+            (_, None) => RGBColor(160, 160, 160),
+            (FineMapKind::Fdi, Some(v)) => {
+                let t = fdi_threshold.unwrap_or(0.1);
+                if v < t - crate::metrics::verdict::VERDICT_TOLERANCE {
+                    // Red, darker the closer the light comes to vanishing.
+                    let x = ((v / t).clamp(0.0, 1.0) * 8.0).round() / 8.0;
+                    RGBColor(
+                        150 + (90.0 * x) as u8,
+                        (40.0 + 120.0 * x) as u8,
+                        (40.0 + 120.0 * x) as u8,
+                    )
+                } else {
+                    let x = (((v - t) / (10.0 * t)).clamp(0.0, 1.0) * 8.0).round() / 8.0;
+                    RGBColor(
+                        (200.0 - 170.0 * x) as u8,
+                        (235.0 - 95.0 * x) as u8,
+                        (200.0 - 150.0 * x) as u8,
+                    )
+                }
+            }
+            (FineMapKind::PercentFlicker, Some(v)) => {
+                // 5 % steps: equal colours merge into one rectangle.
+                let x = ((v / 100.0).clamp(0.0, 1.0) * 20.0).round() / 20.0;
+                RGBColor(
+                    255 - (90.0 * x) as u8,
+                    255 - (235.0 * x) as u8,
+                    255 - (225.0 * x) as u8,
+                )
+            }
+        }
+    };
+    let f_lo = map.frequency.start - map.frequency.step / 2.0;
+    let f_hi = map.frequency.end() + map.frequency.step / 2.0;
+    let d_lo = 100.0 * (map.duty.start - map.duty.step / 2.0);
+    let d_hi = 100.0 * (map.duty.end() + map.duty.step / 2.0);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (760, 300)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let caption = match kind {
+            FineMapKind::Fdi => "FDI (2018), worst phase",
+            FineMapKind::PercentFlicker => "Percent Flicker, worst phase",
+        };
+        let mut chart = ChartBuilder::on(&root)
+            .margin(10)
+            .caption(caption, (FONT, 13))
+            .x_label_area_size(32)
+            .y_label_area_size(46)
+            .build_cartesian_2d(f_lo..f_hi, d_lo..d_hi)
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("PWM frequency (Hz)")
+            .y_desc("duty (%)")
+            .label_style((FONT, 11))
+            .axis_desc_style((FONT, 11))
+            .disable_mesh()
+            .draw()
+            .map_err(|e| err(&e))?;
+        // Blocks of one colour that touch along the frequency axis are
+        // merged into one rectangle: same picture, a fraction of the SVG.
+        let mut rects = Vec::new();
+        for j0 in (0..nd).step_by(bd) {
+            let j1 = (j0 + bd).min(nd);
+            let y0 = 100.0 * (map.duty.at(j0) - map.duty.step / 2.0);
+            let y1 = 100.0 * (map.duty.at(j1 - 1) + map.duty.step / 2.0);
+            let mut run: Option<(f64, f64, RGBColor)> = None;
+            for i0 in (0..nf).step_by(bf) {
+                let i1 = (i0 + bf).min(nf);
+                let mut worst: Option<Option<f64>> = None;
+                for i in i0..i1 {
+                    for j in j0..j1 {
+                        let v = values[i * nd + j];
+                        worst = Some(match (worst, v) {
+                            (None, v) => v,
+                            (Some(None), _) | (_, None) => None,
+                            (Some(Some(w)), Some(v)) => Some(match kind {
+                                FineMapKind::Fdi => w.min(v),
+                                FineMapKind::PercentFlicker => w.max(v),
+                            }),
+                        });
+                    }
+                }
+                let x0 = map.frequency.at(i0) - map.frequency.step / 2.0;
+                let x1 = map.frequency.at(i1 - 1) + map.frequency.step / 2.0;
+                let c = colour(worst.flatten());
+                run = match run {
+                    Some((a, _, rc)) if rc == c => Some((a, x1, rc)),
+                    Some((a, b, rc)) => {
+                        rects.push(Rectangle::new([(a, y0), (b, y1)], rc.filled()));
+                        Some((x0, x1, c))
+                    }
+                    None => Some((x0, x1, c)),
+                };
+            }
+            if let Some((a, b, rc)) = run {
+                rects.push(Rectangle::new([(a, y0), (b, y1)], rc.filled()));
+            }
+        }
+        chart.draw_series(rects).map_err(|e| err(&e))?;
+        root.present().map_err(|e| err(&e))?;
+    }
+    Ok(svg)
+}
+
+/// `ledflicker advise`: worst residual Percent Flicker and the share of the
+/// range where the LED can vanish, against exposure, with the bound `T*`.
+pub fn advise_svg(curve: &[crate::advise::Candidate], bound_s: f64) -> Result<String, ChartError> {
+    let err = |e: &dyn std::fmt::Display| ChartError {
+        chart: "advise".to_string(),
+        message: e.to_string(),
+    };
+    let x_max = curve
+        .iter()
+        .map(|c| c.exposure_s * 1e3)
+        .fold(bound_s * 1e3, f64::max)
+        * 1.02;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (760, 280)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let mut chart = ChartBuilder::on(&root)
+            .margin(10)
+            .x_label_area_size(34)
+            .y_label_area_size(46)
+            .build_cartesian_2d(0.0..x_max, 0.0..105.0)
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("exposure (ms)")
+            .y_desc("% ")
+            .label_style((FONT, 11))
+            .axis_desc_style((FONT, 11))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(|e| err(&e))?;
+        let pf = SERIES_COLOURS[1];
+        let lost = SERIES_COLOURS[0];
+        chart
+            .draw_series(LineSeries::new(
+                curve
+                    .iter()
+                    .map(|c| (c.exposure_s * 1e3, c.residual_percent_flicker)),
+                pf.stroke_width(2),
+            ))
+            .map_err(|e| err(&e))?
+            .label("worst residual Percent Flicker")
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], pf));
+        chart
+            .draw_series(LineSeries::new(
+                curve
+                    .iter()
+                    .map(|c| (c.exposure_s * 1e3, 100.0 * c.loses_led_fraction)),
+                lost.stroke_width(2),
+            ))
+            .map_err(|e| err(&e))?
+            .label("share of the range where the LED can vanish")
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], lost));
+        let t = bound_s * 1e3;
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(t, 0.0), (t, 105.0)],
+                5,
+                4,
+                BLACK.stroke_width(1),
+            ))
+            .map_err(|e| err(&e))?
+            .label(format!("T* = {t:.3} ms"))
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLACK));
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .label_font((FONT, 11))
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(200, 200, 200))
+            .draw()
+            .map_err(|e| err(&e))?;
+        root.present().map_err(|e| err(&e))?;
+    }
+    Ok(svg)
+}

@@ -66,6 +66,36 @@ pub fn render(model: &Results, results: &[CaseResult], date: &str) -> Result<Str
             );
         }
     }
+    // The flicker signal folded by phase, one chart per LED ROI.
+    let mut folds: BTreeMap<String, Vec<Value>> = BTreeMap::new();
+    for c in &model.cases {
+        let svgs = c
+            .rois
+            .iter()
+            .filter(|roi| roi.kind == crate::plan::RoiKind::Led)
+            .map(|roi| {
+                charts::phase_fold_svg(
+                    &format!("{}: {}", c.id, roi.name),
+                    &roi.analysis.folded_bins,
+                    roi.analysis.envelope,
+                )
+                .map(Value::from_safe_string)
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        folds.insert(c.id.clone(), svgs);
+    }
+    let mut finemaps = Vec::new();
+    for m in &model.fine_maps {
+        let t = model.thresholds.fdi_2018_min;
+        finemaps.push(minijinja::context! {
+            fdi => Value::from_safe_string(charts::finemap_svg(&m.map, charts::FineMapKind::Fdi, t)?),
+            pf => Value::from_safe_string(charts::finemap_svg(&m.map, charts::FineMapKind::PercentFlicker, t)?),
+        });
+    }
+    let advice_chart = match &model.advice {
+        Some(a) => Value::from_safe_string(charts::advise_svg(&a.curve, a.advice.min_exposure_s)?),
+        None => Value::from(()),
+    };
     let template = env
         .get_template("report.html.j2")
         .map_err(|e| ReportError::Template {
@@ -77,6 +107,9 @@ pub fn render(model: &Results, results: &[CaseResult], date: &str) -> Result<Str
             r => Serde(model),
             charts => charts,
             frames => frames,
+            folds => folds,
+            finemaps => finemaps,
+            advice_chart => advice_chart,
             date => date,
         })
         .map_err(|e| ReportError::Template {

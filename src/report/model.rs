@@ -11,6 +11,7 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
+use crate::analysis::{self, Banding, Beat, DriveFlicker, FineMapInfo, HazardClass, RoiAnalysis};
 use crate::metrics::verdict::{in_mitigation_range, overall};
 use crate::metrics::{Check, Levels, Metric, Verdict};
 use crate::plan::{Plan, RoiKind, Sequence, ShutterKind, Thresholds};
@@ -40,6 +41,60 @@ pub struct Results {
     pub counts: Counts,
     /// Every case, in plan order.
     pub cases: Vec<CaseInfo>,
+    /// Worst-phase FDI and Percent Flicker over the frequency x duty plane,
+    /// one per light level, for the plan's camera and first LED ROI.
+    pub fine_maps: Vec<FineMapInfo>,
+    /// `ledflicker advise` for the plan's frequencies in the mitigation range
+    /// and its duty cycles; `null` when every duty is 100 %.
+    pub advice: Option<PlanAdvice>,
+}
+
+/// Exposure advice for a plan's range.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlanAdvice {
+    /// The request's ranges and grid.
+    pub frequency_hz: (f64, f64),
+    /// Duty range.
+    pub duty: (f64, f64),
+    /// The advice.
+    pub advice: crate::advise::Advice,
+    /// Residual against exposure, for the chart (not serialised).
+    #[serde(skip)]
+    pub curve: Vec<crate::advise::Candidate>,
+}
+
+/// Grid of the report's advice: coarser than `ledflicker advise`'s default
+/// so that a report stays quick to build.
+const ADVICE_STEP_HZ: f64 = 5.0;
+const ADVICE_STEP_DUTY: f64 = 0.01;
+
+fn plan_advice(plan: &Plan) -> Option<PlanAdvice> {
+    let fold = |xs: &[f64]| {
+        xs.iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                (a.min(x), b.max(x))
+            })
+    };
+    let (f0, f1) = fold(&plan.frequencies_hz);
+    let f0 = f0.max(plan.thresholds.mitigation_min_hz);
+    let f1 = plan.thresholds.mitigation_max_hz.map_or(f1, |m| f1.min(m));
+    let duty = fold(&plan.duty_cycles);
+    let req = crate::advise::AdviseRequest {
+        frequency_hz: (f0, f1),
+        duty,
+        frequency_step_hz: ADVICE_STEP_HZ,
+        duty_step: ADVICE_STEP_DUTY,
+        speed_px_per_s: None,
+        hdr_ratios: Vec::new(),
+    };
+    let advice = crate::advise::advise(&req).ok()?;
+    let curve = crate::advise::curve(&req, 33).ok()?;
+    Some(PlanAdvice {
+        frequency_hz: (f0, f1),
+        duty,
+        advice,
+        curve,
+    })
 }
 
 /// Tool name and version.
@@ -159,6 +214,18 @@ pub struct CaseInfo {
     pub rois: Vec<RoiInfo>,
     /// Threshold checks.
     pub checks: Vec<Check>,
+    /// Apparent flicker frequency in the video, Hz: `|f - fps round(f/fps)|`
+    /// (0 when phase locked).
+    pub apparent_frequency_hz: f64,
+    /// What the flicker looks like to a driver: the most salient class over
+    /// the LED ROIs (see the report's method section for the sources).
+    pub hazard_class: HazardClass,
+    /// Beat period and whether the capture is shorter than one beat.
+    pub beat: Beat,
+    /// The PWM drive itself: IEEE 1789 region, IES Flicker Index.
+    pub drive: DriveFlicker,
+    /// Banding KPIs of a rolling shutter; `null` for a global shutter.
+    pub banding: Option<Banding>,
 }
 
 /// A rendered frame written next to the report.
@@ -192,6 +259,8 @@ pub struct RoiInfo {
     pub saturated: bool,
     /// FDI is +infinity: the OFF reference is 0 and light is present.
     pub contrast_unbounded: bool,
+    /// Spectrum, hazard class and phase coverage of this ROI's trace.
+    pub analysis: RoiAnalysis,
 }
 
 fn insert(roi: &mut RoiInfo, name: &str, m: &Metric) {
@@ -222,11 +291,13 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                 Verdict::Fail => counts.fail += 1,
                 Verdict::Info => counts.info += 1,
             }
+            let a = analysis::analyse_case(plan, r);
             let rois = plan
                 .rois
                 .iter()
                 .zip(&r.metrics)
-                .map(|(roi, m)| {
+                .zip(a.rois)
+                .map(|((roi, m), ra)| {
                     let mut info = RoiInfo {
                         name: roi.name.clone(),
                         kind: roi.kind,
@@ -235,6 +306,7 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                         levels: m.levels.clone(),
                         saturated: m.saturated,
                         contrast_unbounded: false,
+                        analysis: ra,
                     };
                     insert(&mut info, "fdi_2018", &m.fdi_2018);
                     insert(&mut info, "percent_flicker", &m.percent_flicker);
@@ -243,6 +315,18 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                     }
                     if let Some(x) = &m.percent_flicker_worst_phase {
                         insert(&mut info, "percent_flicker_worst_phase", x);
+                    }
+                    let spectrum = Metric {
+                        value: info.analysis.apparent_frequency_spectrum_hz,
+                        unbounded: false,
+                        reason: info.analysis.spectrum_reason.clone(),
+                    };
+                    insert(&mut info, "apparent_frequency_spectrum_hz", &spectrum);
+                    let coverage = info.analysis.phase_coverage.coverage;
+                    info.metrics
+                        .insert("phase_coverage".to_string(), Some(coverage));
+                    if let Some(w) = &info.analysis.phase_coverage.warning {
+                        info.reasons.insert("phase_coverage".to_string(), w.clone());
                     }
                     info
                 })
@@ -263,6 +347,11 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                 }),
                 rois,
                 checks: r.checks.clone(),
+                apparent_frequency_hz: a.beat.apparent_frequency_hz,
+                hazard_class: a.hazard_class,
+                beat: a.beat,
+                drive: a.drive,
+                banding: a.banding,
             }
         })
         .collect();
@@ -307,5 +396,7 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         verdict: overall(results.iter().map(|r| r.verdict)),
         counts,
         cases,
+        fine_maps: analysis::fine_maps(plan),
+        advice: plan_advice(plan),
     }
 }

@@ -238,3 +238,122 @@ fn simulate_prints_a_csv_with_frame_and_on_fraction() {
     // 5 ms from a rising edge at 90 Hz (period 11.1 ms, ON 5.56 ms): all ON.
     assert_eq!(lines[1], "0,0,1");
 }
+
+#[test]
+fn simulate_summary_prints_one_json_object_with_results_names() {
+    // 91.5 Hz at 30 fps: f_a = 1.5 Hz; a 2 ms exposure fits in the OFF gap
+    // of a 10 % duty PWM, so the LED vanishes at its worst phase.
+    let o = ledflicker(&[
+        "simulate",
+        "--frequency-hz",
+        "91.5",
+        "--duty",
+        "0.1",
+        "--exposure-ms",
+        "2",
+        "--fps",
+        "30",
+        "--frames",
+        "600",
+        "--background",
+        "0.1",
+        "--summary",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in [
+        "fdi_2018",
+        "percent_flicker",
+        "fdi_2018_worst_phase",
+        "percent_flicker_worst_phase",
+        "apparent_frequency_hz",
+    ] {
+        assert!(v["metrics"][key].is_number(), "{key}: {v}");
+    }
+    assert!((v["apparent_frequency_hz"].as_f64().unwrap() - 1.5).abs() < 1e-12);
+    assert_eq!(v["hazard_class"], "turn-indicator-like");
+    assert!(v["metrics"]["fdi_2018_worst_phase"].as_f64().unwrap().abs() < 1e-12);
+    assert_eq!(v["drive"]["ieee1789_region"], "elevated-risk");
+    // Phase locked: steady, with a coverage warning that says why.
+    let o = ledflicker(&[
+        "simulate",
+        "--frequency-hz",
+        "90",
+        "--duty",
+        "0.5",
+        "--exposure-ms",
+        "3",
+        "--fps",
+        "30",
+        "--summary",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["apparent_frequency_hz"], 0.0);
+    assert_eq!(v["hazard_class"], "steady");
+    assert!(v["beat"]["note"].as_str().unwrap().contains("phase locked"));
+    assert!(
+        v["reasons"]["phase_coverage"]
+            .as_str()
+            .unwrap()
+            .contains("phase lock")
+    );
+    // No background: FDI is null with its reason, never NaN.
+    let o = ledflicker(&[
+        "simulate",
+        "--frequency-hz",
+        "100",
+        "--duty",
+        "0.5",
+        "--exposure-ms",
+        "3",
+        "--fps",
+        "30",
+        "--summary",
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(!text.contains("NaN"));
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert!(v["metrics"]["fdi_2018"].is_null() && v["reasons"]["fdi_2018"].is_string());
+}
+
+#[test]
+fn advise_prints_the_eq1_bound_and_writes_a_plot() {
+    let dir = scratch("advise");
+    let svg = dir.join("advise.svg");
+    let o = ledflicker(&[
+        "advise",
+        "--min-hz",
+        "90",
+        "--max-hz",
+        "1000",
+        "--min-duty",
+        "0.1",
+        "--hz-step",
+        "10",
+        "--duty-step",
+        "0.05",
+        "--speed-px-per-s",
+        "500",
+        "--hdr-ratio",
+        "4",
+        "--svg",
+        svg.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    // (1 - 0.1) / 90 Hz = 10 ms.
+    assert!(out.contains("= 10.0000 ms"), "{out}");
+    assert!(out.contains("HDR short"), "{out}");
+    let plot = std::fs::read_to_string(&svg).unwrap();
+    assert!(plot.starts_with("<svg") && plot.contains("DejaVu Sans"));
+    let o = ledflicker(&[
+        "advise",
+        "--min-hz",
+        "100",
+        "--max-hz",
+        "90",
+        "--min-duty",
+        "0.1",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}

@@ -130,7 +130,17 @@ fn no_nan_reaches_the_report() {
     assert!(!json.contains("NaN") && !json.contains("Infinity"));
     let html = report::html::render(&model, &results, "2026-01-01").unwrap();
     assert!(!html.contains("NaN"));
-    assert_eq!(html.matches("<svg").count(), results.len());
+    // One trace per case, one phase fold per LED ROI of each case, two
+    // fine maps per light level and the exposure-advice curve.
+    let led_rois = model.cases[0]
+        .rois
+        .iter()
+        .filter(|r| r.kind == ledflicker::plan::RoiKind::Led)
+        .count();
+    assert_eq!(
+        html.matches("<svg").count(),
+        results.len() * (1 + led_rois) + 2 * model.fine_maps.len() + 1
+    );
     assert!(html.contains("ON level") && html.contains("OFF level"));
 }
 

@@ -1,0 +1,296 @@
+//! Apparent (beat) frequency of the flicker a video shows.
+//!
+//! A camera samples the PWM once per frame, so the video shows the PWM
+//! frequency aliased to the frame rate (DESIGN.md section 4):
+//! `f_a = |f - fps * round(f / fps)|`, in `[0, fps / 2]`. Phase-locked
+//! drives (`f = k * fps`) give 0: every frame sees the same phase. The
+//! spectrum of a trace gives the same number from the data alone, which is
+//! what a captured video offers.
+
+use rustfft::FftPlanner;
+use rustfft::num_complex::Complex;
+use serde::Serialize;
+
+/// Apparent frequency in Hz (`0..=fps/2`) of a PWM at `frequency_hz` seen at
+/// `fps` frames per second: `|f - fps * round(f / fps)|`.
+///
+/// The reduction uses the exact IEEE remainder, so `f = k * fps` gives 0
+/// exactly (e.g. 59.94 Hz at 29.97 fps).
+pub fn apparent_frequency_hz(frequency_hz: f64, fps: f64) -> f64 {
+    let r = frequency_hz.rem_euclid(fps);
+    r.min(fps - r).max(0.0)
+}
+
+/// Signed phase advance per frame in PWM cycles, `f / fps - round(f / fps)`,
+/// in `[-0.5, 0.5]`; exact for phase-locked drives.
+pub fn phase_step_cycles(frequency_hz: f64, fps: f64) -> f64 {
+    let r = frequency_hz.rem_euclid(fps) / fps;
+    if r > 0.5 { r - 1.0 } else { r }
+}
+
+/// The beat of a case: its apparent frequency and whether the capture was
+/// long enough to show one full beat.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Beat {
+    /// Apparent frequency from the physics, Hz (0 when phase locked).
+    pub apparent_frequency_hz: f64,
+    /// One beat, `1 / f_a`, in seconds; `None` when phase locked (infinite).
+    pub period_s: Option<f64>,
+    /// Duration of the PWM capture, seconds.
+    pub capture_s: f64,
+    /// The beat period is longer than the capture (or infinite): the video
+    /// shows a drift or a constant level, not the whole flicker cycle.
+    pub longer_than_capture: bool,
+    /// A sentence for the report.
+    pub note: String,
+}
+
+/// The beat of a PWM at `frequency_hz` seen at `fps` for `capture_s` seconds.
+pub fn beat(frequency_hz: f64, fps: f64, capture_s: f64) -> Beat {
+    let fa = apparent_frequency_hz(frequency_hz, fps);
+    let period_s = (fa > 0.0).then(|| 1.0 / fa);
+    let longer = period_s.is_none_or(|p| p > capture_s);
+    let note = match period_s {
+        None => format!(
+            "phase locked: {frequency_hz} Hz is a multiple of {fps} fps, so every frame sees the same PWM phase and the video shows a constant level that depends only on the start phase"
+        ),
+        Some(p) if longer => format!(
+            "near phase lock: the beat period {p:.3} s is longer than the {capture_s:.3} s capture, which shows only part of one beat"
+        ),
+        Some(p) => format!(
+            "the video flickers at {fa:.4} Hz (one beat every {p:.4} s, {:.1} beats in the capture)",
+            capture_s / p
+        ),
+    };
+    Beat {
+        apparent_frequency_hz: fa,
+        period_s,
+        capture_s,
+        longer_than_capture: longer,
+        note,
+    }
+}
+
+/// Why a spectrum gave no frequency.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SpectrumError {
+    /// Fewer than 4 samples.
+    #[error("too few frames ({0}) for a spectrum")]
+    TooShort(usize),
+    /// The trace is constant: no flicker to measure.
+    #[error("the trace is constant (peak-to-peak {0:.3e} of its mean): no flicker to measure")]
+    Flat(f64),
+    /// The strongest component is at the lowest resolvable frequency: the
+    /// beat is longer than the capture.
+    #[error(
+        "the strongest component is below {0:.4} Hz (1.5 / capture length): the beat is longer than the capture"
+    )]
+    Unresolved(f64),
+}
+
+/// Peak-to-peak below this fraction of the mean (or of 1 when the mean is
+/// 0) counts as a constant trace: floating-point noise of the closed form
+/// is ~1e-15.
+pub const FLAT_RELATIVE: f64 = 1e-9;
+
+/// Dominant frequency in Hz of a uniformly sampled trace (`fps` samples per
+/// second), from the largest bin of its Hann-windowed, 8x zero-padded FFT,
+/// refined by a parabola through the bin and its neighbours.
+///
+/// This is the strongest component, which is usually the apparent
+/// frequency `f_a` but can be an aliased harmonic `k f` folded to the frame
+/// rate (see [`aliased_harmonic`]). Accuracy: better than one bin,
+/// `fps / x.len()`. Components below
+/// `1.5 * fps / x.len()` are not resolved (the window's main lobe meets DC)
+/// and give [`SpectrumError::Unresolved`].
+pub fn dominant_frequency_hz(x: &[f64], fps: f64) -> Result<f64, SpectrumError> {
+    let n = x.len();
+    if n < 4 {
+        return Err(SpectrumError::TooShort(n));
+    }
+    let mean = x.iter().sum::<f64>() / n as f64;
+    let (lo, hi) = x
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let scale = mean.abs().max(1.0);
+    if hi - lo <= FLAT_RELATIVE * scale {
+        return Err(SpectrumError::Flat((hi - lo) / scale));
+    }
+    let len = (8 * n).next_power_of_two();
+    let mut buf: Vec<Complex<f64>> = x
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| {
+            // Hann window.
+            let w = 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / (n - 1) as f64).cos();
+            Complex::new((v - mean) * w, 0.0)
+        })
+        .chain(std::iter::repeat(Complex::new(0.0, 0.0)))
+        .take(len)
+        .collect();
+    FftPlanner::new().plan_fft_forward(len).process(&mut buf);
+    let mag: Vec<f64> = buf[..=len / 2].iter().map(|c| c.norm()).collect();
+    let bin_hz = fps / len as f64;
+    // Skip the main lobe around DC: below 1.5 resolution bins of the data.
+    let min_hz = 1.5 * fps / n as f64;
+    let first = ((min_hz / bin_hz).ceil() as usize).max(1);
+    let (k, _) = mag.iter().enumerate().skip(first.min(mag.len() - 1)).fold(
+        (0usize, f64::NEG_INFINITY),
+        |(bk, bm), (i, &m)| {
+            if m > bm { (i, m) } else { (bk, bm) }
+        },
+    );
+    // A trace whose power sits at DC (a slow drift) peaks at the first
+    // allowed bin, where the DC lobe's skirt is highest.
+    let dc_skirt = mag[..first.min(mag.len())]
+        .iter()
+        .copied()
+        .fold(0.0, f64::max);
+    if k == first && dc_skirt > mag[k] {
+        return Err(SpectrumError::Unresolved(min_hz));
+    }
+    let offset = if k > 0 && k + 1 < mag.len() {
+        let (a, b, c) = (mag[k - 1], mag[k], mag[k + 1]);
+        let d = a - 2.0 * b + c;
+        if d < 0.0 {
+            (0.5 * (a - c) / d).clamp(-0.5, 0.5)
+        } else {
+            0.0
+        }
+    } else {
+        0.0
+    };
+    Ok(((k as f64 + offset) * bin_hz).clamp(0.0, fps / 2.0))
+}
+
+/// The PWM harmonic `k` in `1..=8` whose alias `|k f - fps round(k f / fps)|`
+/// lies within `tolerance_hz` of `measured_hz` (the lowest such `k`).
+pub fn aliased_harmonic(
+    measured_hz: f64,
+    frequency_hz: f64,
+    fps: f64,
+    tolerance_hz: f64,
+) -> Option<u32> {
+    (1..=8u32).find(|&k| {
+        (apparent_frequency_hz(k as f64 * frequency_hz, fps) - measured_hz).abs() <= tolerance_hz
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::{PwmDrive, Shutter, ShutterModel};
+
+    #[test]
+    fn formula_gives_zero_at_phase_lock_and_folds_to_nyquist() {
+        assert_eq!(apparent_frequency_hz(90.0, 30.0), 0.0);
+        assert_eq!(apparent_frequency_hz(59.94, 29.97), 0.0);
+        assert!((apparent_frequency_hz(50.0, 30.0) - 10.0).abs() < 1e-12);
+        assert!((apparent_frequency_hz(45.0, 30.0) - 15.0).abs() < 1e-12);
+        assert!((apparent_frequency_hz(91.0, 30.0) - 1.0).abs() < 1e-12);
+        assert!((apparent_frequency_hz(1001.0, 30.0) - 11.0).abs() < 1e-12);
+        assert!((phase_step_cycles(89.0, 30.0) + 1.0 / 30.0).abs() < 1e-12);
+    }
+
+    /// Brute force: the alias of f nearest to 0 among f - k fps, all k.
+    #[test]
+    fn formula_matches_a_brute_force_search_over_aliases() {
+        for i in 0..500 {
+            let f = 50.0 + i as f64 * 3.7;
+            for fps in [25.0, 29.97, 30.0, 60.0] {
+                let brute = (0..200)
+                    .map(|k| (f - k as f64 * fps).abs())
+                    .fold(f64::INFINITY, f64::min);
+                let got = apparent_frequency_hz(f, fps);
+                assert!(
+                    (got - brute).abs() < 1e-9,
+                    "f={f} fps={fps}: {got} vs {brute}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn beat_longer_than_the_capture_says_so() {
+        let b = beat(90.01, 30.0, 60.0);
+        assert!(b.longer_than_capture, "{b:?}");
+        assert!(b.note.contains("near phase lock"));
+        let b = beat(90.0, 30.0, 60.0);
+        assert_eq!(b.period_s, None);
+        assert!(b.longer_than_capture && b.note.contains("phase locked"));
+        let b = beat(100.0, 30.0, 60.0);
+        assert!(!b.longer_than_capture);
+        assert!((b.period_s.unwrap() - 0.1).abs() < 1e-12);
+    }
+
+    /// The spectrum of simulated traces agrees with the formula to a bin.
+    #[test]
+    fn spectrum_of_simulated_traces_matches_the_formula() {
+        let fps = 30.0;
+        let n = 1800;
+        let shutter = Shutter {
+            model: ShutterModel::Global,
+            exposure_s: 0.004,
+            fps,
+        };
+        let mut checked = 0;
+        let mut fundamental = 0;
+        for i in 0..60 {
+            let f = 93.0 + i as f64 * 31.3;
+            let fa = apparent_frequency_hz(f, fps);
+            if fa < 0.2 {
+                continue;
+            }
+            for duty in [0.1, 0.5, 0.8] {
+                let pwm = PwmDrive::new(f, duty, 0.0).unwrap();
+                let x: Vec<f64> = (0..n)
+                    .map(|k| shutter.frame_on_fraction(&pwm, k, 0..1))
+                    .collect();
+                match dominant_frequency_hz(&x, fps) {
+                    Ok(got) => {
+                        // The strongest component is f_a, or an aliased
+                        // harmonic of the PWM when few phases are visited.
+                        let k = aliased_harmonic(got, f, fps, fps / n as f64);
+                        assert!(
+                            k.is_some(),
+                            "f={f} D={duty}: spectrum {got} vs formula {fa}"
+                        );
+                        if k == Some(1) {
+                            fundamental += 1;
+                        }
+                        checked += 1;
+                    }
+                    Err(SpectrumError::Flat(_)) => {}
+                    Err(e) => panic!("f={f} D={duty}: {e}"),
+                }
+            }
+        }
+        assert!(checked > 100, "only {checked} traces checked");
+        assert!(
+            fundamental * 10 >= checked * 9,
+            "{fundamental} of {checked} at the fundamental"
+        );
+    }
+
+    #[test]
+    fn constant_and_too_slow_traces_give_reasons() {
+        assert!(matches!(
+            dominant_frequency_hz(&[3.0; 100], 30.0),
+            Err(SpectrumError::Flat(_))
+        ));
+        // Half a cycle of a very slow sine: the beat is longer than the capture.
+        let x: Vec<f64> = (0..300)
+            .map(|i| (std::f64::consts::PI * i as f64 / 600.0).sin())
+            .collect();
+        assert!(matches!(
+            dominant_frequency_hz(&x, 30.0),
+            Err(SpectrumError::Unresolved(_))
+        ));
+        assert!(matches!(
+            dominant_frequency_hz(&[1.0, 2.0], 30.0),
+            Err(SpectrumError::TooShort(2))
+        ));
+    }
+}

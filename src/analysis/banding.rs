@@ -1,0 +1,158 @@
+//! Banding KPIs of a rolling shutter (Deegan 2018 section 2; DESIGN.md
+//! section 1): under a diffusely lit PWM scene each row integrates its own
+//! slice of the waveform, so a frame shows bands `1 / (f * t_line)` rows
+//! apart that roll from frame to frame.
+//!
+//! Rows are rendered with the exact closed-form integral, LED light only
+//! (no background): the largest contrast the bands can have.
+
+use serde::Serialize;
+
+use super::apparent::phase_step_cycles;
+use crate::physics::{PwmDrive, Shutter, ShutterModel};
+
+/// Banding of one PWM condition on a rolling shutter.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Banding {
+    /// Rows between successive bands, `1 / (f * t_line)`.
+    pub band_period_rows: f64,
+    /// Band periods per frame height.
+    pub bands_per_frame: f64,
+    /// Michelson contrast x 100 of the LED-only row profile of frame 0,
+    /// 0..=100; `None` when no row sees light.
+    pub band_contrast_percent: Option<f64>,
+    /// Band motion in rows per frame (positive: down the frame), the
+    /// smallest of the aliases `-(f/fps - round(f/fps)) * period`.
+    pub band_velocity_rows_per_frame: f64,
+    /// PWM frequency estimated from the band spacing of frame 0 and the
+    /// line time, Hz; `None` with `estimate_note` when it cannot be.
+    pub estimated_frequency_hz: Option<f64>,
+    /// Why there is no estimate, if there is none.
+    pub estimate_note: Option<String>,
+}
+
+/// LED-only ON fraction of every row `rows` of frame `frame`, exact.
+pub fn row_profile(shutter: &Shutter, pwm: &PwmDrive, frame: u64, rows: u32) -> Vec<f64> {
+    (0..rows)
+        .map(|r| shutter.frame_on_fraction(pwm, frame, r..r + 1))
+        .collect()
+}
+
+/// Band period in rows of a row profile, from the mean-level upward
+/// crossings (linearly interpolated): the mean spacing between the first
+/// and the last crossing. Needs at least two crossings.
+pub fn band_period_from_profile(profile: &[f64]) -> Result<f64, String> {
+    let n = profile.len();
+    if n < 3 {
+        return Err(format!("{n} rows are too few"));
+    }
+    let mean = profile.iter().sum::<f64>() / n as f64;
+    let (lo, hi) = profile
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    if hi - lo <= 1e-9 {
+        return Err("the rows show no bands (constant profile)".to_string());
+    }
+    let crossings: Vec<f64> = profile
+        .windows(2)
+        .enumerate()
+        .filter(|(_, w)| w[0] < mean && w[1] >= mean)
+        .map(|(i, w)| i as f64 + (mean - w[0]) / (w[1] - w[0]))
+        .collect();
+    if crossings.len() < 2 {
+        return Err(format!(
+            "fewer than two band periods in {n} rows: the readout is too short to measure the spacing"
+        ));
+    }
+    Ok((crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64)
+}
+
+/// Banding KPIs; `None` for a global shutter or a zero line time.
+pub fn banding(shutter: &Shutter, pwm: &PwmDrive, sensor_rows: u32) -> Option<Banding> {
+    let ShutterModel::Rolling { line_time_s } = shutter.model else {
+        return None;
+    };
+    if line_time_s <= 0.0 {
+        return None;
+    }
+    let f = pwm.frequency_hz();
+    let period = 1.0 / (f * line_time_s);
+    let profile = row_profile(shutter, pwm, 0, sensor_rows);
+    let (lo, hi) = profile
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let band_contrast_percent = (hi + lo > 0.0).then(|| 100.0 * (hi - lo) / (hi + lo));
+    let (estimated_frequency_hz, estimate_note) = match band_period_from_profile(&profile) {
+        Ok(p) => (Some(1.0 / (p * line_time_s)), None),
+        Err(e) => (None, Some(e)),
+    };
+    Some(Banding {
+        band_period_rows: period,
+        bands_per_frame: sensor_rows as f64 / period,
+        band_contrast_percent,
+        band_velocity_rows_per_frame: -phase_step_cycles(f, shutter.fps) * period + 0.0,
+        estimated_frequency_hz,
+        estimate_note,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rolling(line_time_s: f64, fps: f64) -> Shutter {
+        Shutter {
+            model: ShutterModel::Rolling { line_time_s },
+            exposure_s: 1.0 / 16000.0,
+            fps,
+        }
+    }
+
+    #[test]
+    fn bands_move_by_the_predicted_rows_per_frame() {
+        // 1 kHz, 10 us lines: 100-row bands; 32 fps: a quarter cycle per frame.
+        let s = rolling(10e-6, 32.0);
+        let pwm = PwmDrive::new(1000.0, 0.5, 0.0).unwrap();
+        let b = banding(&s, &pwm, 800).unwrap();
+        assert!((b.band_period_rows - 100.0).abs() < 1e-9);
+        assert!((b.band_velocity_rows_per_frame + 25.0).abs() < 1e-9);
+        let f0 = row_profile(&s, &pwm, 0, 800);
+        let f1 = row_profile(&s, &pwm, 1, 800);
+        // Frame 1's row r shows what frame 0's row r + 25 showed: bands
+        // moved up 25 rows.
+        for r in 0..700 {
+            assert!((f1[r] - f0[r + 25]).abs() < 1e-6, "row {r}");
+        }
+    }
+
+    #[test]
+    fn frequency_is_recovered_from_the_band_spacing() {
+        // The gyroflow sample camera: 14.565 us per line (DESIGN.md 5).
+        for (f, d) in [(1000.0, 0.5), (613.0, 0.2), (2400.0, 0.1), (150.0, 0.7)] {
+            let s = rolling(14.565e-6, 30.0);
+            let pwm = PwmDrive::new(f, d, 0.0).unwrap();
+            let b = banding(&s, &pwm, 1080).unwrap();
+            let got = b.estimated_frequency_hz.unwrap();
+            assert!((got - f).abs() / f < 2e-3, "f={f}: {got}");
+            assert!(b.band_contrast_percent.unwrap() > 10.0);
+        }
+    }
+
+    #[test]
+    fn too_few_bands_or_global_shutter_give_no_estimate() {
+        let s = rolling(14.565e-6, 30.0);
+        // 50 Hz: 1373-row period, less than one band in 800 rows.
+        let b = banding(&s, &PwmDrive::new(50.0, 0.5, 0.0).unwrap(), 800).unwrap();
+        assert_eq!(b.estimated_frequency_hz, None);
+        assert!(b.estimate_note.is_some());
+        let g = Shutter {
+            model: ShutterModel::Global,
+            ..s
+        };
+        assert!(banding(&g, &PwmDrive::new(500.0, 0.5, 0.0).unwrap(), 800).is_none());
+    }
+}

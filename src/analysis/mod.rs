@@ -1,0 +1,241 @@
+//! Beyond the paper (issue 6): what a case's flicker looks like to a driver
+//! and to the light source's own standards.
+//!
+//! Sits after the runner and beside `metrics`: it reads a finished
+//! [`CaseResult`] (traces, frame times, metrics) and the plan's camera, and
+//! adds the apparent flicker frequency, a hazard class, the IEEE 1789 /
+//! IES view of the drive, the phase coverage of the capture and banding
+//! KPIs. The fine maps and `ledflicker advise` work from the physics alone.
+//!
+//! - [`apparent`]: beat frequency, from the physics and from the spectrum;
+//! - [`hazard`]: what the flicker may be taken for (turn indicator, beacon, ...);
+//! - [`drive`]: IEEE 1789 risk region and IES Flicker Index of the PWM;
+//! - [`phase_fold`]: the flicker signal folded by phase, phase coverage;
+//! - [`banding`]: band period, contrast and velocity of a rolling shutter;
+//! - [`finemap`]: worst-phase FDI and Percent Flicker over frequency x duty.
+
+pub mod apparent;
+pub mod banding;
+pub mod drive;
+pub mod finemap;
+pub mod hazard;
+pub mod phase_fold;
+pub mod summary;
+
+use serde::Serialize;
+
+use crate::backend::sim::shutter_of;
+use crate::metrics::flicker::Segment;
+use crate::physics::PwmDrive;
+use crate::plan::{CameraConfig, Plan, RoiKind};
+use crate::runner::CaseResult;
+
+pub use apparent::Beat;
+pub use banding::Banding;
+pub use drive::DriveFlicker;
+pub use hazard::HazardClass;
+pub use phase_fold::PhaseCoverage;
+
+/// The analysis of one ROI trace.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RoiAnalysis {
+    /// Dominant frequency of the PWM-segment trace's spectrum, Hz; `None`
+    /// with `spectrum_reason` when there is none.
+    pub apparent_frequency_spectrum_hz: Option<f64>,
+    /// Why the spectrum gave no frequency, or why it differs from `f_a`.
+    pub spectrum_reason: Option<String>,
+    /// What the flicker looks like (from the physics' apparent frequency
+    /// and the trace's Percent Flicker).
+    pub hazard_class: HazardClass,
+    /// Every named band the apparent frequency falls in (when visible).
+    pub hazard_matches: Vec<HazardClass>,
+    /// Phase coverage of the capture.
+    pub phase_coverage: PhaseCoverage,
+    /// Per-bin (min, max) luma of the folded trace, for the chart.
+    #[serde(skip)]
+    pub folded_bins: Vec<Option<(f64, f64)>>,
+    /// Exact (min, max) luma over phase, when known, for the chart.
+    #[serde(skip)]
+    pub envelope: Option<(f64, f64)>,
+}
+
+/// Analyses one trace of the PWM segment: `frames` (frame numbers; frame
+/// `n` starts at `n / fps`) and `luma` (DN) of the PWM frames, the PWM `frequency_hz`, `fps`, the ROI's
+/// first-row offset `row_offset_s`, its exact `envelope` if known and its
+/// Percent Flicker as captured.
+pub fn analyse_trace(
+    frames: &[u64],
+    luma: &[f64],
+    frequency_hz: f64,
+    fps: f64,
+    row_offset_s: f64,
+    envelope: Option<(f64, f64)>,
+    percent_flicker: Option<f64>,
+) -> RoiAnalysis {
+    let fa = apparent::apparent_frequency_hz(frequency_hz, fps);
+    let resolution = fps / luma.len().max(1) as f64;
+    let (spectrum_hz, spectrum_reason) = match apparent::dominant_frequency_hz(luma, fps) {
+        Ok(s) => {
+            let note = match apparent::aliased_harmonic(s, frequency_hz, fps, resolution) {
+                Some(1) => None,
+                Some(k) => Some(format!(
+                    "the strongest component is PWM harmonic {k} aliased to {s:.4} Hz; the fundamental's alias f_a is {fa:.4} Hz"
+                )),
+                None => Some(format!(
+                    "the strongest component ({s:.4} Hz) is not an alias of the PWM harmonics 1-8 (f_a = {fa:.4} Hz)"
+                )),
+            };
+            (Some(s), note)
+        }
+        Err(e) => (None, Some(e.to_string())),
+    };
+    let (hazard_class, hazard_matches) = hazard::classify(fa, percent_flicker);
+    let points = phase_fold::fold(frames, luma, frequency_hz, fps, row_offset_s);
+    RoiAnalysis {
+        apparent_frequency_spectrum_hz: spectrum_hz,
+        spectrum_reason,
+        hazard_class,
+        hazard_matches,
+        phase_coverage: phase_fold::coverage(&points, fps, frequency_hz, envelope),
+        folded_bins: phase_fold::bin_extremes(&points, phase_fold::PHASE_BINS),
+        envelope,
+    }
+}
+
+/// The analysis of one case.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CaseAnalysis {
+    /// Apparent frequency and beat.
+    pub beat: Beat,
+    /// The case's hazard class: the most salient over its LED ROIs.
+    pub hazard_class: HazardClass,
+    /// The PWM drive before any camera.
+    pub drive: DriveFlicker,
+    /// Banding KPIs (rolling shutter only).
+    pub banding: Option<Banding>,
+    /// One per plan ROI, in plan order.
+    pub rois: Vec<RoiAnalysis>,
+}
+
+/// Analyses a finished case with the plan's camera.
+pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
+    let cam: &CameraConfig = &plan.dut.camera;
+    let f = r.case.frequency_hz;
+    let fps = cam.fps;
+    let shutter = shutter_of(cam);
+    let pwm_frames: Vec<usize> = r
+        .acquisition
+        .frames
+        .iter()
+        .enumerate()
+        .filter(|(_, fr)| fr.segment == Segment::Pwm)
+        .map(|(i, _)| i)
+        .collect();
+    let numbers: Vec<u64> = pwm_frames
+        .iter()
+        .map(|&i| r.acquisition.frames[i].index)
+        .collect();
+    let capture_s = numbers.len() as f64 / fps;
+    let rois: Vec<RoiAnalysis> = r
+        .acquisition
+        .rois
+        .iter()
+        .zip(&plan.rois)
+        .zip(&r.metrics)
+        .map(|((trace, roi), m)| {
+            let luma: Vec<f64> = pwm_frames.iter().map(|&i| trace.luma[i]).collect();
+            analyse_trace(
+                &numbers,
+                &luma,
+                f,
+                fps,
+                shutter.row_offset_s(roi.y_px),
+                trace.phase_envelope,
+                m.percent_flicker.value,
+            )
+        })
+        .collect();
+    let hazard_class = plan
+        .rois
+        .iter()
+        .zip(&rois)
+        .filter(|(roi, _)| roi.kind == RoiKind::Led)
+        .map(|(_, a)| a.hazard_class)
+        .max()
+        .unwrap_or(HazardClass::Steady);
+    let banding = PwmDrive::new(f, r.case.duty, cam.pwm_delay_s)
+        .ok()
+        .and_then(|pwm| banding::banding(&shutter, &pwm, cam.sensor_rows));
+    CaseAnalysis {
+        beat: apparent::beat(f, fps, capture_s),
+        hazard_class,
+        drive: drive::drive_flicker(f, r.case.duty),
+        banding,
+        rois,
+    }
+}
+
+/// The ideal linear camera of a plan at `lux`: the luma model the
+/// simulator's ideal camera uses (`backend::sim` module docs), for an LED
+/// ROI filled `scene.led-fill`.
+pub fn ideal_luma_model(plan: &Plan, lux: f64) -> finemap::LumaModel {
+    let cam = &plan.dut.camera;
+    let k = cam.response_dn_per_cd_m2_s * cam.exposure_s;
+    finemap::LumaModel {
+        off_dn: (cam.black_level_dn + k * plan.scene.background_luminance_cd_m2(lux))
+            .min(cam.full_scale_dn),
+        led_peak_dn: k * plan.scene.led_fill * plan.scene.led_luminance_cd_m2,
+        full_scale_dn: cam.full_scale_dn,
+    }
+}
+
+/// A fine map for one light level, as reported.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FineMapInfo {
+    /// Illuminance, lux.
+    pub light_lux: f64,
+    /// The LED ROI the map is for.
+    pub roi: String,
+    /// The luma model used.
+    pub luma: finemap::LumaModel,
+    /// What the map says.
+    pub summary: finemap::FineMapSummary,
+    /// The map itself (not serialised: 2 x 195 100 numbers).
+    #[serde(skip)]
+    pub map: finemap::FineMap,
+}
+
+/// Default fine-map frequency axis: 50 Hz to 2 kHz in 1 Hz steps.
+pub const FINE_FREQUENCY: finemap::Axis = finemap::Axis {
+    start: 50.0,
+    step: 1.0,
+    count: 1951,
+};
+/// Default fine-map duty axis: 1 % to 100 % in 1 % steps.
+pub const FINE_DUTY: finemap::Axis = finemap::Axis {
+    start: 0.01,
+    step: 0.01,
+    count: 100,
+};
+
+/// Fine maps of the plan's camera for its first LED ROI, one per light level.
+pub fn fine_maps(plan: &Plan) -> Vec<FineMapInfo> {
+    let Some(roi) = plan.rois.iter().find(|r| r.kind == RoiKind::Led) else {
+        return Vec::new();
+    };
+    let shutter = shutter_of(&plan.dut.camera);
+    plan.light_levels_lux
+        .iter()
+        .map(|&lux| {
+            let luma = ideal_luma_model(plan, lux);
+            let map = finemap::compute(&shutter, roi.rows(), luma, FINE_FREQUENCY, FINE_DUTY);
+            FineMapInfo {
+                light_lux: lux,
+                roi: roi.name.clone(),
+                luma,
+                summary: map.summary(plan.thresholds.fdi_2018_min),
+                map,
+            }
+        })
+        .collect()
+}
