@@ -18,10 +18,13 @@
 #![warn(missing_docs)]
 
 pub mod backend;
+pub mod capture;
 pub mod cli;
+pub mod linetime;
 pub mod metrics;
 pub mod physics;
 pub mod plan;
+pub mod render;
 pub mod report;
 pub mod runner;
 pub mod util;

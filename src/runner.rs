@@ -7,6 +7,7 @@
 use rayon::prelude::*;
 
 use crate::backend::{Acquisition, Backend, BackendError};
+use crate::metrics::p2020::{self, P2020Metrics};
 use crate::metrics::{Check, RoiMetrics, Verdict, evaluate_case, evaluate_roi};
 use crate::plan::{Plan, TestCase};
 
@@ -23,6 +24,8 @@ pub struct CaseResult {
     pub verdict: Verdict,
     /// Every threshold check made.
     pub checks: Vec<Check>,
+    /// IEEE P2020 KPIs per plan ROI, in plan order.
+    pub p2020: Vec<P2020Metrics>,
 }
 
 /// What the runner tells its caller while it works.
@@ -122,6 +125,7 @@ pub fn run_case(
     }
     let segments: Vec<_> = acquisition.frames.iter().map(|f| f.segment).collect();
     let mut metrics = Vec::with_capacity(plan.rois.len());
+    let mut p2020s = Vec::with_capacity(plan.rois.len());
     for trace in &acquisition.rois {
         if trace.luma.len() != segments.len() {
             return Err(bad(format!(
@@ -145,6 +149,7 @@ pub fn run_case(
         )
         .ok_or_else(|| bad("the trace has no PWM frames".to_string()))?;
         metrics.push(m);
+        p2020s.extend(p2020::evaluate(&trace.luma, &segments, &plan.p2020));
     }
     let pairs: Vec<_> = plan.rois.iter().zip(&metrics).collect();
     let (verdict, checks) = evaluate_case(case.frequency_hz, &pairs, &plan.thresholds);
@@ -154,5 +159,6 @@ pub fn run_case(
         metrics,
         verdict,
         checks,
+        p2020: p2020s,
     })
 }

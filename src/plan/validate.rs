@@ -21,13 +21,13 @@ const MAX_GRID_POINTS: usize = 10_000;
 /// Longest capture the simulator will make for one case, in frames.
 const MAX_FRAMES: f64 = 10_000_000.0;
 
-struct Checker<'a> {
+pub(super) struct Checker<'a> {
     index: &'a SpanIndex,
     diags: &'a mut Vec<Diagnostic>,
 }
 
 impl Checker<'_> {
-    fn error(&mut self, key: &str, message: impl Into<String>, hint: Option<&str>) {
+    pub(super) fn error(&mut self, key: &str, message: impl Into<String>, hint: Option<&str>) {
         // A key that is absent from the file is reported at its table.
         let location = self.index.location(key).or_else(|| {
             let mut k = key;
@@ -47,7 +47,7 @@ impl Checker<'_> {
         });
     }
 
-    fn required<T>(&mut self, value: Option<T>, key: &str, hint: &str) -> Option<T> {
+    pub(super) fn required<T>(&mut self, value: Option<T>, key: &str, hint: &str) -> Option<T> {
         if value.is_none() {
             self.error(key, "missing required key", Some(hint));
         }
@@ -55,7 +55,7 @@ impl Checker<'_> {
     }
 
     /// `value` must be finite and > 0.
-    fn positive(&mut self, value: f64, key: &str, hint: &str) -> Option<f64> {
+    pub(super) fn positive(&mut self, value: f64, key: &str, hint: &str) -> Option<f64> {
         if value.is_finite() && value > 0.0 {
             Some(value)
         } else {
@@ -65,7 +65,7 @@ impl Checker<'_> {
     }
 
     /// `value` must be finite and >= 0.
-    fn non_negative(&mut self, value: f64, key: &str, hint: &str) -> Option<f64> {
+    pub(super) fn non_negative(&mut self, value: f64, key: &str, hint: &str) -> Option<f64> {
         if value.is_finite() && value >= 0.0 {
             Some(value)
         } else {
@@ -74,7 +74,7 @@ impl Checker<'_> {
         }
     }
 
-    fn duty(&mut self, value: f64, key: &str) -> Option<f64> {
+    pub(super) fn duty(&mut self, value: f64, key: &str) -> Option<f64> {
         if value.is_finite() && value > 0.0 && value <= 1.0 {
             Some(value)
         } else {
@@ -87,7 +87,7 @@ impl Checker<'_> {
         }
     }
 
-    fn pixels(&mut self, value: i64, key: &str, min: i64) -> Option<u32> {
+    pub(super) fn pixels(&mut self, value: i64, key: &str, min: i64) -> Option<u32> {
         if value >= min && value <= u32::MAX as i64 {
             Some(value as u32)
         } else {
@@ -211,7 +211,7 @@ impl Checker<'_> {
 /// Validates `raw`, pushing every problem into `diags`. Returns `None` when
 /// something required is missing or invalid.
 pub(super) fn validate(
-    raw: RawPlan,
+    mut raw: RawPlan,
     index: &SpanIndex,
     diags: &mut Vec<Diagnostic>,
     path: &Path,
@@ -293,8 +293,59 @@ pub(super) fn validate(
         }
     }
 
+    // A captured plan takes its cases from [[case]], not from [light] and [grid].
+    let captured = raw
+        .dut
+        .as_ref()
+        .is_some_and(|d| d.backend.as_deref() == Some("captured"));
+    let is_sim = raw
+        .dut
+        .as_ref()
+        .is_none_or(|d| matches!(d.backend.as_deref(), None | Some("simulator")));
+    for (present, key) in [(raw.light.is_some(), "light"), (raw.grid.is_some(), "grid")] {
+        if captured && present {
+            c.error(
+                key,
+                "a captured plan lists its cases in [[case]], not in [light] and [grid]",
+                Some("give each [[case]] its light-lux, frequency-hz and duty-cycle"),
+            );
+        }
+    }
+    let capture = if is_sim {
+        for (present, key) in [
+            (raw.capture.is_some(), "capture"),
+            (!raw.case.is_empty(), "case"),
+        ] {
+            if present {
+                c.error(
+                    key,
+                    "only the captured and command backends read this table",
+                    Some("set [dut] backend = \"captured\" or \"command\", or remove it"),
+                );
+            }
+        }
+        None
+    } else {
+        let cap = super::capture::capture_config(
+            &mut c,
+            raw.capture,
+            std::mem::take(&mut raw.case),
+            captured,
+            path,
+        );
+        if cap.is_none() {
+            return None;
+        }
+        cap
+    };
+    let p2020 = super::capture::p2020_options(&mut c, raw.p2020);
+
     // [light]
-    let light = c.required(raw.light, "light", "add [light] with levels-lux = [2000.0]");
+    let light = if captured {
+        None
+    } else {
+        c.required(raw.light, "light", "add [light] with levels-lux = [2000.0]")
+    };
     let levels = light.and_then(|l| {
         let list = c.required(
             l.levels_lux,
@@ -317,11 +368,20 @@ pub(super) fn validate(
     });
 
     // [grid]
-    let grid = c.required(
-        raw.grid,
-        "grid",
-        "add [grid] with frequencies-hz and duty-cycles",
-    );
+    let grid = if captured {
+        None
+    } else {
+        c.required(
+            raw.grid,
+            "grid",
+            "add [grid] with frequencies-hz and duty-cycles",
+        )
+    };
+    let (levels, grid_ok) = if captured {
+        (Some(Vec::new()), true)
+    } else {
+        (levels, true)
+    };
     let (mut freqs, mut duties) = (None, None);
     if let Some(g) = grid {
         freqs = c.grid(
@@ -338,6 +398,10 @@ pub(super) fn validate(
             "grid.duty-cycle-range",
             &mut |c, v, k| c.duty(v, k),
         );
+    }
+    if captured && grid_ok {
+        freqs = Some(Vec::new());
+        duties = Some(Vec::new());
     }
     if let (Some(l), Some(f), Some(d)) = (&levels, &freqs, &duties) {
         let n = l.len() * f.len() * d.len();
@@ -360,17 +424,27 @@ pub(super) fn validate(
     if let Some(d) = dut {
         let backend = match d.backend.as_deref() {
             None | Some("simulator") => Some(BackendKind::Simulator),
+            Some("captured") => Some(BackendKind::Captured),
+            Some("command") => Some(BackendKind::Command),
             Some(other) => {
                 c.error(
                     "dut.backend",
                     format!("unknown backend `{other}`"),
-                    Some("this version has backend = \"simulator\""),
+                    Some("use backend = \"simulator\", \"captured\" or \"command\""),
                 );
                 None
             }
         };
-        let camera = c.required(d.camera, "dut.camera", "add a [dut.camera] table");
-        let camera = camera.and_then(|cam| camera_config(&mut c, cam));
+        let camera = match (d.camera, is_sim) {
+            (Some(cam), _) => camera_config(&mut c, cam),
+            // Captured data has no simulated camera; ROIs are checked
+            // against each capture's frame size when it is read.
+            (None, false) => Some(super::capture::no_camera()),
+            (None, true) => {
+                c.required(None::<()>, "dut.camera", "add a [dut.camera] table");
+                None
+            }
+        };
         if let (Some(backend), Some(camera)) = (backend, camera) {
             dut_v = Some(Dut {
                 backend,
@@ -552,6 +626,8 @@ pub(super) fn validate(
         dut,
         scene: scene?,
         thresholds: thresholds?,
+        capture,
+        p2020: p2020?,
     })
 }
 

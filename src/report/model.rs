@@ -137,12 +137,22 @@ pub struct Counts {
 pub struct CaseInfo {
     /// Case id.
     pub id: String,
-    /// Illuminance, lux.
+    /// Illuminance, lux; `null` when unknown (a capture without conditions).
+    #[serde(serialize_with = "positive_or_null")]
     pub light_lux: f64,
-    /// PWM frequency, Hz.
+    /// PWM frequency, Hz; `null` when unknown.
+    #[serde(serialize_with = "positive_or_null")]
     pub frequency_hz: f64,
-    /// Duty cycle, 0..1.
+    /// Duty cycle, 0..1; `null` when unknown.
+    #[serde(serialize_with = "positive_or_null")]
     pub duty: f64,
+    /// Capture file of a captured case, as written in the plan.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub source: Option<String>,
+    /// What was read from the capture and the segments used (captured and
+    /// command backends).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub capture: Option<crate::backend::captured::CaptureSummary>,
     /// Case seed.
     pub seed: u64,
     /// pass, fail or info.
@@ -178,6 +188,16 @@ pub struct RoiInfo {
     pub contrast_unbounded: bool,
 }
 
+/// Conditions are > 0 when known; a captured case without conditions holds
+/// 0, written as `null`.
+fn positive_or_null<S: serde::Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+    if *v > 0.0 {
+        s.serialize_f64(*v)
+    } else {
+        s.serialize_none()
+    }
+}
+
 fn insert(roi: &mut RoiInfo, name: &str, m: &Metric) {
     roi.metrics.insert(name.to_string(), m.value);
     if let Some(r) = &m.reason {
@@ -210,7 +230,8 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                 .rois
                 .iter()
                 .zip(&r.metrics)
-                .map(|(roi, m)| {
+                .enumerate()
+                .map(|(i, (roi, m))| {
                     let mut info = RoiInfo {
                         name: roi.name.clone(),
                         kind: roi.kind,
@@ -228,6 +249,11 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                     if let Some(x) = &m.percent_flicker_worst_phase {
                         insert(&mut info, "percent_flicker_worst_phase", x);
                     }
+                    if let Some(p) = r.p2020.get(i) {
+                        insert(&mut info, "fmi", &p.fmi);
+                        insert(&mut info, "fdi_p2020", &p.fdi);
+                        insert(&mut info, "mmp", &p.mmp);
+                    }
                     info
                 })
                 .collect();
@@ -236,6 +262,8 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                 light_lux: r.case.light_lux,
                 frequency_hz: r.case.frequency_hz,
                 duty: r.case.duty,
+                source: None,
+                capture: None,
                 seed: r.case.seed,
                 verdict: r.verdict,
                 in_mitigation_range: in_mitigation_range(r.case.frequency_hz, &plan.thresholds),
@@ -269,7 +297,7 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
             model: plan.dut.model.clone(),
             serial: plan.dut.serial.clone(),
             firmware: plan.dut.firmware.clone(),
-            camera: Some(CameraInfo {
+            camera: (plan.dut.backend == crate::plan::BackendKind::Simulator).then(|| CameraInfo {
                 shutter: match cam.shutter {
                     ShutterKind::Global => "global",
                     ShutterKind::Rolling => "rolling",
