@@ -283,7 +283,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     let cases = plan::expand_cases(&plan);
     let sim;
     let mut captured = None;
-    let rig;
+    let mut rig = None;
     let backend: &dyn Backend = match plan.dut.backend {
         plan::BackendKind::Simulator => {
             sim = Simulator::new(&plan);
@@ -293,11 +293,10 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
             Captured::load(&plan)
                 .with_context(|| format!("cannot read the captures of plan `{}`", plan.id))?,
         ),
-        plan::BackendKind::Command => {
-            rig = CommandRig::new(&plan)
-                .ok_or_else(|| UsageError("the plan has no [capture] command".into()))?;
-            &rig
-        }
+        plan::BackendKind::Command => &*rig.insert(
+            CommandRig::new(&plan)
+                .ok_or_else(|| UsageError("the plan has no [capture] command".into()))?,
+        ),
     };
     let bar = if std::io::stderr().is_terminal() {
         ProgressBar::with_draw_target(Some(cases.len() as u64), ProgressDrawTarget::stderr())
@@ -326,6 +325,12 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
                 case.source = Some(s.source.clone());
                 case.capture = Some(s.clone());
             }
+        }
+    }
+    if let Some(rig) = &rig {
+        let summaries = rig.summaries();
+        for case in &mut model.cases {
+            case.capture = summaries.get(&case.id).cloned();
         }
     }
     report::write_report(

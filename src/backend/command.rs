@@ -16,7 +16,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use super::captured::{find_segments, read_options, roi_rects, to_acquisition};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use super::captured::{CaptureSummary, find_segments, read_options, roi_rects, to_acquisition};
 use super::{Acquisition, Backend, BackendError};
 use crate::capture::{self, SourceKind};
 use crate::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Sequence, Span, TestCase};
@@ -32,6 +35,7 @@ pub struct CommandRig {
     fps: f64,
     rois: Vec<Roi>,
     scratch: PathBuf,
+    summaries: Arc<Mutex<HashMap<String, CaptureSummary>>>,
 }
 
 impl CommandRig {
@@ -45,12 +49,20 @@ impl CommandRig {
             plan_dir: plan
                 .path
                 .parent()
-                .map(Path::to_path_buf)
+                .map(|d| {
+                    if d.as_os_str().is_empty() {
+                        Path::new(".")
+                    } else {
+                        d
+                    }
+                })
+                .and_then(|d| d.canonicalize().ok())
                 .unwrap_or_default(),
             capture: cap,
             sequence: plan.sequence,
             fps: plan.dut.camera.fps,
             rois: plan.rois.clone(),
+            summaries: Arc::default(),
             scratch: std::env::temp_dir().join(format!("ledflicker-rig-{}", std::process::id())),
         })
     }
@@ -200,6 +212,11 @@ impl CommandRig {
         }
     }
 
+    /// What was read for each case so far, by case id.
+    pub fn summaries(&self) -> HashMap<String, CaptureSummary> {
+        self.summaries.lock().map(|m| m.clone()).unwrap_or_default()
+    }
+
     fn segments(&self) -> SegmentSpec {
         if !self.capture.segments.detect() {
             return self.capture.segments;
@@ -229,21 +246,26 @@ impl Backend for CommandRig {
         let result = (|| {
             let source = self.run_command(case, &out)?;
             let names: Vec<String> = self.rois.iter().map(|r| r.name.clone()).collect();
-            let trace = capture::read_capture(
-                &source,
-                &roi_rects(&self.rois),
-                &names,
-                &read_options(&self.capture),
-            )
-            .map_err(|e| self.fail(case, format!("the command's frames: {e}")))?;
+            // Frames without timestamps run at the plan's frame rate.
+            let mut opts = read_options(&self.capture);
+            opts.fps = opts.fps.or(Some(self.fps));
+            let trace = capture::read_capture(&source, &roi_rects(&self.rois), &names, &opts)
+                .map_err(|e| self.fail(case, format!("the command's frames: {e}")))?;
             let found = find_segments(&self.segments(), &trace, &source)
                 .map_err(|e| self.fail(case, e.to_string()))?;
-            Ok(to_acquisition(
-                &trace,
-                &found,
-                &self.rois,
-                self.capture.saturation_dn,
-            ))
+            let acq = to_acquisition(&trace, &found, &self.rois, self.capture.saturation_dn);
+            if let Ok(mut m) = self.summaries.lock() {
+                m.insert(
+                    case.id.clone(),
+                    CaptureSummary {
+                        source: format!("command: {}", self.argv.join(" ")),
+                        format: trace.format.clone(),
+                        timestamps: trace.timestamps,
+                        segments: found,
+                    },
+                );
+            }
+            Ok(acq)
         })();
         let _ = std::fs::remove_dir_all(&out);
         result
