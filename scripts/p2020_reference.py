@@ -21,8 +21,9 @@ not frame 0. Here row i is frame i for every i. Rows 0..24 are black in the
 three samples, so x_off is unaffected within the tolerance.
 
 Writes reference-data/p2020-flicker-videos/expected_p2020.csv (per video and
-ROI: fmi, fdi, mmp, x_off, sat) and expected_grey_<video>.csv (per-frame ROI
-means, for decoder comparisons). Usage:
+ROI: fmi, fdi, mmp, x_off, sat), expected_grey_<video>.csv (per-frame ROI
+means, for decoder comparisons) and expected_tiff_rois.csv (ROI means of
+test.tiff, an LZW-compressed RGB frame). Usage:
   pip install numpy opencv-python-headless
   python3 scripts/p2020_reference.py
 """
@@ -95,6 +96,16 @@ def main():
               "mmp", mmp.min(), mmp.max(), "x_off max", x_off.max())
     with open(os.path.join(DATA, "expected_p2020.csv"), "w", newline="") as f:
         csv.writer(f).writerows(out)
+    # The LZW-compressed RGB TIFF frame: ROI means of BT.601 grey and of R, G, B.
+    img = cv2.imread(os.path.join(DATA, "test.tiff"), cv2.IMREAD_COLOR)
+    grey = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+    with open(os.path.join(DATA, "expected_tiff_rois.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["roi", "grey", "r", "g", "b"])
+        for i, (x, y, wd, h) in enumerate(boxes):
+            bgr = img[y : y + h, x : x + wd].reshape(-1, 3).mean(0)
+            w.writerow([i, f"{np.mean(grey[y:y + h, x:x + wd]):.4f}",
+                        f"{bgr[2]:.4f}", f"{bgr[1]:.4f}", f"{bgr[0]:.4f}"])
 
 
 if __name__ == "__main__":

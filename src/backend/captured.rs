@@ -131,9 +131,16 @@ pub fn find_segments(
             "cannot detect segments: the ROI luma stays within {lo:.2}..{hi:.2} DN (no ON step)"
         )));
     }
+    // The ON step: the first frame above a quarter of the range. The OFF
+    // baseline ends where the luma first leaves the dark level (2 % of the
+    // range), so a slow rise is not averaged into x_off.
     let threshold = lo + 0.25 * (hi - lo);
     let step = m.iter().position(|&x| x > threshold).unwrap_or(0) as u64;
-    if step <= DETECT_GUARD_FRAMES {
+    let rise = m
+        .iter()
+        .position(|&x| x > lo + 0.02 * (hi - lo))
+        .unwrap_or(0) as u64;
+    if rise <= DETECT_GUARD_FRAMES {
         return Err(fail(
             "cannot detect segments: the capture does not start with a dark OFF baseline"
                 .to_string(),
@@ -152,7 +159,7 @@ pub fn find_segments(
     }
     Ok(SegmentsFound {
         method: "detected",
-        off: Some((0, step - DETECT_GUARD_FRAMES)),
+        off: Some((0, rise - DETECT_GUARD_FRAMES)),
         on: None,
         pwm: (pwm_start, n),
         capture_frames: n,
