@@ -126,7 +126,7 @@ pub fn find_segments(
             "give the segments in the plan: off-frames = [a, b] and pwm-frames = [c] (or *-time-s)"
                 .to_string(),
     };
-    if !(hi - lo > 0.02 * trace.full_scale_dn) {
+    if hi - lo <= 0.02 * trace.full_scale_dn || !hi.is_finite() || !lo.is_finite() {
         return Err(fail(format!(
             "cannot detect segments: the ROI luma stays within {lo:.2}..{hi:.2} DN (no ON step)"
         )));

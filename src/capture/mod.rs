@@ -353,6 +353,9 @@ pub(crate) struct FrameView<'a> {
     pub width: u32,
 }
 
+/// `[roi][frame]` R, G, B means, DN.
+pub(crate) type RgbTraces = Vec<Vec<[f64; 3]>>;
+
 /// Accumulates ROI means frame by frame.
 pub(crate) struct Accumulator<'r> {
     rois: &'r [RoiRect],
@@ -434,7 +437,7 @@ impl<'r> Accumulator<'r> {
     }
 
     /// The luma traces and, when every frame had colour, the RGB traces.
-    pub fn finish(self) -> (Vec<Vec<f64>>, Option<Vec<Vec<[f64; 3]>>>) {
+    pub fn finish(self) -> (Vec<Vec<f64>>, Option<RgbTraces>) {
         let n = self.frames();
         let rgb = (self.colour && self.rgb.iter().all(|t| t.len() == n)).then_some(self.rgb);
         (self.luma, rgb)

@@ -115,7 +115,7 @@ pub fn evaluate(luma: &[f64], segments: &[Segment], opts: &P2020Options) -> Opti
         Some(x0) if x0 > 0.0 => {
             value(pwm.iter().filter(|&&x| (x - x0) / x0 > t).count() as f64 / n)
         }
-        Some(x0) if x0 == 0.0 => {
+        Some(0.0) => {
             // Dark baseline: (x - 0) / 0 is +inf for x > 0 (above any
             // threshold) and 0/0 for x = 0. The share is the limit for
             // x_off -> 0+, i.e. the frames with any light, which is also what

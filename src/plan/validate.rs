@@ -298,10 +298,11 @@ pub(super) fn validate(
         .dut
         .as_ref()
         .is_some_and(|d| d.backend.as_deref() == Some("captured"));
-    let is_sim = raw
+    // An unknown backend is reported under [dut] and checked as a simulator.
+    let is_sim = !raw
         .dut
         .as_ref()
-        .is_none_or(|d| matches!(d.backend.as_deref(), None | Some("simulator")));
+        .is_some_and(|d| matches!(d.backend.as_deref(), Some("captured" | "command")));
     for (present, key) in [(raw.light.is_some(), "light"), (raw.grid.is_some(), "grid")] {
         if captured && present {
             c.error(
@@ -311,6 +312,7 @@ pub(super) fn validate(
             );
         }
     }
+    let mut capture_failed = false;
     let capture = if is_sim {
         for (present, key) in [
             (raw.capture.is_some(), "capture"),
@@ -333,9 +335,7 @@ pub(super) fn validate(
             captured,
             path,
         );
-        if cap.is_none() {
-            return None;
-        }
+        capture_failed = cap.is_none();
         cap
     };
     let p2020 = super::capture::p2020_options(&mut c, raw.p2020);
@@ -592,6 +592,9 @@ pub(super) fn validate(
         pwm_s: pwm_s?,
     };
     let dut = dut_v?;
+    if capture_failed {
+        return None;
+    }
     let total_frames = (sequence.on_s + sequence.off_s + sequence.pwm_s) * dut.camera.fps;
     if total_frames > MAX_FRAMES {
         c.error(

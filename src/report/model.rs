@@ -297,18 +297,20 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
             model: plan.dut.model.clone(),
             serial: plan.dut.serial.clone(),
             firmware: plan.dut.firmware.clone(),
-            camera: (plan.dut.backend == crate::plan::BackendKind::Simulator).then(|| CameraInfo {
-                shutter: match cam.shutter {
-                    ShutterKind::Global => "global",
-                    ShutterKind::Rolling => "rolling",
+            camera: (plan.dut.backend == crate::plan::BackendKind::Simulator).then_some(
+                CameraInfo {
+                    shutter: match cam.shutter {
+                        ShutterKind::Global => "global",
+                        ShutterKind::Rolling => "rolling",
+                    },
+                    sensor_rows: cam.sensor_rows,
+                    sensor_columns: cam.sensor_columns,
+                    line_time_us: cam.line_time_s * 1e6,
+                    exposure_ms: cam.exposure_s * 1e3,
+                    frame_rate_fps: cam.fps,
+                    pwm_delay_ms: cam.pwm_delay_s * 1e3,
                 },
-                sensor_rows: cam.sensor_rows,
-                sensor_columns: cam.sensor_columns,
-                line_time_us: cam.line_time_s * 1e6,
-                exposure_ms: cam.exposure_s * 1e3,
-                frame_rate_fps: cam.fps,
-                pwm_delay_ms: cam.pwm_delay_s * 1e3,
-            }),
+            ),
         },
         sequence: SequenceInfo { on_s, off_s, pwm_s },
         thresholds: plan.thresholds,

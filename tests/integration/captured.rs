@@ -293,7 +293,7 @@ fn png_sequences_8_and_16_bit_give_exact_roi_means() {
     let level = |k: u32| {
         if k < 4 {
             1000
-        } else if k % 2 == 0 {
+        } else if k.is_multiple_of(2) {
             30000
         } else {
             20000
