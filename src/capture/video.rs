@@ -162,7 +162,8 @@ pub(super) fn read(
     let crop = format!("crop={cw}:{ch}:{x0}:{y0}");
     let (filter, pix_fmt, bpp) = match opts.video_decode {
         VideoDecode::Rgb => (crop, "rgb24", 3usize),
-        VideoDecode::LumaPlane => (format!("extractplanes=y,{crop}"), "gray", 1usize),
+        // Crop first (no copy), so extractplanes copies only the box.
+        VideoDecode::LumaPlane => (format!("{crop},extractplanes=y"), "gray", 1usize),
     };
     let mut child = Command::new("ffmpeg")
         .args(["-nostdin", "-v", "error", "-xerror", "-i"])

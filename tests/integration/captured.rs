@@ -509,6 +509,24 @@ fn bad_videos_exit_2_naming_the_file() {
     std::fs::write(dir.join("cut.mp4"), &bytes[..bytes.len() / 2]).unwrap();
     let plan = one_case_plan(&dir, "cut.mp4", (0, 0, 2, 2), "");
     expect_invalid(&dir, &plan, &["cut.mp4"]);
+    // A video with no frames.
+    let o = Command::new("ffmpeg")
+        .args([
+            "-v",
+            "error",
+            "-y",
+            "-f",
+            "lavfi",
+            "-i",
+            "color=c=black:s=64x48:r=30",
+        ])
+        .args(["-frames:v", "0", "-c:v", "libx264"])
+        .arg(dir.join("zero.mp4"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let plan = one_case_plan(&dir, "zero.mp4", (0, 0, 2, 2), "");
+    expect_invalid(&dir, &plan, &["zero.mp4"]);
     // ROI outside the 1280x800 frame.
     std::fs::copy(data("test_vid3.mp4"), dir.join("v.mp4")).unwrap();
     let plan = one_case_plan(&dir, "v.mp4", (1270, 0, 20, 2), "");
@@ -635,4 +653,52 @@ fn linetime_of_the_gyroflow_frame_matches_the_stated_readout() {
     let o = ledflicker(&["linetime", "nope.png", "--frequency-hz", "1000"], root());
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("nope.png"));
+}
+
+#[test]
+fn sidecar_timestamps_override_the_frame_rate() {
+    let dir = scratch("sidecar");
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for k in 0..3 {
+        save_grey16(&frames.join(format!("f{k}.png")), 4, 4, |_, _| 7);
+    }
+    let rois = [RoiRect {
+        x: 0,
+        y: 0,
+        width: 2,
+        height: 2,
+    }];
+    let o = ReadOptions {
+        fps: Some(30.0),
+        ..opts(VideoDecode::Rgb)
+    };
+    assert_eq!(
+        read_capture(&frames, &rois, &[], &o).unwrap().time_s[2],
+        2.0 / 30.0
+    );
+    std::fs::write(
+        dir.join("frames.timestamps.csv"),
+        "frame,time_s\n0,0.0\n1,0.1\n2,0.25\n",
+    )
+    .unwrap();
+    let t = read_capture(&frames, &rois, &[], &o).unwrap();
+    assert_eq!(
+        (t.time_s.clone(), t.timestamps),
+        (vec![0.0, 0.1, 0.25], "sidecar")
+    );
+    std::fs::write(dir.join("frames.timestamps.csv"), "0.0\n0.1\n").unwrap();
+    let e = read_capture(&frames, &rois, &[], &o)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("2 timestamps for 3 frames"), "{e}");
+    // No frame rate and no sidecar: an error with a hint, not NaN times.
+    std::fs::remove_file(dir.join("frames.timestamps.csv")).unwrap();
+    let e = read_capture(&frames, &rois, &[], &opts(VideoDecode::Rgb))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("no timestamps") && e.contains("frame-rate-fps"),
+        "{e}"
+    );
 }
