@@ -66,8 +66,9 @@ pub enum VideoDecode {
     /// Decode to full-range RGB (FFmpeg's swscale, as OpenCV does in the P2020
     /// reference pipeline), then take luma: matches the reference exactly.
     Rgb,
-    /// Read the Y' plane only and expand its range to full scale: faster,
-    /// no R, G, B means; about 1 DN above the RGB path on the P2020 samples.
+    /// Read the Y' plane only and expand its range to full scale: no R, G, B
+    /// means; 1.1-1.3 DN (max 2 DN) above the RGB path on the P2020
+    /// samples, enough to move FMI and MMP by up to 0.05 there.
     LumaPlane,
 }
 
