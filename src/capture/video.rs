@@ -49,6 +49,8 @@ struct Probe {
     pix_fmt: String,
     full_range: Option<bool>,
     fps: Option<f64>,
+    /// Presentation times of the video packets, sorted, seconds from the first.
+    packet_times: Vec<f64>,
 }
 
 fn probe(path: &Path) -> Result<Probe, CaptureError> {
@@ -59,7 +61,7 @@ fn probe(path: &Path) -> Result<Probe, CaptureError> {
             "-select_streams",
             "v:0",
             "-show_entries",
-            "stream=width,height,codec_name,pix_fmt,color_range,avg_frame_rate",
+            "stream=width,height,codec_name,pix_fmt,color_range,avg_frame_rate:packet=pts_time",
             "-of",
             "default=noprint_wrappers=1",
         ])
@@ -95,7 +97,19 @@ fn probe(path: &Path) -> Result<Probe, CaptureError> {
         let (n, d) = (n.parse::<f64>().ok()?, d.parse::<f64>().ok()?);
         (n > 0.0 && d > 0.0).then_some(n / d)
     });
+    let mut packet_times: Vec<f64> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("pts_time=")?.trim().parse::<f64>().ok())
+        .filter(|x| x.is_finite())
+        .collect();
+    packet_times.sort_by(f64::total_cmp);
+    if let Some(&t0) = packet_times.first() {
+        for x in &mut packet_times {
+            *x -= t0;
+        }
+    }
     Ok(Probe {
+        packet_times,
         width: w,
         height: h,
         codec: get("codec_name").unwrap_or("?").to_string(),
@@ -107,36 +121,6 @@ fn probe(path: &Path) -> Result<Probe, CaptureError> {
         },
         fps,
     })
-}
-
-/// Presentation times of the video packets, sorted, seconds from the first.
-fn packet_times(path: &Path) -> Result<Vec<f64>, CaptureError> {
-    let out = Command::new("ffprobe")
-        .args([
-            "-v",
-            "error",
-            "-select_streams",
-            "v:0",
-            "-show_entries",
-            "packet=pts_time",
-            "-of",
-            "csv=p=0",
-        ])
-        .arg(path)
-        .output()
-        .map_err(|e| tool_error(path, "ffprobe", e))?;
-    let mut t: Vec<f64> = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .filter_map(|l| l.trim().trim_end_matches(',').parse::<f64>().ok())
-        .filter(|x| x.is_finite())
-        .collect();
-    t.sort_by(f64::total_cmp);
-    if let Some(&t0) = t.first() {
-        for x in &mut t {
-            *x -= t0;
-        }
-    }
-    Ok(t)
 }
 
 pub(super) fn read(
@@ -262,9 +246,8 @@ pub(super) fn read(
     }
     let n = acc.frames();
     let (luma, rgb) = acc.finish();
-    let packets = packet_times(path)?;
-    let (time_s, timestamps) = if packets.len() == n && n > 0 {
-        (packets, "container")
+    let (time_s, timestamps) = if p.packet_times.len() == n && n > 0 {
+        (p.packet_times, "container")
     } else {
         match p.fps.or(opts.fps) {
             Some(fps) => (times_from_fps(n, fps), "fps"),
