@@ -4,6 +4,17 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# The video tests decode H.264 with the `ffmpeg` and `ffprobe` binaries
+# (Debian package `ffmpeg`); install them when they are missing. They fail,
+# never skip, without them.
+if ! command -v ffmpeg >/dev/null 2>&1 || ! command -v ffprobe >/dev/null 2>&1; then
+    echo "--- installing ffmpeg (apt-get)"
+    SUDO=""
+    if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends ffmpeg >/dev/null
+fi
+
 # Snapshots never update silently in a test run; see README "Golden files".
 export INSTA_UPDATE="${INSTA_UPDATE:-no}"
 

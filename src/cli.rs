@@ -18,6 +18,8 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::backend::Backend;
+use crate::backend::captured::Captured;
+use crate::backend::command::CommandRig;
 use crate::backend::sim::Simulator;
 use crate::metrics::Verdict;
 use crate::physics::{PwmDrive, Shutter, ShutterModel};
@@ -64,6 +66,11 @@ enum Command {
     /// the time of the analytic fine map (worst-phase FDI and Percent Flicker
     /// over 50 Hz..2 kHz x 1..100 % duty) for a plan's camera.
     Bench(BenchArgs),
+    /// Estimate a rolling shutter's line time from a frame of a diffusely
+    /// lit PWM scene; prints the line time in microseconds on the first line.
+    Linetime(LinetimeArgs),
+    /// Render ideal-camera frames (ON, OFF, PWM) as grey PNG files.
+    Render(RenderArgs),
 }
 
 #[derive(Args, Debug)]
@@ -111,6 +118,40 @@ struct BenchArgs {
     /// Timed repetitions of the fine map (>= 1); the median is reported.
     #[arg(long, default_value_t = 11)]
     repeat: usize,
+}
+
+#[derive(Args, Debug)]
+struct LinetimeArgs {
+    /// Image file (PNG or TIFF).
+    image: PathBuf,
+    /// PWM frequency of the light, Hz (> 0).
+    #[arg(long)]
+    frequency_hz: f64,
+}
+
+#[derive(Args, Debug)]
+struct RenderArgs {
+    /// The condition and camera, as for `simulate` (--frames is ignored).
+    #[command(flatten)]
+    sim: SimulateArgs,
+    /// Steady-ON duration, seconds.
+    #[arg(long, default_value_t = 0.0)]
+    on_s: f64,
+    /// OFF duration, seconds.
+    #[arg(long, default_value_t = 1.0)]
+    off_s: f64,
+    /// PWM duration, seconds.
+    #[arg(long, default_value_t = 2.0)]
+    pwm_s: f64,
+    /// Frame width, pixels.
+    #[arg(long, default_value_t = 64)]
+    width: u32,
+    /// Frame height, rows.
+    #[arg(long, default_value_t = 48)]
+    height: u32,
+    /// Output directory.
+    #[arg(long)]
+    out: PathBuf,
 }
 
 #[derive(Args, Debug)]
@@ -194,6 +235,16 @@ pub fn exit_code(err: &anyhow::Error) -> i32 {
         if cause.is::<PlanError>() || cause.is::<UsageError>() {
             return EXIT_INVALID;
         }
+        if let Some(e) = cause.downcast_ref::<crate::capture::CaptureError>() {
+            return if e.is_input_error() {
+                EXIT_INVALID
+            } else {
+                EXIT_INTERNAL
+            };
+        }
+        if let Some(crate::linetime::LineTimeError::Read { .. }) = cause.downcast_ref() {
+            return EXIT_INVALID;
+        }
         if let Some(report::ReportError::Signed { .. }) = cause.downcast_ref() {
             return EXIT_INVALID;
         }
@@ -220,6 +271,8 @@ fn run(cli: Cli) -> anyhow::Result<i32> {
         Command::Simulate(args) => simulate(args),
         Command::Advise(args) => advise(args),
         Command::Bench(args) => bench(args),
+        Command::Linetime(args) => linetime(args),
+        Command::Render(args) => render(args),
     }
 }
 
@@ -227,6 +280,16 @@ fn validate(arg: &str) -> anyhow::Result<i32> {
     let path = plan::resolve_plan_path(arg)?;
     let plan = plan::load(&path)?;
     let cases = plan::expand_cases(&plan);
+    if plan.dut.backend == plan::BackendKind::Captured {
+        println!(
+            "plan `{}` ({}) is valid: {} captured cases, {} ROIs",
+            plan.id,
+            path.display(),
+            cases.len(),
+            plan.rois.len()
+        );
+        return Ok(EXIT_PASS);
+    }
     let frames = crate::backend::sim::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps);
     println!(
         "plan `{}` ({}) is valid: {} cases ({} light levels x {} frequencies x {} duty cycles), {} ROIs, {} frames per case",
@@ -287,7 +350,23 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     report::check_overwrite(&out, args.force)?;
 
     let cases = plan::expand_cases(&plan);
-    let backend = Simulator::new(&plan);
+    let sim;
+    let mut captured = None;
+    let mut rig = None;
+    let backend: &dyn Backend = match plan.dut.backend {
+        plan::BackendKind::Simulator => {
+            sim = Simulator::new(&plan);
+            &sim
+        }
+        plan::BackendKind::Captured => &*captured.insert(
+            Captured::load(&plan)
+                .with_context(|| format!("cannot read the captures of plan `{}`", plan.id))?,
+        ),
+        plan::BackendKind::Command => &*rig.insert(
+            CommandRig::new(&plan)
+                .ok_or_else(|| UsageError("the plan has no [capture] command".into()))?,
+        ),
+    };
     let bar = if std::io::stderr().is_terminal() {
         ProgressBar::with_draw_target(Some(cases.len() as u64), ProgressDrawTarget::stderr())
     } else {
@@ -304,13 +383,27 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
             bar.inc(1);
         }
     };
-    let mut results = runner::run(&plan, &cases, &backend, args.threads, &on_event)
+    let mut results = runner::run(&plan, &cases, backend, args.threads, &on_event)
         .with_context(|| format!("run of plan `{}` failed", plan.id))?;
-    runner::render_sample_frames(&plan, &mut results, &backend)
+    runner::render_sample_frames(&plan, &mut results, backend)
         .with_context(|| format!("cannot render the sample frames of plan `{}`", plan.id))?;
     bar.finish_and_clear();
 
-    let model = report::build(&plan, backend.id(), &results);
+    let mut model = report::build(&plan, backend.id(), &results);
+    if let Some(captured) = &captured {
+        for case in &mut model.cases {
+            if let Some(s) = captured.summaries().get(&case.id) {
+                case.source = Some(s.source.clone());
+                case.capture = Some(s.clone());
+            }
+        }
+    }
+    if let Some(rig) = &rig {
+        let summaries = rig.summaries();
+        for case in &mut model.cases {
+            case.capture = summaries.get(&case.id).cloned();
+        }
+    }
     report::write_report(
         &out,
         &model,
@@ -550,5 +643,69 @@ fn bench(a: BenchArgs) -> anyhow::Result<i32> {
         1e3 * times[times.len() - 1],
         repeat
     );
+    Ok(EXIT_PASS)
+}
+
+fn linetime(a: LinetimeArgs) -> anyhow::Result<i32> {
+    if !(a.frequency_hz.is_finite() && a.frequency_hz > 0.0) {
+        return Err(UsageError(format!(
+            "--frequency-hz must be > 0, got {}",
+            a.frequency_hz
+        ))
+        .into());
+    }
+    let profile = crate::linetime::row_profile(&a.image)?;
+    let e = crate::linetime::estimate(&profile, a.frequency_hz)
+        .map_err(|e| UsageError(format!("`{}`: {e}", a.image.display())))?;
+    let mut w = std::io::stdout().lock();
+    writeln!(w, "{:.3}", e.line_time_s * 1e6)?;
+    writeln!(w, "line_time_us: {:.4}", e.line_time_s * 1e6)?;
+    writeln!(w, "band_period_rows: {:.3}", e.band_period_rows)?;
+    writeln!(
+        w,
+        "readout_ms ({} rows): {:.4}",
+        e.rows,
+        e.line_time_s * e.rows as f64 * 1e3
+    )?;
+    writeln!(w, "fit_quality: {:.3}", e.fit_quality)?;
+    Ok(EXIT_PASS)
+}
+
+fn render(a: RenderArgs) -> anyhow::Result<i32> {
+    let usage = |m: String| anyhow::Error::from(UsageError(m));
+    let s = &a.sim;
+    let pwm = PwmDrive::new(s.frequency_hz, s.duty, s.pwm_delay_ms * 1e-3).map_err(usage)?;
+    let ok = |v: f64| v.is_finite() && v >= 0.0;
+    if !(s.exposure_ms.is_finite() && s.exposure_ms > 0.0 && s.fps.is_finite() && s.fps > 0.0)
+        || !(ok(a.on_s) && ok(a.off_s) && ok(a.pwm_s) && ok(s.line_time_us))
+        || a.width == 0
+        || a.height == 0
+    {
+        return Err(usage(
+            "--exposure-ms and --fps must be > 0; durations, --line-time-us >= 0; --width, --height >= 1"
+                .into(),
+        ));
+    }
+    let shutter = Shutter {
+        model: match s.shutter {
+            ShutterArg::Global => ShutterModel::Global,
+            ShutterArg::Rolling => ShutterModel::Rolling {
+                line_time_s: s.line_time_us * 1e-6,
+            },
+        },
+        exposure_s: s.exposure_ms * 1e-3,
+        fps: s.fps,
+    };
+    let frames = |d: f64| (d * s.fps).round() as u64;
+    let spec = crate::render::RenderSpec {
+        shutter,
+        width: a.width,
+        height: a.height,
+        frames: (frames(a.on_s), frames(a.off_s), frames(a.pwm_s)),
+        background_dn: 20.0,
+        gain_dn: 200.0,
+    };
+    let n = crate::render::render_frames(&spec, &pwm, &a.out).map_err(anyhow::Error::msg)?;
+    eprintln!("wrote {n} frames to {}", a.out.display());
     Ok(EXIT_PASS)
 }

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use crate::backend::{Acquisition, Backend, BackendError, RenderedFrame};
 use crate::metrics::flicker::Segment;
+use crate::metrics::p2020::{self, P2020Metrics};
 use crate::metrics::{Check, RoiMetrics, Verdict, evaluate_case, evaluate_roi};
 use crate::plan::RoiKind;
 use crate::plan::{Plan, TestCase};
@@ -28,6 +29,8 @@ pub struct CaseResult {
     /// A picture of the frame with the lowest LED-ROI luma in the PWM
     /// segment, when one was asked for and the backend can render it.
     pub sample_frame: Option<RenderedFrame>,
+    /// IEEE P2020 KPIs per plan ROI, in plan order.
+    pub p2020: Vec<P2020Metrics>,
 }
 
 /// What the runner tells its caller while it works.
@@ -127,6 +130,7 @@ pub fn run_case(
     }
     let segments: Vec<_> = acquisition.frames.iter().map(|f| f.segment).collect();
     let mut metrics = Vec::with_capacity(plan.rois.len());
+    let mut p2020s = Vec::with_capacity(plan.rois.len());
     for trace in &acquisition.rois {
         if trace.luma.len() != segments.len() {
             return Err(bad(format!(
@@ -158,6 +162,7 @@ pub fn run_case(
         )
         .ok_or_else(|| bad("the trace has no PWM frames".to_string()))?;
         metrics.push(m);
+        p2020s.extend(p2020::evaluate(&trace.luma, &segments, &plan.p2020));
     }
     let pairs: Vec<_> = plan.rois.iter().zip(&metrics).collect();
     let (verdict, checks) = evaluate_case(case.frequency_hz, &pairs, &plan.thresholds);
@@ -168,6 +173,7 @@ pub fn run_case(
         verdict,
         checks,
         sample_frame: None,
+        p2020: p2020s,
     })
 }
 

@@ -5,6 +5,8 @@
 //! every ROI in every frame. The built-in simulator is [`sim::Simulator`];
 //! captured data and lab rigs plug in through the same trait.
 
+pub mod captured;
+pub mod command;
 pub mod sim;
 
 use crate::metrics::flicker::Segment;

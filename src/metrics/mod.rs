@@ -5,6 +5,7 @@
 //! measured the same way.
 
 pub mod flicker;
+pub mod p2020;
 pub mod verdict;
 
 pub use flicker::{Levels, Metric, RoiMetrics, evaluate_roi};

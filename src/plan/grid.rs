@@ -21,18 +21,29 @@ pub struct TestCase {
     pub seed: u64,
 }
 
-/// Expands the plan's grids into cases.
+/// Expands the plan's grids into cases. A captured plan's cases are its
+/// `[[case]]` entries; unknown conditions are 0 there (never a valid value).
 pub fn expand_cases(plan: &Plan) -> Vec<TestCase> {
     let mut cases = Vec::new();
+    if plan.dut.backend == super::BackendKind::Captured
+        && let Some(cap) = &plan.capture
+    {
+        for c in &cap.cases {
+            cases.push(TestCase {
+                index: cases.len(),
+                seed: case_seed(plan.seed, &c.id),
+                id: c.id.clone(),
+                light_lux: c.light_lux.unwrap_or(0.0),
+                frequency_hz: c.frequency_hz.unwrap_or(0.0),
+                duty: c.duty.unwrap_or(0.0),
+            });
+        }
+        return cases;
+    }
     for &lux in &plan.light_levels_lux {
         for &f in &plan.frequencies_hz {
             for &d in &plan.duty_cycles {
-                let id = format!(
-                    "{}lux-{}hz-{}pct",
-                    number(lux),
-                    number(f),
-                    number(d * 100.0)
-                );
+                let id = condition_id(lux, f, d);
                 cases.push(TestCase {
                     index: cases.len(),
                     seed: case_seed(plan.seed, &id),
@@ -45,6 +56,16 @@ pub fn expand_cases(plan: &Plan) -> Vec<TestCase> {
         }
     }
     cases
+}
+
+/// Case id of a condition, e.g. `2000lux-150hz-20pct`.
+pub fn condition_id(lux: f64, frequency_hz: f64, duty: f64) -> String {
+    format!(
+        "{}lux-{}hz-{}pct",
+        number(lux),
+        number(frequency_hz),
+        number(duty * 100.0)
+    )
 }
 
 /// A short decimal for ids: at most 6 decimals, no trailing zeros.

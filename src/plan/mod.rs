@@ -5,6 +5,7 @@
 //! collects every unknown key and every out-of-range value with its line,
 //! and fails with all of them at once.
 
+mod capture;
 mod grid;
 mod raw;
 mod spans;
@@ -13,6 +14,7 @@ mod validate;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+pub use capture::{CaptureCase, CaptureConfig, CommandSpec, SegmentSpec, Span};
 pub use grid::{TestCase, expand_cases};
 
 /// Upper bound on cases in one plan, to catch a mistyped grid step early.
@@ -54,6 +56,11 @@ pub struct Plan {
     pub scene: Scene,
     /// Pass criteria.
     pub thresholds: Thresholds,
+    /// Captured data and lab-rig settings (`[capture]`, `[[case]]`);
+    /// `Some` for the captured and command backends.
+    pub capture: Option<CaptureConfig>,
+    /// IEEE P2020 KPI settings (`[p2020]`).
+    pub p2020: crate::metrics::p2020::P2020Options,
 }
 
 /// The light sequence of one case: steady ON (luminance matched to the PWM
@@ -108,6 +115,10 @@ impl Roi {
 pub enum BackendKind {
     /// The built-in physics simulator.
     Simulator,
+    /// Captured data: one file per `[[case]]`.
+    Captured,
+    /// A lab-rig command run for each case.
+    Command,
 }
 
 /// Device under test.

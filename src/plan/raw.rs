@@ -31,6 +31,13 @@ pub struct RawPlan {
     pub scene: Option<RawScene>,
     /// `[thresholds]`: pass criteria.
     pub thresholds: Option<RawThresholds>,
+    /// `[capture]`: how captured data is read.
+    pub capture: Option<super::capture::RawCapture>,
+    /// `[[case]]`: captures of a captured plan.
+    #[serde(default)]
+    pub case: Vec<super::capture::RawCaseEntry>,
+    /// `[p2020]`: IEEE P2020 KPI settings.
+    pub p2020: Option<super::capture::RawP2020>,
 }
 
 /// `[plan]`

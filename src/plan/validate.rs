@@ -26,7 +26,7 @@ const MAX_GRID_POINTS: usize = 10_000;
 /// Longest capture the simulator will make for one case, in frames.
 const MAX_FRAMES: f64 = 10_000_000.0;
 
-struct Checker<'a> {
+pub(super) struct Checker<'a> {
     index: &'a SpanIndex,
     diags: &'a mut Vec<Diagnostic>,
     /// Set while checking a file other than the plan (a camera profile).
@@ -34,7 +34,7 @@ struct Checker<'a> {
 }
 
 impl Checker<'_> {
-    fn error(&mut self, key: &str, message: impl Into<String>, hint: Option<&str>) {
+    pub(super) fn error(&mut self, key: &str, message: impl Into<String>, hint: Option<&str>) {
         // A key that is absent from the file is reported at its table.
         let location = self.index.location(key).or_else(|| {
             let mut k = key;
@@ -55,7 +55,7 @@ impl Checker<'_> {
         });
     }
 
-    fn required<T>(&mut self, value: Option<T>, key: &str, hint: &str) -> Option<T> {
+    pub(super) fn required<T>(&mut self, value: Option<T>, key: &str, hint: &str) -> Option<T> {
         if value.is_none() {
             self.error(key, "missing required key", Some(hint));
         }
@@ -63,7 +63,7 @@ impl Checker<'_> {
     }
 
     /// `value` must be finite and > 0.
-    fn positive(&mut self, value: f64, key: &str, hint: &str) -> Option<f64> {
+    pub(super) fn positive(&mut self, value: f64, key: &str, hint: &str) -> Option<f64> {
         if value.is_finite() && value > 0.0 {
             Some(value)
         } else {
@@ -73,7 +73,7 @@ impl Checker<'_> {
     }
 
     /// `value` must be finite and >= 0.
-    fn non_negative(&mut self, value: f64, key: &str, hint: &str) -> Option<f64> {
+    pub(super) fn non_negative(&mut self, value: f64, key: &str, hint: &str) -> Option<f64> {
         if value.is_finite() && value >= 0.0 {
             Some(value)
         } else {
@@ -82,7 +82,7 @@ impl Checker<'_> {
         }
     }
 
-    fn duty(&mut self, value: f64, key: &str) -> Option<f64> {
+    pub(super) fn duty(&mut self, value: f64, key: &str) -> Option<f64> {
         if value.is_finite() && value > 0.0 && value <= 1.0 {
             Some(value)
         } else {
@@ -95,7 +95,7 @@ impl Checker<'_> {
         }
     }
 
-    fn pixels(&mut self, value: i64, key: &str, min: i64) -> Option<u32> {
+    pub(super) fn pixels(&mut self, value: i64, key: &str, min: i64) -> Option<u32> {
         if value >= min && value <= u32::MAX as i64 {
             Some(value as u32)
         } else {
@@ -219,7 +219,7 @@ impl Checker<'_> {
 /// Validates `raw`, pushing every problem into `diags`. Returns `None` when
 /// something required is missing or invalid.
 pub(super) fn validate(
-    raw: RawPlan,
+    mut raw: RawPlan,
     index: &SpanIndex,
     diags: &mut Vec<Diagnostic>,
     path: &Path,
@@ -305,8 +305,59 @@ pub(super) fn validate(
         }
     }
 
+    // A captured plan takes its cases from [[case]], not from [light] and [grid].
+    let captured = raw
+        .dut
+        .as_ref()
+        .is_some_and(|d| d.backend.as_deref() == Some("captured"));
+    // An unknown backend is reported under [dut] and checked as a simulator.
+    let is_sim = !raw
+        .dut
+        .as_ref()
+        .is_some_and(|d| matches!(d.backend.as_deref(), Some("captured" | "command")));
+    for (present, key) in [(raw.light.is_some(), "light"), (raw.grid.is_some(), "grid")] {
+        if captured && present {
+            c.error(
+                key,
+                "a captured plan lists its cases in [[case]], not in [light] and [grid]",
+                Some("give each [[case]] its light-lux, frequency-hz and duty-cycle"),
+            );
+        }
+    }
+    let mut capture_failed = false;
+    let capture = if is_sim {
+        for (present, key) in [
+            (raw.capture.is_some(), "capture"),
+            (!raw.case.is_empty(), "case"),
+        ] {
+            if present {
+                c.error(
+                    key,
+                    "only the captured and command backends read this table",
+                    Some("set [dut] backend = \"captured\" or \"command\", or remove it"),
+                );
+            }
+        }
+        None
+    } else {
+        let cap = super::capture::capture_config(
+            &mut c,
+            raw.capture,
+            std::mem::take(&mut raw.case),
+            captured,
+            path,
+        );
+        capture_failed = cap.is_none();
+        cap
+    };
+    let p2020 = super::capture::p2020_options(&mut c, raw.p2020);
+
     // [light]
-    let light = c.required(raw.light, "light", "add [light] with levels-lux = [2000.0]");
+    let light = if captured {
+        None
+    } else {
+        c.required(raw.light, "light", "add [light] with levels-lux = [2000.0]")
+    };
     let levels = light.and_then(|l| {
         let list = c.required(
             l.levels_lux,
@@ -329,11 +380,20 @@ pub(super) fn validate(
     });
 
     // [grid]
-    let grid = c.required(
-        raw.grid,
-        "grid",
-        "add [grid] with frequencies-hz and duty-cycles",
-    );
+    let grid = if captured {
+        None
+    } else {
+        c.required(
+            raw.grid,
+            "grid",
+            "add [grid] with frequencies-hz and duty-cycles",
+        )
+    };
+    let (levels, grid_ok) = if captured {
+        (Some(Vec::new()), true)
+    } else {
+        (levels, true)
+    };
     let (mut freqs, mut duties) = (None, None);
     if let Some(g) = grid {
         freqs = c.grid(
@@ -350,6 +410,10 @@ pub(super) fn validate(
             "grid.duty-cycle-range",
             &mut |c, v, k| c.duty(v, k),
         );
+    }
+    if captured && grid_ok {
+        freqs = Some(Vec::new());
+        duties = Some(Vec::new());
     }
     if let (Some(l), Some(f), Some(d)) = (&levels, &freqs, &duties) {
         let n = l.len() * f.len() * d.len();
@@ -372,17 +436,19 @@ pub(super) fn validate(
     if let Some(d) = dut {
         let backend = match d.backend.as_deref() {
             None | Some("simulator") => Some(BackendKind::Simulator),
+            Some("captured") => Some(BackendKind::Captured),
+            Some("command") => Some(BackendKind::Command),
             Some(other) => {
                 c.error(
                     "dut.backend",
                     format!("unknown backend `{other}`"),
-                    Some("this version has backend = \"simulator\""),
+                    Some("use backend = \"simulator\", \"captured\" or \"command\""),
                 );
                 None
             }
         };
-        let camera = match (d.camera_profile, d.camera) {
-            (Some(_), Some(_)) => {
+        let camera = match (d.camera_profile, d.camera, is_sim) {
+            (Some(_), Some(_), _) => {
                 c.error(
                     "dut.camera-profile",
                     "give either `camera-profile` or a [dut.camera] table, not both",
@@ -390,9 +456,12 @@ pub(super) fn validate(
                 );
                 None
             }
-            (Some(profile), None) => load_profile(&mut c, &profile, path),
-            (None, Some(cam)) => camera_config(&mut c, cam, "dut.camera", "plan"),
-            (None, None) => {
+            (Some(profile), None, _) => load_profile(&mut c, &profile, path),
+            (None, Some(cam), _) => camera_config(&mut c, cam, "dut.camera", "plan"),
+            // Captured data has no simulated camera; ROIs are checked
+            // against each capture's frame size when it is read.
+            (None, None, false) => Some(super::capture::no_camera()),
+            (None, None, true) => {
                 c.error(
                     "dut.camera",
                     "missing camera",
@@ -580,6 +649,9 @@ pub(super) fn validate(
         pwm_s: pwm_s?,
     };
     let dut = dut_v?;
+    if capture_failed {
+        return None;
+    }
     let total_frames = (sequence.on_s + sequence.off_s + sequence.pwm_s) * dut.camera.fps;
     if total_frames > MAX_FRAMES {
         c.error(
@@ -614,6 +686,8 @@ pub(super) fn validate(
         dut,
         scene: scene?,
         thresholds: thresholds?,
+        capture,
+        p2020: p2020?,
     })
 }
 

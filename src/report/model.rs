@@ -192,12 +192,22 @@ pub struct Counts {
 pub struct CaseInfo {
     /// Case id.
     pub id: String,
-    /// Illuminance, lux.
+    /// Illuminance, lux; `null` when unknown (a capture without conditions).
+    #[serde(serialize_with = "positive_or_null")]
     pub light_lux: f64,
-    /// PWM frequency, Hz.
+    /// PWM frequency, Hz; `null` when unknown.
+    #[serde(serialize_with = "positive_or_null")]
     pub frequency_hz: f64,
-    /// Duty cycle, 0..1.
+    /// Duty cycle, 0..1; `null` when unknown.
+    #[serde(serialize_with = "positive_or_null")]
     pub duty: f64,
+    /// Capture file of a captured case, as written in the plan.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub source: Option<String>,
+    /// What was read from the capture and the segments used (captured and
+    /// command backends).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub capture: Option<crate::backend::captured::CaptureSummary>,
     /// Case seed.
     pub seed: u64,
     /// pass, fail or info.
@@ -263,6 +273,16 @@ pub struct RoiInfo {
     pub analysis: RoiAnalysis,
 }
 
+/// Conditions are > 0 when known; a captured case without conditions holds
+/// 0, written as `null`.
+fn positive_or_null<S: serde::Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+    if *v > 0.0 {
+        s.serialize_f64(*v)
+    } else {
+        s.serialize_none()
+    }
+}
+
 fn insert(roi: &mut RoiInfo, name: &str, m: &Metric) {
     roi.metrics.insert(name.to_string(), m.value);
     if let Some(r) = &m.reason {
@@ -297,7 +317,8 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                 .iter()
                 .zip(&r.metrics)
                 .zip(a.rois)
-                .map(|((roi, m), ra)| {
+                .enumerate()
+                .map(|(i, ((roi, m), ra))| {
                     let mut info = RoiInfo {
                         name: roi.name.clone(),
                         kind: roi.kind,
@@ -328,6 +349,11 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                     if let Some(w) = &info.analysis.phase_coverage.warning {
                         info.reasons.insert("phase_coverage".to_string(), w.clone());
                     }
+                    if let Some(p) = r.p2020.get(i) {
+                        insert(&mut info, "fmi", &p.fmi);
+                        insert(&mut info, "fdi_p2020", &p.fdi);
+                        insert(&mut info, "mmp", &p.mmp);
+                    }
                     info
                 })
                 .collect();
@@ -336,6 +362,8 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                 light_lux: r.case.light_lux,
                 frequency_hz: r.case.frequency_hz,
                 duty: r.case.duty,
+                source: None,
+                capture: None,
                 seed: r.case.seed,
                 verdict: r.verdict,
                 in_mitigation_range: in_mitigation_range(r.case.frequency_hz, &plan.thresholds),
@@ -378,18 +406,20 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
             model: plan.dut.model.clone(),
             serial: plan.dut.serial.clone(),
             firmware: plan.dut.firmware.clone(),
-            camera: Some(CameraInfo {
-                shutter: match cam.shutter {
-                    ShutterKind::Global => "global",
-                    ShutterKind::Rolling => "rolling",
+            camera: (plan.dut.backend == crate::plan::BackendKind::Simulator).then_some(
+                CameraInfo {
+                    shutter: match cam.shutter {
+                        ShutterKind::Global => "global",
+                        ShutterKind::Rolling => "rolling",
+                    },
+                    sensor_rows: cam.sensor_rows,
+                    sensor_columns: cam.sensor_columns,
+                    line_time_us: cam.line_time_s * 1e6,
+                    exposure_ms: cam.exposure_s * 1e3,
+                    frame_rate_fps: cam.fps,
+                    pwm_delay_ms: cam.pwm_delay_s * 1e3,
                 },
-                sensor_rows: cam.sensor_rows,
-                sensor_columns: cam.sensor_columns,
-                line_time_us: cam.line_time_s * 1e6,
-                exposure_ms: cam.exposure_s * 1e3,
-                frame_rate_fps: cam.fps,
-                pwm_delay_ms: cam.pwm_delay_s * 1e3,
-            }),
+            ),
         },
         sequence: SequenceInfo { on_s, off_s, pwm_s },
         thresholds: plan.thresholds,

@@ -1,5 +1,6 @@
 //! Integration tests: one binary (ripgrep style) with a module per area.
 
+mod captured;
 mod cli;
 mod exact;
 mod physics;

@@ -1,0 +1,90 @@
+//! CSV luma traces exported by other tools: a header row, then one row per
+//! frame. Columns named like the plan's ROIs hold their luma (DN); an
+//! optional `time_s` column holds the frame times (else the frame rate is
+//! used); other columns (`frame`, `segment`, ...) are ignored. A trace
+//! written by ledflicker (traces/<case>.csv) reads back as is.
+
+use std::path::Path;
+
+use super::{CaptureError, CaptureTrace, ReadOptions, times_from_fps};
+
+pub(super) fn read(
+    path: &Path,
+    roi_names: &[String],
+    opts: &ReadOptions,
+) -> Result<CaptureTrace, CaptureError> {
+    let text = std::fs::read_to_string(path).map_err(|e| CaptureError::Read {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty() && !l.starts_with('#'));
+    let Some((_, header)) = lines.next() else {
+        return Err(CaptureError::Invalid {
+            path: path.to_path_buf(),
+            message: "the CSV trace is empty".to_string(),
+            hint: "a header row, e.g. `frame,time_s,led`, then one row per frame".to_string(),
+        });
+    };
+    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+    let time_col = cols.iter().position(|c| *c == "time_s");
+    let mut roi_cols = Vec::with_capacity(roi_names.len());
+    for name in roi_names {
+        match cols.iter().position(|c| c == name) {
+            Some(i) => roi_cols.push(i),
+            None => {
+                return Err(CaptureError::Invalid {
+                    path: path.to_path_buf(),
+                    message: format!("no column `{name}` for the plan's ROI `{name}`"),
+                    hint: format!(
+                        "the header has: {}; name the ROIs in the plan after the trace's columns",
+                        cols.join(", ")
+                    ),
+                });
+            }
+        }
+    }
+    let mut luma = vec![Vec::new(); roi_names.len()];
+    let mut times = Vec::new();
+    for (frame, (line_no, line)) in lines.enumerate() {
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let num = |i: usize| -> Result<f64, CaptureError> {
+            let raw = fields.get(i).copied().unwrap_or("");
+            raw.parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| CaptureError::Frame {
+                    path: path.to_path_buf(),
+                    frame: frame as u64,
+                    message: format!(
+                        "line {}, column `{}`: `{raw}` is not a finite number",
+                        line_no + 1,
+                        cols[i]
+                    ),
+                })
+        };
+        for (k, &i) in roi_cols.iter().enumerate() {
+            luma[k].push(num(i)?);
+        }
+        if let Some(i) = time_col {
+            times.push(num(i)?);
+        }
+    }
+    let n = luma.first().map_or(0, Vec::len);
+    let (time_s, timestamps) = match (time_col, opts.fps) {
+        (Some(_), _) => (times, "csv"),
+        (None, Some(fps)) => (times_from_fps(n, fps), "fps"),
+        (None, None) => (times_from_fps(n, f64::NAN), "none"),
+    };
+    Ok(CaptureTrace {
+        time_s,
+        luma,
+        rgb: None,
+        full_scale_dn: 255.0,
+        frame_size: (0, 0),
+        timestamps,
+        format: "csv luma trace".to_string(),
+    })
+}

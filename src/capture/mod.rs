@@ -1,0 +1,512 @@
+//! Captured camera data -> per-frame ROI means, streaming.
+//!
+//! Sits in front of the captured and command backends: it reads image
+//! sequences (PNG 8/16-bit, TIFF incl. LZW; grey or RGB), Y4M files, MP4/MOV
+//! video (through the `ffmpeg` binary, as a subprocess) and CSV luma traces,
+//! one frame at a time, and keeps only the mean luma (and R, G, B means when
+//! the source has colour) of every ROI. Memory is bounded by one frame (or,
+//! for video, the ROIs' bounding box) plus the traces.
+//!
+//! Luma follows the P2020 reference pipeline (CARpublic/P2020-flicker): the
+//! frame is full-range RGB, grey is taken per pixel (BT.601 by default, as
+//! OpenCV's `COLOR_BGR2GRAY`, rounded to whole DN as an integer image would
+//! be), and the ROI mean is the mean of those grey pixels.
+
+mod csv_trace;
+mod images;
+mod video;
+mod y4m;
+
+use std::path::{Path, PathBuf};
+
+pub use video::ffmpeg_available;
+
+/// A rectangle of pixels, 0-based from the top-left corner.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RoiRect {
+    /// Left column.
+    pub x: u32,
+    /// Top row.
+    pub y: u32,
+    /// Width in columns (>= 1).
+    pub width: u32,
+    /// Height in rows (>= 1).
+    pub height: u32,
+}
+
+/// Weights that turn R, G, B into luma.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LumaWeights {
+    /// ITU-R BT.601: 0.299 R + 0.587 G + 0.114 B (OpenCV's grey; P2020 reference).
+    Bt601,
+    /// ITU-R BT.709: 0.2126 R + 0.7152 G + 0.0722 B.
+    Bt709,
+}
+
+impl LumaWeights {
+    /// Per-pixel luma of integer R, G, B, rounded to a whole DN. BT.601
+    /// uses OpenCV's 14-bit fixed-point weights so that 8-bit grey is
+    /// bit-identical to `cv2.cvtColor(.., COLOR_BGR2GRAY)`.
+    #[inline]
+    pub fn luma(self, r: u32, g: u32, b: u32) -> u32 {
+        match self {
+            LumaWeights::Bt601 => (r * 4899 + g * 9617 + b * 1868 + 8192) >> 14,
+            LumaWeights::Bt709 => {
+                ((r as f64 * 0.2126 + g as f64 * 0.7152 + b as f64 * 0.0722) + 0.5) as u32
+            }
+        }
+    }
+}
+
+/// How video is decoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum VideoDecode {
+    /// Decode to full-range RGB (FFmpeg's swscale, as OpenCV does in the P2020
+    /// reference pipeline), then take luma: matches the reference exactly.
+    Rgb,
+    /// Read the Y' plane only and expand its range to full scale: no R, G, B
+    /// means; 1.1-1.3 DN (max 2 DN) above the RGB path on the P2020
+    /// samples, enough to move FMI and MMP by up to 0.05 there.
+    LumaPlane,
+}
+
+/// Signal range of Y' in video and Y4M.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum VideoRange {
+    /// From the file's tag; limited (16-235) when untagged, as H.264 usually is.
+    Auto,
+    /// 16-235 (8-bit), expanded to 0-255.
+    Limited,
+    /// 0-255, used as is.
+    Full,
+}
+
+/// How to read a capture.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReadOptions {
+    /// Luma weights for RGB sources.
+    pub luma: LumaWeights,
+    /// Video decode path.
+    pub video_decode: VideoDecode,
+    /// Y' range of video and Y4M.
+    pub range: VideoRange,
+    /// Frame rate used for timestamps when the source has none, frames/s.
+    pub fps: Option<f64>,
+}
+
+/// ROI means of every frame of a capture.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaptureTrace {
+    /// Time of each frame from the first, seconds.
+    pub time_s: Vec<f64>,
+    /// `luma[roi][frame]`, DN.
+    pub luma: Vec<Vec<f64>>,
+    /// `rgb[roi][frame]` R, G, B means, DN, when the source has colour.
+    pub rgb: Option<Vec<Vec<[f64; 3]>>>,
+    /// Largest value of the source's scale, DN (255 for 8-bit).
+    pub full_scale_dn: f64,
+    /// Frame width and height, pixels (0 for CSV traces).
+    pub frame_size: (u32, u32),
+    /// Where the timestamps came from: "container", "sidecar", "fps", "csv".
+    pub timestamps: &'static str,
+    /// What was read, e.g. "video h264 (ffmpeg, rgb24)".
+    pub format: String,
+}
+
+/// Why a capture could not be read. Every variant names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum CaptureError {
+    /// The file or directory is missing or unreadable.
+    #[error("cannot read capture `{path}`: {message}")]
+    Read {
+        /// Path.
+        path: PathBuf,
+        /// Cause.
+        message: String,
+    },
+    /// A frame is corrupt, truncated or inconsistent with the others.
+    #[error("capture `{path}`, frame {frame}: {message}")]
+    Frame {
+        /// Path of the capture (or of the frame's file).
+        path: PathBuf,
+        /// 0-based frame number.
+        frame: u64,
+        /// What is wrong.
+        message: String,
+    },
+    /// The capture as a whole is unusable (no frames, unknown format, ...).
+    #[error("capture `{path}`: {message}\n    hint: {hint}")]
+    Invalid {
+        /// Path.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+        /// How to fix it.
+        hint: String,
+    },
+    /// An external tool (ffmpeg) is missing or broke.
+    #[error("capture `{path}`: {message}")]
+    Tool {
+        /// Path.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+impl CaptureError {
+    /// True for problems with the input (exit code 2), false for a missing
+    /// or failing tool (exit code 3).
+    pub fn is_input_error(&self) -> bool {
+        !matches!(self, CaptureError::Tool { .. })
+    }
+}
+
+/// The kind of capture a path holds, from its name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SourceKind {
+    /// A directory of PNG or TIFF frames, sorted by name.
+    ImageDir,
+    /// A single PNG or TIFF frame.
+    Image,
+    /// A YUV4MPEG2 file.
+    Y4m,
+    /// Anything FFmpeg reads: MP4, MOV, MKV, AVI.
+    Video,
+    /// A CSV luma trace.
+    Csv,
+}
+
+/// Guesses the kind of capture at `path` from its extension.
+pub fn source_kind(path: &Path) -> SourceKind {
+    if path.is_dir() {
+        return SourceKind::ImageDir;
+    }
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    match ext.as_str() {
+        "png" | "tif" | "tiff" => SourceKind::Image,
+        "y4m" => SourceKind::Y4m,
+        "csv" => SourceKind::Csv,
+        _ => SourceKind::Video,
+    }
+}
+
+/// Reads the capture at `path` and returns the means of `rois` in every
+/// frame. `roi_names` name the columns of a CSV trace.
+pub fn read_capture(
+    path: &Path,
+    rois: &[RoiRect],
+    roi_names: &[String],
+    opts: &ReadOptions,
+) -> Result<CaptureTrace, CaptureError> {
+    if !path.exists() {
+        return Err(CaptureError::Read {
+            path: path.to_path_buf(),
+            message: "no such file or directory".to_string(),
+        });
+    }
+    let mut trace = match source_kind(path) {
+        SourceKind::ImageDir => images::read_dir(path, rois, opts)?,
+        SourceKind::Image => images::read_files(path, &[path.to_path_buf()], rois, opts)?,
+        SourceKind::Y4m => y4m::read(path, rois, opts)?,
+        SourceKind::Video => video::read(path, rois, opts)?,
+        SourceKind::Csv => csv_trace::read(path, roi_names, opts)?,
+    };
+    if trace.time_s.is_empty() {
+        return Err(CaptureError::Invalid {
+            path: path.to_path_buf(),
+            message: "the capture has no frames".to_string(),
+            hint: "check that the recording finished and the file is complete".to_string(),
+        });
+    }
+    // A sidecar `<capture>.timestamps.csv` (one time in seconds per line, or
+    // `frame,time_s`) overrides other timestamps.
+    let sidecar = sidecar_path(path);
+    if sidecar.is_file() {
+        trace.time_s = read_sidecar(&sidecar, trace.time_s.len())?;
+        trace.timestamps = "sidecar";
+    }
+    if trace.timestamps == "none" {
+        return Err(CaptureError::Invalid {
+            path: path.to_path_buf(),
+            message: "the capture has no timestamps".to_string(),
+            hint: format!(
+                "set capture.frame-rate-fps, or give one time per frame in `{}`",
+                sidecar.display()
+            ),
+        });
+    }
+    Ok(trace)
+}
+
+fn sidecar_path(path: &Path) -> PathBuf {
+    let mut s = path.as_os_str().to_owned();
+    s.push(".timestamps.csv");
+    PathBuf::from(s)
+}
+
+fn read_sidecar(path: &Path, frames: usize) -> Result<Vec<f64>, CaptureError> {
+    let text = std::fs::read_to_string(path).map_err(|e| CaptureError::Read {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let mut out = Vec::with_capacity(frames);
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let field = line.rsplit(',').next().unwrap_or(line).trim();
+        match field.parse::<f64>() {
+            Ok(t) if t.is_finite() => out.push(t),
+            _ if out.is_empty() && i == 0 => continue, // header
+            _ => {
+                return Err(CaptureError::Invalid {
+                    path: path.to_path_buf(),
+                    message: format!("line {}: `{field}` is not a time in seconds", i + 1),
+                    hint: "one time in seconds per frame, or `frame,time_s` rows".to_string(),
+                });
+            }
+        }
+    }
+    if out.len() != frames {
+        return Err(CaptureError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("{} timestamps for {frames} frames", out.len()),
+            hint: "give one timestamp per frame".to_string(),
+        });
+    }
+    Ok(out)
+}
+
+/// Frame times `k / fps`.
+fn times_from_fps(n: usize, fps: f64) -> Vec<f64> {
+    (0..n).map(|k| k as f64 / fps).collect()
+}
+
+/// Checks the ROIs against the frame size.
+fn check_rois(
+    path: &Path,
+    frame: u64,
+    rois: &[RoiRect],
+    width: u32,
+    height: u32,
+) -> Result<(), CaptureError> {
+    for (i, r) in rois.iter().enumerate() {
+        if r.x as u64 + r.width as u64 > width as u64
+            || r.y as u64 + r.height as u64 > height as u64
+        {
+            return Err(CaptureError::Frame {
+                path: path.to_path_buf(),
+                frame,
+                message: format!(
+                    "ROI {} (columns {}..{}, rows {}..{}) falls outside the {width}x{height} frame",
+                    i + 1,
+                    r.x,
+                    r.x as u64 + r.width as u64,
+                    r.y,
+                    r.y as u64 + r.height as u64
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The smallest rectangle holding every ROI.
+fn bounding_box(rois: &[RoiRect]) -> Option<RoiRect> {
+    let x0 = rois.iter().map(|r| r.x).min()?;
+    let y0 = rois.iter().map(|r| r.y).min()?;
+    let x1 = rois.iter().map(|r| r.x + r.width).max()?;
+    let y1 = rois.iter().map(|r| r.y + r.height).max()?;
+    Some(RoiRect {
+        x: x0,
+        y: y0,
+        width: x1 - x0,
+        height: y1 - y0,
+    })
+}
+
+/// Pixels of one frame (or of a crop of it), in one of the layouts sources give.
+pub(crate) enum Pixels<'a> {
+    /// One grey sample per pixel, 8-bit.
+    Grey8(&'a [u8]),
+    /// One grey sample per pixel, 16-bit.
+    Grey16(&'a [u16]),
+    /// Interleaved R, G, B, 8-bit; `channels` samples per pixel (3 or 4).
+    Rgb8(&'a [u8], usize),
+    /// Interleaved R, G, B, 16-bit; `channels` samples per pixel (3 or 4).
+    Rgb16(&'a [u16], usize),
+}
+
+/// A frame view: `pixels` covers the rectangle `origin` + `width` x rows.
+pub(crate) struct FrameView<'a> {
+    pub pixels: Pixels<'a>,
+    /// Frame coordinates of the view's top-left pixel.
+    pub origin: (u32, u32),
+    /// Width of the view in pixels (the row stride).
+    pub width: u32,
+}
+
+/// `[roi][frame]` R, G, B means, DN.
+pub(crate) type RgbTraces = Vec<Vec<[f64; 3]>>;
+
+/// Accumulates ROI means frame by frame.
+pub(crate) struct Accumulator<'r> {
+    rois: &'r [RoiRect],
+    weights: LumaWeights,
+    /// Map from Y' code to full-range grey, for limited-range luma planes.
+    pub expand: Option<Vec<u32>>,
+    luma: Vec<Vec<f64>>,
+    rgb: Vec<Vec<[f64; 3]>>,
+    colour: bool,
+}
+
+impl<'r> Accumulator<'r> {
+    pub fn new(rois: &'r [RoiRect], weights: LumaWeights) -> Self {
+        Self {
+            rois,
+            weights,
+            expand: None,
+            luma: vec![Vec::new(); rois.len()],
+            rgb: vec![Vec::new(); rois.len()],
+            colour: false,
+        }
+    }
+
+    /// Adds one frame. The view must cover every ROI.
+    pub fn push(&mut self, view: &FrameView<'_>) {
+        let w = self.weights;
+        let stride = view.width as usize;
+        for (i, r) in self.rois.iter().enumerate() {
+            let n = (r.width as u64 * r.height as u64) as f64;
+            let x0 = (r.x - view.origin.0) as usize;
+            let (mut sy, mut sr, mut sg, mut sb) = (0u64, 0u64, 0u64, 0u64);
+            for row in r.y..r.y + r.height {
+                let base = (row - view.origin.1) as usize * stride + x0;
+                let cols = base..base + r.width as usize;
+                match &view.pixels {
+                    Pixels::Grey8(p) => match &self.expand {
+                        Some(lut) => {
+                            sy += p[cols].iter().map(|&v| lut[v as usize] as u64).sum::<u64>()
+                        }
+                        None => sy += p[cols].iter().map(|&v| v as u64).sum::<u64>(),
+                    },
+                    Pixels::Grey16(p) => match &self.expand {
+                        Some(lut) => {
+                            sy += p[cols].iter().map(|&v| lut[v as usize] as u64).sum::<u64>()
+                        }
+                        None => sy += p[cols].iter().map(|&v| v as u64).sum::<u64>(),
+                    },
+                    Pixels::Rgb8(p, c) => {
+                        for px in p[cols.start * c..cols.end * c].chunks_exact(*c) {
+                            let (r_, g_, b_) = (px[0] as u32, px[1] as u32, px[2] as u32);
+                            sy += w.luma(r_, g_, b_) as u64;
+                            sr += r_ as u64;
+                            sg += g_ as u64;
+                            sb += b_ as u64;
+                        }
+                    }
+                    Pixels::Rgb16(p, c) => {
+                        for px in p[cols.start * c..cols.end * c].chunks_exact(*c) {
+                            let (r_, g_, b_) = (px[0] as u32, px[1] as u32, px[2] as u32);
+                            sy += w.luma(r_, g_, b_) as u64;
+                            sr += r_ as u64;
+                            sg += g_ as u64;
+                            sb += b_ as u64;
+                        }
+                    }
+                }
+            }
+            self.luma[i].push(sy as f64 / n);
+            if matches!(view.pixels, Pixels::Rgb8(..) | Pixels::Rgb16(..)) {
+                self.colour = true;
+                self.rgb[i].push([sr as f64 / n, sg as f64 / n, sb as f64 / n]);
+            }
+        }
+    }
+
+    /// Frames pushed so far.
+    pub fn frames(&self) -> usize {
+        self.luma.first().map_or(0, Vec::len)
+    }
+
+    /// The luma traces and, when every frame had colour, the RGB traces.
+    pub fn finish(self) -> (Vec<Vec<f64>>, Option<RgbTraces>) {
+        let n = self.frames();
+        let rgb = (self.colour && self.rgb.iter().all(|t| t.len() == n)).then_some(self.rgb);
+        (self.luma, rgb)
+    }
+}
+
+/// Lookup table from limited-range Y' (`bits` bits) to full-range grey,
+/// rounded and clipped: 8-bit `(Y' - 16) * 255 / 219`.
+/// The table has `2^bits` entries for 8-bit samples and 65536 for wider
+/// ones, so that any stored sample indexes it.
+pub(crate) fn limited_to_full_lut(bits: u32) -> Vec<u32> {
+    let max = (1u32 << bits) - 1;
+    let len = if bits <= 8 { 256 } else { 65536 };
+    let scale = (1u32 << (bits - 8)) as f64;
+    let (lo, span) = (16.0 * scale, 219.0 * scale);
+    (0..len as u32)
+        .map(|y| {
+            let v = ((y as f64 - lo) * max as f64 / span).round();
+            v.clamp(0.0, max as f64) as u32
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bt601_grey_matches_opencv_fixed_point_on_corners() {
+        let w = LumaWeights::Bt601;
+        assert_eq!(w.luma(0, 0, 0), 0);
+        assert_eq!(w.luma(255, 255, 255), 255);
+        assert_eq!(w.luma(255, 0, 0), 76);
+        assert_eq!(w.luma(0, 255, 0), 150);
+        assert_eq!(w.luma(0, 0, 255), 29);
+        assert_eq!(LumaWeights::Bt709.luma(0, 255, 0), 182);
+    }
+
+    #[test]
+    fn limited_range_expands_16_235_to_0_255() {
+        let lut = limited_to_full_lut(8);
+        assert_eq!(lut[16], 0);
+        assert_eq!(lut[235], 255);
+        assert_eq!(lut[0], 0);
+        assert_eq!(lut[255], 255);
+        assert_eq!(lut[126], 128);
+    }
+
+    #[test]
+    fn accumulator_means_only_the_roi_pixels() {
+        // 4x3 grey frame, values = 10 * row + column.
+        let px: Vec<u8> = (0..3)
+            .flat_map(|r| (0..4).map(move |c| 10 * r + c))
+            .collect();
+        let rois = [RoiRect {
+            x: 1,
+            y: 1,
+            width: 2,
+            height: 2,
+        }];
+        let mut acc = Accumulator::new(&rois, LumaWeights::Bt601);
+        acc.push(&FrameView {
+            pixels: Pixels::Grey8(&px),
+            origin: (0, 0),
+            width: 4,
+        });
+        let (luma, rgb) = acc.finish();
+        assert_eq!(luma[0], vec![(11.0 + 12.0 + 21.0 + 22.0) / 4.0]);
+        assert!(rgb.is_none());
+    }
+}

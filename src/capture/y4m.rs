@@ -1,0 +1,209 @@
+//! YUV4MPEG2 (Y4M) files: 8-bit and high-bit-depth (`p10`, `p12`, `p16`,
+//! little-endian) mono, 4:2:0, 4:2:2 and 4:4:4. Only the Y' rows that hold
+//! ROIs are read; chroma and other rows are skipped with a seek.
+
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
+
+use super::{
+    Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, ReadOptions, RoiRect, VideoRange,
+    bounding_box, check_rois, limited_to_full_lut, times_from_fps,
+};
+
+struct Header {
+    width: u32,
+    height: u32,
+    fps: Option<f64>,
+    /// Bytes per sample (1 or 2).
+    bytes: usize,
+    bits: u32,
+    /// Chroma bytes per frame.
+    chroma_bytes: u64,
+    full_range: Option<bool>,
+}
+
+fn parse_header(line: &str, path: &Path) -> Result<Header, CaptureError> {
+    let bad = |message: String| CaptureError::Invalid {
+        path: path.to_path_buf(),
+        message,
+        hint: "a Y4M file starts with `YUV4MPEG2 W<width> H<height> F<num>:<den> C<colourspace>`"
+            .to_string(),
+    };
+    let mut tokens = line.split_ascii_whitespace();
+    if tokens.next() != Some("YUV4MPEG2") {
+        return Err(bad("not a Y4M file (no YUV4MPEG2 signature)".to_string()));
+    }
+    let (mut width, mut height, mut fps, mut cs, mut full_range) =
+        (None, None, None, "420jpeg".to_string(), None);
+    for t in tokens {
+        let (tag, val) = t.split_at(1);
+        match tag {
+            "W" => width = val.parse::<u32>().ok(),
+            "H" => height = val.parse::<u32>().ok(),
+            "F" => {
+                if let Some((n, d)) = val.split_once(':')
+                    && let (Ok(n), Ok(d)) = (n.parse::<f64>(), d.parse::<f64>())
+                    && n > 0.0
+                    && d > 0.0
+                {
+                    fps = Some(n / d);
+                }
+            }
+            "C" => cs = val.to_string(),
+            "X" => {
+                if let Some(r) = val.strip_prefix("COLORRANGE=") {
+                    full_range = Some(r.eq_ignore_ascii_case("FULL"));
+                }
+            }
+            _ => {}
+        }
+    }
+    let (width, height) = match (width, height) {
+        (Some(w), Some(h)) if w > 0 && h > 0 => (w, h),
+        _ => return Err(bad("missing or zero W/H".to_string())),
+    };
+    let (sub, depth) = match cs.find('p') {
+        Some(i) if cs.starts_with("mono") || cs[i + 1..].chars().all(|c| c.is_ascii_digit()) => {
+            (&cs[..i], cs[i + 1..].parse::<u32>().unwrap_or(8))
+        }
+        _ => (cs.as_str(), 8),
+    };
+    let (sub, depth) = if let Some(d) = sub.strip_prefix("mono") {
+        ("mono", d.parse::<u32>().unwrap_or(depth))
+    } else {
+        (sub, depth)
+    };
+    if !(8..=16).contains(&depth) {
+        return Err(bad(format!("unsupported bit depth in colourspace `C{cs}`")));
+    }
+    let bytes = if depth > 8 { 2 } else { 1 };
+    let (w, h) = (width as u64, height as u64);
+    let chroma_samples = match sub {
+        "mono" => 0,
+        s if s.starts_with("420") => 2 * w.div_ceil(2) * h.div_ceil(2),
+        "422" => 2 * w.div_ceil(2) * h,
+        "444" => 2 * w * h,
+        "444alpha" => 3 * w * h,
+        _ => return Err(bad(format!("unsupported colourspace `C{cs}`"))),
+    };
+    Ok(Header {
+        width,
+        height,
+        fps,
+        bytes,
+        bits: depth,
+        chroma_bytes: chroma_samples * bytes as u64,
+        full_range,
+    })
+}
+
+pub(super) fn read(
+    path: &Path,
+    rois: &[RoiRect],
+    opts: &ReadOptions,
+) -> Result<CaptureTrace, CaptureError> {
+    let read_err = |e: std::io::Error| CaptureError::Read {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    let mut r = BufReader::with_capacity(1 << 16, File::open(path).map_err(read_err)?);
+    let mut line = String::new();
+    r.read_line(&mut line).map_err(read_err)?;
+    let hdr = parse_header(line.trim_end(), path)?;
+    check_rois(path, 0, rois, hdr.width, hdr.height)?;
+    let bbox = bounding_box(rois).unwrap_or(RoiRect {
+        x: 0,
+        y: 0,
+        width: hdr.width,
+        height: hdr.height,
+    });
+    let row_bytes = hdr.width as u64 * hdr.bytes as u64;
+    let luma_bytes = row_bytes * hdr.height as u64;
+    let full = match opts.range {
+        VideoRange::Full => true,
+        VideoRange::Limited => false,
+        VideoRange::Auto => hdr.full_range.unwrap_or(false),
+    };
+    let mut acc = Accumulator::new(rois, opts.luma);
+    if !full {
+        acc.expand = Some(limited_to_full_lut(hdr.bits));
+    }
+    let mut buf = vec![0u8; (row_bytes * bbox.height as u64) as usize];
+    let mut buf16: Vec<u16> = Vec::new();
+    let mut frame: u64 = 0;
+    loop {
+        line.clear();
+        let n = r.read_line(&mut line).map_err(read_err)?;
+        if n == 0 {
+            break;
+        }
+        let frame_err = |message: String| CaptureError::Frame {
+            path: path.to_path_buf(),
+            frame,
+            message,
+        };
+        if !line.starts_with("FRAME") {
+            return Err(frame_err(
+                "no FRAME marker where a frame should start (corrupt file or wrong W/H/C in the header)"
+                    .to_string(),
+            ));
+        }
+        let truncated = |e: std::io::Error| {
+            frame_err(format!("truncated frame ({e}); the file ends inside it"))
+        };
+        r.seek_relative((row_bytes * bbox.y as u64) as i64)
+            .map_err(truncated)?;
+        r.read_exact(&mut buf).map_err(truncated)?;
+        let rest = luma_bytes - row_bytes * (bbox.y + bbox.height) as u64 + hdr.chroma_bytes;
+        // Skip by reading, so that a truncated last frame is detected.
+        let skipped =
+            std::io::copy(&mut (&mut r).take(rest), &mut std::io::sink()).map_err(truncated)?;
+        if skipped != rest {
+            return Err(frame_err(format!(
+                "truncated frame: {} of {rest} bytes after the ROI rows are missing",
+                rest - skipped
+            )));
+        }
+        // The view covers whole rows bbox.y .. bbox.y + bbox.height.
+        let pixels = if hdr.bytes == 1 {
+            Pixels::Grey8(&buf)
+        } else {
+            buf16.clear();
+            buf16.extend(
+                buf.chunks_exact(2)
+                    .map(|b| u16::from_le_bytes([b[0], b[1]])),
+            );
+            Pixels::Grey16(&buf16)
+        };
+        acc.push(&FrameView {
+            pixels,
+            origin: (0, bbox.y),
+            width: hdr.width,
+        });
+        frame += 1;
+    }
+    let fps = hdr.fps.or(opts.fps);
+    let n = acc.frames();
+    let (luma, _) = acc.finish();
+    let max_dn = if hdr.bytes == 2 {
+        ((1u32 << hdr.bits) - 1) as f64
+    } else {
+        255.0
+    };
+    Ok(CaptureTrace {
+        time_s: times_from_fps(n, fps.unwrap_or(f64::NAN)),
+        luma,
+        rgb: None,
+        full_scale_dn: max_dn,
+        frame_size: (hdr.width, hdr.height),
+        timestamps: if fps.is_some() { "fps" } else { "none" },
+        format: format!(
+            "y4m {}x{} {}-bit, {} range",
+            hdr.width,
+            hdr.height,
+            hdr.bits,
+            if full { "full" } else { "limited" }
+        ),
+    })
+}

@@ -1,0 +1,704 @@
+//! Captured data: the P2020 sample videos against the reference pipeline,
+//! image sequences, Y4M, CSV traces, the lab-rig command backend, line time,
+//! and bad input (exit code 2, naming the file and frame).
+//!
+//! The video tests need the `ffmpeg` binary; scripts/test.sh installs it.
+//! They fail (never skip) without it.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use ledflicker::capture::{
+    self, LumaWeights, ReadOptions, RoiRect, VideoDecode, VideoRange, read_capture,
+};
+use serde_json::Value;
+
+use crate::{root, scratch};
+
+const VIDEOS: [&str; 3] = ["test_vid1", "test_vid2", "test_vid3"];
+
+fn data(file: &str) -> PathBuf {
+    root()
+        .join("reference-data/p2020-flicker-videos")
+        .join(file)
+}
+
+fn ledflicker(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn need_ffmpeg() {
+    assert!(
+        capture::ffmpeg_available(),
+        "ffmpeg/ffprobe not found: run scripts/test.sh, which installs them (apt-get install ffmpeg)"
+    );
+}
+
+fn csv_rows(path: &Path) -> Vec<HashMap<String, String>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    lines
+        .map(|l| {
+            header
+                .iter()
+                .cloned()
+                .zip(l.split(',').map(String::from))
+                .collect()
+        })
+        .collect()
+}
+
+/// The 36 ROIs of rois.csv, in file order, as the reference code truncates them.
+fn sample_rois() -> Vec<RoiRect> {
+    csv_rows(&data("rois.csv"))
+        .iter()
+        .map(|r| RoiRect {
+            x: r["x_int"].parse().unwrap(),
+            y: r["y_int"].parse().unwrap(),
+            width: r["w_int"].parse().unwrap(),
+            height: r["h_int"].parse().unwrap(),
+        })
+        .collect()
+}
+
+fn opts(decode: VideoDecode) -> ReadOptions {
+    ReadOptions {
+        luma: LumaWeights::Bt601,
+        video_decode: decode,
+        range: VideoRange::Auto,
+        fps: None,
+    }
+}
+
+fn run_plan(plan: &Path, dir: &Path) -> Value {
+    let out = dir.join("out");
+    let o = ledflicker(
+        &[
+            "plan",
+            plan.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "-q",
+        ],
+        dir,
+    );
+    assert!(
+        o.status.code() == Some(0) || o.status.code() == Some(1),
+        "{}",
+        stderr(&o)
+    );
+    serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn p2020_samples_agree_with_the_reference_pipeline_per_roi() {
+    need_ffmpeg();
+    let dir = scratch("p2020-samples");
+    let json = run_plan(&root().join("test-plans/p2020-samples.toml"), &dir);
+    let expected = csv_rows(&data("expected_p2020.csv"));
+    let cases = json["cases"].as_array().unwrap();
+    assert_eq!(cases.len(), 3);
+    for (case, name) in cases.iter().zip(VIDEOS) {
+        assert_eq!(case["id"], name);
+        assert!(
+            case["source"]
+                .as_str()
+                .unwrap()
+                .ends_with(&format!("{name}.mp4"))
+        );
+        assert!(
+            case["frequency_hz"].is_null(),
+            "unknown conditions are null"
+        );
+        let pwm = case["capture"]["segments"]["pwm"].as_array().unwrap();
+        assert_eq!(pwm[0], 100);
+        let rois = case["rois"].as_array().unwrap();
+        assert_eq!(rois.len(), 36);
+        let exp: Vec<_> = expected.iter().filter(|r| r["video"] == name).collect();
+        let n_pwm = (pwm[1].as_u64().unwrap() - 100) as f64;
+        // Tolerances for a different H.264 decoder (about 1 DN): FMI within
+        // 0.005, FDI and MMP within 2 frames of the PWM segment.
+        let (mut d_fmi, mut d_fdi, mut d_mmp) = (0.0f64, 0.0f64, 0.0f64);
+        for (roi, e) in rois.iter().zip(exp) {
+            let m = &roi["metrics"];
+            let get = |k: &str| m[k].as_f64().unwrap_or_else(|| panic!("{name} {k}: {m}"));
+            let want = |k: &str| e[k].parse::<f64>().unwrap();
+            d_fmi = d_fmi.max((get("fmi") - want("fmi")).abs());
+            d_fdi = d_fdi.max((get("fdi_p2020") - want("fdi_p2020")).abs());
+            d_mmp = d_mmp.max((get("mmp") - want("mmp")).abs());
+            let x_off = roi["levels"]["off"].as_f64().unwrap();
+            assert!(
+                (x_off - want("x_off")).abs() <= 1.0,
+                "{name}: x_off {x_off}"
+            );
+            assert_eq!(roi["saturated"], e["saturated"] == "1", "{name} saturation");
+        }
+        eprintln!("{name}: max |diff| fmi {d_fmi:.2e} fdi {d_fdi:.2e} mmp {d_mmp:.2e}");
+        assert!(d_fmi <= 0.005, "{name}: FMI differs by {d_fmi}");
+        assert!(
+            d_fdi <= 2.0 / n_pwm + 1e-9,
+            "{name}: FDI differs by {d_fdi}"
+        );
+        assert!(
+            d_mmp <= 2.0 / n_pwm + 1e-9,
+            "{name}: MMP differs by {d_mmp}"
+        );
+    }
+}
+
+fn grey_diff(name: &str, decode: VideoDecode) -> (f64, f64) {
+    let rois = sample_rois();
+    let trace = read_capture(&data(&format!("{name}.mp4")), &rois, &[], &opts(decode)).unwrap();
+    let expected = csv_rows(&data(&format!("expected_grey_{name}.csv")));
+    assert_eq!(trace.time_s.len(), expected.len(), "{name}: frame count");
+    let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0.0);
+    for (k, row) in expected.iter().enumerate() {
+        for (i, t) in trace.luma.iter().enumerate() {
+            let d = t[k] - row[&format!("roi{i}")].parse::<f64>().unwrap();
+            max = max.max(d.abs());
+            sum += d.abs();
+            n += 1.0;
+        }
+    }
+    (max, sum / n)
+}
+
+#[test]
+fn video_grey_matches_the_reference_frame_by_frame() {
+    need_ffmpeg();
+    for name in VIDEOS {
+        // RGB decode: the reference's own conversion, so within rounding.
+        let (max, mean) = grey_diff(name, VideoDecode::Rgb);
+        eprintln!("{name} rgb: max {max:.3} mean {mean:.4} DN");
+        assert!(max <= 0.5, "{name}: rgb grey differs by {max} DN");
+        // Y' plane, range-expanded: about 1 DN (swscale's RGB path rounds down).
+        let (max, mean) = grey_diff(name, VideoDecode::LumaPlane);
+        eprintln!("{name} luma-plane: max {max:.3} mean {mean:.4} DN");
+        assert!(
+            max <= 2.5 && mean <= 1.5,
+            "{name}: luma-plane differs by {max} (mean {mean}) DN"
+        );
+    }
+}
+
+#[test]
+fn video_timestamps_come_from_the_container() {
+    need_ffmpeg();
+    let trace = read_capture(
+        &data("test_vid3.mp4"),
+        &sample_rois(),
+        &[],
+        &opts(VideoDecode::Rgb),
+    )
+    .unwrap();
+    assert_eq!(trace.timestamps, "container");
+    assert_eq!(trace.time_s.len(), 369);
+    // About 30 fps (the PTS span gives 29.9; OpenCV's average rate 30.08).
+    let fps = 368.0 / trace.time_s[368];
+    assert!((fps - 30.0).abs() < 0.3, "{fps}");
+    assert!(trace.time_s.windows(2).all(|w| w[1] > w[0]));
+    // R, G, B means come with the RGB decode.
+    assert_eq!(trace.rgb.as_ref().unwrap().len(), 36);
+}
+
+#[test]
+fn lzw_rgb_tiff_rois_match_opencv() {
+    let rois = sample_rois();
+    let trace = read_capture(
+        &data("test.tiff"),
+        &rois,
+        &[],
+        &ReadOptions {
+            fps: Some(30.0),
+            ..opts(VideoDecode::Rgb)
+        },
+    )
+    .unwrap();
+    let rgb = trace.rgb.unwrap();
+    for (i, e) in csv_rows(&data("expected_tiff_rois.csv")).iter().enumerate() {
+        let want = |k: &str| e[k].parse::<f64>().unwrap();
+        assert!((trace.luma[i][0] - want("grey")).abs() < 1e-3, "roi {i}");
+        for (c, k) in ["r", "g", "b"].iter().enumerate() {
+            assert!((rgb[i][0][c] - want(k)).abs() < 1e-3, "roi {i} {k}");
+        }
+    }
+}
+
+#[test]
+fn segments_are_detected_from_the_dark_baseline_and_the_on_step() {
+    need_ffmpeg();
+    let dir = scratch("detect");
+    let text = std::fs::read_to_string(root().join("test-plans/p2020-samples.toml"))
+        .unwrap()
+        .replace("off-frames = [0, 25]\n", "")
+        .replace("pwm-frames = [100]\n", "")
+        .replace(
+            "../reference-data",
+            root().join("reference-data").to_str().unwrap(),
+        );
+    let plan = dir.join("detect.toml");
+    std::fs::write(&plan, text).unwrap();
+    let json = run_plan(&plan, &dir);
+    for case in json["cases"].as_array().unwrap() {
+        let s = &case["capture"]["segments"];
+        assert_eq!(s["method"], "detected");
+        let off_end = s["off"][1].as_u64().unwrap();
+        let pwm_start = s["pwm"][0].as_u64().unwrap();
+        // SOURCE.md: the first ~48-71 frames are black.
+        assert!((40..=75).contains(&off_end), "{}: {s}", case["id"]);
+        assert!(
+            pwm_start > off_end && pwm_start < 100,
+            "{}: {s}",
+            case["id"]
+        );
+        for roi in case["rois"].as_array().unwrap() {
+            assert_eq!(roi["levels"]["off"].as_f64(), Some(0.0));
+        }
+    }
+}
+
+/// A captured plan with one case and one ROI.
+fn one_case_plan(dir: &Path, source: &str, roi: (u32, u32, u32, u32), extra: &str) -> PathBuf {
+    let text = format!(
+        "[plan]\nid = \"t\"\ntitle = \"t\"\n[dut]\nbackend = \"captured\"\n[capture]\nframe-rate-fps = 30.0\n{extra}\n[[case]]\nsource = \"{source}\"\n[[roi]]\nname = \"a\"\nx-px = {}\ny-px = {}\nwidth-px = {}\nheight-px = {}\n",
+        roi.0, roi.1, roi.2, roi.3
+    );
+    let path = dir.join("plan.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn save_grey16(path: &Path, w: u32, h: u32, f: impl Fn(u32, u32) -> u16) {
+    image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(w, h, |x, y| image::Luma([f(x, y)]))
+        .save(path)
+        .unwrap();
+}
+
+#[test]
+fn png_sequences_8_and_16_bit_give_exact_roi_means() {
+    let dir = scratch("png-seq");
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    // Frames 0-3 dark (OFF), 4-9 with a level that alternates (PWM).
+    let level = |k: u32| {
+        if k < 4 {
+            1000
+        } else if k.is_multiple_of(2) {
+            30000
+        } else {
+            20000
+        }
+    };
+    for k in 0..10u32 {
+        save_grey16(&frames.join(format!("f{k:03}.png")), 16, 8, |x, _| {
+            level(k) + x as u16
+        });
+    }
+    let plan = one_case_plan(
+        &dir,
+        "frames",
+        (2, 3, 4, 2),
+        "off-frames = [0, 4]\npwm-frames = [4]",
+    );
+    let json = run_plan(&plan, &dir);
+    let roi = &json["cases"][0]["rois"][0];
+    // Columns 2..6 add 2..5: mean +3.5.
+    assert_eq!(roi["levels"]["off"].as_f64(), Some(1003.5));
+    assert_eq!(roi["levels"]["max"].as_f64(), Some(30003.5));
+    let fmi = roi["metrics"]["fmi"].as_f64().unwrap();
+    assert!((fmi - 10000.0 / 50007.0).abs() < 1e-12, "{fmi}");
+    assert_eq!(roi["metrics"]["fdi_p2020"].as_f64(), Some(1.0));
+
+    // 8-bit RGB frames: BT.601 and BT.709 luma differ as they should.
+    let rgb = dir.join("rgb");
+    std::fs::create_dir_all(&rgb).unwrap();
+    image::RgbImage::from_pixel(8, 4, image::Rgb([200, 100, 50]))
+        .save(rgb.join("a.png"))
+        .unwrap();
+    let rois = [RoiRect {
+        x: 0,
+        y: 0,
+        width: 8,
+        height: 4,
+    }];
+    let mut o = ReadOptions {
+        fps: Some(30.0),
+        ..opts(VideoDecode::Rgb)
+    };
+    let t = read_capture(&rgb, &rois, &[], &o).unwrap();
+    assert_eq!(t.luma[0][0], 124.0); // round(0.299*200 + 0.587*100 + 0.114*50)
+    assert_eq!(t.rgb.unwrap()[0][0], [200.0, 100.0, 50.0]);
+    o.luma = LumaWeights::Bt709;
+    let t = read_capture(&rgb, &rois, &[], &o).unwrap();
+    assert_eq!(t.luma[0][0], 118.0); // round(0.2126*200 + 0.7152*100 + 0.0722*50)
+}
+
+fn write_y4m(path: &Path, header: &str, frames: &[Vec<u8>]) {
+    let mut bytes = format!("YUV4MPEG2 {header}\n").into_bytes();
+    for f in frames {
+        bytes.extend_from_slice(b"FRAME\n");
+        bytes.extend_from_slice(f);
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+#[test]
+fn y4m_reads_only_the_luma_plane_and_expands_limited_range() {
+    let dir = scratch("y4m");
+    let (w, h) = (8usize, 6usize);
+    let frame = |y: u8| {
+        let mut f = vec![y; w * h];
+        f.extend(vec![128u8; 2 * (w / 2) * (h / 2)]);
+        f
+    };
+    let path = dir.join("c.y4m");
+    write_y4m(
+        &path,
+        "W8 H6 F30:1 C420jpeg",
+        &[frame(16), frame(235), frame(126)],
+    );
+    let rois = [RoiRect {
+        x: 1,
+        y: 2,
+        width: 4,
+        height: 2,
+    }];
+    let t = read_capture(&path, &rois, &[], &opts(VideoDecode::Rgb)).unwrap();
+    assert_eq!(t.luma[0], vec![0.0, 255.0, 128.0]);
+    assert_eq!(t.time_s[2], 2.0 / 30.0);
+    write_y4m(&path, "W8 H6 F30:1 C420jpeg XCOLORRANGE=FULL", &[frame(16)]);
+    assert_eq!(
+        read_capture(&path, &rois, &[], &opts(VideoDecode::Rgb))
+            .unwrap()
+            .luma[0],
+        vec![16.0]
+    );
+    // A truncated last frame is named.
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes.truncate(bytes.len() - 5);
+    std::fs::write(&path, bytes).unwrap();
+    let e = read_capture(&path, &rois, &[], &opts(VideoDecode::Rgb)).unwrap_err();
+    assert!(
+        e.to_string().contains("frame 0") && e.to_string().contains("truncated"),
+        "{e}"
+    );
+}
+
+#[test]
+fn csv_traces_from_other_tools_are_measured() {
+    let dir = scratch("csv-trace");
+    let mut text = String::from("frame,time_s,a\n");
+    for k in 0..20 {
+        let v = if k < 5 {
+            10.0
+        } else if k % 3 == 0 {
+            60.0
+        } else {
+            100.0
+        };
+        text += &format!("{k},{},{v}\n", k as f64 / 25.0);
+    }
+    std::fs::write(dir.join("t.csv"), text).unwrap();
+    let plan = one_case_plan(
+        &dir,
+        "t.csv",
+        (0, 0, 1, 1),
+        "off-time-s = [0.0, 0.2]\npwm-time-s = [0.2]",
+    );
+    let json = run_plan(&plan, &dir);
+    let case = &json["cases"][0];
+    assert_eq!(case["capture"]["timestamps"], "csv");
+    assert_eq!(
+        case["capture"]["segments"]["off"],
+        serde_json::json!([0, 5])
+    );
+    let m = &case["rois"][0]["metrics"];
+    assert_eq!(m["fmi"].as_f64(), Some(40.0 / 160.0));
+    assert_eq!(m["percent_flicker"].as_f64(), Some(25.0));
+    // PWM mean: 5 of 15 frames at 60, 10 at 100 -> 86.67; band (78, 95.3).
+    assert_eq!(m["mmp"].as_f64(), Some(0.0));
+}
+
+fn expect_invalid(dir: &Path, plan: &Path, needles: &[&str]) {
+    let o = ledflicker(
+        &[
+            "plan",
+            plan.to_str().unwrap(),
+            "--out",
+            dir.join("o").to_str().unwrap(),
+        ],
+        dir,
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "`{n}` not in: {err}");
+    }
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!dir.join("o/results.json").exists());
+}
+
+#[test]
+fn bad_captures_exit_2_naming_the_file_and_frame() {
+    let dir = scratch("bad-captures");
+    // Missing file: found by validation, with its key and line.
+    let plan = one_case_plan(&dir, "nope.mp4", (0, 0, 1, 1), "");
+    expect_invalid(
+        &dir,
+        &plan,
+        &["case[0].source", "nope.mp4", "does not exist", "line 10"],
+    );
+
+    // Mixed frame sizes and a corrupt frame in an image sequence.
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for k in 0..3 {
+        save_grey16(&frames.join(format!("f{k}.png")), 8, 8, |_, _| 100);
+    }
+    save_grey16(&frames.join("f3.png"), 8, 6, |_, _| 100);
+    let plan = one_case_plan(&dir, "frames", (0, 0, 2, 2), "");
+    expect_invalid(&dir, &plan, &["f3.png", "frame 3", "mixed frame sizes"]);
+    std::fs::write(frames.join("f3.png"), b"\x89PNG\r\n\x1a\n garbage").unwrap();
+    expect_invalid(&dir, &plan, &["f3.png", "frame 3", "corrupt"]);
+    std::fs::remove_file(frames.join("f3.png")).unwrap();
+
+    // ROI outside the frame.
+    let plan = one_case_plan(&dir, "frames", (6, 0, 4, 2), "");
+    expect_invalid(&dir, &plan, &["frame 0", "outside the 8x8 frame"]);
+
+    // A capture shorter than the plan's segments.
+    let plan = one_case_plan(
+        &dir,
+        "frames",
+        (0, 0, 2, 2),
+        "off-frames = [0, 1]\npwm-frames = [1, 50]",
+    );
+    expect_invalid(
+        &dir,
+        &plan,
+        &[
+            "frames",
+            "has 3 frames, shorter than the plan's PWM segment",
+        ],
+    );
+
+    // Uniform frames: nothing to detect.
+    let plan = one_case_plan(&dir, "frames", (0, 0, 2, 2), "");
+    expect_invalid(&dir, &plan, &["cannot detect segments", "hint"]);
+}
+
+#[test]
+fn bad_videos_exit_2_naming_the_file() {
+    need_ffmpeg();
+    let dir = scratch("bad-videos");
+    // An empty file and a truncated MP4.
+    std::fs::write(dir.join("empty.mp4"), b"").unwrap();
+    let plan = one_case_plan(&dir, "empty.mp4", (0, 0, 2, 2), "");
+    expect_invalid(&dir, &plan, &["empty.mp4"]);
+    let bytes = std::fs::read(data("test_vid1.mp4")).unwrap();
+    std::fs::write(dir.join("cut.mp4"), &bytes[..bytes.len() / 2]).unwrap();
+    let plan = one_case_plan(&dir, "cut.mp4", (0, 0, 2, 2), "");
+    expect_invalid(&dir, &plan, &["cut.mp4"]);
+    // A video with no frames.
+    let o = Command::new("ffmpeg")
+        .args([
+            "-v",
+            "error",
+            "-y",
+            "-f",
+            "lavfi",
+            "-i",
+            "color=c=black:s=64x48:r=30",
+        ])
+        .args(["-frames:v", "0", "-c:v", "libx264"])
+        .arg(dir.join("zero.mp4"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let plan = one_case_plan(&dir, "zero.mp4", (0, 0, 2, 2), "");
+    expect_invalid(&dir, &plan, &["zero.mp4"]);
+    // ROI outside the 1280x800 frame.
+    std::fs::copy(data("test_vid3.mp4"), dir.join("v.mp4")).unwrap();
+    let plan = one_case_plan(&dir, "v.mp4", (1270, 0, 20, 2), "");
+    expect_invalid(
+        &dir,
+        &plan,
+        &["v.mp4", "frame 0", "outside the 1280x800 frame"],
+    );
+}
+
+#[test]
+fn command_backend_runs_the_example_rig_end_to_end() {
+    let dir = scratch("command-rig");
+    let json = run_plan(&root().join("test-plans/command-sim-rig.toml"), &dir);
+    assert_eq!(json["dut"]["backend"], "command");
+    let cases = json["cases"].as_array().unwrap();
+    assert_eq!(cases.len(), 4);
+    for case in cases {
+        // The rig's frames against the simulator's exact trace for the ROI
+        // rows: each pixel is 20 + 200 s rounded, so within 0.5 DN.
+        let f = case["frequency_hz"].as_f64().unwrap();
+        let d = case["duty"].as_f64().unwrap();
+        let o = ledflicker(
+            &[
+                "simulate",
+                "--frequency-hz",
+                &f.to_string(),
+                "--duty",
+                &d.to_string(),
+                "--exposure-ms",
+                "11.111",
+                "--fps",
+                "30",
+                "--frames",
+                "90",
+                "--shutter",
+                "rolling",
+                "--line-time-us",
+                "14.565",
+                "--rows",
+                "20:22",
+            ],
+            root(),
+        );
+        let sim: Vec<f64> = String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .skip(1 + 30)
+            .map(|l| 20.0 + 200.0 * l.split(',').nth(2).unwrap().parse::<f64>().unwrap())
+            .collect();
+        let lo = sim.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = sim.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let levels = &case["rois"][0]["levels"];
+        assert!(
+            (levels["min"].as_f64().unwrap() - lo).abs() <= 0.5,
+            "{}: {levels} vs {lo}",
+            case["id"]
+        );
+        assert!(
+            (levels["max"].as_f64().unwrap() - hi).abs() <= 0.5,
+            "{}: {levels} vs {hi}",
+            case["id"]
+        );
+        assert_eq!(levels["off"].as_f64(), Some(20.0));
+        assert_eq!(
+            case["capture"]["segments"]["pwm"],
+            serde_json::json!([30, 90])
+        );
+    }
+}
+
+#[test]
+fn command_backend_timeout_and_failure_are_backend_errors() {
+    let dir = scratch("command-bad");
+    let base = std::fs::read_to_string(root().join("test-plans/command-sim-rig.toml")).unwrap();
+    for (cmd, needle) in [
+        (
+            "[\"sleep\", \"5\"]\ntimeout-s = 0.3",
+            "did not finish within 0.3 s",
+        ),
+        (
+            "[\"sh\", \"-c\", \"echo rig offline >&2; exit 4\"]",
+            "rig offline",
+        ),
+    ] {
+        let text = base
+            .replace(
+                "command = [\"sh\", \"../examples/sim-rig.sh\"]",
+                &format!("command = {cmd}"),
+            )
+            .replace("timeout-s = 60.0\n", "");
+        let plan = dir.join("p.toml");
+        std::fs::write(&plan, text).unwrap();
+        let o = ledflicker(
+            &[
+                "plan",
+                plan.to_str().unwrap(),
+                "--out",
+                dir.join("o").to_str().unwrap(),
+            ],
+            &dir,
+        );
+        assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{}", stderr(&o));
+    }
+}
+
+#[test]
+fn linetime_of_the_gyroflow_frame_matches_the_stated_readout() {
+    let o = ledflicker(
+        &[
+            "linetime",
+            "reference-data/gyroflow-rs-banding/frame_example.png",
+            "--frequency-hz",
+            "1000",
+        ],
+        root(),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let us: f64 = out.lines().next().unwrap().trim().parse().unwrap();
+    // Upstream: 15.730 ms readout over 1080 rows = 14.565 us per line.
+    assert!((us / 14.565 - 1.0).abs() < 0.005, "{us} us");
+    assert!(out.contains("band_period_rows: 68."), "{out}");
+    let o = ledflicker(&["linetime", "nope.png", "--frequency-hz", "1000"], root());
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("nope.png"));
+}
+
+#[test]
+fn sidecar_timestamps_override_the_frame_rate() {
+    let dir = scratch("sidecar");
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for k in 0..3 {
+        save_grey16(&frames.join(format!("f{k}.png")), 4, 4, |_, _| 7);
+    }
+    let rois = [RoiRect {
+        x: 0,
+        y: 0,
+        width: 2,
+        height: 2,
+    }];
+    let o = ReadOptions {
+        fps: Some(30.0),
+        ..opts(VideoDecode::Rgb)
+    };
+    assert_eq!(
+        read_capture(&frames, &rois, &[], &o).unwrap().time_s[2],
+        2.0 / 30.0
+    );
+    std::fs::write(
+        dir.join("frames.timestamps.csv"),
+        "frame,time_s\n0,0.0\n1,0.1\n2,0.25\n",
+    )
+    .unwrap();
+    let t = read_capture(&frames, &rois, &[], &o).unwrap();
+    assert_eq!(
+        (t.time_s.clone(), t.timestamps),
+        (vec![0.0, 0.1, 0.25], "sidecar")
+    );
+    std::fs::write(dir.join("frames.timestamps.csv"), "0.0\n0.1\n").unwrap();
+    let e = read_capture(&frames, &rois, &[], &o)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("2 timestamps for 3 frames"), "{e}");
+    // No frame rate and no sidecar: an error with a hint, not NaN times.
+    std::fs::remove_file(dir.join("frames.timestamps.csv")).unwrap();
+    let e = read_capture(&frames, &rois, &[], &opts(VideoDecode::Rgb))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("no timestamps") && e.contains("frame-rate-fps"),
+        "{e}"
+    );
+}
