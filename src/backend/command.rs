@@ -233,6 +233,13 @@ impl CommandRig {
     }
 }
 
+impl Drop for CommandRig {
+    fn drop(&mut self) {
+        // Each case removes its own directory; this removes their parent.
+        let _ = std::fs::remove_dir(&self.scratch);
+    }
+}
+
 impl Backend for CommandRig {
     fn id(&self) -> &str {
         "command"
