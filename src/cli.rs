@@ -63,6 +63,18 @@ enum Command {
     /// Time the analytic fine map (worst-phase FDI and Percent Flicker over
     /// 50 Hz..2 kHz x 1..100 % duty) for a plan's camera; prints the median.
     Bench(BenchArgs),
+    /// Estimate a PWM frequency from the band spacing of one rolling-shutter
+    /// frame (PNG or TIFF) with a known line time; prints JSON.
+    Bands(BandsArgs),
+}
+
+#[derive(Args, Debug)]
+struct BandsArgs {
+    /// Frame image (PNG or TIFF, any bit depth; converted to 16-bit luma).
+    frame: PathBuf,
+    /// Line time in microseconds (> 0).
+    #[arg(long)]
+    line_time_us: f64,
 }
 
 #[derive(Args, Debug)]
@@ -216,6 +228,7 @@ fn run(cli: Cli) -> anyhow::Result<i32> {
         Command::Simulate(args) => simulate(args),
         Command::Advise(args) => advise(args),
         Command::Bench(args) => bench(args),
+        Command::Bands(args) => bands(args),
     }
 }
 
@@ -532,5 +545,40 @@ fn bench(a: BenchArgs) -> anyhow::Result<i32> {
         1e3 * times[times.len() - 1],
         a.repeat
     );
+    Ok(EXIT_PASS)
+}
+
+fn bands(a: BandsArgs) -> anyhow::Result<i32> {
+    if !(a.line_time_us.is_finite() && a.line_time_us > 0.0) {
+        return Err(UsageError(format!(
+            "--line-time-us must be > 0, got {}",
+            a.line_time_us
+        ))
+        .into());
+    }
+    let img = image::open(&a.frame)
+        .map_err(|e| UsageError(format!("cannot read frame `{}`: {e}", a.frame.display())))?
+        .to_luma16();
+    let (w, h) = img.dimensions();
+    // Mean of every row: the bands run along rows.
+    let profile: Vec<f64> = (0..h)
+        .map(|y| {
+            (0..w)
+                .map(|x| f64::from(img.get_pixel(x, y)[0]))
+                .sum::<f64>()
+                / f64::from(w.max(1))
+        })
+        .collect();
+    let period = crate::analysis::banding::band_period_from_profile(&profile)
+        .map_err(|e| UsageError(format!("`{}`: {e}", a.frame.display())))?;
+    let out = serde_json::json!({
+        "frame": a.frame.display().to_string(),
+        "rows": h,
+        "columns": w,
+        "line_time_us": a.line_time_us,
+        "band_period_rows": period,
+        "estimated_frequency_hz": 1.0 / (period * a.line_time_us * 1e-6),
+    });
+    println!("{}", serde_json::to_string_pretty(&out)?);
     Ok(EXIT_PASS)
 }

@@ -1,5 +1,6 @@
 //! Integration tests: one binary (ripgrep style) with a module per area.
 
+mod banding;
 mod cli;
 mod exact;
 mod plans;
