@@ -189,6 +189,32 @@ struct SimulateArgs {
     /// With --summary: sensor rows rendered for the banding KPIs.
     #[arg(long, default_value_t = 800)]
     sensor_rows: u32,
+    /// With --summary: an RGB LED whose red, green and blue dies run at these
+    /// duties (`R,G,B`, each in (0, 1]) on common rising edges; adds colour KPIs.
+    #[arg(long)]
+    rgb_duty: Option<String>,
+    /// With --summary: a white LED of this linear camera RGB (`R,G,B`) at
+    /// --duty; adds colour KPIs.
+    #[arg(long)]
+    led_rgb: Option<String>,
+    /// With --summary: background linear RGB (`R,G,B`) [default: --background
+    /// in every channel].
+    #[arg(long)]
+    background_rgb: Option<String>,
+}
+
+fn parse_rgb(flag: &str, s: &str) -> Result<[f64; 3], UsageError> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| UsageError(format!("{flag} `{s}` is not three numbers R,G,B")))?;
+    match v.as_slice() {
+        [r, g, b] if v.iter().all(|x| x.is_finite() && *x >= 0.0) => Ok([*r, *g, *b]),
+        _ => Err(UsageError(format!(
+            "{flag} `{s}` is not three numbers R,G,B, each >= 0"
+        ))),
+    }
 }
 
 /// A usage or input error (exit code 2) that is not a plan error.
@@ -453,6 +479,44 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
         if a.sensor_rows == 0 {
             return Err(usage("--sensor-rows must be at least 1".into()));
         }
+        use crate::analysis::colour::Die;
+        let dies = match (&a.rgb_duty, &a.led_rgb) {
+            (Some(_), Some(_)) => {
+                return Err(usage("give --rgb-duty or --led-rgb, not both".into()));
+            }
+            (Some(d), None) => {
+                let d = parse_rgb("--rgb-duty", d)?;
+                if d.iter().any(|x| !(*x > 0.0 && *x <= 1.0)) {
+                    return Err(usage(format!(
+                        "--rgb-duty duties must be in (0, 1], got {d:?}"
+                    )));
+                }
+                let primary = |k: usize| {
+                    let mut c = [0.0; 3];
+                    c[k] = 1.0;
+                    Die {
+                        rgb: c,
+                        duty: d[k],
+                        offset_cycles: 0.0,
+                    }
+                };
+                Some(vec![primary(0), primary(1), primary(2)])
+            }
+            (None, Some(c)) => Some(vec![Die {
+                rgb: parse_rgb("--led-rgb", c)?,
+                duty: a.duty,
+                offset_cycles: 0.0,
+            }]),
+            (None, None) => None,
+        };
+        let background_rgb = match &a.background_rgb {
+            Some(b) => parse_rgb("--background-rgb", b)?,
+            None => [a.background; 3],
+        };
+        let scene = dies.map(|dies| crate::analysis::summary::ColourScene {
+            background: background_rgb,
+            dies,
+        });
         let summary = crate::analysis::summary::summarise(
             &shutter,
             &pwm,
@@ -460,6 +524,7 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
             a.frames,
             a.background,
             a.sensor_rows,
+            scene.as_ref(),
         );
         println!("{}", serde_json::to_string_pretty(&summary)?);
         return Ok(EXIT_PASS);

@@ -12,10 +12,13 @@
 //! - [`drive`]: IEEE 1789 risk region and IES Flicker Index of the PWM;
 //! - [`phase_fold`]: the flicker signal folded by phase, phase coverage;
 //! - [`banding`]: band period, contrast and velocity of a rolling shutter;
-//! - [`finemap`]: worst-phase FDI and Percent Flicker over frequency x duty.
+//! - [`finemap`]: worst-phase FDI and Percent Flicker over frequency x duty;
+//! - [`colour`]: per-channel modulation and chroma shift (RGB and white LEDs);
+//! - [`summary`]: `simulate --summary`.
 
 pub mod apparent;
 pub mod banding;
+pub mod colour;
 pub mod drive;
 pub mod finemap;
 pub mod hazard;

@@ -306,6 +306,35 @@ fn simulate_summary_prints_one_json_object_with_results_names() {
     assert!(!text.contains("NaN"));
     let v: serde_json::Value = serde_json::from_str(&text).unwrap();
     assert!(v["metrics"]["fdi_2018"].is_null() && v["reasons"]["fdi_2018"].is_string());
+    assert!(v["colour"].is_null());
+    // Colour: an RGB LED with unequal die duties shifts hue with phase; a
+    // white LED on a grey background does not.
+    let colour = |extra: &[&str]| -> serde_json::Value {
+        let mut args = vec![
+            "simulate",
+            "--frequency-hz",
+            "151",
+            "--duty",
+            "0.3",
+            "--exposure-ms",
+            "3",
+            "--fps",
+            "30",
+            "--background",
+            "0.05",
+            "--summary",
+        ];
+        args.extend_from_slice(extra);
+        let o = ledflicker(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()["colour"].clone()
+    };
+    let c = colour(&["--rgb-duty", "0.3,0.5,0.2"]);
+    assert!(c["chroma_shift"].as_f64().unwrap() > 0.05, "{c}");
+    assert!(c["hue_shift_deg"].as_f64().unwrap() > 1.0, "{c}");
+    let c = colour(&["--led-rgb", "1,1,1"]);
+    assert!(c["chroma_shift"].as_f64().unwrap() < 1e-12, "{c}");
+    assert!(c["hue_shift_deg"].is_null(), "{c}");
 }
 
 #[test]
