@@ -1,6 +1,7 @@
 //! Integration tests: one binary (ripgrep style) with a module per area.
 
 mod banding;
+mod beyond;
 mod cli;
 mod exact;
 mod plans;
