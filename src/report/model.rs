@@ -273,15 +273,23 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         total: results.len(),
         ..Counts::default()
     };
+    // The analyses are independent per case: in parallel, collected in order.
+    let analyses: Vec<analysis::CaseAnalysis> = {
+        use rayon::prelude::*;
+        results
+            .par_iter()
+            .map(|r| analysis::analyse_case(plan, r))
+            .collect()
+    };
     let cases = results
         .iter()
-        .map(|r| {
+        .zip(analyses)
+        .map(|(r, a)| {
             match r.verdict {
                 Verdict::Pass => counts.pass += 1,
                 Verdict::Fail => counts.fail += 1,
                 Verdict::Info => counts.info += 1,
             }
-            let a = analysis::analyse_case(plan, r);
             let rois = plan
                 .rois
                 .iter()
