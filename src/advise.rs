@@ -10,6 +10,12 @@
 //! over phase, frequency and duty of the Percent Flicker of the LED alone
 //! (a dark background: the largest it can be), computed exactly with
 //! [`Shutter::phase_envelope`].
+//!
+//! HDR: a multi-capture camera keeps the LED only if the capture its merge
+//! uses for the LED's pixels is at least `T*` long. In daylight the merge
+//! takes the short capture, so the set is judged by its shorter captures
+//! `T* / ratio`: the table gives the share of the range where each can lose
+//! the LED. (Per-pixel merge rules belong to the camera model, issue 3.)
 
 use rayon::prelude::*;
 use serde::Serialize;

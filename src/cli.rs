@@ -71,6 +71,18 @@ enum Command {
     Linetime(LinetimeArgs),
     /// Render ideal-camera frames (ON, OFF, PWM) as grey PNG files.
     Render(RenderArgs),
+    /// Estimate a PWM frequency from the band spacing of one rolling-shutter
+    /// frame (PNG or TIFF) with a known line time; prints JSON.
+    Bands(BandsArgs),
+}
+
+#[derive(Args, Debug)]
+struct BandsArgs {
+    /// Frame image (PNG or TIFF, any bit depth; converted to 16-bit luma).
+    frame: PathBuf,
+    /// Line time in microseconds (> 0).
+    #[arg(long)]
+    line_time_us: f64,
 }
 
 #[derive(Args, Debug)]
@@ -222,6 +234,32 @@ struct SimulateArgs {
     /// With --summary: sensor rows rendered for the banding KPIs.
     #[arg(long, default_value_t = 800)]
     sensor_rows: u32,
+    /// With --summary: an RGB LED whose red, green and blue dies run at these
+    /// duties (`R,G,B`, each in (0, 1]) on common rising edges; adds colour KPIs.
+    #[arg(long)]
+    rgb_duty: Option<String>,
+    /// With --summary: a white LED of this linear camera RGB (`R,G,B`) at
+    /// --duty; adds colour KPIs.
+    #[arg(long)]
+    led_rgb: Option<String>,
+    /// With --summary: background linear RGB (`R,G,B`) [default: --background
+    /// in every channel].
+    #[arg(long)]
+    background_rgb: Option<String>,
+}
+
+fn parse_rgb(flag: &str, s: &str) -> Result<[f64; 3], UsageError> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| UsageError(format!("{flag} `{s}` is not three numbers R,G,B")))?;
+    match v.as_slice() {
+        [r, g, b] if v.iter().all(|x| x.is_finite() && *x >= 0.0) => Ok([*r, *g, *b]),
+        _ => Err(UsageError(format!(
+            "{flag} `{s}` is not three numbers R,G,B, each >= 0"
+        ))),
+    }
 }
 
 /// A usage or input error (exit code 2) that is not a plan error.
@@ -273,6 +311,7 @@ fn run(cli: Cli) -> anyhow::Result<i32> {
         Command::Bench(args) => bench(args),
         Command::Linetime(args) => linetime(args),
         Command::Render(args) => render(args),
+        Command::Bands(args) => bands(args),
     }
 }
 
@@ -539,6 +578,44 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
         if a.sensor_rows == 0 {
             return Err(usage("--sensor-rows must be at least 1".into()));
         }
+        use crate::analysis::colour::Die;
+        let dies = match (&a.rgb_duty, &a.led_rgb) {
+            (Some(_), Some(_)) => {
+                return Err(usage("give --rgb-duty or --led-rgb, not both".into()));
+            }
+            (Some(d), None) => {
+                let d = parse_rgb("--rgb-duty", d)?;
+                if d.iter().any(|x| !(*x > 0.0 && *x <= 1.0)) {
+                    return Err(usage(format!(
+                        "--rgb-duty duties must be in (0, 1], got {d:?}"
+                    )));
+                }
+                let primary = |k: usize| {
+                    let mut c = [0.0; 3];
+                    c[k] = 1.0;
+                    Die {
+                        rgb: c,
+                        duty: d[k],
+                        offset_cycles: 0.0,
+                    }
+                };
+                Some(vec![primary(0), primary(1), primary(2)])
+            }
+            (None, Some(c)) => Some(vec![Die {
+                rgb: parse_rgb("--led-rgb", c)?,
+                duty: a.duty,
+                offset_cycles: 0.0,
+            }]),
+            (None, None) => None,
+        };
+        let background_rgb = match &a.background_rgb {
+            Some(b) => parse_rgb("--background-rgb", b)?,
+            None => [a.background; 3],
+        };
+        let scene = dies.map(|dies| crate::analysis::summary::ColourScene {
+            background: background_rgb,
+            dies,
+        });
         let summary = crate::analysis::summary::summarise(
             &shutter,
             &pwm,
@@ -546,6 +623,7 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
             a.frames,
             a.background,
             a.sensor_rows,
+            scene.as_ref(),
         );
         println!("{}", serde_json::to_string_pretty(&summary)?);
         return Ok(EXIT_PASS);
@@ -707,5 +785,40 @@ fn render(a: RenderArgs) -> anyhow::Result<i32> {
     };
     let n = crate::render::render_frames(&spec, &pwm, &a.out).map_err(anyhow::Error::msg)?;
     eprintln!("wrote {n} frames to {}", a.out.display());
+    Ok(EXIT_PASS)
+}
+
+fn bands(a: BandsArgs) -> anyhow::Result<i32> {
+    if !(a.line_time_us.is_finite() && a.line_time_us > 0.0) {
+        return Err(UsageError(format!(
+            "--line-time-us must be > 0, got {}",
+            a.line_time_us
+        ))
+        .into());
+    }
+    let img = image::open(&a.frame)
+        .map_err(|e| UsageError(format!("cannot read frame `{}`: {e}", a.frame.display())))?
+        .to_luma16();
+    let (w, h) = img.dimensions();
+    // Mean of every row: the bands run along rows.
+    let profile: Vec<f64> = (0..h)
+        .map(|y| {
+            (0..w)
+                .map(|x| f64::from(img.get_pixel(x, y)[0]))
+                .sum::<f64>()
+                / f64::from(w.max(1))
+        })
+        .collect();
+    let period = crate::analysis::banding::band_period_from_profile(&profile)
+        .map_err(|e| UsageError(format!("`{}`: {e}", a.frame.display())))?;
+    let out = serde_json::json!({
+        "frame": a.frame.display().to_string(),
+        "rows": h,
+        "columns": w,
+        "line_time_us": a.line_time_us,
+        "band_period_rows": period,
+        "estimated_frequency_hz": 1.0 / (period * a.line_time_us * 1e-6),
+    });
+    println!("{}", serde_json::to_string_pretty(&out)?);
     Ok(EXIT_PASS)
 }

@@ -12,10 +12,13 @@
 //! - [`drive`]: IEEE 1789 risk region and IES Flicker Index of the PWM;
 //! - [`phase_fold`]: the flicker signal folded by phase, phase coverage;
 //! - [`banding`]: band period, contrast and velocity of a rolling shutter;
-//! - [`finemap`]: worst-phase FDI and Percent Flicker over frequency x duty.
+//! - [`finemap`]: worst-phase FDI and Percent Flicker over frequency x duty;
+//! - [`colour`]: per-channel modulation and chroma shift (RGB and white LEDs);
+//! - [`summary`]: `simulate --summary`.
 
 pub mod apparent;
 pub mod banding;
+pub mod colour;
 pub mod drive;
 pub mod finemap;
 pub mod hazard;
@@ -24,10 +27,9 @@ pub mod summary;
 
 use serde::Serialize;
 
-use crate::backend::sim::shutter_of;
 use crate::metrics::flicker::Segment;
-use crate::physics::PwmDrive;
-use crate::plan::{CameraConfig, Plan, RoiKind};
+use crate::physics::{PwmDrive, Shutter, ShutterModel};
+use crate::plan::{CameraConfig, Plan, RoiKind, ShutterKind};
 use crate::runner::CaseResult;
 
 pub use apparent::Beat;
@@ -35,6 +37,22 @@ pub use banding::Banding;
 pub use drive::DriveFlicker;
 pub use hazard::HazardClass;
 pub use phase_fold::PhaseCoverage;
+
+/// Exposure timing of the plan's camera: shutter model, exposure and frame
+/// rate. (Built here from the plan rather than taken from the simulator, so
+/// the analysis does not depend on how a backend models its camera.)
+pub fn shutter_of(cam: &CameraConfig) -> Shutter {
+    Shutter {
+        model: match cam.shutter {
+            ShutterKind::Global => ShutterModel::Global,
+            ShutterKind::Rolling => ShutterModel::Rolling {
+                line_time_s: cam.line_time_s,
+            },
+        },
+        exposure_s: cam.exposure_s,
+        fps: cam.fps,
+    }
+}
 
 /// The analysis of one ROI trace.
 #[derive(Debug, Clone, PartialEq, Serialize)]

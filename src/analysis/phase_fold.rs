@@ -93,6 +93,11 @@ pub fn frames_to_cover(
     let mut hit = vec![false; bins];
     let mut left = bins;
     for n in 0..max_frames {
+        // f / fps = p / n exactly: frame n repeats frame 0's phase, and so
+        // does every later frame repeat an earlier one. Nothing new will come.
+        if n > 0 && (n as f64 * frequency_hz) % fps == 0.0 {
+            return None;
+        }
         let b = bin_of(frame_phase(n, frequency_hz, fps, phase0), bins);
         if !hit[b] {
             hit[b] = true;

@@ -49,6 +49,17 @@ pub struct Summary {
     pub phase_coverage: PhaseCoverage,
     /// Banding of a rolling shutter over `sensor_rows`.
     pub banding: Option<Banding>,
+    /// Colour KPIs, when a colour scene was given.
+    pub colour: Option<super::colour::ColourFlicker>,
+}
+
+/// A colour scene for the summary: background RGB and the LED's dies.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColourScene {
+    /// Background, linear camera RGB in units of the LED's full ON level.
+    pub background: super::colour::Rgb,
+    /// The dies (one for a white LED, three for an RGB LED).
+    pub dies: Vec<super::colour::Die>,
 }
 
 /// Simulates `frames` frames of ROI `rows` and summarises them.
@@ -59,6 +70,7 @@ pub fn summarise(
     frames: u64,
     background: f64,
     sensor_rows: u32,
+    colour: Option<&ColourScene>,
 ) -> Summary {
     let numbers: Vec<u64> = (0..frames).collect();
     let luma: Vec<f64> = numbers
@@ -129,6 +141,13 @@ pub fn summarise(
         drive: super::drive::drive_flicker(pwm.frequency_hz(), pwm.duty()),
         phase_coverage: analysis.phase_coverage,
         banding: super::banding::banding(shutter, pwm, sensor_rows),
+        colour: colour.map(|c| {
+            super::colour::colour_flicker(
+                c.background,
+                &c.dies,
+                shutter.exposure_s * pwm.frequency_hz(),
+            )
+        }),
     }
 }
 
@@ -146,7 +165,7 @@ mod tests {
         };
         // 91.5 Hz at 30 fps: f_a = 1.5 Hz, a turn-indicator-like beat.
         let pwm = PwmDrive::new(91.5, 0.1, 0.0).unwrap();
-        let s = summarise(&shutter, &pwm, 0..1, 600, 0.1, 800);
+        let s = summarise(&shutter, &pwm, 0..1, 600, 0.1, 800, None);
         assert!((s.apparent_frequency_hz - 1.5).abs() < 1e-12);
         assert_eq!(s.hazard_class, HazardClass::TurnIndicatorLike);
         // The exposure (0.183 cycles) fits in the OFF gap: the light vanishes.
@@ -156,7 +175,7 @@ mod tests {
         let json = serde_json::to_string(&s).unwrap();
         assert!(!json.contains("NaN") && !json.contains("inf"));
         // No background: FDI is unbounded or 0/0, null with a reason.
-        let s = summarise(&shutter, &pwm, 0..1, 600, 0.0, 800);
+        let s = summarise(&shutter, &pwm, 0..1, 600, 0.0, 800, None);
         assert_eq!(s.metrics["fdi_2018"], None);
         assert!(s.reasons.contains_key("fdi_2018"));
     }

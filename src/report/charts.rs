@@ -256,7 +256,7 @@ pub enum FineMapKind {
 /// display blocks (at most about 400 x 100) keeping the block's worst value
 /// (lowest FDI, highest Percent Flicker), so the picture never hides a bad
 /// cell; colours come in steps (FDI: 8 per side of the threshold; Percent
-/// Flicker: 5 %).
+/// Flicker: 20 steps of its square root).
 pub fn finemap_svg(
     map: &crate::analysis::finemap::FineMap,
     kind: FineMapKind,
@@ -299,8 +299,9 @@ pub fn finemap_svg(
                 }
             }
             (FineMapKind::PercentFlicker, Some(v)) => {
-                // 5 % steps: equal colours merge into one rectangle.
-                let x = ((v / 100.0).clamp(0.0, 1.0) * 20.0).round() / 20.0;
+                // 20 steps of sqrt(PF / 100), so that small modulation still
+                // shows; equal colours merge into one rectangle.
+                let x = ((v / 100.0).clamp(0.0, 1.0).sqrt() * 20.0).round() / 20.0;
                 RGBColor(
                     255 - (90.0 * x) as u8,
                     255 - (235.0 * x) as u8,

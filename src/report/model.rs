@@ -6,6 +6,12 @@
 //! `rois[] {name, metrics {fdi_2018, percent_flicker, ...}}`. A metric that
 //! cannot be defined is `null` in `metrics`, with its reason under the same
 //! name in `reasons`.
+//!
+//! Added by issue 6 (beyond the paper): per case `apparent_frequency_hz`,
+//! `hazard_class`, `beat`, `drive` (IEEE 1789, IES Flicker Index) and
+//! `banding`; per ROI the metrics `apparent_frequency_spectrum_hz` and
+//! `phase_coverage` and an `analysis` object; at the top `fine_maps` and
+//! `advice`.
 
 use std::collections::BTreeMap;
 
@@ -303,15 +309,23 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         total: results.len(),
         ..Counts::default()
     };
+    // The analyses are independent per case: in parallel, collected in order.
+    let analyses: Vec<analysis::CaseAnalysis> = {
+        use rayon::prelude::*;
+        results
+            .par_iter()
+            .map(|r| analysis::analyse_case(plan, r))
+            .collect()
+    };
     let cases = results
         .iter()
-        .map(|r| {
+        .zip(analyses)
+        .map(|(r, a)| {
             match r.verdict {
                 Verdict::Pass => counts.pass += 1,
                 Verdict::Fail => counts.fail += 1,
                 Verdict::Info => counts.info += 1,
             }
-            let a = analysis::analyse_case(plan, r);
             let rois = plan
                 .rois
                 .iter()

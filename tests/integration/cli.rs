@@ -314,6 +314,35 @@ fn simulate_summary_prints_one_json_object_with_results_names() {
     assert!(!text.contains("NaN"));
     let v: serde_json::Value = serde_json::from_str(&text).unwrap();
     assert!(v["metrics"]["fdi_2018"].is_null() && v["reasons"]["fdi_2018"].is_string());
+    assert!(v["colour"].is_null());
+    // Colour: an RGB LED with unequal die duties shifts hue with phase; a
+    // white LED on a grey background does not.
+    let colour = |extra: &[&str]| -> serde_json::Value {
+        let mut args = vec![
+            "simulate",
+            "--frequency-hz",
+            "151",
+            "--duty",
+            "0.3",
+            "--exposure-ms",
+            "3",
+            "--fps",
+            "30",
+            "--background",
+            "0.05",
+            "--summary",
+        ];
+        args.extend_from_slice(extra);
+        let o = ledflicker(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()["colour"].clone()
+    };
+    let c = colour(&["--rgb-duty", "0.3,0.5,0.2"]);
+    assert!(c["chroma_shift"].as_f64().unwrap() > 0.05, "{c}");
+    assert!(c["hue_shift_deg"].as_f64().unwrap() > 1.0, "{c}");
+    let c = colour(&["--led-rgb", "1,1,1"]);
+    assert!(c["chroma_shift"].as_f64().unwrap() < 1e-12, "{c}");
+    assert!(c["hue_shift_deg"].is_null(), "{c}");
 }
 
 #[test]
@@ -356,4 +385,30 @@ fn advise_prints_the_eq1_bound_and_writes_a_plot() {
         "0.1",
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}
+
+#[test]
+fn bands_estimates_the_frequency_of_a_rendered_frame() {
+    // Render a 600-row frame of a 700 Hz, 30 % PWM with 20 us lines (closed
+    // form per row, 16-bit) and read the frequency back from the bands.
+    use ledflicker::analysis::banding::row_profile;
+    use ledflicker::physics::{PwmDrive, Shutter, ShutterModel};
+    let shutter = Shutter {
+        model: ShutterModel::Rolling { line_time_s: 20e-6 },
+        exposure_s: 1e-4,
+        fps: 30.0,
+    };
+    let pwm = PwmDrive::new(700.0, 0.3, 0.0).unwrap();
+    let rows = row_profile(&shutter, &pwm, 0, 600);
+    let img = image::ImageBuffer::from_fn(64, 600, |_, y| {
+        image::Luma([(1000.0 + 60000.0 * rows[y as usize]) as u16])
+    });
+    let dir = scratch("bands");
+    let path = dir.join("frame.png");
+    img.save(&path).unwrap();
+    let o = ledflicker(&["bands", path.to_str().unwrap(), "--line-time-us", "20"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let f = v["estimated_frequency_hz"].as_f64().unwrap();
+    assert!((f - 700.0).abs() < 1.0, "{f}");
 }

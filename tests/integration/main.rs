@@ -1,5 +1,7 @@
 //! Integration tests: one binary (ripgrep style) with a module per area.
 
+mod banding;
+mod beyond;
 mod captured;
 mod cli;
 mod exact;

@@ -1,0 +1,25 @@
+//! Band spacing of a real rolling-shutter frame (gyroflow/rollingshutter,
+//! a 1000 Hz, 50 % LED, 14.565 us per line: DESIGN.md section 5) gives back
+//! the LED's frequency.
+
+use ledflicker::analysis::banding::band_period_from_profile;
+
+#[test]
+fn real_frame_band_spacing_gives_the_led_frequency() {
+    let path = crate::root()
+        .join("../shared/reference-data/external/gyroflow-rs-banding/frame_example.png");
+    let Ok(img) = image::open(&path) else {
+        eprintln!("skipped: {} not found", path.display());
+        return;
+    };
+    let img = img.to_luma8();
+    let (w, h) = img.dimensions();
+    let profile: Vec<f64> = (0..h)
+        .map(|y| (0..w).map(|x| img.get_pixel(x, y)[0] as f64).sum::<f64>() / w as f64)
+        .collect();
+    let rows = band_period_from_profile(&profile).unwrap();
+    let f = 1.0 / (rows * 14.565e-6);
+    eprintln!("period {rows} rows -> {f} Hz");
+    // Upstream gives the readout to 0.03 % (15.730 +- 0.004 ms); allow 0.5 %.
+    assert!((f - 1000.0).abs() < 5.0, "{f} Hz");
+}

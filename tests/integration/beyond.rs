@@ -1,0 +1,86 @@
+//! Issue 6 in results.json: apparent frequency, beat, hazard class, drive,
+//! banding and phase coverage of a small plan, against closed forms.
+
+use ledflicker::backend::sim::Simulator;
+use ledflicker::{plan, report, runner};
+use serde_json::Value;
+
+use crate::root;
+
+fn model(frequencies: &str, duties: &str) -> Value {
+    let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml"))
+        .unwrap()
+        .replace(
+            "frequencies-hz = [60.0, 150.0]",
+            &format!("frequencies-hz = {frequencies}"),
+        )
+        .replace(
+            "duty-cycles = [0.2, 0.5]",
+            &format!("duty-cycles = {duties}"),
+        )
+        .replace("exposure-ms = 11.111", "exposure-ms = 2.0");
+    let p = plan::parse(&text, std::path::Path::new("beyond.toml"), String::new()).unwrap();
+    let cases = plan::expand_cases(&p);
+    let results = runner::run(&p, &cases, &Simulator::new(&p), Some(2), &|_| {}).unwrap();
+    serde_json::to_value(report::build(&p, "sim-ideal", &results)).unwrap()
+}
+
+fn case<'a>(m: &'a Value, id: &str) -> &'a Value {
+    m["cases"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["id"] == id)
+        .unwrap()
+}
+
+#[test]
+fn results_name_the_beat_and_what_it_looks_like() {
+    let m = model("[90.05, 91.5, 100.0]", "[0.05, 0.5]");
+    assert!(!m.to_string().contains("NaN"));
+    for c in m["cases"].as_array().unwrap() {
+        let f = c["frequency_hz"].as_f64().unwrap();
+        let d = c["duty"].as_f64().unwrap();
+        let fa = (f - 30.0 * (f / 30.0).round()).abs();
+        assert!((c["apparent_frequency_hz"].as_f64().unwrap() - fa).abs() < 1e-9);
+        assert!((c["drive"]["flicker_index"].as_f64().unwrap() - (1.0 - d)).abs() < 1e-12);
+        assert_eq!(c["drive"]["ieee1789_region"], "elevated-risk");
+        let rows = 1.0 / (f * 14.565e-6);
+        assert!((c["banding"]["band_period_rows"].as_f64().unwrap() - rows).abs() < 1e-6);
+    }
+    // 91.5 Hz at 30 fps: a 1.5 Hz beat, 90 flashes a minute.
+    let c = case(&m, "2000lux-91.5hz-50pct");
+    assert_eq!(c["hazard_class"], "turn-indicator-like");
+    assert_eq!(c["beat"]["longer_than_capture"], false);
+    let spec = c["rois"][0]["metrics"]["apparent_frequency_spectrum_hz"]
+        .as_f64()
+        .unwrap();
+    assert!((spec - 1.5).abs() <= 30.0 / 120.0, "{spec}");
+    // 100 Hz: 10 Hz, in the peak-annoyance band.
+    assert_eq!(
+        case(&m, "2000lux-100hz-50pct")["hazard_class"],
+        "peak-annoyance"
+    );
+    // 90.05 Hz: a 20 s beat in a 4 s capture; the capture says how long it
+    // would have to be.
+    let c = case(&m, "2000lux-90.05hz-50pct");
+    assert_eq!(c["beat"]["longer_than_capture"], true);
+    assert!(
+        c["beat"]["note"]
+            .as_str()
+            .unwrap()
+            .contains("near phase lock")
+    );
+    let cov = &c["rois"][0]["analysis"]["phase_coverage"];
+    assert!(cov["coverage"].as_f64().unwrap() < 0.5, "{cov}");
+    let need = cov["needed_capture_s"].as_f64().unwrap();
+    assert!((need - 20.0).abs() < 0.5, "{need}");
+    // The background ROI never flickers: steady.
+    for c in m["cases"].as_array().unwrap() {
+        for roi in c["rois"].as_array().unwrap() {
+            if roi["kind"] == "background" {
+                assert_eq!(roi["analysis"]["hazard_class"], "steady");
+            }
+        }
+    }
+}
