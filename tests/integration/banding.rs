@@ -6,13 +6,10 @@ use ledflicker::analysis::banding::band_period_from_profile;
 
 #[test]
 fn real_frame_band_spacing_gives_the_led_frequency() {
-    let path = crate::root()
-        .join("../shared/reference-data/external/gyroflow-rs-banding/frame_example.png");
-    let Ok(img) = image::open(&path) else {
-        eprintln!("skipped: {} not found", path.display());
-        return;
-    };
-    let img = img.to_luma8();
+    let path = crate::root().join("reference-data/gyroflow-rs-banding/frame_example.png");
+    let img = image::open(&path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .to_luma8();
     let (w, h) = img.dimensions();
     let profile: Vec<f64> = (0..h)
         .map(|y| (0..w).map(|x| img.get_pixel(x, y)[0] as f64).sum::<f64>() / w as f64)
