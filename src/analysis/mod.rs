@@ -236,8 +236,32 @@ pub const FINE_DUTY: finemap::Axis = finemap::Axis {
     count: 100,
 };
 
-/// Fine maps of the plan's camera for its first LED ROI, one per light level.
+/// Why a plan gets no fine maps, if it gets none: they model the ideal,
+/// linear, single-exposure simulated camera only.
+pub fn fine_maps_note(plan: &Plan) -> Option<String> {
+    if plan.dut.backend != crate::plan::BackendKind::Simulator {
+        Some(
+            "no fine maps: the plan measures captured data or a lab rig, not a simulated camera"
+                .to_string(),
+        )
+    } else if plan.dut.camera.physical.is_some() {
+        Some(format!(
+            "no fine maps: they model the ideal linear single-exposure camera, and camera `{}` has a physical sensor (HDR merge, tone curve, auto exposure); the per-case worst case over phase covers it",
+            plan.dut.camera.name
+        ))
+    } else if !plan.rois.iter().any(|r| r.kind == RoiKind::Led) {
+        Some("no fine maps: the plan has no LED ROI".to_string())
+    } else {
+        None
+    }
+}
+
+/// Fine maps of the plan's camera for its first LED ROI, one per light
+/// level; empty when [`fine_maps_note`] says why.
 pub fn fine_maps(plan: &Plan) -> Vec<FineMapInfo> {
+    if fine_maps_note(plan).is_some() {
+        return Vec::new();
+    }
     let Some(roi) = plan.rois.iter().find(|r| r.kind == RoiKind::Led) else {
         return Vec::new();
     };

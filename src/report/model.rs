@@ -50,6 +50,8 @@ pub struct Results {
     /// Worst-phase FDI and Percent Flicker over the frequency x duty plane,
     /// one per light level, for the plan's camera and first LED ROI.
     pub fine_maps: Vec<FineMapInfo>,
+    /// Why there are no fine maps, when there are none.
+    pub fine_maps_note: Option<String>,
     /// `ledflicker advise` for the plan's frequencies in the mitigation range
     /// and its duty cycles; `null` when every duty is 100 %.
     pub advice: Option<PlanAdvice>,
@@ -441,6 +443,7 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         counts,
         cases,
         fine_maps: analysis::fine_maps(plan),
+        fine_maps_note: analysis::fine_maps_note(plan),
         advice: plan_advice(plan),
     }
 }

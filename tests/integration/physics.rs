@@ -344,3 +344,21 @@ fn rendered_rolling_shutter_frame_shows_bands_at_the_predicted_spacing() {
         "spacing {spacing} vs {expected}"
     );
 }
+
+#[test]
+fn physical_camera_gets_no_ideal_fine_map_but_says_why() {
+    let p = plan::load(&root().join("test-plans/deegan2018.toml")).unwrap();
+    let cases = plan::expand_cases(&p);
+    let results = runner::run(&p, &cases, &Simulator::new(&p), Some(2), &|_| {}).unwrap();
+    let model = ledflicker::report::build(&p, "sim-physical", &results);
+    assert!(model.fine_maps.is_empty());
+    assert!(
+        model
+            .fine_maps_note
+            .as_deref()
+            .unwrap()
+            .contains("physical sensor")
+    );
+    let daylight = plan::load(&root().join("test-plans/daylight.toml")).unwrap();
+    assert!(ledflicker::analysis::fine_maps_note(&daylight).is_none());
+}
