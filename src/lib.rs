@@ -6,7 +6,8 @@
 //! ```text
 //! TOML plan --plan::load--> Plan --expand_cases--> Vec<TestCase>
 //!   --runner::run (rayon) + dyn Backend--> Vec<CaseResult>
-//!   --report::build--> Results (results.json) --report::html--> report.html
+//!   --report::build--> Results (results.json) --report::{html,pdf,export}-->
+//!   report.html, report.pdf, junit.xml, summary.csv --signoff--> signoff.json
 //! ```
 //!
 //! - [`plan`]: the TOML format, validation with every error located by line;
@@ -14,7 +15,9 @@
 //! - [`backend`]: where frames come from (the simulator's ideal camera);
 //! - [`metrics`]: Deegan 2018 FDI and Percent Flicker, verdicts;
 //! - [`runner`]: cases in parallel, deterministic whatever the thread count;
-//! - [`report`]: results.json, trace CSVs and the HTML report.
+//! - [`report`]: results.json, trace CSVs, charts, the HTML and PDF reports,
+//!   JUnit/CSV exports and golden-file comparison;
+//! - [`signoff`]: Ed25519 sign-off of a report directory and its verification.
 #![warn(missing_docs)]
 
 pub mod backend;
@@ -24,4 +27,5 @@ pub mod physics;
 pub mod plan;
 pub mod report;
 pub mod runner;
+pub mod signoff;
 pub mod util;

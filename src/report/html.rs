@@ -1,4 +1,4 @@
-//! HTML report: results model + charts -> minijinja templates in templates/.
+//! HTML report: a [`Document`] -> minijinja templates in templates/.
 //!
 //! The templates are compiled into the binary, so a report needs nothing at
 //! run time. The page is self-contained: CSS inline, charts as inline SVG.
@@ -9,15 +9,13 @@ use minijinja::value::{Serde, Value};
 use minijinja::{Environment, UndefinedBehavior};
 
 use super::ReportError;
-use super::charts;
-use super::model::Results;
-use crate::runner::CaseResult;
+use super::document::{Document, matrix_chart_path, trace_chart_path};
 
 const BASE: &str = include_str!("../../templates/base.html.j2");
 const REPORT: &str = include_str!("../../templates/report.html.j2");
 
 /// Formats an optional number with `digits` decimals; `None` -> "n/a".
-fn num(value: Option<f64>, digits: Option<usize>) -> String {
+pub(crate) fn num(value: Option<f64>, digits: Option<usize>) -> String {
     match value {
         Some(v) if v.is_finite() => crate::util::fixed(v, digits.unwrap_or(3)),
         Some(_) | None => "n/a".to_string(),
@@ -42,15 +40,45 @@ fn environment() -> Result<Environment<'static>, ReportError> {
     Ok(env)
 }
 
-/// Renders report.html.
-pub fn render(model: &Results, results: &[CaseResult], date: &str) -> Result<String, ReportError> {
+/// Per light level: `{lux, chart}`, where `chart` is what `chart_for` makes
+/// of the matrix's chart path (missing charts are skipped).
+pub(crate) fn matrices(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec<Value> {
+    doc.light_levels()
+        .into_iter()
+        .enumerate()
+        .filter_map(|(i, lux)| {
+            let path = matrix_chart_path(i);
+            doc.charts.contains_key(&path).then(|| {
+                minijinja::context! { lux => lux, chart => chart_for(&path) }
+            })
+        })
+        .collect()
+}
+
+/// Renders report.html for a run in memory (a draft: no signatories).
+pub fn render(
+    model: &super::model::Results,
+    results: &[crate::runner::CaseResult],
+    date: &str,
+) -> Result<String, ReportError> {
+    render_document(&Document::build(model, results, date, Vec::new())?)
+}
+
+/// Renders report.html from a [`Document`].
+pub fn render_document(doc: &Document) -> Result<String, ReportError> {
     let env = environment()?;
-    let mut charts = BTreeMap::new();
-    for r in results {
-        charts.insert(
-            r.case.id.clone(),
-            Value::from_safe_string(charts::luma_trace_svg(r)?),
-        );
+    let inline = |path: &str| {
+        doc.charts
+            .get(path)
+            .map(|svg| Value::from_safe_string(svg.clone()))
+            .unwrap_or_else(|| Value::from(()))
+    };
+    let mut traces = BTreeMap::new();
+    for case in doc.case_ids() {
+        let path = trace_chart_path(&case);
+        if doc.charts.contains_key(&path) {
+            traces.insert(case, inline(&path));
+        }
     }
     let template = env
         .get_template("report.html.j2")
@@ -60,9 +88,12 @@ pub fn render(model: &Results, results: &[CaseResult], date: &str) -> Result<Str
         })?;
     template
         .render(minijinja::context! {
-            r => Serde(model),
-            charts => charts,
-            date => date,
+            r => Serde(&doc.results),
+            charts => traces,
+            matrices => matrices(doc, inline),
+            signatories => Serde(&doc.signatories),
+            draft => doc.is_draft(),
+            date => doc.date(),
         })
         .map_err(|e| ReportError::Template {
             template: "report.html.j2".to_string(),

@@ -1,4 +1,4 @@
-//! The report model: results.json. HTML (and later PDF) are rendered from it.
+//! The report model: results.json. HTML and PDF are rendered from it.
 //!
 //! Contract `ledflicker.results/1` (fields may be added, never renamed):
 //! `schema`, `plan {id, title, path, sha256}`, `verdict`, and `cases[]` with
@@ -40,6 +40,10 @@ pub struct Results {
     pub counts: Counts,
     /// Every case, in plan order.
     pub cases: Vec<CaseInfo>,
+    /// Date and input files; set when the report is written, absent in
+    /// models built in memory.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub report: Option<super::document::ReportMeta>,
 }
 
 /// Tool name and version.
@@ -287,5 +291,6 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         verdict: overall(results.iter().map(|r| r.verdict)),
         counts,
         cases,
+        report: None,
     }
 }

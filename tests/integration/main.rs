@@ -3,6 +3,7 @@
 mod cli;
 mod exact;
 mod plans;
+mod report;
 mod results;
 
 use std::path::{Path, PathBuf};

@@ -130,7 +130,8 @@ fn no_nan_reaches_the_report() {
     assert!(!json.contains("NaN") && !json.contains("Infinity"));
     let html = report::html::render(&model, &results, "2026-01-01").unwrap();
     assert!(!html.contains("NaN"));
-    assert_eq!(html.matches("<svg").count(), results.len());
+    // One trace per case and one matrix for the single light level.
+    assert_eq!(html.matches("<svg").count(), results.len() + 1);
     assert!(html.contains("ON level") && html.contains("OFF level"));
 }
 
