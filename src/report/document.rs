@@ -229,7 +229,7 @@ pub fn notes(model: &Results) -> Vec<String> {
     }
     if model.dut.backend.starts_with("sim") {
         out.push(format!(
-            "Frames come from the ideal camera simulator (backend `{}`), not from a captured device; \
+            "Frames come from the ideal camera simulator (backend {}), not from a captured device; \
              the DUT fields name the camera being modelled.",
             model.dut.backend
         ));
@@ -242,7 +242,7 @@ pub fn notes(model: &Results) -> Vec<String> {
         .collect();
     if !saturated.is_empty() {
         out.push(format!(
-            "{} case(s) have a saturated ROI (e.g. `{}`): their metrics understate the modulation.",
+            "{} case(s) have a saturated ROI (e.g. {}): their metrics understate the modulation.",
             saturated.len(),
             saturated[0]
         ));

@@ -49,9 +49,10 @@ fn shown(model: &Results) -> (Shown, String, &'static str, Option<f64>) {
 fn scale(kind: Shown, value: f64, threshold: f64) -> f64 {
     match kind {
         Shown::Fdi => {
-            // FDI is -1 when the light is dark in some frame; unbounded above.
+            // FDI <= 0: some frame is no brighter than the OFF reference,
+            // the worst there is (the light appears OFF); unbounded above.
             if value < threshold {
-                0.5 * ((value + 1.0) / (threshold + 1.0)).clamp(0.0, 1.0)
+                0.5 * (value / threshold.max(1e-9)).clamp(0.0, 1.0)
             } else {
                 0.5 + 0.5 * ((1.0 + value - threshold).ln() / 11f64.ln()).clamp(0.0, 1.0)
             }
@@ -196,12 +197,13 @@ pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError>
             )
             .x_label_area_size(34)
             .y_label_area_size(52)
-            .build_cartesian_2d((x0..x1).log_scale(), y0..y1)
+            .build_cartesian_2d((x0..x1).log_scale().with_key_points(freqs.clone()), y0..y1)
             .map_err(|e| err(&e))?;
         chart
             .configure_mesh()
             .disable_mesh()
             .x_desc("PWM frequency (Hz, log scale)")
+            .x_labels(freqs.len())
             .y_desc("duty (%)")
             .x_label_formatter(&|x| format!("{x:.0}"))
             .y_label_formatter(&|y| format!("{y:.0}"))
@@ -276,19 +278,19 @@ pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError>
                     .collect();
                 chart
                     .draw_series(LineSeries::new(points, BLACK.stroke_width(2)))
-                    .map_err(|e| err(&e))?
-                    .label(format!(
-                        "Eq. (1): T_exp = (1 - D)/f for T_exp = {} ms; below it the LED can appear OFF",
-                        crate::util::fixed(cam.exposure_ms, 3)
-                    ))
-                    .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLACK.stroke_width(2)));
+                    .map_err(|e| err(&e))?;
+                // Label at the top end of the line, above the cell texts.
                 chart
-                    .configure_series_labels()
-                    .position(SeriesLabelPosition::UpperRight)
-                    .label_font((FONT, 11))
-                    .background_style(WHITE.mix(0.9))
-                    .border_style(RGBColor(160, 160, 160))
-                    .draw()
+                    .draw_series(std::iter::once(Text::new(
+                        format!(
+                            "Eq. (1), T_exp = {} ms",
+                            crate::util::fixed(cam.exposure_ms, 3)
+                        ),
+                        (fa * 1.04, y1),
+                        TextStyle::from((FONT, 11).into_font())
+                            .color(&BLACK)
+                            .pos(Pos::new(HPos::Left, VPos::Top)),
+                    )))
                     .map_err(|e| err(&e))?;
             }
         }
@@ -305,6 +307,7 @@ mod tests {
     fn colour_scale_puts_the_threshold_in_the_middle() {
         assert!((scale(Shown::Fdi, 0.1, 0.1) - 0.5).abs() < 1e-12);
         assert_eq!(scale(Shown::Fdi, -1.0, 0.1), 0.0);
+        assert_eq!(scale(Shown::Fdi, 0.0, 0.1), 0.0);
         assert!(scale(Shown::Fdi, 0.05, 0.1) < 0.5);
         assert!(scale(Shown::Fdi, 3.0, 0.1) > 0.5);
         assert!((scale(Shown::PercentFlicker, 10.0, 10.0) - 0.5).abs() < 1e-12);
