@@ -253,7 +253,6 @@ pub struct SignoffFile {
 /// files, by relative path with `/`.
 pub fn scan(dir: &Path) -> Result<BTreeMap<String, String>, SignoffError> {
     fn walk(
-        root: &Path,
         dir: &Path,
         prefix: &str,
         out: &mut BTreeMap<String, String>,
@@ -271,7 +270,7 @@ pub fn scan(dir: &Path) -> Result<BTreeMap<String, String>, SignoffError> {
             let rel = format!("{prefix}{name}");
             let path = e.path();
             if path.is_dir() {
-                walk(root, &path, &format!("{rel}/"), out)?;
+                walk(&path, &format!("{rel}/"), out)?;
             } else {
                 let bytes = std::fs::read(&path).map_err(io(&path))?;
                 out.insert(rel, sha256_hex(&bytes));
@@ -280,7 +279,7 @@ pub fn scan(dir: &Path) -> Result<BTreeMap<String, String>, SignoffError> {
         Ok(())
     }
     let mut out = BTreeMap::new();
-    walk(dir, dir, "", &mut out)?;
+    walk(dir, "", &mut out)?;
     Ok(out)
 }
 

@@ -44,7 +44,7 @@ impl Tolerances {
         };
         let (k, v) = spec.split_once('=').ok_or_else(hint)?;
         let v: f64 = v.trim().parse().map_err(|_| hint())?;
-        if !(v.is_finite() && v >= 0.0) || !self.0.contains_key(k.trim()) {
+        if !(v.is_finite() && v >= 0.0 && self.0.contains_key(k.trim())) {
             return Err(hint());
         }
         self.0.insert(k.trim().to_string(), v);
