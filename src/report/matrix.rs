@@ -93,35 +93,33 @@ fn distinct(mut v: Vec<f64>) -> Vec<f64> {
     v
 }
 
-/// Cell edges around sorted centres: midpoints (geometric when `log`).
-fn edges(centres: &[f64], log: bool) -> Vec<f64> {
-    let mid = |a: f64, b: f64| if log { (a * b).sqrt() } else { 0.5 * (a + b) };
-    let n = centres.len();
-    let mut e = Vec::with_capacity(n + 1);
-    if n == 1 {
-        let c = centres[0];
-        return if log {
-            vec![c / 1.3, c * 1.3]
-        } else {
-            vec![c - 5.0, c + 5.0]
-        };
+/// Position of `v` on an axis whose cells are the sorted `knots` at
+/// indices 0, 1, ...: piecewise linear between knots (in `ln` when `log`),
+/// extrapolating the end segments. A single knot spans one cell between
+/// x 1/1.3 and x 1.3 (`log`), or +/- 5 units.
+fn to_index(knots: &[f64], v: f64, log: bool) -> f64 {
+    let m = |x: f64| if log { x.ln() } else { x };
+    if knots.len() == 1 {
+        let half = if log { 1.3f64.ln() } else { 5.0 };
+        return 0.5 * (m(v) - m(knots[0])) / half;
     }
-    let first = if log {
-        centres[0] * centres[0] / mid(centres[0], centres[1])
-    } else {
-        2.0 * centres[0] - mid(centres[0], centres[1])
-    };
-    e.push(first);
-    for w in centres.windows(2) {
-        e.push(mid(w[0], w[1]));
+    let k = knots
+        .windows(2)
+        .position(|w| v <= w[1])
+        .unwrap_or(knots.len() - 2);
+    k as f64 + (m(v) - m(knots[k])) / (m(knots[k + 1]) - m(knots[k]))
+}
+
+/// Inverse of [`to_index`].
+fn from_index(knots: &[f64], x: f64, log: bool) -> f64 {
+    let m = |v: f64| if log { v.ln() } else { v };
+    let inv = |v: f64| if log { v.exp() } else { v };
+    if knots.len() == 1 {
+        let half = if log { 1.3f64.ln() } else { 5.0 };
+        return inv(m(knots[0]) + 2.0 * x * half);
     }
-    let last = if log {
-        centres[n - 1] * centres[n - 1] / mid(centres[n - 2], centres[n - 1])
-    } else {
-        2.0 * centres[n - 1] - mid(centres[n - 2], centres[n - 1])
-    };
-    e.push(last);
-    e
+    let k = (x.floor().max(0.0) as usize).min(knots.len() - 2);
+    inv(m(knots[k]) + (x - k as f64) * (m(knots[k + 1]) - m(knots[k])))
 }
 
 /// The value shown for a case (first LED ROI, else first ROI), and whether
@@ -166,10 +164,24 @@ pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError>
     }
     let freqs = distinct(cases.iter().map(|c| c.frequency_hz).collect());
     let duties = distinct(cases.iter().map(|c| c.duty * 100.0).collect());
-    let fe = edges(&freqs, true);
-    let de = edges(&duties, false);
-    let (x0, x1) = (fe[0], fe[fe.len() - 1]);
-    let (y0, y1) = (de[0].max(0.0), de[de.len() - 1]);
+    // Equal cells: column i is freqs[i], row j is duties[j].
+    let (x0, x1) = (-0.5, freqs.len() as f64 - 0.5);
+    let (y0, y1) = (-0.5, duties.len() as f64 - 0.5);
+    let label_at = |knots: &[f64], v: f64| {
+        let i = v.round();
+        if (v - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < knots.len() {
+            crate::util::fixed(
+                knots[i as usize],
+                if knots[i as usize].fract() == 0.0 {
+                    0
+                } else {
+                    1
+                },
+            )
+        } else {
+            String::new()
+        }
+    };
     let (kind, metric, title, threshold) = shown(model);
     let th = threshold.unwrap_or(match kind {
         Shown::Fdi => 0.1,
@@ -197,16 +209,17 @@ pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError>
             )
             .x_label_area_size(34)
             .y_label_area_size(52)
-            .build_cartesian_2d((x0..x1).log_scale().with_key_points(freqs.clone()), y0..y1)
+            .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(|e| err(&e))?;
         chart
             .configure_mesh()
             .disable_mesh()
-            .x_desc("PWM frequency (Hz, log scale)")
-            .x_labels(freqs.len())
+            .x_desc("PWM frequency (Hz)")
+            .x_labels(freqs.len() + 1)
+            .y_labels(duties.len() + 1)
             .y_desc("duty (%)")
-            .x_label_formatter(&|x| format!("{x:.0}"))
-            .y_label_formatter(&|y| format!("{y:.0}"))
+            .x_label_formatter(&|x| label_at(&freqs, *x))
+            .y_label_formatter(&|y| label_at(&duties, *y))
             .label_style((FONT, 11))
             .axis_desc_style((FONT, 12))
             .draw()
@@ -231,7 +244,8 @@ pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError>
             } else {
                 fill.mix(1.0)
             };
-            let rect = [(fe[i], de[j].max(y0)), (fe[i + 1], de[j + 1])];
+            let (x, y) = (i as f64, j as f64);
+            let rect = [(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)];
             chart
                 .draw_series(std::iter::once(Rectangle::new(rect, fill.filled())))
                 .map_err(|e| err(&e))?;
@@ -248,8 +262,6 @@ pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError>
                 (Some(v), false) => crate::util::fixed(v, 2),
                 (None, false) => "n/a".to_string(),
             };
-            let x = freqs[i];
-            let y = duties[j];
             chart
                 .draw_series(std::iter::once(Text::new(
                     format!("{mark} {text}"),
@@ -264,18 +276,18 @@ pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError>
         // Eq. (1) for the camera's exposure: D = 1 - f T_exp, in percent.
         if let Some(cam) = &model.dut.camera {
             let t = cam.exposure_ms * 1e-3;
-            let duty_at = |f: f64| 100.0 * (1.0 - f * t);
-            // f where the line meets the top and bottom of the plot.
-            let fa = ((1.0 - y1 / 100.0) / t).max(x0);
-            let fb = ((1.0 - y0 / 100.0) / t).min(x1);
-            if t > 0.0 && fa < fb {
-                let n = 64;
-                let points: Vec<(f64, f64)> = (0..=n)
-                    .map(|k| {
-                        let f = fa * (fb / fa).powf(k as f64 / n as f64);
-                        (f, duty_at(f).clamp(y0, y1))
-                    })
-                    .collect();
+            // Walk along the columns; keep the part inside the rows.
+            let n = 40 * freqs.len();
+            let points: Vec<(f64, f64)> = (0..=n)
+                .map(|k| x0 + (x1 - x0) * k as f64 / n as f64)
+                .map(|x| {
+                    let f = from_index(&freqs, x, true);
+                    (x, to_index(&duties, 100.0 * (1.0 - f * t), false))
+                })
+                .filter(|(_, y)| (y0..=y1).contains(y))
+                .collect();
+            if t > 0.0 && points.len() > 1 {
+                let (lx, _) = points[0];
                 chart
                     .draw_series(LineSeries::new(points, BLACK.stroke_width(2)))
                     .map_err(|e| err(&e))?;
@@ -286,7 +298,7 @@ pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError>
                             "Eq. (1), T_exp = {} ms",
                             crate::util::fixed(cam.exposure_ms, 3)
                         ),
-                        (fa * 1.04, y1),
+                        (lx + 0.03, y1),
                         TextStyle::from((FONT, 11).into_font())
                             .color(&BLACK)
                             .pos(Pos::new(HPos::Left, VPos::Top)),
@@ -316,17 +328,18 @@ mod tests {
     }
 
     #[test]
-    fn cell_edges_bracket_every_centre() {
-        for (c, log) in [
-            (vec![50.0, 90.0, 150.0, 1000.0], true),
-            (vec![5.0, 20.0, 50.0, 100.0], false),
-            (vec![60.0], true),
-        ] {
-            let e = edges(&c, log);
-            assert_eq!(e.len(), c.len() + 1);
-            for (i, x) in c.iter().enumerate() {
-                assert!(e[i] < *x && *x < e[i + 1], "{e:?} {c:?}");
-            }
+    fn axis_positions_hit_the_cells_and_invert() {
+        let f = [50.0, 90.0, 100.0, 1000.0];
+        for (i, v) in f.iter().enumerate() {
+            assert!((to_index(&f, *v, true) - i as f64).abs() < 1e-12);
         }
+        for x in [-0.5, 0.3, 1.5, 2.9, 3.5] {
+            assert!((to_index(&f, from_index(&f, x, true), true) - x).abs() < 1e-9);
+        }
+        let one = [60.0];
+        assert!((to_index(&one, 60.0 * 1.3, true) - 0.5).abs() < 1e-12);
+        let d = [5.0, 20.0, 50.0];
+        assert!((to_index(&d, 35.0, false) - 1.5).abs() < 1e-12);
+        assert!((from_index(&d, 1.5, false) - 35.0).abs() < 1e-12);
     }
 }
