@@ -333,6 +333,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     if let Some(key) = &args.sign_key {
         // Fail on a bad key before the run, not after it.
         crate::signoff::load_signing_key(key)?;
+        crate::signoff::check_key_outside(&out, key)?;
     }
 
     let cases = plan::expand_cases(&plan);

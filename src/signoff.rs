@@ -182,6 +182,20 @@ pub fn load_verifying_key(path: &Path) -> Result<VerifyingKey, SignoffError> {
     })
 }
 
+/// Fails when the private key `key_path` lies inside the report `dir`.
+pub fn check_key_outside(dir: &Path, key_path: &Path) -> Result<(), SignoffError> {
+    if let (Ok(k), Ok(d)) = (std::path::absolute(key_path), std::path::absolute(dir))
+        && k.starts_with(&d)
+    {
+        return Err(SignoffError::Refused(format!(
+            "the private key `{}` lies inside the report directory `{}`\n    hint: move it out; keys must never travel with a report",
+            key_path.display(),
+            dir.display()
+        )));
+    }
+    Ok(())
+}
+
 /// One input file of the run, as signed.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct SignedInput {
@@ -329,15 +343,7 @@ pub fn sign(
             "--signer must be one line, e.g. \"Jane Doe, Test engineer\"".to_string(),
         ));
     }
-    if let (Ok(k), Ok(d)) = (std::path::absolute(key_path), std::path::absolute(dir))
-        && k.starts_with(&d)
-    {
-        return Err(SignoffError::Refused(format!(
-            "the private key `{}` lies inside the report directory `{}`\n    hint: move it out; keys must never travel with a report",
-            key_path.display(),
-            dir.display()
-        )));
-    }
+    check_key_outside(dir, key_path)?;
     if !dir.join("results.json").is_file() {
         return Err(SignoffError::Refused(format!(
             "`{}` is not a report directory (no results.json)\n    hint: pass the --out directory of `ledflicker plan`",

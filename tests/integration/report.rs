@@ -308,6 +308,29 @@ fn signed_reports_verify_and_any_change_is_named() {
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o).contains("--force"));
 
+    // A key inside the report directory is refused before the run.
+    let inside = dir.join("traces").join("k.key");
+    std::fs::copy(&tester, &inside).unwrap();
+    let o = run_plan(
+        "tests/fixtures/plans/base.toml",
+        &dir,
+        &[
+            "--force",
+            "--sign-key",
+            inside.to_str().unwrap(),
+            "--signer",
+            "A, B",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("inside the report directory"),
+        "{}",
+        text(&o)
+    );
+    std::fs::remove_file(&inside).unwrap();
+    assert_eq!(ledflicker(&["verify", d]).status.code(), Some(0));
+
     // Keys never go into a report directory.
     let o = ledflicker(&["keygen", "--out", dir.join("k.key").to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
