@@ -179,10 +179,16 @@ pub fn exit_code(err: &anyhow::Error) -> i32 {
         {
             return EXIT_INVALID;
         }
-        if let Some(e) = cause.downcast_ref::<crate::signoff::SignoffError>()
-            && !matches!(e, crate::signoff::SignoffError::Report(_))
-        {
-            return EXIT_INVALID;
+        if let Some(e) = cause.downcast_ref::<crate::signoff::SignoffError>() {
+            return match e {
+                crate::signoff::SignoffError::Report(
+                    report::ReportError::Invalid { .. } | report::ReportError::Signed { .. },
+                )
+                | crate::signoff::SignoffError::Io { .. }
+                | crate::signoff::SignoffError::Key { .. }
+                | crate::signoff::SignoffError::Refused(_) => EXIT_INVALID,
+                crate::signoff::SignoffError::Report(_) => EXIT_INTERNAL,
+            };
         }
     }
     EXIT_INTERNAL

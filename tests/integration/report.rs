@@ -336,6 +336,23 @@ fn signed_reports_verify_and_any_change_is_named() {
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(!dir.join("k.key").exists());
 
+    // Editing results.json breaks the signatures; signing on top is refused.
+    let results = dir.join("results.json");
+    let r = std::fs::read_to_string(&results).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&r).unwrap();
+    v.as_object_mut().unwrap().remove("report");
+    std::fs::write(&results, v.to_string()).unwrap();
+    let o = ledflicker(&[
+        "sign",
+        d,
+        "--key",
+        tester.to_str().unwrap(),
+        "--signer",
+        "X, Y",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    std::fs::write(&results, r).unwrap();
+
     // An unsigned report does not verify.
     std::fs::remove_file(&signoff).unwrap();
     let o = ledflicker(&["verify", d]);
