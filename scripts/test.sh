@@ -15,6 +15,17 @@ if ! command -v ffmpeg >/dev/null 2>&1 || ! command -v ffprobe >/dev/null 2>&1; 
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends ffmpeg >/dev/null
 fi
 
+# The PDF tests read report.pdf with pdftotext and pdfinfo (Debian's
+# poppler-utils). Install them when missing and we may (root, e.g. in CI).
+if ! command -v pdftotext >/dev/null || ! command -v pdfinfo >/dev/null; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+        apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq poppler-utils
+    else
+        echo "error: pdftotext/pdfinfo not found; install poppler-utils (e.g. sudo apt-get install poppler-utils)" >&2
+        exit 2
+    fi
+fi
+
 # Snapshots never update silently in a test run; see README "Golden files".
 export INSTA_UPDATE="${INSTA_UPDATE:-no}"
 

@@ -1,13 +1,13 @@
-//! Command-line interface: `plan`, `validate`, `simulate`, `advise` and
-//! `bench`.
+//! Command-line interface: `plan`, `validate`, `simulate`, `advise`,
+//! `bench`, `linetime`, `render`, `bands`, `keygen`, `sign` and `verify`.
 //!
 //! Exit codes (stable; CI scripts depend on them):
 //!
 //! | code | meaning |
 //! |---|---|
-//! | 0 | every case passed (informational cases do not count) |
-//! | 1 | the run completed and some case failed |
-//! | 2 | invalid plan, input or usage, including a missing file |
+//! | 0 | every case passed (informational cases do not count); `verify`: every hash and signature matched |
+//! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash or signature mismatch, or no signature |
+//! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way |
 //! | 3 | internal or backend error |
 
 use std::io::{IsTerminal, Write};
@@ -49,7 +49,8 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Run a test plan and write results.json, traces and report.html.
+    /// Run a test plan and write results.json, traces, charts, report.html,
+    /// report.pdf, junit.xml and summary.csv.
     Plan(PlanArgs),
     /// Check a test plan without running it.
     Validate {
@@ -74,6 +75,23 @@ enum Command {
     /// Estimate a PWM frequency from the band spacing of one rolling-shutter
     /// frame (PNG or TIFF) with a known line time; prints JSON.
     Bands(BandsArgs),
+    /// Make an Ed25519 key pair for signing reports: FILE (private) and FILE.pub.
+    Keygen {
+        /// Private key file; the public key goes to FILE.pub.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Sign a report directory (adds a signature to signoff.json).
+    Sign(SignArgs),
+    /// Check every hash and signature of a signed report directory.
+    Verify {
+        /// Report directory.
+        dir: PathBuf,
+        /// Trusted public key (FILE.pub from keygen); repeatable. Without it,
+        /// signatures are checked against the keys in signoff.json.
+        #[arg(long = "key")]
+        keys: Vec<PathBuf>,
+    },
 }
 
 #[derive(Args, Debug)]
@@ -167,6 +185,21 @@ struct RenderArgs {
 }
 
 #[derive(Args, Debug)]
+struct SignArgs {
+    /// Report directory.
+    dir: PathBuf,
+    /// Private key file from `ledflicker keygen`.
+    #[arg(long)]
+    key: PathBuf,
+    /// Who signs, "Name, Role" (e.g. "Jane Doe, Approved by").
+    #[arg(long)]
+    signer: String,
+    /// Signing date, YYYY-MM-DD [default: $SOURCE_DATE_EPOCH, else today].
+    #[arg(long)]
+    date: Option<String>,
+}
+
+#[derive(Args, Debug)]
 struct PlanArgs {
     /// Plan file, or a plan name from test-plans/ (e.g. `daylight`).
     plan: String,
@@ -185,6 +218,19 @@ struct PlanArgs {
     /// Print no summary table.
     #[arg(long, short)]
     quiet: bool,
+    /// Sign the report with this private key (from `ledflicker keygen`).
+    #[arg(long, requires = "signer")]
+    sign_key: Option<PathBuf>,
+    /// Who signs, "Name, Role"; with --sign-key.
+    #[arg(long, requires = "sign_key")]
+    signer: Option<String>,
+    /// Compare with a stored results.json and report the drift; exit 1 on
+    /// drift beyond tolerance.
+    #[arg(long)]
+    golden: Option<PathBuf>,
+    /// Per-metric tolerance, METRIC=VALUE (repeatable), e.g. fdi_2018=0.05.
+    #[arg(long = "golden-tolerance", requires = "golden")]
+    golden_tolerance: Vec<String>,
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -283,8 +329,21 @@ pub fn exit_code(err: &anyhow::Error) -> i32 {
         if let Some(crate::linetime::LineTimeError::Read { .. }) = cause.downcast_ref() {
             return EXIT_INVALID;
         }
-        if let Some(report::ReportError::Signed { .. }) = cause.downcast_ref() {
+        if let Some(report::ReportError::Signed { .. } | report::ReportError::Invalid { .. }) =
+            cause.downcast_ref()
+        {
             return EXIT_INVALID;
+        }
+        if let Some(e) = cause.downcast_ref::<crate::signoff::SignoffError>() {
+            return match e {
+                crate::signoff::SignoffError::Report(
+                    report::ReportError::Invalid { .. } | report::ReportError::Signed { .. },
+                )
+                | crate::signoff::SignoffError::Io { .. }
+                | crate::signoff::SignoffError::Key { .. }
+                | crate::signoff::SignoffError::Refused(_) => EXIT_INVALID,
+                crate::signoff::SignoffError::Report(_) => EXIT_INTERNAL,
+            };
         }
     }
     EXIT_INTERNAL
@@ -312,6 +371,55 @@ fn run(cli: Cli) -> anyhow::Result<i32> {
         Command::Linetime(args) => linetime(args),
         Command::Render(args) => render(args),
         Command::Bands(args) => bands(args),
+        Command::Keygen { out } => {
+            let id = crate::signoff::keygen(&out)?;
+            println!(
+                "private key: {} (keep it secret, outside report directories)\npublic key:  {}\nkey id:      {id}",
+                out.display(),
+                crate::signoff::public_key_path(&out).display()
+            );
+            Ok(EXIT_PASS)
+        }
+        Command::Sign(args) => {
+            let date = report_date(args.date.as_deref())?;
+            let e = crate::signoff::sign(&args.dir, &args.key, &args.signer, &date)
+                .with_context(|| format!("cannot sign `{}`", args.dir.display()))?;
+            println!(
+                "signed `{}` as {} (key {}), {} files",
+                args.dir.display(),
+                e.signer,
+                e.key_id,
+                e.files.len()
+            );
+            Ok(EXIT_PASS)
+        }
+        Command::Verify { dir, keys } => verify(&dir, &keys),
+    }
+}
+
+fn verify(dir: &std::path::Path, keys: &[PathBuf]) -> anyhow::Result<i32> {
+    let trusted = keys
+        .iter()
+        .map(|k| crate::signoff::load_verifying_key(k))
+        .collect::<Result<Vec<_>, _>>()?;
+    let v = crate::signoff::verify(dir, &trusted)
+        .with_context(|| format!("cannot verify `{}`", dir.display()))?;
+    for (signer, key) in &v.valid {
+        println!("signature ok: {signer} (key {key})");
+    }
+    for p in &v.problems {
+        println!("FAIL: {p}");
+    }
+    if v.ok() {
+        println!(
+            "verified: {} files, {} signature(s)",
+            v.files,
+            v.valid.len()
+        );
+        Ok(EXIT_PASS)
+    } else {
+        println!("NOT VERIFIED: {} problem(s)", v.problems.len());
+        Ok(EXIT_FAIL)
     }
 }
 
@@ -387,6 +495,22 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
     // Refuse before spending time on the run.
     report::check_overwrite(&out, args.force)?;
+    let mut tolerances = report::golden::Tolerances::default();
+    for t in &args.golden_tolerance {
+        tolerances.set(t).map_err(UsageError)?;
+    }
+    let golden = match &args.golden {
+        Some(p) => Some(
+            report::golden::load(p)
+                .with_context(|| format!("cannot read the golden results `{}`", p.display()))?,
+        ),
+        None => None,
+    };
+    if let Some(key) = &args.sign_key {
+        // Fail on a bad key before the run, not after it.
+        crate::signoff::load_signing_key(key)?;
+        crate::signoff::check_key_outside(&out, key)?;
+    }
 
     let cases = plan::expand_cases(&plan);
     let sim;
@@ -448,16 +572,30 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
         &model,
         &results,
         &WriteOptions {
-            date,
+            date: date.clone(),
             force: args.force,
+            signatories: Vec::new(),
         },
     )
     .with_context(|| format!("cannot write the report to `{}`", out.display()))?;
+    if let (Some(key), Some(signer)) = (&args.sign_key, &args.signer) {
+        let e = crate::signoff::sign(&out, key, signer, &date)
+            .with_context(|| format!("cannot sign `{}`", out.display()))?;
+        if !args.quiet {
+            println!("signed by {} (key {})", e.signer, e.key_id);
+        }
+    }
 
     if !args.quiet {
         print_summary(&model, &out)?;
     }
-    Ok(if model.verdict == Verdict::Fail {
+    let mut drift = false;
+    if let Some(g) = &golden {
+        let cmp = report::golden::compare(g, &model, &tolerances);
+        print!("{}", cmp.to_text());
+        drift = !cmp.ok();
+    }
+    Ok(if model.verdict == Verdict::Fail || drift {
         EXIT_FAIL
     } else {
         EXIT_PASS
@@ -510,13 +648,14 @@ fn print_summary(model: &report::Results, out: &std::path::Path) -> anyhow::Resu
     }
     writeln!(
         w,
-        "\noverall: {} ({} pass, {} fail, {} info of {} cases)\nreport:  {}",
+        "\noverall: {} ({} pass, {} fail, {} info of {} cases)\nreport:  {}\n         {}",
         model.verdict.as_str().to_uppercase(),
         model.counts.pass,
         model.counts.fail,
         model.counts.info,
         model.counts.total,
-        out.join("report.html").display()
+        out.join("report.html").display(),
+        out.join("report.pdf").display()
     )?;
     Ok(())
 }

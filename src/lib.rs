@@ -6,7 +6,8 @@
 //! ```text
 //! TOML plan --plan::load--> Plan --expand_cases--> Vec<TestCase>
 //!   --runner::run (rayon) + dyn Backend--> Vec<CaseResult>
-//!   --report::build--> Results (results.json) --report::html--> report.html
+//!   --report::build--> Results (results.json) --report::{html,pdf,export}-->
+//!   report.html, report.pdf, junit.xml, summary.csv --signoff--> signoff.json
 //! ```
 //!
 //! - [`plan`]: the TOML format, validation with every error located by line;
@@ -18,6 +19,9 @@
 //! - [`analysis`]: apparent frequency, hazard class, IEEE 1789, phase
 //!   coverage, banding and fine maps (beyond the paper);
 //! - [`advise`]: the shortest exposure that never loses a PWM LED.
+//! - [`report`]: results.json, trace CSVs, charts, the HTML and PDF reports,
+//!   JUnit/CSV exports and golden-file comparison;
+//! - [`signoff`]: Ed25519 sign-off of a report directory and its verification.
 #![warn(missing_docs)]
 
 pub mod advise;
@@ -33,4 +37,5 @@ pub mod plan;
 pub mod render;
 pub mod report;
 pub mod runner;
+pub mod signoff;
 pub mod util;

@@ -1,4 +1,4 @@
-//! HTML report: results model + charts -> minijinja templates in templates/.
+//! HTML report: a [`Document`] -> minijinja templates in templates/.
 //!
 //! The templates are compiled into the binary, so a report needs nothing at
 //! run time. The page is self-contained: CSS inline, charts as inline SVG.
@@ -9,15 +9,16 @@ use minijinja::value::{Serde, Value};
 use minijinja::{Environment, UndefinedBehavior};
 
 use super::ReportError;
-use super::charts;
-use super::model::Results;
-use crate::runner::CaseResult;
+use super::document::{
+    ADVICE_CHART, Document, finemap_chart_path, fold_chart_prefix, frame_image_path,
+    matrix_chart_path, trace_chart_path,
+};
 
 const BASE: &str = include_str!("../../templates/base.html.j2");
 const REPORT: &str = include_str!("../../templates/report.html.j2");
 
 /// Formats an optional number with `digits` decimals; `None` -> "n/a".
-fn num(value: Option<f64>, digits: Option<usize>) -> String {
+pub(crate) fn num(value: Option<f64>, digits: Option<usize>) -> String {
     match value {
         Some(v) if v.is_finite() => crate::util::fixed(v, digits.unwrap_or(3)),
         Some(_) | None => "n/a".to_string(),
@@ -42,60 +43,77 @@ fn environment() -> Result<Environment<'static>, ReportError> {
     Ok(env)
 }
 
-/// Renders report.html.
-pub fn render(model: &Results, results: &[CaseResult], date: &str) -> Result<String, ReportError> {
+/// Per light level: `{lux, chart}`, where `chart` is what `chart_for` makes
+/// of the matrix's chart path (missing charts are skipped).
+pub(crate) fn matrices(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec<Value> {
+    doc.light_levels()
+        .into_iter()
+        .enumerate()
+        .filter_map(|(i, lux)| {
+            let path = matrix_chart_path(i);
+            doc.charts.contains_key(&path).then(|| {
+                minijinja::context! { lux => lux, chart => chart_for(&path) }
+            })
+        })
+        .collect()
+}
+
+/// Renders report.html for a run in memory (a draft: no signatories).
+pub fn render(
+    model: &super::model::Results,
+    results: &[crate::runner::CaseResult],
+    date: &str,
+) -> Result<String, ReportError> {
+    render_document(&Document::build(model, results, date, Vec::new())?)
+}
+
+/// Renders report.html from a [`Document`].
+pub fn render_document(doc: &Document) -> Result<String, ReportError> {
     let env = environment()?;
-    let mut charts = BTreeMap::new();
+    let inline = |path: &str| {
+        doc.charts
+            .get(path)
+            .map(|svg| Value::from_safe_string(svg.clone()))
+            .unwrap_or_else(|| Value::from(()))
+    };
+    let mut traces = BTreeMap::new();
+    for case in doc.case_ids() {
+        let path = trace_chart_path(&case);
+        if doc.charts.contains_key(&path) {
+            traces.insert(case, inline(&path));
+        }
+    }
+    // Sample frames inline as PNG data URIs.
     let mut frames = BTreeMap::new();
-    for r in results {
-        charts.insert(
-            r.case.id.clone(),
-            Value::from_safe_string(charts::luma_trace_svg(r)?),
-        );
-        if let Some(frame) = &r.sample_frame {
-            let png = super::frames::png_bytes(&super::frames::thumbnail(
-                frame,
-                super::frames::THUMBNAIL_WIDTH,
-            ))?;
-            frames.insert(
-                r.case.id.clone(),
-                Value::from_safe_string(format!(
-                    "data:image/png;base64,{}",
-                    super::frames::base64(&png)
-                )),
-            );
+    for case in doc.case_ids() {
+        if let Some(png) = doc.images.get(&frame_image_path(&case)) {
+            let uri = format!("data:image/png;base64,{}", super::frames::base64(png));
+            frames.insert(case, Value::from_safe_string(uri));
         }
     }
     // The flicker signal folded by phase, one chart per LED ROI.
     let mut folds: BTreeMap<String, Vec<Value>> = BTreeMap::new();
-    for c in &model.cases {
-        let svgs = c
-            .rois
-            .iter()
-            .filter(|roi| roi.kind == crate::plan::RoiKind::Led)
-            .map(|roi| {
-                charts::phase_fold_svg(
-                    &format!("{}: {}", c.id, roi.name),
-                    &roi.analysis.folded_bins,
-                    roi.analysis.envelope,
-                )
-                .map(Value::from_safe_string)
+    for case in doc.case_ids() {
+        let prefix = fold_chart_prefix(&case);
+        let svgs = doc
+            .charts
+            .range(prefix.clone()..)
+            .take_while(|(path, _)| path.starts_with(&prefix))
+            .map(|(_, svg)| Value::from_safe_string(svg.clone()))
+            .collect();
+        folds.insert(case, svgs);
+    }
+    let finemaps: Vec<Value> = (0..)
+        .map_while(|i| {
+            let fdi = doc.charts.get(&finemap_chart_path(i, "fdi"))?;
+            let pf = doc.charts.get(&finemap_chart_path(i, "pf"))?;
+            Some(minijinja::context! {
+                fdi => Value::from_safe_string(fdi.clone()),
+                pf => Value::from_safe_string(pf.clone()),
             })
-            .collect::<Result<Vec<_>, _>>()?;
-        folds.insert(c.id.clone(), svgs);
-    }
-    let mut finemaps = Vec::new();
-    for m in &model.fine_maps {
-        let t = model.thresholds.fdi_2018_min;
-        finemaps.push(minijinja::context! {
-            fdi => Value::from_safe_string(charts::finemap_svg(&m.map, charts::FineMapKind::Fdi, t)?),
-            pf => Value::from_safe_string(charts::finemap_svg(&m.map, charts::FineMapKind::PercentFlicker, t)?),
-        });
-    }
-    let advice_chart = match &model.advice {
-        Some(a) => Value::from_safe_string(charts::advise_svg(&a.curve, a.advice.min_exposure_s)?),
-        None => Value::from(()),
-    };
+        })
+        .collect();
+    let advice_chart = inline(ADVICE_CHART);
     let template = env
         .get_template("report.html.j2")
         .map_err(|e| ReportError::Template {
@@ -104,13 +122,16 @@ pub fn render(model: &Results, results: &[CaseResult], date: &str) -> Result<Str
         })?;
     template
         .render(minijinja::context! {
-            r => Serde(model),
-            charts => charts,
+            r => Serde(&doc.results),
+            charts => traces,
             frames => frames,
             folds => folds,
             finemaps => finemaps,
             advice_chart => advice_chart,
-            date => date,
+            matrices => matrices(doc, inline),
+            signatories => Serde(&doc.signatories),
+            draft => doc.is_draft(),
+            date => doc.date(),
         })
         .map_err(|e| ReportError::Template {
             template: "report.html.j2".to_string(),

@@ -1,13 +1,19 @@
-//! Reports: the results model (results.json), trace CSVs and the HTML
-//! report, written atomically into one directory.
+//! Reports: the results model (results.json), trace CSVs, charts, the HTML
+//! and PDF reports and the JUnit/CSV exports, written atomically into one
+//! directory.
 //!
 //! Last stage of the pipeline. Only this module touches minijinja and
 //! plotters.
 
 pub mod charts;
+pub mod document;
+pub mod export;
 pub mod frames;
+pub mod golden;
 pub mod html;
+pub mod matrix;
 pub mod model;
+pub mod pdf;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -54,6 +60,20 @@ pub enum ReportError {
     /// JSON serialisation failed.
     #[error("cannot serialise results: {0}")]
     Json(#[from] serde_json::Error),
+    /// The PDF engine failed.
+    #[error("cannot render report.pdf: {message}")]
+    Pdf {
+        /// typst's diagnostics.
+        message: String,
+    },
+    /// A file of an existing report is not what `ledflicker plan` writes.
+    #[error("`{path}` is not usable: {message}")]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, with a hint.
+        message: String,
+    },
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ReportError + '_ {
@@ -70,6 +90,8 @@ pub struct WriteOptions {
     pub date: String,
     /// Replace a signed report.
     pub force: bool,
+    /// Signatories shown in the sign-off block; empty renders a DRAFT.
+    pub signatories: Vec<document::Signatory>,
 }
 
 /// One case's trace as CSV: `frame,time_s,segment,<one luma column per ROI>`.
@@ -101,8 +123,40 @@ pub fn check_overwrite(dir: &Path, force: bool) -> Result<(), ReportError> {
     Ok(())
 }
 
-/// Writes results.json, traces/ and report.html into `dir`. Every file is
-/// written atomically; traces/ is built aside and swapped in whole, and
+/// Replaces `dir/name` by a directory holding `files` (name -> bytes),
+/// built aside and renamed into place, so readers never see half of it.
+fn replace_dir(dir: &Path, name: &str, files: &[(String, Vec<u8>)]) -> Result<(), ReportError> {
+    let staging = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    if staging.exists() {
+        std::fs::remove_dir_all(&staging).map_err(io_err(&staging))?;
+    }
+    std::fs::create_dir_all(&staging).map_err(io_err(&staging))?;
+    for (file, bytes) in files {
+        let path = staging.join(file);
+        std::fs::write(&path, bytes).map_err(io_err(&path))?;
+    }
+    let target = dir.join(name);
+    if target.exists() {
+        std::fs::remove_dir_all(&target).map_err(io_err(&target))?;
+    }
+    std::fs::rename(&staging, &target).map_err(io_err(&target))
+}
+
+/// Renders report.html and report.pdf from `doc` into `dir`, atomically.
+/// Returns the PDF's page count.
+pub fn write_renderings(dir: &Path, doc: &document::Document) -> Result<usize, ReportError> {
+    let html = html::render_document(doc)?;
+    let (pdf, pages) = pdf::render(doc)?;
+    let path = dir.join("report.html");
+    write_atomic(&path, html.as_bytes()).map_err(io_err(&path))?;
+    let path = dir.join("report.pdf");
+    write_atomic(&path, &pdf).map_err(io_err(&path))?;
+    Ok(pages)
+}
+
+/// Writes results.json, traces/, charts/, report.html, report.pdf,
+/// junit.xml and summary.csv into `dir`. Every file is written atomically;
+/// traces/ and charts/ are built aside and swapped in whole, and
 /// results.json goes last, so its presence means the report is complete.
 pub fn write_report(
     dir: &Path,
@@ -119,47 +173,51 @@ pub fn write_report(
         }
     }
 
-    let staging = dir.join(format!(".traces.tmp-{}", std::process::id()));
-    if staging.exists() {
-        std::fs::remove_dir_all(&staging).map_err(io_err(&staging))?;
-    }
-    std::fs::create_dir_all(&staging).map_err(io_err(&staging))?;
-    for r in results {
-        let path = staging.join(format!("{}.csv", r.case.id));
-        std::fs::write(&path, trace_csv(r)).map_err(io_err(&path))?;
-    }
-    let frames_dir = dir.join("frames");
-    let frame_staging = dir.join(format!(".frames.tmp-{}", std::process::id()));
-    if frame_staging.exists() {
-        std::fs::remove_dir_all(&frame_staging).map_err(io_err(&frame_staging))?;
-    }
-    if results.iter().any(|r| r.sample_frame.is_some()) {
-        std::fs::create_dir_all(&frame_staging).map_err(io_err(&frame_staging))?;
-        for r in results {
-            if let Some(frame) = &r.sample_frame {
-                let path = frame_staging.join(format!("{}.png", r.case.id));
-                std::fs::write(&path, frames::png_bytes(frame)?).map_err(io_err(&path))?;
-            }
+    let traces: Vec<(String, Vec<u8>)> = results
+        .iter()
+        .map(|r| (format!("{}.csv", r.case.id), trace_csv(r).into_bytes()))
+        .collect();
+    replace_dir(dir, "traces", &traces)?;
+
+    let frames: Vec<(String, Vec<u8>)> = results
+        .iter()
+        .filter_map(|r| r.sample_frame.as_ref().map(|f| (r, f)))
+        .map(|(r, f)| Ok((format!("{}.png", r.case.id), frames::png_bytes(f)?)))
+        .collect::<Result<_, ReportError>>()?;
+    if frames.is_empty() {
+        let old = dir.join(document::FRAMES_DIR);
+        if old.exists() {
+            std::fs::remove_dir_all(&old).map_err(io_err(&old))?;
         }
-    }
-    if frames_dir.exists() {
-        std::fs::remove_dir_all(&frames_dir).map_err(io_err(&frames_dir))?;
-    }
-    if frame_staging.exists() {
-        std::fs::rename(&frame_staging, &frames_dir).map_err(io_err(&frames_dir))?;
+    } else {
+        replace_dir(dir, document::FRAMES_DIR, &frames)?;
     }
 
-    let traces = dir.join("traces");
-    if traces.exists() {
-        std::fs::remove_dir_all(&traces).map_err(io_err(&traces))?;
+    let doc =
+        document::Document::build(model, results, &options.date, options.signatories.clone())?;
+    let files: Vec<(String, Vec<u8>)> = doc
+        .charts
+        .iter()
+        .map(|(path, svg)| {
+            let name = path.rsplit('/').next().unwrap_or(path).to_string();
+            (name, svg.clone().into_bytes())
+        })
+        .collect();
+    replace_dir(dir, document::CHARTS_DIR, &files)?;
+    write_renderings(dir, &doc)?;
+
+    for (name, text) in [
+        (export::JUNIT_FILE, export::junit_xml(model)),
+        (export::CSV_FILE, export::summary_csv(model)),
+    ] {
+        let path = dir.join(name);
+        write_atomic(&path, text.as_bytes()).map_err(io_err(&path))?;
     }
-    std::fs::rename(&staging, &traces).map_err(io_err(&traces))?;
 
-    let html = html::render(model, results, &options.date)?;
-    let path = dir.join("report.html");
-    write_atomic(&path, html.as_bytes()).map_err(io_err(&path))?;
-
-    let json = serde_json::to_string_pretty(model)?;
+    // The model plus its `report` metadata, in the model's field order.
+    let mut model = model.clone();
+    model.report = Some(document::report_meta(&model, &options.date));
+    let json = serde_json::to_string_pretty(&model)?;
     let path = dir.join("results.json");
     write_atomic(&path, json.as_bytes()).map_err(io_err(&path))?;
     Ok(())

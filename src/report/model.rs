@@ -1,4 +1,4 @@
-//! The report model: results.json. HTML (and later PDF) are rendered from it.
+//! The report model: results.json. HTML and PDF are rendered from it.
 //!
 //! Contract `ledflicker.results/1` (fields may be added, never renamed):
 //! `schema`, `plan {id, title, path, sha256}`, `verdict`, and `cases[]` with
@@ -55,6 +55,10 @@ pub struct Results {
     /// `ledflicker advise` for the plan's frequencies in the mitigation range
     /// and its duty cycles; `null` when every duty is 100 %.
     pub advice: Option<PlanAdvice>,
+    /// Date and input files; set when the report is written, absent in
+    /// models built in memory.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub report: Option<super::document::ReportMeta>,
 }
 
 /// Exposure advice for a plan's range.
@@ -445,5 +449,6 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         fine_maps: analysis::fine_maps(plan),
         fine_maps_note: analysis::fine_maps_note(plan),
         advice: plan_advice(plan),
+        report: None,
     }
 }

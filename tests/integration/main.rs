@@ -7,6 +7,7 @@ mod cli;
 mod exact;
 mod physics;
 mod plans;
+mod report;
 mod results;
 
 use std::path::{Path, PathBuf};

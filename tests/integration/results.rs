@@ -131,7 +131,8 @@ fn no_nan_reaches_the_report() {
     let html = report::html::render(&model, &results, "2026-01-01").unwrap();
     assert!(!html.contains("NaN"));
     // One trace per case, one phase fold per LED ROI of each case, two
-    // fine maps per light level and the exposure-advice curve.
+    // fine maps per light level, the exposure-advice curve and one matrix
+    // for the single light level.
     let led_rois = model.cases[0]
         .rois
         .iter()
@@ -139,7 +140,7 @@ fn no_nan_reaches_the_report() {
         .count();
     assert_eq!(
         html.matches("<svg").count(),
-        results.len() * (1 + led_rois) + 2 * model.fine_maps.len() + 1
+        results.len() * (1 + led_rois) + 2 * model.fine_maps.len() + 1 + 1
     );
     assert!(html.contains("ON level") && html.contains("OFF level"));
 }

@@ -1,0 +1,384 @@
+//! The renderers' input: results.json plus the charts and the signatories.
+//!
+//! Sits between the report model ([`super::model::Results`]) and the
+//! renderers (HTML, PDF). Everything in a [`Document`] is stored in the report
+//! directory (results.json, `charts/*.svg`, signoff.json), so a report can be
+//! rendered again from its directory alone; `ledflicker sign` does that to
+//! put a new signatory on the cover without rerunning the plan.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::ReportError;
+use super::model::Results;
+use crate::runner::CaseResult;
+
+/// Folder of the chart SVGs, relative to the report directory.
+pub const CHARTS_DIR: &str = "charts";
+
+/// One input file of the run, with its hash.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct InputFile {
+    /// What it is, e.g. "plan".
+    pub role: String,
+    /// Path as given on the command line.
+    pub path: String,
+    /// SHA-256 of its bytes, lowercase hex.
+    pub sha256: String,
+}
+
+/// Report metadata kept in results.json under `report`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ReportMeta {
+    /// Report date, `YYYY-MM-DD`.
+    pub date: String,
+    /// Every input file, plan first.
+    pub inputs: Vec<InputFile>,
+    /// Deviations from the method of Deegan 2018 and other notes, one
+    /// sentence each.
+    pub notes: Vec<String>,
+}
+
+/// A person who signed the report, as shown in the sign-off block.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Signatory {
+    /// "Name, Role" as given to `--signer`.
+    pub signer: String,
+    /// Date of signing, `YYYY-MM-DD`.
+    pub date: String,
+    /// First 16 hex digits of the SHA-256 of the public key.
+    pub key_id: String,
+}
+
+/// Chart file name of one case's luma trace, relative to the report dir.
+pub fn trace_chart_path(case_id: &str) -> String {
+    format!("{CHARTS_DIR}/trace-{case_id}.svg")
+}
+
+/// Chart file name of the matrix of the `index`-th light level.
+pub fn matrix_chart_path(index: usize) -> String {
+    format!("{CHARTS_DIR}/matrix-{index}.svg")
+}
+
+/// Chart of the `k`-th LED ROI's phase fold of one case.
+pub fn fold_chart_path(case_id: &str, k: usize) -> String {
+    format!("{}{k:02}.svg", fold_chart_prefix(case_id))
+}
+
+/// Common prefix of a case's phase-fold charts.
+pub fn fold_chart_prefix(case_id: &str) -> String {
+    format!("{CHARTS_DIR}/fold-{case_id}-")
+}
+
+/// Fine-map chart of the `index`-th light level; `kind` is "fdi" or "pf".
+pub fn finemap_chart_path(index: usize, kind: &str) -> String {
+    format!("{CHARTS_DIR}/finemap-{index}-{kind}.svg")
+}
+
+/// Chart of the exposure advice.
+pub const ADVICE_CHART: &str = "charts/advice.svg";
+
+/// Folder of the sample frames, relative to the report directory.
+pub const FRAMES_DIR: &str = "frames";
+
+/// A case's sample frame, relative to the report directory.
+pub fn frame_image_path(case_id: &str) -> String {
+    format!("{FRAMES_DIR}/{case_id}.png")
+}
+
+/// Everything a renderer needs.
+#[derive(Debug, Clone)]
+pub struct Document {
+    /// results.json as JSON (the report model, with `report` metadata).
+    pub results: serde_json::Value,
+    /// Chart path relative to the report dir (see [`trace_chart_path`]) ->
+    /// SVG text.
+    pub charts: BTreeMap<String, String>,
+    /// Signatories so far; empty for a draft.
+    pub signatories: Vec<Signatory>,
+    /// Image path (see [`frame_image_path`]) -> small PNG for the renderers;
+    /// the full-size frames are in the report directory.
+    pub images: BTreeMap<String, Vec<u8>>,
+}
+
+impl Document {
+    /// Builds the document of a finished run: draws every chart and adds
+    /// the `report` metadata (date, inputs, notes) to the model.
+    pub fn build(
+        model: &Results,
+        results: &[CaseResult],
+        date: &str,
+        signatories: Vec<Signatory>,
+    ) -> Result<Document, ReportError> {
+        let mut charts = BTreeMap::new();
+        for r in results {
+            charts.insert(
+                trace_chart_path(&r.case.id),
+                super::charts::luma_trace_svg(r)?,
+            );
+        }
+        for (i, lux) in super::matrix::light_levels(model).into_iter().enumerate() {
+            charts.insert(matrix_chart_path(i), super::matrix::matrix_svg(model, lux)?);
+        }
+        for c in &model.cases {
+            let led = c
+                .rois
+                .iter()
+                .filter(|roi| roi.kind == crate::plan::RoiKind::Led);
+            for (k, roi) in led.enumerate() {
+                let svg = super::charts::phase_fold_svg(
+                    &format!("{}: {}", c.id, roi.name),
+                    &roi.analysis.folded_bins,
+                    roi.analysis.envelope,
+                )?;
+                charts.insert(fold_chart_path(&c.id, k), svg);
+            }
+        }
+        let threshold = model.thresholds.fdi_2018_min;
+        for (i, m) in model.fine_maps.iter().enumerate() {
+            use super::charts::{FineMapKind, finemap_svg};
+            charts.insert(
+                finemap_chart_path(i, "fdi"),
+                finemap_svg(&m.map, FineMapKind::Fdi, threshold)?,
+            );
+            charts.insert(
+                finemap_chart_path(i, "pf"),
+                finemap_svg(&m.map, FineMapKind::PercentFlicker, threshold)?,
+            );
+        }
+        if let Some(a) = &model.advice {
+            charts.insert(
+                ADVICE_CHART.to_string(),
+                super::charts::advise_svg(&a.curve, a.advice.min_exposure_s)?,
+            );
+        }
+        let mut images = BTreeMap::new();
+        for r in results {
+            if let Some(frame) = &r.sample_frame {
+                let small = super::frames::thumbnail(frame, super::frames::THUMBNAIL_WIDTH);
+                images.insert(
+                    frame_image_path(&r.case.id),
+                    super::frames::png_bytes(&small)?,
+                );
+            }
+        }
+        let mut model = model.clone();
+        model.report = Some(report_meta(&model, date));
+        Ok(Document {
+            results: serde_json::to_value(&model)?,
+            charts,
+            signatories,
+            images,
+        })
+    }
+
+    /// The report is a draft: nobody has signed it.
+    pub fn is_draft(&self) -> bool {
+        self.signatories.is_empty()
+    }
+
+    /// Case ids in plan order.
+    pub fn case_ids(&self) -> Vec<String> {
+        self.results["cases"]
+            .as_array()
+            .map(|cases| {
+                cases
+                    .iter()
+                    .filter_map(|c| c["id"].as_str().map(str::to_string))
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+
+    /// Light levels (lux) in order of first appearance; the matrix of the
+    /// `i`-th is [`matrix_chart_path`]`(i)`.
+    pub fn light_levels(&self) -> Vec<f64> {
+        let mut out: Vec<f64> = Vec::new();
+        for c in self.results["cases"].as_array().into_iter().flatten() {
+            // As `matrix::light_levels`: cases with known conditions only.
+            let known = ["frequency_hz", "duty"]
+                .iter()
+                .all(|k| c[*k].as_f64().is_some_and(|v| v > 0.0));
+            if let Some(lux) = c["light_lux"].as_f64()
+                && known
+                && lux > 0.0
+                && !out.contains(&lux)
+            {
+                out.push(lux);
+            }
+        }
+        out
+    }
+
+    /// Report date from results.json, or "" when missing.
+    pub fn date(&self) -> &str {
+        self.results["report"]["date"].as_str().unwrap_or("")
+    }
+
+    /// Reads results.json and `charts/*.svg` from a report directory.
+    /// Signatories are left empty (the caller reads signoff.json).
+    pub fn load(dir: &Path) -> Result<Document, ReportError> {
+        let path = dir.join("results.json");
+        let text = std::fs::read_to_string(&path).map_err(|source| ReportError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        let results: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| ReportError::Invalid {
+                path: path.clone(),
+                message: format!("not valid JSON: {e}"),
+            })?;
+        if results["schema"].as_str() != Some(super::model::RESULTS_SCHEMA)
+            || !results["report"].is_object()
+        {
+            return Err(ReportError::Invalid {
+                path,
+                message: format!(
+                    "not a `{}` file written by `ledflicker plan` (no `report` section)",
+                    super::model::RESULTS_SCHEMA
+                ),
+            });
+        }
+        let mut charts = BTreeMap::new();
+        let charts_dir = dir.join(CHARTS_DIR);
+        let entries = std::fs::read_dir(&charts_dir).map_err(|source| ReportError::Io {
+            path: charts_dir.clone(),
+            source,
+        })?;
+        for entry in entries {
+            let entry = entry.map_err(|source| ReportError::Io {
+                path: charts_dir.clone(),
+                source,
+            })?;
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if !name.ends_with(".svg") {
+                continue;
+            }
+            let svg = std::fs::read_to_string(entry.path()).map_err(|source| ReportError::Io {
+                path: entry.path(),
+                source,
+            })?;
+            charts.insert(format!("{CHARTS_DIR}/{name}"), svg);
+        }
+        let mut images = BTreeMap::new();
+        for case in results["cases"].as_array().into_iter().flatten() {
+            let Some(id) = case["id"].as_str() else {
+                continue;
+            };
+            let rel = frame_image_path(id);
+            let path = dir.join(&rel);
+            if !path.exists() {
+                continue;
+            }
+            let img = image::open(&path)
+                .map_err(|e| ReportError::Invalid {
+                    path: path.clone(),
+                    message: format!("not a readable PNG: {e}"),
+                })?
+                .to_luma16();
+            let frame = crate::backend::RenderedFrame {
+                index: case["sample_frame"]["frame"].as_u64().unwrap_or(0),
+                width: img.width(),
+                height: img.height(),
+                luma: img.pixels().map(|p| f64::from(p.0[0])).collect(),
+                full_scale_dn: 65535.0,
+            };
+            let small = super::frames::thumbnail(&frame, super::frames::THUMBNAIL_WIDTH);
+            images.insert(rel, super::frames::png_bytes(&small)?);
+        }
+        Ok(Document {
+            results,
+            charts,
+            signatories: Vec::new(),
+            images,
+        })
+    }
+}
+
+/// The `report` section of results.json for a run reported on `date`.
+pub fn report_meta(model: &Results, date: &str) -> ReportMeta {
+    ReportMeta {
+        date: date.to_string(),
+        inputs: vec![InputFile {
+            role: "plan".to_string(),
+            path: model.plan.path.clone(),
+            sha256: model.plan.sha256.clone(),
+        }],
+        notes: notes(model),
+    }
+}
+
+/// Deviations from the method of Deegan 2018 (IS&T EI AVM-146) and notes a
+/// reader of the report must see, one sentence each.
+pub fn notes(model: &Results) -> Vec<String> {
+    let mut out = Vec::new();
+    let s = &model.sequence;
+    if (s.on_s, s.off_s, s.pwm_s) != (2.0, 2.0, 60.0) {
+        out.push(format!(
+            "Sequence: {} s ON, {} s OFF, {} s PWM; Deegan 2018 uses 2 s, 2 s and 60 s.",
+            s.on_s, s.off_s, s.pwm_s
+        ));
+    }
+    let odd: Vec<String> = super::matrix::light_levels(model)
+        .into_iter()
+        .filter(|lux| *lux != 40.0 && *lux != 2000.0)
+        .map(|lux| format!("{lux} lux"))
+        .collect();
+    if !odd.is_empty() {
+        out.push(format!(
+            "Light levels {} differ from the 40 lux and 2000 lux of Deegan 2018.",
+            odd.join(", ")
+        ));
+    }
+    if model.dut.backend.starts_with("sim") {
+        out.push(format!(
+            "Frames come from the ideal camera simulator (backend {}), not from a captured device; \
+             the DUT fields name the camera being modelled.",
+            model.dut.backend
+        ));
+    }
+    let saturated: Vec<&str> = model
+        .cases
+        .iter()
+        .filter(|c| c.rois.iter().any(|r| r.saturated))
+        .map(|c| c.id.as_str())
+        .collect();
+    if !saturated.is_empty() {
+        out.push(format!(
+            "{} case(s) have a saturated ROI (e.g. {}): their metrics understate the modulation.",
+            saturated.len(),
+            saturated[0]
+        ));
+    }
+    let mut undefined = 0;
+    let mut example = None;
+    for c in &model.cases {
+        for r in &c.rois {
+            for (metric, reason) in &r.reasons {
+                undefined += 1;
+                example
+                    .get_or_insert_with(|| format!("{} / {} / {metric}: {reason}", c.id, r.name));
+            }
+        }
+    }
+    if let Some(example) = example {
+        out.push(format!(
+            "{undefined} metric value(s) are undefined or carry a caveat, e.g. {example}."
+        ));
+    }
+    if model.counts.info > 0 {
+        out.push(format!(
+            "{} case(s) lie outside the claimed mitigation range: measured and reported, never failing.",
+            model.counts.info
+        ));
+    }
+    if !model.plan.description.trim().is_empty() {
+        out.push(format!(
+            "Plan description: {}",
+            model.plan.description.trim()
+        ));
+    }
+    out
+}

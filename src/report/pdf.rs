@@ -1,0 +1,250 @@
+//! PDF report: a minijinja template (templates/report.typ.j2) renders Typst
+//! markup, which typst 0.15 lays out and typst-pdf writes as PDF.
+//!
+//! Last stage of the pipeline, next to [`super::html`]. The Typst `World`
+//! below is deliberately minimal: every file comes from memory (the
+//! generated markup, the chart SVGs, the fonts compiled into the binary),
+//! nothing is read from disk or the network, and `today()` is the report
+//! date, so the same inputs give byte-identical PDFs.
+
+use std::collections::BTreeMap;
+use std::sync::LazyLock;
+
+use minijinja::value::{Serde, Value};
+use minijinja::{Environment, UndefinedBehavior};
+use typst::diag::{FileError, FileResult, SourceDiagnostic};
+use typst::foundations::{Bytes, Datetime};
+use typst::syntax::{FileId, RootedPath, Source, VirtualPath, VirtualRoot};
+use typst::text::{Font, FontBook};
+use typst::utils::LazyHash;
+use typst::{Library, LibraryExt, World, WorldExt};
+use typst_layout::PagedDocument;
+
+use super::ReportError;
+use super::document::{Document, trace_chart_path};
+
+const TEMPLATE: &str = include_str!("../../templates/report.typ.j2");
+const TEMPLATE_NAME: &str = "report.typ.j2";
+
+/// DejaVu Sans (regular and bold), shipped in assets/fonts with its licence.
+/// Charts name this family; typst's bundled fonts have no sans-serif face.
+const DEJAVU_SANS: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+const DEJAVU_SANS_BOLD: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans-Bold.ttf");
+
+/// Fonts and font book, built once per process.
+struct Fonts {
+    book: LazyHash<FontBook>,
+    fonts: Vec<Font>,
+}
+
+static FONTS: LazyLock<Fonts> = LazyLock::new(|| {
+    let mut fonts = Vec::new();
+    for data in [DEJAVU_SANS, DEJAVU_SANS_BOLD]
+        .into_iter()
+        .chain(typst_assets::fonts())
+    {
+        fonts.extend(Font::iter(Bytes::new(data)));
+    }
+    Fonts {
+        book: LazyHash::new(FontBook::from_fonts(&fonts)),
+        fonts,
+    }
+});
+
+static LIBRARY: LazyLock<LazyHash<Library>> =
+    LazyLock::new(|| LazyHash::new(Library::builder().build()));
+
+/// The in-memory world one report is compiled in.
+struct ReportWorld {
+    main: FileId,
+    source: Source,
+    /// Virtual path (no leading slash) -> bytes.
+    files: BTreeMap<String, Bytes>,
+    today: Option<Datetime>,
+}
+
+fn file_id(path: &str) -> Result<FileId, ReportError> {
+    let vpath = VirtualPath::new(path).map_err(|e| ReportError::Pdf {
+        message: format!("bad virtual path `{path}`: {e:?}"),
+    })?;
+    Ok(RootedPath::new(VirtualRoot::Project, vpath).intern())
+}
+
+impl World for ReportWorld {
+    fn library(&self) -> &LazyHash<Library> {
+        &LIBRARY
+    }
+
+    fn book(&self) -> &LazyHash<FontBook> {
+        &FONTS.book
+    }
+
+    fn main(&self) -> FileId {
+        self.main
+    }
+
+    fn source(&self, id: FileId) -> FileResult<Source> {
+        if id == self.main {
+            Ok(self.source.clone())
+        } else {
+            Err(FileError::NotSource)
+        }
+    }
+
+    fn file(&self, id: FileId) -> FileResult<Bytes> {
+        let path = id.vpath().get_without_slash();
+        self.files
+            .get(path)
+            .cloned()
+            .ok_or_else(|| FileError::NotFound(path.into()))
+    }
+
+    fn font(&self, index: usize) -> Option<Font> {
+        FONTS.fonts.get(index).cloned()
+    }
+
+    fn today(&self, _offset: Option<typst::foundations::Duration>) -> Option<Datetime> {
+        self.today
+    }
+}
+
+/// Turns a value into a Typst string literal, `"..."`, escaping what Typst
+/// would otherwise read as markup or an escape.
+fn typst_str(value: &Value) -> String {
+    let text = match value.as_str() {
+        Some(s) => s.to_string(),
+        None if value.is_none() || value.is_undefined() => String::new(),
+        None => value.to_string(),
+    };
+    let mut out = String::with_capacity(text.len() + 2);
+    out.push('"');
+    for c in text.chars() {
+        match c {
+            '\\' => out.push_str("\\\\"),
+            '"' => out.push_str("\\\""),
+            '\n' => out.push_str("\\n"),
+            '\r' => {}
+            '\t' => out.push_str("\\t"),
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}
+
+fn template_error(e: minijinja::Error) -> ReportError {
+    ReportError::Template {
+        template: TEMPLATE_NAME.to_string(),
+        message: format!("{e:#}"),
+    }
+}
+
+/// Renders the Typst markup of the report (the template's output).
+pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
+    let mut env = Environment::new();
+    env.set_undefined_behavior(UndefinedBehavior::Strict);
+    env.add_template(TEMPLATE_NAME, TEMPLATE)
+        .map_err(template_error)?;
+    env.add_filter("t", |v: Value| typst_str(&v));
+    env.add_filter("num", |v: Serde<Option<f64>>, digits: Option<usize>| {
+        super::html::num(v.0, digits)
+    });
+    let mut traces = BTreeMap::new();
+    for case in doc.case_ids() {
+        let path = trace_chart_path(&case);
+        if doc.charts.contains_key(&path) {
+            traces.insert(case, path);
+        }
+    }
+    let template = env.get_template(TEMPLATE_NAME).map_err(template_error)?;
+    template
+        .render(minijinja::context! {
+            r => Serde(&doc.results),
+            charts => traces,
+            matrices => super::html::matrices(doc, |p: &str| Value::from(p)),
+            signatories => Serde(&doc.signatories),
+            draft => doc.is_draft(),
+            date => doc.date(),
+        })
+        .map_err(template_error)
+}
+
+fn diagnostics(what: &str, diags: &[SourceDiagnostic], world: &ReportWorld) -> ReportError {
+    let mut message = format!("{what}:");
+    for d in diags {
+        message.push_str("\n  - ");
+        message.push_str(&d.message);
+        if d.span.id() == Some(world.main)
+            && let Some(range) = world.range(d.span)
+        {
+            let line = world.source.text()[..range.start].matches('\n').count() + 1;
+            message.push_str(&format!(" (generated markup, line {line})"));
+        }
+        for hint in &d.hints {
+            message.push_str("\n    hint: ");
+            message.push_str(&hint.v);
+        }
+    }
+    ReportError::Pdf { message }
+}
+
+fn parse_date(date: &str) -> Option<Datetime> {
+    let mut parts = date.split('-');
+    let y = parts.next()?.parse().ok()?;
+    let m = parts.next()?.parse().ok()?;
+    let d = parts.next()?.parse().ok()?;
+    Datetime::from_ymd(y, m, d)
+}
+
+/// Renders report.pdf. Returns the PDF bytes and its page count.
+pub fn render(doc: &Document) -> Result<(Vec<u8>, usize), ReportError> {
+    let markup = render_markup(doc)?;
+    let main = file_id("report.typ")?;
+    let source = Source::new(main, markup);
+    let files = doc
+        .charts
+        .iter()
+        .map(|(path, svg)| (path.clone(), Bytes::from_string(svg.clone())))
+        .chain(
+            doc.images
+                .iter()
+                .map(|(path, png)| (path.clone(), Bytes::new(png.clone()))),
+        )
+        .collect();
+    let world = ReportWorld {
+        main,
+        source,
+        files,
+        today: parse_date(doc.date()),
+    };
+    let compiled = typst::compile::<PagedDocument>(&world);
+    let document = compiled
+        .output
+        .map_err(|errors| diagnostics("typst could not lay out the report", &errors, &world))?;
+    let options = typst_pdf::PdfOptions {
+        // A stable identifier: the same report gives the same PDF bytes.
+        ident: typst::foundations::Smart::Custom(format!(
+            "ledflicker-{}",
+            doc.results["plan"]["id"].as_str().unwrap_or("report")
+        )),
+        ..typst_pdf::PdfOptions::default()
+    };
+    let bytes = typst_pdf::pdf(&document, &options)
+        .map_err(|errors| diagnostics("typst could not write the PDF", &errors, &world))?;
+    Ok((bytes, document.pages().len()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn typst_strings_escape_quotes_backslashes_and_newlines() {
+        assert_eq!(
+            typst_str(&Value::from("a \"b\" \\ #c_*<d>\n")),
+            "\"a \\\"b\\\" \\\\ #c_*<d>\\n\""
+        );
+        assert_eq!(typst_str(&Value::from(())), "\"\"");
+        assert_eq!(typst_str(&Value::from(3)), "\"3\"");
+    }
+}

@@ -1,0 +1,453 @@
+//! Report files through the binary: HTML snapshot, PDF text, sign-off and
+//! verification, JUnit/CSV exports, golden-file drift.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use crate::{root, scratch};
+
+const DATE: &str = "2026-01-15";
+
+fn ledflicker(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(args)
+        .current_dir(root())
+        .env_remove("SOURCE_DATE_EPOCH")
+        .output()
+        .unwrap()
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// Runs `plan` into `dir` with a fixed date; returns the output.
+fn run_plan(plan: &str, dir: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "plan",
+        plan,
+        "--out",
+        dir.to_str().unwrap(),
+        "--date",
+        DATE,
+        "-q",
+    ];
+    args.extend_from_slice(extra);
+    ledflicker(&args)
+}
+
+/// `pdftotext -layout` (poppler-utils; scripts/test.sh installs it).
+fn pdf_text(pdf: &Path) -> String {
+    let o = Command::new("pdftotext")
+        .args(["-layout", pdf.to_str().unwrap(), "-"])
+        .output()
+        .expect("pdftotext not found: install poppler-utils (scripts/test.sh does)");
+    assert!(o.status.success(), "{}", text(&o));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn pdf_pages(pdf: &Path) -> usize {
+    let o = Command::new("pdfinfo")
+        .arg(pdf)
+        .output()
+        .expect("pdfinfo not found: install poppler-utils (scripts/test.sh does)");
+    let info = String::from_utf8_lossy(&o.stdout).into_owned();
+    info.lines()
+        .find_map(|l| l.strip_prefix("Pages:"))
+        .and_then(|n| n.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no page count in pdfinfo output: {info}"))
+}
+
+/// Replaces every `start..end` run of `text` by `[kind: N bytes]`.
+fn placeholders(text: &str, start: &str, end: &str, kind: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(i) = rest.find(start) {
+        out.push_str(&rest[..i]);
+        let tail = &rest[i..];
+        let Some(j) = tail[start.len()..].find(end) else {
+            break;
+        };
+        let len = start.len() + j;
+        out.push_str(&format!("[{kind}: {len} bytes]"));
+        rest = &tail[len..];
+    }
+    out.push_str(rest);
+    out
+}
+
+#[test]
+fn html_report_of_the_small_plan_matches_the_snapshot() {
+    let dir = scratch("html-snapshot");
+    let o = run_plan("tests/fixtures/plans/base.toml", &dir, &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    let html = html.replace(env!("CARGO_PKG_VERSION"), "[version]");
+    assert!(html.contains("DRAFT"), "an unsigned report is a draft");
+    // The layout is the golden file; each chart and picture is checked by
+    // its own tests, so its bytes are replaced by a placeholder with its size.
+    let html = placeholders(&html, "<svg", "</svg>", "svg");
+    let html = placeholders(&html, "data:image/png;base64,", "\"", "png");
+    insta::assert_snapshot!("small_report_html", html);
+}
+
+#[test]
+fn pdf_report_has_pages_cover_summary_and_environment_and_is_deterministic() {
+    let a = scratch("pdf-a");
+    let b = scratch("pdf-b");
+    for dir in [&a, &b] {
+        let o = run_plan("tests/fixtures/plans/small_failing.toml", dir, &[]);
+        assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    }
+    let pdf = std::fs::read(a.join("report.pdf")).unwrap();
+    assert!(pdf.starts_with(b"%PDF-"));
+    assert_eq!(
+        pdf,
+        std::fs::read(b.join("report.pdf")).unwrap(),
+        "same plan and date must give the same PDF bytes"
+    );
+    let pages = pdf_pages(&a.join("report.pdf"));
+    assert!(pages >= 4, "{pages} pages");
+    let t = pdf_text(&a.join("report.pdf"));
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(a.join("results.json")).unwrap()).unwrap();
+    let sha = results["plan"]["sha256"].as_str().unwrap();
+    let c = &results["counts"];
+    let counts = format!(
+        "{} cases: {} pass, {} fail, {} informational",
+        c["total"], c["pass"], c["fail"], c["info"]
+    );
+    assert!(c["fail"].as_u64().unwrap() > 0);
+    for needle in [
+        "LED FLICKER CONFORMANCE TEST REPORT",
+        "Small test plan",
+        "small-failing",
+        "Ideal rolling",
+        "DRAFT",
+        "Executive summary",
+        "Overall verdict",
+        &counts,
+        "Frequency × duty matrices",
+        "Eq. (1)",
+        "60hz-20pct",
+        "fdi_2018_worst_phase",
+        "Method",
+        "Deegan 2018",
+        "Deviations and notes",
+        "Environment",
+        sha,
+        "Sign-off",
+        DATE,
+        &format!("Page 1 of {pages}"),
+        &format!("Page {pages} of {pages}"),
+    ] {
+        assert!(t.contains(needle), "`{needle}` not in the PDF text:\n{t}");
+    }
+    assert!(!t.contains("NaN"));
+}
+
+#[test]
+fn junit_has_one_testcase_per_case_and_failures_name_metric_and_threshold() {
+    let dir = scratch("junit");
+    let o = run_plan("tests/fixtures/plans/small_failing.toml", &dir, &[]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap();
+    let cases = results["cases"].as_array().unwrap();
+    let junit = std::fs::read_to_string(dir.join("junit.xml")).unwrap();
+    assert_eq!(junit.matches("<testcase ").count(), cases.len());
+    let failed: Vec<&serde_json::Value> = cases.iter().filter(|c| c["verdict"] == "fail").collect();
+    assert!(!failed.is_empty());
+    assert_eq!(junit.matches("<failure ").count(), failed.len());
+    for c in failed {
+        let id = c["id"].as_str().unwrap();
+        let start = junit.find(&format!("name=\"{id}\"")).unwrap();
+        let block = &junit[start..start + junit[start..].find("</testcase>").unwrap()];
+        let check = c["checks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|k| k["pass"] == false)
+            .unwrap();
+        assert!(block.contains(check["metric"].as_str().unwrap()), "{block}");
+        assert!(
+            block.contains(&format!("required &gt;= {}", check["threshold"])),
+            "{block}"
+        );
+    }
+    let csv = std::fs::read_to_string(dir.join("summary.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert!(
+        lines
+            .next()
+            .unwrap()
+            .starts_with("case,light_lux,frequency_hz,duty,verdict,roi")
+    );
+    let rows: Vec<&str> = lines.collect();
+    let rois: usize = cases
+        .iter()
+        .map(|c| c["rois"].as_array().unwrap().len())
+        .sum();
+    assert_eq!(rows.len(), rois);
+    let first = &cases[0];
+    let fdi = first["rois"][0]["metrics"]["fdi_2018"].as_f64().unwrap();
+    assert!(rows[0].starts_with(first["id"].as_str().unwrap()));
+    assert!(
+        rows[0].contains(&format!(",{fdi},")),
+        "{} vs {fdi}",
+        rows[0]
+    );
+}
+
+fn keygen(dir: &Path, name: &str) -> PathBuf {
+    let key = dir.join(name);
+    let o = ledflicker(&["keygen", "--out", key.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    key
+}
+
+#[test]
+fn signed_reports_verify_and_any_change_is_named() {
+    let base = scratch("signoff");
+    let keys = base.join("keys");
+    std::fs::create_dir_all(&keys).unwrap();
+    let tester = keygen(&keys, "tester.key");
+    let approver = keygen(&keys, "approver.key");
+    let priv_text = std::fs::read_to_string(&tester).unwrap();
+    let dir = base.join("report");
+    let o = run_plan(
+        "tests/fixtures/plans/base.toml",
+        &dir,
+        &[
+            "--sign-key",
+            tester.to_str().unwrap(),
+            "--signer",
+            "Ada Tester, Tested by",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let d = dir.to_str().unwrap();
+    let o = ledflicker(&["verify", d]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("signature ok: Ada Tester, Tested by"));
+
+    // A second signatory; the first signature stays valid.
+    let o = ledflicker(&[
+        "sign",
+        d,
+        "--key",
+        approver.to_str().unwrap(),
+        "--signer",
+        "Bo Approver, Approved by",
+        "--date",
+        "2026-01-16",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = ledflicker(&[
+        "verify",
+        d,
+        "--key",
+        keys.join("tester.key.pub").to_str().unwrap(),
+        "--key",
+        keys.join("approver.key.pub").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("2 signature(s)"), "{}", text(&o));
+
+    // The renderings show both signatories and no draft mark; no private
+    // key material anywhere in the directory.
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert!(html.contains("Ada Tester, Tested by") && html.contains("Bo Approver, Approved by"));
+    assert!(!html.contains("DRAFT"));
+    let t = pdf_text(&dir.join("report.pdf"));
+    assert!(
+        t.contains("Bo Approver, Approved by") && !t.contains("DRAFT"),
+        "{t}"
+    );
+    let seed = priv_text.lines().nth(1).unwrap();
+    for (path, _) in walk(&dir) {
+        let bytes = std::fs::read(&path).unwrap();
+        assert!(
+            !String::from_utf8_lossy(&bytes).contains(seed),
+            "{}",
+            path.display()
+        );
+    }
+
+    // Only trusted keys: the approver alone is not enough.
+    let o = ledflicker(&[
+        "verify",
+        d,
+        "--key",
+        keys.join("approver.key.pub").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("not one of the trusted keys"));
+
+    // Tamper with a trace: verify names the file.
+    let trace = dir.join("traces/2000lux-150hz-50pct.csv");
+    let original = std::fs::read_to_string(&trace).unwrap();
+    std::fs::write(&trace, original.replacen("pwm", "on", 1)).unwrap();
+    let o = ledflicker(&["verify", d]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("file `traces/2000lux-150hz-50pct.csv` has changed"),
+        "{}",
+        text(&o)
+    );
+    // Signing on top of a tampered report is refused.
+    let o = ledflicker(&[
+        "sign",
+        d,
+        "--key",
+        tester.to_str().unwrap(),
+        "--signer",
+        "X, Y",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    std::fs::write(&trace, &original).unwrap();
+    assert_eq!(ledflicker(&["verify", d]).status.code(), Some(0));
+
+    // Edit the signer's name in signoff.json: that signature fails.
+    let signoff = dir.join("signoff.json");
+    let s = std::fs::read_to_string(&signoff).unwrap();
+    std::fs::write(&signoff, s.replace("Bo Approver", "Eve Forger")).unwrap();
+    let o = ledflicker(&["verify", d]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        text(&o).contains("signature 2 of 2 (Eve Forger, Approved by"),
+        "{}",
+        text(&o)
+    );
+    std::fs::write(&signoff, &s).unwrap();
+
+    // A signed report is never overwritten without --force.
+    let o = run_plan("tests/fixtures/plans/base.toml", &dir, &[]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).contains("--force"));
+
+    // A key inside the report directory is refused before the run.
+    let inside = dir.join("traces").join("k.key");
+    std::fs::copy(&tester, &inside).unwrap();
+    let o = run_plan(
+        "tests/fixtures/plans/base.toml",
+        &dir,
+        &[
+            "--force",
+            "--sign-key",
+            inside.to_str().unwrap(),
+            "--signer",
+            "A, B",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("inside the report directory"),
+        "{}",
+        text(&o)
+    );
+    std::fs::remove_file(&inside).unwrap();
+    assert_eq!(ledflicker(&["verify", d]).status.code(), Some(0));
+
+    // Keys never go into a report directory.
+    let o = ledflicker(&["keygen", "--out", dir.join("k.key").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(!dir.join("k.key").exists());
+
+    // Editing results.json breaks the signatures; signing on top is refused.
+    let results = dir.join("results.json");
+    let r = std::fs::read_to_string(&results).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&r).unwrap();
+    v.as_object_mut().unwrap().remove("report");
+    std::fs::write(&results, v.to_string()).unwrap();
+    let o = ledflicker(&[
+        "sign",
+        d,
+        "--key",
+        tester.to_str().unwrap(),
+        "--signer",
+        "X, Y",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    std::fs::write(&results, r).unwrap();
+
+    // An unsigned report does not verify.
+    std::fs::remove_file(&signoff).unwrap();
+    let o = ledflicker(&["verify", d]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(text(&o).contains("unsigned DRAFT"), "{}", text(&o));
+}
+
+fn walk(dir: &Path) -> Vec<(PathBuf, ())> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push((p, ()));
+        }
+    }
+    out
+}
+
+#[test]
+fn golden_comparison_passes_on_itself_and_names_drift() {
+    let base = scratch("golden");
+    let first = base.join("first");
+    let o = run_plan("tests/fixtures/plans/base.toml", &first, &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let golden = first.join("results.json");
+    let o = run_plan(
+        "tests/fixtures/plans/base.toml",
+        &base.join("second"),
+        &["--golden", golden.to_str().unwrap()],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains(", 0 beyond tolerance"), "{}", text(&o));
+
+    // Shift one stored value by more than its tolerance.
+    let mut g: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&golden).unwrap()).unwrap();
+    let case = g["cases"][3]["id"].as_str().unwrap().to_string();
+    let v = g["cases"][3]["rois"][0]["metrics"]["percent_flicker"]
+        .as_f64()
+        .unwrap();
+    g["cases"][3]["rois"][0]["metrics"]["percent_flicker"] = serde_json::json!(v + 2.0);
+    let shifted = base.join("shifted.json");
+    std::fs::write(&shifted, serde_json::to_string(&g).unwrap()).unwrap();
+    let o = run_plan(
+        "tests/fixtures/plans/base.toml",
+        &base.join("third"),
+        &["--golden", shifted.to_str().unwrap()],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains(&format!("DRIFT {case} / ")) && text(&o).contains("percent_flicker"),
+        "{}",
+        text(&o)
+    );
+    // A wider tolerance accepts it.
+    let o = run_plan(
+        "tests/fixtures/plans/base.toml",
+        &base.join("fourth"),
+        &[
+            "--golden",
+            shifted.to_str().unwrap(),
+            "--golden-tolerance",
+            "percent_flicker=5",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // A file that is not results.json is invalid input.
+    let o = run_plan(
+        "tests/fixtures/plans/base.toml",
+        &base.join("fifth"),
+        &["--golden", "tests/fixtures/plans/base.toml"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+}
