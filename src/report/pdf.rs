@@ -156,10 +156,43 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             traces.insert(case, path);
         }
     }
+    // Every other picture goes in by its virtual path in the world.
+    let mut frames = BTreeMap::new();
+    let mut folds: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    for case in doc.case_ids() {
+        let frame = super::document::frame_image_path(&case);
+        if doc.images.contains_key(&frame) {
+            frames.insert(case.clone(), frame);
+        }
+        let prefix = super::document::fold_chart_prefix(&case);
+        let paths = doc
+            .charts
+            .range(prefix.clone()..)
+            .take_while(|(path, _)| path.starts_with(&prefix))
+            .map(|(path, _)| path.clone())
+            .collect();
+        folds.insert(case, paths);
+    }
+    let finemaps: Vec<Value> = (0..)
+        .map_while(|i| {
+            let fdi = super::document::finemap_chart_path(i, "fdi");
+            let pf = super::document::finemap_chart_path(i, "pf");
+            (doc.charts.contains_key(&fdi) && doc.charts.contains_key(&pf))
+                .then(|| minijinja::context! { fdi => fdi, pf => pf })
+        })
+        .collect();
+    let advice_chart = doc
+        .charts
+        .contains_key(super::document::ADVICE_CHART)
+        .then_some(super::document::ADVICE_CHART);
     let template = env.get_template(TEMPLATE_NAME).map_err(template_error)?;
     template
         .render(minijinja::context! {
             r => Serde(&doc.results),
+            frames => frames,
+            folds => folds,
+            finemaps => finemaps,
+            advice_chart => advice_chart,
             charts => traces,
             matrices => super::html::matrices(doc, |p: &str| Value::from(p)),
             signatories => Serde(&doc.signatories),
