@@ -61,7 +61,8 @@ pub fn luma_trace_svg(result: &CaseResult) -> Result<String, ChartError> {
         return Err(err(&"the trace is empty"));
     }
     let pad = ((hi - lo) * 0.08).max(1.0);
-    let (y0, y1) = ((lo - pad).max(0.0), hi + pad);
+    // Headroom above the data for the legend, so it never hides a sample.
+    let (y0, y1) = ((lo - pad).max(0.0), hi + pad + (hi - lo).max(1.0) * 0.45);
 
     let mut svg = String::new();
     {
@@ -154,7 +155,7 @@ pub fn luma_trace_svg(result: &CaseResult) -> Result<String, ChartError> {
 
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
+            .position(SeriesLabelPosition::UpperRight)
             .label_font((FONT, 11))
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(200, 200, 200))

@@ -114,7 +114,10 @@ fn pdf_report_has_pages_cover_summary_and_environment_and_is_deterministic() {
     assert!(pages >= 4, "{pages} pages");
     let t = pdf_text(&a.join("report.pdf"));
     // The simulator's darkest PWM frame is in the PDF too.
-    assert!(t.contains("lowest LED-ROI luma"), "no sample frame in the PDF");
+    assert!(
+        t.contains("lowest LED-ROI luma"),
+        "no sample frame in the PDF"
+    );
     let results: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(a.join("results.json")).unwrap()).unwrap();
     let sha = results["plan"]["sha256"].as_str().unwrap();
