@@ -935,25 +935,13 @@ fn bands(a: BandsArgs) -> anyhow::Result<i32> {
         ))
         .into());
     }
-    let img = image::open(&a.frame)
-        .map_err(|e| UsageError(format!("cannot read frame `{}`: {e}", a.frame.display())))?
-        .to_luma16();
-    let (w, h) = img.dimensions();
-    // Mean of every row: the bands run along rows.
-    let profile: Vec<f64> = (0..h)
-        .map(|y| {
-            (0..w)
-                .map(|x| f64::from(img.get_pixel(x, y)[0]))
-                .sum::<f64>()
-                / f64::from(w.max(1))
-        })
-        .collect();
+    // Mean luma of every row (the bands run along rows), as `linetime` reads it.
+    let profile = crate::linetime::row_profile(&a.frame)?;
     let period = crate::analysis::banding::band_period_from_profile(&profile)
         .map_err(|e| UsageError(format!("`{}`: {e}", a.frame.display())))?;
     let out = serde_json::json!({
         "frame": a.frame.display().to_string(),
-        "rows": h,
-        "columns": w,
+        "rows": profile.len(),
         "line_time_us": a.line_time_us,
         "band_period_rows": period,
         "estimated_frequency_hz": 1.0 / (period * a.line_time_us * 1e-6),
