@@ -12,7 +12,7 @@ use serde::Deserialize;
 #[derive(Debug, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub struct RawPlan {
-    /// Plan format version; 1 is the only one so far.
+    /// Plan format version: 1 or 2 (2 adds optional keys only; docs/changes.md).
     pub format_version: Option<i64>,
     /// `[plan]`: identity of the plan.
     pub plan: Option<RawMeta>,

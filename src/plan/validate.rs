@@ -232,12 +232,12 @@ pub(super) fn validate(
     };
 
     if let Some(v) = raw.format_version
-        && v != 1
+        && !(1..=2).contains(&v)
     {
         c.error(
             "format-version",
             format!("unsupported plan format version {v}"),
-            Some("this ledflicker reads format-version = 1"),
+            Some("this ledflicker reads format-version = 1 or 2 (see docs/changes.md)"),
         );
     }
 

@@ -1,6 +1,7 @@
 //! The report model: results.json. HTML and PDF are rendered from it.
 //!
-//! Contract `ledflicker.results/1` (fields may be added, never renamed):
+//! Contract `ledflicker.results/2` (see docs/changes.md; fields may be added,
+//! never renamed):
 //! `schema`, `plan {id, title, path, sha256}`, `verdict`, and `cases[]` with
 //! `id, light_lux, frequency_hz, duty, verdict` and
 //! `rois[] {name, metrics {fdi_2018, percent_flicker, ...}}`. A metric that
@@ -24,7 +25,7 @@ use crate::plan::{Plan, RoiKind, Sequence, ShutterKind, Thresholds};
 use crate::runner::CaseResult;
 
 /// Schema id of results.json.
-pub const RESULTS_SCHEMA: &str = "ledflicker.results/1";
+pub const RESULTS_SCHEMA: &str = "ledflicker.results/2";
 
 /// Top of results.json.
 #[derive(Debug, Clone, Serialize)]
