@@ -5,10 +5,11 @@
 //!
 //! | code | meaning |
 //! |---|---|
-//! | 0 | every case passed (informational cases do not count); `verify`: every hash and signature matched |
-//! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash or signature mismatch, or no signature |
+//! | 0 | every case passed (informational cases do not count); `verify`: every hash and signature matched and every signer is trusted (`--trust`) |
+//! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash, signature or input mismatch, an untrusted signer, or no signature |
 //! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way |
 //! | 3 | internal or backend error |
+//! | 4 | `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked |
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -35,6 +36,8 @@ pub const EXIT_FAIL: i32 = 1;
 pub const EXIT_INVALID: i32 = 2;
 /// Internal or backend error.
 pub const EXIT_INTERNAL: i32 = 3;
+/// `verify` without `--trust`: intact, but nobody vouched for the signers.
+pub const EXIT_IDENTITY_UNCHECKED: i32 = 4;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -75,22 +78,37 @@ enum Command {
     /// Estimate a PWM frequency from the band spacing of one rolling-shutter
     /// frame (PNG or TIFF) with a known line time; prints JSON.
     Bands(BandsArgs),
-    /// Make an Ed25519 key pair for signing reports: FILE (private) and FILE.pub.
+    /// Make an ECDSA P-256 private key (FILE, PKCS#8 PEM, mode 0600) and a
+    /// self-signed X.509 certificate (FILE with `.crt`, PEM) for signing.
     Keygen {
-        /// Private key file; the public key goes to FILE.pub.
+        /// Who signs, "Name, Role": the certificate's common name.
+        #[arg(long)]
+        signer: String,
+        /// Organisation: the certificate's O.
+        #[arg(long, default_value = "")]
+        org: String,
+        /// Private key file, e.g. ~/keys/ada.key (certificate: ~/keys/ada.crt).
         #[arg(long)]
         out: PathBuf,
     },
-    /// Sign a report directory (adds a signature to signoff.json).
+    /// Sign a report directory: a PDF signature in report.pdf and a CMS
+    /// signature (signoff.p7s) of manifest.txt.
     Sign(SignArgs),
     /// Check every hash and signature of a signed report directory.
     Verify {
         /// Report directory.
         dir: PathBuf,
-        /// Trusted public key (FILE.pub from keygen); repeatable. Without it,
-        /// signatures are checked against the keys in signoff.json.
-        #[arg(long = "key")]
-        keys: Vec<PathBuf>,
+        /// Trusted certificate (PEM or DER), or a directory of them;
+        /// repeatable. Without it the signers' identity is not checked
+        /// (exit 4).
+        #[arg(long = "trust")]
+        trust: Vec<PathBuf>,
+        /// Also hash every input again at its recorded path.
+        #[arg(long)]
+        inputs: bool,
+        /// Look for relative input paths under this directory (implies --inputs).
+        #[arg(long)]
+        inputs_root: Option<PathBuf>,
     },
 }
 
@@ -188,9 +206,16 @@ struct RenderArgs {
 struct SignArgs {
     /// Report directory.
     dir: PathBuf,
-    /// Private key file from `ledflicker keygen`.
+    /// Private key, PKCS#8 PEM (ECDSA P-256), e.g. from `ledflicker keygen`.
+    #[arg(long, required_unless_present = "p12", conflicts_with = "p12")]
+    key: Option<PathBuf>,
+    /// Certificate of the key, PEM [default: the key file with `.crt`].
+    #[arg(long, requires = "key")]
+    cert: Option<PathBuf>,
+    /// Key and certificate in one PKCS#12 file; the passphrase comes from
+    /// $LEDFLICKER_P12_PASSPHRASE, else from a prompt.
     #[arg(long)]
-    key: PathBuf,
+    p12: Option<PathBuf>,
     /// Who signs, "Name, Role" (e.g. "Jane Doe, Approved by").
     #[arg(long)]
     signer: String,
@@ -218,9 +243,12 @@ struct PlanArgs {
     /// Print no summary table.
     #[arg(long, short)]
     quiet: bool,
-    /// Sign the report with this private key (from `ledflicker keygen`).
+    /// Sign the report with this private key (PKCS#8 PEM, from `ledflicker keygen`).
     #[arg(long, requires = "signer")]
     sign_key: Option<PathBuf>,
+    /// Certificate of --sign-key [default: the key file with `.crt`].
+    #[arg(long, requires = "sign_key")]
+    sign_cert: Option<PathBuf>,
     /// Who signs, "Name, Role"; with --sign-key.
     #[arg(long, requires = "sign_key")]
     signer: Option<String>,
@@ -341,8 +369,10 @@ pub fn exit_code(err: &anyhow::Error) -> i32 {
                 )
                 | crate::signoff::SignoffError::Io { .. }
                 | crate::signoff::SignoffError::Key { .. }
+                | crate::signoff::SignoffError::Pdf(_)
                 | crate::signoff::SignoffError::Refused(_) => EXIT_INVALID,
-                crate::signoff::SignoffError::Report(_) => EXIT_INTERNAL,
+                crate::signoff::SignoffError::Report(_)
+                | crate::signoff::SignoffError::Crypto(_) => EXIT_INTERNAL,
             };
         }
     }
@@ -371,55 +401,152 @@ fn run(cli: Cli) -> anyhow::Result<i32> {
         Command::Linetime(args) => linetime(args),
         Command::Render(args) => render(args),
         Command::Bands(args) => bands(args),
-        Command::Keygen { out } => {
-            let id = crate::signoff::keygen(&out)?;
+        Command::Keygen { signer, org, out } => {
+            let files = crate::signoff::keygen(&out, &signer, &org, now_unix_s())?;
             println!(
-                "private key: {} (keep it secret, outside report directories)\npublic key:  {}\nkey id:      {id}",
-                out.display(),
-                crate::signoff::public_key_path(&out).display()
+                "private key: {} (PKCS#8 PEM, mode 0600; keep it secret, outside report directories)\ncertificate: {} (self-signed X.509 PEM; give it to whoever verifies your reports)\nSHA-256:     {}",
+                files.key.display(),
+                files.cert.display(),
+                files.fingerprint
             );
             Ok(EXIT_PASS)
         }
-        Command::Sign(args) => {
-            let date = report_date(args.date.as_deref())?;
-            let e = crate::signoff::sign(&args.dir, &args.key, &args.signer, &date)
-                .with_context(|| format!("cannot sign `{}`", args.dir.display()))?;
-            println!(
-                "signed `{}` as {} (key {}), {} files",
-                args.dir.display(),
-                e.signer,
-                e.key_id,
-                e.files.len()
-            );
-            Ok(EXIT_PASS)
+        Command::Sign(args) => sign_cmd(args),
+        Command::Verify {
+            dir,
+            trust,
+            inputs,
+            inputs_root,
+        } => {
+            let inputs = (inputs || inputs_root.is_some()).then_some(inputs_root.as_deref());
+            verify(&dir, &trust, inputs)
         }
-        Command::Verify { dir, keys } => verify(&dir, &keys),
     }
 }
 
-fn verify(dir: &std::path::Path, keys: &[PathBuf]) -> anyhow::Result<i32> {
-    let trusted = keys
-        .iter()
-        .map(|k| crate::signoff::load_verifying_key(k))
-        .collect::<Result<Vec<_>, _>>()?;
-    let v = crate::signoff::verify(dir, &trusted)
+fn now_unix_s() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+/// Signing time: $SOURCE_DATE_EPOCH, else midnight UTC of --date, else now.
+fn signing_time(date_arg: Option<&str>) -> anyhow::Result<u64> {
+    if let Ok(s) = std::env::var("SOURCE_DATE_EPOCH") {
+        return s.trim().parse().map_err(|_| {
+            UsageError(format!(
+                "SOURCE_DATE_EPOCH `{s}` is not an integer number of seconds"
+            ))
+            .into()
+        });
+    }
+    Ok(match date_arg {
+        Some(d) => crate::signoff::unix_of_date(d)
+            .ok_or_else(|| UsageError(format!("--date `{d}` is not a valid date")))?,
+        None => now_unix_s(),
+    })
+}
+
+/// Loads the signing key and certificate (PEM pair or PKCS#12).
+fn load_signer(
+    key: Option<&std::path::Path>,
+    cert: Option<&std::path::Path>,
+    p12: Option<&std::path::Path>,
+) -> anyhow::Result<(crate::signoff::SignerKey, Vec<PathBuf>)> {
+    if let Some(p12) = p12 {
+        let pass = match std::env::var("LEDFLICKER_P12_PASSPHRASE") {
+            Ok(p) => p,
+            Err(_) => crate::signoff::prompt_passphrase(p12)?,
+        };
+        return Ok((
+            crate::signoff::pkcs12::load(p12, &pass)?,
+            vec![p12.to_path_buf()],
+        ));
+    }
+    let key = key.ok_or_else(|| UsageError("give --key or --p12".into()))?;
+    let cert = cert.map_or_else(
+        || crate::signoff::keys::certificate_path(key),
+        PathBuf::from,
+    );
+    let signer = crate::signoff::keys::load_signer(key, &cert)?;
+    Ok((signer, vec![key.to_path_buf()]))
+}
+
+fn sign_cmd(args: SignArgs) -> anyhow::Result<i32> {
+    let date = report_date(args.date.as_deref())?;
+    let time = signing_time(args.date.as_deref())?;
+    let (key, key_files) = load_signer(
+        args.key.as_deref(),
+        args.cert.as_deref(),
+        args.p12.as_deref(),
+    )?;
+    let done = crate::signoff::sign(
+        &args.dir,
+        &crate::signoff::SignRequest {
+            signer: &args.signer,
+            date: &date,
+            time_unix_s: time,
+            key: &key,
+            key_files,
+        },
+    )
+    .with_context(|| format!("cannot sign `{}`", args.dir.display()))?;
+    println!(
+        "signed `{}` as {} (signature {}, certificate SHA-256 {}), {} files in manifest.txt",
+        args.dir.display(),
+        args.signer.trim(),
+        done.index,
+        done.fingerprint,
+        done.files
+    );
+    Ok(EXIT_PASS)
+}
+
+fn verify(
+    dir: &std::path::Path,
+    trust: &[PathBuf],
+    inputs: Option<Option<&std::path::Path>>,
+) -> anyhow::Result<i32> {
+    let trusted = crate::signoff::verify::load_trusted(trust)?;
+    let v = crate::signoff::verify(dir, &trusted, inputs)
         .with_context(|| format!("cannot verify `{}`", dir.display()))?;
-    for (signer, key) in &v.valid {
-        println!("signature ok: {signer} (key {key})");
+    let n = v.signatures.len();
+    for s in &v.signatures {
+        let trust = match s.trusted {
+            Some(true) => "trusted certificate",
+            Some(false) => "NOT a trusted certificate",
+            None => "identity not checked",
+        };
+        println!(
+            "signature {} of {n}: \"{}\" on {}, certificate \"{}\" SHA-256 {} ({trust})",
+            s.index, s.signer, s.date, s.subject, s.fingerprint
+        );
     }
     for p in &v.problems {
         println!("FAIL: {p}");
     }
-    if v.ok() {
-        println!(
-            "verified: {} files, {} signature(s)",
-            v.files,
-            v.valid.len()
-        );
+    if !v.ok() {
+        println!("NOT VERIFIED: {} problem(s)", v.problems.len());
+        return Ok(EXIT_FAIL);
+    }
+    println!(
+        "intact: {} files, {n} manifest signature(s), {} PDF signature(s){}",
+        v.files,
+        v.pdf_signatures,
+        if inputs.is_some() {
+            format!(", {} input(s) unchanged", v.inputs_checked)
+        } else {
+            String::new()
+        }
+    );
+    if v.identity_checked {
+        println!("verified: every signer holds a trusted certificate");
         Ok(EXIT_PASS)
     } else {
-        println!("NOT VERIFIED: {} problem(s)", v.problems.len());
-        Ok(EXIT_FAIL)
+        println!(
+            "IDENTITY NOT CHECKED: anyone can sign under any name; pass --trust CERT (the signers' certificates, obtained from them directly) to check who signed (exit {EXIT_IDENTITY_UNCHECKED})"
+        );
+        Ok(EXIT_IDENTITY_UNCHECKED)
     }
 }
 
@@ -506,11 +633,16 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
         ),
         None => None,
     };
-    if let Some(key) = &args.sign_key {
-        // Fail on a bad key before the run, not after it.
-        crate::signoff::load_signing_key(key)?;
-        crate::signoff::check_key_outside(&out, key)?;
-    }
+    // Fail on a bad key before the run, not after it.
+    let signer_key = match &args.sign_key {
+        Some(key) => {
+            let loaded = load_signer(Some(key), args.sign_cert.as_deref(), None)?;
+            crate::signoff::check_key_outside(&out, key)?;
+            Some(loaded)
+        }
+        None => None,
+    };
+    let sign_time = signing_time(args.date.as_deref())?;
 
     let cases = plan::expand_cases(&plan);
     let sim;
@@ -530,6 +662,8 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
                 .ok_or_else(|| UsageError("the plan has no [capture] command".into()))?,
         ),
     };
+    // After the backend has checked that the captures exist.
+    let inputs = crate::inputs::collect(&plan).map_err(|e| UsageError(e.to_string()))?;
     let bar = if std::io::stderr().is_terminal() {
         ProgressBar::with_draw_target(Some(cases.len() as u64), ProgressDrawTarget::stderr())
     } else {
@@ -575,14 +709,28 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
             date: date.clone(),
             force: args.force,
             signatories: Vec::new(),
+            inputs,
         },
     )
     .with_context(|| format!("cannot write the report to `{}`", out.display()))?;
-    if let (Some(key), Some(signer)) = (&args.sign_key, &args.signer) {
-        let e = crate::signoff::sign(&out, key, signer, &date)
-            .with_context(|| format!("cannot sign `{}`", out.display()))?;
+    if let (Some((key, key_files)), Some(signer)) = (signer_key, &args.signer) {
+        let done = crate::signoff::sign(
+            &out,
+            &crate::signoff::SignRequest {
+                signer,
+                date: &date,
+                time_unix_s: sign_time,
+                key: &key,
+                key_files,
+            },
+        )
+        .with_context(|| format!("cannot sign `{}`", out.display()))?;
         if !args.quiet {
-            println!("signed by {} (key {})", e.signer, e.key_id);
+            println!(
+                "signed by {} (certificate SHA-256 {})",
+                signer.trim(),
+                done.fingerprint
+            );
         }
     }
 

@@ -27,6 +27,8 @@ pub struct InputFile {
     pub path: String,
     /// SHA-256 of its bytes, lowercase hex.
     pub sha256: String,
+    /// Size in bytes.
+    pub size: u64,
 }
 
 /// Report metadata kept in results.json under `report`.
@@ -48,7 +50,7 @@ pub struct Signatory {
     pub signer: String,
     /// Date of signing, `YYYY-MM-DD`.
     pub date: String,
-    /// First 16 hex digits of the SHA-256 of the public key.
+    /// First 16 hex digits of the SHA-256 of the signer's certificate.
     pub key_id: String,
 }
 
@@ -297,15 +299,26 @@ impl Document {
     }
 }
 
-/// The `report` section of results.json for a run reported on `date`.
+/// The `report` section of results.json for a run reported on `date`. The
+/// inputs are those already in `model.report` (set by
+/// [`super::write_report`] from [`crate::inputs::collect`]), else the plan.
 pub fn report_meta(model: &Results, date: &str) -> ReportMeta {
+    let inputs = model
+        .report
+        .as_ref()
+        .map(|r| r.inputs.clone())
+        .filter(|i| !i.is_empty())
+        .unwrap_or_else(|| {
+            vec![InputFile {
+                role: "plan".to_string(),
+                path: model.plan.path.clone(),
+                sha256: model.plan.sha256.clone(),
+                size: std::fs::metadata(&model.plan.path).map_or(0, |m| m.len()),
+            }]
+        });
     ReportMeta {
         date: date.to_string(),
-        inputs: vec![InputFile {
-            role: "plan".to_string(),
-            path: model.plan.path.clone(),
-            sha256: model.plan.sha256.clone(),
-        }],
+        inputs,
         notes: notes(model),
     }
 }
