@@ -214,10 +214,7 @@ pub fn sign(pdf: &[u8], signer: &PdfSigner<'_>) -> Result<Vec<u8>, SignoffError>
         ("TU".into(), text_string(signer.name)),
         ("V".into(), Obj::Ref(sig_id, 0)),
         ("F".into(), num(132)), // print, locked
-        (
-            "Rect".into(),
-            Obj::Array(rect.iter().map(|v| num(v)).collect()),
-        ),
+        ("Rect".into(), Obj::Array(rect.iter().map(num).collect())),
         ("P".into(), Obj::Ref(page, 0)),
         (
             "AP".into(),
@@ -400,7 +397,7 @@ pub fn signatures(pdf: &[u8]) -> Vec<PdfSignature> {
 }
 
 fn unhex(h: &[u8]) -> Option<Vec<u8>> {
-    if h.len() % 2 != 0 {
+    if !h.len().is_multiple_of(2) {
         return None;
     }
     h.chunks(2)
