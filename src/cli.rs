@@ -610,7 +610,8 @@ fn print_summary(model: &report::Results, out: &std::path::Path) -> anyhow::Resu
         .map(|c| c.id.len())
         .max()
         .unwrap_or(4)
-        .max(4);
+        .max(4)
+        + 1;
     writeln!(
         w,
         "{:<width$}  {:<7}  {:>10}  {:>10}  {:>8}  {:>8}",
@@ -635,15 +636,30 @@ fn print_summary(model: &report::Results, out: &std::path::Path) -> anyhow::Resu
             continue;
         };
         let m = |k: &str| roi.metrics.get(k).copied().flatten();
+        // `*`: a captured case whose segments were detected from the luma.
+        let detected = c
+            .capture
+            .as_ref()
+            .is_some_and(|s| s.segments.method == "detected");
         writeln!(
             w,
             "{:<width$}  {:<7}  {:>10}  {:>10}  {:>8}  {:>8}",
-            c.id,
+            format!("{}{}", c.id, if detected { "*" } else { "" }),
             c.verdict.as_str(),
             show(m("fdi_2018"), roi.contrast_unbounded, 3),
             show(m("fdi_2018_worst_phase"), roi.contrast_unbounded, 3),
             show(m("percent_flicker"), false, 2),
             show(m("percent_flicker_worst_phase"), false, 2),
+        )?;
+    }
+    if model.cases.iter().any(|c| {
+        c.capture
+            .as_ref()
+            .is_some_and(|s| s.segments.method == "detected")
+    }) {
+        writeln!(
+            w,
+            "* segments detected from the luma; the report shows where (trace charts, capture text)"
         )?;
     }
     writeln!(

@@ -32,6 +32,7 @@ pub struct RawCapture {
     pub pwm_time_s: Option<Vec<f64>>,
     pub command: Option<Vec<String>>,
     pub timeout_s: Option<f64>,
+    pub settle_s: Option<f64>,
 }
 
 /// Segment keys, in `[capture]` (defaults) and in each `[[case]]` (no
@@ -135,6 +136,10 @@ pub struct CaptureConfig {
     pub saturation_dn: Option<f64>,
     /// Default segments of every case.
     pub segments: SegmentSpec,
+    /// Time left out after each detected step (auto exposure settling),
+    /// seconds (>= 0); `[capture] settle-s`, default
+    /// [`crate::backend::segments::DEFAULT_SETTLE_S`].
+    pub settle_s: f64,
     /// The lab-rig command (command backend only).
     pub command: Option<CommandSpec>,
     /// Cases of a captured plan, in plan order.
@@ -328,6 +333,13 @@ pub(super) fn capture_config(
         }
         None => None,
     };
+    let settle_s = c.non_negative(
+        raw.settle_s
+            .unwrap_or(crate::backend::segments::DEFAULT_SETTLE_S),
+        "capture.settle-s",
+        "seconds left out after each detected step; default 0.5",
+    );
+    ok &= settle_s.is_some();
     let base = segments(
         c,
         RawSegments {
@@ -499,6 +511,7 @@ pub(super) fn capture_config(
         frame_rate_fps: fps,
         saturation_dn,
         segments: base?,
+        settle_s: settle_s?,
         command,
         cases: out_cases,
     })

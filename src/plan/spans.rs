@@ -222,6 +222,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "pwm-time-s",
             "command",
             "timeout-s",
+            "settle-s",
         ],
     ),
     (

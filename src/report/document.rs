@@ -114,9 +114,15 @@ impl Document {
     ) -> Result<Document, ReportError> {
         let mut charts = BTreeMap::new();
         for r in results {
+            let segments = model
+                .cases
+                .iter()
+                .find(|c| c.id == r.case.id)
+                .and_then(|c| c.capture.as_ref())
+                .map(|c| &c.segments);
             charts.insert(
                 trace_chart_path(&r.case.id),
-                super::charts::luma_trace_svg(r)?,
+                super::charts::luma_trace_svg(r, segments)?,
             );
         }
         for (i, lux) in super::matrix::light_levels(model).into_iter().enumerate() {

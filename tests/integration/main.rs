@@ -4,9 +4,11 @@ mod banding;
 mod beyond;
 mod captured;
 mod cli;
+mod detect;
 mod exact;
 mod physics;
 mod plans;
+mod recgen;
 mod report;
 mod results;
 
