@@ -205,15 +205,30 @@ fn detected_segments_of_csv_recordings_match_the_truth_and_the_exact_metrics() {
             det.pf,
             truth.pf
         );
-        // 60 Hz at 5 ms appears OFF (FDI 0); 150 Hz at 11.1 ms never does
-        // (FDI 1.2: the window always holds one whole pulse).
-        let want = if rec.frequency_hz < 100.0 { 0.0 } else { 1.2 };
+        // Closed forms (Deegan 2018 Eq. 1-4). 60 Hz at 5 ms: 5 ms < (1 - D)/f
+        // = 13.3 ms, so the light appears OFF (FDI 0), and the brightest
+        // frame holds a whole pulse, P / T_exp = 3.33 times the ON signal.
+        // 150 Hz at 11.1 ms: every exposure holds one or two whole pulses,
+        // c1 = P / T_exp = 0.6006 and 2 c1 times the ON signal (FDI 1.20).
+        let c1 = 1.0 / (rec.frequency_hz * rec.exposure_s);
+        let (lo, hi) = if rec.frequency_hz < 100.0 {
+            (0.0, c1)
+        } else {
+            (c1, 2.0 * c1)
+        };
+        let (min, max) = (
+            recgen::OFF_DN + recgen::RISE_DN * lo,
+            recgen::OFF_DN + recgen::RISE_DN * hi,
+        );
+        let fdi = (min - recgen::OFF_DN) / recgen::OFF_DN;
+        let pf = 100.0 * (max - min) / (max + min);
         assert!(
-            (truth.fdi - want).abs() < 1e-6,
+            (truth.fdi - fdi).abs() < 1e-9,
             "{}: {}",
             rec.name,
             truth.fdi
         );
+        assert!((truth.pf - pf).abs() < 1e-9, "{}: {}", rec.name, truth.pf);
     }
 }
 
