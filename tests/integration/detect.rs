@@ -341,6 +341,20 @@ fn the_report_shows_detected_segments_and_the_summary_marks_them() {
         html.contains("settle 0.5 s after each step"),
         "chart legend"
     );
+    let pdf = Command::new("pdftotext")
+        .arg(dir.join("out/report.pdf"))
+        .arg("-")
+        .output()
+        .expect("pdftotext not found: install poppler-utils (scripts/test.sh does)");
+    let text = String::from_utf8_lossy(&pdf.stdout)
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
+    assert!(
+        text.contains("timestamps from csv; segments detected from the LED-ROI luma")
+            && text.contains("0.5 s left out after each step"),
+        "{text}"
+    );
 }
 
 #[test]
