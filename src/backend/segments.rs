@@ -336,7 +336,7 @@ fn refuse(path: &Path, message: String, hint: String) -> CaptureError {
     }
 }
 
-const KEYS_HINT: &str = "give this case's segments in its [[case]] (on-time-s, off-time-s, pwm-time-s = [start, end] in seconds, or on-frames, off-frames, pwm-frames), or make [sequence] on-s, off-s, pwm-s match the recording";
+const KEYS_HINT: &str = "give this case's segments in its [[case]] (on-time-s, off-time-s, pwm-time-s = [start, end] in seconds, or on-frames, off-frames, pwm-frames), or make [sequence] on-s, off-s, pwm-s match the recording (on-s = 0 for a dark baseline, then PWM)";
 
 /// The first ON -> OFF step: the earliest frame `f` where the luma falls
 /// below the midpoint of the ON level before it and the OFF level after it,
