@@ -411,3 +411,34 @@ fn a_recording_without_a_clear_on_off_step_is_refused_with_levels_and_keys() {
         "{err}"
     );
 }
+
+#[test]
+fn a_dropped_frame_given_by_a_sidecar_is_a_gap_in_time() {
+    let dir = scratch("detect-sidecar");
+    let rec = &recordings()[3];
+    let f = rec.frames();
+    // No time_s column: the frame times come from `<source>.timestamps.csv`.
+    let mut trace = String::from("frame,led,bg\n");
+    let mut sidecar = String::from("frame,time_s\n");
+    for k in 0..f.time_s.len() {
+        trace += &format!("{k},{},{}\n", f.led[k], f.bg[k]);
+        sidecar += &format!("{k},{}\n", f.time_s[k]);
+    }
+    std::fs::write(dir.join("r.csv"), trace).unwrap();
+    std::fs::write(dir.join("r.csv.timestamps.csv"), sidecar).unwrap();
+    let plan = dir.join("plan.toml");
+    write_plan(
+        &plan,
+        &[("r".to_string(), "r.csv".to_string(), 150.0, String::new())],
+        false,
+    );
+    let judged = judge(&plan).remove("r").unwrap();
+    let t = f.truth;
+    for (want, got) in [t.on, t.off, t.pwm].iter().zip(&judged.spans) {
+        assert!(
+            want.0.abs_diff(got.0) <= 2 && want.1.abs_diff(got.1) <= 2,
+            "detected {got:?}, truth {want:?}"
+        );
+    }
+    assert!((judged.fdi - t.fdi).abs() <= 0.02 && (judged.pf - t.pf).abs() <= 0.5);
+}
