@@ -33,6 +33,7 @@ fn recordings() -> Vec<Recording> {
         duty: 0.2,
         phase,
         dropped,
+        overshoot: 0.3,
     };
     // 60 Hz beats with 29.97 fps in 16.7 s: phase 0.57 starts the PWM
     // segment dark (its step is found from the timing) and sweeps through
@@ -441,4 +442,29 @@ fn a_dropped_frame_given_by_a_sidecar_is_a_gap_in_time() {
         );
     }
     assert!((judged.fdi - t.fdi).abs() <= 0.02 && (judged.pf - t.pf).abs() <= 0.5);
+}
+
+// Regression for issue 19: on this recording without AE overshoot the
+// dark-baseline rule took OFF = frames 0..148 and PWM = 165.. (swallowing
+// the ON and OFF segments) and reported FDI 0.000 and PF 54.57 %, a false
+// FAIL; the light never appears OFF (FDI 1.201).
+#[test]
+fn a_150_hz_recording_of_the_paper_sequence_is_not_judged_off() {
+    let dir = scratch("detect-issue19");
+    let rec = Recording {
+        overshoot: 0.0,
+        ..recordings()[5].clone()
+    };
+    let plan = one_recording(&dir, &rec);
+    let truth = rec.frames().truth;
+    let judged = judge(&plan).remove("r").unwrap();
+    assert!(
+        (judged.fdi - truth.fdi).abs() <= 0.02 && (judged.pf - truth.pf).abs() <= 0.5,
+        "FDI {} PF {}, truth FDI {} PF {}",
+        judged.fdi,
+        judged.pf,
+        truth.fdi,
+        truth.pf
+    );
+    assert!(judged.fdi > 1.1, "{}", judged.fdi);
 }

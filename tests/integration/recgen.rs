@@ -3,8 +3,8 @@
 //! the paper's sequence (dark lead-in, ON, OFF, PWM, dark lead-out). Each
 //! frame collects the exact on-time integral of an ideal PWM over its
 //! exposure, `F(t) = floor(t/P) D P + min(t mod P, D P)` (DESIGN.md
-//! section 4), with a 30 % auto-exposure overshoot after every step that
-//! decays linearly to zero in 0.15 s. Writes CSV traces (noise-free) and
+//! section 4), with an auto-exposure overshoot (30 % in the tests) after every
+//! step that decays linearly to zero in 0.15 s. Writes CSV traces (noise-free) and
 //! H.264 video (limited-range Y', Gaussian noise) through `ffmpeg`.
 
 use std::io::Write;
@@ -24,7 +24,7 @@ pub const OFF_DN: f64 = 20.0;
 pub const RISE_DN: f64 = 40.0;
 /// Background-ROI luma, DN: it must not steer detection.
 pub const BG_DN: f64 = 150.0;
-const OVERSHOOT: f64 = 0.3;
+/// The AE overshoot after each step decays to zero in this time, seconds.
 const OVERSHOOT_S: f64 = 0.15;
 
 /// One recording to make.
@@ -45,6 +45,8 @@ pub struct Recording {
     pub phase: f64,
     /// A frame left out of the capture (its time stays a gap).
     pub dropped: Option<usize>,
+    /// Auto-exposure overshoot just after each step, fraction (0.3: 30 %).
+    pub overshoot: f64,
 }
 
 /// Truth spans in frame indices of the recorded (post-drop) frames, start
@@ -111,7 +113,7 @@ impl Recording {
             steps.iter().fold(1.0, |g, &(s, sign)| {
                 let dt = t - s;
                 if (0.0..OVERSHOOT_S).contains(&dt) {
-                    g + sign * OVERSHOOT * (1.0 - dt / OVERSHOOT_S)
+                    g + sign * self.overshoot * (1.0 - dt / OVERSHOOT_S)
                 } else {
                     g
                 }
