@@ -9,6 +9,7 @@ mod physics;
 mod plans;
 mod report;
 mod results;
+mod verdicts;
 
 use std::path::{Path, PathBuf};
 
