@@ -127,10 +127,21 @@ fn testcase(out: &mut String, plan_id: &str, c: &CaseInfo) {
         .collect();
     match c.verdict {
         Verdict::Fail => {
+            let mut metrics: Vec<&str> = Vec::new();
+            for k in c.checks.iter().filter(|k| !k.pass) {
+                if !metrics.contains(&k.metric.as_str()) {
+                    metrics.push(&k.metric);
+                }
+            }
             let message = match failed.len() {
                 0 => "FAIL: a check failed".to_string(),
                 1 => format!("FAIL: {}", failed[0]),
-                n => format!("FAIL: {} (+{} more)", failed[0], n - 1),
+                n => format!(
+                    "FAIL: {} (+{} more; failed: {})",
+                    failed[0],
+                    n - 1,
+                    metrics.join(", ")
+                ),
             };
             let _ = writeln!(
                 out,

@@ -83,10 +83,19 @@ fn criterion(case: &CaseInfo, roi: Option<&RoiInfo>) -> String {
             let first = roi
                 .and_then(|r| failed.iter().find(|k| k.roi == r.name))
                 .or(failed.first());
-            match first {
-                Some(k) if failed.len() > 1 => {
-                    format!("FAIL: {} (+{} more)", k.describe(), failed.len() - 1)
+            let mut metrics: Vec<&str> = Vec::new();
+            for k in &failed {
+                if !metrics.contains(&k.metric.as_str()) {
+                    metrics.push(&k.metric);
                 }
+            }
+            match first {
+                Some(k) if failed.len() > 1 => format!(
+                    "FAIL: {} (+{} more; failed: {})",
+                    k.describe(),
+                    failed.len() - 1,
+                    metrics.join(", ")
+                ),
                 Some(k) => format!("FAIL: {}", k.describe()),
                 None => "FAIL".to_string(),
             }
