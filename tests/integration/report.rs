@@ -141,7 +141,7 @@ fn pdf_report_has_pages_cover_summary_and_environment_and_is_deterministic() {
         "60hz-20pct",
         "fdi_2018_worst_phase",
         "FMI",
-        "FDI P2020",
+        "P2020",
         "MMP",
         "Method",
         "Deegan 2018",
