@@ -24,26 +24,41 @@ const COLUMNS: [(&str, &str, usize); 7] = [
 ];
 
 /// The legend printed under the table.
-pub const LEGEND: &str = "roi: the case's worst LED ROI (smallest margin to its limits; \
-highest Percent Flicker when nothing was checked). FDI: Deegan 2018; FDI P2020, FMI, MMP: IEEE P2020. \
-worst: worst case over PWM phase (simulator only). +inf: unbounded FDI (OFF reference 0 DN, light present). \
-n/a: undefined (reason in results.json) or not computed by this backend.";
+pub const LEGEND: &str = "legend: roi = the case's worst LED ROI (least margin to its limits; \
+highest Percent Flicker when nothing was checked); worst = worst case over PWM phase (simulator only); \
++inf = unbounded FDI (OFF reference 0 DN, light present); n/a = undefined (reason in results.json) \
+or not computed by this backend; FDI = Deegan 2018; FDI P2020, FMI, MMP = IEEE P2020";
 
 /// The LED ROI that stands for a case: the one whose checks come closest
-/// to failing (or fail worst); without checks, the one with the highest
-/// Percent Flicker; without LED ROIs, the first ROI.
+/// to failing, or fail worst (margins compared smallest first, so a tie on
+/// one limit is broken by the next); without checks, the one with the
+/// highest Percent Flicker; without LED ROIs, the first ROI. Ties go to the
+/// first in plan order.
 pub fn worst_roi(case: &CaseInfo) -> Option<&RoiInfo> {
     let leds = || case.rois.iter().filter(|r| r.kind == RoiKind::Led);
-    let margin = |r: &RoiInfo| {
-        case.checks
+    let margins = |r: &RoiInfo| {
+        let mut m: Vec<f64> = case
+            .checks
             .iter()
             .filter(|k| k.roi == r.name)
             .map(|k| k.margin())
-            .fold(f64::INFINITY, f64::min)
+            .collect();
+        m.sort_by(f64::total_cmp);
+        m
+    };
+    let by_margins = |a: &Vec<f64>, b: &Vec<f64>| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| x.total_cmp(y))
+            .find(|o| o.is_ne())
+            .unwrap_or_else(|| b.len().cmp(&a.len()))
     };
     if !case.checks.is_empty() {
         // min_by keeps the first of equals: plan order breaks ties.
-        return leds().min_by(|a, b| margin(a).total_cmp(&margin(b)));
+        return leds()
+            .map(|r| (r, margins(r)))
+            .min_by(|a, b| by_margins(&a.1, &b.1))
+            .map(|(r, _)| r);
     }
     let pf = |r: &RoiInfo| {
         r.metrics
@@ -80,8 +95,11 @@ fn criterion(case: &CaseInfo, roi: Option<&RoiInfo>) -> String {
         ),
         Verdict::Fail => {
             let failed: Vec<_> = case.checks.iter().filter(|k| !k.pass).collect();
-            let first = roi
-                .and_then(|r| failed.iter().find(|k| k.roi == r.name))
+            let on_roi = |k: &&&crate::metrics::Check| roi.is_none_or(|r| k.roi == r.name);
+            let first = failed
+                .iter()
+                .filter(on_roi)
+                .min_by(|a, b| a.margin().total_cmp(&b.margin()))
                 .or(failed.first());
             let mut metrics: Vec<&str> = Vec::new();
             for k in &failed {

@@ -91,7 +91,7 @@ fn p2020_samples_fail_test_vid2_on_fmi_and_mmp_in_every_output() {
     // The light beats to 0 DN, the OFF level: FDI (2018) is 0/0 and fails
     // its default minimum, and FMI, FDI (P2020) and MMP fail theirs.
     assert!(
-        row.contains("FAIL: fdi_2018 undefined is not >= 0.1 on roi0"),
+        row.contains("FAIL: fdi_2018 undefined is not >= 0.1 on roi"),
         "{row}"
     );
     assert!(
@@ -103,8 +103,40 @@ fn p2020_samples_fail_test_vid2_on_fmi_and_mmp_in_every_output() {
     for col in ["roi", "FMI", "FDI P2020", "MMP", "criterion"] {
         assert!(header.contains(col), "{header}");
     }
-    assert!(stdout.contains("+inf: unbounded FDI"), "{stdout}");
-    assert!(stdout.contains("n/a: undefined"), "{stdout}");
+    assert!(stdout.contains("+inf = unbounded FDI"), "{stdout}");
+    assert!(stdout.contains("n/a = undefined"), "{stdout}");
+    assert!(
+        stdout.contains("worst = worst case over PWM phase"),
+        "{stdout}"
+    );
+    // The row shows the worst ROI. test_vid2: every ROI fails FDI (2018) and
+    // FMI alike, so the lowest MMP decides. test_vid1 passes and its FDI and
+    // MMP margins tie, so the highest FMI (the closest to its limit) decides.
+    let column = |case: &str, i: usize| -> String {
+        stdout
+            .lines()
+            .find(|l| l.starts_with(case))
+            .unwrap()
+            .split_whitespace()
+            .nth(i)
+            .unwrap()
+            .to_string()
+    };
+    let extreme = |case: usize, metric: &str, max: bool| {
+        let values = j["cases"][case]["rois"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["metrics"][metric].as_f64().unwrap());
+        let v = if max {
+            values.fold(f64::NEG_INFINITY, f64::max)
+        } else {
+            values.fold(f64::INFINITY, f64::min)
+        };
+        format!("{v:.3}")
+    };
+    assert_eq!(column("test_vid2", 9), extreme(1, "mmp", false));
+    assert_eq!(column("test_vid1", 7), extreme(0, "fmi", true));
     assert!(stdout.contains("overall: FAIL"), "{stdout}");
     assert!(stdout.contains("0 cases not judged"), "{stdout}");
     assert!(stdout.contains("as captured"), "{stdout}");
