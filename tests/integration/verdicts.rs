@@ -352,6 +352,16 @@ fn simulated_report_names_its_camera_and_the_worst_phase_basis() {
     let m = ledflicker::report::method::method(&daylight);
     assert!(m.verdict_basis.contains("worst case over PWM phase"));
     assert!(m.acquisition.contains("ideal camera simulator"));
+    // The rig: its command, and judged as captured whatever the plan asks.
+    let rig = plan::load(&root().join("test-plans/command-sim-rig.toml")).unwrap();
+    let m = ledflicker::report::method::method(&rig);
+    assert!(m.acquisition.contains("sim-rig.sh"), "{}", m.acquisition);
+    assert!(
+        m.verdict_basis.contains("as captured"),
+        "{}",
+        m.verdict_basis
+    );
+    assert!(!m.acquisition.contains("simulator"), "{}", m.acquisition);
 }
 
 #[test]
