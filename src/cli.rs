@@ -5,10 +5,11 @@
 //!
 //! | code | meaning |
 //! |---|---|
-//! | 0 | every case passed (informational cases do not count); `verify`: every hash and signature matched |
+//! | 0 | every judged case passed and at least one was judged (informational cases do not count); `verify`: every hash and signature matched |
 //! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash or signature mismatch, or no signature |
 //! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way |
 //! | 3 | internal or backend error |
+//! | 4 | `plan`: the run completed but no case was judged (every case informational); the summary says NOT JUDGED |
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -35,6 +36,8 @@ pub const EXIT_FAIL: i32 = 1;
 pub const EXIT_INVALID: i32 = 2;
 /// Internal or backend error.
 pub const EXIT_INTERNAL: i32 = 3;
+/// The run completed but no case was judged (every case informational).
+pub const EXIT_NOT_JUDGED: i32 = 4;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -567,6 +570,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
             case.capture = summaries.get(&case.id).cloned();
         }
     }
+    report::method::describe(&mut model, &plan);
     report::write_report(
         &out,
         &model,
@@ -597,6 +601,8 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     }
     Ok(if model.verdict == Verdict::Fail || drift {
         EXIT_FAIL
+    } else if model.verdict == Verdict::Info {
+        EXIT_NOT_JUDGED
     } else {
         EXIT_PASS
     })
@@ -604,75 +610,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
 
 fn print_summary(model: &report::Results, out: &std::path::Path) -> anyhow::Result<()> {
     let mut w = std::io::stdout().lock();
-    let width = model
-        .cases
-        .iter()
-        .map(|c| c.id.len())
-        .max()
-        .unwrap_or(4)
-        .max(4)
-        + 1;
-    writeln!(
-        w,
-        "{:<width$}  {:<7}  {:>10}  {:>10}  {:>8}  {:>8}",
-        "case", "verdict", "FDI", "FDI worst", "PF %", "PF worst"
-    )?;
-    let show = |v: Option<f64>, unbounded: bool, digits: usize| -> String {
-        if unbounded {
-            "+inf".to_string()
-        } else {
-            v.map_or("n/a".to_string(), |x| crate::util::fixed(x, digits))
-        }
-    };
-    for c in &model.cases {
-        // The first LED ROI stands for the case in the table; the report
-        // has every ROI.
-        let Some(roi) = c
-            .rois
-            .iter()
-            .find(|r| r.kind == plan::RoiKind::Led)
-            .or(c.rois.first())
-        else {
-            continue;
-        };
-        let m = |k: &str| roi.metrics.get(k).copied().flatten();
-        // `*`: a captured case whose segments were detected from the luma.
-        let detected = c
-            .capture
-            .as_ref()
-            .is_some_and(|s| s.segments.method == "detected");
-        writeln!(
-            w,
-            "{:<width$}  {:<7}  {:>10}  {:>10}  {:>8}  {:>8}",
-            format!("{}{}", c.id, if detected { "*" } else { "" }),
-            c.verdict.as_str(),
-            show(m("fdi_2018"), roi.contrast_unbounded, 3),
-            show(m("fdi_2018_worst_phase"), roi.contrast_unbounded, 3),
-            show(m("percent_flicker"), false, 2),
-            show(m("percent_flicker_worst_phase"), false, 2),
-        )?;
-    }
-    if model.cases.iter().any(|c| {
-        c.capture
-            .as_ref()
-            .is_some_and(|s| s.segments.method == "detected")
-    }) {
-        writeln!(
-            w,
-            "* segments detected from the luma; the report shows where (trace charts, capture text)"
-        )?;
-    }
-    writeln!(
-        w,
-        "\noverall: {} ({} pass, {} fail, {} info of {} cases)\nreport:  {}\n         {}",
-        model.verdict.as_str().to_uppercase(),
-        model.counts.pass,
-        model.counts.fail,
-        model.counts.info,
-        model.counts.total,
-        out.join("report.html").display(),
-        out.join("report.pdf").display()
-    )?;
+    w.write_all(report::terminal::summary(model, out).as_bytes())?;
     Ok(())
 }
 

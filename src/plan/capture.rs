@@ -62,6 +62,7 @@ pub struct RawCaseEntry {
     pub off_time_s: Option<Vec<f64>>,
     pub on_time_s: Option<Vec<f64>>,
     pub pwm_time_s: Option<Vec<f64>>,
+    pub informative: Option<bool>,
 }
 
 /// `[p2020]`
@@ -163,6 +164,8 @@ pub struct CaptureCase {
     pub duty: Option<f64>,
     /// Segments (the case's keys over `[capture]`'s).
     pub segments: SegmentSpec,
+    /// `informative = true`: measured and reported, never judged.
+    pub informative: bool,
 }
 
 fn span_frames(c: &mut Checker<'_>, v: Vec<i64>, key: &str) -> Option<Span> {
@@ -498,6 +501,7 @@ pub(super) fn capture_config(
             frequency_hz,
             duty,
             segments: segs,
+            informative: raw_case.informative.unwrap_or(false),
         });
     }
     let command_ok = captured || command.is_some();

@@ -9,6 +9,7 @@ mod capture;
 mod grid;
 mod raw;
 mod spans;
+mod thresholds;
 mod validate;
 
 use std::fmt;
@@ -239,20 +240,92 @@ pub enum VerdictBasis {
     AsCaptured,
 }
 
+/// Pass limits on the metrics of one case; `None`: not checked. Every
+/// metric is the verdict basis's figure (worst phase or as captured).
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct Limits {
+    /// FDI (2018) must be >= this (Deegan 2018: the light appears OFF below 0.1).
+    pub fdi_2018_min: Option<f64>,
+    /// Percent Flicker must be <= this, percent.
+    pub percent_flicker_max: Option<f64>,
+    /// IEEE P2020 Flicker Modulation Index must be <= this (0..1).
+    pub fmi_max: Option<f64>,
+    /// IEEE P2020 Flicker Detection Index (share of PWM frames in which the
+    /// light is told from OFF) must be >= this (0..1).
+    pub fdi_p2020_min: Option<f64>,
+    /// IEEE P2020 Modulation Mitigation Probability (share of PWM frames
+    /// within the band around the reference) must be >= this (0..1).
+    pub mmp_min: Option<f64>,
+}
+
+impl Limits {
+    /// `self`'s limits where set, else `base`'s.
+    pub fn over(self, base: Limits) -> Limits {
+        Limits {
+            fdi_2018_min: self.fdi_2018_min.or(base.fdi_2018_min),
+            percent_flicker_max: self.percent_flicker_max.or(base.percent_flicker_max),
+            fmi_max: self.fmi_max.or(base.fmi_max),
+            fdi_p2020_min: self.fdi_p2020_min.or(base.fdi_p2020_min),
+            mmp_min: self.mmp_min.or(base.mmp_min),
+        }
+    }
+}
+
+/// Limits for one light level, over the global ones.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct LevelLimits {
+    /// The light level, lux (> 0); a level of `[light]` or a case's `light-lux`.
+    pub light_lux: f64,
+    /// Limits set for this level; unset ones come from `[thresholds]`.
+    #[serde(flatten)]
+    pub limits: Limits,
+}
+
 /// Pass criteria. A case whose frequency lies outside the mitigation range
 /// is informational.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Thresholds {
     /// FDI (2018) must be >= this (Deegan 2018: the light appears OFF below 0.1).
     pub fdi_2018_min: Option<f64>,
     /// Percent Flicker must be <= this.
     pub percent_flicker_max: Option<f64>,
+    /// IEEE P2020 FMI must be <= this.
+    pub fmi_max: Option<f64>,
+    /// IEEE P2020 FDI must be >= this.
+    pub fdi_p2020_min: Option<f64>,
+    /// IEEE P2020 MMP must be >= this.
+    pub mmp_min: Option<f64>,
+    /// Per light level overrides (`[[thresholds.light-level]]`), in plan order.
+    pub light_levels: Vec<LevelLimits>,
     /// Lowest frequency (Hz) at which the camera claims mitigation.
     pub mitigation_min_hz: f64,
     /// Highest frequency (Hz) at which the camera claims mitigation.
     pub mitigation_max_hz: Option<f64>,
     /// Which figure the verdict uses.
     pub basis: VerdictBasis,
+}
+
+impl Thresholds {
+    /// The global limits of `[thresholds]`.
+    pub fn global(&self) -> Limits {
+        Limits {
+            fdi_2018_min: self.fdi_2018_min,
+            percent_flicker_max: self.percent_flicker_max,
+            fmi_max: self.fmi_max,
+            fdi_p2020_min: self.fdi_p2020_min,
+            mmp_min: self.mmp_min,
+        }
+    }
+
+    /// The limits of a case at `light_lux` (`None`: unknown): the level's
+    /// own limits over the global ones.
+    pub fn limits_for(&self, light_lux: Option<f64>) -> Limits {
+        let level = light_lux.and_then(|lux| self.light_levels.iter().find(|l| l.light_lux == lux));
+        match level {
+            Some(l) => l.limits.over(self.global()),
+            None => self.global(),
+        }
+    }
 }
 
 /// One problem found in a plan, located by key and line.

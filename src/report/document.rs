@@ -338,9 +338,14 @@ pub fn notes(model: &Results) -> Vec<String> {
             odd.join(", ")
         ));
     }
-    if model.dut.backend.starts_with("sim") {
+    if model.method.backend == "simulator" {
+        let which = if model.dut.backend == "sim-physical" {
+            "physical"
+        } else {
+            "ideal"
+        };
         out.push(format!(
-            "Frames come from the ideal camera simulator (backend {}), not from a captured device; \
+            "Frames come from the {which} camera simulator (backend {}), not from a captured device; \
              the DUT fields name the camera being modelled.",
             model.dut.backend
         ));
@@ -376,9 +381,12 @@ pub fn notes(model: &Results) -> Vec<String> {
     }
     if model.counts.info > 0 {
         out.push(format!(
-            "{} case(s) lie outside the claimed mitigation range: measured and reported, never failing.",
+            "{} case(s) were not judged (outside the claimed mitigation range, marked informative, or no limit applies): measured and reported, never failing.",
             model.counts.info
         ));
+    }
+    if model.verdict == crate::metrics::Verdict::Info {
+        out.push("No case was judged: the run shows no pass.".to_string());
     }
     if !model.plan.description.trim().is_empty() {
         out.push(format!(

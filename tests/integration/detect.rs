@@ -352,7 +352,7 @@ fn the_report_shows_detected_segments_and_the_summary_marks_them() {
         .collect::<Vec<_>>()
         .join(" ");
     assert!(
-        text.contains("timestamps from csv; segments detected from the LED-ROI luma")
+        text.contains("frame times from csv); segments detected from the LED-ROI luma")
             && text.contains("0.5 s left out after each step"),
         "{text}"
     );

@@ -11,6 +11,7 @@ mod plans;
 mod recgen;
 mod report;
 mod results;
+mod verdicts;
 
 use std::path::{Path, PathBuf};
 
