@@ -5,6 +5,7 @@
 //! collects every unknown key and every out-of-range value with its line,
 //! and fails with all of them at once.
 
+pub mod bounds;
 mod capture;
 mod grid;
 mod raw;
@@ -14,6 +15,7 @@ mod validate;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+pub use bounds::WorkEstimate;
 pub use capture::{CaptureCase, CaptureConfig, CommandSpec, SegmentSpec, Span};
 pub use grid::{TestCase, expand_cases};
 
@@ -417,6 +419,11 @@ pub fn parse(text: &str, path: &Path, sha256: String) -> Result<Plan, PlanError>
         })
         .collect();
     let plan = validate::validate(raw, &index, &mut diags, path, sha256);
+    if let Some(p) = &plan
+        && diags.is_empty()
+    {
+        bounds::check(p, &index, &mut diags);
+    }
     diags.sort_by_key(|d| d.location.unwrap_or((usize::MAX, 0)));
     match plan {
         Some(plan) if diags.is_empty() => Ok(plan),

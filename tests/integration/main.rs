@@ -5,10 +5,12 @@ mod beyond;
 mod captured;
 mod cli;
 mod exact;
+mod mutate;
 mod physics;
 mod plans;
 mod report;
 mod results;
+mod robust;
 
 use std::path::{Path, PathBuf};
 
