@@ -734,7 +734,7 @@ fn check_simulate_bounds(a: &SimulateArgs) -> Result<(), UsageError> {
             format!("--frames must be at most {MAX_FRAMES_PER_CASE}"),
         ),
         (
-            !(a.pwm_delay_ms.abs() <= 1e6),
+            a.pwm_delay_ms.is_nan() || a.pwm_delay_ms.abs() > 1e6,
             "--pwm-delay-ms must be within +-1e6".to_string(),
         ),
         (

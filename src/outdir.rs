@@ -207,7 +207,7 @@ fn temp_prefix(name: &str) -> String {
 }
 
 /// True while process `pid` exists (it may belong to another user).
-fn alive(pid: u32) -> bool {
+pub(crate) fn alive(pid: u32) -> bool {
     if pid == std::process::id() {
         return true;
     }

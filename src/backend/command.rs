@@ -24,6 +24,33 @@ use super::{Acquisition, Backend, BackendError};
 use crate::capture::{self, SourceKind};
 use crate::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Sequence, Span, TestCase};
 
+/// Name prefix of the rigs' scratch directories in the temporary
+/// directory: `ledflicker-rig-<pid>-<case id>-<random>`.
+const SCRATCH_PREFIX: &str = "ledflicker-rig-";
+
+/// Removes the scratch directories that runs killed with SIGKILL left in
+/// the temporary directory (their process is gone); returns how many.
+pub fn clean_stale_scratch() -> usize {
+    let Ok(entries) = std::fs::read_dir(std::env::temp_dir()) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(pid) = name
+            .strip_prefix(SCRATCH_PREFIX)
+            .and_then(|rest| rest.split('-').next())
+            .and_then(|pid| pid.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        if !crate::outdir::alive(pid) && std::fs::remove_dir_all(e.path()).is_ok() {
+            removed += 1;
+        }
+    }
+    removed
+}
+
 /// Runs a lab-rig command per case.
 #[derive(Debug, Clone)]
 pub struct CommandRig {
@@ -42,6 +69,7 @@ impl CommandRig {
     pub fn new(plan: &Plan) -> Option<Self> {
         let cap = plan.capture.clone()?;
         let cmd = cap.command.clone()?;
+        clean_stale_scratch();
         Some(Self {
             argv: cmd.argv,
             timeout: Duration::from_secs_f64(cmd.timeout_s),
@@ -245,7 +273,11 @@ impl Backend for CommandRig {
         // `frames/` inside it, so files a rig writes next to its output
         // directory are removed too.
         let scratch = tempfile::Builder::new()
-            .prefix(&format!("ledflicker-rig-{}-", case.id))
+            .prefix(&format!(
+                "{SCRATCH_PREFIX}{}-{}-",
+                std::process::id(),
+                case.id
+            ))
             .permissions(std::os::unix::fs::PermissionsExt::from_mode(0o700))
             .tempdir()
             .map_err(|e| self.fail(case, format!("cannot create a scratch directory: {e}")))?;

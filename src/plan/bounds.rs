@@ -33,10 +33,16 @@ pub const MAX_MEMORY_BYTES: f64 = 1.0e9;
 pub const MAX_OUTPUT_BYTES: f64 = 2.0e9;
 
 /// Memory of the process before the first case: code, the PDF engine's
-/// fonts, the thread pool, bytes.
-const BASE_MEMORY_BYTES: f64 = 160.0e6;
+/// fonts, the thread pool, bytes (measured: 85 MB).
+const BASE_MEMORY_BYTES: f64 = 100.0e6;
+/// Memory each case costs in the report whatever its size: its part of the
+/// model, charts, HTML and the PDF engine's layout (measured: 2.07 MB a
+/// case for 200 cases of a 16 x 12 sensor and 12 frames).
+const CASE_MEMORY_BYTES: f64 = 2.5e6;
 /// Size of the report that does not grow with cases, bytes.
 const BASE_OUTPUT_BYTES: f64 = 2.0e6;
+/// Report bytes each case costs whatever its size (measured: 170 kB).
+const CASE_OUTPUT_BYTES: f64 = 200.0e3;
 
 /// What running a plan costs, estimated before running it. Every figure is
 /// an upper bound for the simulator; for captured and command backends the
@@ -84,27 +90,20 @@ impl WorkEstimate {
             0
         };
         let rois = plan.rois.len() as f64;
-        let led_rois = plan
-            .rois
-            .iter()
-            .filter(|r| r.kind == super::RoiKind::Led)
-            .count() as f64;
         let n = cases as f64;
         let tf = trace_frames as f64;
         // Per case on disk: the trace CSV (about 24 bytes a frame plus 20
-        // per ROI), its chart (about 40 bytes per point and ROI), the phase
-        // folds (~40 kB per LED ROI), the sample frame PNG (at most 2 bytes
-        // a pixel) and the case's share of report.html and report.pdf, which
-        // embed the charts again (counted twice more).
+        // per ROI), its chart (about 40 bytes per point and ROI), the
+        // sample frame PNG (at most 2 bytes a pixel), and the case's share
+        // of report.html and report.pdf, which embed the chart again.
         let trace_csv = tf * (24.0 + 20.0 * rois);
-        let charts = tf * 40.0 * rois + 40.0e3 * led_rois + 20.0e3;
-        let output_per_case = trace_csv + 3.0 * charts + 2.0 * pixels as f64 + 50.0e3;
-        // Per case in memory until the report is written: the trace (24
-        // bytes per frame plus 8 per ROI), the rendered sample frame (8
-        // bytes a pixel) and its thumbnail, and the case's charts and report
-        // text (counted as its output, once more for the PDF engine).
+        let chart = tf * 40.0 * rois;
+        let output_per_case = CASE_OUTPUT_BYTES + trace_csv + 3.0 * chart + 2.0 * pixels as f64;
+        // Per case in memory until the report is written: the report's share,
+        // the trace (24 bytes per frame plus 8 per ROI), the rendered sample
+        // frame (8 bytes a pixel) and the chart three times (SVG, HTML, PDF).
         let memory_per_case =
-            tf * (24.0 + 8.0 * rois) + 8.0 * pixels as f64 + 2.0 * output_per_case;
+            CASE_MEMORY_BYTES + tf * (24.0 + 8.0 * rois) + 8.0 * pixels as f64 + 3.0 * chart;
         WorkEstimate {
             cases,
             frames_per_case: frames,

@@ -7,8 +7,14 @@ use std::time::{Duration, Instant};
 
 use crate::{root, scratch};
 
+/// The binary under test; `LEDFLICKER_TEST_EXE` runs these tests against
+/// another build (e.g. the one before issue 10, to see them fail).
+fn exe() -> String {
+    std::env::var("LEDFLICKER_TEST_EXE").unwrap_or(env!("CARGO_BIN_EXE_ledflicker").to_string())
+}
+
 fn ledflicker(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+    Command::new(exe())
         .args(args)
         .current_dir(dir)
         .env_remove("SOURCE_DATE_EPOCH")
@@ -156,7 +162,7 @@ fn slow_rig_plan(dir: &Path, secs: u32) -> PathBuf {
 }
 
 fn spawn_plan(plan: &Path, out: &Path, dir: &Path) -> std::process::Child {
-    Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+    Command::new(exe())
         .args([
             "plan",
             plan.to_str().unwrap(),
@@ -237,6 +243,21 @@ fn a_run_killed_with_sigkill_leaves_the_old_report_and_the_next_run_cleans_up() 
             .iter()
             .any(|n| n.starts_with(".report.ledflicker-new-"))
     );
+    let scratch = std::env::temp_dir()
+        .read_dir()
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .find(|n| n.starts_with(&format!("ledflicker-rig-{}-", child.id())))
+        .expect("the killed run's rig scratch directory");
+    // The next run (here a rig run, which cleans rig scratch too) removes
+    // what the killed one left.
+    let o = plan_into(&slow_rig_plan(&dir, 0), &out, &dir);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(
+        !std::env::temp_dir().join(&scratch).exists(),
+        "{scratch} left"
+    );
     let o = plan_into(&small_plan(&dir, GRID), &out, &dir);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert_eq!(
@@ -297,7 +318,26 @@ fn validate_refuses_plans_beyond_the_physical_bounds_and_the_work_limit() {
                 &sub("cases"),
                 "frequency-range-hz = { start = 50.0, stop = 2049.0, step = 1.0 }\nduty-cycle-range = { start = 0.1, stop = 1.0, step = 0.1 }",
             ),
-            vec!["too large to run", "20000 cases", "peak memory"],
+            vec!["20000 cases; at most 350"],
+        ),
+        (
+            {
+                let p = small_plan(
+                    &sub("memory"),
+                    "frequency-range-hz = { start = 50.0, stop = 349.0, step = 1.0 }\nduty-cycles = [0.5]",
+                );
+                let t = std::fs::read_to_string(&p)
+                    .unwrap()
+                    .replace("sensor-rows = 12", "sensor-rows = 800")
+                    .replace("sensor-columns = 16", "sensor-columns = 1280");
+                std::fs::write(&p, t).unwrap();
+                p
+            },
+            vec![
+                "too large to run",
+                "peak memory",
+                "estimated work: 300 cases x 150 frames",
+            ],
         ),
     ];
     for (plan, needles) in cases {
@@ -429,7 +469,7 @@ fn dates_and_source_date_epoch_are_validated() {
         assert!(stderr(&o).contains("is not a date"), "{}", stderr(&o));
     }
     for epoch in ["-1", "99999999999999", "1.5", ""] {
-        let o = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        let o = Command::new(exe())
             .args([
                 "plan",
                 plan.to_str().unwrap(),
@@ -595,7 +635,7 @@ fn a_file_that_is_not_a_camera_profile_is_never_echoed() {
         let end = text.find("[thresholds]").unwrap();
         let text = format!(
             "{}camera-profile = \"{name}\"\n\n{}",
-            &text[..start].replace("[dut]\n", "[dut]\n"),
+            &text[..start],
             &text[end..]
         );
         std::fs::write(&plan, text).unwrap();
