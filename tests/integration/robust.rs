@@ -378,28 +378,51 @@ fn grid_points_with_the_same_case_id_are_a_validation_error_naming_both() {
     );
 }
 
-#[test]
-fn a_hung_rig_with_a_background_child_is_stopped_at_its_timeout() {
-    // Before: a rig whose background child held stderr hung `plan` forever.
-    let dir = scratch("robust-hung-rig");
+fn rig_plan(dir: &Path, name: &str, script: &str, timeout_s: f64) -> PathBuf {
     let text = std::fs::read_to_string(root().join("test-plans/command-sim-rig.toml"))
         .unwrap()
         .replace(
             "command = [\"sh\", \"../examples/sim-rig.sh\"]\ntimeout-s = 60.0",
-            "command = [\"sh\", \"-c\", \"sleep 60 & sleep 60\"]\ntimeout-s = 1.0",
+            &format!("command = [\"sh\", \"-c\", {script:?}]\ntimeout-s = {timeout_s:?}"),
         );
-    let plan = dir.join("hung.toml");
+    let plan = dir.join(name);
     std::fs::write(&plan, text).unwrap();
+    plan
+}
+
+#[test]
+fn a_rig_that_leaves_a_background_child_holding_stderr_does_not_hold_the_run() {
+    // Before: the rig exited, its background child kept stderr open, and
+    // `plan` waited for it (here 30 s; forever for a daemon), whatever
+    // timeout-s said.
+    let dir = scratch("robust-hung-rig");
+    let plan = rig_plan(&dir, "hung.toml", "sleep 30 & exit 0", 20.0);
+    let t = Instant::now();
+    let o = plan_into(&plan, &dir.join("o"), &dir);
+    let took = t.elapsed();
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(took < Duration::from_secs(5), "took {took:?}");
+}
+
+#[test]
+fn a_timed_out_rig_is_killed_with_everything_it_started() {
+    // Before: only the rig's shell was killed; its children ran on.
+    let dir = scratch("robust-rig-group");
+    let flag = dir.join("survivor");
+    let script = format!("(sleep 2; touch {}) & sleep 30", flag.display());
+    let plan = rig_plan(&dir, "group.toml", &script, 1.0);
     let t = Instant::now();
     let o = plan_into(&plan, &dir.join("o"), &dir);
     let took = t.elapsed();
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("killed with its process group"),
+        stderr(&o).contains("did not finish within 1.0 s"),
         "{}",
         stderr(&o)
     );
-    assert!(took < Duration::from_secs(4), "took {took:?}");
+    assert!(took < Duration::from_secs(3), "took {took:?}");
+    std::thread::sleep(Duration::from_millis(2500));
+    assert!(!flag.exists(), "a child of the timed-out rig outlived it");
 }
 
 #[test]
