@@ -399,6 +399,18 @@ pub fn load(path: &Path) -> Result<Plan, PlanError> {
 
 /// Parses and validates plan text; `path` is used in messages only.
 pub fn parse(text: &str, path: &Path, sha256: String) -> Result<Plan, PlanError> {
+    parse_within(text, path, sha256, true)
+}
+
+/// [`parse`], with the work limits of a full run (report included) checked
+/// only when `work_limits` is set. `ledflicker bench` runs cases without a
+/// report and turns them off; physical bounds and unique ids always apply.
+pub fn parse_within(
+    text: &str,
+    path: &Path,
+    sha256: String,
+    work_limits: bool,
+) -> Result<Plan, PlanError> {
     let syntax = |e: toml::de::Error| PlanError::Syntax {
         path: path.to_path_buf(),
         message: e.to_string().trim_end().to_string(),
@@ -424,7 +436,7 @@ pub fn parse(text: &str, path: &Path, sha256: String) -> Result<Plan, PlanError>
     if let Some(p) = &plan
         && diags.is_empty()
     {
-        bounds::check(p, &index, &mut diags);
+        bounds::check(p, &index, &mut diags, work_limits);
     }
     diags.sort_by_key(|d| d.location.unwrap_or((usize::MAX, 0)));
     match plan {
