@@ -144,15 +144,15 @@ fn check_frame_size(path: &Path, hdr: &Header, body_len: u64) -> Result<(), Capt
         .and_then(|l| l.checked_add(6)); // "FRAME\n"
     match frame_len {
         Some(l) if l <= body_len => Ok(()),
-        _ => Err(CaptureError::Invalid {
+        _ => Err(CaptureError::Frame {
             path: path.to_path_buf(),
+            frame: 0,
             message: format!(
-                "the header claims {}x{} frames ({} bytes each) but the file holds {body_len} bytes after the header",
+                "truncated frame or wrong header: the header claims {}x{} frames ({} bytes each) but the file holds {body_len} bytes after the header",
                 hdr.width,
                 hdr.height,
                 frame_len.map_or("more than 2^64".to_string(), |l| l.to_string())
             ),
-            hint: "the header's W, H or C is wrong, or the file is truncated".to_string(),
         }),
     }
 }
