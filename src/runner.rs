@@ -69,6 +69,9 @@ pub enum RunError {
         /// What is wrong.
         message: String,
     },
+    /// SIGINT or SIGTERM asked the run to stop.
+    #[error(transparent)]
+    Interrupted(#[from] crate::interrupt::Interrupted),
     /// The thread pool could not be built.
     #[error("cannot start {threads} worker threads: {message}")]
     Threads {
@@ -93,7 +96,13 @@ pub fn run(
         cases
             .par_iter()
             .map(|case| {
-                let result = run_case(plan, case, backend)?;
+                // Stop between cases once Ctrl-C or SIGTERM arrived; a
+                // case that fails because its rig was killed for the same
+                // reason is reported as the interruption.
+                crate::interrupt::check()?;
+                let result = run_case(plan, case, backend).map_err(|e| {
+                    crate::interrupt::check().map_or_else(RunError::Interrupted, |()| e)
+                })?;
                 on_event(RunEvent::CaseFinished {
                     case,
                     verdict: result.verdict,
@@ -236,6 +245,7 @@ pub fn render_sample_frames(
     backend: &dyn Backend,
 ) -> Result<(), RunError> {
     results.par_iter_mut().try_for_each(|r| {
+        crate::interrupt::check()?;
         if let Some(frame) = darkest_pwm_frame(plan, r)
             && let Some(rendered) = backend.render_frame(&r.case, frame)
         {

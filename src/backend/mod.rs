@@ -7,6 +7,7 @@
 
 pub mod captured;
 pub mod command;
+pub mod rig;
 pub mod segments;
 pub mod sim;
 

@@ -5,6 +5,7 @@
 //! collects every unknown key and every out-of-range value with its line,
 //! and fails with all of them at once.
 
+pub mod bounds;
 mod capture;
 mod grid;
 mod raw;
@@ -15,11 +16,14 @@ mod validate;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+pub use bounds::WorkEstimate;
 pub use capture::{CaptureCase, CaptureConfig, CommandSpec, SegmentSpec, Span};
 pub use grid::{TestCase, expand_cases};
 
-/// Upper bound on cases in one plan, to catch a mistyped grid step early.
-pub const MAX_CASES: usize = 20_000;
+/// Upper bound on cases in one plan. A report holds every case, at about
+/// 2 MB of memory each (charts, HTML, PDF layout): at this maximum a run
+/// peaks below 1 GB (issue 10; it was 20000, which needed about 40 GB).
+pub const MAX_CASES: usize = 350;
 
 /// A validated test plan. All values are in range and in SI-prefixed units
 /// named in the field.
@@ -468,6 +472,18 @@ pub fn load(path: &Path) -> Result<Plan, PlanError> {
 
 /// Parses and validates plan text; `path` is used in messages only.
 pub fn parse(text: &str, path: &Path, sha256: String) -> Result<Plan, PlanError> {
+    parse_within(text, path, sha256, true)
+}
+
+/// [`parse`], with the work limits of a full run (report included) checked
+/// only when `work_limits` is set. `ledflicker bench` runs cases without a
+/// report and turns them off; physical bounds and unique ids always apply.
+pub fn parse_within(
+    text: &str,
+    path: &Path,
+    sha256: String,
+    work_limits: bool,
+) -> Result<Plan, PlanError> {
     let syntax = |e: toml::de::Error| PlanError::Syntax {
         path: path.to_path_buf(),
         message: e.to_string().trim_end().to_string(),
@@ -490,6 +506,11 @@ pub fn parse(text: &str, path: &Path, sha256: String) -> Result<Plan, PlanError>
         })
         .collect();
     let plan = validate::validate(raw, &index, &mut diags, path, sha256);
+    if let Some(p) = &plan
+        && diags.is_empty()
+    {
+        bounds::check(p, &index, &mut diags, work_limits);
+    }
     diags.sort_by_key(|d| d.location.unwrap_or((usize::MAX, 0)));
     match plan {
         Some(plan) if diags.is_empty() => Ok(plan),

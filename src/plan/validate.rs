@@ -662,16 +662,26 @@ fn load_profile(c: &mut Checker<'_>, name: &str, plan_path: &Path) -> Option<Cam
         Err(e) => {
             c.error(
                 "dut.camera-profile",
-                format!(
-                    "invalid camera profile `{}`: {}",
-                    path.display(),
-                    e.to_string().trim_end()
-                ),
-                None,
+                profile_error(path, &text, &e),
+                Some("a camera profile is a TOML file with one [camera] table (reference-data/cameras/)"),
             );
             return None;
         }
     };
+    if raw.camera.is_none() {
+        // Not a profile at all: name it, but echo none of its keys.
+        c.error(
+            "dut.camera-profile",
+            format!(
+                "`{}` is not a camera profile (no [camera] table)",
+                path.display()
+            ),
+            Some(
+                "a camera profile is a TOML file with one [camera] table (reference-data/cameras/)",
+            ),
+        );
+        return None;
+    }
     let mut pc = Checker {
         index: &index,
         diags: c.diags,
@@ -690,6 +700,36 @@ fn load_profile(c: &mut Checker<'_>, name: &str, plan_path: &Path) -> Option<Cam
         return None;
     };
     camera_config(&mut pc, cam, "camera", &path.display().to_string())
+}
+
+/// A TOML error in a camera profile, located by line and column, with
+/// every quoted fragment of the file left out: the file named may be any
+/// file (issue 10), and its contents must never reach the terminal or a log.
+fn profile_error(path: &Path, text: &str, e: &toml::de::Error) -> String {
+    let mut message = String::new();
+    let mut quoted = None;
+    for ch in e.message().trim_end().chars() {
+        match (quoted, ch) {
+            (None, '"' | '`' | '\'') => {
+                quoted = Some(ch);
+                message.push_str("`...`");
+            }
+            (Some(q), _) if ch == q => quoted = None,
+            (Some(_), _) => {}
+            (None, '\n') => message.push_str("; "),
+            (None, _) => message.push(ch),
+        }
+    }
+    let at = e.span().map_or(String::new(), |span| {
+        let before = &text.as_bytes()[..span.start.min(text.len())];
+        let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+        let col = before.iter().rev().take_while(|&&b| b != b'\n').count() + 1;
+        format!(" at line {line}, column {col}")
+    });
+    format!(
+        "`{}` is not a valid camera profile{at}: {message}",
+        path.display()
+    )
 }
 
 fn camera_config(

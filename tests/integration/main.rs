@@ -6,11 +6,13 @@ mod captured;
 mod cli;
 mod detect;
 mod exact;
+mod mutate;
 mod physics;
 mod plans;
 mod recgen;
 mod report;
 mod results;
+mod robust;
 mod verdicts;
 
 use std::path::{Path, PathBuf};

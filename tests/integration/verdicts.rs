@@ -442,7 +442,7 @@ fn hdr_example_runs_to_finite_plausible_numbers() {
     let p =
         plan::load(&root().join("test-plans/hdr-example.toml")).unwrap_or_else(|e| panic!("{e}"));
     let cases = plan::expand_cases(&p);
-    assert_eq!(cases.len(), 2 * 8 * 3);
+    assert_eq!(cases.len(), 2 * 6 * 3);
     let results = runner::run(&p, &cases, &Simulator::new(&p), None, &|_| {}).unwrap();
     let full_scale = p.dut.camera.full_scale_dn;
     for r in &results {
