@@ -161,7 +161,7 @@ pub fn summary(model: &Results, out: &Path) -> String {
             .as_ref()
             .is_some_and(|s| s.segments.method == "detected")
     };
-    let id_w = id_w + usize::from(model.cases.iter().any(|c| detected(c)));
+    let id_w = id_w + usize::from(model.cases.iter().any(&detected));
     let mut s = String::new();
     let _ = write!(s, "{:<id_w$}  {:<7}  {:<roi_w$}", "case", "verdict", "roi");
     for (h, _, _) in COLUMNS {
@@ -184,7 +184,7 @@ pub fn summary(model: &Results, out: &Path) -> String {
         let _ = writeln!(s, "  {}", criterion(c, roi));
     }
     let _ = writeln!(s, "{LEGEND}");
-    if model.cases.iter().any(|c| detected(c)) {
+    if model.cases.iter().any(&detected) {
         let _ = writeln!(
             s,
             "* segments detected from the luma; the report shows where (trace charts, capture text)"
