@@ -93,7 +93,7 @@ fn metric_lines(c: &CaseInfo) -> Vec<String> {
             let values: Vec<String> = CSV_METRICS
                 .iter()
                 .filter_map(|m| {
-                    let v = if r.contrast_unbounded && m.starts_with("fdi_2018") {
+                    let v = if r.is_unbounded(m) {
                         "+inf".to_string()
                     } else {
                         r.metrics
@@ -269,7 +269,7 @@ pub fn summary_csv(model: &Results) -> String {
             );
             for m in CSV_METRICS {
                 out.push(',');
-                if r.contrast_unbounded && m.starts_with("fdi_2018") {
+                if r.is_unbounded(m) {
                     out.push_str("inf");
                 } else if let Some(v) = r.metrics.get(m).copied().flatten() {
                     out.push_str(&csv_number(v));

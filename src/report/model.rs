@@ -299,6 +299,17 @@ pub struct RoiInfo {
     pub analysis: RoiAnalysis,
 }
 
+impl RoiInfo {
+    /// `metric` is an FDI (2018) that this backend computed and that is
+    /// +infinity (dark OFF reference, light present). A worst case over
+    /// phase that a capture never has stays "not computed", not +inf.
+    pub fn is_unbounded(&self, metric: &str) -> bool {
+        self.contrast_unbounded
+            && metric.starts_with("fdi_2018")
+            && self.metrics.contains_key(metric)
+    }
+}
+
 /// Conditions are > 0 when known; a captured case without conditions holds
 /// 0, written as `null`.
 fn positive_or_null<S: serde::Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {

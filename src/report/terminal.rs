@@ -74,7 +74,7 @@ pub fn worst_roi(case: &CaseInfo) -> Option<&RoiInfo> {
 }
 
 fn cell(roi: &RoiInfo, name: &str, digits: usize) -> String {
-    if roi.contrast_unbounded && name.starts_with("fdi_2018") {
+    if roi.is_unbounded(name) {
         return "+inf".to_string();
     }
     roi.metrics
