@@ -5,11 +5,12 @@
 //!
 //! | code | meaning |
 //! |---|---|
-//! | 0 | every case passed (informational cases do not count); `verify`: every hash and signature matched and every signer is trusted (`--trust`) |
+//! | 0 | every judged case passed and at least one was judged (informational cases do not count); `verify`: every hash and signature matched and every signer is trusted (`--trust`) |
 //! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash, signature or input mismatch, an untrusted signer, or no signature |
 //! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way |
 //! | 3 | internal or backend error |
-//! | 4 | `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked |
+//! | 4 | `plan`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked |
+//! | 130, 143 | `plan` stopped by SIGINT (Ctrl-C) or SIGTERM (128 + signal); the old report is left as it was |
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -36,7 +37,10 @@ pub const EXIT_FAIL: i32 = 1;
 pub const EXIT_INVALID: i32 = 2;
 /// Internal or backend error.
 pub const EXIT_INTERNAL: i32 = 3;
+/// `plan`: the run completed but no case was judged (every case informational).
+pub const EXIT_NOT_JUDGED: i32 = 4;
 /// `verify` without `--trust`: intact, but nobody vouched for the signers.
+/// Same number as [`EXIT_NOT_JUDGED`]: each command documents its own use.
 pub const EXIT_IDENTITY_UNCHECKED: i32 = 4;
 
 #[derive(Parser, Debug)]
@@ -344,6 +348,19 @@ pub struct UsageError(pub String);
 /// Maps an error to its exit code.
 pub fn exit_code(err: &anyhow::Error) -> i32 {
     for cause in err.chain() {
+        if let Some(i) = cause.downcast_ref::<crate::interrupt::Interrupted>() {
+            return i.exit_code();
+        }
+        if let Some(runner::RunError::Interrupted(i)) = cause.downcast_ref() {
+            return i.exit_code();
+        }
+        if let Some(e) = cause.downcast_ref::<crate::outdir::OutDirError>() {
+            return if e.is_usage_error() {
+                EXIT_INVALID
+            } else {
+                EXIT_INTERNAL
+            };
+        }
         if cause.is::<PlanError>() || cause.is::<UsageError>() {
             return EXIT_INVALID;
         }
@@ -562,6 +579,7 @@ fn validate(arg: &str) -> anyhow::Result<i32> {
             cases.len(),
             plan.rois.len()
         );
+        println!("{}", plan::WorkEstimate::of(&plan).summary());
         return Ok(EXIT_PASS);
     }
     let frames = crate::backend::sim::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps);
@@ -576,6 +594,7 @@ fn validate(arg: &str) -> anyhow::Result<i32> {
         plan.rois.len(),
         frames.total()
     );
+    println!("{}", plan::WorkEstimate::of(&plan).summary());
     Ok(EXIT_PASS)
 }
 
@@ -589,17 +608,26 @@ fn report_date(arg: Option<&str>) -> anyhow::Result<String> {
                     c.is_ascii_digit()
                 }
             });
-        if !ok {
-            return Err(UsageError(format!("--date `{d}` is not YYYY-MM-DD")).into());
+        if !ok || !crate::util::is_calendar_date(d) {
+            return Err(UsageError(format!(
+                "--date `{d}` is not a date YYYY-MM-DD (e.g. 2026-11-23)"
+            ))
+            .into());
         }
         return Ok(d.to_string());
     }
     if let Ok(s) = std::env::var("SOURCE_DATE_EPOCH") {
-        let secs: i64 = s.trim().parse().map_err(|_| {
-            UsageError(format!(
-                "SOURCE_DATE_EPOCH `{s}` is not an integer number of seconds"
-            ))
-        })?;
+        let secs: i64 = s
+            .trim()
+            .parse()
+            .ok()
+            .filter(|v| (0..=crate::util::MAX_UNIX_S).contains(v))
+            .ok_or_else(|| {
+                UsageError(format!(
+                    "SOURCE_DATE_EPOCH `{s}` is not a whole number of seconds between 0 and {} (years 1970 to 9999)\n    hint: unset it, or set it to e.g. $(date +%s)",
+                    crate::util::MAX_UNIX_S
+                ))
+            })?;
         return Ok(crate::util::utc_date(secs));
     }
     let now = std::time::SystemTime::now()
@@ -620,8 +648,11 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
-    // Refuse before spending time on the run.
+    // Refuse before spending time on the run: a signed report without
+    // --force, a directory ledflicker did not write, an unwritable place.
     report::check_overwrite(&out, args.force)?;
+    let generation = crate::outdir::Generation::begin(&out)?;
+    crate::interrupt::install();
     let mut tolerances = report::golden::Tolerances::default();
     for t in &args.golden_tolerance {
         tolerances.set(t).map_err(UsageError)?;
@@ -701,8 +732,10 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
             case.capture = summaries.get(&case.id).cloned();
         }
     }
+    report::method::describe(&mut model, &plan);
+    crate::interrupt::check()?;
     report::write_report(
-        &out,
+        generation.path(),
         &model,
         &results,
         &WriteOptions {
@@ -715,7 +748,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     .with_context(|| format!("cannot write the report to `{}`", out.display()))?;
     if let (Some((key, key_files)), Some(signer)) = (signer_key, &args.signer) {
         let done = crate::signoff::sign(
-            &out,
+            generation.path(),
             &crate::signoff::SignRequest {
                 signer,
                 date: &date,
@@ -734,6 +767,9 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
         }
     }
 
+    // The new generation replaces the old report in one step, or not at all.
+    crate::interrupt::check()?;
+    generation.commit()?;
     if !args.quiet {
         print_summary(&model, &out)?;
     }
@@ -745,6 +781,8 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     }
     Ok(if model.verdict == Verdict::Fail || drift {
         EXIT_FAIL
+    } else if model.verdict == Verdict::Info {
+        EXIT_NOT_JUDGED
     } else {
         EXIT_PASS
     })
@@ -752,59 +790,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
 
 fn print_summary(model: &report::Results, out: &std::path::Path) -> anyhow::Result<()> {
     let mut w = std::io::stdout().lock();
-    let width = model
-        .cases
-        .iter()
-        .map(|c| c.id.len())
-        .max()
-        .unwrap_or(4)
-        .max(4);
-    writeln!(
-        w,
-        "{:<width$}  {:<7}  {:>10}  {:>10}  {:>8}  {:>8}",
-        "case", "verdict", "FDI", "FDI worst", "PF %", "PF worst"
-    )?;
-    let show = |v: Option<f64>, unbounded: bool, digits: usize| -> String {
-        if unbounded {
-            "+inf".to_string()
-        } else {
-            v.map_or("n/a".to_string(), |x| crate::util::fixed(x, digits))
-        }
-    };
-    for c in &model.cases {
-        // The first LED ROI stands for the case in the table; the report
-        // has every ROI.
-        let Some(roi) = c
-            .rois
-            .iter()
-            .find(|r| r.kind == plan::RoiKind::Led)
-            .or(c.rois.first())
-        else {
-            continue;
-        };
-        let m = |k: &str| roi.metrics.get(k).copied().flatten();
-        writeln!(
-            w,
-            "{:<width$}  {:<7}  {:>10}  {:>10}  {:>8}  {:>8}",
-            c.id,
-            c.verdict.as_str(),
-            show(m("fdi_2018"), roi.contrast_unbounded, 3),
-            show(m("fdi_2018_worst_phase"), roi.contrast_unbounded, 3),
-            show(m("percent_flicker"), false, 2),
-            show(m("percent_flicker_worst_phase"), false, 2),
-        )?;
-    }
-    writeln!(
-        w,
-        "\noverall: {} ({} pass, {} fail, {} info of {} cases)\nreport:  {}\n         {}",
-        model.verdict.as_str().to_uppercase(),
-        model.counts.pass,
-        model.counts.fail,
-        model.counts.info,
-        model.counts.total,
-        out.join("report.html").display(),
-        out.join("report.pdf").display()
-    )?;
+    w.write_all(report::terminal::summary(model, out).as_bytes())?;
     Ok(())
 }
 
@@ -823,8 +809,57 @@ fn parse_rows(s: &str) -> Result<std::ops::Range<u32>, UsageError> {
     Ok(a..b)
 }
 
+/// Physical bounds of `simulate` and `render` inputs (docs/plan-format.md,
+/// "Limits"): beyond them the arithmetic loses meaning or overflows.
+fn check_simulate_bounds(a: &SimulateArgs) -> Result<(), UsageError> {
+    use crate::plan::bounds::{MAX_FPS, MAX_FRAMES_PER_CASE, MAX_FREQUENCY_HZ, MIN_EXPOSURE_S};
+    let problems = [
+        (
+            a.frequency_hz > MAX_FREQUENCY_HZ,
+            format!("--frequency-hz must be at most {MAX_FREQUENCY_HZ:.0}"),
+        ),
+        (
+            a.fps > MAX_FPS,
+            format!("--fps must be at most {MAX_FPS:.0}"),
+        ),
+        (a.fps < 0.01, "--fps must be at least 0.01".to_string()),
+        (
+            a.exposure_ms * 1e-3 < MIN_EXPOSURE_S,
+            "--exposure-ms must be at least 0.001".to_string(),
+        ),
+        (
+            a.exposure_ms > 1e4,
+            "--exposure-ms must be at most 10000".to_string(),
+        ),
+        (
+            a.frames > MAX_FRAMES_PER_CASE,
+            format!("--frames must be at most {MAX_FRAMES_PER_CASE}"),
+        ),
+        (
+            a.pwm_delay_ms.is_nan() || a.pwm_delay_ms.abs() > 1e6,
+            "--pwm-delay-ms must be within +-1e6".to_string(),
+        ),
+        (
+            a.line_time_us > 1e6,
+            "--line-time-us must be at most 1e6".to_string(),
+        ),
+        (
+            a.sensor_rows > crate::plan::bounds::MAX_SENSOR_SIDE,
+            format!(
+                "--sensor-rows must be at most {}",
+                crate::plan::bounds::MAX_SENSOR_SIDE
+            ),
+        ),
+    ];
+    match problems.iter().find(|(bad, _)| *bad) {
+        Some((_, m)) => Err(UsageError(m.clone())),
+        None => Ok(()),
+    }
+}
+
 fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
     let usage = |m: String| anyhow::Error::from(UsageError(m));
+    check_simulate_bounds(&a)?;
     let pwm = PwmDrive::new(a.frequency_hz, a.duty, a.pwm_delay_ms * 1e-3).map_err(usage)?;
     if !(a.exposure_ms.is_finite() && a.exposure_ms > 0.0) {
         return Err(usage(format!(
@@ -912,6 +947,7 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
             a.sensor_rows,
             scene.as_ref(),
         );
+        // serde_json writes a non-finite number as null, never NaN.
         println!("{}", serde_json::to_string_pretty(&summary)?);
         return Ok(EXIT_PASS);
     }
@@ -919,7 +955,14 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
     writeln!(w, "frame,time_s,on_fraction")?;
     for k in 0..a.frames {
         let s = shutter.frame_on_fraction(&pwm, k, rows.clone());
-        writeln!(w, "{k},{},{s}", k as f64 / a.fps)?;
+        let t = k as f64 / a.fps;
+        if !(s.is_finite() && t.is_finite()) {
+            // Never print NaN: the inputs are beyond what the model covers.
+            return Err(usage(format!(
+                "frame {k} has no finite ON fraction for these inputs; check their ranges (`ledflicker simulate --help`)"
+            )));
+        }
+        writeln!(w, "{k},{t},{s}")?;
     }
     w.flush()?;
     Ok(EXIT_PASS)

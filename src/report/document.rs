@@ -116,9 +116,15 @@ impl Document {
     ) -> Result<Document, ReportError> {
         let mut charts = BTreeMap::new();
         for r in results {
+            let segments = model
+                .cases
+                .iter()
+                .find(|c| c.id == r.case.id)
+                .and_then(|c| c.capture.as_ref())
+                .map(|c| &c.segments);
             charts.insert(
                 trace_chart_path(&r.case.id),
-                super::charts::luma_trace_svg(r)?,
+                super::charts::luma_trace_svg(r, segments)?,
             );
         }
         for (i, lux) in super::matrix::light_levels(model).into_iter().enumerate() {
@@ -345,9 +351,14 @@ pub fn notes(model: &Results) -> Vec<String> {
             odd.join(", ")
         ));
     }
-    if model.dut.backend.starts_with("sim") {
+    if model.method.backend == "simulator" {
+        let which = if model.dut.backend == "sim-physical" {
+            "physical"
+        } else {
+            "ideal"
+        };
         out.push(format!(
-            "Frames come from the ideal camera simulator (backend {}), not from a captured device; \
+            "Frames come from the {which} camera simulator (backend {}), not from a captured device; \
              the DUT fields name the camera being modelled.",
             model.dut.backend
         ));
@@ -383,9 +394,12 @@ pub fn notes(model: &Results) -> Vec<String> {
     }
     if model.counts.info > 0 {
         out.push(format!(
-            "{} case(s) lie outside the claimed mitigation range: measured and reported, never failing.",
+            "{} case(s) were not judged (outside the claimed mitigation range, marked informative, or no limit applies): measured and reported, never failing.",
             model.counts.info
         ));
+    }
+    if model.verdict == crate::metrics::Verdict::Info {
+        out.push("No case was judged: the run shows no pass.".to_string());
     }
     if !model.plan.description.trim().is_empty() {
         out.push(format!(

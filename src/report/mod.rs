@@ -12,8 +12,10 @@ pub mod frames;
 pub mod golden;
 pub mod html;
 pub mod matrix;
+pub mod method;
 pub mod model;
 pub mod pdf;
+pub mod terminal;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -176,6 +176,13 @@ pub fn load_private_key(path: &Path) -> Result<SigningKey, SignoffError> {
         ));
     }
     SigningKey::from_pkcs8_pem(text).map_err(|e| {
+        let e = e.to_string();
+        if e.contains("1.2.840.113549.1.1.1") || text.contains("BEGIN RSA PRIVATE KEY") {
+            return key_err(
+                path,
+                "an RSA key; only ECDSA P-256 keys are supported\n    hint: ask for a P-256 certificate, or make one with `ledflicker keygen`",
+            );
+        }
         key_err(
             path,
             format!("not a PKCS#8 PEM ECDSA P-256 private key ({e})\n    hint: make one with `ledflicker keygen`, or convert with `openssl pkcs8 -topk8 -nocrypt`"),

@@ -101,6 +101,16 @@ fn parse_input(value: &str) -> Option<InputFile> {
     })
 }
 
+/// Top-level entries of a report directory outside the signature: the
+/// manifest and its signature themselves, and the `.ledflicker` marker,
+/// which `plan` writes when it swaps the report in (after signing) and
+/// which only tells a later `plan` which entries it may replace.
+pub const UNSIGNED: [&str; 3] = [
+    super::MANIFEST_FILE,
+    super::SIGNATURE_FILE,
+    crate::outdir::MARKER,
+];
+
 /// What a scan of a report directory found.
 #[derive(Debug, Clone, Default)]
 pub struct Scan {

@@ -317,7 +317,7 @@ pub fn sign(dir: &Path, req: &SignRequest<'_>) -> Result<Signed, SignoffError> {
 
 /// Scans `dir` for the manifest; refuses entries it cannot cover.
 fn scan_signable(dir: &Path) -> Result<manifest::Scan, SignoffError> {
-    let scan = manifest::scan(dir, &[MANIFEST_FILE, SIGNATURE_FILE]).map_err(io(dir))?;
+    let scan = manifest::scan(dir, &manifest::UNSIGNED).map_err(io(dir))?;
     if !scan.refused.is_empty() {
         return Err(SignoffError::Refused(format!(
             "`{}` holds entries a manifest cannot cover:\n  - {}\n    hint: remove them",

@@ -248,7 +248,7 @@ fn check_files(
     checked: &[Option<Checked>],
     out: &mut Verification,
 ) -> Result<(), SignoffError> {
-    let now = scan(dir, &[MANIFEST_FILE, SIGNATURE_FILE]).map_err(|source| SignoffError::Io {
+    let now = scan(dir, &super::manifest::UNSIGNED).map_err(|source| SignoffError::Io {
         path: dir.to_path_buf(),
         source,
     })?;

@@ -123,7 +123,7 @@ fn pdf_report_has_pages_cover_summary_and_environment_and_is_deterministic() {
     let sha = results["plan"]["sha256"].as_str().unwrap();
     let c = &results["counts"];
     let counts = format!(
-        "{} cases: {} pass, {} fail, {} informational",
+        "{} cases: {} pass, {} fail; {} cases not judged",
         c["total"], c["pass"], c["fail"], c["info"]
     );
     assert!(c["fail"].as_u64().unwrap() > 0);
@@ -140,6 +140,9 @@ fn pdf_report_has_pages_cover_summary_and_environment_and_is_deterministic() {
         "Eq. (1)",
         "60hz-20pct",
         "fdi_2018_worst_phase",
+        "FMI",
+        "P2020",
+        "MMP",
         "Method",
         "Deegan 2018",
         "Deviations and notes",
@@ -179,10 +182,18 @@ fn junit_has_one_testcase_per_case_and_failures_name_metric_and_threshold() {
             .find(|k| k["pass"] == false)
             .unwrap();
         assert!(block.contains(check["metric"].as_str().unwrap()), "{block}");
+        // e.g. "FAIL: fdi_2018_worst_phase 0.000 &lt; 0.1 on led"
+        assert!(block.contains("message=\"FAIL: "), "{block}");
         assert!(
-            block.contains(&format!("required &gt;= {}", check["threshold"])),
+            block.contains(&format!(
+                "&lt; {} on {}",
+                check["threshold"],
+                check["roi"].as_str().unwrap()
+            )),
             "{block}"
         );
+        // Every LED ROI's P2020 KPIs are listed, checked or not.
+        assert!(block.contains("fmi ") && block.contains("mmp "), "{block}");
     }
     let csv = std::fs::read_to_string(dir.join("summary.csv")).unwrap();
     let mut lines = csv.lines();
@@ -198,14 +209,21 @@ fn junit_has_one_testcase_per_case_and_failures_name_metric_and_threshold() {
         .map(|c| c["rois"].as_array().unwrap().len())
         .sum();
     assert_eq!(rows.len(), rois);
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    for col in ["fmi", "fdi_p2020", "mmp", "fmi_max", "failed"] {
+        assert!(header.contains(&col), "{col} not in {header:?}");
+    }
     let first = &cases[0];
-    let fdi = first["rois"][0]["metrics"]["fdi_2018"].as_f64().unwrap();
+    let fields: Vec<&str> = rows[0].split(',').collect();
     assert!(rows[0].starts_with(first["id"].as_str().unwrap()));
-    assert!(
-        rows[0].contains(&format!(",{fdi},")),
-        "{} vs {fdi}",
-        rows[0]
-    );
+    for m in ["fdi_2018", "fmi", "mmp"] {
+        let want = first["rois"][0]["metrics"][m].as_f64().unwrap();
+        let i = header.iter().position(|h| *h == m).unwrap();
+        let got: f64 = fields[i].parse().unwrap();
+        // Six decimals, never an exponent.
+        assert!((got - want).abs() <= 5e-7, "{m}: {got} vs {want}");
+        assert!(!fields[i].contains('e'), "{}", fields[i]);
+    }
 }
 
 #[test]
