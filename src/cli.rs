@@ -247,6 +247,11 @@ struct PlanArgs {
     /// Print no summary table.
     #[arg(long, short)]
     quiet: bool,
+    /// How much of each case the report shows: `summary` (no case pages),
+    /// `standard` (a page for each failing or not judged case; passing
+    /// cases one line each in the appendix) or `full` (a page for every case).
+    #[arg(long, value_enum, default_value_t = DetailArg::Standard)]
+    detail: DetailArg,
     /// Sign the report with this private key (PKCS#8 PEM, from `ledflicker keygen`).
     #[arg(long, requires = "signer")]
     sign_key: Option<PathBuf>,
@@ -263,6 +268,23 @@ struct PlanArgs {
     /// Per-metric tolerance, METRIC=VALUE (repeatable), e.g. fdi_2018=0.05.
     #[arg(long = "golden-tolerance", requires = "golden")]
     golden_tolerance: Vec<String>,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+enum DetailArg {
+    Summary,
+    Standard,
+    Full,
+}
+
+impl From<DetailArg> for report::document::Detail {
+    fn from(d: DetailArg) -> Self {
+        match d {
+            DetailArg::Summary => Self::Summary,
+            DetailArg::Standard => Self::Standard,
+            DetailArg::Full => Self::Full,
+        }
+    }
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -743,6 +765,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
             force: args.force,
             signatories: Vec::new(),
             inputs,
+            detail: args.detail.into(),
         },
     )
     .with_context(|| format!("cannot write the report to `{}`", out.display()))?;

@@ -31,11 +31,60 @@ pub struct InputFile {
     pub size: u64,
 }
 
+/// How much of each case the report shows (`--detail`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Detail {
+    /// Cover, summary, matrices and the one-line table of every case; no
+    /// case pages.
+    Summary,
+    /// As `Summary`, plus a page for every failing or not judged case.
+    #[default]
+    Standard,
+    /// A page for every case.
+    Full,
+}
+
+impl Detail {
+    /// Every level, in the order of `--detail`'s help.
+    pub const ALL: [Detail; 3] = [Detail::Summary, Detail::Standard, Detail::Full];
+
+    /// Its name in results.json and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Detail::Summary => "summary",
+            Detail::Standard => "standard",
+            Detail::Full => "full",
+        }
+    }
+
+    /// Parses [`Detail::as_str`]'s names.
+    pub fn parse(s: &str) -> Option<Detail> {
+        Detail::ALL.into_iter().find(|d| d.as_str() == s)
+    }
+
+    /// Whether a case with this verdict gets its own page.
+    pub fn shows_case(self, verdict: &str) -> bool {
+        match self {
+            Detail::Summary => false,
+            Detail::Standard => verdict != "pass",
+            Detail::Full => true,
+        }
+    }
+}
+
+/// A phase fold that hits fewer phase bins than this is not drawn: its
+/// points sit at one or two phases (a phase-locked or timing-free
+/// capture) and a sentence says so instead.
+pub const MIN_FOLD_BINS: usize = 4;
+
 /// Report metadata kept in results.json under `report`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ReportMeta {
     /// Report date, `YYYY-MM-DD`.
     pub date: String,
+    /// How much of each case the report shows: `summary`, `standard` or
+    /// `full` (`--detail`).
+    pub detail: String,
     /// Every input file, plan first.
     pub inputs: Vec<InputFile>,
     /// Deviations from the method of Deegan 2018 and other notes, one
@@ -135,7 +184,8 @@ impl Document {
                 .rois
                 .iter()
                 .filter(|roi| roi.kind == crate::plan::RoiKind::Led);
-            for (k, roi) in led.enumerate() {
+            let drawn = led.filter(|roi| roi.analysis.phase_coverage.covered_bins >= MIN_FOLD_BINS);
+            for (k, roi) in drawn.enumerate() {
                 let svg = super::charts::phase_fold_svg(
                     &format!("{}: {}", c.id, roi.name),
                     &roi.analysis.folded_bins,
@@ -173,7 +223,12 @@ impl Document {
             }
         }
         let mut model = model.clone();
-        model.report = Some(report_meta(&model, date));
+        let detail = model
+            .report
+            .as_ref()
+            .and_then(|r| Detail::parse(&r.detail))
+            .unwrap_or_default();
+        model.report = Some(report_meta(&model, date, detail));
         Ok(Document {
             results: serde_json::to_value(&model)?,
             charts,
@@ -216,6 +271,66 @@ impl Document {
             {
                 out.push(lux);
             }
+        }
+        out
+    }
+
+    /// The `--detail` the report was written with (results.json
+    /// `report.detail`; reports written before it existed are `full`).
+    pub fn detail(&self) -> Detail {
+        match self.results["report"]["detail"].as_str() {
+            Some(s) => Detail::parse(s).unwrap_or_default(),
+            None => Detail::Full,
+        }
+    }
+
+    /// Ids of the cases that get their own page at this report's detail.
+    pub fn case_pages(&self) -> std::collections::BTreeSet<String> {
+        let detail = self.detail();
+        self.results["cases"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter(|c| detail.shows_case(c["verdict"].as_str().unwrap_or("")))
+            .filter_map(|c| c["id"].as_str().map(str::to_string))
+            .collect()
+    }
+
+    /// Per case, its caveats (metric values undefined or qualified), each
+    /// text once: `"led, background / fdi_2018: <why>"`.
+    pub fn caveats(&self) -> BTreeMap<String, Vec<String>> {
+        let mut out = BTreeMap::new();
+        for c in self.results["cases"].as_array().into_iter().flatten() {
+            let Some(id) = c["id"].as_str() else { continue };
+            // Reason text -> (ROIs, metrics), in order of first appearance.
+            let mut seen: Vec<(String, Vec<String>, Vec<String>)> = Vec::new();
+            for roi in c["rois"].as_array().into_iter().flatten() {
+                let name = roi["name"].as_str().unwrap_or("?").to_string();
+                for (metric, why) in roi["reasons"].as_object().into_iter().flatten() {
+                    let why = why.as_str().unwrap_or("").to_string();
+                    let at = match seen.iter().position(|(w, _, _)| *w == why) {
+                        Some(i) => i,
+                        None => {
+                            seen.push((why, Vec::new(), Vec::new()));
+                            seen.len() - 1
+                        }
+                    };
+                    let (_, rois, metrics) = &mut seen[at];
+                    if !rois.contains(&name) {
+                        rois.push(name.clone());
+                    }
+                    if !metrics.contains(metric) {
+                        metrics.push(metric.clone());
+                    }
+                }
+            }
+            let lines = seen
+                .into_iter()
+                .map(|(why, rois, metrics)| {
+                    format!("{} / {}: {why}", rois.join(", "), metrics.join(", "))
+                })
+                .collect();
+            out.insert(id.to_string(), lines);
         }
         out
     }
@@ -308,7 +423,7 @@ impl Document {
 /// The `report` section of results.json for a run reported on `date`. The
 /// inputs are those already in `model.report` (set by
 /// [`super::write_report`] from [`crate::inputs::collect`]), else the plan.
-pub fn report_meta(model: &Results, date: &str) -> ReportMeta {
+pub fn report_meta(model: &Results, date: &str, detail: Detail) -> ReportMeta {
     let inputs = model
         .report
         .as_ref()
@@ -324,6 +439,7 @@ pub fn report_meta(model: &Results, date: &str) -> ReportMeta {
         });
     ReportMeta {
         date: date.to_string(),
+        detail: detail.as_str().to_string(),
         inputs,
         notes: notes(model),
     }

@@ -130,6 +130,9 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             advice_chart => advice_chart,
             matrices => matrices(doc, inline),
             signatories => Serde(&doc.signatories),
+            pages => doc.case_pages(),
+            caveats => doc.caveats(),
+            detail => doc.detail().as_str(),
             draft => doc.is_draft(),
             date => doc.date(),
         })

@@ -106,6 +106,8 @@ pub struct WriteOptions {
     /// Every input of the run ([`crate::inputs::collect`]); empty lists
     /// the plan alone.
     pub inputs: Vec<document::InputFile>,
+    /// How much of each case the report shows.
+    pub detail: document::Detail,
 }
 
 /// One case's trace as CSV: `frame,time_s,segment,<one luma column per ROI>`.
@@ -214,6 +216,7 @@ pub fn write_report(
     let mut model = model.clone();
     model.report = Some(document::ReportMeta {
         date: options.date.clone(),
+        detail: options.detail.as_str().to_string(),
         inputs: options.inputs.clone(),
         notes: Vec::new(),
     });
@@ -241,7 +244,7 @@ pub fn write_report(
 
     // The model plus its `report` metadata, in the model's field order.
     let mut model = model.clone();
-    model.report = Some(document::report_meta(&model, &options.date));
+    model.report = Some(document::report_meta(&model, &options.date, options.detail));
     let json = serde_json::to_string_pretty(&model)?;
     let path = dir.join("results.json");
     write_atomic(&path, json.as_bytes()).map_err(io_err(&path))?;

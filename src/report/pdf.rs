@@ -196,6 +196,9 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             charts => traces,
             matrices => super::html::matrices(doc, |p: &str| Value::from(p)),
             signatories => Serde(&doc.signatories),
+            pages => doc.case_pages(),
+            caveats => doc.caveats(),
+            detail => doc.detail().as_str(),
             draft => doc.is_draft(),
             date => doc.date(),
         })
@@ -262,14 +265,53 @@ pub fn render(doc: &Document) -> Result<(Vec<u8>, usize), ReportError> {
         )),
         ..typst_pdf::PdfOptions::default()
     };
-    let bytes = typst_pdf::pdf(&document, &options)
+    let mut bytes = typst_pdf::pdf(&document, &options)
         .map_err(|errors| diagnostics("typst could not write the PDF", &errors, &world))?;
+    blank_suspects_false(&mut bytes);
     Ok((bytes, document.pages().len()))
+}
+
+/// Overwrites the catalog's `/Suspects false` (in `/MarkInfo`) with spaces.
+///
+/// The entry is valid PDF and states the default, but poppler (pdfinfo,
+/// pdftotext, pdfsig) reports every such file with "Syntax Error: Suspects
+/// object is wrong type (boolean)". Spaces of the same length keep every
+/// byte offset, so the cross-reference table stays exact.
+fn blank_suspects_false(pdf: &mut [u8]) {
+    const ENTRY: &[u8] = b"/Suspects false";
+    let Some(mark) = find(pdf, b"/MarkInfo") else {
+        return;
+    };
+    // Only inside the MarkInfo dictionary, which closes with `>>`.
+    let end = find(&pdf[mark..], b">>").map_or(pdf.len(), |e| mark + e);
+    if let Some(at) = find(&pdf[mark..end], ENTRY) {
+        pdf[mark + at..mark + at + ENTRY.len()].fill(b' ');
+    }
+}
+
+fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
+    haystack.windows(needle.len()).position(|w| w == needle)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn suspects_false_is_blanked_in_place_and_only_in_mark_info() {
+        let mut pdf =
+            b"<< /Suspects false >> 1 0 obj << /MarkInfo << /Marked true /Suspects false >> >>"
+                .to_vec();
+        let len = pdf.len();
+        blank_suspects_false(&mut pdf);
+        assert_eq!(pdf.len(), len);
+        let text = String::from_utf8(pdf).unwrap();
+        assert!(text.starts_with("<< /Suspects false >>"), "{text}");
+        assert!(
+            text.ends_with("/Marked true                 >> >>"),
+            "{text}"
+        );
+    }
 
     #[test]
     fn typst_strings_escape_quotes_backslashes_and_newlines() {

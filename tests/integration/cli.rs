@@ -108,6 +108,8 @@ fn plan_run_writes_results_traces_and_report() {
         out.to_str().unwrap(),
         "--date",
         "2026-01-02",
+        "--detail",
+        "full",
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let stdout = String::from_utf8_lossy(&o.stdout);

@@ -128,7 +128,7 @@ fn no_nan_reaches_the_report() {
     let (_, results, model) = run("test-plans/daylight.toml", 2);
     let json = serde_json::to_string(&model).unwrap();
     assert!(!json.contains("NaN") && !json.contains("Infinity"));
-    let html = report::html::render(&model, &results, "2026-01-01").unwrap();
+    let html = full_html(&model, &results);
     assert!(!html.contains("NaN"));
     // One trace per case, one phase fold per LED ROI of each case, two
     // fine maps per light level, the exposure-advice curve and one matrix
@@ -138,9 +138,24 @@ fn no_nan_reaches_the_report() {
         .iter()
         .filter(|r| r.kind == ledflicker::plan::RoiKind::Led)
         .count();
+    // Folds that hit fewer than MIN_FOLD_BINS phase bins are a sentence.
+    let folds: usize = model
+        .cases
+        .iter()
+        .flat_map(|c| &c.rois)
+        .filter(|r| r.kind == ledflicker::plan::RoiKind::Led)
+        .filter(|r| r.analysis.phase_coverage.covered_bins >= report::document::MIN_FOLD_BINS)
+        .count();
+    let sentences = results.len() * led_rois - folds;
+    // Daylight (30 fps, 50-1000 Hz) visits 1 or 3 phases: every fold is a sentence.
+    assert!(sentences > 0, "{folds} folds, {sentences} sentences");
+    assert_eq!(
+        html.matches("Phase fold of led not drawn").count(),
+        sentences
+    );
     assert_eq!(
         html.matches("<svg").count(),
-        results.len() * (1 + led_rois) + 2 * model.fine_maps.len() + 1 + 1
+        results.len() + folds + 2 * model.fine_maps.len() + 1 + 1
     );
     assert!(html.contains("ON level") && html.contains("OFF level"));
 }
@@ -174,6 +189,18 @@ fn dark_off_reference_is_reported_as_unbounded() {
             .unwrap()
             .contains("unbounded")
     );
-    let html = report::html::render(&model, &results, "2026-01-01").unwrap();
+    let html = full_html(&model, &results);
     assert!(html.contains("+&infin;") && html.contains("unbounded"));
+}
+
+/// report.html of a run at `--detail full`: a section for every case.
+fn full_html(model: &report::Results, results: &[ledflicker::runner::CaseResult]) -> String {
+    let mut model = model.clone();
+    model.report = Some(report::document::ReportMeta {
+        date: "2026-01-01".to_string(),
+        detail: "full".to_string(),
+        inputs: Vec::new(),
+        notes: Vec::new(),
+    });
+    report::html::render(&model, results, "2026-01-01").unwrap()
 }
