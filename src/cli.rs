@@ -1,5 +1,7 @@
 //! Command-line interface: `plan`, `validate`, `simulate`, `advise`,
-//! `bench`, `linetime`, `render`, `bands`, `keygen`, `sign` and `verify`.
+//! `bench`, `linetime`, `render`, `bands`, `calibrate`, `keygen`, `sign` and
+//! `verify`. `linetime`, `bands` and `calibrate` live in
+//! [`crate::calibrate::command`].
 //!
 //! Exit codes (stable; CI scripts depend on them):
 //!
@@ -9,6 +11,7 @@
 //! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash or signature mismatch, or no signature |
 //! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way |
 //! | 3 | internal or backend error |
+//! | 4 | `linetime`, `bands`, `calibrate`: no confident estimate; the reason (no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -35,6 +38,8 @@ pub const EXIT_FAIL: i32 = 1;
 pub const EXIT_INVALID: i32 = 2;
 /// Internal or backend error.
 pub const EXIT_INTERNAL: i32 = 3;
+/// `linetime`, `bands`, `calibrate`: the input gives no confident estimate.
+pub const EXIT_NO_CONFIDENCE: i32 = 4;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -67,14 +72,21 @@ enum Command {
     /// the time of the analytic fine map (worst-phase FDI and Percent Flicker
     /// over 50 Hz..2 kHz x 1..100 % duty) for a plan's camera.
     Bench(BenchArgs),
-    /// Estimate a rolling shutter's line time from a frame of a diffusely
+    /// Estimate a rolling shutter's line time from frames of a diffusely
     /// lit PWM scene; prints the line time in microseconds on the first line.
-    Linetime(LinetimeArgs),
+    /// Exit code 4 when the frames give no confident estimate.
+    Linetime(crate::calibrate::command::LinetimeArgs),
     /// Render ideal-camera frames (ON, OFF, PWM) as grey PNG files.
     Render(RenderArgs),
-    /// Estimate a PWM frequency from the band spacing of one rolling-shutter
-    /// frame (PNG or TIFF) with a known line time; prints JSON.
-    Bands(BandsArgs),
+    /// Estimate a PWM frequency from the band spacing of rolling-shutter
+    /// frames with a known line time; prints JSON. Exit code 4 when the
+    /// frames give no confident estimate.
+    Bands(crate::calibrate::command::BandsArgs),
+    /// Fit a rolling-shutter camera model (line time, exposure, duty, black
+    /// level, saturation, tone curve) to banding frames of a PWM light;
+    /// writes a camera profile with --out. Exit code 4 when the frames give
+    /// no confident estimate.
+    Calibrate(crate::calibrate::command::CalibrateArgs),
     /// Make an Ed25519 key pair for signing reports: FILE (private) and FILE.pub.
     Keygen {
         /// Private key file; the public key goes to FILE.pub.
@@ -92,15 +104,6 @@ enum Command {
         #[arg(long = "key")]
         keys: Vec<PathBuf>,
     },
-}
-
-#[derive(Args, Debug)]
-struct BandsArgs {
-    /// Frame image (PNG or TIFF, any bit depth; converted to 16-bit luma).
-    frame: PathBuf,
-    /// Line time in microseconds (> 0).
-    #[arg(long)]
-    line_time_us: f64,
 }
 
 #[derive(Args, Debug)]
@@ -148,15 +151,6 @@ struct BenchArgs {
     /// Timed repetitions of the fine map (>= 1); the median is reported.
     #[arg(long, default_value_t = 11)]
     repeat: usize,
-}
-
-#[derive(Args, Debug)]
-struct LinetimeArgs {
-    /// Image file (PNG or TIFF).
-    image: PathBuf,
-    /// PWM frequency of the light, Hz (> 0).
-    #[arg(long)]
-    frequency_hz: f64,
 }
 
 #[derive(Args, Debug)]
@@ -326,8 +320,16 @@ pub fn exit_code(err: &anyhow::Error) -> i32 {
                 EXIT_INTERNAL
             };
         }
-        if let Some(crate::linetime::LineTimeError::Read { .. }) = cause.downcast_ref() {
-            return EXIT_INVALID;
+        if cause.is::<crate::calibrate::command::NoEstimate>() {
+            return EXIT_NO_CONFIDENCE;
+        }
+        if let Some(e) = cause.downcast_ref::<crate::calibrate::frames::FrameError>() {
+            return match e {
+                crate::calibrate::frames::FrameError::Capture(c) if !c.is_input_error() => {
+                    EXIT_INTERNAL
+                }
+                _ => EXIT_INVALID,
+            };
         }
         if let Some(report::ReportError::Signed { .. } | report::ReportError::Invalid { .. }) =
             cause.downcast_ref()
@@ -368,9 +370,10 @@ fn run(cli: Cli) -> anyhow::Result<i32> {
         Command::Simulate(args) => simulate(args),
         Command::Advise(args) => advise(args),
         Command::Bench(args) => bench(args),
-        Command::Linetime(args) => linetime(args),
+        Command::Linetime(args) => crate::calibrate::command::linetime(args),
         Command::Render(args) => render(args),
-        Command::Bands(args) => bands(args),
+        Command::Bands(args) => crate::calibrate::command::bands(args),
+        Command::Calibrate(args) => crate::calibrate::command::calibrate(args),
         Command::Keygen { out } => {
             let id = crate::signoff::keygen(&out)?;
             println!(
@@ -863,31 +866,6 @@ fn bench(a: BenchArgs) -> anyhow::Result<i32> {
     Ok(EXIT_PASS)
 }
 
-fn linetime(a: LinetimeArgs) -> anyhow::Result<i32> {
-    if !(a.frequency_hz.is_finite() && a.frequency_hz > 0.0) {
-        return Err(UsageError(format!(
-            "--frequency-hz must be > 0, got {}",
-            a.frequency_hz
-        ))
-        .into());
-    }
-    let profile = crate::linetime::row_profile(&a.image)?;
-    let e = crate::linetime::estimate(&profile, a.frequency_hz)
-        .map_err(|e| UsageError(format!("`{}`: {e}", a.image.display())))?;
-    let mut w = std::io::stdout().lock();
-    writeln!(w, "{:.3}", e.line_time_s * 1e6)?;
-    writeln!(w, "line_time_us: {:.4}", e.line_time_s * 1e6)?;
-    writeln!(w, "band_period_rows: {:.3}", e.band_period_rows)?;
-    writeln!(
-        w,
-        "readout_ms ({} rows): {:.4}",
-        e.rows,
-        e.line_time_s * e.rows as f64 * 1e3
-    )?;
-    writeln!(w, "fit_quality: {:.3}", e.fit_quality)?;
-    Ok(EXIT_PASS)
-}
-
 fn render(a: RenderArgs) -> anyhow::Result<i32> {
     let usage = |m: String| anyhow::Error::from(UsageError(m));
     let s = &a.sim;
@@ -924,28 +902,5 @@ fn render(a: RenderArgs) -> anyhow::Result<i32> {
     };
     let n = crate::render::render_frames(&spec, &pwm, &a.out).map_err(anyhow::Error::msg)?;
     eprintln!("wrote {n} frames to {}", a.out.display());
-    Ok(EXIT_PASS)
-}
-
-fn bands(a: BandsArgs) -> anyhow::Result<i32> {
-    if !(a.line_time_us.is_finite() && a.line_time_us > 0.0) {
-        return Err(UsageError(format!(
-            "--line-time-us must be > 0, got {}",
-            a.line_time_us
-        ))
-        .into());
-    }
-    // Mean luma of every row (the bands run along rows), as `linetime` reads it.
-    let profile = crate::linetime::row_profile(&a.frame)?;
-    let period = crate::analysis::banding::band_period_from_profile(&profile)
-        .map_err(|e| UsageError(format!("`{}`: {e}", a.frame.display())))?;
-    let out = serde_json::json!({
-        "frame": a.frame.display().to_string(),
-        "rows": profile.len(),
-        "line_time_us": a.line_time_us,
-        "band_period_rows": period,
-        "estimated_frequency_hz": 1.0 / (period * a.line_time_us * 1e-6),
-    });
-    println!("{}", serde_json::to_string_pretty(&out)?);
     Ok(EXIT_PASS)
 }

@@ -19,6 +19,8 @@
 //! - [`analysis`]: apparent frequency, hazard class, IEEE 1789, phase
 //!   coverage, banding and fine maps (beyond the paper);
 //! - [`advise`]: the shortest exposure that never loses a PWM LED.
+//! - [`calibrate`]: line time, band frequency and a fitted camera profile
+//!   from real banding frames (`linetime`, `bands`, `calibrate`).
 //! - [`report`]: results.json, trace CSVs, charts, the HTML and PDF reports,
 //!   JUnit/CSV exports and golden-file comparison;
 //! - [`signoff`]: Ed25519 sign-off of a report directory and its verification.
@@ -28,9 +30,9 @@ pub mod advise;
 pub mod analysis;
 pub mod backend;
 pub mod bench;
+pub mod calibrate;
 pub mod capture;
 pub mod cli;
-pub mod linetime;
 pub mod metrics;
 pub mod physics;
 pub mod plan;

@@ -38,35 +38,14 @@ pub fn row_profile(shutter: &Shutter, pwm: &PwmDrive, frame: u64, rows: u32) -> 
         .collect()
 }
 
-/// Band period in rows of a row profile, from the mean-level upward
-/// crossings (linearly interpolated): the mean spacing between the first
-/// and the last crossing. Needs at least two crossings.
+/// Band period in rows of a row profile, by the band estimator shared with
+/// `linetime`, `bands` and `calibrate` ([`crate::calibrate::bands`]): the
+/// fundamental of the periodic fit, refined below a row. An error says why
+/// there is no confident estimate (e.g. fewer than 3 bands).
 pub fn band_period_from_profile(profile: &[f64]) -> Result<f64, String> {
-    let n = profile.len();
-    if n < 3 {
-        return Err(format!("{n} rows are too few"));
-    }
-    let mean = profile.iter().sum::<f64>() / n as f64;
-    let (lo, hi) = profile
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    if hi - lo <= 1e-9 {
-        return Err("the rows show no bands (constant profile)".to_string());
-    }
-    let crossings: Vec<f64> = profile
-        .windows(2)
-        .enumerate()
-        .filter(|(_, w)| w[0] < mean && w[1] >= mean)
-        .map(|(i, w)| i as f64 + (mean - w[0]) / (w[1] - w[0]))
-        .collect();
-    if crossings.len() < 2 {
-        return Err(format!(
-            "fewer than two band periods in {n} rows: the readout is too short to measure the spacing"
-        ));
-    }
-    Ok((crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64)
+    crate::calibrate::bands::estimate_profile(profile)
+        .map(|e| e.period_rows)
+        .map_err(|e| e.to_string())
 }
 
 /// Banding KPIs; `None` for a global shutter or a zero line time.
