@@ -36,7 +36,7 @@ use super::linalg::lsq_rss;
 pub const MIN_BANDS: f64 = 3.0;
 /// Smallest share of the detrended row variance the periodic model must
 /// explain (0..1).
-pub const MIN_QUALITY: f64 = 0.3;
+pub const MIN_QUALITY: f64 = 0.5;
 /// Largest relative uncertainty (1 sigma) of the period.
 pub const MAX_RELATIVE_SIGMA: f64 = 0.02;
 /// Most harmonics in the periodic model.

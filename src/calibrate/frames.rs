@@ -419,8 +419,8 @@ mod tests {
             },
         };
         let flat = set.flattened().unwrap();
-        for k in 0..2 {
-            assert_eq!(flat[k][0], flat[k][1], "frame {k}: texture left over");
+        for (k, frame) in flat.iter().enumerate() {
+            assert_eq!(frame[0], frame[1], "frame {k}: texture left over");
         }
     }
 }

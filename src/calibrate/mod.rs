@@ -136,12 +136,18 @@ pub fn calibrate(set: &FrameSet, light: Light) -> Result<Calibration, NoConfiden
     for gamma in [1.0, 2.2] {
         for exposure_rows in [1.5, 5.0, 15.0] {
             let start = initial(&data, &band, a, clip, gamma, exposure_rows, light.duty);
-            let f = fit::fit(&data, &start, &fixed, 60);
+            let f = fit::fit(&data, &start, &fixed, 200);
             if best.as_ref().is_none_or(|b| f.rms < b.rms) {
                 best = Some(f);
             }
         }
     }
+    // Polish the best from a fresh damping: LM can stall on the corners of
+    // the piecewise-linear ON fraction.
+    let best = best.map(|b| {
+        let again = fit::fit(&data, &b.params, &fixed, 200);
+        if again.rms < b.rms { again } else { b }
+    });
     let Some(fit) = best else {
         return Err(NoConfidence::NoBanding {
             quality: 0.0,

@@ -162,5 +162,5 @@ impl SynthFrame {
 fn caption(x: usize, y: usize, w: usize, h: usize) -> bool {
     let (y0, y1) = (h * 85 / 100, h * 90 / 100);
     let (x0, x1) = (w * 5 / 100, w * 40 / 100);
-    y >= y0 && y < y1 && x >= x0 && x < x1 && ((x - x0) / 6 + (y - y0) / 4) % 3 != 0
+    y >= y0 && y < y1 && x >= x0 && x < x1 && !((x - x0) / 6 + (y - y0) / 4).is_multiple_of(3)
 }

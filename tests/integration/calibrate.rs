@@ -139,12 +139,13 @@ fn degraded_synthetic_frames_give_back_their_parameters() {
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
-fn expect_no_confidence(args: &[&str], reason: &str) {
+/// Exit 4, no estimate on stdout, one of `reasons` and a hint on stderr.
+fn expect_no_confidence(args: &[&str], reasons: &[&str]) {
     let o = ledflicker(args);
     assert_eq!(o.status.code(), Some(4), "{args:?}: {}", stderr(&o));
     let e = stderr(&o);
     assert!(
-        e.contains("no confident estimate") && e.contains(reason),
+        e.contains("no confident estimate") && reasons.iter().any(|r| e.contains(r)),
         "{e}"
     );
     assert!(e.contains("hint:"), "{e}");
@@ -177,20 +178,14 @@ fn frames_without_banding_exit_4_with_the_reason() {
         image::Luma([if led { 250u8 } else { 12 }])
     });
     img.save(&leds).unwrap();
+    // Texture alone can look like one or two long "bands"; either reason
+    // is a refusal.
+    let reasons = ["no periodic banding", "fewer than 3 bands"];
     for p in [&flat, &leds] {
         let p = p.to_str().unwrap();
-        expect_no_confidence(
-            &["linetime", p, "--frequency-hz", "500"],
-            "no periodic banding",
-        );
-        expect_no_confidence(
-            &["bands", p, "--line-time-us", "14.565"],
-            "no periodic banding",
-        );
-        expect_no_confidence(
-            &["calibrate", p, "--frequency-hz", "500"],
-            "no periodic banding",
-        );
+        expect_no_confidence(&["linetime", p, "--frequency-hz", "500"], &reasons);
+        expect_no_confidence(&["bands", p, "--line-time-us", "14.565"], &reasons);
+        expect_no_confidence(&["calibrate", p, "--frequency-hz", "500"], &reasons);
     }
     // Two bands only.
     let two = dir.join("two.png");
@@ -202,7 +197,7 @@ fn frames_without_banding_exit_4_with_the_reason() {
     .unwrap();
     expect_no_confidence(
         &["linetime", two.to_str().unwrap(), "--frequency-hz", "127"],
-        "fewer than 3 bands",
+        &["fewer than 3 bands"],
     );
 }
 
