@@ -11,7 +11,7 @@
 //! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash or signature mismatch, or no signature |
 //! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way |
 //! | 3 | internal or backend error |
-//! | 4 | `linetime`, `bands`, `calibrate`: no confident estimate; the reason (no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
+//! | 4 | `linetime`, `bands`, `calibrate`: no confident estimate; the reason (flat rows, no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;

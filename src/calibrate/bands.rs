@@ -45,6 +45,9 @@ pub const MAX_HARMONICS: usize = 10;
 pub const MIN_ROWS: usize = 16;
 /// Shortest band period searched, rows.
 pub const MIN_PERIOD_ROWS: f64 = 4.0;
+/// Rows whose peak-to-peak is at most this share of their level are flat
+/// (rounding of a constant profile, not banding).
+const FLAT_RELATIVE_PTP: f64 = 1e-9;
 /// Column groups whose separate estimates are compared.
 const GROUPS: usize = 4;
 
@@ -96,7 +99,13 @@ pub enum NoConfidence {
         /// Rows given.
         rows: usize,
     },
-    /// The rows are flat or not periodic.
+    /// The rows are constant (to rounding): there is nothing to fit.
+    #[error("the rows are flat (peak-to-peak {relative_ptp:.1e} of the level): no banding")]
+    Flat {
+        /// Peak-to-peak of the rows over their largest magnitude.
+        relative_ptp: f64,
+    },
+    /// The rows are not periodic.
     #[error(
         "no periodic banding: the best periodic fit (period {period_rows:.1} rows) explains {quality:.2} of the row variance, below {min}",
         min = MIN_QUALITY
@@ -148,7 +157,7 @@ impl NoConfidence {
     pub fn hint(&self) -> &'static str {
         match self {
             NoConfidence::TooFewRows { .. } => "use a taller frame or --roi",
-            NoConfidence::NoBanding { .. } => {
+            NoConfidence::NoBanding { .. } | NoConfidence::Flat { .. } => {
                 "use a frame of a diffusely lit PWM scene (or --roi on the light), exposure shorter than the PWM period"
             }
             NoConfidence::TooFewBands { .. } => {
@@ -208,16 +217,20 @@ pub fn estimate(input: &StripProfiles) -> Result<BandEstimate, NoConfidence> {
     if n < MIN_ROWS || profiles.iter().any(|p| p.len() != n) {
         return Err(NoConfidence::TooFewRows { rows: n });
     }
-    let fit = PeriodicFit::new(&profiles);
-    if fit.trend_rss <= 1e-18 * n as f64 {
-        return Err(NoConfidence::NoBanding {
-            quality: 0.0,
-            period_rows: 0.0,
+    let (lo, hi) = profiles
+        .iter()
+        .flatten()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
         });
+    let relative_ptp = (hi - lo) / lo.abs().max(hi.abs()).max(f64::MIN_POSITIVE);
+    if relative_ptp.is_nan() || relative_ptp <= FLAT_RELATIVE_PTP {
+        return Err(NoConfidence::Flat { relative_ptp });
     }
-    let (f0, _) = fit.coarse();
+    let fit = PeriodicFit::new(&profiles);
+    let (f0, ratios) = fit.coarse();
     let bin = 1.0 / fit.padded as f64;
-    let (f, h, rss) = fit.verify(f0, 1.5 * bin);
+    let (f, h, rss) = fit.verify(f0, &ratios, 1.5 * bin);
     let quality = (1.0 - rss / fit.trend_rss).clamp(0.0, 1.0);
     let period = 1.0 / f;
     if quality < MIN_QUALITY {
@@ -349,9 +362,14 @@ impl<'a> PeriodicFit<'a> {
             .sum()
     }
 
-    /// The best fundamental on the periodogram grid and its harmonic count,
-    /// by the information criterion of the module docs.
-    fn coarse(&self) -> (f64, usize) {
+    /// The best fundamental on the periodogram grid, by the information
+    /// criterion of the module docs, and the ratios to it that
+    /// [`Self::verify`] checks exactly: `1, 1/2, 1/3`, and each multiple
+    /// `m` (up to the chosen harmonic count) whose peak holds at least a
+    /// tenth of the strongest harmonic's power. The grid's sums of peak
+    /// powers overlap (zero-padded bins are not independent), so a
+    /// sub-harmonic `f0 / m` can win here; the exact check of `m` undoes it.
+    fn coarse(&self) -> (f64, Vec<f64>) {
         let (n, big_n) = (self.n, self.padded);
         let frames = self.profiles.len();
         let mut power = vec![0.0; big_n / 2 + 1];
@@ -390,22 +408,38 @@ impl<'a> PeriodicFit<'a> {
                 }
             }
         }
-        (best.1 as f64 / big_n as f64, best.2)
+        let (_, k0, h) = best;
+        let peak = |m: usize| {
+            let (c, w) = (m * k0, m / 2);
+            let hi = (c + w).min(big_n / 2);
+            power[c.saturating_sub(w).min(hi)..=hi]
+                .iter()
+                .fold(0.0f64, |a, &b| a.max(b))
+        };
+        let strongest = (1..=h).map(peak).fold(0.0f64, f64::max);
+        let mut ratios = vec![1.0, 0.5, 1.0 / 3.0];
+        ratios.extend(
+            (2..=h)
+                .filter(|&m| peak(m) >= 0.1 * strongest)
+                .map(|m| m as f64),
+        );
+        (k0 as f64 / big_n as f64, ratios)
     }
 
-    /// The exact check of the coarse choice: `f0`, its multiples `2 f0`,
-    /// `3 f0` and sub-multiples `f0 / 2`, `f0 / 3` are each refined and
-    /// given their best harmonic count by the exact residual's BIC (with a
-    /// floor of 1e-6 of the trend residual, so that noise-free profiles tie
-    /// and the simpler model wins). Returns frequency, harmonics, residual.
-    fn verify(&self, f0: f64, half: f64) -> (f64, usize, f64) {
+    /// The exact check of the coarse choice: `f0 * r` for each of `ratios`
+    /// (`f0` itself, sub-multiples and the multiples that carry power) is
+    /// refined and given its best harmonic count by the exact residual's
+    /// BIC (with a floor of 1e-6 of the trend residual, so that noise-free
+    /// profiles tie and the simpler model wins). Returns frequency,
+    /// harmonics, residual.
+    fn verify(&self, f0: f64, ratios: &[f64], half: f64) -> (f64, usize, f64) {
         let frames = self.profiles.len();
         let n_tot = (self.n * frames) as f64;
         let penalty = 2.0 * frames as f64 * n_tot.ln();
         let floor = 1e-6 * self.trend_rss;
         let (lo, hi) = (1.5 / self.n as f64, 1.0 / MIN_PERIOD_ROWS);
         let mut best = (f64::INFINITY, f0, 1, f64::INFINITY);
-        for ratio in [1.0, 0.5, 1.0 / 3.0, 2.0, 3.0] {
+        for &ratio in ratios {
             let c = f0 * ratio;
             if c < lo || c > hi {
                 continue;
@@ -535,7 +569,7 @@ mod tests {
     fn flat_rows_and_noise_are_not_banding() {
         assert!(matches!(
             estimate_profile(&[5.0; 200]),
-            Err(NoConfidence::NoBanding { .. })
+            Err(NoConfidence::Flat { .. })
         ));
         let mut rng = crate::physics::sensor::Rng::new(3);
         let noise: Vec<f64> = (0..1000).map(|_| rng.normal()).collect();

@@ -31,7 +31,7 @@ pub fn estimate_bands(set: &FrameSet) -> Result<(BandEstimate, bool), NoConfiden
     if let Some(flat) = set.flattened() {
         match bands::estimate(&flat) {
             Ok(e) => return Ok((e, true)),
-            Err(NoConfidence::NoBanding { .. }) => {}
+            Err(NoConfidence::NoBanding { .. } | NoConfidence::Flat { .. }) => {}
             Err(e) => return Err(e),
         }
     }
