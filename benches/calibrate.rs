@@ -33,6 +33,7 @@ fn calibrate_8k_frame(bencher: divan::Bencher) {
         let set = frames::load(std::slice::from_ref(&path), None, None).unwrap();
         let light = Light {
             frequency_hz: 1000.0,
+            frequency_sigma_hz: 0.0,
             duty: None,
         };
         let cal = calibrate(&set, light).unwrap();

@@ -67,6 +67,10 @@ pub struct CalibrateArgs {
     /// PWM frequency of the light, Hz (> 0).
     #[arg(long)]
     frequency_hz: f64,
+    /// One-sigma uncertainty of the PWM frequency, Hz [default: 0, exact];
+    /// it carries into the line time's and the exposure's sigma.
+    #[arg(long, default_value_t = 0.0)]
+    frequency_sigma_hz: f64,
     /// Duty cycle of the light in (0, 1); fitted when absent.
     #[arg(long)]
     duty: Option<f64>,
@@ -196,8 +200,16 @@ pub fn calibrate(a: CalibrateArgs) -> anyhow::Result<i32> {
     }
     let fps = a.fps.map(|v| positive("--fps", v)).transpose()?;
     let set = load(&a.input)?;
+    if !(a.frequency_sigma_hz >= 0.0 && a.frequency_sigma_hz.is_finite()) {
+        return Err(UsageError(format!(
+            "--frequency-sigma-hz must be >= 0, got {}",
+            a.frequency_sigma_hz
+        ))
+        .into());
+    }
     let light = Light {
         frequency_hz: f,
+        frequency_sigma_hz: a.frequency_sigma_hz,
         duty: a.duty,
     };
     let mut cal = super::calibrate(&set, light).map_err(|r| refuse(&a.input, r))?;
@@ -255,11 +267,18 @@ fn print_text(cal: &super::Calibration, out: Option<&std::path::Path>) -> std::i
     }
     writeln!(w, "duty:           {}", pm(cal.duty, cal.duty_sigma, 4))?;
     writeln!(w, "gamma:          {}", pm(cal.gamma, cal.gamma_sigma, 3))?;
-    writeln!(
-        w,
-        "black_level_dn: {}",
-        pm(cal.black_level_dn, cal.black_level_dn_sigma, 2)
-    )?;
+    match (
+        cal.black_level_dn,
+        cal.black_level_dn_sigma,
+        cal.black_level_dn_max,
+    ) {
+        (Some(b), Some(s), _) => writeln!(w, "black_level_dn: {}", pm(b, s, 2))?,
+        (_, _, Some(m)) => writeln!(
+            w,
+            "black_level_dn: <= {m:.2} (undetermined: trades off with ambient light)"
+        )?,
+        _ => {}
+    }
     match (cal.saturation_dn, cal.saturation_dn_min) {
         (Some(s), _) => writeln!(w, "saturation_dn:  {s:.2}")?,
         (None, Some(m)) => writeln!(w, "saturation_dn:  >= {m:.2} (no row clipped)")?,

@@ -133,7 +133,8 @@ fn residuals(data: &[Vec<f64>], v: &[f64], full_scale: f64, clip: f64, out: &mut
     out.clear();
     for (j, frame) in data.iter().enumerate() {
         for (r, &y) in frame.iter().enumerate() {
-            out.push(y - p.row(j, r, n));
+            // A NaN row is left out (the jackknife's held-out block).
+            out.push(if y.is_nan() { 0.0 } else { y - p.row(j, r, n) });
         }
     }
 }
@@ -196,7 +197,8 @@ pub fn fit(data: &[Vec<f64>], start: &ModelParams, fixed: &[bool], iters: usize)
     }
 }
 
-/// One-sigma uncertainties of the natural parameters, `s^2 (J^T J)^-1`.
+/// One-sigma uncertainties of the natural parameters: the larger of the
+/// classical `s^2 (J^T J)^-1` and the sandwich variance.
 fn covariance_sigma(
     data: &[Vec<f64>],
     v: &[f64],
@@ -225,10 +227,43 @@ fn covariance_sigma(
         }
         jtj[p * m + p] = 1.0;
     }
-    match inverse_spd(&jtj, m) {
+    let n = res.len();
+    let inv = inverse_spd(&jtj, m);
+    // Heteroscedasticity-consistent ("sandwich", White 1980, HC1) variance:
+    // `inv (sum_i r_i^2 J_i J_i^T) inv n / (n - p)`. Rows where the model is
+    // flat (a plateau) carry no information but lower `s^2`; the sandwich
+    // weighs each row's residual by its leverage instead.
+    let sandwich = inv.as_ref().map(|inv| {
+        let mut meat = vec![0.0; m * m];
+        let mut row = vec![0.0; m];
+        for (i, r) in res.iter().enumerate() {
+            for (p, x) in row.iter_mut().enumerate() {
+                *x = if inert[p] { 0.0 } else { jac[p * n + i] };
+            }
+            for p in 0..m {
+                for q in 0..m {
+                    meat[p * m + q] += r * r * row[p] * row[q];
+                }
+            }
+        }
+        let dof = n as f64 / (n as f64 - free as f64).max(1.0);
+        (0..m)
+            .map(|p| {
+                let mut v = 0.0;
+                for a in 0..m {
+                    for b in 0..m {
+                        v += inv[p * m + a] * meat[a * m + b] * inv[b * m + p];
+                    }
+                }
+                v * dof
+            })
+            .collect::<Vec<f64>>()
+    });
+    match inv {
         Some(inv) => (0..m)
             .map(|p| {
-                let x = inv[p * m + p] * s2;
+                let hc = sandwich.as_ref().map_or(0.0, |v| v[p]);
+                let x = (inv[p * m + p] * s2).max(hc);
                 if inert[p] {
                     0.0
                 } else if x.is_finite() && x >= 0.0 {

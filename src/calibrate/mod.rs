@@ -17,6 +17,7 @@ mod linalg;
 pub mod profile;
 pub mod recovery;
 pub mod synth;
+pub mod uncertainty;
 
 use serde::Serialize;
 
@@ -43,6 +44,9 @@ pub fn estimate_bands(set: &FrameSet) -> Result<(BandEstimate, bool), NoConfiden
 pub struct Light {
     /// PWM frequency, Hz (> 0).
     pub frequency_hz: f64,
+    /// One-sigma uncertainty of the frequency, Hz (0: exact). It carries
+    /// into the line time and the exposure, which scale as `1 / f`.
+    pub frequency_sigma_hz: f64,
     /// Duty cycle in (0, 1) when known; fitted when `None`.
     pub duty: Option<f64>,
 }
@@ -85,10 +89,18 @@ pub struct Calibration {
     pub gamma: f64,
     /// Its sigma.
     pub gamma_sigma: f64,
-    /// Black level, DN.
-    pub black_level_dn: f64,
+    /// Black level, DN; `None` when the frames only bound it (e.g. a linear
+    /// response, where black level and ambient light trade off exactly).
+    pub black_level_dn: Option<f64>,
     /// Its sigma, DN.
-    pub black_level_dn_sigma: f64,
+    pub black_level_dn_sigma: Option<f64>,
+    /// Upper bound when undetermined: the dark level, DN (the bound is
+    /// `0 <= black <= dark`).
+    pub black_level_dn_max: Option<f64>,
+    /// Black level of the fitted model, DN, written to the profile (with
+    /// the matching ambient level it reproduces the dark level).
+    #[serde(skip)]
+    pub model_black_dn: f64,
     /// Clipping level, DN; `None` when no row clipped.
     pub saturation_dn: Option<f64>,
     /// Its sigma, DN.
@@ -154,19 +166,28 @@ pub fn calibrate(set: &FrameSet, light: Light) -> Result<Calibration, NoConfiden
             period_rows: band.period_rows,
         });
     };
+    let inflation = uncertainty::inflation(&data, fit.params.values[idx::PERIOD]);
+    let (mut fit, ends) = uncertainty::black_ends(&data, fit, &fixed);
+    fit.sigma = uncertainty::honest_sigmas(&data, &fit, &fixed, inflation);
+    let black = uncertainty::black_level(&data, &fit, &ends, &fixed, inflation);
     Ok(summarise(
         set,
         light,
         &band,
         texture_divided,
         &fit,
+        black,
         saturated,
         &data,
     ))
 }
 
 /// The clipping level and whether the rows reach it: at least 3 % of the
-/// samples within 0.3 % of full scale of the brightest, in the top half.
+/// samples within 0.3 % of full scale of the brightest, in the top tenth of
+/// the output range. A flat top lower down is the light's ON level: a
+/// brighter light clipped there would fit exactly as well (with a wider
+/// exposure and a smaller duty, docs/calibration.md), so clipping is only
+/// assumed where cameras clip, at the top of their output.
 fn clipping(data: &[Vec<f64>], a: f64) -> (f64, bool) {
     let vmax = data
         .iter()
@@ -178,7 +199,7 @@ fn clipping(data: &[Vec<f64>], a: f64) -> (f64, bool) {
         .flatten()
         .filter(|&&v| v >= vmax - 0.003 * a)
         .count();
-    if near as f64 >= 0.03 * total as f64 && vmax >= 0.5 * a {
+    if near as f64 >= 0.03 * total as f64 && vmax >= 0.9 * a {
         (vmax, true)
     } else {
         (a, false)
@@ -236,12 +257,14 @@ fn initial(
 }
 
 /// Turns the fit into reported values, bounds for what is undetermined.
+#[allow(clippy::too_many_arguments)]
 fn summarise(
     set: &FrameSet,
     light: Light,
     band: &BandEstimate,
     texture_divided: bool,
     fit: &ModelFit,
+    black: uncertainty::BlackLevel,
     saturated: bool,
     data: &[Vec<f64>],
 ) -> Calibration {
@@ -250,10 +273,12 @@ fn summarise(
     let f = light.frequency_hz;
     let a = set.full_scale_dn;
     let p = v[idx::PERIOD];
+    let rel_f = light.frequency_sigma_hz / f;
     let rel_p = (s[idx::PERIOD] / p).max(band.period_sigma_rows / band.period_rows);
+    let rel_t = rel_p.hypot(rel_f);
     let line_time = 1.0 / (f * p);
     let exposure_s = v[idx::EXPOSURE] / f;
-    let exposure_sigma = s[idx::EXPOSURE] / f;
+    let exposure_sigma = exposure_s * (s[idx::EXPOSURE] / v[idx::EXPOSURE]).hypot(rel_f);
     let exposure_rows = v[idx::EXPOSURE] * p;
     let determined = exposure_rows >= 1.0 && exposure_sigma < 0.5 * exposure_s;
     let vmax = data
@@ -270,7 +295,7 @@ fn summarise(
         band_quality: band.quality,
         texture_divided,
         line_time_us: line_time * 1e6,
-        line_time_us_sigma: line_time * rel_p * 1e6,
+        line_time_us_sigma: line_time * rel_t * 1e6,
         exposure_us: determined.then_some(exposure_s * 1e6),
         exposure_us_sigma: determined.then_some(exposure_sigma * 1e6),
         exposure_us_max: (!determined)
@@ -279,8 +304,10 @@ fn summarise(
         duty_sigma: s[idx::DUTY],
         gamma: v[idx::GAMMA],
         gamma_sigma: s[idx::GAMMA],
-        black_level_dn: v[idx::BLACK].max(0.0),
-        black_level_dn_sigma: s[idx::BLACK],
+        black_level_dn: black.value,
+        black_level_dn_sigma: black.sigma,
+        black_level_dn_max: black.max,
+        model_black_dn: v[idx::BLACK].max(0.0),
         saturation_dn: saturated.then_some(fit.params.clip),
         saturation_dn_sigma: saturated.then_some(0.003 * a),
         saturation_dn_min: (!saturated).then_some(vmax),
@@ -296,5 +323,41 @@ fn summarise(
         sources: set.sources.clone(),
         frame_size: set.frame_size,
         measured: data.first().cloned().unwrap_or_default(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibrate::synth::SynthFrame;
+
+    #[test]
+    fn a_frequency_uncertainty_carries_into_line_time_and_exposure() {
+        let dir =
+            std::env::temp_dir().join(format!("ledflicker-cal-fsigma-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("frame.png");
+        SynthFrame::base().save(&path, 90).unwrap();
+        let set = frames::load(&[path], None, None).unwrap();
+        let run = |sigma_hz| {
+            let light = Light {
+                frequency_hz: 1000.0,
+                frequency_sigma_hz: sigma_hz,
+                duty: None,
+            };
+            calibrate(&set, light).unwrap()
+        };
+        let (exact, loose) = (run(0.0), run(5.0));
+        let _ = std::fs::remove_dir_all(&dir);
+        // 5 Hz of 1000 is 0.5 %, added in quadrature to the frame's sigma.
+        let want = |s0: f64, v: f64| s0.hypot(0.005 * v);
+        let lt = want(exact.line_time_us_sigma, exact.line_time_us);
+        assert!(
+            (loose.line_time_us_sigma / lt - 1.0).abs() < 1e-9,
+            "{loose:?}"
+        );
+        let (e, s) = (exact.exposure_us.unwrap(), exact.exposure_us_sigma.unwrap());
+        assert!((loose.exposure_us_sigma.unwrap() / want(s, e) - 1.0).abs() < 1e-9);
+        assert_eq!(loose.line_time_us, exact.line_time_us);
     }
 }

@@ -119,13 +119,19 @@ pub fn profile_toml(cal: &Calibration, opts: &ProfileOptions) -> String {
         "# PWM phase of the calibration frame (first rising edge after frame 0 starts).\npwm-delay-ms = {:.7}",
         pwm_delay_s(cal) * 1e3
     );
-    let _ = writeln!(
-        t,
-        "# {:.2} +- {:.2} DN.\nblack-level-dn = {:.4}",
-        cal.black_level_dn,
-        cal.black_level_dn_sigma,
-        cal.black_level_dn.max(0.0)
-    );
+    match (cal.black_level_dn, cal.black_level_dn_sigma) {
+        (Some(b), Some(s)) => {
+            let _ = writeln!(t, "# {b:.2} +- {s:.2} DN.");
+        }
+        _ => {
+            let _ = writeln!(
+                t,
+                "# Undetermined: between 0 and the dark level {:.2} DN (black level and ambient\n# light trade off); the fitted pair is written.",
+                cal.black_level_dn_max.unwrap_or(0.0)
+            );
+        }
+    }
+    let _ = writeln!(t, "black-level-dn = {:.4}", cal.model_black_dn);
     let clip = match (cal.saturation_dn, cal.saturation_dn_min) {
         (Some(s), _) => {
             let _ = writeln!(t, "# Rows clip at {s:.2} DN in the calibration frame.");
