@@ -15,13 +15,23 @@ if ! command -v ffmpeg >/dev/null 2>&1 || ! command -v ffprobe >/dev/null 2>&1; 
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends ffmpeg >/dev/null
 fi
 
-# The PDF tests read report.pdf with pdftotext and pdfinfo (Debian's
-# poppler-utils). Install them when missing and we may (root, e.g. in CI).
-if ! command -v pdftotext >/dev/null || ! command -v pdfinfo >/dev/null; then
+# The PDF tests read report.pdf with pdftotext, pdfinfo and pdfsig (Debian's
+# poppler-utils); the sign-off tests check signatures with `openssl cms` and
+# make PKCS#12 files with `openssl pkcs12` (Debian's openssl). Install them
+# when missing and we may (root, e.g. in CI).
+if ! command -v pdftotext >/dev/null || ! command -v pdfinfo >/dev/null || ! command -v pdfsig >/dev/null; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
         apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq poppler-utils
     else
-        echo "error: pdftotext/pdfinfo not found; install poppler-utils (e.g. sudo apt-get install poppler-utils)" >&2
+        echo "error: pdftotext/pdfinfo/pdfsig not found; install poppler-utils (e.g. sudo apt-get install poppler-utils)" >&2
+        exit 2
+    fi
+fi
+if ! command -v openssl >/dev/null; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+        apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends openssl
+    else
+        echo "error: openssl not found; install it (e.g. sudo apt-get install openssl)" >&2
         exit 2
     fi
 fi

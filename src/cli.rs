@@ -7,11 +7,12 @@
 //!
 //! | code | meaning |
 //! |---|---|
-//! | 0 | every case passed (informational cases do not count); `verify`: every hash and signature matched |
-//! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash or signature mismatch, or no signature |
+//! | 0 | every judged case passed and at least one was judged (informational cases do not count); `verify`: every hash and signature matched and every signer is trusted (`--trust`) |
+//! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash, signature or input mismatch, an untrusted signer, or no signature |
 //! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way |
 //! | 3 | internal or backend error |
-//! | 4 | `linetime`, `bands`, `calibrate`: no confident estimate; the reason (flat rows, no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
+//! | 4 | per command: `plan`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked; `linetime`, `bands`, `calibrate`: no confident estimate, the reason (flat rows, no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
+//! | 130, 143 | `plan` stopped by SIGINT (Ctrl-C) or SIGTERM (128 + signal); the old report is left as it was |
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -38,7 +39,13 @@ pub const EXIT_FAIL: i32 = 1;
 pub const EXIT_INVALID: i32 = 2;
 /// Internal or backend error.
 pub const EXIT_INTERNAL: i32 = 3;
+/// `plan`: the run completed but no case was judged (every case informational).
+pub const EXIT_NOT_JUDGED: i32 = 4;
+/// `verify` without `--trust`: intact, but nobody vouched for the signers.
+/// Same number as [`EXIT_NOT_JUDGED`]: each command documents its own use.
+pub const EXIT_IDENTITY_UNCHECKED: i32 = 4;
 /// `linetime`, `bands`, `calibrate`: the input gives no confident estimate.
+/// Same number as [`EXIT_NOT_JUDGED`]: each command documents its own use.
 pub const EXIT_NO_CONFIDENCE: i32 = 4;
 
 #[derive(Parser, Debug)]
@@ -87,22 +94,37 @@ enum Command {
     /// writes a camera profile with --out. Exit code 4 when the frames give
     /// no confident estimate.
     Calibrate(crate::calibrate::command::CalibrateArgs),
-    /// Make an Ed25519 key pair for signing reports: FILE (private) and FILE.pub.
+    /// Make an ECDSA P-256 private key (FILE, PKCS#8 PEM, mode 0600) and a
+    /// self-signed X.509 certificate (FILE with `.crt`, PEM) for signing.
     Keygen {
-        /// Private key file; the public key goes to FILE.pub.
+        /// Who signs, "Name, Role": the certificate's common name.
+        #[arg(long)]
+        signer: String,
+        /// Organisation: the certificate's O.
+        #[arg(long, default_value = "")]
+        org: String,
+        /// Private key file, e.g. ~/keys/ada.key (certificate: ~/keys/ada.crt).
         #[arg(long)]
         out: PathBuf,
     },
-    /// Sign a report directory (adds a signature to signoff.json).
+    /// Sign a report directory: a PDF signature in report.pdf and a CMS
+    /// signature (signoff.p7s) of manifest.txt.
     Sign(SignArgs),
     /// Check every hash and signature of a signed report directory.
     Verify {
         /// Report directory.
         dir: PathBuf,
-        /// Trusted public key (FILE.pub from keygen); repeatable. Without it,
-        /// signatures are checked against the keys in signoff.json.
-        #[arg(long = "key")]
-        keys: Vec<PathBuf>,
+        /// Trusted certificate (PEM or DER), or a directory of them;
+        /// repeatable. Without it the signers' identity is not checked
+        /// (exit 4).
+        #[arg(long = "trust")]
+        trust: Vec<PathBuf>,
+        /// Also hash every input again at its recorded path.
+        #[arg(long)]
+        inputs: bool,
+        /// Look for relative input paths under this directory (implies --inputs).
+        #[arg(long)]
+        inputs_root: Option<PathBuf>,
     },
 }
 
@@ -182,9 +204,16 @@ struct RenderArgs {
 struct SignArgs {
     /// Report directory.
     dir: PathBuf,
-    /// Private key file from `ledflicker keygen`.
+    /// Private key, PKCS#8 PEM (ECDSA P-256), e.g. from `ledflicker keygen`.
+    #[arg(long, required_unless_present = "p12", conflicts_with = "p12")]
+    key: Option<PathBuf>,
+    /// Certificate of the key, PEM [default: the key file with `.crt`].
+    #[arg(long, requires = "key")]
+    cert: Option<PathBuf>,
+    /// Key and certificate in one PKCS#12 file; the passphrase comes from
+    /// $LEDFLICKER_P12_PASSPHRASE, else from a prompt.
     #[arg(long)]
-    key: PathBuf,
+    p12: Option<PathBuf>,
     /// Who signs, "Name, Role" (e.g. "Jane Doe, Approved by").
     #[arg(long)]
     signer: String,
@@ -212,9 +241,12 @@ struct PlanArgs {
     /// Print no summary table.
     #[arg(long, short)]
     quiet: bool,
-    /// Sign the report with this private key (from `ledflicker keygen`).
+    /// Sign the report with this private key (PKCS#8 PEM, from `ledflicker keygen`).
     #[arg(long, requires = "signer")]
     sign_key: Option<PathBuf>,
+    /// Certificate of --sign-key [default: the key file with `.crt`].
+    #[arg(long, requires = "sign_key")]
+    sign_cert: Option<PathBuf>,
     /// Who signs, "Name, Role"; with --sign-key.
     #[arg(long, requires = "sign_key")]
     signer: Option<String>,
@@ -310,6 +342,19 @@ pub struct UsageError(pub String);
 /// Maps an error to its exit code.
 pub fn exit_code(err: &anyhow::Error) -> i32 {
     for cause in err.chain() {
+        if let Some(i) = cause.downcast_ref::<crate::interrupt::Interrupted>() {
+            return i.exit_code();
+        }
+        if let Some(runner::RunError::Interrupted(i)) = cause.downcast_ref() {
+            return i.exit_code();
+        }
+        if let Some(e) = cause.downcast_ref::<crate::outdir::OutDirError>() {
+            return if e.is_usage_error() {
+                EXIT_INVALID
+            } else {
+                EXIT_INTERNAL
+            };
+        }
         if cause.is::<PlanError>() || cause.is::<UsageError>() {
             return EXIT_INVALID;
         }
@@ -343,8 +388,10 @@ pub fn exit_code(err: &anyhow::Error) -> i32 {
                 )
                 | crate::signoff::SignoffError::Io { .. }
                 | crate::signoff::SignoffError::Key { .. }
+                | crate::signoff::SignoffError::Pdf(_)
                 | crate::signoff::SignoffError::Refused(_) => EXIT_INVALID,
-                crate::signoff::SignoffError::Report(_) => EXIT_INTERNAL,
+                crate::signoff::SignoffError::Report(_)
+                | crate::signoff::SignoffError::Crypto(_) => EXIT_INTERNAL,
             };
         }
     }
@@ -374,55 +421,152 @@ fn run(cli: Cli) -> anyhow::Result<i32> {
         Command::Render(args) => render(args),
         Command::Bands(args) => crate::calibrate::command::bands(args),
         Command::Calibrate(args) => crate::calibrate::command::calibrate(args),
-        Command::Keygen { out } => {
-            let id = crate::signoff::keygen(&out)?;
+        Command::Keygen { signer, org, out } => {
+            let files = crate::signoff::keygen(&out, &signer, &org, now_unix_s())?;
             println!(
-                "private key: {} (keep it secret, outside report directories)\npublic key:  {}\nkey id:      {id}",
-                out.display(),
-                crate::signoff::public_key_path(&out).display()
+                "private key: {} (PKCS#8 PEM, mode 0600; keep it secret, outside report directories)\ncertificate: {} (self-signed X.509 PEM; give it to whoever verifies your reports)\nSHA-256:     {}",
+                files.key.display(),
+                files.cert.display(),
+                files.fingerprint
             );
             Ok(EXIT_PASS)
         }
-        Command::Sign(args) => {
-            let date = report_date(args.date.as_deref())?;
-            let e = crate::signoff::sign(&args.dir, &args.key, &args.signer, &date)
-                .with_context(|| format!("cannot sign `{}`", args.dir.display()))?;
-            println!(
-                "signed `{}` as {} (key {}), {} files",
-                args.dir.display(),
-                e.signer,
-                e.key_id,
-                e.files.len()
-            );
-            Ok(EXIT_PASS)
+        Command::Sign(args) => sign_cmd(args),
+        Command::Verify {
+            dir,
+            trust,
+            inputs,
+            inputs_root,
+        } => {
+            let inputs = (inputs || inputs_root.is_some()).then_some(inputs_root.as_deref());
+            verify(&dir, &trust, inputs)
         }
-        Command::Verify { dir, keys } => verify(&dir, &keys),
     }
 }
 
-fn verify(dir: &std::path::Path, keys: &[PathBuf]) -> anyhow::Result<i32> {
-    let trusted = keys
-        .iter()
-        .map(|k| crate::signoff::load_verifying_key(k))
-        .collect::<Result<Vec<_>, _>>()?;
-    let v = crate::signoff::verify(dir, &trusted)
+fn now_unix_s() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+/// Signing time: $SOURCE_DATE_EPOCH, else midnight UTC of --date, else now.
+fn signing_time(date_arg: Option<&str>) -> anyhow::Result<u64> {
+    if let Ok(s) = std::env::var("SOURCE_DATE_EPOCH") {
+        return s.trim().parse().map_err(|_| {
+            UsageError(format!(
+                "SOURCE_DATE_EPOCH `{s}` is not an integer number of seconds"
+            ))
+            .into()
+        });
+    }
+    Ok(match date_arg {
+        Some(d) => crate::signoff::unix_of_date(d)
+            .ok_or_else(|| UsageError(format!("--date `{d}` is not a valid date")))?,
+        None => now_unix_s(),
+    })
+}
+
+/// Loads the signing key and certificate (PEM pair or PKCS#12).
+fn load_signer(
+    key: Option<&std::path::Path>,
+    cert: Option<&std::path::Path>,
+    p12: Option<&std::path::Path>,
+) -> anyhow::Result<(crate::signoff::SignerKey, Vec<PathBuf>)> {
+    if let Some(p12) = p12 {
+        let pass = match std::env::var("LEDFLICKER_P12_PASSPHRASE") {
+            Ok(p) => p,
+            Err(_) => crate::signoff::prompt_passphrase(p12)?,
+        };
+        return Ok((
+            crate::signoff::pkcs12::load(p12, &pass)?,
+            vec![p12.to_path_buf()],
+        ));
+    }
+    let key = key.ok_or_else(|| UsageError("give --key or --p12".into()))?;
+    let cert = cert.map_or_else(
+        || crate::signoff::keys::certificate_path(key),
+        PathBuf::from,
+    );
+    let signer = crate::signoff::keys::load_signer(key, &cert)?;
+    Ok((signer, vec![key.to_path_buf()]))
+}
+
+fn sign_cmd(args: SignArgs) -> anyhow::Result<i32> {
+    let date = report_date(args.date.as_deref())?;
+    let time = signing_time(args.date.as_deref())?;
+    let (key, key_files) = load_signer(
+        args.key.as_deref(),
+        args.cert.as_deref(),
+        args.p12.as_deref(),
+    )?;
+    let done = crate::signoff::sign(
+        &args.dir,
+        &crate::signoff::SignRequest {
+            signer: &args.signer,
+            date: &date,
+            time_unix_s: time,
+            key: &key,
+            key_files,
+        },
+    )
+    .with_context(|| format!("cannot sign `{}`", args.dir.display()))?;
+    println!(
+        "signed `{}` as {} (signature {}, certificate SHA-256 {}), {} files in manifest.txt",
+        args.dir.display(),
+        args.signer.trim(),
+        done.index,
+        done.fingerprint,
+        done.files
+    );
+    Ok(EXIT_PASS)
+}
+
+fn verify(
+    dir: &std::path::Path,
+    trust: &[PathBuf],
+    inputs: Option<Option<&std::path::Path>>,
+) -> anyhow::Result<i32> {
+    let trusted = crate::signoff::verify::load_trusted(trust)?;
+    let v = crate::signoff::verify(dir, &trusted, inputs)
         .with_context(|| format!("cannot verify `{}`", dir.display()))?;
-    for (signer, key) in &v.valid {
-        println!("signature ok: {signer} (key {key})");
+    let n = v.signatures.len();
+    for s in &v.signatures {
+        let trust = match s.trusted {
+            Some(true) => "trusted certificate",
+            Some(false) => "NOT a trusted certificate",
+            None => "identity not checked",
+        };
+        println!(
+            "signature {} of {n}: \"{}\" on {}, certificate \"{}\" SHA-256 {} ({trust})",
+            s.index, s.signer, s.date, s.subject, s.fingerprint
+        );
     }
     for p in &v.problems {
         println!("FAIL: {p}");
     }
-    if v.ok() {
-        println!(
-            "verified: {} files, {} signature(s)",
-            v.files,
-            v.valid.len()
-        );
+    if !v.ok() {
+        println!("NOT VERIFIED: {} problem(s)", v.problems.len());
+        return Ok(EXIT_FAIL);
+    }
+    println!(
+        "intact: {} files, {n} manifest signature(s), {} PDF signature(s){}",
+        v.files,
+        v.pdf_signatures,
+        if inputs.is_some() {
+            format!(", {} input(s) unchanged", v.inputs_checked)
+        } else {
+            String::new()
+        }
+    );
+    if v.identity_checked {
+        println!("verified: every signer holds a trusted certificate");
         Ok(EXIT_PASS)
     } else {
-        println!("NOT VERIFIED: {} problem(s)", v.problems.len());
-        Ok(EXIT_FAIL)
+        println!(
+            "IDENTITY NOT CHECKED: anyone can sign under any name; pass --trust CERT (the signers' certificates, obtained from them directly) to check who signed (exit {EXIT_IDENTITY_UNCHECKED})"
+        );
+        Ok(EXIT_IDENTITY_UNCHECKED)
     }
 }
 
@@ -438,6 +582,7 @@ fn validate(arg: &str) -> anyhow::Result<i32> {
             cases.len(),
             plan.rois.len()
         );
+        println!("{}", plan::WorkEstimate::of(&plan).summary());
         return Ok(EXIT_PASS);
     }
     let frames = crate::backend::sim::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps);
@@ -452,6 +597,7 @@ fn validate(arg: &str) -> anyhow::Result<i32> {
         plan.rois.len(),
         frames.total()
     );
+    println!("{}", plan::WorkEstimate::of(&plan).summary());
     Ok(EXIT_PASS)
 }
 
@@ -465,17 +611,26 @@ fn report_date(arg: Option<&str>) -> anyhow::Result<String> {
                     c.is_ascii_digit()
                 }
             });
-        if !ok {
-            return Err(UsageError(format!("--date `{d}` is not YYYY-MM-DD")).into());
+        if !ok || !crate::util::is_calendar_date(d) {
+            return Err(UsageError(format!(
+                "--date `{d}` is not a date YYYY-MM-DD (e.g. 2026-11-23)"
+            ))
+            .into());
         }
         return Ok(d.to_string());
     }
     if let Ok(s) = std::env::var("SOURCE_DATE_EPOCH") {
-        let secs: i64 = s.trim().parse().map_err(|_| {
-            UsageError(format!(
-                "SOURCE_DATE_EPOCH `{s}` is not an integer number of seconds"
-            ))
-        })?;
+        let secs: i64 = s
+            .trim()
+            .parse()
+            .ok()
+            .filter(|v| (0..=crate::util::MAX_UNIX_S).contains(v))
+            .ok_or_else(|| {
+                UsageError(format!(
+                    "SOURCE_DATE_EPOCH `{s}` is not a whole number of seconds between 0 and {} (years 1970 to 9999)\n    hint: unset it, or set it to e.g. $(date +%s)",
+                    crate::util::MAX_UNIX_S
+                ))
+            })?;
         return Ok(crate::util::utc_date(secs));
     }
     let now = std::time::SystemTime::now()
@@ -496,8 +651,11 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
-    // Refuse before spending time on the run.
+    // Refuse before spending time on the run: a signed report without
+    // --force, a directory ledflicker did not write, an unwritable place.
     report::check_overwrite(&out, args.force)?;
+    let generation = crate::outdir::Generation::begin(&out)?;
+    crate::interrupt::install();
     let mut tolerances = report::golden::Tolerances::default();
     for t in &args.golden_tolerance {
         tolerances.set(t).map_err(UsageError)?;
@@ -509,11 +667,16 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
         ),
         None => None,
     };
-    if let Some(key) = &args.sign_key {
-        // Fail on a bad key before the run, not after it.
-        crate::signoff::load_signing_key(key)?;
-        crate::signoff::check_key_outside(&out, key)?;
-    }
+    // Fail on a bad key before the run, not after it.
+    let signer_key = match &args.sign_key {
+        Some(key) => {
+            let loaded = load_signer(Some(key), args.sign_cert.as_deref(), None)?;
+            crate::signoff::check_key_outside(&out, key)?;
+            Some(loaded)
+        }
+        None => None,
+    };
+    let sign_time = signing_time(args.date.as_deref())?;
 
     let cases = plan::expand_cases(&plan);
     let sim;
@@ -533,6 +696,8 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
                 .ok_or_else(|| UsageError("the plan has no [capture] command".into()))?,
         ),
     };
+    // After the backend has checked that the captures exist.
+    let inputs = crate::inputs::collect(&plan).map_err(|e| UsageError(e.to_string()))?;
     let bar = if std::io::stderr().is_terminal() {
         ProgressBar::with_draw_target(Some(cases.len() as u64), ProgressDrawTarget::stderr())
     } else {
@@ -570,25 +735,44 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
             case.capture = summaries.get(&case.id).cloned();
         }
     }
+    report::method::describe(&mut model, &plan);
+    crate::interrupt::check()?;
     report::write_report(
-        &out,
+        generation.path(),
         &model,
         &results,
         &WriteOptions {
             date: date.clone(),
             force: args.force,
             signatories: Vec::new(),
+            inputs,
         },
     )
     .with_context(|| format!("cannot write the report to `{}`", out.display()))?;
-    if let (Some(key), Some(signer)) = (&args.sign_key, &args.signer) {
-        let e = crate::signoff::sign(&out, key, signer, &date)
-            .with_context(|| format!("cannot sign `{}`", out.display()))?;
+    if let (Some((key, key_files)), Some(signer)) = (signer_key, &args.signer) {
+        let done = crate::signoff::sign(
+            generation.path(),
+            &crate::signoff::SignRequest {
+                signer,
+                date: &date,
+                time_unix_s: sign_time,
+                key: &key,
+                key_files,
+            },
+        )
+        .with_context(|| format!("cannot sign `{}`", out.display()))?;
         if !args.quiet {
-            println!("signed by {} (key {})", e.signer, e.key_id);
+            println!(
+                "signed by {} (certificate SHA-256 {})",
+                signer.trim(),
+                done.fingerprint
+            );
         }
     }
 
+    // The new generation replaces the old report in one step, or not at all.
+    crate::interrupt::check()?;
+    generation.commit()?;
     if !args.quiet {
         print_summary(&model, &out)?;
     }
@@ -600,6 +784,8 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     }
     Ok(if model.verdict == Verdict::Fail || drift {
         EXIT_FAIL
+    } else if model.verdict == Verdict::Info {
+        EXIT_NOT_JUDGED
     } else {
         EXIT_PASS
     })
@@ -607,59 +793,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
 
 fn print_summary(model: &report::Results, out: &std::path::Path) -> anyhow::Result<()> {
     let mut w = std::io::stdout().lock();
-    let width = model
-        .cases
-        .iter()
-        .map(|c| c.id.len())
-        .max()
-        .unwrap_or(4)
-        .max(4);
-    writeln!(
-        w,
-        "{:<width$}  {:<7}  {:>10}  {:>10}  {:>8}  {:>8}",
-        "case", "verdict", "FDI", "FDI worst", "PF %", "PF worst"
-    )?;
-    let show = |v: Option<f64>, unbounded: bool, digits: usize| -> String {
-        if unbounded {
-            "+inf".to_string()
-        } else {
-            v.map_or("n/a".to_string(), |x| crate::util::fixed(x, digits))
-        }
-    };
-    for c in &model.cases {
-        // The first LED ROI stands for the case in the table; the report
-        // has every ROI.
-        let Some(roi) = c
-            .rois
-            .iter()
-            .find(|r| r.kind == plan::RoiKind::Led)
-            .or(c.rois.first())
-        else {
-            continue;
-        };
-        let m = |k: &str| roi.metrics.get(k).copied().flatten();
-        writeln!(
-            w,
-            "{:<width$}  {:<7}  {:>10}  {:>10}  {:>8}  {:>8}",
-            c.id,
-            c.verdict.as_str(),
-            show(m("fdi_2018"), roi.contrast_unbounded, 3),
-            show(m("fdi_2018_worst_phase"), roi.contrast_unbounded, 3),
-            show(m("percent_flicker"), false, 2),
-            show(m("percent_flicker_worst_phase"), false, 2),
-        )?;
-    }
-    writeln!(
-        w,
-        "\noverall: {} ({} pass, {} fail, {} info of {} cases)\nreport:  {}\n         {}",
-        model.verdict.as_str().to_uppercase(),
-        model.counts.pass,
-        model.counts.fail,
-        model.counts.info,
-        model.counts.total,
-        out.join("report.html").display(),
-        out.join("report.pdf").display()
-    )?;
+    w.write_all(report::terminal::summary(model, out).as_bytes())?;
     Ok(())
 }
 
@@ -678,8 +812,57 @@ fn parse_rows(s: &str) -> Result<std::ops::Range<u32>, UsageError> {
     Ok(a..b)
 }
 
+/// Physical bounds of `simulate` and `render` inputs (docs/plan-format.md,
+/// "Limits"): beyond them the arithmetic loses meaning or overflows.
+fn check_simulate_bounds(a: &SimulateArgs) -> Result<(), UsageError> {
+    use crate::plan::bounds::{MAX_FPS, MAX_FRAMES_PER_CASE, MAX_FREQUENCY_HZ, MIN_EXPOSURE_S};
+    let problems = [
+        (
+            a.frequency_hz > MAX_FREQUENCY_HZ,
+            format!("--frequency-hz must be at most {MAX_FREQUENCY_HZ:.0}"),
+        ),
+        (
+            a.fps > MAX_FPS,
+            format!("--fps must be at most {MAX_FPS:.0}"),
+        ),
+        (a.fps < 0.01, "--fps must be at least 0.01".to_string()),
+        (
+            a.exposure_ms * 1e-3 < MIN_EXPOSURE_S,
+            "--exposure-ms must be at least 0.001".to_string(),
+        ),
+        (
+            a.exposure_ms > 1e4,
+            "--exposure-ms must be at most 10000".to_string(),
+        ),
+        (
+            a.frames > MAX_FRAMES_PER_CASE,
+            format!("--frames must be at most {MAX_FRAMES_PER_CASE}"),
+        ),
+        (
+            a.pwm_delay_ms.is_nan() || a.pwm_delay_ms.abs() > 1e6,
+            "--pwm-delay-ms must be within +-1e6".to_string(),
+        ),
+        (
+            a.line_time_us > 1e6,
+            "--line-time-us must be at most 1e6".to_string(),
+        ),
+        (
+            a.sensor_rows > crate::plan::bounds::MAX_SENSOR_SIDE,
+            format!(
+                "--sensor-rows must be at most {}",
+                crate::plan::bounds::MAX_SENSOR_SIDE
+            ),
+        ),
+    ];
+    match problems.iter().find(|(bad, _)| *bad) {
+        Some((_, m)) => Err(UsageError(m.clone())),
+        None => Ok(()),
+    }
+}
+
 fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
     let usage = |m: String| anyhow::Error::from(UsageError(m));
+    check_simulate_bounds(&a)?;
     let pwm = PwmDrive::new(a.frequency_hz, a.duty, a.pwm_delay_ms * 1e-3).map_err(usage)?;
     if !(a.exposure_ms.is_finite() && a.exposure_ms > 0.0) {
         return Err(usage(format!(
@@ -767,6 +950,7 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
             a.sensor_rows,
             scene.as_ref(),
         );
+        // serde_json writes a non-finite number as null, never NaN.
         println!("{}", serde_json::to_string_pretty(&summary)?);
         return Ok(EXIT_PASS);
     }
@@ -774,7 +958,14 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
     writeln!(w, "frame,time_s,on_fraction")?;
     for k in 0..a.frames {
         let s = shutter.frame_on_fraction(&pwm, k, rows.clone());
-        writeln!(w, "{k},{},{s}", k as f64 / a.fps)?;
+        let t = k as f64 / a.fps;
+        if !(s.is_finite() && t.is_finite()) {
+            // Never print NaN: the inputs are beyond what the model covers.
+            return Err(usage(format!(
+                "frame {k} has no finite ON fraction for these inputs; check their ranges (`ledflicker simulate --help`)"
+            )));
+        }
+        writeln!(w, "{k},{t},{s}")?;
     }
     w.flush()?;
     Ok(EXIT_PASS)

@@ -7,7 +7,8 @@
 //! TOML plan --plan::load--> Plan --expand_cases--> Vec<TestCase>
 //!   --runner::run (rayon) + dyn Backend--> Vec<CaseResult>
 //!   --report::build--> Results (results.json) --report::{html,pdf,export}-->
-//!   report.html, report.pdf, junit.xml, summary.csv --signoff--> signoff.json
+//!   report.html, report.pdf, junit.xml, summary.csv --signoff--> signed report.pdf,
+//!   manifest.txt, signoff.p7s
 //! ```
 //!
 //! - [`plan`]: the TOML format, validation with every error located by line;
@@ -23,7 +24,10 @@
 //!   from real banding frames (`linetime`, `bands`, `calibrate`).
 //! - [`report`]: results.json, trace CSVs, charts, the HTML and PDF reports,
 //!   JUnit/CSV exports and golden-file comparison;
-//! - [`signoff`]: Ed25519 sign-off of a report directory and its verification.
+//! - [`inputs`]: the evidence (inputs) of a run, hashed for the report and
+//!   the sign-off;
+//! - [`signoff`]: X.509 certificates, PDF and CMS signatures of a report
+//!   directory, and their verification.
 #![warn(missing_docs)]
 
 pub mod advise;
@@ -33,7 +37,10 @@ pub mod bench;
 pub mod calibrate;
 pub mod capture;
 pub mod cli;
+pub mod inputs;
+pub mod interrupt;
 pub mod metrics;
+pub mod outdir;
 pub mod physics;
 pub mod plan;
 pub mod render;

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 use crate::backend::{Acquisition, Backend, BackendError, RenderedFrame};
 use crate::metrics::flicker::Segment;
 use crate::metrics::p2020::{self, P2020Metrics};
+use crate::metrics::verdict::{CaseConditions, RoiFigures, effective_basis};
 use crate::metrics::{Check, RoiMetrics, Verdict, evaluate_case, evaluate_roi};
 use crate::plan::RoiKind;
 use crate::plan::{Plan, TestCase};
@@ -26,6 +27,10 @@ pub struct CaseResult {
     pub verdict: Verdict,
     /// Every threshold check made.
     pub checks: Vec<Check>,
+    /// Why the case is informational, when it is.
+    pub not_judged: Option<String>,
+    /// Limits that could not apply to this case, and why.
+    pub not_checked: Vec<String>,
     /// A picture of the frame with the lowest LED-ROI luma in the PWM
     /// segment, when one was asked for and the backend can render it.
     pub sample_frame: Option<RenderedFrame>,
@@ -64,6 +69,9 @@ pub enum RunError {
         /// What is wrong.
         message: String,
     },
+    /// SIGINT or SIGTERM asked the run to stop.
+    #[error(transparent)]
+    Interrupted(#[from] crate::interrupt::Interrupted),
     /// The thread pool could not be built.
     #[error("cannot start {threads} worker threads: {message}")]
     Threads {
@@ -88,7 +96,13 @@ pub fn run(
         cases
             .par_iter()
             .map(|case| {
-                let result = run_case(plan, case, backend)?;
+                // Stop between cases once Ctrl-C or SIGTERM arrived; a
+                // case that fails because its rig was killed for the same
+                // reason is reported as the interruption.
+                crate::interrupt::check()?;
+                let result = run_case(plan, case, backend).map_err(|e| {
+                    crate::interrupt::check().map_or_else(RunError::Interrupted, |()| e)
+                })?;
                 on_event(RunEvent::CaseFinished {
                     case,
                     verdict: result.verdict,
@@ -164,17 +178,50 @@ pub fn run_case(
         metrics.push(m);
         p2020s.extend(p2020::evaluate(&trace.luma, &segments, &plan.p2020));
     }
-    let pairs: Vec<_> = plan.rois.iter().zip(&metrics).collect();
-    let (verdict, checks) = evaluate_case(case.frequency_hz, &pairs, &plan.thresholds);
+    let figures: Vec<RoiFigures<'_>> = plan
+        .rois
+        .iter()
+        .zip(&metrics)
+        .enumerate()
+        .map(|(i, (roi, m))| RoiFigures {
+            roi,
+            metrics: m,
+            p2020: p2020s.get(i),
+        })
+        .collect();
+    let eval = evaluate_case(
+        &case_conditions(plan, case),
+        &figures,
+        &plan.thresholds,
+        effective_basis(plan.dut.backend, &plan.thresholds),
+    );
     Ok(CaseResult {
         case: case.clone(),
         acquisition,
         metrics,
-        verdict,
-        checks,
+        verdict: eval.verdict,
+        checks: eval.checks,
+        not_judged: eval.not_judged,
+        not_checked: eval.not_checked,
         sample_frame: None,
         p2020: p2020s,
     })
+}
+
+/// The conditions a verdict needs: a captured case's unknown conditions are
+/// 0 in its [`TestCase`], and its `informative` flag is in the plan.
+fn case_conditions(plan: &Plan, case: &TestCase) -> CaseConditions {
+    let known = |v: f64| (v > 0.0).then_some(v);
+    let informative = plan
+        .capture
+        .as_ref()
+        .and_then(|c| c.cases.iter().find(|k| k.id == case.id))
+        .is_some_and(|k| k.informative);
+    CaseConditions {
+        frequency_hz: known(case.frequency_hz),
+        light_lux: known(case.light_lux),
+        informative,
+    }
 }
 
 /// The PWM-segment frame with the lowest luma in the first LED ROI: the
@@ -198,6 +245,7 @@ pub fn render_sample_frames(
     backend: &dyn Backend,
 ) -> Result<(), RunError> {
     results.par_iter_mut().try_for_each(|r| {
+        crate::interrupt::check()?;
         if let Some(frame) = darkest_pwm_frame(plan, r)
             && let Some(rendered) = backend.render_frame(&r.case, frame)
         {

@@ -37,6 +37,28 @@ pub fn utc_date(unix_s: i64) -> String {
     format!("{y:04}-{m:02}-{d:02}")
 }
 
+/// Last second of 9999-12-31, UTC: the largest Unix time a `YYYY-MM-DD`
+/// date can show.
+pub const MAX_UNIX_S: i64 = 253_402_300_799;
+
+/// True when `d` (`YYYY-MM-DD`, ASCII digits) is a real Gregorian date,
+/// years 0001 to 9999.
+pub fn is_calendar_date(d: &str) -> bool {
+    let num = |r: std::ops::Range<usize>| d.get(r).and_then(|s| s.parse::<u32>().ok());
+    let (Some(y), Some(m), Some(day)) = (num(0..4), num(5..7), num(8..10)) else {
+        return false;
+    };
+    let leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
+    let days = match m {
+        1 | 3 | 5 | 7 | 8 | 10 | 12 => 31,
+        4 | 6 | 9 | 11 => 30,
+        2 if leap => 29,
+        2 => 28,
+        _ => return false,
+    };
+    y >= 1 && (1..=days).contains(&day)
+}
+
 /// Writes `bytes` to `path` atomically: a temporary file in the same
 /// directory, flushed to disk, then renamed over `path`. A reader sees the
 /// old file or the new one, never half of one.
@@ -76,6 +98,18 @@ mod tests {
             sha256_hex(b"abc"),
             "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
         );
+    }
+
+    #[test]
+    fn calendar_dates_are_checked_by_month_and_leap_year() {
+        assert!(is_calendar_date("2024-02-29"));
+        assert!(is_calendar_date("2000-02-29"));
+        assert!(!is_calendar_date("1900-02-29"));
+        assert!(!is_calendar_date("2026-13-01"));
+        assert!(!is_calendar_date("2026-04-31"));
+        assert!(!is_calendar_date("2026-00-10"));
+        assert!(!is_calendar_date("0000-01-01"));
+        assert_eq!(utc_date(MAX_UNIX_S), "9999-12-31");
     }
 
     #[test]

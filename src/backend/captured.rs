@@ -5,40 +5,19 @@
 //! a bad input stops the run with a [`CaptureError`] naming the file and
 //! frame (exit code 2) before any report is written; `acquire` then hands
 //! out the traces. Segments come from the plan or are detected from the
-//! luma: a dark baseline, then the step where the light comes on.
+//! luma of the LED ROIs, following the plan's sequence ([`super::segments`]).
 
 use std::collections::HashMap;
 use std::path::Path;
 
 use rayon::prelude::*;
 
+pub use super::segments::SegmentsFound;
+use super::segments::{self, Detection};
 use super::{Acquisition, Backend, BackendError, FrameInfo, RoiTrace};
 use crate::capture::{self, CaptureError, CaptureTrace, ReadOptions, RoiRect};
 use crate::metrics::flicker::Segment;
 use crate::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Span, TestCase};
-
-/// Frames kept out of the segments on each side of a detected ON step.
-pub const DETECT_GUARD_FRAMES: u64 = 2;
-/// Time skipped after a detected ON step before the PWM segment starts,
-/// seconds (auto-exposure settling).
-pub const DETECT_SETTLE_S: f64 = 0.5;
-
-/// Where a case's segments are, in frames (start inclusive, end exclusive).
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct SegmentsFound {
-    /// "plan" or "detected".
-    pub method: &'static str,
-    /// OFF reference frames.
-    pub off: Option<(u64, u64)>,
-    /// Steady-ON frames.
-    pub on: Option<(u64, u64)>,
-    /// PWM frames.
-    pub pwm: (u64, u64),
-    /// Frames in the capture.
-    pub capture_frames: u64,
-    /// Detection threshold on the mean ROI luma, DN (detected only).
-    pub threshold_dn: Option<f64>,
-}
 
 /// Turns the plan's ROIs into pixel rectangles.
 pub fn roi_rects(rois: &[Roi]) -> Vec<RoiRect> {
@@ -76,12 +55,27 @@ fn resolve(span: &Span, trace: &CaptureTrace) -> (u64, Option<u64>) {
     }
 }
 
-/// Finds the segments of `trace` from the plan or from its luma.
+/// Finds the segments of `trace` from the plan, or detects them by the
+/// `off-then-pwm` rule over every ROI (for callers without a sequence).
 pub fn find_segments(
     spec: &SegmentSpec,
     trace: &CaptureTrace,
     path: &Path,
 ) -> Result<SegmentsFound, CaptureError> {
+    find_segments_with(spec, trace, path, &Detection::off_then_pwm())
+}
+
+/// Finds the segments of `trace` from the plan, or detects them from its
+/// luma as `detection` says ([`segments::detect`]).
+pub fn find_segments_with(
+    spec: &SegmentSpec,
+    trace: &CaptureTrace,
+    path: &Path,
+    detection: &Detection,
+) -> Result<SegmentsFound, CaptureError> {
+    if spec.detect() {
+        return segments::detect(trace, detection, path);
+    }
     let n = trace.time_s.len() as u64;
     let short = |what: &str, s: u64, e: Option<u64>| CaptureError::Invalid {
         path: path.to_path_buf(),
@@ -92,79 +86,46 @@ pub fn find_segments(
         hint: "check the capture, or the segment keys (off-frames, pwm-frames, ...) in the plan"
             .to_string(),
     };
-    if !spec.detect() {
-        let get = |what: &str, span: &Option<Span>| -> Result<Option<(u64, u64)>, CaptureError> {
-            let Some(span) = span else { return Ok(None) };
-            let (s, e) = resolve(span, trace);
-            if s >= n || e.is_some_and(|e| e > n) {
-                return Err(short(what, s, e));
+    let get = |what: &str, span: &Option<Span>| -> Result<Option<(u64, u64)>, CaptureError> {
+        let Some(span) = span else { return Ok(None) };
+        let (s, e) = resolve(span, trace);
+        if s >= n || e.is_some_and(|e| e > n) {
+            return Err(short(what, s, e));
+        }
+        Ok(Some((s, e.unwrap_or(n))))
+    };
+    let off = get("OFF", &spec.off)?;
+    let on = get("ON", &spec.on)?;
+    let pwm = get("PWM", &spec.pwm)?.ok_or_else(|| short("PWM", 0, None))?;
+    let t0 = trace.time_s.first().copied().unwrap_or(0.0);
+    let span_s = |(a, b): (u64, u64)| {
+        let at = |k: u64| match trace.time_s.get(k as usize) {
+            Some(t) => t - t0,
+            None => {
+                let last = trace.time_s[trace.time_s.len() - 1] - t0;
+                last + last / (n.max(2) - 1) as f64
             }
-            Ok(Some((s, e.unwrap_or(n))))
         };
-        let off = get("OFF", &spec.off)?;
-        let on = get("ON", &spec.on)?;
-        let pwm = get("PWM", &spec.pwm)?.ok_or_else(|| short("PWM", 0, None))?;
-        return Ok(SegmentsFound {
-            method: "plan",
-            off,
-            on,
-            pwm,
-            capture_frames: n,
-            threshold_dn: None,
-        });
-    }
-    // Detection: the mean over ROIs per frame; a dark baseline, then the step.
-    let m: Vec<f64> = (0..n as usize)
-        .map(|k| trace.luma.iter().map(|t| t[k]).sum::<f64>() / trace.luma.len().max(1) as f64)
-        .collect();
-    let lo = m.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = m.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let fail = |message: String| CaptureError::Invalid {
-        path: path.to_path_buf(),
-        message,
-        hint:
-            "give the segments in the plan: off-frames = [a, b] and pwm-frames = [c] (or *-time-s)"
-                .to_string(),
+        (at(a), at(b))
     };
-    if hi - lo <= 0.02 * trace.full_scale_dn || !hi.is_finite() || !lo.is_finite() {
-        return Err(fail(format!(
-            "cannot detect segments: the ROI luma stays within {lo:.2}..{hi:.2} DN (no ON step)"
-        )));
-    }
-    // The ON step: the first frame above a quarter of the range. The OFF
-    // baseline ends where the luma first leaves the dark level (2 % of the
-    // range), so a slow rise is not averaged into x_off.
-    let threshold = lo + 0.25 * (hi - lo);
-    let step = m.iter().position(|&x| x > threshold).unwrap_or(0) as u64;
-    let rise = m
-        .iter()
-        .position(|&x| x > lo + 0.02 * (hi - lo))
-        .unwrap_or(0) as u64;
-    if rise <= DETECT_GUARD_FRAMES {
-        return Err(fail(
-            "cannot detect segments: the capture does not start with a dark OFF baseline"
-                .to_string(),
-        ));
-    }
-    let fps = if n > 1 {
-        (n - 1) as f64 / (trace.time_s[n as usize - 1] - trace.time_s[0]).max(1e-9)
-    } else {
-        30.0
-    };
-    let pwm_start = step + ((DETECT_SETTLE_S * fps).round() as u64).max(DETECT_GUARD_FRAMES);
-    if pwm_start + 2 > n {
-        return Err(fail(format!(
-            "the light comes on at frame {step}, too late for a PWM segment of 2 frames or more"
-        )));
-    }
-    Ok(SegmentsFound {
-        method: "detected",
-        off: Some((0, rise - DETECT_GUARD_FRAMES)),
-        on: None,
-        pwm: (pwm_start, n),
+    let found = SegmentsFound {
+        method: "plan",
+        rule: None,
+        off,
+        on,
+        pwm,
+        off_time_s: off.map(span_s),
+        on_time_s: on.map(span_s),
+        pwm_time_s: span_s(pwm),
         capture_frames: n,
-        threshold_dn: Some(threshold),
-    })
+        threshold_dn: None,
+        settle_s: None,
+        levels_dn: None,
+        steps: Vec::new(),
+        text: String::new(),
+        signal: Vec::new(),
+    };
+    Ok(found.with_text("given in the plan"))
 }
 
 /// Builds the acquisition of a capture: frames inside a segment, labelled;
@@ -246,12 +207,13 @@ impl Captured {
         let rects = roi_rects(&plan.rois);
         let names: Vec<String> = plan.rois.iter().map(|r| r.name.clone()).collect();
         let opts = read_options(cap);
+        let detection = Detection::for_plan(plan);
         let loaded: Vec<(String, Acquisition, CaptureSummary)> = cap
             .cases
             .par_iter()
             .map(|c| {
                 let trace = capture::read_capture(&c.source, &rects, &names, &opts)?;
-                let found = find_segments(&c.segments, &trace, &c.source)?;
+                let found = find_segments_with(&c.segments, &trace, &c.source, &detection)?;
                 let acq = to_acquisition(&trace, &found, &plan.rois, cap.saturation_dn);
                 let summary = CaptureSummary {
                     source: c.source_text.clone(),

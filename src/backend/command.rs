@@ -11,18 +11,45 @@
 //! - segments come from `[capture]` when given, else from `[sequence]`
 //!   (ON, OFF, PWM in that order, by frame time).
 
-use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Command;
+use std::time::Duration;
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
 use super::captured::{CaptureSummary, find_segments, read_options, roi_rects, to_acquisition};
+use super::rig::{self, RigError};
 use super::{Acquisition, Backend, BackendError};
 use crate::capture::{self, SourceKind};
 use crate::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Sequence, Span, TestCase};
+
+/// Name prefix of the rigs' scratch directories in the temporary
+/// directory: `ledflicker-rig-<pid>-<case id>-<random>`.
+const SCRATCH_PREFIX: &str = "ledflicker-rig-";
+
+/// Removes the scratch directories that runs killed with SIGKILL left in
+/// the temporary directory (their process is gone); returns how many.
+pub fn clean_stale_scratch() -> usize {
+    let Ok(entries) = std::fs::read_dir(std::env::temp_dir()) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(pid) = name
+            .strip_prefix(SCRATCH_PREFIX)
+            .and_then(|rest| rest.split('-').next())
+            .and_then(|pid| pid.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        if !crate::outdir::alive(pid) && std::fs::remove_dir_all(e.path()).is_ok() {
+            removed += 1;
+        }
+    }
+    removed
+}
 
 /// Runs a lab-rig command per case.
 #[derive(Debug, Clone)]
@@ -34,7 +61,6 @@ pub struct CommandRig {
     sequence: Sequence,
     fps: f64,
     rois: Vec<Roi>,
-    scratch: PathBuf,
     summaries: Arc<Mutex<HashMap<String, CaptureSummary>>>,
 }
 
@@ -43,6 +69,7 @@ impl CommandRig {
     pub fn new(plan: &Plan) -> Option<Self> {
         let cap = plan.capture.clone()?;
         let cmd = cap.command.clone()?;
+        clean_stale_scratch();
         Some(Self {
             argv: cmd.argv,
             timeout: Duration::from_secs_f64(cmd.timeout_s),
@@ -63,7 +90,6 @@ impl CommandRig {
             fps: plan.dut.camera.fps,
             rois: plan.rois.clone(),
             summaries: Arc::default(),
-            scratch: std::env::temp_dir().join(format!("ledflicker-rig-{}", std::process::id())),
         })
     }
 
@@ -94,8 +120,29 @@ impl CommandRig {
         }
     }
 
-    /// Runs the command for `case`; returns the capture it left in `out`.
-    fn run_command(&self, case: &TestCase, out: &Path) -> Result<PathBuf, BackendError> {
+    /// The case as one JSON object for the command's stdin: the same fields
+    /// as the environment, numbers as numbers (the seed as an exact
+    /// integer), plus the ROIs.
+    fn stdin_json(&self, case: &TestCase, out: &Path) -> String {
+        let s = &self.sequence;
+        serde_json::json!({
+            "case_id": case.id,
+            "light_lux": case.light_lux,
+            "frequency_hz": case.frequency_hz,
+            "duty": case.duty,
+            "seed": case.seed,
+            "on_s": s.on_s,
+            "off_s": s.off_s,
+            "pwm_s": s.pwm_s,
+            "frame_rate_fps": self.fps,
+            "out_dir": out.display().to_string(),
+            "rois": self.rois,
+        })
+        .to_string()
+    }
+
+    /// Program and arguments, with paths relative to the plan resolved.
+    fn program_and_args(&self) -> (PathBuf, Vec<String>) {
         let mut program = PathBuf::from(&self.argv[0]);
         let local = self.plan_dir.join(&program);
         if program.is_relative() && program.components().count() > 1 && local.exists() {
@@ -112,72 +159,29 @@ impl CommandRig {
                 }
             })
             .collect();
-        let env = self.env(case, out);
-        let mut json = serde_json::Map::new();
-        for (k, v) in &env {
-            let key = k.trim_start_matches("LEDFLICKER_").to_ascii_lowercase();
-            let value = v
-                .parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite() && key != "case_id" && key != "out_dir")
-                .map_or(serde_json::Value::from(v.clone()), serde_json::Value::from);
-            json.insert(key, value);
-        }
-        json.insert(
-            "rois".to_string(),
-            serde_json::to_value(&self.rois).unwrap_or_default(),
-        );
+        (program, args)
+    }
+
+    /// Runs the command for `case`; returns the capture it left in `out`.
+    fn run_command(&self, case: &TestCase, out: &Path) -> Result<PathBuf, BackendError> {
+        let (program, args) = self.program_and_args();
         let exe = std::env::current_exe().unwrap_or_default();
-        let mut child = Command::new(&program)
+        let mut command = Command::new(&program);
+        command
             .args(&args)
-            .envs(env)
+            .envs(self.env(case, out))
             .env("LEDFLICKER_EXE", exe)
-            .current_dir(&self.plan_dir)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .map_err(|e| self.fail(case, format!("cannot run `{}`: {e}", program.display())))?;
-        if let Some(mut stdin) = child.stdin.take() {
-            // A command that does not read stdin closes it early; not an error.
-            let _ = stdin.write_all(serde_json::Value::Object(json).to_string().as_bytes());
-        }
-        let mut stderr = child.stderr.take();
-        let err_thread = std::thread::spawn(move || {
-            let mut s = String::new();
-            if let Some(e) = stderr.as_mut() {
-                let _ = e.read_to_string(&mut s);
-            }
-            s
-        });
-        let start = Instant::now();
-        let status = loop {
-            match child.try_wait() {
-                Ok(Some(status)) => break status,
-                Ok(None) if start.elapsed() > self.timeout => {
-                    let _ = child.kill();
-                    let _ = child.wait();
-                    return Err(self.fail(
-                        case,
-                        format!(
-                            "`{}` did not finish within {:.1} s and was killed\n    hint: raise [capture] timeout-s",
-                            self.argv.join(" "),
-                            self.timeout.as_secs_f64()
-                        ),
-                    ));
-                }
-                Ok(None) => std::thread::sleep(Duration::from_millis(10)),
-                Err(e) => return Err(self.fail(case, format!("waiting for the command: {e}"))),
-            }
-        };
-        let stderr_text = err_thread.join().unwrap_or_default();
-        if !status.success() {
-            let tail: Vec<&str> = stderr_text.lines().rev().take(5).collect();
+            .current_dir(&self.plan_dir);
+        let finished = rig::run(&mut command, self.stdin_json(case, out), self.timeout)
+            .map_err(|e| self.fail(case, self.describe(&program, e)))?;
+        if !finished.status.success() {
+            let tail: Vec<&str> = finished.stderr.lines().rev().take(5).collect();
             return Err(self.fail(
                 case,
                 format!(
-                    "`{}` failed ({status}){}",
+                    "`{}` failed ({}){}",
                     self.argv.join(" "),
+                    finished.status,
                     if tail.is_empty() {
                         String::new()
                     } else {
@@ -212,6 +216,31 @@ impl CommandRig {
         }
     }
 
+    /// The message of a command that did not run to its end.
+    fn describe(&self, program: &Path, e: RigError) -> String {
+        match e {
+            RigError::Spawn(e) => format!("cannot run `{}`: {e}", program.display()),
+            RigError::TimedOut { after, stderr } => {
+                let last = stderr
+                    .lines()
+                    .last()
+                    .map(|l| format!(" (last stderr line: {l})"));
+                format!(
+                    "`{}` did not finish within {:.1} s and was killed with its process group{}\n    hint: raise [capture] timeout-s",
+                    self.argv.join(" "),
+                    after.as_secs_f64(),
+                    last.unwrap_or_default()
+                )
+            }
+            RigError::Interrupted { signal } => format!(
+                "`{}` was killed with its process group: interrupted by {}",
+                self.argv.join(" "),
+                crate::interrupt::signal_name(signal)
+            ),
+            RigError::Wait(e) => format!("waiting for the command: {e}"),
+        }
+    }
+
     /// What was read for each case so far, by case id.
     pub fn summaries(&self) -> HashMap<String, CaptureSummary> {
         self.summaries.lock().map(|m| m.clone()).unwrap_or_default()
@@ -233,22 +262,27 @@ impl CommandRig {
     }
 }
 
-impl Drop for CommandRig {
-    fn drop(&mut self) {
-        // Each case removes its own directory; this removes their parent.
-        let _ = std::fs::remove_dir(&self.scratch);
-    }
-}
-
 impl Backend for CommandRig {
     fn id(&self) -> &str {
         "command"
     }
 
     fn acquire(&self, case: &TestCase) -> Result<Acquisition, BackendError> {
-        let out = self.scratch.join(&case.id);
-        let _ = std::fs::remove_dir_all(&out);
-        std::fs::create_dir_all(&out)
+        // A private scratch directory (random name, mode 0700), removed
+        // when `scratch` drops, whatever happens; the frames go into
+        // `frames/` inside it, so files a rig writes next to its output
+        // directory are removed too.
+        let scratch = tempfile::Builder::new()
+            .prefix(&format!(
+                "{SCRATCH_PREFIX}{}-{}-",
+                std::process::id(),
+                case.id
+            ))
+            .permissions(std::os::unix::fs::PermissionsExt::from_mode(0o700))
+            .tempdir()
+            .map_err(|e| self.fail(case, format!("cannot create a scratch directory: {e}")))?;
+        let out = scratch.path().join("frames");
+        std::fs::create_dir(&out)
             .map_err(|e| self.fail(case, format!("cannot create `{}`: {e}", out.display())))?;
         let result = (|| {
             let source = self.run_command(case, &out)?;
@@ -274,7 +308,7 @@ impl Backend for CommandRig {
             }
             Ok(acq)
         })();
-        let _ = std::fs::remove_dir_all(&out);
+        drop(scratch);
         result
     }
 }

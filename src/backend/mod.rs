@@ -7,6 +7,8 @@
 
 pub mod captured;
 pub mod command;
+pub mod rig;
+pub mod segments;
 pub mod sim;
 
 use crate::metrics::flicker::Segment;

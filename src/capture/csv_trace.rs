@@ -8,15 +8,46 @@ use std::path::Path;
 
 use super::{CaptureError, CaptureTrace, ReadOptions, times_from_fps};
 
+/// The file as text. Binary junk (bytes that are not UTF-8, or control
+/// characters) is an error naming its line, and is never echoed.
+fn text_of(path: &Path, bytes: Vec<u8>) -> Result<String, CaptureError> {
+    let junk = |bytes: &[u8], at: usize| {
+        let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        CaptureError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("line {line} holds binary data (byte {at}), not CSV text"),
+            hint: "a CSV trace is UTF-8 text: a header row, then one row of numbers per frame"
+                .to_string(),
+        }
+    };
+    if let Some(at) = bytes
+        .iter()
+        .position(|&b| b < 0x20 && !matches!(b, b'\n' | b'\r' | b'\t'))
+    {
+        return Err(junk(&bytes, at));
+    }
+    String::from_utf8(bytes).map_err(|e| junk(e.as_bytes(), e.utf8_error().valid_up_to()))
+}
+
+/// A field or header for a message: quoted, at most 40 characters.
+fn shown(s: &str) -> String {
+    let mut out: String = s.chars().take(40).collect();
+    if out.len() < s.len() {
+        out.push_str("...");
+    }
+    format!("`{out}`")
+}
+
 pub(super) fn read(
     path: &Path,
     roi_names: &[String],
     opts: &ReadOptions,
 ) -> Result<CaptureTrace, CaptureError> {
-    let text = std::fs::read_to_string(path).map_err(|e| CaptureError::Read {
+    let bytes = std::fs::read(path).map_err(|e| CaptureError::Read {
         path: path.to_path_buf(),
         message: e.to_string(),
     })?;
+    let text = text_of(path, bytes)?;
     let mut lines = text
         .lines()
         .enumerate()
@@ -40,7 +71,7 @@ pub(super) fn read(
                     message: format!("no column `{name}` for the plan's ROI `{name}`"),
                     hint: format!(
                         "the header has: {}; name the ROIs in the plan after the trace's columns",
-                        cols.join(", ")
+                        shown(&cols.join(", "))
                     ),
                 });
             }
@@ -59,9 +90,10 @@ pub(super) fn read(
                     path: path.to_path_buf(),
                     frame: frame as u64,
                     message: format!(
-                        "line {}, column `{}`: `{raw}` is not a finite number",
+                        "line {}, column `{}`: {} is not a finite number",
                         line_no + 1,
-                        cols[i]
+                        shown(cols[i]),
+                        shown(raw)
                     ),
                 })
         };

@@ -39,6 +39,17 @@ pub(super) fn read_dir(
     read_files(dir, &files, rois, opts)
 }
 
+/// Decoder limits: the header's size is checked before any pixel buffer
+/// is allocated (issue 10), at the sensor bound of docs/plan-format.md.
+fn frame_limits() -> image::Limits {
+    let mut l = image::Limits::default();
+    l.max_image_width = Some(crate::plan::bounds::MAX_SENSOR_SIDE);
+    l.max_image_height = Some(crate::plan::bounds::MAX_SENSOR_SIDE);
+    // 40 Mpx of 16-bit RGBA.
+    l.max_alloc = Some(crate::plan::bounds::MAX_SENSOR_PIXELS * 8);
+    l
+}
+
 /// Reads `files` as consecutive frames; `capture` names the capture in errors.
 pub(super) fn read_files(
     capture: &Path,
@@ -56,10 +67,12 @@ pub(super) fn read_files(
             frame,
             message,
         };
-        let img = image::ImageReader::open(file)
+        let mut reader = image::ImageReader::open(file)
             .map_err(|e| err(format!("cannot open: {e}")))?
             .with_guessed_format()
-            .map_err(|e| err(format!("cannot read: {e}")))?
+            .map_err(|e| err(format!("cannot read: {e}")))?;
+        reader.limits(frame_limits());
+        let img = reader
             .decode()
             .map_err(|e| err(format!("corrupt or unsupported image: {e}")))?;
         let (w, h) = (img.width(), img.height());

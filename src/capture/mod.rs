@@ -232,6 +232,7 @@ pub fn read_capture(
         trace.time_s = read_sidecar(&sidecar, trace.time_s.len())?;
         trace.timestamps = "sidecar";
     }
+    check_times(path, &trace.time_s)?;
     if trace.timestamps == "none" {
         return Err(CaptureError::Invalid {
             path: path.to_path_buf(),
@@ -252,9 +253,18 @@ fn sidecar_path(path: &Path) -> PathBuf {
 }
 
 fn read_sidecar(path: &Path, frames: usize) -> Result<Vec<f64>, CaptureError> {
-    let text = std::fs::read_to_string(path).map_err(|e| CaptureError::Read {
+    let bytes = std::fs::read(path).map_err(|e| CaptureError::Read {
         path: path.to_path_buf(),
         message: e.to_string(),
+    })?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        CaptureError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("line {line} holds binary data (byte {at}), not text"),
+            hint: "one time in seconds per frame, or `frame,time_s` rows".to_string(),
+        }
     })?;
     let mut out = Vec::with_capacity(frames);
     for (i, line) in text.lines().enumerate() {
@@ -269,7 +279,11 @@ fn read_sidecar(path: &Path, frames: usize) -> Result<Vec<f64>, CaptureError> {
             _ => {
                 return Err(CaptureError::Invalid {
                     path: path.to_path_buf(),
-                    message: format!("line {}: `{field}` is not a time in seconds", i + 1),
+                    message: format!(
+                        "line {}: `{}` is not a time in seconds",
+                        i + 1,
+                        field.chars().take(40).collect::<String>()
+                    ),
                     hint: "one time in seconds per frame, or `frame,time_s` rows".to_string(),
                 });
             }
@@ -283,6 +297,29 @@ fn read_sidecar(path: &Path, frames: usize) -> Result<Vec<f64>, CaptureError> {
         });
     }
     Ok(out)
+}
+
+/// Frame times must rise strictly: a reversed or repeated timestamp is an
+/// error naming the frame (NaN times, from a capture without a frame rate,
+/// are left to the "no timestamps" error).
+fn check_times(path: &Path, times: &[f64]) -> Result<(), CaptureError> {
+    for (i, w) in times.windows(2).enumerate() {
+        let (a, b) = (w[0], w[1]);
+        if a.is_nan() || b.is_nan() {
+            continue;
+        }
+        if b <= a {
+            return Err(CaptureError::Frame {
+                path: path.to_path_buf(),
+                frame: (i + 1) as u64,
+                message: format!(
+                    "timestamp {b} s is {} frame {i}'s {a} s; frame times must rise",
+                    if b == a { "the same as" } else { "before" }
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Frame times `k / fps`.

@@ -81,10 +81,11 @@ fn parse_header(line: &str, path: &Path) -> Result<Header, CaptureError> {
     let (w, h) = (width as u64, height as u64);
     let chroma_samples = match sub {
         "mono" => 0,
-        s if s.starts_with("420") => 2 * w.div_ceil(2) * h.div_ceil(2),
-        "422" => 2 * w.div_ceil(2) * h,
-        "444" => 2 * w * h,
-        "444alpha" => 3 * w * h,
+        // Saturating: a huge header is refused by `check_frame_size`.
+        s if s.starts_with("420") => 2u64.saturating_mul(w.div_ceil(2) * h.div_ceil(2)),
+        "422" => 2u64.saturating_mul(w.div_ceil(2) * h),
+        "444" => 2u64.saturating_mul(w * h),
+        "444alpha" => 3u64.saturating_mul(w * h),
         _ => return Err(bad(format!("unsupported colourspace `C{cs}`"))),
     };
     Ok(Header {
@@ -93,9 +94,67 @@ fn parse_header(line: &str, path: &Path) -> Result<Header, CaptureError> {
         fps,
         bytes,
         bits: depth,
-        chroma_bytes: chroma_samples * bytes as u64,
+        chroma_bytes: chroma_samples.saturating_mul(bytes as u64),
         full_range,
     })
+}
+
+/// Longest header or FRAME line read, bytes; the parameters take a few
+/// dozen.
+const MAX_LINE: u64 = 4096;
+
+/// Reads one line (up to and including `\n`) of at most [`MAX_LINE`]
+/// bytes into `line`; returns its length, 0 at the end of the file.
+fn read_line_bounded(r: &mut impl BufRead, line: &mut Vec<u8>) -> std::io::Result<usize> {
+    let n = r.by_ref().take(MAX_LINE).read_until(b'\n', line)?;
+    if n as u64 == MAX_LINE && line.last() != Some(&b'\n') {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!(
+                "no line end within {MAX_LINE} bytes (binary data where a text line should be)"
+            ),
+        ));
+    }
+    Ok(n)
+}
+
+/// The header line as text; binary junk is an error, never echoed.
+fn header_text<'a>(line: &'a [u8], path: &Path) -> Result<&'a str, CaptureError> {
+    std::str::from_utf8(line)
+        .ok()
+        .filter(|t| {
+            t.chars()
+                .all(|c| !c.is_control() || c == '\n' || c == '\r' || c == '\t')
+        })
+        .ok_or_else(|| CaptureError::Invalid {
+            path: path.to_path_buf(),
+            message: "the header line holds binary data, not `YUV4MPEG2 W.. H.. ..` text"
+                .to_string(),
+            hint: "the file is not a Y4M file, or its start is corrupt".to_string(),
+        })
+}
+
+/// A frame must fit in the file: checked before a buffer is allocated, so a
+/// header claiming a huge frame is an error, not an out-of-memory abort.
+fn check_frame_size(path: &Path, hdr: &Header, body_len: u64) -> Result<(), CaptureError> {
+    let frame_len = u64::from(hdr.width)
+        .checked_mul(u64::from(hdr.height))
+        .and_then(|p| p.checked_mul(hdr.bytes as u64))
+        .and_then(|l| l.checked_add(hdr.chroma_bytes))
+        .and_then(|l| l.checked_add(6)); // "FRAME\n"
+    match frame_len {
+        Some(l) if l <= body_len => Ok(()),
+        _ => Err(CaptureError::Frame {
+            path: path.to_path_buf(),
+            frame: 0,
+            message: format!(
+                "truncated frame or wrong header: the header claims {}x{} frames ({} bytes each) but the file holds {body_len} bytes after the header",
+                hdr.width,
+                hdr.height,
+                frame_len.map_or("more than 2^64".to_string(), |l| l.to_string())
+            ),
+        }),
+    }
 }
 
 pub(super) fn read(
@@ -107,11 +166,16 @@ pub(super) fn read(
         path: path.to_path_buf(),
         message: e.to_string(),
     };
-    let mut r = BufReader::with_capacity(1 << 16, File::open(path).map_err(read_err)?);
-    let mut line = String::new();
-    r.read_line(&mut line).map_err(read_err)?;
-    let hdr = parse_header(line.trim_end(), path)?;
+    let file = File::open(path).map_err(read_err)?;
+    let file_len = file.metadata().map_err(read_err)?.len();
+    let mut r = BufReader::with_capacity(1 << 16, file);
+    let mut line = Vec::new();
+    read_line_bounded(&mut r, &mut line).map_err(read_err)?;
+    let header_len = line.len() as u64;
+    let text = header_text(&line, path)?;
+    let hdr = parse_header(text.trim_end(), path)?;
     check_rois(path, 0, rois, hdr.width, hdr.height)?;
+    check_frame_size(path, &hdr, file_len.saturating_sub(header_len))?;
     let bbox = bounding_box(rois).unwrap_or(RoiRect {
         x: 0,
         y: 0,
@@ -133,17 +197,18 @@ pub(super) fn read(
     let mut buf16: Vec<u16> = Vec::new();
     let mut frame: u64 = 0;
     loop {
-        line.clear();
-        let n = r.read_line(&mut line).map_err(read_err)?;
-        if n == 0 {
-            break;
-        }
         let frame_err = |message: String| CaptureError::Frame {
             path: path.to_path_buf(),
             frame,
             message,
         };
-        if !line.starts_with("FRAME") {
+        line.clear();
+        let n = read_line_bounded(&mut r, &mut line)
+            .map_err(|e| frame_err(format!("cannot read the FRAME line: {e}")))?;
+        if n == 0 {
+            break;
+        }
+        if !line.starts_with(b"FRAME") {
             return Err(frame_err(
                 "no FRAME marker where a frame should start (corrupt file or wrong W/H/C in the header)"
                     .to_string(),

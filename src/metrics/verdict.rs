@@ -2,12 +2,15 @@
 //!
 //! A failed case is data (`Verdict::Fail`), not an error. A case whose PWM
 //! frequency lies outside the range where the camera claims mitigation is
-//! informational: it is measured and checked, but cannot fail the plan.
+//! informational: it is measured and checked, but cannot fail the plan. So
+//! is a case the plan marks `informative`, and one no limit applies to. A
+//! plan with no judged case is `info` overall, never `pass`.
 
 use serde::Serialize;
 
 use super::flicker::{Metric, RoiMetrics};
-use crate::plan::{Roi, RoiKind, Thresholds, VerdictBasis};
+use super::p2020::P2020Metrics;
+use crate::plan::{BackendKind, Limits, Roi, RoiKind, Thresholds, VerdictBasis};
 
 /// Slack when comparing a metric with its threshold, in the metric's units.
 /// A value within this of the threshold meets it, so that the last bit of a
@@ -23,7 +26,9 @@ pub enum Verdict {
     Pass,
     /// Some check did not.
     Fail,
-    /// Outside the claimed mitigation range: reported, never failing.
+    /// Not judged (outside the claimed mitigation range, marked
+    /// informative, or no limit applies): reported, never failing. As the
+    /// plan verdict: no case was judged.
     Info,
 }
 
@@ -59,28 +64,56 @@ pub struct Check {
     pub reason: Option<String>,
 }
 
-fn check_min(roi: &str, name: &str, m: &Metric, threshold: f64) -> Check {
-    let pass = m.unbounded || m.value.is_some_and(|v| v >= threshold - VERDICT_TOLERANCE);
-    Check {
-        roi: roi.to_string(),
-        metric: name.to_string(),
-        value: m.value,
-        unbounded: m.unbounded,
-        comparison: ">=",
-        threshold,
-        pass,
-        reason: m.reason.clone(),
+impl Check {
+    /// Margin to the threshold, relative to the threshold's size: > 0 met
+    /// with room, < 0 missed; -inf for an undefined value, +inf for an
+    /// unbounded value that meets a minimum. Orders ROIs from worst to best.
+    pub fn margin(&self) -> f64 {
+        let scale = self.threshold.abs().max(1e-3);
+        let min = self.comparison == ">=";
+        match (self.value, self.unbounded) {
+            (_, true) if min => f64::INFINITY,
+            (_, true) => f64::NEG_INFINITY,
+            (None, false) => f64::NEG_INFINITY,
+            (Some(v), false) if min => (v - self.threshold) / scale,
+            (Some(v), false) => (self.threshold - v) / scale,
+        }
+    }
+
+    /// One line for a person: `fmi 1.000 > 0.1 on roi07` when the check
+    /// failed, `fmi 0.020 <= 0.1 on roi07` when it passed.
+    pub fn describe(&self) -> String {
+        let value = match (self.value, self.unbounded) {
+            (_, true) => "+inf".to_string(),
+            (Some(v), false) => crate::util::fixed(v, 3),
+            (None, false) => "undefined".to_string(),
+        };
+        let op = match (self.pass, self.comparison) {
+            (true, c) => c,
+            (false, ">=") if self.value.is_none() && !self.unbounded => "is not >=",
+            (false, ">=") => "<",
+            (false, _) if self.value.is_none() && !self.unbounded => "is not <=",
+            (false, _) => ">",
+        };
+        format!(
+            "{} {value} {op} {} on {}",
+            self.metric, self.threshold, self.roi
+        )
     }
 }
 
-fn check_max(roi: &str, name: &str, m: &Metric, threshold: f64) -> Check {
-    let pass = !m.unbounded && m.value.is_some_and(|v| v <= threshold + VERDICT_TOLERANCE);
+fn check(roi: &str, name: &str, m: &Metric, threshold: f64, min: bool) -> Check {
+    let pass = if min {
+        m.unbounded || m.value.is_some_and(|v| v >= threshold - VERDICT_TOLERANCE)
+    } else {
+        !m.unbounded && m.value.is_some_and(|v| v <= threshold + VERDICT_TOLERANCE)
+    };
     Check {
         roi: roi.to_string(),
         metric: name.to_string(),
         value: m.value,
         unbounded: m.unbounded,
-        comparison: "<=",
+        comparison: if min { ">=" } else { "<=" },
         threshold,
         pass,
         reason: m.reason.clone(),
@@ -92,67 +125,199 @@ pub fn in_mitigation_range(frequency_hz: f64, t: &Thresholds) -> bool {
     frequency_hz >= t.mitigation_min_hz && t.mitigation_max_hz.is_none_or(|max| frequency_hz <= max)
 }
 
-/// Checks every LED ROI of a case against the thresholds and gives the
-/// case verdict. An undefined metric fails its check (it could not be shown
-/// to meet the threshold); its reason is kept.
-pub fn evaluate_case(
-    frequency_hz: f64,
-    rois: &[(&Roi, &RoiMetrics)],
-    t: &Thresholds,
-) -> (Verdict, Vec<Check>) {
-    let mut checks = Vec::new();
-    for (roi, m) in rois {
-        if roi.kind != RoiKind::Led {
-            continue;
-        }
-        let (fdi, pf, suffix) = match (
-            t.basis,
-            &m.fdi_2018_worst_phase,
-            &m.percent_flicker_worst_phase,
-        ) {
-            (VerdictBasis::WorstPhase, Some(fdi), Some(pf)) => (fdi, pf, "_worst_phase"),
-            _ => (&m.fdi_2018, &m.percent_flicker, ""),
-        };
-        if let Some(min) = t.fdi_2018_min {
-            checks.push(check_min(&roi.name, &format!("fdi_2018{suffix}"), fdi, min));
-        }
-        if let Some(max) = t.percent_flicker_max {
-            checks.push(check_max(
-                &roi.name,
-                &format!("percent_flicker{suffix}"),
-                pf,
-                max,
-            ));
+/// The figure verdicts actually use: the worst phase exists only where the
+/// backend computes it (the simulator), so captures and rigs are judged as
+/// captured whatever `basis` says.
+pub fn effective_basis(backend: BackendKind, t: &Thresholds) -> VerdictBasis {
+    match backend {
+        BackendKind::Simulator => t.basis,
+        BackendKind::Captured | BackendKind::Command => VerdictBasis::AsCaptured,
+    }
+}
+
+/// What a case's verdict needs besides its metrics.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CaseConditions {
+    /// PWM frequency, Hz; `None` when unknown (a capture without conditions):
+    /// the mitigation range then cannot exclude the case.
+    pub frequency_hz: Option<f64>,
+    /// Light level, lux; `None` when unknown: the global limits apply.
+    pub light_lux: Option<f64>,
+    /// The plan marks the case informative: measured, never judged.
+    pub informative: bool,
+}
+
+/// One ROI's figures for the verdict.
+#[derive(Debug, Clone, Copy)]
+pub struct RoiFigures<'a> {
+    /// The ROI.
+    pub roi: &'a Roi,
+    /// Deegan 2018 metrics.
+    pub metrics: &'a RoiMetrics,
+    /// IEEE P2020 KPIs, when computed.
+    pub p2020: Option<&'a P2020Metrics>,
+}
+
+/// The verdict of one case and how it was reached.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Evaluation {
+    /// pass, fail or info.
+    pub verdict: Verdict,
+    /// Every threshold check made.
+    pub checks: Vec<Check>,
+    /// Why the case is informational, when it is.
+    pub not_judged: Option<String>,
+    /// Limits that could not apply to this case and why, one line each
+    /// (e.g. an FDI on a capture without an OFF segment).
+    pub not_checked: Vec<String>,
+}
+
+/// The checks of one LED ROI. A limit whose metric needs a segment the
+/// trace lacks (FDI: OFF; MMP on the ON level: ON) does not apply; it is
+/// listed in `not_checked` instead of failing.
+fn roi_checks(
+    r: &RoiFigures<'_>,
+    lim: &Limits,
+    basis: VerdictBasis,
+    checks: &mut Vec<Check>,
+    not_checked: &mut Vec<String>,
+) {
+    let name = r.roi.name.as_str();
+    let m = r.metrics;
+    let (fdi, pf, suffix) = match (
+        basis,
+        &m.fdi_2018_worst_phase,
+        &m.percent_flicker_worst_phase,
+    ) {
+        (VerdictBasis::WorstPhase, Some(fdi), Some(pf)) => (fdi, pf, "_worst_phase"),
+        _ => (&m.fdi_2018, &m.percent_flicker, ""),
+    };
+    let no_off = m.levels.off.is_none();
+    let mut skip = |metric: &str, why: &str| {
+        not_checked.push(format!("{name}: {metric} not checked: {why}"));
+    };
+    if let Some(min) = lim.fdi_2018_min {
+        if no_off {
+            skip("fdi_2018", "the trace has no OFF segment (L_OFF)");
+        } else {
+            checks.push(check(name, &format!("fdi_2018{suffix}"), fdi, min, true));
         }
     }
-    let verdict = if !in_mitigation_range(frequency_hz, t) {
+    if let Some(max) = lim.percent_flicker_max {
+        checks.push(check(
+            name,
+            &format!("percent_flicker{suffix}"),
+            pf,
+            max,
+            false,
+        ));
+    }
+    let p = r.p2020;
+    if let Some(max) = lim.fmi_max {
+        match p {
+            Some(p) => checks.push(check(name, "fmi", &p.fmi, max, false)),
+            None => skip("fmi", "no P2020 KPIs for this trace"),
+        }
+    }
+    if let Some(min) = lim.fdi_p2020_min {
+        match p {
+            Some(p) if p.x_off.is_some() => {
+                checks.push(check(name, "fdi_p2020", &p.fdi, min, true))
+            }
+            _ => skip("fdi_p2020", "the trace has no OFF segment (x_off)"),
+        }
+    }
+    if let Some(min) = lim.mmp_min {
+        match p {
+            Some(p) if p.x_ref.is_some() => checks.push(check(name, "mmp", &p.mmp, min, true)),
+            _ => skip("mmp", "the trace has no frames for the MMP reference level"),
+        }
+    }
+}
+
+/// Checks every LED ROI of a case against its limits (per light level, else
+/// global) and gives the case verdict. An undefined metric fails its check
+/// (it could not be shown to meet the threshold); its reason is kept. A case
+/// is `info` when the plan marks it informative, when its frequency is
+/// known and outside the mitigation range, or when no check applies.
+pub fn evaluate_case(
+    cond: &CaseConditions,
+    rois: &[RoiFigures<'_>],
+    t: &Thresholds,
+    basis: VerdictBasis,
+) -> Evaluation {
+    let lim = t.limits_for(cond.light_lux);
+    let mut checks = Vec::new();
+    let mut not_checked = Vec::new();
+    for r in rois.iter().filter(|r| r.roi.kind == RoiKind::Led) {
+        roi_checks(r, &lim, basis, &mut checks, &mut not_checked);
+    }
+    let not_judged = if cond.informative {
+        Some("the plan marks this case informative (informative = true)".to_string())
+    } else if let Some(f) = cond.frequency_hz.filter(|f| !in_mitigation_range(*f, t)) {
+        Some(format!(
+            "{f} Hz is outside the claimed mitigation range ({} Hz{})",
+            t.mitigation_min_hz,
+            t.mitigation_max_hz
+                .map_or(" and up".to_string(), |m| format!(" to {m} Hz"))
+        ))
+    } else if checks.is_empty() {
+        Some(if not_checked.is_empty() {
+            "no threshold applies: the plan sets none for its LED ROIs".to_string()
+        } else {
+            format!("no threshold applies ({})", not_checked.join("; "))
+        })
+    } else {
+        None
+    };
+    let verdict = if not_judged.is_some() {
         Verdict::Info
     } else if checks.iter().all(|c| c.pass) {
         Verdict::Pass
     } else {
         Verdict::Fail
     };
-    (verdict, checks)
+    Evaluation {
+        verdict,
+        checks,
+        not_judged,
+        not_checked,
+    }
 }
 
-/// The plan verdict: fail if any case failed, else pass.
+/// The plan verdict: fail if any case failed, else pass if any case was
+/// judged, else info (nothing was judged: never a pass).
 pub fn overall(verdicts: impl IntoIterator<Item = Verdict>) -> Verdict {
-    if verdicts.into_iter().any(|v| v == Verdict::Fail) {
-        Verdict::Fail
-    } else {
+    let mut any_pass = false;
+    for v in verdicts {
+        match v {
+            Verdict::Fail => return Verdict::Fail,
+            Verdict::Pass => any_pass = true,
+            Verdict::Info => {}
+        }
+    }
+    if any_pass {
         Verdict::Pass
+    } else {
+        Verdict::Info
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::metrics::flicker::Segment;
     use crate::metrics::flicker::{Levels, fdi_2018, percent_flicker};
+    use crate::metrics::p2020::{self, P2020Options};
 
     fn thresholds() -> Thresholds {
         Thresholds {
             fdi_2018_min: Some(0.1),
             percent_flicker_max: Some(10.0),
+            fmi_max: None,
+            fdi_p2020_min: None,
+            mmp_min: None,
+            light_levels: Vec::new(),
             mitigation_min_hz: 90.0,
             mitigation_max_hz: None,
             basis: VerdictBasis::AsCaptured,
@@ -187,37 +352,170 @@ mod tests {
         }
     }
 
+    fn at(f: f64) -> CaseConditions {
+        CaseConditions {
+            frequency_hz: Some(f),
+            light_lux: Some(2000.0),
+            informative: false,
+        }
+    }
+
+    fn eval(
+        c: CaseConditions,
+        m: &RoiMetrics,
+        p: Option<&P2020Metrics>,
+        t: &Thresholds,
+    ) -> Evaluation {
+        let r = roi();
+        let figures = [RoiFigures {
+            roi: &r,
+            metrics: m,
+            p2020: p,
+        }];
+        evaluate_case(&c, &figures, t, VerdictBasis::AsCaptured)
+    }
+
     #[test]
     fn verdict_on_the_threshold_does_not_flip_on_rounding() {
         // (22 - 20) / 20 is 0.1 with a rounding error in the last bit.
         let m = metrics(22.000000000000004, 22.5, 20.0);
-        let (v, _) = evaluate_case(100.0, &[(&roi(), &m)], &thresholds());
-        assert_eq!(v, Verdict::Pass);
+        let e = eval(at(100.0), &m, None, &thresholds());
+        assert_eq!(e.verdict, Verdict::Pass);
         let m = metrics(21.9, 22.5, 20.0);
-        let (v, checks) = evaluate_case(100.0, &[(&roi(), &m)], &thresholds());
-        assert_eq!(v, Verdict::Fail);
-        assert!(!checks[0].pass && checks[1].pass);
+        let e = eval(at(100.0), &m, None, &thresholds());
+        assert_eq!(e.verdict, Verdict::Fail);
+        assert!(!e.checks[0].pass && e.checks[1].pass);
+        assert_eq!(e.checks[0].describe(), "fdi_2018 0.095 < 0.1 on led");
     }
 
     #[test]
     fn cases_below_the_mitigation_range_are_informational() {
         let m = metrics(20.0, 40.0, 20.0);
-        let (v, checks) = evaluate_case(50.0, &[(&roi(), &m)], &thresholds());
-        assert_eq!(v, Verdict::Info);
-        assert!(checks.iter().any(|c| !c.pass));
+        let e = eval(at(50.0), &m, None, &thresholds());
+        assert_eq!(e.verdict, Verdict::Info);
+        assert!(e.not_judged.unwrap().contains("50 Hz is outside"));
+        assert!(e.checks.iter().any(|c| !c.pass));
         assert_eq!(overall([Verdict::Info, Verdict::Pass]), Verdict::Pass);
         assert_eq!(overall([Verdict::Info, Verdict::Fail]), Verdict::Fail);
+    }
+
+    #[test]
+    fn a_plan_with_no_judged_case_is_never_a_pass() {
+        assert_eq!(overall([Verdict::Info, Verdict::Info]), Verdict::Info);
+        assert_eq!(overall([]), Verdict::Info);
     }
 
     #[test]
     fn unbounded_fdi_passes_its_minimum_and_undefined_fails() {
         let mut m = metrics(5.0, 5.0, 0.0);
         m.fdi_2018 = fdi_2018(5.0, Some(0.0));
-        let (v, _) = evaluate_case(100.0, &[(&roi(), &m)], &thresholds());
-        assert_eq!(v, Verdict::Pass);
+        let e = eval(at(100.0), &m, None, &thresholds());
+        assert_eq!(e.verdict, Verdict::Pass);
         m.fdi_2018 = fdi_2018(0.0, Some(0.0));
-        let (v, checks) = evaluate_case(100.0, &[(&roi(), &m)], &thresholds());
-        assert_eq!(v, Verdict::Fail);
-        assert!(checks[0].reason.is_some());
+        let e = eval(at(100.0), &m, None, &thresholds());
+        assert_eq!(e.verdict, Verdict::Fail);
+        assert!(e.checks[0].reason.is_some());
+        assert_eq!(e.checks[0].margin(), f64::NEG_INFINITY);
+    }
+
+    /// Issue 12: a capture with unknown conditions is judged on the limits
+    /// that need no conditions; a capture without an OFF segment skips FDI.
+    #[test]
+    fn captures_without_conditions_are_judged_and_skip_what_they_cannot_measure() {
+        let unknown = CaseConditions {
+            frequency_hz: None,
+            light_lux: None,
+            informative: false,
+        };
+        let mut m = metrics(10.0, 90.0, 1.0);
+        m.levels.off = None;
+        m.fdi_2018 = fdi_2018(10.0, None);
+        let e = eval(unknown, &m, None, &thresholds());
+        assert_eq!(e.verdict, Verdict::Fail, "{e:?}");
+        assert_eq!(e.checks.len(), 1);
+        assert_eq!(e.checks[0].metric, "percent_flicker");
+        assert!(e.not_checked[0].contains("no OFF segment"));
+        // Only FDI (2018) set and no OFF segment: nothing applies, so info.
+        let t = Thresholds {
+            percent_flicker_max: None,
+            ..thresholds()
+        };
+        let e = eval(unknown, &m, None, &t);
+        assert_eq!(e.verdict, Verdict::Info);
+        assert!(e.not_judged.unwrap().starts_with("no threshold applies"));
+        // Marked informative: info whatever the metrics.
+        let e = eval(
+            CaseConditions {
+                informative: true,
+                ..unknown
+            },
+            &m,
+            None,
+            &thresholds(),
+        );
+        assert_eq!(e.verdict, Verdict::Info);
+    }
+
+    #[test]
+    fn p2020_limits_fail_a_beat_to_zero_and_pass_steady_light() {
+        use Segment::*;
+        let segs = [Off, Off, Pwm, Pwm, Pwm, Pwm];
+        let t = Thresholds {
+            fdi_2018_min: None,
+            percent_flicker_max: None,
+            fmi_max: Some(0.1),
+            fdi_p2020_min: Some(0.95),
+            mmp_min: Some(0.9),
+            ..thresholds()
+        };
+        // Light to 0 DN in one frame of four: FMI 1, FDI 3/4, MMP 0.
+        let beat = [0.0, 0.0, 100.0, 0.0, 100.0, 100.0];
+        let p = p2020::evaluate(&beat, &segs, &P2020Options::default()).unwrap();
+        let m = metrics(0.0, 100.0, 0.0);
+        let e = eval(at(100.0), &m, Some(&p), &t);
+        assert_eq!(e.verdict, Verdict::Fail);
+        let failed: Vec<String> = e
+            .checks
+            .iter()
+            .filter(|c| !c.pass)
+            .map(Check::describe)
+            .collect();
+        assert_eq!(
+            failed,
+            [
+                "fmi 1.000 > 0.1 on led",
+                "fdi_p2020 0.750 < 0.95 on led",
+                "mmp 0.000 < 0.9 on led"
+            ]
+        );
+        let steady = [0.0, 0.0, 100.0, 100.0, 100.0, 100.0];
+        let p = p2020::evaluate(&steady, &segs, &P2020Options::default()).unwrap();
+        let e = eval(at(100.0), &metrics(100.0, 100.0, 0.0), Some(&p), &t);
+        assert_eq!(e.verdict, Verdict::Pass, "{:?}", e.checks);
+    }
+
+    #[test]
+    fn light_level_limits_override_the_global_ones() {
+        let mut t = thresholds();
+        t.light_levels.push(crate::plan::LevelLimits {
+            light_lux: 40.0,
+            limits: Limits {
+                percent_flicker_max: Some(50.0),
+                ..Limits::default()
+            },
+        });
+        let m = metrics(22.5, 40.0, 20.0);
+        assert_eq!(eval(at(100.0), &m, None, &t).verdict, Verdict::Fail);
+        let low = CaseConditions {
+            light_lux: Some(40.0),
+            ..at(100.0)
+        };
+        let e = eval(low, &m, None, &t);
+        assert_eq!(e.verdict, Verdict::Pass, "{:?}", e.checks);
+        assert_eq!(e.checks[1].threshold, 50.0);
+        assert_eq!(
+            e.checks[0].threshold, 0.1,
+            "unset keys come from [thresholds]"
+        );
     }
 }

@@ -126,6 +126,27 @@ pub enum ToneCurve {
     Log(f64),
 }
 
+impl ToneCurve {
+    /// The curve, `u` (fraction of white, 0..=1) to output `y` (0..=1).
+    pub fn apply(&self, u: f64) -> f64 {
+        match *self {
+            ToneCurve::Linear => u,
+            ToneCurve::Gamma(g) => u.powf(1.0 / g),
+            ToneCurve::Log(a) => (1.0 + a * u).ln() / (1.0 + a).ln(),
+        }
+    }
+
+    /// The inverse: the fraction of white `u` that the curve maps to output
+    /// `y` (0..=1). Auto exposure's `target-luma` is set through it.
+    pub fn inverse(&self, y: f64) -> f64 {
+        match *self {
+            ToneCurve::Linear => y,
+            ToneCurve::Gamma(g) => y.powf(g),
+            ToneCurve::Log(a) => ((y * (1.0 + a).ln()).exp() - 1.0) / a,
+        }
+    }
+}
+
 /// Tone mapping: `u = linear / white` clipped to [0, 1], then the curve,
 /// then scaled to `output_max`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -142,12 +163,7 @@ impl Tone {
     /// Output luma (0..=output_max) of a linear value.
     pub fn apply(&self, linear: f64) -> f64 {
         let u = (linear / self.white).clamp(0.0, 1.0);
-        let y = match self.curve {
-            ToneCurve::Linear => u,
-            ToneCurve::Gamma(g) => u.powf(1.0 / g),
-            ToneCurve::Log(a) => (1.0 + a * u).ln() / (1.0 + a).ln(),
-        };
-        y * self.output_max
+        self.curve.apply(u) * self.output_max
     }
 }
 
@@ -198,6 +214,25 @@ mod tests {
             4095.0,
         );
         assert!((v - 8000.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn tone_curve_inverse_undoes_the_curve() {
+        for curve in [
+            ToneCurve::Linear,
+            ToneCurve::Gamma(2.2),
+            ToneCurve::Log(1e6),
+        ] {
+            for i in 0..=20 {
+                let y = i as f64 / 20.0;
+                let u = curve.inverse(y);
+                assert!((curve.apply(u) - y).abs() < 1e-12, "{curve:?} {y}");
+            }
+        }
+        // The Deegan 2018 profile's log curve: 0.0003 of white is output 0.4131.
+        let y = ToneCurve::Log(1e6).apply(0.0003);
+        assert!((y - 301f64.ln() / 1_000_001f64.ln()).abs() < 1e-15);
+        assert!((y - 0.41309).abs() < 1e-4, "{y}");
     }
 
     #[test]

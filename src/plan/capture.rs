@@ -32,6 +32,7 @@ pub struct RawCapture {
     pub pwm_time_s: Option<Vec<f64>>,
     pub command: Option<Vec<String>>,
     pub timeout_s: Option<f64>,
+    pub settle_s: Option<f64>,
 }
 
 /// Segment keys, in `[capture]` (defaults) and in each `[[case]]` (no
@@ -61,6 +62,7 @@ pub struct RawCaseEntry {
     pub off_time_s: Option<Vec<f64>>,
     pub on_time_s: Option<Vec<f64>>,
     pub pwm_time_s: Option<Vec<f64>>,
+    pub informative: Option<bool>,
 }
 
 /// `[p2020]`
@@ -135,6 +137,10 @@ pub struct CaptureConfig {
     pub saturation_dn: Option<f64>,
     /// Default segments of every case.
     pub segments: SegmentSpec,
+    /// Time left out after each detected step (auto exposure settling),
+    /// seconds (>= 0); `[capture] settle-s`, default
+    /// [`crate::backend::segments::DEFAULT_SETTLE_S`].
+    pub settle_s: f64,
     /// The lab-rig command (command backend only).
     pub command: Option<CommandSpec>,
     /// Cases of a captured plan, in plan order.
@@ -158,6 +164,8 @@ pub struct CaptureCase {
     pub duty: Option<f64>,
     /// Segments (the case's keys over `[capture]`'s).
     pub segments: SegmentSpec,
+    /// `informative = true`: measured and reported, never judged.
+    pub informative: bool,
 }
 
 fn span_frames(c: &mut Checker<'_>, v: Vec<i64>, key: &str) -> Option<Span> {
@@ -328,6 +336,13 @@ pub(super) fn capture_config(
         }
         None => None,
     };
+    let settle_s = c.non_negative(
+        raw.settle_s
+            .unwrap_or(crate::backend::segments::DEFAULT_SETTLE_S),
+        "capture.settle-s",
+        "seconds left out after each detected step; default 0.5",
+    );
+    ok &= settle_s.is_some();
     let base = segments(
         c,
         RawSegments {
@@ -486,6 +501,7 @@ pub(super) fn capture_config(
             frequency_hz,
             duty,
             segments: segs,
+            informative: raw_case.informative.unwrap_or(false),
         });
     }
     let command_ok = captured || command.is_some();
@@ -499,6 +515,7 @@ pub(super) fn capture_config(
         frame_rate_fps: fps,
         saturation_dn,
         segments: base?,
+        settle_s: settle_s?,
         command,
         cases: out_cases,
     })

@@ -5,20 +5,25 @@
 //! collects every unknown key and every out-of-range value with its line,
 //! and fails with all of them at once.
 
+pub mod bounds;
 mod capture;
 mod grid;
 mod raw;
 mod spans;
+mod thresholds;
 mod validate;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+pub use bounds::WorkEstimate;
 pub use capture::{CaptureCase, CaptureConfig, CommandSpec, SegmentSpec, Span};
 pub use grid::{TestCase, expand_cases};
 
-/// Upper bound on cases in one plan, to catch a mistyped grid step early.
-pub const MAX_CASES: usize = 20_000;
+/// Upper bound on cases in one plan. A report holds every case, at about
+/// 2 MB of memory each (charts, HTML, PDF layout): at this maximum a run
+/// peaks below 1 GB (issue 10; it was 20000, which needed about 40 GB).
+pub const MAX_CASES: usize = 350;
 
 /// A validated test plan. All values are in range and in SI-prefixed units
 /// named in the field.
@@ -239,20 +244,92 @@ pub enum VerdictBasis {
     AsCaptured,
 }
 
+/// Pass limits on the metrics of one case; `None`: not checked. Every
+/// metric is the verdict basis's figure (worst phase or as captured).
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct Limits {
+    /// FDI (2018) must be >= this (Deegan 2018: the light appears OFF below 0.1).
+    pub fdi_2018_min: Option<f64>,
+    /// Percent Flicker must be <= this, percent.
+    pub percent_flicker_max: Option<f64>,
+    /// IEEE P2020 Flicker Modulation Index must be <= this (0..1).
+    pub fmi_max: Option<f64>,
+    /// IEEE P2020 Flicker Detection Index (share of PWM frames in which the
+    /// light is told from OFF) must be >= this (0..1).
+    pub fdi_p2020_min: Option<f64>,
+    /// IEEE P2020 Modulation Mitigation Probability (share of PWM frames
+    /// within the band around the reference) must be >= this (0..1).
+    pub mmp_min: Option<f64>,
+}
+
+impl Limits {
+    /// `self`'s limits where set, else `base`'s.
+    pub fn over(self, base: Limits) -> Limits {
+        Limits {
+            fdi_2018_min: self.fdi_2018_min.or(base.fdi_2018_min),
+            percent_flicker_max: self.percent_flicker_max.or(base.percent_flicker_max),
+            fmi_max: self.fmi_max.or(base.fmi_max),
+            fdi_p2020_min: self.fdi_p2020_min.or(base.fdi_p2020_min),
+            mmp_min: self.mmp_min.or(base.mmp_min),
+        }
+    }
+}
+
+/// Limits for one light level, over the global ones.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct LevelLimits {
+    /// The light level, lux (> 0); a level of `[light]` or a case's `light-lux`.
+    pub light_lux: f64,
+    /// Limits set for this level; unset ones come from `[thresholds]`.
+    #[serde(flatten)]
+    pub limits: Limits,
+}
+
 /// Pass criteria. A case whose frequency lies outside the mitigation range
 /// is informational.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Thresholds {
     /// FDI (2018) must be >= this (Deegan 2018: the light appears OFF below 0.1).
     pub fdi_2018_min: Option<f64>,
     /// Percent Flicker must be <= this.
     pub percent_flicker_max: Option<f64>,
+    /// IEEE P2020 FMI must be <= this.
+    pub fmi_max: Option<f64>,
+    /// IEEE P2020 FDI must be >= this.
+    pub fdi_p2020_min: Option<f64>,
+    /// IEEE P2020 MMP must be >= this.
+    pub mmp_min: Option<f64>,
+    /// Per light level overrides (`[[thresholds.light-level]]`), in plan order.
+    pub light_levels: Vec<LevelLimits>,
     /// Lowest frequency (Hz) at which the camera claims mitigation.
     pub mitigation_min_hz: f64,
     /// Highest frequency (Hz) at which the camera claims mitigation.
     pub mitigation_max_hz: Option<f64>,
     /// Which figure the verdict uses.
     pub basis: VerdictBasis,
+}
+
+impl Thresholds {
+    /// The global limits of `[thresholds]`.
+    pub fn global(&self) -> Limits {
+        Limits {
+            fdi_2018_min: self.fdi_2018_min,
+            percent_flicker_max: self.percent_flicker_max,
+            fmi_max: self.fmi_max,
+            fdi_p2020_min: self.fdi_p2020_min,
+            mmp_min: self.mmp_min,
+        }
+    }
+
+    /// The limits of a case at `light_lux` (`None`: unknown): the level's
+    /// own limits over the global ones.
+    pub fn limits_for(&self, light_lux: Option<f64>) -> Limits {
+        let level = light_lux.and_then(|lux| self.light_levels.iter().find(|l| l.light_lux == lux));
+        match level {
+            Some(l) => l.limits.over(self.global()),
+            None => self.global(),
+        }
+    }
 }
 
 /// One problem found in a plan, located by key and line.
@@ -395,6 +472,18 @@ pub fn load(path: &Path) -> Result<Plan, PlanError> {
 
 /// Parses and validates plan text; `path` is used in messages only.
 pub fn parse(text: &str, path: &Path, sha256: String) -> Result<Plan, PlanError> {
+    parse_within(text, path, sha256, true)
+}
+
+/// [`parse`], with the work limits of a full run (report included) checked
+/// only when `work_limits` is set. `ledflicker bench` runs cases without a
+/// report and turns them off; physical bounds and unique ids always apply.
+pub fn parse_within(
+    text: &str,
+    path: &Path,
+    sha256: String,
+    work_limits: bool,
+) -> Result<Plan, PlanError> {
     let syntax = |e: toml::de::Error| PlanError::Syntax {
         path: path.to_path_buf(),
         message: e.to_string().trim_end().to_string(),
@@ -417,6 +506,11 @@ pub fn parse(text: &str, path: &Path, sha256: String) -> Result<Plan, PlanError>
         })
         .collect();
     let plan = validate::validate(raw, &index, &mut diags, path, sha256);
+    if let Some(p) = &plan
+        && diags.is_empty()
+    {
+        bounds::check(p, &index, &mut diags, work_limits);
+    }
     diags.sort_by_key(|d| d.location.unwrap_or((usize::MAX, 0)));
     match plan {
         Some(plan) if diags.is_empty() => Ok(plan),

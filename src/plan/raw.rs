@@ -191,6 +191,7 @@ pub struct RawTone {
 #[derive(Debug, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub struct RawAutoExposure {
+    pub target_luma: Option<f64>,
     pub target: Option<f64>,
     pub damping: Option<f64>,
     pub deadband: Option<f64>,
@@ -218,7 +219,24 @@ pub struct RawScene {
 pub struct RawThresholds {
     pub fdi_2018_min: Option<f64>,
     pub percent_flicker_max: Option<f64>,
+    pub fmi_max: Option<f64>,
+    pub fdi_p2020_min: Option<f64>,
+    pub mmp_min: Option<f64>,
     pub mitigation_min_hz: Option<f64>,
     pub mitigation_max_hz: Option<f64>,
     pub basis: Option<String>,
+    #[serde(default)]
+    pub light_level: Vec<RawLevelThresholds>,
+}
+
+/// `[[thresholds.light-level]]`: limits for one light level.
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawLevelThresholds {
+    pub light_lux: Option<f64>,
+    pub fdi_2018_min: Option<f64>,
+    pub percent_flicker_max: Option<f64>,
+    pub fmi_max: Option<f64>,
+    pub fdi_p2020_min: Option<f64>,
+    pub mmp_min: Option<f64>,
 }

@@ -176,6 +176,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
     (
         "dut.camera.auto-exposure",
         &[
+            "target-luma",
             "target",
             "damping",
             "deadband",
@@ -201,9 +202,24 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
         &[
             "fdi-2018-min",
             "percent-flicker-max",
+            "fmi-max",
+            "fdi-p2020-min",
+            "mmp-min",
             "mitigation-min-hz",
             "mitigation-max-hz",
             "basis",
+            "light-level",
+        ],
+    ),
+    (
+        "thresholds.light-level",
+        &[
+            "light-lux",
+            "fdi-2018-min",
+            "percent-flicker-max",
+            "fmi-max",
+            "fdi-p2020-min",
+            "mmp-min",
         ],
     ),
     (
@@ -222,6 +238,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "pwm-time-s",
             "command",
             "timeout-s",
+            "settle-s",
         ],
     ),
     (
@@ -238,6 +255,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "off-time-s",
             "on-time-s",
             "pwm-time-s",
+            "informative",
         ],
     ),
     (

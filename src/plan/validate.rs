@@ -11,7 +11,7 @@ use super::raw::{RawCamera, RawPlan, RawProfile, RawRange};
 use super::spans::SpanIndex;
 use super::{
     BackendKind, CameraConfig, Diagnostic, Dut, MAX_CASES, PhysicalCamera, Plan, Roi, RoiKind,
-    Scene, Sequence, ShutterKind, Thresholds, VerdictBasis,
+    Scene, Sequence, ShutterKind,
 };
 use crate::physics::ae::AutoExposure;
 use crate::physics::hdr::{Capture, CaptureExposure, HdrMode, MergeRule, Tone, ToneCurve};
@@ -565,83 +565,14 @@ pub(super) fn validate(
     }
 
     // [thresholds]
-    let mut thresholds = Some(Thresholds {
-        fdi_2018_min: Some(0.1),
-        percent_flicker_max: None,
-        mitigation_min_hz: 0.0,
-        mitigation_max_hz: None,
-        basis: VerdictBasis::WorstPhase,
-    });
-    if let Some(t) = raw.thresholds {
-        let mut th = thresholds.take()?;
-        let mut ok = true;
-        if let Some(v) = t.fdi_2018_min {
-            if v.is_finite() {
-                th.fdi_2018_min = Some(v);
-            } else {
-                c.error(
-                    "thresholds.fdi-2018-min",
-                    "must be a finite number",
-                    Some("Deegan 2018 uses 0.1"),
-                );
-                ok = false;
-            }
-        }
-        if let Some(v) = t.percent_flicker_max {
-            match c.non_negative(
-                v,
-                "thresholds.percent-flicker-max",
-                "a percentage, e.g. 10.0",
-            ) {
-                Some(v) => th.percent_flicker_max = Some(v),
-                None => ok = false,
-            }
-        }
-        if let Some(v) = t.mitigation_min_hz {
-            match c.non_negative(
-                v,
-                "thresholds.mitigation-min-hz",
-                "e.g. 90.0: cases below are informational",
-            ) {
-                Some(v) => th.mitigation_min_hz = v,
-                None => ok = false,
-            }
-        }
-        if let Some(v) = t.mitigation_max_hz {
-            match c.positive(
-                v,
-                "thresholds.mitigation-max-hz",
-                "omit it for no upper limit",
-            ) {
-                Some(v) if v >= th.mitigation_min_hz => th.mitigation_max_hz = Some(v),
-                Some(v) => {
-                    c.error(
-                        "thresholds.mitigation-max-hz",
-                        format!(
-                            "{v} Hz is below mitigation-min-hz {} Hz",
-                            th.mitigation_min_hz
-                        ),
-                        Some("the range is mitigation-min-hz ..= mitigation-max-hz"),
-                    );
-                    ok = false;
-                }
-                None => ok = false,
-            }
-        }
-        match t.basis.as_deref() {
-            None | Some("worst-phase") => {}
-            Some("as-captured") => th.basis = VerdictBasis::AsCaptured,
-            Some(other) => {
-                c.error(
-                    "thresholds.basis",
-                    format!("unknown basis `{other}`"),
-                    Some("use \"worst-phase\" (default) or \"as-captured\""),
-                );
-                ok = false;
-            }
-        }
-        thresholds = ok.then_some(th);
-    }
+    let known_lux: Option<Vec<f64>> = if captured {
+        capture
+            .as_ref()
+            .map(|cap| cap.cases.iter().filter_map(|k| k.light_lux).collect())
+    } else {
+        levels.clone()
+    };
+    let thresholds = super::thresholds::thresholds(&mut c, raw.thresholds, known_lux.as_deref());
 
     let sequence = Sequence {
         on_s: on_s?,
@@ -731,16 +662,26 @@ fn load_profile(c: &mut Checker<'_>, name: &str, plan_path: &Path) -> Option<Cam
         Err(e) => {
             c.error(
                 "dut.camera-profile",
-                format!(
-                    "invalid camera profile `{}`: {}",
-                    path.display(),
-                    e.to_string().trim_end()
-                ),
-                None,
+                profile_error(path, &text, &e),
+                Some("a camera profile is a TOML file with one [camera] table (reference-data/cameras/)"),
             );
             return None;
         }
     };
+    if raw.camera.is_none() {
+        // Not a profile at all: name it, but echo none of its keys.
+        c.error(
+            "dut.camera-profile",
+            format!(
+                "`{}` is not a camera profile (no [camera] table)",
+                path.display()
+            ),
+            Some(
+                "a camera profile is a TOML file with one [camera] table (reference-data/cameras/)",
+            ),
+        );
+        return None;
+    }
     let mut pc = Checker {
         index: &index,
         diags: c.diags,
@@ -759,6 +700,36 @@ fn load_profile(c: &mut Checker<'_>, name: &str, plan_path: &Path) -> Option<Cam
         return None;
     };
     camera_config(&mut pc, cam, "camera", &path.display().to_string())
+}
+
+/// A TOML error in a camera profile, located by line and column, with
+/// every quoted fragment of the file left out: the file named may be any
+/// file (issue 10), and its contents must never reach the terminal or a log.
+fn profile_error(path: &Path, text: &str, e: &toml::de::Error) -> String {
+    let mut message = String::new();
+    let mut quoted = None;
+    for ch in e.message().trim_end().chars() {
+        match (quoted, ch) {
+            (None, '"' | '`' | '\'') => {
+                quoted = Some(ch);
+                message.push_str("`...`");
+            }
+            (Some(q), _) if ch == q => quoted = None,
+            (Some(_), _) => {}
+            (None, '\n') => message.push_str("; "),
+            (None, _) => message.push(ch),
+        }
+    }
+    let at = e.span().map_or(String::new(), |span| {
+        let before = &text.as_bytes()[..span.start.min(text.len())];
+        let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+        let col = before.iter().rev().take_while(|&&b| b != b'\n').count() + 1;
+        format!(" at line {line}, column {col}")
+    });
+    format!(
+        "`{}` is not a valid camera profile{at}: {message}",
+        path.display()
+    )
 }
 
 fn camera_config(
@@ -1228,11 +1199,7 @@ fn physical_camera(
         None => None,
         Some(a) => {
             let kk = |s: &str| k(&format!("auto-exposure.{s}"));
-            let target = c.positive(
-                a.target.unwrap_or(0.18),
-                &kk("target"),
-                "a fraction of white, e.g. 0.18",
-            );
+            let target = ae_target(c, a.target_luma, a.target, curve, &kk);
             let damping = c.positive(
                 a.damping.unwrap_or(0.5),
                 &kk("damping"),
@@ -1272,9 +1239,6 @@ fn physical_camera(
                 &kk("max-digital-gain"),
                 ">= min-digital-gain",
             );
-            if target.is_some_and(|t| t >= 1.0) {
-                c.error(&kk("target"), "must be below 1 (white)", Some("e.g. 0.18"));
-            }
             if damping.is_some_and(|d| d > 1.0) {
                 c.error(
                     &kk("damping"),
@@ -1402,4 +1366,50 @@ fn physical_camera(
         analog_gain: analog_gain?,
         digital_gain: digital_gain?,
     })
+}
+
+/// Default auto-exposure target: the output level of the metered area as a
+/// fraction of full scale. 0.46 is where 18 % grey lands in sRGB
+/// (IEC 61966-2-1): a mid-grey scene looks mid-grey.
+pub const DEFAULT_TARGET_LUMA: f64 = 0.46;
+
+/// The auto-exposure target as the controller uses it: a linear fraction of
+/// white. `target-luma` (output level, 0..1 of full scale) goes through the
+/// inverse tone curve; the older `target` is that linear fraction itself.
+fn ae_target(
+    c: &mut Checker<'_>,
+    luma: Option<f64>,
+    linear: Option<f64>,
+    curve: Option<ToneCurve>,
+    kk: &dyn Fn(&str) -> String,
+) -> Option<f64> {
+    let hint_luma =
+        "the metered area's output level, 0..1 of full scale, e.g. 0.46 (18 % grey in sRGB)";
+    match (luma, linear) {
+        (Some(_), Some(_)) => {
+            c.error(
+                &kk("target"),
+                "give target-luma or target, not both",
+                Some("target-luma is the output level; target, the older key, a linear fraction of white"),
+            );
+            None
+        }
+        (None, Some(t)) => {
+            let t = c.positive(t, &kk("target"), "a linear fraction of white, e.g. 0.0003")?;
+            if t >= 1.0 {
+                c.error(&kk("target"), "must be below 1 (white)", Some(hint_luma));
+                return None;
+            }
+            Some(t)
+        }
+        (luma, None) => {
+            let key = kk("target-luma");
+            let y = luma.unwrap_or(DEFAULT_TARGET_LUMA);
+            if !(y.is_finite() && y > 0.0 && y < 1.0) {
+                c.error(&key, format!("{y} is outside (0, 1)"), Some(hint_luma));
+                return None;
+            }
+            Some(curve?.inverse(y))
+        }
+    }
 }

@@ -3,8 +3,10 @@
 //! Text is set in "DejaVu Sans", named explicitly: a generic "sans-serif"
 //! falls back to a serif face in the PDF engine (DEPENDENCIES.md).
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
+use crate::backend::segments::SegmentsFound;
 use crate::metrics::flicker::Segment;
 use crate::runner::CaseResult;
 
@@ -38,24 +40,98 @@ fn segment_fill(s: Segment) -> RGBAColor {
     }
 }
 
+/// Shades the detected segments over their spans and, in red, the settle
+/// gaps between each step and the segment after it.
+fn shade_detected<DB: DrawingBackend>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    found: &SegmentsFound,
+    (y0, y1): (f64, f64),
+) -> Result<(), String> {
+    let t0 = found.signal.first().map_or(0.0, |p| p.0);
+    let spans = [
+        (Segment::On, found.on_time_s),
+        (Segment::Off, found.off_time_s),
+        (Segment::Pwm, Some(found.pwm_time_s)),
+    ];
+    for (seg, span) in spans {
+        let Some((a, b)) = span else { continue };
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [(t0 + a, y0), (t0 + b, y1)],
+                segment_fill(seg).filled(),
+            )))
+            .map_err(|e| e.to_string())?;
+    }
+    // Settle gap: from each step to the start of the segment it begins.
+    let gaps: Vec<(f64, f64)> = found
+        .steps
+        .iter()
+        .filter_map(|step| {
+            let span = match step.kind {
+                "on" => found.on_time_s,
+                "off" => found.off_time_s,
+                "pwm" => Some(found.pwm_time_s),
+                _ => None,
+            };
+            Some((step.time_s, span?.0))
+        })
+        .filter(|(a, b)| b > a)
+        .collect();
+    let hatch = RGBColor(220, 60, 60);
+    for (i, &(a, b)) in gaps.iter().enumerate() {
+        let series = chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [(t0 + a, y0), (t0 + b, y1)],
+                hatch.mix(0.18).filled(),
+            )))
+            .map_err(|e| e.to_string())?;
+        if i == 0 {
+            series
+                .label(format!(
+                    "settle {} s after each step (left out)",
+                    found.settle_s.unwrap_or(0.0)
+                ))
+                .legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 4), (x + 18, y + 4)], hatch.mix(0.3).filled())
+                });
+        }
+    }
+    Ok(())
+}
+
 /// ROI luma against time for one case, like Figure 10 of Deegan 2018: the
 /// segments shaded, the ON and OFF reference levels of the first ROI drawn
-/// dashed, and the PWM-segment min and max of each ROI marked.
-pub fn luma_trace_svg(result: &CaseResult) -> Result<String, ChartError> {
+/// dashed, and the PWM-segment min and max of each ROI marked. With
+/// detected segments (`segments`), the whole capture's detection signal is
+/// drawn in grey and the settle gaps after each step are shaded red.
+pub fn luma_trace_svg(
+    result: &CaseResult,
+    segments: Option<&SegmentsFound>,
+) -> Result<String, ChartError> {
     let err = |e: &dyn std::fmt::Display| ChartError {
         chart: format!("trace {}", result.case.id),
         message: e.to_string(),
     };
     let acq = &result.acquisition;
     let frames = &acq.frames;
-    let t_end = frames.last().map(|f| f.time_s).unwrap_or(0.0).max(1e-3);
+    let detected = segments.filter(|s| !s.signal.is_empty());
+    let signal = detected.map_or(&[][..], |s| &s.signal[..]);
+    let t_end = frames
+        .last()
+        .map(|f| f.time_s)
+        .into_iter()
+        .chain(signal.last().map(|p| p.0))
+        .fold(1e-3, f64::max);
     let mut lo = f64::INFINITY;
     let mut hi = f64::NEG_INFINITY;
-    for roi in &acq.rois {
-        for &v in &roi.luma {
-            lo = lo.min(v);
-            hi = hi.max(v);
-        }
+    for &v in acq
+        .rois
+        .iter()
+        .flat_map(|r| &r.luma)
+        .chain(signal.iter().map(|p| &p.1))
+    {
+        lo = lo.min(v);
+        hi = hi.max(v);
     }
     if !(lo.is_finite() && hi.is_finite()) {
         return Err(err(&"the trace is empty"));
@@ -84,9 +160,20 @@ pub fn luma_trace_svg(result: &CaseResult) -> Result<String, ChartError> {
             .draw()
             .map_err(|e| err(&e))?;
 
+        if let Some(found) = detected {
+            shade_detected(&mut chart, found, (y0, y1)).map_err(|e| err(&e))?;
+            chart
+                .draw_series(LineSeries::new(
+                    signal.iter().copied(),
+                    RGBColor(150, 150, 150).stroke_width(1),
+                ))
+                .map_err(|e| err(&e))?
+                .label("LED-ROI mean, whole capture (detection)")
+                .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], RGBColor(150, 150, 150)));
+        }
         // Shade each run of frames of one segment.
         let mut start = 0;
-        for i in 1..=frames.len() {
+        for i in (1..=frames.len()).filter(|_| detected.is_none()) {
             if i == frames.len() || frames[i].segment != frames[start].segment {
                 let x0 = frames[start].time_s;
                 let x1 = if i == frames.len() {

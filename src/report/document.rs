@@ -27,6 +27,8 @@ pub struct InputFile {
     pub path: String,
     /// SHA-256 of its bytes, lowercase hex.
     pub sha256: String,
+    /// Size in bytes.
+    pub size: u64,
 }
 
 /// Report metadata kept in results.json under `report`.
@@ -48,7 +50,7 @@ pub struct Signatory {
     pub signer: String,
     /// Date of signing, `YYYY-MM-DD`.
     pub date: String,
-    /// First 16 hex digits of the SHA-256 of the public key.
+    /// First 16 hex digits of the SHA-256 of the signer's certificate.
     pub key_id: String,
 }
 
@@ -114,9 +116,15 @@ impl Document {
     ) -> Result<Document, ReportError> {
         let mut charts = BTreeMap::new();
         for r in results {
+            let segments = model
+                .cases
+                .iter()
+                .find(|c| c.id == r.case.id)
+                .and_then(|c| c.capture.as_ref())
+                .map(|c| &c.segments);
             charts.insert(
                 trace_chart_path(&r.case.id),
-                super::charts::luma_trace_svg(r)?,
+                super::charts::luma_trace_svg(r, segments)?,
             );
         }
         for (i, lux) in super::matrix::light_levels(model).into_iter().enumerate() {
@@ -297,15 +305,26 @@ impl Document {
     }
 }
 
-/// The `report` section of results.json for a run reported on `date`.
+/// The `report` section of results.json for a run reported on `date`. The
+/// inputs are those already in `model.report` (set by
+/// [`super::write_report`] from [`crate::inputs::collect`]), else the plan.
 pub fn report_meta(model: &Results, date: &str) -> ReportMeta {
+    let inputs = model
+        .report
+        .as_ref()
+        .map(|r| r.inputs.clone())
+        .filter(|i| !i.is_empty())
+        .unwrap_or_else(|| {
+            vec![InputFile {
+                role: "plan".to_string(),
+                path: model.plan.path.clone(),
+                sha256: model.plan.sha256.clone(),
+                size: std::fs::metadata(&model.plan.path).map_or(0, |m| m.len()),
+            }]
+        });
     ReportMeta {
         date: date.to_string(),
-        inputs: vec![InputFile {
-            role: "plan".to_string(),
-            path: model.plan.path.clone(),
-            sha256: model.plan.sha256.clone(),
-        }],
+        inputs,
         notes: notes(model),
     }
 }
@@ -332,9 +351,14 @@ pub fn notes(model: &Results) -> Vec<String> {
             odd.join(", ")
         ));
     }
-    if model.dut.backend.starts_with("sim") {
+    if model.method.backend == "simulator" {
+        let which = if model.dut.backend == "sim-physical" {
+            "physical"
+        } else {
+            "ideal"
+        };
         out.push(format!(
-            "Frames come from the ideal camera simulator (backend {}), not from a captured device; \
+            "Frames come from the {which} camera simulator (backend {}), not from a captured device; \
              the DUT fields name the camera being modelled.",
             model.dut.backend
         ));
@@ -370,9 +394,12 @@ pub fn notes(model: &Results) -> Vec<String> {
     }
     if model.counts.info > 0 {
         out.push(format!(
-            "{} case(s) lie outside the claimed mitigation range: measured and reported, never failing.",
+            "{} case(s) were not judged (outside the claimed mitigation range, marked informative, or no limit applies): measured and reported, never failing.",
             model.counts.info
         ));
+    }
+    if model.verdict == crate::metrics::Verdict::Info {
+        out.push("No case was judged: the run shows no pass.".to_string());
     }
     if !model.plan.description.trim().is_empty() {
         out.push(format!(

@@ -12,8 +12,10 @@ pub mod frames;
 pub mod golden;
 pub mod html;
 pub mod matrix;
+pub mod method;
 pub mod model;
 pub mod pdf;
+pub mod terminal;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -23,9 +25,18 @@ use crate::util::write_atomic;
 
 pub use model::{Results, build};
 
-/// A file in a report directory that marks it as signed; such a directory
-/// is never overwritten without `--force`.
-pub const SIGNOFF_FILE: &str = "signoff.json";
+/// A file in a report directory that marks it as signed (the CMS signature
+/// of its manifest); such a directory is never overwritten without `--force`.
+pub const SIGNOFF_FILE: &str = "signoff.p7s";
+
+/// Every file and folder the sign-off writes (see [`crate::signoff`]),
+/// including `signoff.json` of the old format; `--force` removes them.
+pub const SIGNOFF_FILES: [&str; 4] = ["signoff.p7s", "manifest.txt", "signatures", "signoff.json"];
+
+/// Whether `dir` holds a signed report, of the current format or the old one.
+pub fn is_signed(dir: &Path) -> bool {
+    SIGNOFF_FILES.iter().any(|f| dir.join(f).exists())
+}
 
 /// Why a report could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -92,6 +103,9 @@ pub struct WriteOptions {
     pub force: bool,
     /// Signatories shown in the sign-off block; empty renders a DRAFT.
     pub signatories: Vec<document::Signatory>,
+    /// Every input of the run ([`crate::inputs::collect`]); empty lists
+    /// the plan alone.
+    pub inputs: Vec<document::InputFile>,
 }
 
 /// One case's trace as CSV: `frame,time_s,segment,<one luma column per ROI>`.
@@ -115,7 +129,7 @@ pub fn trace_csv(result: &CaseResult) -> String {
 
 /// Fails if `dir` holds a signed report and `force` is off.
 pub fn check_overwrite(dir: &Path, force: bool) -> Result<(), ReportError> {
-    if !force && dir.join(SIGNOFF_FILE).exists() {
+    if !force && is_signed(dir) {
         return Err(ReportError::Signed {
             dir: dir.to_path_buf(),
         });
@@ -167,9 +181,13 @@ pub fn write_report(
     check_overwrite(dir, options.force)?;
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
     if options.force {
-        let signoff = dir.join(SIGNOFF_FILE);
-        if signoff.exists() {
-            std::fs::remove_file(&signoff).map_err(io_err(&signoff))?;
+        for name in SIGNOFF_FILES {
+            let path = dir.join(name);
+            if path.is_dir() {
+                std::fs::remove_dir_all(&path).map_err(io_err(&path))?;
+            } else if path.exists() {
+                std::fs::remove_file(&path).map_err(io_err(&path))?;
+            }
         }
     }
 
@@ -193,6 +211,13 @@ pub fn write_report(
         replace_dir(dir, document::FRAMES_DIR, &frames)?;
     }
 
+    let mut model = model.clone();
+    model.report = Some(document::ReportMeta {
+        date: options.date.clone(),
+        inputs: options.inputs.clone(),
+        notes: Vec::new(),
+    });
+    let model = &model;
     let doc =
         document::Document::build(model, results, &options.date, options.signatories.clone())?;
     let files: Vec<(String, Vec<u8>)> = doc

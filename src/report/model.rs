@@ -19,7 +19,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use crate::analysis::{self, Banding, Beat, DriveFlicker, FineMapInfo, HazardClass, RoiAnalysis};
-use crate::metrics::verdict::{in_mitigation_range, overall};
+use crate::metrics::verdict::{effective_basis, in_mitigation_range, overall};
 use crate::metrics::{Check, Levels, Metric, Verdict};
 use crate::plan::{Plan, RoiKind, Sequence, ShutterKind, Thresholds};
 use crate::runner::CaseResult;
@@ -40,9 +40,15 @@ pub struct Results {
     pub dut: DutInfo,
     /// The light sequence.
     pub sequence: SequenceInfo,
-    /// Pass criteria.
+    /// Pass criteria; `basis` is the one actually used (as captured for
+    /// captures and rigs).
     pub thresholds: Thresholds,
-    /// Overall verdict: fail if any case failed.
+    /// How the frames were acquired and which verdict basis was used.
+    pub method: super::method::Method,
+    /// IEEE P2020 KPI settings (`[p2020]`).
+    pub p2020: crate::metrics::p2020::P2020Options,
+    /// Overall verdict: fail if any case failed, else pass if any case was
+    /// judged, else info (no case judged: never pass).
     pub verdict: Verdict,
     /// Number of cases per verdict.
     pub counts: Counts,
@@ -225,7 +231,14 @@ pub struct CaseInfo {
     pub seed: u64,
     /// pass, fail or info.
     pub verdict: Verdict,
-    /// Whether the frequency is in the claimed mitigation range.
+    /// Why the case was not judged (verdict info); `null` when judged.
+    pub not_judged: Option<String>,
+    /// Limits that could not apply to this case, and why.
+    pub not_checked: Vec<String>,
+    /// What was done to acquire the frames, in words.
+    pub acquisition: String,
+    /// Whether the frequency is in the claimed mitigation range (false when
+    /// the frequency is unknown).
     pub in_mitigation_range: bool,
     /// Frames acquired.
     pub frames: usize,
@@ -284,6 +297,17 @@ pub struct RoiInfo {
     pub contrast_unbounded: bool,
     /// Spectrum, hazard class and phase coverage of this ROI's trace.
     pub analysis: RoiAnalysis,
+}
+
+impl RoiInfo {
+    /// `metric` is an FDI (2018) that this backend computed and that is
+    /// +infinity (dark OFF reference, light present). A worst case over
+    /// phase that a capture never has stays "not computed", not +inf.
+    pub fn is_unbounded(&self, metric: &str) -> bool {
+        self.contrast_unbounded
+            && metric.starts_with("fdi_2018")
+            && self.metrics.contains_key(metric)
+    }
 }
 
 /// Conditions are > 0 when known; a captured case without conditions holds
@@ -387,7 +411,11 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                 capture: None,
                 seed: r.case.seed,
                 verdict: r.verdict,
-                in_mitigation_range: in_mitigation_range(r.case.frequency_hz, &plan.thresholds),
+                not_judged: r.not_judged.clone(),
+                not_checked: r.not_checked.clone(),
+                acquisition: String::new(),
+                in_mitigation_range: r.case.frequency_hz > 0.0
+                    && in_mitigation_range(r.case.frequency_hz, &plan.thresholds),
                 frames: r.acquisition.frames.len(),
                 trace: trace_path(&r.case.id),
                 sample_frame: r.sample_frame.as_ref().map(|f| SampleFrameInfo {
@@ -405,7 +433,9 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         })
         .collect();
     let Sequence { on_s, off_s, pwm_s } = plan.sequence;
-    Results {
+    let mut thresholds = plan.thresholds.clone();
+    thresholds.basis = effective_basis(plan.dut.backend, &plan.thresholds);
+    let mut model = Results {
         schema: RESULTS_SCHEMA,
         tool: Tool {
             name: "ledflicker",
@@ -443,7 +473,9 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
             ),
         },
         sequence: SequenceInfo { on_s, off_s, pwm_s },
-        thresholds: plan.thresholds,
+        thresholds,
+        method: super::method::method(plan),
+        p2020: plan.p2020,
         verdict: overall(results.iter().map(|r| r.verdict)),
         counts,
         cases,
@@ -451,5 +483,7 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         fine_maps_note: analysis::fine_maps_note(plan),
         advice: plan_advice(plan),
         report: None,
-    }
+    };
+    super::method::describe(&mut model, plan);
+    model
 }

@@ -242,6 +242,8 @@ fn segments_are_detected_from_the_dark_baseline_and_the_on_step() {
         .unwrap()
         .replace("off-frames = [0, 25]\n", "")
         .replace("pwm-frames = [100]\n", "")
+        // No ON segment in these recordings: the off-then-pwm rule.
+        .replace("[dut]\n", "[sequence]\non-s = 0.0\n\n[dut]\n")
         .replace(
             "../reference-data",
             root().join("reference-data").to_str().unwrap(),
@@ -252,6 +254,7 @@ fn segments_are_detected_from_the_dark_baseline_and_the_on_step() {
     for case in json["cases"].as_array().unwrap() {
         let s = &case["capture"]["segments"];
         assert_eq!(s["method"], "detected");
+        assert_eq!(s["rule"], "off-then-pwm");
         let off_end = s["off"][1].as_u64().unwrap();
         let pwm_start = s["pwm"][0].as_u64().unwrap();
         // SOURCE.md: the first ~48-71 frames are black.

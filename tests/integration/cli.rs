@@ -137,10 +137,12 @@ fn plan_run_writes_results_traces_and_report() {
         json["cases"][0]["sample_frame"]["path"],
         "frames/2000lux-60hz-20pct.png"
     );
-    // No temporary files are left behind.
+    // No temporary files are left behind; `.ledflicker` marks the report
+    // as ledflicker's (issue 10).
     for e in std::fs::read_dir(&out).unwrap() {
         let name = e.unwrap().file_name();
-        assert!(!name.to_string_lossy().starts_with('.'), "{name:?}");
+        let name = name.to_string_lossy();
+        assert!(!name.starts_with('.') || name == ".ledflicker", "{name:?}");
     }
 }
 
@@ -168,6 +170,10 @@ fn failing_case_exits_1() {
 #[test]
 fn signed_report_is_not_overwritten_without_force() {
     let out = scratch("signed");
+    // A signed earlier report: `plan` replaces only reports it wrote
+    // (issue 10), recognised here by results.json's schema.
+    let earlier = r#"{"schema": "ledflicker.results/2"}"#;
+    std::fs::write(out.join("results.json"), earlier).unwrap();
     std::fs::write(out.join("signoff.json"), "{}").unwrap();
     let args = [
         "plan",
@@ -178,10 +184,17 @@ fn signed_report_is_not_overwritten_without_force() {
     let o = ledflicker(&args);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--force"), "{}", stderr(&o));
-    assert!(!out.join("results.json").exists());
+    assert_eq!(
+        std::fs::read_to_string(out.join("results.json")).unwrap(),
+        earlier
+    );
     let o = ledflicker(&[&args[..], &["--force"]].concat());
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(out.join("results.json").exists());
+    assert_ne!(
+        std::fs::read_to_string(out.join("results.json")).unwrap(),
+        earlier
+    );
+    assert!(!out.join("signoff.json").exists());
 }
 
 #[test]

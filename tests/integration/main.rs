@@ -5,11 +5,17 @@ mod beyond;
 mod calibrate;
 mod captured;
 mod cli;
+mod detect;
 mod exact;
+mod mutate;
 mod physics;
 mod plans;
+mod recgen;
 mod report;
 mod results;
+mod robust;
+mod signoff;
+mod verdicts;
 
 use std::path::{Path, PathBuf};
 

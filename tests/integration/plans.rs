@@ -115,10 +115,19 @@ fn ranges_expand_by_index_and_include_the_stop() {
         .unwrap()
         .replace(
             "frequencies-hz = [60.0, 150.0]",
-            "frequency-range-hz = { start = 50.0, stop = 1000.0, step = 0.1 }",
-        );
-    let p = plan::parse(&text, std::path::Path::new("inline.toml"), String::new()).unwrap();
-    assert_eq!(p.frequencies_hz.len(), 9501);
-    assert_eq!(*p.frequencies_hz.last().unwrap(), 50.0 + 9500.0 * 0.1);
-    assert!((p.frequencies_hz[9500] - 1000.0).abs() < 1e-9);
+            "frequency-range-hz = { start = 50.0, stop = 84.9, step = 0.1 }",
+        )
+        .replace("duty-cycles = [0.2, 0.5]", "duty-cycles = [0.5]");
+    // 350 cases, the case maximum (issue 10); the report's memory limit is
+    // off, as this checks the grid only.
+    let p = plan::parse_within(
+        &text,
+        std::path::Path::new("inline.toml"),
+        String::new(),
+        false,
+    )
+    .unwrap();
+    assert_eq!(p.frequencies_hz.len(), 350);
+    assert_eq!(*p.frequencies_hz.last().unwrap(), 50.0 + 349.0 * 0.1);
+    assert!((p.frequencies_hz[349] - 84.9).abs() < 1e-9);
 }

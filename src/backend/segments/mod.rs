@@ -1,0 +1,709 @@
+//! Where the ON, OFF and PWM segments of a capture are, when the plan does
+//! not say: detected from the mean luma of the plan's LED ROIs, following
+//! the plan's `[sequence]` (docs/plan-format.md, "Segment detection").
+//!
+//! Sits between reading a capture ([`crate::capture`]) and building its
+//! acquisition ([`super::captured`]). Two rules:
+//! - `sequence` (the sequence has an ON segment, as the paper's 2 s ON,
+//!   2 s OFF, 60 s PWM): the ON step is the first bright run of the capture
+//!   (after an optional dark lead-in, or from frame 0 when the capture starts
+//!   in ON), the OFF step is where it ends, and the PWM step follows the OFF
+//!   duration; the durations and the ON/OFF contrast are checked;
+//! - `off-then-pwm` (no ON segment): a dark baseline, then the step where
+//!   the light comes on (the rule of format version 1).
+//!
+//! After each step the frames within the settle time are left out (auto
+//! exposure and gain hysteresis, Deegan 2018 section 4). A capture that does
+//! not fit is refused with the levels and steps found: a case is never
+//! judged on a guessed segment.
+
+use std::path::Path;
+
+use crate::capture::{CaptureError, CaptureTrace};
+use crate::plan::{Plan, RoiKind, Sequence};
+
+/// Default settle time after each step, seconds (`[capture] settle-s`).
+pub const DEFAULT_SETTLE_S: f64 = 0.5;
+/// Frames left out before each detected step (the frame that straddles it).
+pub const GUARD_FRAMES: usize = 1;
+/// Frames kept out on each side of the ON step by the `off-then-pwm` rule.
+pub const OFF_THEN_PWM_GUARD_FRAMES: usize = 2;
+/// A detected duration may differ from the sequence's by this fraction...
+pub const DURATION_TOLERANCE: f64 = 0.1;
+/// ...plus this many frame times.
+pub const DURATION_TOLERANCE_FRAMES: f64 = 2.0;
+/// The ON level must exceed the OFF level by this fraction of the ON level...
+pub const MIN_ON_OFF_CONTRAST: f64 = 0.2;
+/// ...and by this fraction of the source's full scale (5.1 DN of 255).
+pub const MIN_STEP_OF_FULL_SCALE: f64 = 0.02;
+
+/// What detection needs from the plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Detection {
+    /// The light sequence: durations of ON, OFF and PWM, seconds.
+    pub sequence: Sequence,
+    /// Frames within this time after a step are left out, seconds (>= 0).
+    pub settle_s: f64,
+    /// Indices of the ROIs whose mean luma is used; empty for all.
+    pub led_rois: Vec<usize>,
+}
+
+impl Detection {
+    /// Detection for `plan`: its sequence, `[capture] settle-s` and LED ROIs.
+    pub fn for_plan(plan: &Plan) -> Self {
+        Self {
+            sequence: plan.sequence,
+            settle_s: plan
+                .capture
+                .as_ref()
+                .map_or(DEFAULT_SETTLE_S, |c| c.settle_s),
+            led_rois: led_rois(plan),
+        }
+    }
+
+    /// The `off-then-pwm` rule over every ROI, for callers without a plan
+    /// sequence (format version 1 behaviour).
+    pub fn off_then_pwm() -> Self {
+        Self {
+            sequence: Sequence {
+                on_s: 0.0,
+                off_s: 0.0,
+                pwm_s: 1.0,
+            },
+            settle_s: DEFAULT_SETTLE_S,
+            led_rois: Vec::new(),
+        }
+    }
+}
+
+fn led_rois(plan: &Plan) -> Vec<usize> {
+    let led: Vec<usize> = (0..plan.rois.len())
+        .filter(|&i| plan.rois[i].kind == RoiKind::Led)
+        .collect();
+    if led.is_empty() {
+        (0..plan.rois.len()).collect()
+    } else {
+        led
+    }
+}
+
+/// Where a case's segments are, in frames (start inclusive, end exclusive)
+/// and in seconds from the first frame.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SegmentsFound {
+    /// "plan" or "detected".
+    pub method: &'static str,
+    /// Detection rule: "sequence" or "off-then-pwm"; `None` for "plan".
+    pub rule: Option<&'static str>,
+    /// OFF reference frames.
+    pub off: Option<(u64, u64)>,
+    /// Steady-ON frames.
+    pub on: Option<(u64, u64)>,
+    /// PWM frames.
+    pub pwm: (u64, u64),
+    /// OFF reference, seconds from the first frame: start of its first
+    /// frame to the start of the frame after its last.
+    pub off_time_s: Option<(f64, f64)>,
+    /// Steady ON, seconds (as `off_time_s`).
+    pub on_time_s: Option<(f64, f64)>,
+    /// PWM segment, seconds (as `off_time_s`).
+    pub pwm_time_s: (f64, f64),
+    /// Frames in the capture.
+    pub capture_frames: u64,
+    /// Detection threshold on the mean LED-ROI luma, DN (detected only).
+    pub threshold_dn: Option<f64>,
+    /// Settle time left out after each detected step, seconds (detected only).
+    pub settle_s: Option<f64>,
+    /// Mean LED-ROI luma of each detected segment, DN (detected only).
+    pub levels_dn: Option<LevelsFound>,
+    /// The steps found, in order (detected only).
+    pub steps: Vec<StepFound>,
+    /// One sentence for the reports: method, spans in frames and seconds,
+    /// levels and settle time.
+    pub text: String,
+    /// The detection signal for the trace chart: (frame time in the
+    /// capture's clock in seconds, mean LED-ROI luma in DN) of every frame (detected
+    /// only; not in results.json).
+    #[serde(skip)]
+    pub signal: Vec<(f64, f64)>,
+}
+
+impl SegmentsFound {
+    /// Fills [`SegmentsFound::text`]: `how` the segments were found, then
+    /// each segment's frames, seconds and level, the settle time and the
+    /// steps.
+    pub fn with_text(mut self, how: &str) -> Self {
+        let levels = self.levels_dn;
+        let part = |name: &str, f: Option<(u64, u64)>, s: Option<(f64, f64)>, l: Option<f64>| {
+            let (Some((a, b)), Some((ta, tb))) = (f, s) else {
+                return None;
+            };
+            let level = l.map_or(String::new(), |l| format!(", {l:.1} DN"));
+            Some(format!("{name} frames {a}..{b} ({ta:.3}-{tb:.3} s{level})"))
+        };
+        let parts: Vec<String> = [
+            part("ON", self.on, self.on_time_s, levels.and_then(|l| l.on)),
+            part("OFF", self.off, self.off_time_s, levels.and_then(|l| l.off)),
+            part(
+                "PWM",
+                Some(self.pwm),
+                Some(self.pwm_time_s),
+                levels.map(|l| l.pwm_mean),
+            ),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        let mut text = format!("{how}: {}", parts.join(", "));
+        if let Some(settle) = self.settle_s {
+            text += &format!("; {settle} s left out after each step");
+        }
+        if !self.steps.is_empty() {
+            let steps: Vec<String> = self
+                .steps
+                .iter()
+                .map(|s| {
+                    format!(
+                        "{} at frame {} ({:.3} s, {})",
+                        s.kind, s.frame, s.time_s, s.from
+                    )
+                })
+                .collect();
+            text += &format!("; steps: {}", steps.join(", "));
+        }
+        text += &format!("; {} frames in the capture", self.capture_frames);
+        self.text = text;
+        self
+    }
+}
+
+/// Mean LED-ROI luma of the detected segments, DN.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct LevelsFound {
+    /// OFF reference (settled part).
+    pub off: Option<f64>,
+    /// Steady ON (settled part).
+    pub on: Option<f64>,
+    /// PWM segment mean.
+    pub pwm_mean: f64,
+}
+
+/// One step of the sequence as found in the capture.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct StepFound {
+    /// "on", "off", "pwm" or "end" (end of the PWM segment).
+    pub kind: &'static str,
+    /// First frame after the step.
+    pub frame: u64,
+    /// Its time, seconds from the first frame.
+    pub time_s: f64,
+    /// "luma" (seen in the trace), "timing" (from the sequence's durations)
+    /// or "capture" (the capture starts or ends there).
+    pub from: &'static str,
+}
+
+/// The frame times and the LED-ROI mean luma of a capture.
+struct Signal {
+    /// Seconds from the first frame.
+    t: Vec<f64>,
+    /// Time of the first frame in the capture's clock, seconds.
+    t0: f64,
+    /// Mean luma of the LED ROIs, DN.
+    m: Vec<f64>,
+    /// `m` through a 3-frame running median (single-frame noise removed).
+    s: Vec<f64>,
+    /// Typical frame interval (median), seconds.
+    dt: f64,
+    full_scale: f64,
+}
+
+impl Signal {
+    fn new(trace: &CaptureTrace, led: &[usize]) -> Self {
+        let n = trace.time_s.len();
+        let rois: Vec<&Vec<f64>> = if led.is_empty() {
+            trace.luma.iter().collect()
+        } else {
+            led.iter().filter_map(|&i| trace.luma.get(i)).collect()
+        };
+        let m: Vec<f64> = (0..n)
+            .map(|k| rois.iter().map(|t| t[k]).sum::<f64>() / rois.len().max(1) as f64)
+            .collect();
+        let s = (0..n)
+            .map(|k| median(&m[k.saturating_sub(1)..(k + 2).min(n)]))
+            .collect();
+        let t0 = trace.time_s.first().copied().unwrap_or(0.0);
+        let t: Vec<f64> = trace.time_s.iter().map(|x| x - t0).collect();
+        let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+        let dt = if d.is_empty() {
+            1.0 / 30.0
+        } else {
+            median_mut(&mut d)
+        };
+        Self {
+            t,
+            t0,
+            m,
+            s,
+            dt: if dt > 0.0 { dt } else { 1.0 / 30.0 },
+            full_scale: trace.full_scale_dn,
+        }
+    }
+
+    fn n(&self) -> usize {
+        self.t.len()
+    }
+
+    /// First frame at or after `time` (n when none).
+    fn at(&self, time: f64) -> usize {
+        self.t.partition_point(|&x| x < time - 1e-9)
+    }
+
+    /// Start time of frame `k`; one frame interval past the last frame for `n`.
+    fn time(&self, k: usize) -> f64 {
+        match self.t.get(k) {
+            Some(&x) => x,
+            None => self.t.last().map_or(0.0, |x| x + self.dt),
+        }
+    }
+
+    fn mean(&self, a: usize, b: usize) -> f64 {
+        self.m[a..b].iter().sum::<f64>() / (b - a).max(1) as f64
+    }
+
+    fn points(&self) -> Vec<(f64, f64)> {
+        let t0 = self.t0;
+        self.t
+            .iter()
+            .map(|t| t + t0)
+            .zip(self.m.iter().copied())
+            .collect()
+    }
+
+    fn tolerance(&self, duration_s: f64) -> f64 {
+        DURATION_TOLERANCE * duration_s + DURATION_TOLERANCE_FRAMES * self.dt
+    }
+
+    fn span_s(&self, (a, b): (u64, u64)) -> (f64, f64) {
+        (self.time(a as usize), self.time(b as usize))
+    }
+}
+
+fn median(v: &[f64]) -> f64 {
+    median_mut(&mut v.to_vec())
+}
+
+fn median_mut(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        0.0
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// The ON/OFF step found by [`find_on_off`].
+struct OnOff {
+    /// First frame of the bright ON run (0 when the capture starts in ON).
+    rise: usize,
+    /// First frame of the OFF segment.
+    fall: usize,
+    /// Midpoint between the ON and OFF levels, DN.
+    mid: f64,
+}
+
+/// Detects the segments of `trace` by `det`'s rule.
+pub fn detect(
+    trace: &CaptureTrace,
+    det: &Detection,
+    path: &Path,
+) -> Result<SegmentsFound, CaptureError> {
+    let sig = Signal::new(trace, &det.led_rois);
+    if det.sequence.on_s > 0.0 {
+        detect_sequence(&sig, det, path)
+    } else {
+        detect_off_then_pwm(&sig, det, path)
+    }
+}
+
+fn refuse(path: &Path, message: String, hint: String) -> CaptureError {
+    CaptureError::Invalid {
+        path: path.to_path_buf(),
+        message,
+        hint,
+    }
+}
+
+const KEYS_HINT: &str = "give this case's segments in its [[case]] (on-time-s, off-time-s, pwm-time-s = [start, end] in seconds, or on-frames, off-frames, pwm-frames), or make [sequence] on-s, off-s, pwm-s match the recording (on-s = 0 for a dark baseline, then PWM)";
+
+/// The first ON -> OFF step: the earliest frame `f` where the luma falls
+/// below the midpoint of the ON level before it and the OFF level after it,
+/// with the whole OFF segment dark, the ON level above the OFF level by the
+/// required contrast, and nothing bright before the ON run.
+fn find_on_off(sig: &Signal, seq: &Sequence, settle_s: f64) -> Option<OnOff> {
+    let n = sig.n();
+    let off_len = seq.off_s - sig.tolerance(seq.off_s);
+    for f in 1..n {
+        if sig.m[f] >= sig.m[f - 1] {
+            continue;
+        }
+        let tf = sig.t[f];
+        let on_a = sig.at(tf - 0.5 * seq.on_s);
+        let on_b = f.saturating_sub(GUARD_FRAMES);
+        let off_a = sig.at(tf + settle_s);
+        let off_b = sig.at(tf + off_len);
+        if on_b < on_a + 2 || off_b < off_a + 2 || sig.time(n) < tf + off_len {
+            continue;
+        }
+        let on = median(&sig.m[on_a..on_b]);
+        let off = median(&sig.m[off_a..off_b]);
+        if !contrast_ok(on, off, sig.full_scale) {
+            continue;
+        }
+        let mid = 0.5 * (on + off);
+        if sig.m[f - 1] < mid || sig.m[f] >= mid || sig.s[f..off_b].iter().any(|&x| x >= mid) {
+            continue;
+        }
+        let mut rise = f - 1;
+        while rise > 0 && sig.s[rise - 1] >= mid {
+            rise -= 1;
+        }
+        let lead_in = rise.saturating_sub(GUARD_FRAMES);
+        if sig.s[..lead_in].iter().any(|&x| x >= mid) {
+            continue;
+        }
+        return Some(OnOff { rise, fall: f, mid });
+    }
+    None
+}
+
+fn contrast_ok(on: f64, off: f64, full_scale: f64) -> bool {
+    on - off >= MIN_ON_OFF_CONTRAST * on && on - off >= MIN_STEP_OF_FULL_SCALE * full_scale
+}
+
+/// The `sequence` rule: ON, OFF, PWM in that order.
+fn detect_sequence(
+    sig: &Signal,
+    det: &Detection,
+    path: &Path,
+) -> Result<SegmentsFound, CaptureError> {
+    let seq = &det.sequence;
+    let settle = det.settle_s;
+    let n = sig.n();
+    if seq.off_s <= 0.0 {
+        return Err(refuse(
+            path,
+            "cannot detect segments: the plan's sequence has an ON segment but no OFF reference (sequence.off-s = 0)".to_string(),
+            KEYS_HINT.to_string(),
+        ));
+    }
+    if settle + 2.0 * sig.dt >= seq.off_s.min(seq.on_s).min(seq.pwm_s) {
+        return Err(refuse(
+            path,
+            format!(
+                "cannot detect segments: the settle time {settle} s leaves no frames of a {} s ON, {} s OFF, {} s PWM sequence",
+                seq.on_s, seq.off_s, seq.pwm_s
+            ),
+            "shorten [capture] settle-s".to_string(),
+        ));
+    }
+    let Some(step) = find_on_off(sig, seq, settle) else {
+        return Err(refuse(
+            path,
+            format!(
+                "cannot detect segments: no ON step followed by a {} s OFF segment with the ON level at least {:.0} % (and {:.1} DN) above the OFF level; found {}",
+                seq.off_s,
+                100.0 * MIN_ON_OFF_CONTRAST,
+                MIN_STEP_OF_FULL_SCALE * sig.full_scale,
+                describe_runs(sig)
+            ),
+            KEYS_HINT.to_string(),
+        ));
+    };
+    let OnOff { rise, fall, mid } = step;
+    let (t_rise, t_fall) = (sig.t[rise], sig.t[fall]);
+    let on_seen = t_fall - t_rise;
+    let tol_on = sig.tolerance(seq.on_s);
+    let on_wrong = if rise > 0 {
+        (on_seen - seq.on_s).abs() > tol_on
+    } else {
+        on_seen > seq.on_s + tol_on
+    };
+    let found = || {
+        format!(
+            "ON from frame {rise} ({t_rise:.3} s) to frame {fall} ({t_fall:.3} s), midpoint {mid:.1} DN; {}",
+            describe_runs(sig)
+        )
+    };
+    if on_wrong {
+        return Err(refuse(
+            path,
+            format!(
+                "cannot detect segments: the ON segment lasts {on_seen:.3} s, the sequence's {} s +- {tol_on:.3} s; found {}",
+                seq.on_s,
+                found()
+            ),
+            format!("{KEYS_HINT}; e.g. on-time-s = [{t_rise:.3}, {t_fall:.3}]"),
+        ));
+    }
+    // The PWM step: seen as the first bright frame after the OFF segment
+    // when it is near the sequence's time, else from the timing (a PWM
+    // segment may start looking dark: the light "appears OFF").
+    let t_pwm = t_fall + seq.off_s;
+    let tol_off = sig.tolerance(seq.off_s);
+    let seen = (fall..n).find(|&k| sig.s[k] >= mid);
+    if let Some(k) = seen.filter(|&k| sig.t[k] < t_pwm - tol_off) {
+        return Err(refuse(
+            path,
+            format!(
+                "cannot detect segments: the OFF segment lasts {:.3} s (frames {fall}..{k}), the sequence's {} s +- {tol_off:.3} s; found {}",
+                sig.t[k] - t_fall,
+                seq.off_s,
+                found()
+            ),
+            format!(
+                "{KEYS_HINT}; e.g. off-time-s = [{t_fall:.3}, {:.3}]",
+                sig.t[k]
+            ),
+        ));
+    }
+    let (pwm_step, pwm_from) = match seen.filter(|&k| sig.t[k] <= t_pwm + 1.5 * sig.dt) {
+        Some(k) => (k, "luma"),
+        None => (sig.at(t_pwm - 0.5 * sig.dt), "timing"),
+    };
+    let t_end = sig.time(pwm_step) - 0.5 * sig.dt + seq.pwm_s;
+    let tol_pwm = sig.tolerance(seq.pwm_s);
+    if sig.time(n) < t_end - tol_pwm {
+        return Err(refuse(
+            path,
+            format!(
+                "cannot detect segments: the capture ends {:.3} s into the PWM segment, which the sequence makes {} s (+- {tol_pwm:.3} s) long; found {}",
+                sig.time(n) - sig.time(pwm_step),
+                seq.pwm_s,
+                found()
+            ),
+            format!(
+                "{KEYS_HINT}; e.g. pwm-time-s = [{:.3}] (to the end), or set [sequence] pwm-s to the recorded length",
+                sig.time(pwm_step)
+            ),
+        ));
+    }
+    let (end, end_from) = if t_end < sig.time(n) {
+        (sig.at(t_end), "timing")
+    } else {
+        (n, "capture")
+    };
+    let after = |k: usize| if k == 0 { 0 } else { sig.at(sig.t[k] + settle) };
+    let on = (after(rise), fall - GUARD_FRAMES);
+    let off = (after(fall), pwm_step.saturating_sub(GUARD_FRAMES));
+    let pwm = (
+        after(pwm_step),
+        if end < n { end - GUARD_FRAMES } else { n },
+    );
+    for (name, (a, b)) in [("ON", on), ("OFF", off), ("PWM", pwm)] {
+        if b < a + 2 {
+            return Err(refuse(
+                path,
+                format!(
+                    "cannot detect segments: after the {settle} s settle time the {name} segment holds {} frames; found {}",
+                    b.saturating_sub(a),
+                    found()
+                ),
+                format!("shorten [capture] settle-s, or {KEYS_HINT}"),
+            ));
+        }
+    }
+    let (l_on, l_off) = (sig.mean(on.0, on.1), sig.mean(off.0, off.1));
+    if !contrast_ok(l_on, l_off, sig.full_scale) {
+        return Err(refuse(
+            path,
+            format!(
+                "cannot detect segments: the settled ON level {l_on:.2} DN is not {:.0} % (and {:.1} DN) above the OFF level {l_off:.2} DN; found {}",
+                100.0 * MIN_ON_OFF_CONTRAST,
+                MIN_STEP_OF_FULL_SCALE * sig.full_scale,
+                found()
+            ),
+            KEYS_HINT.to_string(),
+        ));
+    }
+    let step = |kind, k: usize, from| StepFound {
+        kind,
+        frame: k as u64,
+        time_s: sig.time(k),
+        from,
+    };
+    let steps = vec![
+        step("on", rise, if rise == 0 { "capture" } else { "luma" }),
+        step("off", fall, "luma"),
+        step("pwm", pwm_step, pwm_from),
+        step("end", end, end_from),
+    ];
+    let frames = |(a, b): (usize, usize)| (a as u64, b as u64);
+    let found = SegmentsFound {
+        method: "detected",
+        rule: Some("sequence"),
+        off: Some(frames(off)),
+        on: Some(frames(on)),
+        pwm: frames(pwm),
+        off_time_s: Some(sig.span_s(frames(off))),
+        on_time_s: Some(sig.span_s(frames(on))),
+        pwm_time_s: sig.span_s(frames(pwm)),
+        capture_frames: n as u64,
+        threshold_dn: Some(mid),
+        settle_s: Some(settle),
+        levels_dn: Some(LevelsFound {
+            off: Some(l_off),
+            on: Some(l_on),
+            pwm_mean: sig.mean(pwm.0, pwm.1),
+        }),
+        steps,
+        text: String::new(),
+        signal: sig.points(),
+    };
+    Ok(found.with_text(&format!(
+        "detected from the LED-ROI luma by the plan's sequence ({} s ON, {} s OFF, {} s PWM)",
+        seq.on_s, seq.off_s, seq.pwm_s
+    )))
+}
+
+/// The `off-then-pwm` rule (format version 1): a dark baseline, then the
+/// step where the light comes on; the PWM segment runs to the end.
+fn detect_off_then_pwm(
+    sig: &Signal,
+    det: &Detection,
+    path: &Path,
+) -> Result<SegmentsFound, CaptureError> {
+    let n = sig.n();
+    let m = &sig.m;
+    let lo = m.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = m.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let fail = |message: String| {
+        refuse(
+            path,
+            message,
+            "give the segments in the plan: off-frames = [a, b] and pwm-frames = [c] (or *-time-s)"
+                .to_string(),
+        )
+    };
+    if hi - lo <= MIN_STEP_OF_FULL_SCALE * sig.full_scale || !hi.is_finite() || !lo.is_finite() {
+        return Err(fail(format!(
+            "cannot detect segments: the ROI luma stays within {lo:.2}..{hi:.2} DN (no ON step)"
+        )));
+    }
+    // The ON step: the first frame above a quarter of the range. The OFF
+    // baseline ends where the luma first leaves the dark level (2 % of the
+    // range), so a slow rise is not averaged into x_off.
+    let threshold = lo + 0.25 * (hi - lo);
+    let step = m.iter().position(|&x| x > threshold).unwrap_or(0);
+    let rise = m
+        .iter()
+        .position(|&x| x > lo + 0.02 * (hi - lo))
+        .unwrap_or(0);
+    if rise <= OFF_THEN_PWM_GUARD_FRAMES {
+        return Err(fail(
+            "cannot detect segments: the capture does not start with a dark OFF baseline"
+                .to_string(),
+        ));
+    }
+    let fps = if n > 1 {
+        (n - 1) as f64 / sig.t[n - 1].max(1e-9)
+    } else {
+        30.0
+    };
+    let pwm_start = step + ((det.settle_s * fps).round() as usize).max(OFF_THEN_PWM_GUARD_FRAMES);
+    if pwm_start + 2 > n {
+        return Err(fail(format!(
+            "the light comes on at frame {step}, too late for a PWM segment of 2 frames or more"
+        )));
+    }
+    let off = (0, (rise - OFF_THEN_PWM_GUARD_FRAMES) as u64);
+    let pwm = (pwm_start as u64, n as u64);
+    let found = SegmentsFound {
+        method: "detected",
+        rule: Some("off-then-pwm"),
+        off: Some(off),
+        on: None,
+        pwm,
+        off_time_s: Some(sig.span_s(off)),
+        on_time_s: None,
+        pwm_time_s: sig.span_s(pwm),
+        capture_frames: n as u64,
+        threshold_dn: Some(threshold),
+        settle_s: Some(det.settle_s),
+        levels_dn: Some(LevelsFound {
+            off: Some(sig.mean(0, off.1 as usize)),
+            on: None,
+            pwm_mean: sig.mean(pwm_start, n),
+        }),
+        steps: vec![
+            StepFound {
+                kind: "pwm",
+                frame: step as u64,
+                time_s: sig.time(step),
+                from: "luma",
+            },
+            StepFound {
+                kind: "end",
+                frame: n as u64,
+                time_s: sig.time(n),
+                from: "capture",
+            },
+        ],
+        text: String::new(),
+        signal: sig.points(),
+    };
+    Ok(found.with_text(
+        "detected from the LED-ROI luma by the off-then-pwm rule (the sequence has no ON segment)",
+    ))
+}
+
+/// The capture's dark and bright runs around the midpoint of its 2nd and
+/// 98th percentile luma, for error messages: "dark frames 0..29 (0.000 s,
+/// 12.3 DN), bright ..." (the first 6 runs).
+fn describe_runs(sig: &Signal) -> String {
+    let n = sig.n();
+    if n == 0 {
+        return "no frames".to_string();
+    }
+    let mut sorted = sig.s.clone();
+    sorted.sort_by(f64::total_cmp);
+    let q = |p: f64| sorted[((n - 1) as f64 * p).round() as usize];
+    let (lo, hi) = (q(0.02), q(0.98));
+    let mid = 0.5 * (lo + hi);
+    let mut runs = Vec::new();
+    let mut start = 0;
+    for k in 1..=n {
+        if k == n || (sig.s[k] >= mid) != (sig.s[start] >= mid) {
+            runs.push((start, k));
+            start = k;
+        }
+    }
+    let shown: Vec<String> = runs
+        .iter()
+        .take(6)
+        .map(|&(a, b)| {
+            format!(
+                "{} frames {a}..{b} ({:.3}-{:.3} s, mean {:.1} DN)",
+                if sig.s[a] >= mid { "bright" } else { "dark" },
+                sig.time(a),
+                sig.time(b),
+                sig.mean(a, b)
+            )
+        })
+        .collect();
+    let more = if runs.len() > 6 {
+        format!(" and {} more runs", runs.len() - 6)
+    } else {
+        String::new()
+    };
+    format!(
+        "LED-ROI luma {lo:.1}..{hi:.1} DN (2nd..98th percentile), {n} frames, {:.3} s: {}{more}",
+        sig.time(n),
+        shown.join(", ")
+    )
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,81 @@
+//! Ctrl-C and `kill`: SIGINT and SIGTERM become a flag that the runner, the
+//! lab-rig backend and the report writer poll, so that a run stops between
+//! cases, kills its rig's process group and leaves the old report in place.
+//!
+//! Sits beside the pipeline: `cli` installs the handler for `plan`; the
+//! runner ([`crate::runner`]) and the command backend read [`requested`].
+//! The handler only stores the signal number (async-signal-safe) and
+//! restores the default action, so a second Ctrl-C ends the process at once.
+
+use std::sync::atomic::{AtomicI32, Ordering};
+
+/// The signal that asked the run to stop, or 0.
+static SIGNAL: AtomicI32 = AtomicI32::new(0);
+
+extern "C" fn on_signal(sig: libc::c_int) {
+    SIGNAL.store(sig, Ordering::SeqCst);
+}
+
+/// Installs the SIGINT and SIGTERM handlers. Idempotent.
+pub fn install() {
+    for sig in [libc::SIGINT, libc::SIGTERM] {
+        // SAFETY: `sigaction` with a zeroed struct, an empty mask and a
+        // handler that only stores to an atomic (async-signal-safe).
+        // SA_RESETHAND restores the default action after the first signal.
+        unsafe {
+            let mut action: libc::sigaction = std::mem::zeroed();
+            action.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+            action.sa_flags = libc::SA_RESETHAND | libc::SA_RESTART;
+            libc::sigemptyset(&mut action.sa_mask);
+            libc::sigaction(sig, &action, std::ptr::null_mut());
+        }
+    }
+}
+
+/// The signal number that asked the run to stop, if any.
+pub fn requested() -> Option<i32> {
+    match SIGNAL.load(Ordering::SeqCst) {
+        0 => None,
+        s => Some(s),
+    }
+}
+
+/// Asks the run to stop as if `signal` had arrived (tests, and a fatal
+/// error in one worker that should stop the others).
+pub fn request(signal: i32) {
+    SIGNAL.store(signal, Ordering::SeqCst);
+}
+
+/// Name of a signal for messages: "SIGINT", "SIGTERM" or "signal N".
+pub fn signal_name(signal: i32) -> String {
+    match signal {
+        libc::SIGINT => "SIGINT (Ctrl-C)".to_string(),
+        libc::SIGTERM => "SIGTERM".to_string(),
+        s => format!("signal {s}"),
+    }
+}
+
+/// The run was stopped by a signal.
+#[derive(Debug, thiserror::Error)]
+#[error("interrupted by {}: the workers stopped; no new report was written", signal_name(*.signal))]
+pub struct Interrupted {
+    /// Signal number.
+    pub signal: i32,
+}
+
+impl Interrupted {
+    /// Exit code of a run stopped by this signal: 128 + the signal number,
+    /// as a shell reports a process killed by it (130 for SIGINT, 143 for
+    /// SIGTERM).
+    pub fn exit_code(&self) -> i32 {
+        128 + self.signal
+    }
+}
+
+/// `Err(Interrupted)` once a stop was requested.
+pub fn check() -> Result<(), Interrupted> {
+    match requested() {
+        Some(signal) => Err(Interrupted { signal }),
+        None => Ok(()),
+    }
+}

@@ -1,0 +1,575 @@
+//! Report directories: a new generation is written beside the old one and
+//! swapped in whole, so that nothing a user put there is lost and a killed
+//! run leaves the old complete report or the new complete one.
+//!
+//! Last stage of `ledflicker plan`, around [`crate::report::write_report`]:
+//!
+//! 1. [`Generation::begin`] checks `--out`: missing, empty, or an earlier
+//!    ledflicker report (marked by [`MARKER`], or by a results.json of a
+//!    `ledflicker.results/` schema) is fine; anything else is refused. It
+//!    removes what killed runs left beside it (`.<name>.ledflicker-*` of a
+//!    process that is gone) and creates the staging directory
+//!    `.<name>.ledflicker-new-<pid>` next to `--out`. Files of the old
+//!    report that ledflicker did not write are hard-linked (or copied) into
+//!    the staging directory, so they survive the swap.
+//! 2. The report is written into [`Generation::path`].
+//! 3. [`Generation::commit`] writes [`MARKER`] (the list of what this run
+//!    wrote) and exchanges the staging directory with `--out` in one
+//!    `renameat2(RENAME_EXCHANGE)`; where the file system cannot, two
+//!    renames, and the next run puts the old report back if it was killed
+//!    between them. The old generation is then removed.
+//!
+//! Dropping an uncommitted [`Generation`] removes its staging directory.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+/// Marker file of a report directory written by ledflicker: one line of
+/// text, then the top-level entries the run wrote, one per line.
+pub const MARKER: &str = ".ledflicker";
+
+const MARKER_HEADER: &str = "ledflicker report directory; entries written by `ledflicker plan`:";
+
+/// Top-level names a ledflicker report has held, for reports written
+/// before [`MARKER`] existed (recognised by results.json alone).
+const KNOWN_ENTRIES: &[&str] = &[
+    "results.json",
+    "traces",
+    "charts",
+    "frames",
+    "report.html",
+    "report.pdf",
+    "junit.xml",
+    "summary.csv",
+    "signoff.json",
+    "signoff.p7s",
+    "manifest.txt",
+    "signatures",
+    MARKER,
+];
+
+/// Why a report directory cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum OutDirError {
+    /// `--out` is unusable: not a directory, a foreign directory, or a
+    /// place where nothing can be created.
+    #[error("output directory `{dir}`: {message}\n    hint: {hint}")]
+    Refused {
+        /// The `--out` directory.
+        dir: PathBuf,
+        /// What is wrong.
+        message: String,
+        /// How to fix it.
+        hint: String,
+    },
+    /// File system error while swapping generations.
+    #[error("output directory `{dir}`: cannot {action} `{path}`: {source}")]
+    Io {
+        /// The `--out` directory.
+        dir: PathBuf,
+        /// What was being done.
+        action: &'static str,
+        /// The file or directory.
+        path: PathBuf,
+        /// Cause.
+        source: std::io::Error,
+    },
+}
+
+impl OutDirError {
+    /// True when the user can fix it by choosing another directory (exit
+    /// code 2); false for a file-system failure mid-swap (exit code 3).
+    pub fn is_usage_error(&self) -> bool {
+        match self {
+            OutDirError::Refused { .. } => true,
+            OutDirError::Io { source, .. } => matches!(
+                source.kind(),
+                std::io::ErrorKind::PermissionDenied
+                    | std::io::ErrorKind::ReadOnlyFilesystem
+                    | std::io::ErrorKind::NotADirectory
+                    | std::io::ErrorKind::AlreadyExists
+            ),
+        }
+    }
+}
+
+/// A report generation being written beside `--out`.
+#[derive(Debug)]
+pub struct Generation {
+    out: PathBuf,
+    staging: PathBuf,
+    /// Entries carried over from the old report (not ours).
+    carried: BTreeSet<String>,
+    committed: bool,
+}
+
+/// What a directory holds, for [`Generation::begin`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum DirKind {
+    /// Nothing there yet.
+    Missing,
+    /// An empty directory.
+    Empty,
+    /// A report written by ledflicker; `owned` are its entries.
+    Report {
+        /// Top-level entries ledflicker wrote.
+        owned: BTreeSet<String>,
+    },
+    /// Something else.
+    Foreign,
+}
+
+/// Classifies `dir`. Errors when it exists but is not a directory.
+pub fn classify(dir: &Path) -> Result<DirKind, OutDirError> {
+    let meta = match std::fs::symlink_metadata(dir) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(DirKind::Missing),
+        Err(source) => return Err(io_err(dir, "read", dir, source)),
+    };
+    if !meta.is_dir() {
+        return Err(OutDirError::Refused {
+            dir: dir.to_path_buf(),
+            message: if meta.file_type().is_symlink() {
+                "is a symbolic link; a report directory is replaced whole, so it must be a real directory".to_string()
+            } else {
+                "exists and is not a directory".to_string()
+            },
+            hint: "give --out a new or empty directory, or an earlier report directory".to_string(),
+        });
+    }
+    let mut entries = std::fs::read_dir(dir).map_err(|e| io_err(dir, "list", dir, e))?;
+    if entries.next().is_none() {
+        return Ok(DirKind::Empty);
+    }
+    if let Ok(text) = std::fs::read_to_string(dir.join(MARKER))
+        && let Some(rest) = text.strip_prefix(MARKER_HEADER)
+    {
+        let mut owned: BTreeSet<String> = rest
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.is_empty() && !l.contains('/') && *l != "." && *l != "..")
+            .map(str::to_string)
+            .collect();
+        owned.insert(MARKER.to_string());
+        // `ledflicker sign` adds these after the marker was written.
+        owned.extend(crate::report::SIGNOFF_FILES.iter().map(|s| s.to_string()));
+        return Ok(DirKind::Report { owned });
+    }
+    if results_schema_is_ours(&dir.join("results.json")) {
+        let owned = KNOWN_ENTRIES.iter().map(|s| s.to_string()).collect();
+        return Ok(DirKind::Report { owned });
+    }
+    Ok(DirKind::Foreign)
+}
+
+/// results.json of a `ledflicker.results/N` schema (any N).
+fn results_schema_is_ours(path: &Path) -> bool {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return false;
+    };
+    serde_json::from_str::<serde_json::Value>(&text).is_ok_and(|v| {
+        v["schema"]
+            .as_str()
+            .is_some_and(|s| s.starts_with("ledflicker.results/"))
+    })
+}
+
+fn io_err(dir: &Path, action: &'static str, path: &Path, source: std::io::Error) -> OutDirError {
+    OutDirError::Io {
+        dir: dir.to_path_buf(),
+        action,
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Parent directory and file name of `out`.
+fn split(out: &Path) -> Result<(PathBuf, String), OutDirError> {
+    let refused = |message: &str| OutDirError::Refused {
+        dir: out.to_path_buf(),
+        message: message.to_string(),
+        hint: "give --out a directory name, e.g. --out reports/daylight".to_string(),
+    };
+    let abs = std::path::absolute(out).map_err(|e| io_err(out, "resolve", out, e))?;
+    let name = abs
+        .file_name()
+        .ok_or_else(|| refused("has no directory name"))?
+        .to_string_lossy()
+        .into_owned();
+    if name == "." || name == ".." {
+        return Err(refused("has no directory name"));
+    }
+    let parent = abs
+        .parent()
+        .ok_or_else(|| refused("has no parent directory"))?;
+    Ok((parent.to_path_buf(), name))
+}
+
+/// Name prefix of the generations of `name` beside it.
+fn temp_prefix(name: &str) -> String {
+    format!(".{name}.ledflicker-")
+}
+
+/// True while process `pid` exists (it may belong to another user).
+pub(crate) fn alive(pid: u32) -> bool {
+    if pid == std::process::id() {
+        return true;
+    }
+    let Ok(pid) = libc::pid_t::try_from(pid) else {
+        return false;
+    };
+    // SAFETY: kill with signal 0 only checks that the process exists.
+    let r = unsafe { libc::kill(pid, 0) };
+    r == 0 || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM)
+}
+
+/// Removes what killed runs left beside `out`, and puts an old report back
+/// when a run died between the two renames of a non-atomic swap. Returns
+/// the number of directories removed.
+pub fn clean_stale(out: &Path) -> Result<usize, OutDirError> {
+    let (parent, name) = split(out)?;
+    let prefix = temp_prefix(&name);
+    let Ok(entries) = std::fs::read_dir(&parent) else {
+        return Ok(0);
+    };
+    let mut removed = 0;
+    for e in entries.flatten() {
+        let file = e.file_name().to_string_lossy().into_owned();
+        let Some(rest) = file.strip_prefix(&prefix) else {
+            continue;
+        };
+        let Some((kind, pid)) = rest.split_once('-') else {
+            continue;
+        };
+        let Ok(pid) = pid.parse::<u32>() else {
+            continue;
+        };
+        if alive(pid) {
+            continue;
+        }
+        let path = e.path();
+        if kind == "old" && !out.exists() {
+            std::fs::rename(&path, out).map_err(|err| io_err(out, "restore", &path, err))?;
+            continue;
+        }
+        std::fs::remove_dir_all(&path).map_err(|err| io_err(out, "remove", &path, err))?;
+        removed += 1;
+    }
+    Ok(removed)
+}
+
+impl Generation {
+    /// Checks `out` and starts a new generation beside it (see the module
+    /// documentation). The signed-report rule is checked by the caller.
+    pub fn begin(out: &Path) -> Result<Generation, OutDirError> {
+        let (parent, name) = split(out)?;
+        std::fs::create_dir_all(&parent).map_err(|e| OutDirError::Refused {
+            dir: out.to_path_buf(),
+            message: format!("cannot create its parent `{}`: {e}", parent.display()),
+            hint: "choose an --out directory in a writable place".to_string(),
+        })?;
+        clean_stale(out)?;
+        let kind = classify(out)?;
+        if kind == DirKind::Foreign {
+            return Err(OutDirError::Refused {
+                dir: out.to_path_buf(),
+                message: "is not empty and holds no ledflicker report (no `.ledflicker` marker or results.json); refusing to write into it".to_string(),
+                hint: "give --out a new or empty directory; ledflicker only ever replaces reports it wrote".to_string(),
+            });
+        }
+        let staging = parent.join(format!("{}new-{}", temp_prefix(&name), std::process::id()));
+        if staging.exists() {
+            std::fs::remove_dir_all(&staging).map_err(|e| io_err(out, "remove", &staging, e))?;
+        }
+        std::fs::create_dir(&staging).map_err(|e| OutDirError::Refused {
+            dir: out.to_path_buf(),
+            message: format!("cannot create `{}` next to it: {e}", staging.display()),
+            hint: "choose an --out directory in a writable place".to_string(),
+        })?;
+        let mut generation = Generation {
+            out: out.to_path_buf(),
+            staging,
+            carried: BTreeSet::new(),
+            committed: false,
+        };
+        if let DirKind::Report { owned } = kind {
+            generation.carry_foreign(&owned)?;
+        }
+        Ok(generation)
+    }
+
+    /// The staging directory: write the report here.
+    pub fn path(&self) -> &Path {
+        &self.staging
+    }
+
+    /// The `--out` directory.
+    pub fn out(&self) -> &Path {
+        &self.out
+    }
+
+    /// Links every entry of the old report that ledflicker did not write
+    /// into the staging directory.
+    fn carry_foreign(&mut self, owned: &BTreeSet<String>) -> Result<(), OutDirError> {
+        let entries =
+            std::fs::read_dir(&self.out).map_err(|e| io_err(&self.out, "list", &self.out, e))?;
+        for e in entries {
+            let e = e.map_err(|err| io_err(&self.out, "list", &self.out, err))?;
+            let name = e.file_name().to_string_lossy().into_owned();
+            if owned.contains(&name) {
+                continue;
+            }
+            let to = self.staging.join(&name);
+            link_tree(&e.path(), &to).map_err(|err| io_err(&self.out, "keep", &e.path(), err))?;
+            self.carried.insert(name);
+        }
+        Ok(())
+    }
+
+    /// Writes the marker and swaps the new generation in; removes the old.
+    pub fn commit(mut self) -> Result<(), OutDirError> {
+        let mut text = format!("{MARKER_HEADER}\n");
+        let mut names: Vec<String> = std::fs::read_dir(&self.staging)
+            .map_err(|e| io_err(&self.out, "list", &self.staging, e))?
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| !self.carried.contains(n) && n != MARKER)
+            .collect();
+        names.sort();
+        for n in names {
+            text.push_str(&n);
+            text.push('\n');
+        }
+        let marker = self.staging.join(MARKER);
+        crate::util::write_atomic(&marker, text.as_bytes())
+            .map_err(|e| io_err(&self.out, "write", &marker, e))?;
+        sync_dir(&self.staging);
+        if !self.out.exists() {
+            std::fs::rename(&self.staging, &self.out)
+                .map_err(|e| io_err(&self.out, "rename", &self.staging, e))?;
+            self.committed = true;
+            sync_parent(&self.out);
+            return Ok(());
+        }
+        let old = match exchange(&self.staging, &self.out) {
+            Ok(()) => self.staging.clone(),
+            Err(_) => {
+                // Two renames; `clean_stale` restores `old` if we die between.
+                let (parent, name) = split(&self.out)?;
+                let old = parent.join(format!("{}old-{}", temp_prefix(&name), std::process::id()));
+                std::fs::rename(&self.out, &old)
+                    .map_err(|e| io_err(&self.out, "move aside", &self.out, e))?;
+                if let Err(e) = std::fs::rename(&self.staging, &self.out) {
+                    let _ = std::fs::rename(&old, &self.out);
+                    return Err(io_err(&self.out, "rename", &self.staging, e));
+                }
+                old
+            }
+        };
+        self.committed = true;
+        sync_parent(&self.out);
+        std::fs::remove_dir_all(&old).map_err(|e| io_err(&self.out, "remove", &old, e))
+    }
+}
+
+impl Drop for Generation {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_dir_all(&self.staging);
+        }
+    }
+}
+
+/// Swaps two directories atomically (Linux `renameat2(RENAME_EXCHANGE)`).
+fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
+    use std::os::unix::ffi::OsStrExt;
+    let c = |p: &Path| {
+        std::ffi::CString::new(p.as_os_str().as_bytes())
+            .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidInput, e))
+    };
+    let (a, b) = (c(a)?, c(b)?);
+    // SAFETY: two NUL-terminated paths that live across the call.
+    let r = unsafe {
+        libc::renameat2(
+            libc::AT_FDCWD,
+            a.as_ptr(),
+            libc::AT_FDCWD,
+            b.as_ptr(),
+            libc::RENAME_EXCHANGE,
+        )
+    };
+    if r == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::last_os_error())
+    }
+}
+
+/// Hard-links the file or tree `from` to `to`; copies where links fail.
+fn link_tree(from: &Path, to: &Path) -> std::io::Result<()> {
+    let meta = std::fs::symlink_metadata(from)?;
+    if meta.file_type().is_symlink() {
+        let target = std::fs::read_link(from)?;
+        return std::os::unix::fs::symlink(target, to);
+    }
+    if meta.is_dir() {
+        std::fs::create_dir(to)?;
+        std::fs::set_permissions(to, meta.permissions())?;
+        for e in std::fs::read_dir(from)? {
+            let e = e?;
+            link_tree(&e.path(), &to.join(e.file_name()))?;
+        }
+        return Ok(());
+    }
+    if std::fs::hard_link(from, to).is_err() {
+        std::fs::copy(from, to)?;
+    }
+    Ok(())
+}
+
+fn sync_dir(dir: &Path) {
+    if let Ok(f) = std::fs::File::open(dir) {
+        let _ = f.sync_all();
+    }
+}
+
+fn sync_parent(path: &Path) {
+    if let Some(p) = path.parent() {
+        sync_dir(if p.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            p
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let d =
+            std::env::temp_dir().join(format!("ledflicker-outdir-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn write_generation(out: &Path, files: &[(&str, &str)]) {
+        let g = Generation::begin(out).unwrap();
+        for (name, text) in files {
+            let p = g.path().join(name);
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(p, text).unwrap();
+        }
+        g.commit().unwrap();
+    }
+
+    #[test]
+    fn a_foreign_directory_is_refused_and_left_alone() {
+        let root = scratch("foreign");
+        let out = root.join("captures");
+        std::fs::create_dir_all(out.join("frames")).unwrap();
+        std::fs::write(out.join("frames/0001.png"), "mine").unwrap();
+        let err = Generation::begin(&out).unwrap_err();
+        assert!(err.is_usage_error(), "{err}");
+        assert!(
+            err.to_string().contains("holds no ledflicker report"),
+            "{err}"
+        );
+        assert_eq!(
+            std::fs::read_to_string(out.join("frames/0001.png")).unwrap(),
+            "mine"
+        );
+        assert_eq!(
+            std::fs::read_dir(&root).unwrap().count(),
+            1,
+            "no staging left behind"
+        );
+    }
+
+    #[test]
+    fn a_new_generation_replaces_ours_and_keeps_the_users_files() {
+        let root = scratch("regen");
+        let out = root.join("report");
+        write_generation(
+            &out,
+            &[
+                ("results.json", "1"),
+                ("traces/a.csv", "a"),
+                ("traces/b.csv", "b"),
+            ],
+        );
+        std::fs::write(out.join("notes.txt"), "user notes").unwrap();
+        write_generation(&out, &[("results.json", "2"), ("traces/a.csv", "a2")]);
+        assert_eq!(
+            std::fs::read_to_string(out.join("results.json")).unwrap(),
+            "2"
+        );
+        assert!(
+            !out.join("traces/b.csv").exists(),
+            "old generation's files are gone"
+        );
+        assert_eq!(
+            std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+            "user notes"
+        );
+        let marker = std::fs::read_to_string(out.join(MARKER)).unwrap();
+        assert!(
+            marker.contains("\nresults.json\n") && !marker.contains("notes.txt"),
+            "{marker}"
+        );
+        let left: Vec<_> = std::fs::read_dir(&root)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name())
+            .collect();
+        assert_eq!(left.len(), 1, "only the report is left: {left:?}");
+    }
+
+    #[test]
+    fn a_staging_directory_of_a_dead_process_is_removed_and_an_old_report_restored() {
+        let root = scratch("stale");
+        let out = root.join("report");
+        write_generation(&out, &[("results.json", "old")]);
+        // A run killed between the two renames of a non-atomic swap.
+        let dead = u32::MAX - 1;
+        let old = root.join(format!(".report.ledflicker-old-{dead}"));
+        std::fs::rename(&out, &old).unwrap();
+        let new = root.join(format!(".report.ledflicker-new-{dead}"));
+        std::fs::create_dir_all(new.join("traces")).unwrap();
+        assert_eq!(clean_stale(&out).unwrap(), 1);
+        assert_eq!(
+            std::fs::read_to_string(out.join("results.json")).unwrap(),
+            "old"
+        );
+        assert!(!new.exists() && !old.exists());
+    }
+
+    #[test]
+    fn an_uncommitted_generation_leaves_the_old_report_untouched() {
+        let root = scratch("abort");
+        let out = root.join("report");
+        write_generation(&out, &[("results.json", "old")]);
+        let g = Generation::begin(&out).unwrap();
+        std::fs::write(g.path().join("results.json"), "half").unwrap();
+        drop(g);
+        assert_eq!(
+            std::fs::read_to_string(out.join("results.json")).unwrap(),
+            "old"
+        );
+        assert_eq!(std::fs::read_dir(&root).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_file_in_place_of_the_directory_is_refused() {
+        let root = scratch("file");
+        let out = root.join("report");
+        std::fs::write(&out, "x").unwrap();
+        let err = Generation::begin(&out).unwrap_err();
+        assert!(
+            err.is_usage_error() && err.to_string().contains("not a directory"),
+            "{err}"
+        );
+    }
+}

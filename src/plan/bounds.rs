@@ -1,0 +1,316 @@
+//! Physical bounds, the work estimate and unique case ids: the checks a
+//! plan passes after [`super::validate`], so that a plan `validate` accepts
+//! runs in bounded time, memory and disk space.
+//!
+//! Limits are documented in docs/plan-format.md, "Limits". The estimate is
+//! an upper bound calibrated on the simulator (see [`WorkEstimate`]).
+
+use super::spans::SpanIndex;
+use super::{BackendKind, Diagnostic, Plan, TestCase};
+
+/// Highest PWM frequency, Hz. Automotive LED drivers run at up to a few
+/// tens of kHz; the ideal camera's closed-form integral is exact at any
+/// frequency, but above this the figures only say "steady light".
+pub const MAX_FREQUENCY_HZ: f64 = 1.0e6;
+/// Highest ambient illuminance, lux (direct sunlight is about 1e5 lux).
+pub const MAX_LIGHT_LUX: f64 = 2.0e5;
+/// Shortest exposure, seconds (1 us).
+pub const MIN_EXPOSURE_S: f64 = 1.0e-6;
+/// Highest frame rate, frames per second.
+pub const MAX_FPS: f64 = 1000.0;
+/// Largest sensor side, pixels.
+pub const MAX_SENSOR_SIDE: u32 = 16_384;
+/// Largest sensor, pixels (an 8K sensor is 33.2 Mpx).
+pub const MAX_SENSOR_PIXELS: u64 = 40_000_000;
+/// Most frames in one case (55 min at 30 fps).
+pub const MAX_FRAMES_PER_CASE: u64 = 100_000;
+/// Most row integrals in a run: cases x frames x ROI rows. At about 10 M
+/// row integrals per second and core this is an hour on 2 cores.
+pub const MAX_ROW_INTEGRALS: f64 = 5.0e10;
+/// Largest estimated peak memory of a run, bytes.
+pub const MAX_MEMORY_BYTES: f64 = 1.0e9;
+/// Largest estimated report directory, bytes.
+pub const MAX_OUTPUT_BYTES: f64 = 2.0e9;
+
+/// Memory of the process before the first case: code, the PDF engine's
+/// fonts, the thread pool, bytes (measured: 85 MB).
+const BASE_MEMORY_BYTES: f64 = 100.0e6;
+/// Memory each case costs in the report whatever its size: its part of the
+/// model, charts, HTML and the PDF engine's layout (measured: 2.07 MB a
+/// case for 200 cases of a 16 x 12 sensor and 12 frames).
+const CASE_MEMORY_BYTES: f64 = 2.5e6;
+/// Size of the report that does not grow with cases, bytes.
+const BASE_OUTPUT_BYTES: f64 = 2.0e6;
+/// Report bytes each case costs whatever its size (measured: 170 kB).
+const CASE_OUTPUT_BYTES: f64 = 200.0e3;
+
+/// What running a plan costs, estimated before running it. Every figure is
+/// an upper bound for the simulator; for captured and command backends the
+/// frames come from files and only the report part is estimated.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct WorkEstimate {
+    /// Test cases.
+    pub cases: usize,
+    /// Frames per case (simulator; 0 when the frames come from files).
+    pub frames_per_case: u64,
+    /// Sensor rows integrated per frame: the rows of every ROI.
+    pub rows_per_frame: u64,
+    /// cases x frames x rows: closed-form row integrals of the run.
+    pub row_integrals: f64,
+    /// Pixels of one rendered sample frame (0 when none is rendered).
+    pub frame_pixels: u64,
+    /// Peak resident memory, bytes.
+    pub memory_bytes: f64,
+    /// Size of the report directory, bytes.
+    pub output_bytes: f64,
+}
+
+impl WorkEstimate {
+    /// The estimate for `plan`.
+    pub fn of(plan: &Plan) -> WorkEstimate {
+        let cases = super::expand_cases(plan).len();
+        let sim = plan.dut.backend == BackendKind::Simulator;
+        let frames = if sim {
+            crate::backend::sim::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps).total()
+        } else {
+            0
+        };
+        // Captured and command runs read whatever frames they are given; the
+        // report part is estimated at the sequence's length.
+        let trace_frames = if sim {
+            frames
+        } else {
+            let s = &plan.sequence;
+            ((s.on_s + s.off_s + s.pwm_s) * plan.dut.camera.fps).ceil() as u64
+        };
+        let rows: u64 = plan.rois.iter().map(|r| u64::from(r.height_px)).sum();
+        let pixels = if sim {
+            u64::from(plan.dut.camera.sensor_rows) * u64::from(plan.dut.camera.sensor_columns)
+        } else {
+            0
+        };
+        let rois = plan.rois.len() as f64;
+        let n = cases as f64;
+        let tf = trace_frames as f64;
+        // Per case on disk: the trace CSV (about 24 bytes a frame plus 20
+        // per ROI), its chart (about 40 bytes per point and ROI), the
+        // sample frame PNG (at most 2 bytes a pixel), and the case's share
+        // of report.html and report.pdf, which embed the chart again.
+        let trace_csv = tf * (24.0 + 20.0 * rois);
+        let chart = tf * 40.0 * rois;
+        let output_per_case = CASE_OUTPUT_BYTES + trace_csv + 3.0 * chart + 2.0 * pixels as f64;
+        // Per case in memory until the report is written: the report's share,
+        // the trace (24 bytes per frame plus 8 per ROI), the rendered sample
+        // frame (8 bytes a pixel, plus up to 1 for its PNG and thumbnail;
+        // measured 8.3 in all) and the chart three times (SVG, HTML, PDF).
+        let memory_per_case =
+            CASE_MEMORY_BYTES + tf * (24.0 + 8.0 * rois) + 9.0 * pixels as f64 + 3.0 * chart;
+        WorkEstimate {
+            cases,
+            frames_per_case: frames,
+            rows_per_frame: rows,
+            row_integrals: n * frames as f64 * rows as f64,
+            frame_pixels: pixels,
+            memory_bytes: BASE_MEMORY_BYTES + n * memory_per_case,
+            output_bytes: BASE_OUTPUT_BYTES + n * output_per_case,
+        }
+    }
+
+    /// One line for `ledflicker validate`.
+    pub fn summary(&self) -> String {
+        format!(
+            "estimated work: {} cases x {} frames x {} rows = {:.3e} row integrals; peak memory {}; report {}",
+            self.cases,
+            self.frames_per_case,
+            self.rows_per_frame,
+            self.row_integrals,
+            bytes(self.memory_bytes),
+            bytes(self.output_bytes)
+        )
+    }
+}
+
+/// `1.2 GB`, `340 MB`, `12 kB`.
+pub fn bytes(b: f64) -> String {
+    if b >= 1e9 {
+        format!("{:.1} GB", b / 1e9)
+    } else if b >= 1e6 {
+        format!("{:.0} MB", b / 1e6)
+    } else {
+        format!("{:.0} kB", b / 1e3)
+    }
+}
+
+/// Pushes a diagnostic for `key`, located at the key or its nearest table.
+fn error(index: &SpanIndex, diags: &mut Vec<Diagnostic>, key: &str, message: String, hint: &str) {
+    let mut location = index.location(key);
+    let mut k = key;
+    while location.is_none() {
+        let Some(i) = k.rfind(['.', '[']) else {
+            break;
+        };
+        k = &k[..i];
+        location = index.location(k);
+    }
+    diags.push(Diagnostic {
+        file: None,
+        key: key.to_string(),
+        location,
+        message,
+        hint: Some(hint.to_string()),
+    });
+}
+
+/// Checks the physical bounds, the uniqueness of case ids and, with
+/// `work`, the work estimate of a validated plan.
+pub(super) fn check(plan: &Plan, index: &SpanIndex, diags: &mut Vec<Diagnostic>, work: bool) {
+    let before = diags.len();
+    physical(plan, index, diags);
+    let cases = super::expand_cases(plan);
+    unique_ids(&cases, index, diags);
+    if diags.len() > before || !work {
+        return;
+    }
+    let e = WorkEstimate::of(plan);
+    let over = [
+        (
+            e.row_integrals > MAX_ROW_INTEGRALS,
+            format!(
+                "{:.3e} row integrals (at most {MAX_ROW_INTEGRALS:.0e})",
+                e.row_integrals
+            ),
+        ),
+        (
+            e.memory_bytes > MAX_MEMORY_BYTES,
+            format!(
+                "peak memory {} (at most {})",
+                bytes(e.memory_bytes),
+                bytes(MAX_MEMORY_BYTES)
+            ),
+        ),
+        (
+            e.output_bytes > MAX_OUTPUT_BYTES,
+            format!(
+                "a report of {} (at most {})",
+                bytes(e.output_bytes),
+                bytes(MAX_OUTPUT_BYTES)
+            ),
+        ),
+    ];
+    let problems: Vec<&str> = over
+        .iter()
+        .filter(|(o, _)| *o)
+        .map(|(_, m)| m.as_str())
+        .collect();
+    if !problems.is_empty() {
+        error(
+            index,
+            diags,
+            "grid",
+            format!(
+                "the plan is too large to run: {}; {}",
+                problems.join(", "),
+                e.summary()
+            ),
+            "use fewer grid points, a shorter [sequence], fewer or smaller ROIs or a smaller sensor, or split the plan (docs/plan-format.md, \"Limits\")",
+        );
+    }
+}
+
+fn physical(plan: &Plan, index: &SpanIndex, diags: &mut Vec<Diagnostic>) {
+    let mut bound = |ok: bool, key: &str, message: String, hint: &str| {
+        if !ok {
+            error(index, diags, key, message, hint);
+        }
+    };
+    for (i, &f) in plan.frequencies_hz.iter().enumerate() {
+        bound(
+            f <= MAX_FREQUENCY_HZ,
+            &format!("grid.frequencies-hz[{i}]"),
+            format!("{f} Hz is above the {MAX_FREQUENCY_HZ:.0} Hz limit"),
+            "PWM frequencies of lamps are below 100 kHz; check the unit (Hz)",
+        );
+    }
+    for (i, &lux) in plan.light_levels_lux.iter().enumerate() {
+        bound(
+            lux <= MAX_LIGHT_LUX,
+            &format!("light.levels-lux[{i}]"),
+            format!("{lux} lux is above the {MAX_LIGHT_LUX:.0} lux limit"),
+            "direct sunlight is about 100000 lux",
+        );
+    }
+    if plan.dut.backend != BackendKind::Simulator {
+        return;
+    }
+    let cam = &plan.dut.camera;
+    let key = |k: &str| format!("dut.camera.{k}");
+    bound(
+        cam.fps <= MAX_FPS,
+        &key("frame-rate-fps"),
+        format!("{} fps is above the {MAX_FPS:.0} fps limit", cam.fps),
+        "automotive cameras run at 10 to 120 fps",
+    );
+    bound(
+        cam.exposure_s >= MIN_EXPOSURE_S,
+        &key("exposure-ms"),
+        format!(
+            "{} ms is below the 0.001 ms (1 us) limit",
+            cam.exposure_s * 1e3
+        ),
+        "exposures are given in milliseconds",
+    );
+    let pixels = u64::from(cam.sensor_rows) * u64::from(cam.sensor_columns);
+    bound(
+        cam.sensor_rows <= MAX_SENSOR_SIDE
+            && cam.sensor_columns <= MAX_SENSOR_SIDE
+            && pixels <= MAX_SENSOR_PIXELS,
+        &key("sensor-rows"),
+        format!(
+            "a {} x {} sensor is above the limit of {MAX_SENSOR_SIDE} pixels a side and {} Mpx",
+            cam.sensor_columns,
+            cam.sensor_rows,
+            MAX_SENSOR_PIXELS / 1_000_000
+        ),
+        "an 8K automotive sensor is 7680 x 4320",
+    );
+    let frames = crate::backend::sim::SegmentFrames::new(&plan.sequence, cam.fps).total();
+    bound(
+        frames <= MAX_FRAMES_PER_CASE,
+        "sequence.pwm-s",
+        format!("the sequence is {frames} frames long; at most {MAX_FRAMES_PER_CASE}"),
+        "shorten the sequence or lower the frame rate",
+    );
+}
+
+/// Two grid points whose ids coincide would share one trace file and one
+/// row of the report (issue 10: 90.0 and 90.0000001 Hz).
+fn unique_ids(cases: &[TestCase], index: &SpanIndex, diags: &mut Vec<Diagnostic>) {
+    let mut seen: std::collections::HashMap<&str, &TestCase> = std::collections::HashMap::new();
+    let mut reported = 0;
+    for c in cases {
+        if let Some(first) = seen.insert(&c.id, c)
+            && reported < 10
+        {
+            reported += 1;
+            let point = |t: &TestCase| {
+                format!(
+                    "({} lux, {} Hz, duty {})",
+                    t.light_lux, t.frequency_hz, t.duty
+                )
+            };
+            error(
+                index,
+                diags,
+                "grid",
+                format!(
+                    "grid points {} and {} both have the case id `{}`",
+                    point(first),
+                    point(c),
+                    c.id
+                ),
+                "case ids keep 6 decimals; make grid values differ within them",
+            );
+            seen.insert(&first.id, first);
+        }
+    }
+}

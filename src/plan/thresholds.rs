@@ -1,0 +1,254 @@
+//! `[thresholds]` and `[[thresholds.light-level]]`: pass limits, from the
+//! serde mirror to a validated [`Thresholds`].
+//!
+//! Limits on the Deegan 2018 metrics (`fdi-2018-min`, `percent-flicker-max`)
+//! and the IEEE P2020 KPIs (`fmi-max`, `fdi-p2020-min`, `mmp-min`) are set
+//! globally and may be overridden per light level. Every problem is reported
+//! with its key, line and a hint, as for the rest of the plan.
+
+use super::raw::{RawLevelThresholds, RawThresholds};
+use super::validate::Checker;
+use super::{LevelLimits, Limits, Thresholds, VerdictBasis};
+
+/// Defaults: FDI (2018) >= 0.1 (Deegan 2018), nothing else checked, every
+/// frequency in the mitigation range, verdicts on the worst phase.
+fn defaults() -> Thresholds {
+    Thresholds {
+        fdi_2018_min: Some(0.1),
+        percent_flicker_max: None,
+        fmi_max: None,
+        fdi_p2020_min: None,
+        mmp_min: None,
+        light_levels: Vec::new(),
+        mitigation_min_hz: 0.0,
+        mitigation_max_hz: None,
+        basis: VerdictBasis::WorstPhase,
+    }
+}
+
+/// The five limit keys of a table, checked. `prefix` is the table's key path.
+struct RawLimits {
+    fdi_2018_min: Option<f64>,
+    percent_flicker_max: Option<f64>,
+    fmi_max: Option<f64>,
+    fdi_p2020_min: Option<f64>,
+    mmp_min: Option<f64>,
+}
+
+/// Checks one limit: finite, and inside `range` when given.
+fn limit(
+    c: &mut Checker<'_>,
+    value: Option<f64>,
+    key: &str,
+    range: Option<(f64, f64)>,
+    hint: &str,
+    ok: &mut bool,
+) -> Option<f64> {
+    let v = value?;
+    let in_range = v.is_finite() && range.is_none_or(|(lo, hi)| (lo..=hi).contains(&v));
+    if in_range {
+        return Some(v);
+    }
+    let message = match range {
+        Some((lo, hi)) if v.is_finite() => format!("{v} is outside [{lo}, {hi}]"),
+        _ => format!("must be a finite number, got {v}"),
+    };
+    c.error(key, message, Some(hint));
+    *ok = false;
+    None
+}
+
+fn limits(c: &mut Checker<'_>, raw: RawLimits, prefix: &str, ok: &mut bool) -> Limits {
+    let k = |name: &str| format!("{prefix}.{name}");
+    let share = Some((0.0, 1.0));
+    Limits {
+        fdi_2018_min: limit(
+            c,
+            raw.fdi_2018_min,
+            &k("fdi-2018-min"),
+            None,
+            "Deegan 2018 uses 0.1: below it the light appears OFF",
+            ok,
+        ),
+        percent_flicker_max: limit(
+            c,
+            raw.percent_flicker_max,
+            &k("percent-flicker-max"),
+            Some((0.0, f64::INFINITY)),
+            "a percentage, e.g. 10.0",
+            ok,
+        ),
+        fmi_max: limit(
+            c,
+            raw.fmi_max,
+            &k("fmi-max"),
+            share,
+            "FMI is (max - min) / (max + min), 0..1; e.g. 0.1",
+            ok,
+        ),
+        fdi_p2020_min: limit(
+            c,
+            raw.fdi_p2020_min,
+            &k("fdi-p2020-min"),
+            share,
+            "the share of PWM frames in which the light is seen, 0..1; e.g. 0.95",
+            ok,
+        ),
+        mmp_min: limit(
+            c,
+            raw.mmp_min,
+            &k("mmp-min"),
+            share,
+            "the share of PWM frames within the band around the reference, 0..1; e.g. 0.9",
+            ok,
+        ),
+    }
+}
+
+fn level(
+    c: &mut Checker<'_>,
+    raw: RawLevelThresholds,
+    i: usize,
+    known_lux: Option<&[f64]>,
+    seen: &mut Vec<f64>,
+    ok: &mut bool,
+) -> Option<LevelLimits> {
+    let prefix = format!("thresholds.light-level[{i}]");
+    let lux_key = format!("{prefix}.light-lux");
+    let lux = c.required(
+        raw.light_lux,
+        &lux_key,
+        "the light level these limits apply to, e.g. light-lux = 40.0",
+    );
+    let lim = limits(
+        c,
+        RawLimits {
+            fdi_2018_min: raw.fdi_2018_min,
+            percent_flicker_max: raw.percent_flicker_max,
+            fmi_max: raw.fmi_max,
+            fdi_p2020_min: raw.fdi_p2020_min,
+            mmp_min: raw.mmp_min,
+        },
+        &prefix,
+        ok,
+    );
+    let lux = lux.and_then(|v| c.positive(v, &lux_key, "illuminance in lux, e.g. 40.0"));
+    let Some(lux) = lux else {
+        *ok = false;
+        return None;
+    };
+    if seen.contains(&lux) {
+        c.error(
+            &lux_key,
+            format!("{lux} lux has limits already"),
+            Some("give each light level one [[thresholds.light-level]] table"),
+        );
+        *ok = false;
+    }
+    seen.push(lux);
+    if let Some(known) = known_lux
+        && !known.contains(&lux)
+    {
+        let list: Vec<String> = known.iter().map(|l| format!("{l}")).collect();
+        c.error(
+            &lux_key,
+            format!("no case is at {lux} lux"),
+            Some(&format!(
+                "the plan's light levels are: {}",
+                if list.is_empty() {
+                    "none (no case declares light-lux)".to_string()
+                } else {
+                    list.join(", ")
+                }
+            )),
+        );
+        *ok = false;
+    }
+    Some(LevelLimits {
+        light_lux: lux,
+        limits: lim,
+    })
+}
+
+/// Validates `[thresholds]`. `known_lux` holds the plan's light levels
+/// (`[light]`, or the cases' `light-lux`), `None` when they are invalid.
+/// Returns `None` after reporting an error.
+pub(super) fn thresholds(
+    c: &mut Checker<'_>,
+    raw: Option<RawThresholds>,
+    known_lux: Option<&[f64]>,
+) -> Option<Thresholds> {
+    let mut th = defaults();
+    let Some(t) = raw else {
+        return Some(th);
+    };
+    let mut ok = true;
+    let global = limits(
+        c,
+        RawLimits {
+            fdi_2018_min: t.fdi_2018_min,
+            percent_flicker_max: t.percent_flicker_max,
+            fmi_max: t.fmi_max,
+            fdi_p2020_min: t.fdi_p2020_min,
+            mmp_min: t.mmp_min,
+        },
+        "thresholds",
+        &mut ok,
+    );
+    let global = global.over(th.global());
+    th.fdi_2018_min = global.fdi_2018_min;
+    th.percent_flicker_max = global.percent_flicker_max;
+    th.fmi_max = global.fmi_max;
+    th.fdi_p2020_min = global.fdi_p2020_min;
+    th.mmp_min = global.mmp_min;
+    let mut seen = Vec::new();
+    for (i, raw) in t.light_level.into_iter().enumerate() {
+        if let Some(l) = level(c, raw, i, known_lux, &mut seen, &mut ok) {
+            th.light_levels.push(l);
+        }
+    }
+    if let Some(v) = t.mitigation_min_hz {
+        match c.non_negative(
+            v,
+            "thresholds.mitigation-min-hz",
+            "e.g. 90.0: cases below are informational",
+        ) {
+            Some(v) => th.mitigation_min_hz = v,
+            None => ok = false,
+        }
+    }
+    if let Some(v) = t.mitigation_max_hz {
+        match c.positive(
+            v,
+            "thresholds.mitigation-max-hz",
+            "omit it for no upper limit",
+        ) {
+            Some(v) if v >= th.mitigation_min_hz => th.mitigation_max_hz = Some(v),
+            Some(v) => {
+                c.error(
+                    "thresholds.mitigation-max-hz",
+                    format!(
+                        "{v} Hz is below mitigation-min-hz {} Hz",
+                        th.mitigation_min_hz
+                    ),
+                    Some("the range is mitigation-min-hz ..= mitigation-max-hz"),
+                );
+                ok = false;
+            }
+            None => ok = false,
+        }
+    }
+    match t.basis.as_deref() {
+        None | Some("worst-phase") => {}
+        Some("as-captured") => th.basis = VerdictBasis::AsCaptured,
+        Some(other) => {
+            c.error(
+                "thresholds.basis",
+                format!("unknown basis `{other}`"),
+                Some("use \"worst-phase\" (default) or \"as-captured\""),
+            );
+            ok = false;
+        }
+    }
+    ok.then_some(th)
+}

@@ -1,0 +1,178 @@
+//! What was really done, in words: the acquisition of each case and of the
+//! whole run per backend, and the verdict basis actually used.
+//!
+//! Part of the report stage. The text goes into results.json (`method` and
+//! each case's `acquisition`), so HTML and PDF, and a report re-rendered at
+//! signing, all say the same.
+
+use serde::Serialize;
+
+use super::model::{CaseInfo, Results};
+use crate::backend::sim::SegmentFrames;
+use crate::plan::{BackendKind, Limits, Plan, ShutterKind, Thresholds, VerdictBasis};
+
+/// How the run was done, for the report's method section.
+#[derive(Debug, Clone, Serialize)]
+pub struct Method {
+    /// "simulator", "captured" or "command".
+    pub backend: &'static str,
+    /// Where the frames came from, one paragraph.
+    pub acquisition: String,
+    /// The verdict basis actually used, one sentence.
+    pub verdict_basis: String,
+    /// The limits in words: the global ones, then one line per light level
+    /// with its own.
+    pub limits: Vec<String>,
+}
+
+/// Limits in words, e.g. `FDI (2018) >= 0.1; FMI <= 0.1`.
+pub fn limits_text(l: &Limits) -> String {
+    let parts: Vec<String> = [
+        ("FDI (2018) >=", l.fdi_2018_min, ""),
+        ("Percent Flicker <=", l.percent_flicker_max, " %"),
+        ("FMI <=", l.fmi_max, ""),
+        ("FDI (P2020) >=", l.fdi_p2020_min, ""),
+        ("MMP >=", l.mmp_min, ""),
+    ]
+    .into_iter()
+    .filter_map(|(name, v, unit)| v.map(|v| format!("{name} {v}{unit}")))
+    .collect();
+    if parts.is_empty() {
+        "none".to_string()
+    } else {
+        parts.join("; ")
+    }
+}
+
+fn limits_lines(t: &Thresholds) -> Vec<String> {
+    let mut out = vec![limits_text(&t.global())];
+    for l in &t.light_levels {
+        out.push(format!(
+            "at {} lux: {}",
+            l.light_lux,
+            limits_text(&l.limits.over(t.global()))
+        ));
+    }
+    out
+}
+
+fn kind_name(kind: BackendKind) -> &'static str {
+    match kind {
+        BackendKind::Simulator => "simulator",
+        BackendKind::Captured => "captured",
+        BackendKind::Command => "command",
+    }
+}
+
+/// The simulated camera in a few words.
+fn camera_words(plan: &Plan) -> String {
+    let cam = &plan.dut.camera;
+    let shutter = match cam.shutter {
+        ShutterKind::Global => "global shutter".to_string(),
+        ShutterKind::Rolling => format!("rolling shutter, {} us per line", cam.line_time_s * 1e6),
+    };
+    match &cam.physical {
+        None => format!(
+            "the ideal camera simulator (linear, noiseless, fixed exposure {} ms, {shutter}, {} fps)",
+            cam.exposure_s * 1e3,
+            cam.fps
+        ),
+        Some(p) => {
+            let ae = match &p.auto_exposure {
+                Some(_) => format!("auto exposure starting at {} ms", cam.exposure_s * 1e3),
+                None => format!("fixed exposure {} ms", cam.exposure_s * 1e3),
+            };
+            format!(
+                "the physical camera simulator, camera `{}` ({} capture(s), photo-electrons with shot and read noise, ADC, HDR merge, tone curve, {ae}; {shutter}, {} fps)",
+                cam.name,
+                p.captures.len(),
+                cam.fps
+            )
+        }
+    }
+}
+
+/// The method of the whole run.
+pub fn method(plan: &Plan) -> Method {
+    let basis = crate::metrics::verdict::effective_basis(plan.dut.backend, &plan.thresholds);
+    let s = &plan.sequence;
+    let acquisition = match plan.dut.backend {
+        BackendKind::Simulator => format!(
+            "Frames come from {}, not from a device: for each case it simulates {} s of steady light at the PWM average, {} s with the LED off, then {} s of PWM (Deegan 2018, section 3), integrating the PWM square wave exactly over each ROI row's exposure.",
+            camera_words(plan),
+            s.on_s,
+            s.off_s,
+            s.pwm_s
+        ),
+        BackendKind::Captured => "Frames are read from the capture files named per case (no simulation). Each case's text gives the file, how it was decoded, the segments (given in the plan or detected from the luma) and the frames used and left out.".to_string(),
+        BackendKind::Command => {
+            let argv = plan
+                .capture
+                .as_ref()
+                .and_then(|c| c.command.as_ref())
+                .map(|c| c.argv.join(" "))
+                .unwrap_or_default();
+            format!(
+                "Frames come from the lab rig: for each case ledflicker runs `{argv}` with the case's light level, PWM frequency and duty cycle, then reads the frames it leaves (docs/command-backend.md). Each case's text gives the segments and the frames used."
+            )
+        }
+    };
+    let verdict_basis = match basis {
+        VerdictBasis::WorstPhase => "Verdicts on FDI (2018) and Percent Flicker use the worst case over PWM phase, computed by the simulator; the IEEE P2020 KPIs (FMI, FDI, MMP) count frames and are judged on the trace as simulated.".to_string(),
+        VerdictBasis::AsCaptured if plan.dut.backend == BackendKind::Simulator => "Verdicts use the trace as simulated, at the plan's PWM phase (basis = \"as-captured\"); the worst case over phase is reported but not judged.".to_string(),
+        VerdictBasis::AsCaptured => "Verdicts use the trace as captured: a recording shows only the PWM phases it caught, so there is no worst case over phase.".to_string(),
+    };
+    Method {
+        backend: kind_name(plan.dut.backend),
+        acquisition,
+        verdict_basis,
+        limits: limits_lines(&plan.thresholds),
+    }
+}
+
+/// What was done for one case: the simulated sequence, or the capture
+/// file, its segments and the frames used and left out.
+pub fn case_acquisition(plan: &Plan, case: &CaseInfo) -> String {
+    if let Some(cap) = &case.capture {
+        let seg = &cap.segments;
+        let len = |s: Option<(u64, u64)>| s.map_or(0, |(a, b)| b.saturating_sub(a));
+        let used = len(seg.off) + len(seg.on) + len(Some(seg.pwm));
+        let origin = if plan.dut.backend == BackendKind::Command {
+            "Rig output".to_string()
+        } else {
+            format!("Capture `{}`", cap.source)
+        };
+        // The segment sentence comes from the capture stage (issue 19): how
+        // they were found, their frames, seconds and levels, and the settle time.
+        return format!(
+            "{origin} ({}; frame times from {}); segments {}; {used} of {} frames used, {} left out (outside every segment or settling).",
+            cap.format,
+            cap.timestamps,
+            seg.text,
+            seg.capture_frames,
+            seg.capture_frames.saturating_sub(used)
+        );
+    }
+    match plan.dut.backend {
+        BackendKind::Simulator => {
+            let n = SegmentFrames::new(&plan.sequence, plan.dut.camera.fps);
+            format!(
+                "Simulated with {}: {} frames steady ON, {} OFF, {} PWM; every frame used.",
+                camera_words(plan),
+                n.on,
+                n.off,
+                n.pwm
+            )
+        }
+        _ => format!("{} frames acquired.", case.frames),
+    }
+}
+
+/// Fills `method` and every case's `acquisition`; call again after the
+/// captures' summaries are attached to the cases.
+pub fn describe(model: &mut Results, plan: &Plan) {
+    model.method = method(plan);
+    for case in &mut model.cases {
+        case.acquisition = case_acquisition(plan, case);
+    }
+}

@@ -1,0 +1,202 @@
+//! The summary table `ledflicker plan` prints: one row per case, for the
+//! case's worst LED ROI, with every metric, the failed criterion, a legend
+//! and the overall line.
+//!
+//! Part of the report stage; a pure function of [`Results`] so that tests
+//! read exactly what a user sees.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::model::{CaseInfo, Results, RoiInfo};
+use crate::metrics::Verdict;
+use crate::plan::RoiKind;
+
+/// Metric columns: header, results.json name, decimals.
+const COLUMNS: [(&str, &str, usize); 7] = [
+    ("FDI", "fdi_2018", 3),
+    ("FDI worst", "fdi_2018_worst_phase", 3),
+    ("PF %", "percent_flicker", 2),
+    ("PF worst", "percent_flicker_worst_phase", 2),
+    ("FMI", "fmi", 3),
+    ("FDI P2020", "fdi_p2020", 3),
+    ("MMP", "mmp", 3),
+];
+
+/// The legend printed under the table.
+pub const LEGEND: &str = "legend: roi = the case's worst LED ROI (least margin to its limits; \
+highest Percent Flicker when nothing was checked); worst = worst case over PWM phase (simulator only); \
++inf = unbounded FDI (OFF reference 0 DN, light present); n/a = undefined (reason in results.json) \
+or not computed by this backend; FDI = Deegan 2018; FDI P2020, FMI, MMP = IEEE P2020";
+
+/// The LED ROI that stands for a case: the one whose checks come closest
+/// to failing, or fail worst (margins compared smallest first, so a tie on
+/// one limit is broken by the next); without checks, the one with the
+/// highest Percent Flicker; without LED ROIs, the first ROI. Ties go to the
+/// first in plan order.
+pub fn worst_roi(case: &CaseInfo) -> Option<&RoiInfo> {
+    let leds = || case.rois.iter().filter(|r| r.kind == RoiKind::Led);
+    let margins = |r: &RoiInfo| {
+        let mut m: Vec<f64> = case
+            .checks
+            .iter()
+            .filter(|k| k.roi == r.name)
+            .map(|k| k.margin())
+            .collect();
+        m.sort_by(f64::total_cmp);
+        m
+    };
+    let by_margins = |a: &Vec<f64>, b: &Vec<f64>| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| x.total_cmp(y))
+            .find(|o| o.is_ne())
+            .unwrap_or_else(|| b.len().cmp(&a.len()))
+    };
+    if !case.checks.is_empty() {
+        // min_by keeps the first of equals: plan order breaks ties.
+        return leds()
+            .map(|r| (r, margins(r)))
+            .min_by(|a, b| by_margins(&a.1, &b.1))
+            .map(|(r, _)| r);
+    }
+    let pf = |r: &RoiInfo| {
+        r.metrics
+            .get("percent_flicker")
+            .copied()
+            .flatten()
+            .unwrap_or(f64::NEG_INFINITY)
+    };
+    leds()
+        .rev()
+        .max_by(|a, b| pf(a).total_cmp(&pf(b)))
+        .or(case.rois.first())
+}
+
+fn cell(roi: &RoiInfo, name: &str, digits: usize) -> String {
+    if roi.is_unbounded(name) {
+        return "+inf".to_string();
+    }
+    roi.metrics
+        .get(name)
+        .copied()
+        .flatten()
+        .map_or("n/a".to_string(), |x| crate::util::fixed(x, digits))
+}
+
+/// Why the case has its verdict: the worst ROI's first failed check (and
+/// how many others failed), or why it was not judged.
+fn criterion(case: &CaseInfo, roi: Option<&RoiInfo>) -> String {
+    match case.verdict {
+        Verdict::Pass => String::new(),
+        Verdict::Info => format!(
+            "not judged: {}",
+            case.not_judged.as_deref().unwrap_or("informational")
+        ),
+        Verdict::Fail => {
+            let failed: Vec<_> = case.checks.iter().filter(|k| !k.pass).collect();
+            let on_roi = |k: &&&crate::metrics::Check| roi.is_none_or(|r| k.roi == r.name);
+            let first = failed
+                .iter()
+                .filter(on_roi)
+                .min_by(|a, b| a.margin().total_cmp(&b.margin()))
+                .or(failed.first());
+            let mut metrics: Vec<&str> = Vec::new();
+            for k in &failed {
+                if !metrics.contains(&k.metric.as_str()) {
+                    metrics.push(&k.metric);
+                }
+            }
+            match first {
+                Some(k) if failed.len() > 1 => format!(
+                    "FAIL: {} (+{} more; failed: {})",
+                    k.describe(),
+                    failed.len() - 1,
+                    metrics.join(", ")
+                ),
+                Some(k) => format!("FAIL: {}", k.describe()),
+                None => "FAIL".to_string(),
+            }
+        }
+    }
+}
+
+/// The overall line: never PASS when no case was judged.
+pub fn overall_line(model: &Results) -> String {
+    let c = &model.counts;
+    let not_judged = match c.info {
+        1 => "1 case not judged".to_string(),
+        n => format!("{n} cases not judged"),
+    };
+    let word = match model.verdict {
+        Verdict::Info => "NOT JUDGED",
+        Verdict::Pass => "PASS",
+        Verdict::Fail => "FAIL",
+    };
+    format!(
+        "overall: {word} ({} pass, {} fail of {} cases; {not_judged})",
+        c.pass, c.fail, c.total
+    )
+}
+
+/// The whole summary: table, legend, overall line, basis and report paths.
+pub fn summary(model: &Results, out: &Path) -> String {
+    let id_w = model
+        .cases
+        .iter()
+        .map(|c| c.id.len())
+        .max()
+        .unwrap_or(4)
+        .max(4);
+    let roi_w = model
+        .cases
+        .iter()
+        .flat_map(|c| c.rois.iter().map(|r| r.name.len()))
+        .max()
+        .unwrap_or(3)
+        .max(3);
+    // `*` marks a captured case whose segments were detected from the luma.
+    let detected = |c: &super::model::CaseInfo| {
+        c.capture
+            .as_ref()
+            .is_some_and(|s| s.segments.method == "detected")
+    };
+    let id_w = id_w + usize::from(model.cases.iter().any(&detected));
+    let mut s = String::new();
+    let _ = write!(s, "{:<id_w$}  {:<7}  {:<roi_w$}", "case", "verdict", "roi");
+    for (h, _, _) in COLUMNS {
+        let _ = write!(s, "  {h:>9}");
+    }
+    s.push_str("  criterion\n");
+    for c in &model.cases {
+        let roi = worst_roi(c);
+        let _ = write!(
+            s,
+            "{:<id_w$}  {:<7}  {:<roi_w$}",
+            format!("{}{}", c.id, if detected(c) { "*" } else { "" }),
+            c.verdict.as_str(),
+            roi.map_or("-", |r| r.name.as_str())
+        );
+        for (_, name, digits) in COLUMNS {
+            let v = roi.map_or("n/a".to_string(), |r| cell(r, name, digits));
+            let _ = write!(s, "  {v:>9}");
+        }
+        let _ = writeln!(s, "  {}", criterion(c, roi));
+    }
+    let _ = writeln!(s, "{LEGEND}");
+    if model.cases.iter().any(&detected) {
+        let _ = writeln!(
+            s,
+            "* segments detected from the luma; the report shows where (trace charts, capture text)"
+        );
+    }
+    let _ = writeln!(s, "\n{}", overall_line(model));
+    let _ = writeln!(s, "basis:   {}", model.method.verdict_basis);
+    let _ = writeln!(
+        s,
+        "report:  {}\n         {}",
+        out.join("report.html").display(),
+        out.join("report.pdf").display()
+    );
+    s
+}

@@ -1,0 +1,535 @@
+//! Sign-off in standard formats, checked with the customer's tools:
+//! `pdfsig` (poppler-utils), `openssl cms -verify` and `sha256sum -c`
+//! (scripts/test.sh installs what is missing), and `ledflicker verify`.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use crate::{root, scratch};
+
+const DATE: &str = "2026-01-15";
+
+fn ledflicker(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(args)
+        .current_dir(root())
+        .env_remove("SOURCE_DATE_EPOCH")
+        .env_remove("LEDFLICKER_P12_PASSPHRASE")
+        .output()
+        .unwrap()
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn tool(program: &str, args: &[&str], dir: &Path) -> Output {
+    Command::new(program)
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run `{program}` ({e}); scripts/test.sh installs it"))
+}
+
+/// Makes a key and certificate; returns (key, certificate).
+fn keygen(dir: &Path, name: &str, signer: &str) -> (PathBuf, PathBuf) {
+    let key = dir.join(format!("{name}.key"));
+    let o = ledflicker(&[
+        "keygen",
+        "--signer",
+        signer,
+        "--org",
+        "Lab GmbH",
+        "--out",
+        key.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    (key, dir.join(format!("{name}.crt")))
+}
+
+/// pdfsig's report, one block per signature.
+fn pdfsig(pdf: &Path) -> Vec<String> {
+    let o = tool("pdfsig", &[pdf.to_str().unwrap()], root());
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    out.split("Signature #")
+        .skip(1)
+        .map(str::to_string)
+        .collect()
+}
+
+fn verify(dir: &Path, extra: &[&str]) -> Output {
+    ledflicker(&[&["verify", dir.to_str().unwrap()], extra].concat())
+}
+
+#[test]
+fn two_signatories_sign_in_turn_and_standard_tools_verify_both() {
+    let base = scratch("signoff-std");
+    let keys = base.join("keys");
+    std::fs::create_dir_all(&keys).unwrap();
+    let (tester, tester_crt) = keygen(&keys, "tester", "Ada Tester, Tested by");
+    let (approver, approver_crt) = keygen(&keys, "approver", "Bo Approver, Approved by");
+    let (_, stranger_crt) = keygen(&keys, "stranger", "Eve Stranger, Nobody");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(&tester).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o600);
+    }
+    let pem = std::fs::read_to_string(&tester).unwrap();
+    assert!(pem.starts_with("-----BEGIN PRIVATE KEY-----"), "PKCS#8 PEM");
+    let o = tool(
+        "openssl",
+        &[
+            "x509",
+            "-in",
+            tester_crt.to_str().unwrap(),
+            "-noout",
+            "-subject",
+        ],
+        root(),
+    );
+    assert!(
+        text(&o).contains("Ada Tester, Tested by") && text(&o).contains("Lab GmbH"),
+        "{}",
+        text(&o)
+    );
+
+    let dir = base.join("report");
+    let d = dir.to_str().unwrap();
+    let o = ledflicker(&[
+        "plan",
+        "tests/fixtures/plans/base.toml",
+        "--out",
+        d,
+        "--date",
+        DATE,
+        "-q",
+        "--sign-key",
+        tester.to_str().unwrap(),
+        "--signer",
+        "Ada Tester, Tested by",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = ledflicker(&[
+        "sign",
+        d,
+        "--key",
+        approver.to_str().unwrap(),
+        "--signer",
+        "Bo Approver, Approved by",
+        "--date",
+        "2026-01-16",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+
+    // pdfsig: both valid, the last covers the whole file.
+    let pdf = dir.join("report.pdf");
+    let sigs = pdfsig(&pdf);
+    assert_eq!(sigs.len(), 2, "{sigs:?}");
+    for s in &sigs {
+        assert!(s.contains("Signature is Valid"), "{s}");
+        assert!(s.contains("adbe.pkcs7.detached"), "{s}");
+    }
+    assert!(
+        sigs[0].contains("Ada Tester, Tested by") && sigs[0].contains("Not total document signed")
+    );
+    assert!(
+        sigs[1].contains("Bo Approver, Approved by") && sigs[1].contains("Total document signed")
+    );
+    assert!(!sigs[1].contains("Not total"), "{}", sigs[1]);
+    // The signature blocks carry the reason.
+    let o = tool("pdftotext", &[pdf.to_str().unwrap(), "-"], root());
+    assert!(!text(&o).contains("DRAFT"), "a signed PDF is no draft");
+
+    // One flipped byte inside the signed range: pdfsig reports it invalid.
+    let mut bytes = std::fs::read(&pdf).unwrap();
+    bytes[2000] ^= 0x01;
+    let flipped = base.join("flipped.pdf");
+    std::fs::write(&flipped, &bytes).unwrap();
+    for s in pdfsig(&flipped) {
+        assert!(!s.contains("Signature is Valid"), "{s}");
+    }
+
+    // openssl cms: the manifest signature checks with the signer's certificate.
+    let cms = |content: &str| {
+        tool(
+            "openssl",
+            &[
+                "cms",
+                "-verify",
+                "-binary",
+                "-inform",
+                "PEM",
+                "-in",
+                "signoff.p7s",
+                "-content",
+                content,
+                "-CAfile",
+                approver_crt.to_str().unwrap(),
+                "-out",
+                "/dev/null",
+            ],
+            &dir,
+        )
+    };
+    let o = cms("manifest.txt");
+    assert!(o.status.success(), "{}", text(&o));
+    let manifest = std::fs::read_to_string(dir.join("manifest.txt")).unwrap();
+    let changed = base.join("changed-manifest.txt");
+    std::fs::write(
+        &changed,
+        manifest.replacen("results.json", "results.jsom", 1),
+    )
+    .unwrap();
+    assert!(!cms(changed.to_str().unwrap()).status.success());
+    // sha256sum checks every file of the manifest.
+    let o = tool("sha256sum", &["--strict", "-c", "manifest.txt"], &dir);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("report.pdf: OK") && text(&o).contains("results.json: OK"));
+    assert!(manifest.contains("# input plan "), "{manifest}");
+
+    // verify: no --trust never exits 0; the right certificates do; a wrong
+    // one fails and names the signer claimed.
+    let o = verify(&dir, &[]);
+    assert_eq!(o.status.code(), Some(4), "{}", text(&o));
+    assert!(text(&o).contains("IDENTITY NOT CHECKED"), "{}", text(&o));
+    let t = tester_crt.to_str().unwrap();
+    let a = approver_crt.to_str().unwrap();
+    let o = verify(&dir, &["--trust", t, "--trust", a]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = verify(&dir, &["--trust", keys.to_str().unwrap()]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "a directory of certificates: {}",
+        text(&o)
+    );
+    let o = verify(
+        &dir,
+        &["--trust", t, "--trust", stranger_crt.to_str().unwrap()],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("claims to be by \"Bo Approver, Approved by\""),
+        "{}",
+        text(&o)
+    );
+    tamper_checks(&dir, &[t, a]);
+}
+
+/// Every kind of tampering is a mismatch (exit 1) naming what changed.
+fn tamper_checks(dir: &Path, certs: &[&str]) {
+    let trust: Vec<&str> = certs.iter().flat_map(|c| ["--trust", *c]).collect();
+    let expect_fail = |needle: &str| {
+        let o = verify(dir, &trust);
+        assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+        assert!(
+            text(&o).contains(needle),
+            "`{needle}` not in:\n{}",
+            text(&o)
+        );
+    };
+    // A dotfile added to traces/.
+    let evil = dir.join("traces/.evil.csv");
+    std::fs::write(&evil, "frame\n").unwrap();
+    expect_fail("`traces/.evil.csv` was added");
+    std::fs::remove_file(&evil).unwrap();
+    // A changed trace.
+    let trace = dir.join("traces/2000lux-150hz-50pct.csv");
+    let original = std::fs::read(&trace).unwrap();
+    std::fs::write(&trace, b"frame,time_s\n").unwrap();
+    expect_fail("`traces/2000lux-150hz-50pct.csv` has changed");
+    std::fs::write(&trace, &original).unwrap();
+    // A FIFO is refused without being opened (opening it would block).
+    #[cfg(unix)]
+    {
+        let fifo = dir.join("charts/pipe");
+        assert!(
+            tool("mkfifo", &[fifo.to_str().unwrap()], root())
+                .status
+                .success()
+        );
+        expect_fail("special file");
+        std::fs::remove_file(&fifo).unwrap();
+    }
+    // A non-UTF-8 or truncated signature is a mismatch, not a usage error.
+    let p7s = dir.join("signoff.p7s");
+    let sig = std::fs::read(&p7s).unwrap();
+    std::fs::write(&p7s, [&sig[..40], &[0xff, 0xfe, 0x00][..]].concat()).unwrap();
+    expect_fail("signoff.p7s");
+    std::fs::write(&p7s, &sig[..sig.len() / 2]).unwrap();
+    expect_fail("signoff.p7s");
+    std::fs::write(&p7s, &sig).unwrap();
+    // A deleted results.json.
+    let results = dir.join("results.json");
+    let r = std::fs::read(&results).unwrap();
+    std::fs::remove_file(&results).unwrap();
+    expect_fail("`results.json` is missing");
+    std::fs::write(&results, &r).unwrap();
+    // An edited earlier manifest breaks its signature.
+    let first = dir.join("signatures/1.manifest.txt");
+    let m = std::fs::read_to_string(&first).unwrap();
+    std::fs::write(&first, m.replace("Ada Tester", "Eve Forger")).unwrap();
+    expect_fail("signature 1 of 2");
+    std::fs::write(&first, &m).unwrap();
+    let o = verify(dir, &trust);
+    assert_eq!(o.status.code(), Some(0), "restored: {}", text(&o));
+}
+
+#[test]
+fn keys_never_enter_a_report_and_old_sign_offs_are_recognised() {
+    let base = scratch("signoff-guards");
+    let keys = base.join("keys");
+    std::fs::create_dir_all(&keys).unwrap();
+    let (key, crt) = keygen(&keys, "k", "Kim Key, Tested by");
+    let dir = base.join("report");
+    let d = dir.to_str().unwrap();
+    let o = ledflicker(&[
+        "plan",
+        "tests/fixtures/plans/base.toml",
+        "--out",
+        d,
+        "--date",
+        DATE,
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // Unsigned: not verified.
+    let o = verify(&dir, &[]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(text(&o).contains("unsigned DRAFT"), "{}", text(&o));
+
+    // keygen refuses to write into a report directory.
+    let o = ledflicker(&[
+        "keygen",
+        "--signer",
+        "X",
+        "--out",
+        dir.join("x.key").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(!dir.join("x.key").exists());
+
+    // A key inside the report, reached through symbolic links, is refused.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::symlink;
+        let inside = dir.join("traces").join("k.key");
+        std::fs::copy(&key, &inside).unwrap();
+        let alias = keys.join("alias.key");
+        symlink(&inside, &alias).unwrap();
+        let link_dir = base.join("link");
+        symlink(&dir, &link_dir).unwrap();
+        for (report, k) in [
+            (d, alias.to_str().unwrap()),
+            (link_dir.to_str().unwrap(), inside.to_str().unwrap()),
+        ] {
+            let o = ledflicker(&[
+                "sign",
+                report,
+                "--key",
+                k,
+                "--cert",
+                crt.to_str().unwrap(),
+                "--signer",
+                "K",
+            ]);
+            assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+            assert!(
+                text(&o).contains("inside the report directory"),
+                "{}",
+                text(&o)
+            );
+        }
+        std::fs::remove_file(&inside).unwrap();
+        assert!(!dir.join("manifest.txt").exists());
+    }
+
+    // The old Ed25519 format is recognised and the way to re-sign named.
+    std::fs::write(
+        dir.join("signoff.json"),
+        r#"{"schema":"ledflicker.signoff/1","signatures":[]}"#,
+    )
+    .unwrap();
+    let o = verify(&dir, &[]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("old format") && text(&o).contains("--force"),
+        "{}",
+        text(&o)
+    );
+    let o = ledflicker(&["sign", d, "--key", key.to_str().unwrap(), "--signer", "K"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    // A signed report (either format) is not overwritten without --force.
+    let o = ledflicker(&["plan", "tests/fixtures/plans/base.toml", "--out", d, "-q"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--force"));
+    let o = ledflicker(&[
+        "plan",
+        "tests/fixtures/plans/base.toml",
+        "--out",
+        d,
+        "--date",
+        DATE,
+        "-q",
+        "--force",
+        "--sign-key",
+        key.to_str().unwrap(),
+        "--signer",
+        "Kim Key, Tested by",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(!dir.join("signoff.json").exists());
+    let o = verify(&dir, &["--trust", crt.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+}
+
+#[test]
+fn pkcs12_from_openssl_signs() {
+    let base = scratch("signoff-p12");
+    let (key, crt) = keygen(&base, "k", "Pat Twelve, Approved by");
+    let p12 = base.join("k.p12");
+    let o = tool(
+        "openssl",
+        &[
+            "pkcs12",
+            "-export",
+            "-inkey",
+            key.to_str().unwrap(),
+            "-in",
+            crt.to_str().unwrap(),
+            "-out",
+            p12.to_str().unwrap(),
+            "-passout",
+            "pass:s3cret words",
+        ],
+        root(),
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let dir = base.join("report");
+    let d = dir.to_str().unwrap();
+    let o = ledflicker(&[
+        "plan",
+        "tests/fixtures/plans/base.toml",
+        "--out",
+        d,
+        "--date",
+        DATE,
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let sign = |pass: &str| {
+        Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+            .args([
+                "sign",
+                d,
+                "--p12",
+                p12.to_str().unwrap(),
+                "--signer",
+                "Pat Twelve, Approved by",
+            ])
+            .current_dir(root())
+            .env("LEDFLICKER_P12_PASSPHRASE", pass)
+            .output()
+            .unwrap()
+    };
+    let o = sign("wrong");
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("passphrase"), "{}", text(&o));
+    let o = sign("s3cret words");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = verify(&dir, &["--trust", crt.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+}
+
+#[test]
+fn p2020_inputs_are_bound_and_a_changed_video_is_named() {
+    let base = scratch("signoff-inputs");
+    // The plan and its videos, copied so that one can be changed.
+    let plans = base.join("test-plans");
+    let videos = base.join("reference-data/p2020-flicker-videos");
+    std::fs::create_dir_all(&plans).unwrap();
+    std::fs::create_dir_all(&videos).unwrap();
+    std::fs::copy(
+        root().join("test-plans/p2020-samples.toml"),
+        plans.join("p2020-samples.toml"),
+    )
+    .unwrap();
+    for v in ["test_vid1.mp4", "test_vid2.mp4", "test_vid3.mp4"] {
+        std::fs::copy(
+            root().join("reference-data/p2020-flicker-videos").join(v),
+            videos.join(v),
+        )
+        .unwrap();
+    }
+    let (key, crt) = keygen(&base, "k", "Ida Input, Tested by");
+    let dir = base.join("report");
+    let d = dir.to_str().unwrap();
+    let plan = plans.join("p2020-samples.toml");
+    let o = ledflicker(&[
+        "plan",
+        plan.to_str().unwrap(),
+        "--out",
+        d,
+        "--date",
+        DATE,
+        "-q",
+        "--sign-key",
+        key.to_str().unwrap(),
+        "--signer",
+        "Ida Input, Tested by",
+    ]);
+    assert!(matches!(o.status.code(), Some(0 | 1)), "{}", text(&o));
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap();
+    let inputs = results["report"]["inputs"].as_array().unwrap();
+    let listed: Vec<&serde_json::Value> = inputs.iter().filter(|i| i["role"] == "video").collect();
+    assert_eq!(listed.len(), 3, "{inputs:?}");
+    for (i, v) in listed.iter().enumerate() {
+        let name = format!("test_vid{}.mp4", i + 1);
+        assert!(v["path"].as_str().unwrap().ends_with(&name), "{v}");
+        // sha256sum is the independent reference.
+        let o = tool("sha256sum", &[&name], &videos);
+        let sum = text(&o).split_whitespace().next().unwrap().to_string();
+        assert_eq!(v["sha256"].as_str().unwrap(), sum);
+        let size = std::fs::metadata(videos.join(&name)).unwrap().len();
+        assert_eq!(v["size"].as_u64(), Some(size));
+    }
+    let manifest = std::fs::read_to_string(dir.join("manifest.txt")).unwrap();
+    assert!(manifest.contains("test_vid2.mp4"), "{manifest}");
+    let t = crt.to_str().unwrap();
+    let o = verify(&dir, &["--trust", t, "--inputs"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("4 input(s) unchanged"), "{}", text(&o));
+
+    // Change one video: verify --inputs names it.
+    let v2 = videos.join("test_vid2.mp4");
+    let mut bytes = std::fs::read(&v2).unwrap();
+    bytes[1000] ^= 0x40;
+    std::fs::write(&v2, &bytes).unwrap();
+    let o = verify(&dir, &["--trust", t, "--inputs"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("test_vid2.mp4") && text(&o).contains("has changed"),
+        "{}",
+        text(&o)
+    );
+    assert!(
+        !text(&o).contains("test_vid1.mp4` (video) has changed"),
+        "{}",
+        text(&o)
+    );
+    // A deleted input is named as missing.
+    std::fs::remove_file(videos.join("test_vid3.mp4")).unwrap();
+    let o = verify(&dir, &["--trust", t, "--inputs"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("test_vid3.mp4` (video) is missing"),
+        "{}",
+        text(&o)
+    );
+}
