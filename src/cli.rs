@@ -1,5 +1,7 @@
 //! Command-line interface: `plan`, `validate`, `simulate`, `advise`,
-//! `bench`, `linetime`, `render`, `bands`, `keygen`, `sign` and `verify`.
+//! `bench`, `linetime`, `render`, `bands`, `calibrate`, `keygen`, `sign` and
+//! `verify`. `linetime`, `bands` and `calibrate` live in
+//! [`crate::calibrate::command`].
 //!
 //! Exit codes (stable; CI scripts depend on them):
 //!
@@ -9,7 +11,7 @@
 //! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash, signature or input mismatch, an untrusted signer, or no signature |
 //! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way |
 //! | 3 | internal or backend error |
-//! | 4 | `plan`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked |
+//! | 4 | per command: `plan`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked; `linetime`, `bands`, `calibrate`: no confident estimate, the reason (flat rows, no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
 //! | 130, 143 | `plan` stopped by SIGINT (Ctrl-C) or SIGTERM (128 + signal); the old report is left as it was |
 
 use std::io::{IsTerminal, Write};
@@ -42,6 +44,9 @@ pub const EXIT_NOT_JUDGED: i32 = 4;
 /// `verify` without `--trust`: intact, but nobody vouched for the signers.
 /// Same number as [`EXIT_NOT_JUDGED`]: each command documents its own use.
 pub const EXIT_IDENTITY_UNCHECKED: i32 = 4;
+/// `linetime`, `bands`, `calibrate`: the input gives no confident estimate.
+/// Same number as [`EXIT_NOT_JUDGED`]: each command documents its own use.
+pub const EXIT_NO_CONFIDENCE: i32 = 4;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -74,14 +79,21 @@ enum Command {
     /// the time of the analytic fine map (worst-phase FDI and Percent Flicker
     /// over 50 Hz..2 kHz x 1..100 % duty) for a plan's camera.
     Bench(BenchArgs),
-    /// Estimate a rolling shutter's line time from a frame of a diffusely
+    /// Estimate a rolling shutter's line time from frames of a diffusely
     /// lit PWM scene; prints the line time in microseconds on the first line.
-    Linetime(LinetimeArgs),
+    /// Exit code 4 when the frames give no confident estimate.
+    Linetime(crate::calibrate::command::LinetimeArgs),
     /// Render ideal-camera frames (ON, OFF, PWM) as grey PNG files.
     Render(RenderArgs),
-    /// Estimate a PWM frequency from the band spacing of one rolling-shutter
-    /// frame (PNG or TIFF) with a known line time; prints JSON.
-    Bands(BandsArgs),
+    /// Estimate a PWM frequency from the band spacing of rolling-shutter
+    /// frames with a known line time; prints JSON. Exit code 4 when the
+    /// frames give no confident estimate.
+    Bands(crate::calibrate::command::BandsArgs),
+    /// Fit a rolling-shutter camera model (line time, exposure, duty, black
+    /// level, saturation, tone curve) to banding frames of a PWM light;
+    /// writes a camera profile with --out. Exit code 4 when the frames give
+    /// no confident estimate.
+    Calibrate(crate::calibrate::command::CalibrateArgs),
     /// Make an ECDSA P-256 private key (FILE, PKCS#8 PEM, mode 0600) and a
     /// self-signed X.509 certificate (FILE with `.crt`, PEM) for signing.
     Keygen {
@@ -114,15 +126,6 @@ enum Command {
         #[arg(long)]
         inputs_root: Option<PathBuf>,
     },
-}
-
-#[derive(Args, Debug)]
-struct BandsArgs {
-    /// Frame image (PNG or TIFF, any bit depth; converted to 16-bit luma).
-    frame: PathBuf,
-    /// Line time in microseconds (> 0).
-    #[arg(long)]
-    line_time_us: f64,
 }
 
 #[derive(Args, Debug)]
@@ -170,15 +173,6 @@ struct BenchArgs {
     /// Timed repetitions of the fine map (>= 1); the median is reported.
     #[arg(long, default_value_t = 11)]
     repeat: usize,
-}
-
-#[derive(Args, Debug)]
-struct LinetimeArgs {
-    /// Image file (PNG or TIFF).
-    image: PathBuf,
-    /// PWM frequency of the light, Hz (> 0).
-    #[arg(long)]
-    frequency_hz: f64,
 }
 
 #[derive(Args, Debug)]
@@ -393,8 +387,16 @@ pub fn exit_code(err: &anyhow::Error) -> i32 {
                 EXIT_INTERNAL
             };
         }
-        if let Some(crate::linetime::LineTimeError::Read { .. }) = cause.downcast_ref() {
-            return EXIT_INVALID;
+        if cause.is::<crate::calibrate::command::NoEstimate>() {
+            return EXIT_NO_CONFIDENCE;
+        }
+        if let Some(e) = cause.downcast_ref::<crate::calibrate::frames::FrameError>() {
+            return match e {
+                crate::calibrate::frames::FrameError::Capture(c) if !c.is_input_error() => {
+                    EXIT_INTERNAL
+                }
+                _ => EXIT_INVALID,
+            };
         }
         if let Some(report::ReportError::Signed { .. } | report::ReportError::Invalid { .. }) =
             cause.downcast_ref()
@@ -437,9 +439,10 @@ fn run(cli: Cli) -> anyhow::Result<i32> {
         Command::Simulate(args) => simulate(args),
         Command::Advise(args) => advise(args),
         Command::Bench(args) => bench(args),
-        Command::Linetime(args) => linetime(args),
+        Command::Linetime(args) => crate::calibrate::command::linetime(args),
         Command::Render(args) => render(args),
-        Command::Bands(args) => bands(args),
+        Command::Bands(args) => crate::calibrate::command::bands(args),
+        Command::Calibrate(args) => crate::calibrate::command::calibrate(args),
         Command::Keygen { signer, org, out } => {
             let files = crate::signoff::keygen(&out, &signer, &org, now_unix_s())?;
             println!(
@@ -738,6 +741,19 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     runner::render_sample_frames(&plan, &mut results, backend)
         .with_context(|| format!("cannot render the sample frames of plan `{}`", plan.id))?;
     bar.finish_and_clear();
+    // The report stage takes seconds on large plans: say what it does.
+    let stage = if std::io::stderr().is_terminal() {
+        let s = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+        s.set_style(
+            ProgressStyle::with_template("{spinner} report: {msg} ({elapsed})")
+                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+        );
+        s.enable_steady_tick(std::time::Duration::from_millis(120));
+        s
+    } else {
+        ProgressBar::hidden()
+    };
+    stage.set_message(format!("analysing {} cases", results.len()));
 
     let mut model = report::build(&plan, backend.id(), &results);
     if let Some(captured) = &captured {
@@ -756,6 +772,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     }
     report::method::describe(&mut model, &plan);
     crate::interrupt::check()?;
+    stage.set_message("drawing charts, writing report.html and report.pdf".to_string());
     report::write_report(
         generation.path(),
         &model,
@@ -790,6 +807,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
         }
     }
 
+    stage.finish_and_clear();
     // The new generation replaces the old report in one step, or not at all.
     crate::interrupt::check()?;
     generation.commit()?;
@@ -1077,31 +1095,6 @@ fn bench(a: BenchArgs) -> anyhow::Result<i32> {
     Ok(EXIT_PASS)
 }
 
-fn linetime(a: LinetimeArgs) -> anyhow::Result<i32> {
-    if !(a.frequency_hz.is_finite() && a.frequency_hz > 0.0) {
-        return Err(UsageError(format!(
-            "--frequency-hz must be > 0, got {}",
-            a.frequency_hz
-        ))
-        .into());
-    }
-    let profile = crate::linetime::row_profile(&a.image)?;
-    let e = crate::linetime::estimate(&profile, a.frequency_hz)
-        .map_err(|e| UsageError(format!("`{}`: {e}", a.image.display())))?;
-    let mut w = std::io::stdout().lock();
-    writeln!(w, "{:.3}", e.line_time_s * 1e6)?;
-    writeln!(w, "line_time_us: {:.4}", e.line_time_s * 1e6)?;
-    writeln!(w, "band_period_rows: {:.3}", e.band_period_rows)?;
-    writeln!(
-        w,
-        "readout_ms ({} rows): {:.4}",
-        e.rows,
-        e.line_time_s * e.rows as f64 * 1e3
-    )?;
-    writeln!(w, "fit_quality: {:.3}", e.fit_quality)?;
-    Ok(EXIT_PASS)
-}
-
 fn render(a: RenderArgs) -> anyhow::Result<i32> {
     let usage = |m: String| anyhow::Error::from(UsageError(m));
     let s = &a.sim;
@@ -1138,28 +1131,5 @@ fn render(a: RenderArgs) -> anyhow::Result<i32> {
     };
     let n = crate::render::render_frames(&spec, &pwm, &a.out).map_err(anyhow::Error::msg)?;
     eprintln!("wrote {n} frames to {}", a.out.display());
-    Ok(EXIT_PASS)
-}
-
-fn bands(a: BandsArgs) -> anyhow::Result<i32> {
-    if !(a.line_time_us.is_finite() && a.line_time_us > 0.0) {
-        return Err(UsageError(format!(
-            "--line-time-us must be > 0, got {}",
-            a.line_time_us
-        ))
-        .into());
-    }
-    // Mean luma of every row (the bands run along rows), as `linetime` reads it.
-    let profile = crate::linetime::row_profile(&a.frame)?;
-    let period = crate::analysis::banding::band_period_from_profile(&profile)
-        .map_err(|e| UsageError(format!("`{}`: {e}", a.frame.display())))?;
-    let out = serde_json::json!({
-        "frame": a.frame.display().to_string(),
-        "rows": profile.len(),
-        "line_time_us": a.line_time_us,
-        "band_period_rows": period,
-        "estimated_frequency_hz": 1.0 / (period * a.line_time_us * 1e-6),
-    });
-    println!("{}", serde_json::to_string_pretty(&out)?);
     Ok(EXIT_PASS)
 }

@@ -20,6 +20,8 @@
 //! - [`analysis`]: apparent frequency, hazard class, IEEE 1789, phase
 //!   coverage, banding and fine maps (beyond the paper);
 //! - [`advise`]: the shortest exposure that never loses a PWM LED.
+//! - [`calibrate`]: line time, band frequency and a fitted camera profile
+//!   from real banding frames (`linetime`, `bands`, `calibrate`).
 //! - [`report`]: results.json, trace CSVs, charts, the HTML and PDF reports,
 //!   JUnit/CSV exports and golden-file comparison;
 //! - [`inputs`]: the evidence (inputs) of a run, hashed for the report and
@@ -32,11 +34,11 @@ pub mod advise;
 pub mod analysis;
 pub mod backend;
 pub mod bench;
+pub mod calibrate;
 pub mod capture;
 pub mod cli;
 pub mod inputs;
 pub mod interrupt;
-pub mod linetime;
 pub mod metrics;
 pub mod outdir;
 pub mod physics;

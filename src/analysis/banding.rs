@@ -38,35 +38,14 @@ pub fn row_profile(shutter: &Shutter, pwm: &PwmDrive, frame: u64, rows: u32) -> 
         .collect()
 }
 
-/// Band period in rows of a row profile, from the mean-level upward
-/// crossings (linearly interpolated): the mean spacing between the first
-/// and the last crossing. Needs at least two crossings.
+/// Band period in rows of a row profile, by the band estimator shared with
+/// `linetime`, `bands` and `calibrate` ([`crate::calibrate::bands`]): the
+/// fundamental of the periodic fit, refined below a row. An error says why
+/// there is no confident estimate (e.g. fewer than 3 bands).
 pub fn band_period_from_profile(profile: &[f64]) -> Result<f64, String> {
-    let n = profile.len();
-    if n < 3 {
-        return Err(format!("{n} rows are too few"));
-    }
-    let mean = profile.iter().sum::<f64>() / n as f64;
-    let (lo, hi) = profile
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    if hi - lo <= 1e-9 {
-        return Err("the rows show no bands (constant profile)".to_string());
-    }
-    let crossings: Vec<f64> = profile
-        .windows(2)
-        .enumerate()
-        .filter(|(_, w)| w[0] < mean && w[1] >= mean)
-        .map(|(i, w)| i as f64 + (mean - w[0]) / (w[1] - w[0]))
-        .collect();
-    if crossings.len() < 2 {
-        return Err(format!(
-            "fewer than two band periods in {n} rows: the readout is too short to measure the spacing"
-        ));
-    }
-    Ok((crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64)
+    crate::calibrate::bands::estimate_profile(profile)
+        .map(|e| e.period_rows)
+        .map_err(|e| e.to_string())
 }
 
 /// Banding KPIs; `None` for a global shutter or a zero line time.
@@ -132,7 +111,8 @@ mod tests {
     #[test]
     fn frequency_is_recovered_from_the_band_spacing() {
         // The gyroflow sample camera: 14.565 us per line (DESIGN.md 5).
-        for (f, d) in [(1000.0, 0.5), (613.0, 0.2), (2400.0, 0.1), (150.0, 0.7)] {
+        // 250 Hz gives 3.9 bands in 1080 rows (the estimator needs 3).
+        for (f, d) in [(1000.0, 0.5), (613.0, 0.2), (2400.0, 0.1), (250.0, 0.7)] {
             let s = rolling(14.565e-6, 30.0);
             let pwm = PwmDrive::new(f, d, 0.0).unwrap();
             let b = banding(&s, &pwm, 1080).unwrap();
@@ -140,6 +120,28 @@ mod tests {
             assert!((got - f).abs() / f < 2e-3, "f={f}: {got}");
             assert!(b.band_contrast_percent.unwrap() > 10.0);
         }
+    }
+
+    #[test]
+    fn a_faint_ripple_under_a_long_exposure_gives_the_fundamental() {
+        // The daylight plan's camera: 11.111 ms exposure, 11.111 PWM periods
+        // at 1 kHz, so the bands are a 1 % trapezoid ripple. At 50 % duty
+        // the even harmonics vanish and a sub-harmonic (7 periods, 481
+        // rows) once won the periodogram; the exact check must undo it.
+        let s = Shutter {
+            exposure_s: 11.111e-3,
+            ..rolling(14.565e-6, 30.0)
+        };
+        for d in [0.05, 0.2, 0.5] {
+            let pwm = PwmDrive::new(1000.0, d, 0.0).unwrap();
+            let b = banding(&s, &pwm, 800).unwrap();
+            let got = b.estimated_frequency_hz.expect("an estimate");
+            assert!((got - 1000.0).abs() < 0.5, "d={d}: {got}");
+        }
+        // Full duty: no ripple at all.
+        let b = banding(&s, &PwmDrive::new(1000.0, 1.0, 0.0).unwrap(), 800).unwrap();
+        assert_eq!(b.estimated_frequency_hz, None);
+        assert!(b.estimate_note.unwrap().contains("flat"));
     }
 
     #[test]

@@ -2,6 +2,7 @@
 
 mod banding;
 mod beyond;
+mod calibrate;
 mod captured;
 mod cli;
 mod detect;

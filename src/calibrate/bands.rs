@@ -1,0 +1,600 @@
+//! The band estimator: the period of the horizontal bands that a rolling
+//! shutter paints under a PWM light, from row profiles (docs/calibration.md,
+//! "Band estimator"). It serves `linetime`, `bands`, `calibrate` and the
+//! banding analysis of plans.
+//!
+//! 1. Each row profile (one per frame) has its least-squares quadratic in
+//!    the row index removed (vignetting, uneven light).
+//! 2. **Fundamental, not a harmonic.** A zero-padded periodogram gives the
+//!    power at every harmonic `h f0` of each candidate fundamental `f0`.
+//!    A square-wave band profile is a Fourier series, so each candidate is
+//!    scored as a periodic model with its best number of harmonics `H`
+//!    (1 to [`MAX_HARMONICS`]) by the Bayesian information criterion
+//!    `n ln(RSS / n) + 2 H F ln n` (`F` frames). A harmonic `2 f0` cannot
+//!    explain the fundamental's power; a sub-harmonic `f0 / 2` explains the
+//!    same power only with twice the harmonics, and the criterion charges
+//!    for them. So the fundamental wins.
+//! 3. **Sub-row refinement.** The period is refined by minimising the
+//!    residual of the exact least-squares fit of `quadratic + H harmonics`
+//!    over all rows of all frames (golden-section search).
+//! 4. **Uncertainty.** From the curvature of the residual at the optimum:
+//!    `sigma_f^2 = 2 s^2 / RSS''(f)`, `s^2 = RSS / (n - k)`; and from the
+//!    scatter of the estimates of column groups: the larger of the two.
+//! 5. **Confidence.** The estimate is refused, with the reason, when the
+//!    periodic model explains less than [`MIN_QUALITY`] of the detrended
+//!    variance, when the frame holds fewer than [`MIN_BANDS`] periods, when
+//!    column groups disagree, or when the relative uncertainty exceeds
+//!    [`MAX_RELATIVE_SIGMA`].
+
+use rustfft::FftPlanner;
+use rustfft::num_complex::Complex;
+use serde::Serialize;
+
+use super::linalg::lsq_rss;
+
+/// Fewest band periods in the analysed rows for a confident estimate.
+pub const MIN_BANDS: f64 = 3.0;
+/// Smallest share of the detrended row variance the periodic model must
+/// explain (0..1).
+pub const MIN_QUALITY: f64 = 0.5;
+/// Largest relative uncertainty (1 sigma) of the period.
+pub const MAX_RELATIVE_SIGMA: f64 = 0.02;
+/// Most harmonics in the periodic model.
+pub const MAX_HARMONICS: usize = 10;
+/// Fewest rows analysed.
+pub const MIN_ROWS: usize = 16;
+/// Shortest band period searched, rows.
+pub const MIN_PERIOD_ROWS: f64 = 4.0;
+/// Rows whose peak-to-peak is at most this share of their level are flat
+/// (rounding of a constant profile, not banding).
+const FLAT_RELATIVE_PTP: f64 = 1e-9;
+/// Column groups whose separate estimates are compared.
+const GROUPS: usize = 4;
+
+/// A confident band-period estimate.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BandEstimate {
+    /// Band period, rows per PWM period (> 0).
+    pub period_rows: f64,
+    /// One-sigma uncertainty of the period, rows.
+    pub period_sigma_rows: f64,
+    /// Share (0..1) of the detrended row-profile variance explained by the
+    /// periodic model at the estimated period.
+    pub quality: f64,
+    /// Band periods in the analysed rows.
+    pub bands: f64,
+    /// Harmonics in the periodic model (1..=MAX_HARMONICS).
+    pub harmonics: usize,
+    /// Rows analysed per frame.
+    pub rows: usize,
+    /// Frames combined.
+    pub frames: usize,
+    /// Period estimated from each column group alone, rows (empty with one
+    /// column strip).
+    pub group_periods_rows: Vec<f64>,
+}
+
+impl BandEstimate {
+    /// Line time and its sigma, seconds, for a light of `frequency_hz`:
+    /// `t_line = 1 / (f P)`.
+    pub fn line_time_s(&self, frequency_hz: f64) -> (f64, f64) {
+        let t = 1.0 / (frequency_hz * self.period_rows);
+        (t, t * self.period_sigma_rows / self.period_rows)
+    }
+
+    /// PWM frequency and its sigma, Hz, for a known line time:
+    /// `f = 1 / (t_line P)`.
+    pub fn frequency_hz(&self, line_time_s: f64) -> (f64, f64) {
+        let f = 1.0 / (line_time_s * self.period_rows);
+        (f, f * self.period_sigma_rows / self.period_rows)
+    }
+}
+
+/// Why there is no confident estimate. Each says what was found.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum NoConfidence {
+    /// Too few rows.
+    #[error("{rows} rows are too few; at least {min} are needed", min = MIN_ROWS)]
+    TooFewRows {
+        /// Rows given.
+        rows: usize,
+    },
+    /// The rows are constant (to rounding): there is nothing to fit.
+    #[error("the rows are flat (peak-to-peak {relative_ptp:.1e} of the level): no banding")]
+    Flat {
+        /// Peak-to-peak of the rows over their largest magnitude.
+        relative_ptp: f64,
+    },
+    /// The rows are not periodic.
+    #[error(
+        "no periodic banding: the best periodic fit (period {period_rows:.1} rows) explains {quality:.2} of the row variance, below {min}",
+        min = MIN_QUALITY
+    )]
+    NoBanding {
+        /// Share explained by the best periodic model.
+        quality: f64,
+        /// Its period, rows (0 for flat rows).
+        period_rows: f64,
+    },
+    /// Fewer than MIN_BANDS periods.
+    #[error(
+        "fewer than {min} bands: the best period, {period_rows:.1} rows, fits {bands:.1} times in {rows} rows",
+        min = MIN_BANDS
+    )]
+    TooFewBands {
+        /// Best period, rows.
+        period_rows: f64,
+        /// Periods in the rows.
+        bands: f64,
+        /// Rows analysed.
+        rows: usize,
+    },
+    /// Column groups give different periods.
+    #[error(
+        "column strips disagree: periods of the column groups (left to right) are {periods:?} rows, the whole frame gives {period_rows:.2}"
+    )]
+    StripsDisagree {
+        /// Per-group periods, rows, rounded to 0.01.
+        periods: Vec<f64>,
+        /// Whole-frame period, rows.
+        period_rows: f64,
+    },
+    /// The fit leaves the period too uncertain.
+    #[error(
+        "the period, {period_rows:.2} rows, is uncertain by {relative_sigma:.3} (1 sigma), more than {max}",
+        max = MAX_RELATIVE_SIGMA
+    )]
+    Uncertain {
+        /// Period, rows.
+        period_rows: f64,
+        /// Relative one-sigma uncertainty.
+        relative_sigma: f64,
+    },
+}
+
+impl NoConfidence {
+    /// A hint on what to change.
+    pub fn hint(&self) -> &'static str {
+        match self {
+            NoConfidence::TooFewRows { .. } => "use a taller frame or --roi",
+            NoConfidence::NoBanding { .. } | NoConfidence::Flat { .. } => {
+                "use a frame of a diffusely lit PWM scene (or --roi on the light), exposure shorter than the PWM period"
+            }
+            NoConfidence::TooFewBands { .. } => {
+                "raise the PWM frequency or use more rows, so that at least 3 bands show"
+            }
+            NoConfidence::StripsDisagree { .. } => {
+                "the bands are not straight across the frame: restrict the analysis with --roi"
+            }
+            NoConfidence::Uncertain { .. } => "use more frames, more rows or a cleaner frame",
+        }
+    }
+}
+
+/// Row profiles: `frames[frame][strip][row]`, the mean of each row over
+/// each of a frame's column strips, left to right. All frames have the same
+/// number of strips and rows.
+pub type StripProfiles = Vec<Vec<Vec<f64>>>;
+
+/// Per-row median over strips (the mean for one or two strips): a text
+/// overlay or a bright object in a minority of the strips does not move it.
+pub fn combine_strips(strips: &[Vec<f64>]) -> Vec<f64> {
+    let n = strips.first().map_or(0, Vec::len);
+    let mut buf = Vec::with_capacity(strips.len());
+    (0..n)
+        .map(|r| {
+            buf.clear();
+            buf.extend(strips.iter().map(|s| s[r]));
+            median(&mut buf)
+        })
+        .collect()
+}
+
+/// Median of a slice (mean of the middle two for even lengths); 0 if empty.
+pub fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    if v.len() % 2 == 1 {
+        v[m]
+    } else {
+        0.5 * (v[m - 1] + v[m])
+    }
+}
+
+/// Estimates the band period of a single row profile (one frame, one strip).
+pub fn estimate_profile(profile: &[f64]) -> Result<BandEstimate, NoConfidence> {
+    estimate(&vec![vec![profile.to_vec()]])
+}
+
+/// Estimates the band period common to all frames of `input`.
+pub fn estimate(input: &StripProfiles) -> Result<BandEstimate, NoConfidence> {
+    let strips = input.first().map_or(0, Vec::len);
+    let profiles: Vec<Vec<f64>> = input.iter().map(|f| combine_strips(f)).collect();
+    let n = profiles.first().map_or(0, Vec::len);
+    if n < MIN_ROWS || profiles.iter().any(|p| p.len() != n) {
+        return Err(NoConfidence::TooFewRows { rows: n });
+    }
+    let (lo, hi) = profiles
+        .iter()
+        .flatten()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let relative_ptp = (hi - lo) / lo.abs().max(hi.abs()).max(f64::MIN_POSITIVE);
+    if relative_ptp.is_nan() || relative_ptp <= FLAT_RELATIVE_PTP {
+        return Err(NoConfidence::Flat { relative_ptp });
+    }
+    let fit = PeriodicFit::new(&profiles);
+    let (f0, ratios) = fit.coarse();
+    let bin = 1.0 / fit.padded as f64;
+    let (f, h, rss) = fit.verify(f0, &ratios, 1.5 * bin);
+    let quality = (1.0 - rss / fit.trend_rss).clamp(0.0, 1.0);
+    let period = 1.0 / f;
+    if quality < MIN_QUALITY {
+        return Err(NoConfidence::NoBanding {
+            quality,
+            period_rows: period,
+        });
+    }
+    let bands = n as f64 * f;
+    if bands < MIN_BANDS {
+        return Err(NoConfidence::TooFewBands {
+            period_rows: period,
+            bands,
+            rows: n,
+        });
+    }
+    let sigma_fit = fit.sigma(f, h, rss);
+    let group_f = group_estimates(input, strips, f, h, 1.5 * bin);
+    let mut sigma_f = sigma_fit;
+    if group_f.len() >= 2 {
+        let disagree = group_f.iter().any(|(fg, sg)| {
+            let d = (fg - f).abs();
+            d > 4.0 * (sg * sg + sigma_fit * sigma_fit).sqrt() && d > 0.003 * f
+        });
+        if disagree {
+            return Err(NoConfidence::StripsDisagree {
+                periods: group_f
+                    .iter()
+                    .map(|(fg, _)| (100.0 / fg).round() / 100.0)
+                    .collect(),
+                period_rows: period,
+            });
+        }
+        let g = group_f.len() as f64;
+        let mean = group_f.iter().map(|x| x.0).sum::<f64>() / g;
+        let var = group_f.iter().map(|x| (x.0 - mean).powi(2)).sum::<f64>() / (g - 1.0);
+        sigma_f = sigma_f.max((var / g).sqrt());
+    }
+    let relative_sigma = sigma_f / f;
+    if relative_sigma.is_nan() || relative_sigma > MAX_RELATIVE_SIGMA {
+        return Err(NoConfidence::Uncertain {
+            period_rows: period,
+            relative_sigma,
+        });
+    }
+    Ok(BandEstimate {
+        period_rows: period,
+        period_sigma_rows: relative_sigma * period,
+        quality,
+        bands,
+        harmonics: h,
+        rows: n,
+        frames: profiles.len(),
+        group_periods_rows: group_f.iter().map(|(fg, _)| 1.0 / fg).collect(),
+    })
+}
+
+/// Refined frequency and its sigma for each of up to GROUPS column groups.
+fn group_estimates(
+    input: &StripProfiles,
+    strips: usize,
+    f: f64,
+    h: usize,
+    half_width: f64,
+) -> Vec<(f64, f64)> {
+    let groups = GROUPS.min(strips);
+    if groups < 2 {
+        return Vec::new();
+    }
+    (0..groups)
+        .map(|g| {
+            let (a, b) = (g * strips / groups, (g + 1) * strips / groups);
+            let profiles: Vec<Vec<f64>> =
+                input.iter().map(|fr| combine_strips(&fr[a..b])).collect();
+            let fit = PeriodicFit::new(&profiles);
+            let fg = fit.refine(f, h, half_width);
+            let rss = fit.rss(fg, h);
+            (fg, fit.sigma(fg, h, rss))
+        })
+        .collect()
+}
+
+/// Least-squares periodic models of a set of equally long row profiles.
+struct PeriodicFit<'a> {
+    profiles: &'a [Vec<f64>],
+    /// Rows per profile.
+    n: usize,
+    /// Residual of the quadratic trend alone, summed over profiles.
+    trend_rss: f64,
+    /// Length of the zero-padded periodogram.
+    padded: usize,
+}
+
+impl<'a> PeriodicFit<'a> {
+    fn new(profiles: &'a [Vec<f64>]) -> Self {
+        let n = profiles.first().map_or(0, Vec::len);
+        let trend_rss = profiles
+            .iter()
+            .map(|p| lsq_rss(p, 3, |i, r| trend_basis(i, n, r)).unwrap_or(0.0))
+            .sum();
+        Self {
+            profiles,
+            n,
+            trend_rss,
+            padded: (8 * n).next_power_of_two(),
+        }
+    }
+
+    /// Residual of `quadratic + h harmonics of f` (cycles per row), summed
+    /// over profiles.
+    fn rss(&self, f: f64, h: usize) -> f64 {
+        let n = self.n;
+        let m = 3 + 2 * h;
+        self.profiles
+            .iter()
+            .map(|p| {
+                lsq_rss(p, m, |i, r| {
+                    trend_basis(i, n, r);
+                    let (s1, c1) = (2.0 * std::f64::consts::PI * f * i as f64).sin_cos();
+                    let (mut s, mut c) = (s1, c1);
+                    for k in 0..h {
+                        r[3 + 2 * k] = c;
+                        r[4 + 2 * k] = s;
+                        (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
+                    }
+                })
+                .unwrap_or(f64::INFINITY)
+            })
+            .sum()
+    }
+
+    /// The best fundamental on the periodogram grid, by the information
+    /// criterion of the module docs, and the ratios to it that
+    /// [`Self::verify`] checks exactly: `1, 1/2, 1/3`, and each multiple
+    /// `m` (up to the chosen harmonic count) whose peak holds at least a
+    /// tenth of the strongest harmonic's power. The grid's sums of peak
+    /// powers overlap (zero-padded bins are not independent), so a
+    /// sub-harmonic `f0 / m` can win here; the exact check of `m` undoes it.
+    fn coarse(&self) -> (f64, Vec<f64>) {
+        let (n, big_n) = (self.n, self.padded);
+        let frames = self.profiles.len();
+        let mut power = vec![0.0; big_n / 2 + 1];
+        let fft = FftPlanner::<f64>::new().plan_fft_forward(big_n);
+        let mut buf = vec![Complex::new(0.0, 0.0); big_n];
+        for p in self.profiles {
+            let d = detrend(p);
+            buf.iter_mut().for_each(|c| *c = Complex::new(0.0, 0.0));
+            for (b, &v) in buf.iter_mut().zip(&d) {
+                b.re = v;
+            }
+            fft.process(&mut buf);
+            for (k, pw) in power.iter_mut().enumerate() {
+                // Sum of squares a sinusoid at bin k explains: 2 |Y|^2 / n.
+                *pw += 2.0 * buf[k].norm_sqr() / n as f64;
+            }
+        }
+        let total = self.trend_rss.max(1e-300);
+        let n_tot = (n * frames) as f64;
+        let penalty = 2.0 * frames as f64 * n_tot.ln();
+        let k_lo = ((1.5 * big_n as f64 / n as f64).ceil() as usize).max(1);
+        let k_hi = (big_n as f64 / MIN_PERIOD_ROWS) as usize;
+        let mut best = (f64::INFINITY, k_lo, 1);
+        for k0 in k_lo..=k_hi {
+            let h_max = MAX_HARMONICS.min(big_n / 2 / k0).max(1);
+            let mut explained = 0.0;
+            for h in 1..=h_max {
+                let (c, w) = (h * k0, h / 2);
+                let lo = c.saturating_sub(w);
+                let hi = (c + w).min(big_n / 2);
+                explained += power[lo..=hi].iter().fold(0.0f64, |a, &b| a.max(b));
+                let rss = (total - explained).max(1e-12 * total);
+                let bic = n_tot * (rss / n_tot).ln() + penalty * h as f64;
+                if bic < best.0 {
+                    best = (bic, k0, h);
+                }
+            }
+        }
+        let (_, k0, h) = best;
+        let peak = |m: usize| {
+            let (c, w) = (m * k0, m / 2);
+            let hi = (c + w).min(big_n / 2);
+            power[c.saturating_sub(w).min(hi)..=hi]
+                .iter()
+                .fold(0.0f64, |a, &b| a.max(b))
+        };
+        let strongest = (1..=h).map(peak).fold(0.0f64, f64::max);
+        let mut ratios = vec![1.0, 0.5, 1.0 / 3.0];
+        ratios.extend(
+            (2..=h)
+                .filter(|&m| peak(m) >= 0.1 * strongest)
+                .map(|m| m as f64),
+        );
+        (k0 as f64 / big_n as f64, ratios)
+    }
+
+    /// The exact check of the coarse choice: `f0 * r` for each of `ratios`
+    /// (`f0` itself, sub-multiples and the multiples that carry power) is
+    /// refined and given its best harmonic count by the exact residual's
+    /// BIC (with a floor of 1e-6 of the trend residual, so that noise-free
+    /// profiles tie and the simpler model wins). Returns frequency,
+    /// harmonics, residual.
+    fn verify(&self, f0: f64, ratios: &[f64], half: f64) -> (f64, usize, f64) {
+        let frames = self.profiles.len();
+        let n_tot = (self.n * frames) as f64;
+        let penalty = 2.0 * frames as f64 * n_tot.ln();
+        let floor = 1e-6 * self.trend_rss;
+        let (lo, hi) = (1.5 / self.n as f64, 1.0 / MIN_PERIOD_ROWS);
+        let mut best = (f64::INFINITY, f0, 1, f64::INFINITY);
+        for &ratio in ratios {
+            let c = f0 * ratio;
+            if c < lo || c > hi {
+                continue;
+            }
+            let h_max = MAX_HARMONICS.min((0.5 / c) as usize).max(1);
+            let f = self.refine(c, h_max, half * ratio.max(1.0));
+            for h in 1..=h_max {
+                let rss = self.rss(f, h);
+                let bic = n_tot * (rss.max(floor) / n_tot).ln() + penalty * h as f64;
+                if bic < best.0 {
+                    best = (bic, f, h, rss);
+                }
+            }
+        }
+        let (_, f, h, _) = best;
+        // Refine again with the chosen harmonic count.
+        let f = self.refine(f, h, 0.5 * half);
+        (f, h, self.rss(f, h))
+    }
+
+    /// Golden-section search for the least residual within `f0 +- half`.
+    fn refine(&self, f0: f64, h: usize, half: f64) -> f64 {
+        let lo_limit = 1.0 / self.n as f64;
+        let (mut a, mut b) = ((f0 - half).max(lo_limit), f0 + half);
+        let g = (5f64.sqrt() - 1.0) / 2.0;
+        let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
+        let (mut fc, mut fd) = (self.rss(c, h), self.rss(d, h));
+        for _ in 0..30 {
+            if fc < fd {
+                b = d;
+                d = c;
+                fd = fc;
+                c = b - g * (b - a);
+                fc = self.rss(c, h);
+            } else {
+                a = c;
+                c = d;
+                fc = fd;
+                d = a + g * (b - a);
+                fd = self.rss(d, h);
+            }
+        }
+        0.5 * (a + b)
+    }
+
+    /// One-sigma uncertainty of the frequency from the residual curvature.
+    fn sigma(&self, f: f64, h: usize, rss: f64) -> f64 {
+        let frames = self.profiles.len();
+        let dof = (self.n * frames) as f64 - ((3 + 2 * h) * frames) as f64 - 1.0;
+        let s2 = rss / dof.max(1.0);
+        let step = 0.02 / (self.n as f64 * h as f64);
+        let curv = (self.rss(f + step, h) - 2.0 * rss + self.rss(f - step, h)) / (step * step);
+        if curv > 0.0 {
+            (2.0 * s2 / curv).sqrt()
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// `1, t, t^2` with `t` in [-1, 1] over `n` rows.
+fn trend_basis(i: usize, n: usize, r: &mut [f64]) {
+    let t = 2.0 * i as f64 / (n.max(2) - 1) as f64 - 1.0;
+    r[0] = 1.0;
+    r[1] = t;
+    r[2] = t * t;
+}
+
+/// The profile minus its least-squares quadratic.
+fn detrend(y: &[f64]) -> Vec<f64> {
+    let n = y.len();
+    let (mut ata, mut aty) = ([0.0; 9], [0.0; 3]);
+    let mut r = [0.0; 3];
+    for (i, &v) in y.iter().enumerate() {
+        trend_basis(i, n, &mut r);
+        for p in 0..3 {
+            aty[p] += r[p] * v;
+            for q in 0..3 {
+                ata[p * 3 + q] += r[p] * r[q];
+            }
+        }
+    }
+    let x = super::linalg::solve_spd(&ata, &aty, 3).unwrap_or_else(|| vec![0.0; 3]);
+    y.iter()
+        .enumerate()
+        .map(|(i, &v)| {
+            trend_basis(i, n, &mut r);
+            v - x[0] * r[0] - x[1] * r[1] - x[2] * r[2]
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::pwm::on_fraction;
+
+    /// Row profile of a PWM light: duty `d`, period `p` rows, exposure
+    /// `e` rows, phase `phi` cycles.
+    fn bands(n: usize, p: f64, d: f64, e: f64, phi: f64) -> Vec<f64> {
+        (0..n)
+            .map(|r| 20.0 + 200.0 * on_fraction(phi + r as f64 / p, e / p, d))
+            .collect()
+    }
+
+    #[test]
+    fn square_wave_gives_its_fundamental_at_any_duty() {
+        for (p, d, e) in [
+            (68.66, 0.5, 4.3),
+            (37.3, 0.1, 0.5),
+            (120.7, 0.9, 2.0),
+            (11.2, 0.3, 1.0),
+            (250.0, 0.05, 3.0),
+            (15.0, 0.5, 7.0),
+        ] {
+            let est = estimate_profile(&bands(1080, p, d, e, 0.3)).unwrap();
+            let err = est.period_rows - p;
+            assert!(
+                (err / p).abs() < 5e-4 && err.abs() < 3.0 * est.period_sigma_rows,
+                "p={p} d={d}: {est:?}"
+            );
+            assert!(est.period_sigma_rows < 0.01 * p, "{est:?}");
+        }
+    }
+
+    #[test]
+    fn flat_rows_and_noise_are_not_banding() {
+        assert!(matches!(
+            estimate_profile(&[5.0; 200]),
+            Err(NoConfidence::Flat { .. })
+        ));
+        let mut rng = crate::physics::sensor::Rng::new(3);
+        let noise: Vec<f64> = (0..1000).map(|_| rng.normal()).collect();
+        assert!(matches!(
+            estimate_profile(&noise),
+            Err(NoConfidence::NoBanding { .. })
+        ));
+    }
+
+    #[test]
+    fn fewer_than_three_bands_are_refused_with_the_reason() {
+        let e = estimate_profile(&bands(500, 250.0, 0.5, 2.0, 0.1)).unwrap_err();
+        assert!(matches!(e, NoConfidence::TooFewBands { .. }), "{e}");
+        let ok = estimate_profile(&bands(500, 160.0, 0.5, 2.0, 0.1));
+        assert!(ok.is_ok(), "{ok:?}");
+    }
+
+    #[test]
+    fn median_over_strips_ignores_an_overlay_in_one_strip() {
+        let clean = bands(600, 40.0, 0.4, 2.0, 0.0);
+        let mut strips = vec![clean.clone(); 5];
+        // A bright caption over rows 100..160 in one strip.
+        for v in &mut strips[1][100..160] {
+            *v = 255.0;
+        }
+        assert_eq!(combine_strips(&strips), clean);
+    }
+}

@@ -1,0 +1,114 @@
+//! Small dense linear algebra for the least-squares fits of the band
+//! estimator and the camera-model fit: normal equations solved by Cholesky.
+
+/// Solves `a x = b` for a symmetric positive-definite `m x m` matrix `a`
+/// (row-major), by Cholesky decomposition. Returns `None` when `a` is not
+/// positive definite (a singular or rank-deficient design).
+pub fn solve_spd(a: &[f64], b: &[f64], m: usize) -> Option<Vec<f64>> {
+    let l = cholesky(a, m)?;
+    // Forward: L z = b; back: L^T x = z.
+    let mut z = vec![0.0; m];
+    for i in 0..m {
+        let s: f64 = (0..i).map(|k| l[i * m + k] * z[k]).sum();
+        z[i] = (b[i] - s) / l[i * m + i];
+    }
+    let mut x = vec![0.0; m];
+    for i in (0..m).rev() {
+        let s: f64 = (i + 1..m).map(|k| l[k * m + i] * x[k]).sum();
+        x[i] = (z[i] - s) / l[i * m + i];
+    }
+    Some(x)
+}
+
+/// Lower Cholesky factor of a symmetric positive-definite matrix.
+fn cholesky(a: &[f64], m: usize) -> Option<Vec<f64>> {
+    let mut l = vec![0.0; m * m];
+    for i in 0..m {
+        for j in 0..=i {
+            let s: f64 = (0..j).map(|k| l[i * m + k] * l[j * m + k]).sum();
+            if i == j {
+                let d = a[i * m + i] - s;
+                if d.is_nan() || d <= 0.0 || !d.is_finite() {
+                    return None;
+                }
+                l[i * m + j] = d.sqrt();
+            } else {
+                l[i * m + j] = (a[i * m + j] - s) / l[j * m + j];
+            }
+        }
+    }
+    Some(l)
+}
+
+/// Inverse of a symmetric positive-definite matrix (column by column).
+pub fn inverse_spd(a: &[f64], m: usize) -> Option<Vec<f64>> {
+    let mut inv = vec![0.0; m * m];
+    for j in 0..m {
+        let mut e = vec![0.0; m];
+        e[j] = 1.0;
+        let col = solve_spd(a, &e, m)?;
+        for i in 0..m {
+            inv[i * m + j] = col[i];
+        }
+    }
+    Some(inv)
+}
+
+/// Residual sum of squares of the least-squares fit of `y` on the columns
+/// produced by `basis(i, out)` (which fills `out` with the `m` regressors
+/// of sample `i`). `None` when the design is singular.
+pub fn lsq_rss(y: &[f64], m: usize, mut basis: impl FnMut(usize, &mut [f64])) -> Option<f64> {
+    let mut ata = vec![0.0; m * m];
+    let mut aty = vec![0.0; m];
+    let mut row = vec![0.0; m];
+    let mut yy = 0.0;
+    for (i, &v) in y.iter().enumerate() {
+        basis(i, &mut row);
+        for p in 0..m {
+            let rp = row[p];
+            aty[p] += rp * v;
+            for q in 0..=p {
+                ata[p * m + q] += rp * row[q];
+            }
+        }
+        yy += v * v;
+    }
+    for p in 0..m {
+        for q in 0..p {
+            ata[q * m + p] = ata[p * m + q];
+        }
+    }
+    // A relative ridge keeps nearly collinear columns (e.g. a harmonic at
+    // a very low frequency against the trend) from breaking the solve.
+    let trace: f64 = (0..m).map(|p| ata[p * m + p]).sum::<f64>() / m as f64;
+    for p in 0..m {
+        ata[p * m + p] += 1e-12 * trace;
+    }
+    let x = solve_spd(&ata, &aty, m)?;
+    let explained: f64 = x.iter().zip(&aty).map(|(a, b)| a * b).sum();
+    Some((yy - explained).max(0.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn solves_a_small_system_exactly() {
+        // [[4, 2], [2, 3]] x = [2, 1] -> x = [0.5, 0].
+        let x = solve_spd(&[4.0, 2.0, 2.0, 3.0], &[2.0, 1.0], 2).unwrap();
+        assert!((x[0] - 0.5).abs() < 1e-12 && x[1].abs() < 1e-12, "{x:?}");
+        assert!(solve_spd(&[1.0, 1.0, 1.0, 1.0], &[1.0, 1.0], 2).is_none());
+    }
+
+    #[test]
+    fn a_line_is_fitted_with_zero_residual() {
+        let y: Vec<f64> = (0..10).map(|i| 3.0 - 0.5 * i as f64).collect();
+        let rss = lsq_rss(&y, 2, |i, r| {
+            r[0] = 1.0;
+            r[1] = i as f64;
+        })
+        .unwrap();
+        assert!(rss < 1e-6, "{rss}");
+    }
+}

@@ -1,0 +1,363 @@
+//! Camera calibration from real banding frames: `ledflicker linetime`,
+//! `bands` and `calibrate` (docs/calibration.md).
+//!
+//! Pipeline: [`frames`] reads frames (PNG, TIFF, JPEG, or a video through
+//! the capture readers) into strip row profiles; [`bands`] estimates the
+//! band period with an uncertainty, or refuses with a reason; [`fit`] fits
+//! the rolling-shutter camera model (line time, exposure, duty, black
+//! level, saturation, tone curve) to the row profiles; [`profile`] writes
+//! the fitted camera as a profile of `reference-data/cameras/` and closes
+//! the loop by letting the simulator render the same scene with it.
+
+pub mod bands;
+pub mod command;
+pub mod fit;
+pub mod frames;
+mod linalg;
+pub mod profile;
+pub mod recovery;
+pub mod synth;
+pub mod uncertainty;
+
+use serde::Serialize;
+
+use bands::{BandEstimate, NoConfidence};
+use fit::{ModelFit, ModelParams, idx};
+use frames::FrameSet;
+
+/// Band estimate of a frame set: on the texture-divided profiles when
+/// there are several frames and they still show bands (bands locked to the
+/// frame rate divide out), else on the raw ones. The flag says which.
+pub fn estimate_bands(set: &FrameSet) -> Result<(BandEstimate, bool), NoConfidence> {
+    if let Some(flat) = set.flattened() {
+        match bands::estimate(&flat) {
+            Ok(e) => return Ok((e, true)),
+            Err(NoConfidence::NoBanding { .. } | NoConfidence::Flat { .. }) => {}
+            Err(e) => return Err(e),
+        }
+    }
+    bands::estimate(&set.raw).map(|e| (e, false))
+}
+
+/// What `calibrate` knows about the light.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Light {
+    /// PWM frequency, Hz (> 0).
+    pub frequency_hz: f64,
+    /// One-sigma uncertainty of the frequency, Hz (0: exact). It carries
+    /// into the line time and the exposure, which scale as `1 / f`.
+    pub frequency_sigma_hz: f64,
+    /// Duty cycle in (0, 1) when known; fitted when `None`.
+    pub duty: Option<f64>,
+}
+
+/// The fitted camera. Each fitted parameter has a `_sigma` (one sigma);
+/// one the frames cannot determine is `None` with a bound beside it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Calibration {
+    /// PWM frequency of the light, Hz.
+    pub frequency_hz: f64,
+    /// Frames fitted.
+    pub frames: usize,
+    /// Rows of the analysed area.
+    pub rows: usize,
+    /// Analysed area `[x, y, width, height]`, pixels.
+    pub roi: [u32; 4],
+    /// Band period from the band estimator, rows.
+    pub band_period_rows: f64,
+    /// Its sigma, rows.
+    pub band_period_rows_sigma: f64,
+    /// Band estimator's quality figure (0..1).
+    pub band_quality: f64,
+    /// Texture was divided out (several frames).
+    pub texture_divided: bool,
+    /// Line time, microseconds.
+    pub line_time_us: f64,
+    /// Its sigma, microseconds.
+    pub line_time_us_sigma: f64,
+    /// Exposure, microseconds; `None` when shorter than a row.
+    pub exposure_us: Option<f64>,
+    /// Its sigma.
+    pub exposure_us_sigma: Option<f64>,
+    /// Upper bound when the exposure is undetermined, microseconds.
+    pub exposure_us_max: Option<f64>,
+    /// Duty cycle (given or fitted).
+    pub duty: f64,
+    /// Its sigma (0 when given).
+    pub duty_sigma: f64,
+    /// Tone curve `y = u^(1/gamma)`: gamma.
+    pub gamma: f64,
+    /// Its sigma.
+    pub gamma_sigma: f64,
+    /// Black level, DN; `None` when the frames only bound it (e.g. a linear
+    /// response, where black level and ambient light trade off exactly).
+    pub black_level_dn: Option<f64>,
+    /// Its sigma, DN.
+    pub black_level_dn_sigma: Option<f64>,
+    /// Upper bound when undetermined: the dark level, DN (the bound is
+    /// `0 <= black <= dark`).
+    pub black_level_dn_max: Option<f64>,
+    /// Black level of the fitted model, DN, written to the profile (with
+    /// the matching ambient level it reproduces the dark level).
+    #[serde(skip)]
+    pub model_black_dn: f64,
+    /// Clipping level, DN; `None` when no row clipped.
+    pub saturation_dn: Option<f64>,
+    /// Its sigma, DN.
+    pub saturation_dn_sigma: Option<f64>,
+    /// Lower bound when no row clipped: the brightest row, DN.
+    pub saturation_dn_min: Option<f64>,
+    /// Linear level of the light at full ON, fraction of white (scene).
+    pub led_level: f64,
+    /// Its sigma.
+    pub led_level_sigma: f64,
+    /// Linear level with the light OFF (ambient), fraction of white (scene).
+    pub ambient_level: f64,
+    /// Its sigma.
+    pub ambient_level_sigma: f64,
+    /// Illumination falloff over the rows, `g = 1 + v1 t + v2 t^2` (scene).
+    pub shading: [f64; 2],
+    /// PWM phase at the first analysed row of frame 0, cycles.
+    pub phase_cycles: f64,
+    /// Output full scale, DN.
+    pub full_scale_dn: f64,
+    /// RMS of the measured minus the fitted row profile, fraction of full scale.
+    pub fit_rms: f64,
+    /// RMS of the measured minus the simulator's prediction from the fitted
+    /// profile (frame 0), fraction of full scale; set by [`profile::closed_loop`].
+    pub profile_rms: Option<f64>,
+    /// The files read, with SHA-256.
+    pub sources: Vec<frames::Source>,
+    /// Frame size, pixels.
+    pub frame_size: (u32, u32),
+    /// Measured row profile of frame 0, DN.
+    #[serde(skip)]
+    pub measured: Vec<f64>,
+}
+
+/// Fits the camera model to the frames. Errors only when the bands give no
+/// confident period.
+pub fn calibrate(set: &FrameSet, light: Light) -> Result<Calibration, NoConfidence> {
+    let (band, texture_divided) = estimate_bands(set)?;
+    let data = set.profiles();
+    let a = set.full_scale_dn;
+    let (clip, saturated) = clipping(&data, a);
+    let mut fixed = vec![false; idx::PHASE0 + data.len()];
+    fixed[idx::DUTY] = light.duty.is_some();
+    let mut best: Option<ModelFit> = None;
+    for gamma in [1.0, 2.2] {
+        for exposure_rows in [1.5, 5.0, 15.0] {
+            let start = initial(&data, &band, a, clip, gamma, exposure_rows, light.duty);
+            let f = fit::fit(&data, &start, &fixed, 200);
+            if best.as_ref().is_none_or(|b| f.rms < b.rms) {
+                best = Some(f);
+            }
+        }
+    }
+    // Polish the best from a fresh damping: LM can stall on the corners of
+    // the piecewise-linear ON fraction.
+    let best = best.map(|b| {
+        let again = fit::fit(&data, &b.params, &fixed, 200);
+        if again.rms < b.rms { again } else { b }
+    });
+    let Some(fit) = best else {
+        return Err(NoConfidence::NoBanding {
+            quality: 0.0,
+            period_rows: band.period_rows,
+        });
+    };
+    let inflation = uncertainty::inflation(&data, fit.params.values[idx::PERIOD]);
+    let (mut fit, ends) = uncertainty::black_ends(&data, fit, &fixed);
+    fit.sigma = uncertainty::honest_sigmas(&data, &fit, &fixed, inflation);
+    let black = uncertainty::black_level(&data, &fit, &ends, &fixed, inflation);
+    Ok(summarise(
+        set,
+        light,
+        &band,
+        texture_divided,
+        &fit,
+        black,
+        saturated,
+        &data,
+    ))
+}
+
+/// The clipping level and whether the rows reach it: at least 3 % of the
+/// samples within 0.3 % of full scale of the brightest, in the top tenth of
+/// the output range. A flat top lower down is the light's ON level: a
+/// brighter light clipped there would fit exactly as well (with a wider
+/// exposure and a smaller duty, docs/calibration.md), so clipping is only
+/// assumed where cameras clip, at the top of their output.
+fn clipping(data: &[Vec<f64>], a: f64) -> (f64, bool) {
+    let vmax = data
+        .iter()
+        .flatten()
+        .fold(f64::NEG_INFINITY, |m, &v| m.max(v));
+    let total = data.iter().map(Vec::len).sum::<usize>().max(1);
+    let near = data
+        .iter()
+        .flatten()
+        .filter(|&&v| v >= vmax - 0.003 * a)
+        .count();
+    if near as f64 >= 0.03 * total as f64 && vmax >= 0.9 * a {
+        (vmax, true)
+    } else {
+        (a, false)
+    }
+}
+
+/// Start values: levels from percentiles, duty from the share of bright
+/// rows, phase from the fundamental's phase.
+fn initial(
+    data: &[Vec<f64>],
+    band: &BandEstimate,
+    a: f64,
+    clip: f64,
+    gamma: f64,
+    exposure_rows: f64,
+    duty: Option<f64>,
+) -> ModelParams {
+    let p = band.period_rows;
+    let mut all: Vec<f64> = data.iter().flatten().copied().collect();
+    all.sort_by(f64::total_cmp);
+    let pct = |q: f64| all[((all.len() - 1) as f64 * q) as usize];
+    let (lo, hi) = (pct(0.02), pct(0.98));
+    let mid = 0.5 * (lo + hi);
+    let d = duty.unwrap_or_else(|| {
+        (all.iter().filter(|&&v| v > mid).count() as f64 / all.len() as f64).clamp(0.05, 0.95)
+    });
+    let e = (exposure_rows / p).min(0.9);
+    let c1 = ((hi - lo).max(1e-9) / a).powf(gamma).max(1e-6);
+    let mut values = vec![0.0; idx::PHASE0 + data.len()];
+    values[idx::PERIOD] = p;
+    values[idx::EXPOSURE] = e;
+    values[idx::DUTY] = d;
+    values[idx::BLACK] = lo;
+    values[idx::C0] = 0.0;
+    values[idx::C1] = c1;
+    values[idx::GAMMA] = gamma;
+    for (j, y) in data.iter().enumerate() {
+        let mean = y.iter().sum::<f64>() / y.len() as f64;
+        let (mut c, mut s) = (0.0, 0.0);
+        for (r, v) in y.iter().enumerate() {
+            let (sn, cs) = (2.0 * std::f64::consts::PI * r as f64 / p).sin_cos();
+            c += (v - mean) * cs;
+            s += (v - mean) * sn;
+        }
+        // The fundamental peaks at row r* = psi P / 2 pi, where the window
+        // centre phi + r/P + e/2 sits on the pulse centre D/2.
+        let r_peak = s.atan2(c) / (2.0 * std::f64::consts::PI) * p;
+        values[idx::PHASE0 + j] = crate::physics::pwm::wrap_unit(0.5 * d - 0.5 * e - r_peak / p);
+    }
+    ModelParams {
+        values,
+        full_scale: a,
+        clip,
+    }
+}
+
+/// Turns the fit into reported values, bounds for what is undetermined.
+#[allow(clippy::too_many_arguments)]
+fn summarise(
+    set: &FrameSet,
+    light: Light,
+    band: &BandEstimate,
+    texture_divided: bool,
+    fit: &ModelFit,
+    black: uncertainty::BlackLevel,
+    saturated: bool,
+    data: &[Vec<f64>],
+) -> Calibration {
+    let v = &fit.params.values;
+    let s = &fit.sigma;
+    let f = light.frequency_hz;
+    let a = set.full_scale_dn;
+    let p = v[idx::PERIOD];
+    let rel_f = light.frequency_sigma_hz / f;
+    let rel_p = (s[idx::PERIOD] / p).max(band.period_sigma_rows / band.period_rows);
+    let rel_t = rel_p.hypot(rel_f);
+    let line_time = 1.0 / (f * p);
+    let exposure_s = v[idx::EXPOSURE] / f;
+    let exposure_sigma = exposure_s * (s[idx::EXPOSURE] / v[idx::EXPOSURE]).hypot(rel_f);
+    let exposure_rows = v[idx::EXPOSURE] * p;
+    let determined = exposure_rows >= 1.0 && exposure_sigma < 0.5 * exposure_s;
+    let vmax = data
+        .iter()
+        .flatten()
+        .fold(f64::NEG_INFINITY, |m, &x| m.max(x));
+    Calibration {
+        frequency_hz: f,
+        frames: data.len(),
+        rows: data.first().map_or(0, Vec::len),
+        roi: [set.roi.x, set.roi.y, set.roi.width, set.roi.height],
+        band_period_rows: band.period_rows,
+        band_period_rows_sigma: band.period_sigma_rows,
+        band_quality: band.quality,
+        texture_divided,
+        line_time_us: line_time * 1e6,
+        line_time_us_sigma: line_time * rel_t * 1e6,
+        exposure_us: determined.then_some(exposure_s * 1e6),
+        exposure_us_sigma: determined.then_some(exposure_sigma * 1e6),
+        exposure_us_max: (!determined)
+            .then(|| (exposure_s + 2.0 * exposure_sigma).max(line_time) * 1e6),
+        duty: v[idx::DUTY],
+        duty_sigma: s[idx::DUTY],
+        gamma: v[idx::GAMMA],
+        gamma_sigma: s[idx::GAMMA],
+        black_level_dn: black.value,
+        black_level_dn_sigma: black.sigma,
+        black_level_dn_max: black.max,
+        model_black_dn: v[idx::BLACK].max(0.0),
+        saturation_dn: saturated.then_some(fit.params.clip),
+        saturation_dn_sigma: saturated.then_some(0.003 * a),
+        saturation_dn_min: (!saturated).then_some(vmax),
+        led_level: v[idx::C1],
+        led_level_sigma: s[idx::C1],
+        ambient_level: v[idx::C0].max(0.0),
+        ambient_level_sigma: s[idx::C0],
+        shading: [v[idx::V1], v[idx::V2]],
+        phase_cycles: v[idx::PHASE0],
+        full_scale_dn: a,
+        fit_rms: fit.rms / a,
+        profile_rms: None,
+        sources: set.sources.clone(),
+        frame_size: set.frame_size,
+        measured: data.first().cloned().unwrap_or_default(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibrate::synth::SynthFrame;
+
+    #[test]
+    fn a_frequency_uncertainty_carries_into_line_time_and_exposure() {
+        let dir =
+            std::env::temp_dir().join(format!("ledflicker-cal-fsigma-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("frame.png");
+        SynthFrame::base().save(&path, 90).unwrap();
+        let set = frames::load(&[path], None, None).unwrap();
+        let run = |sigma_hz| {
+            let light = Light {
+                frequency_hz: 1000.0,
+                frequency_sigma_hz: sigma_hz,
+                duty: None,
+            };
+            calibrate(&set, light).unwrap()
+        };
+        let (exact, loose) = (run(0.0), run(5.0));
+        let _ = std::fs::remove_dir_all(&dir);
+        // 5 Hz of 1000 is 0.5 %, added in quadrature to the frame's sigma.
+        let want = |s0: f64, v: f64| s0.hypot(0.005 * v);
+        let lt = want(exact.line_time_us_sigma, exact.line_time_us);
+        assert!(
+            (loose.line_time_us_sigma / lt - 1.0).abs() < 1e-9,
+            "{loose:?}"
+        );
+        let (e, s) = (exact.exposure_us.unwrap(), exact.exposure_us_sigma.unwrap());
+        assert!((loose.exposure_us_sigma.unwrap() / want(s, e) - 1.0).abs() < 1e-9);
+        assert_eq!(loose.line_time_us, exact.line_time_us);
+    }
+}

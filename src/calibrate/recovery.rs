@@ -1,0 +1,354 @@
+//! Parameter recovery: synthetic frames with known parameters, degraded as
+//! real frames are, run through `calibrate`. The integration tests assert
+//! each case's tolerances; `cargo run --example calibration_table` prints
+//! the table of docs/calibration.md from the same cases.
+
+use std::path::Path;
+
+use super::synth::SynthFrame;
+use super::{Light, frames};
+
+/// Largest accepted error of each parameter in a recovery case.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Tolerance {
+    /// Line time, relative.
+    pub line_time: f64,
+    /// Exposure, relative.
+    pub exposure: f64,
+    /// Duty, absolute.
+    pub duty: f64,
+    /// Gamma, relative.
+    pub gamma: f64,
+    /// Black level, fraction of full scale.
+    pub black: f64,
+}
+
+/// One recovery case.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecoveryCase {
+    /// What is degraded.
+    pub name: &'static str,
+    /// The frame.
+    pub frame: SynthFrame,
+    /// File extension written and read back (`png`, `tif`, `jpg`).
+    pub ext: &'static str,
+    /// Tolerances.
+    pub tol: Tolerance,
+    /// Parameters the frame cannot determine, which must come out as a
+    /// bound that holds the truth (`"black"`, `"exposure"`).
+    pub bounds: &'static [&'static str],
+}
+
+/// How a parameter came back.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Recovered {
+    /// A value: its error (units of [`Tolerance`]) and its error over its
+    /// reported sigma.
+    Value {
+        /// Error.
+        error: f64,
+        /// `|error| / sigma`.
+        z: f64,
+    },
+    /// A bound; whether it holds the truth.
+    Bound {
+        /// The truth lies within the bound.
+        holds: bool,
+    },
+}
+
+impl Recovered {
+    fn value(error: f64, sigma: f64) -> Self {
+        Recovered::Value {
+            error,
+            z: error.abs() / sigma,
+        }
+    }
+
+    /// Table cell: the error in `unit` with the tolerance, or the bound.
+    fn cell(&self, scale: f64, digits: usize, unit: &str, tol: f64) -> String {
+        match *self {
+            Recovered::Value { error, z } => format!(
+                "{:+.digits$}{unit} (±{}{unit}; {z:.1} σ)",
+                scale * error,
+                scale * tol
+            ),
+            Recovered::Bound { holds } => {
+                format!("bound ({})", if holds { "holds" } else { "VIOLATED" })
+            }
+        }
+    }
+}
+
+/// Errors of one recovered case (same units as [`Tolerance`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecoveryErrors {
+    /// Line time.
+    pub line_time: Recovered,
+    /// Exposure.
+    pub exposure: Recovered,
+    /// Duty.
+    pub duty: Recovered,
+    /// Gamma.
+    pub gamma: Recovered,
+    /// Black level.
+    pub black: Recovered,
+    /// Closed-loop `profile_rms` is not run here; the fit RMS, fraction of
+    /// full scale.
+    pub fit_rms: f64,
+}
+
+impl RecoveryErrors {
+    /// Each parameter with its name and tolerance.
+    pub fn named(&self, tol: &Tolerance) -> [(&'static str, Recovered, f64); 5] {
+        [
+            ("line time", self.line_time, tol.line_time),
+            ("exposure", self.exposure, tol.exposure),
+            ("duty", self.duty, tol.duty),
+            ("gamma", self.gamma, tol.gamma),
+            ("black", self.black, tol.black),
+        ]
+    }
+
+    /// What is wrong, named: a value outside `tol`, a bound where a value
+    /// was expected or the other way round, a bound that misses the truth.
+    pub fn failures(&self, case: &RecoveryCase) -> Vec<String> {
+        self.named(&case.tol)
+            .iter()
+            .filter_map(|&(name, r, max)| {
+                let bound = case.bounds.contains(&name);
+                match r {
+                    Recovered::Value { error, .. } if bound => Some(format!(
+                        "{name}: a value ({error:.4}) where a bound is expected"
+                    )),
+                    Recovered::Value { error, .. } if error.is_nan() || error.abs() > max => {
+                        Some(format!("{name}: error {error:.4} > {max}"))
+                    }
+                    Recovered::Bound { .. } if !bound => {
+                        Some(format!("{name}: reported as a bound"))
+                    }
+                    Recovered::Bound { holds: false } => {
+                        Some(format!("{name}: the bound misses the truth"))
+                    }
+                    _ => None,
+                }
+            })
+            .collect()
+    }
+
+    /// Largest `|error| / sigma` over the parameters given as values.
+    pub fn max_z(&self) -> f64 {
+        self.named(&Tolerance::default())
+            .iter()
+            .filter_map(|(_, r, _)| match r {
+                Recovered::Value { z, .. } => Some(*z),
+                Recovered::Bound { .. } => None,
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// Frequency that puts `bands` band periods in the base frame's rows.
+fn frequency_for(bands: f64) -> f64 {
+    let b = SynthFrame::base();
+    bands / (b.height as f64 * b.line_time_s)
+}
+
+/// The recovery cases: each degradation alone, then all at once.
+pub fn cases() -> Vec<RecoveryCase> {
+    let base = SynthFrame::base();
+    let tol = Tolerance {
+        line_time: 0.001,
+        exposure: 0.10,
+        duty: 0.01,
+        gamma: 0.05,
+        black: 0.01,
+    };
+    let case = |name, frame: SynthFrame, ext, tol| RecoveryCase {
+        name,
+        frame,
+        ext,
+        tol,
+        bounds: &[],
+    };
+    vec![
+        case("clean, gamma 2.2, 15.7 bands", base.clone(), "png", tol),
+        // Linear: black level and ambient light trade off exactly.
+        RecoveryCase {
+            bounds: &["black"],
+            ..case(
+                "linear (gamma 1), duty 0.3",
+                SynthFrame {
+                    gamma: 1.0,
+                    duty: 0.3,
+                    ..base.clone()
+                },
+                "png",
+                tol,
+            )
+        },
+        case(
+            "noise 3 DN per pixel",
+            SynthFrame {
+                noise_dn: 3.0,
+                ..base.clone()
+            },
+            "png",
+            tol,
+        ),
+        case(
+            "vignetting 40 %",
+            SynthFrame {
+                vignetting: 0.4,
+                ..base.clone()
+            },
+            "png",
+            tol,
+        ),
+        // Texture steps every 16 rows, which the smooth shading term cannot
+        // follow: black level and ambient trade off within the residual.
+        RecoveryCase {
+            bounds: &["black"],
+            ..case(
+                "scene texture 30 %",
+                SynthFrame {
+                    texture: 0.3,
+                    ..base.clone()
+                },
+                "png",
+                tol,
+            )
+        },
+        case(
+            "text overlay",
+            SynthFrame {
+                overlay: true,
+                ..base.clone()
+            },
+            "png",
+            tol,
+        ),
+        // JPEG blocks blur the foot of the ramps, where black level and
+        // ambient differ.
+        RecoveryCase {
+            bounds: &["black"],
+            ..case("JPEG quality 80", base.clone(), "jpg", tol)
+        },
+        case(
+            "3.3 bands",
+            SynthFrame {
+                frequency_hz: frequency_for(3.3),
+                ..base.clone()
+            },
+            "png",
+            tol,
+        ),
+        // A band period of exactly 36 rows: every band repeats the same 36
+        // samples, too few to tell black level from ambient.
+        RecoveryCase {
+            bounds: &["black"],
+            ..case(
+                "30 bands",
+                SynthFrame {
+                    frequency_hz: frequency_for(30.0),
+                    ..base.clone()
+                },
+                "png",
+                tol,
+            )
+        },
+        case(
+            "16-bit TIFF, duty 0.2, ambient 5 %",
+            SynthFrame {
+                bits16: true,
+                duty: 0.2,
+                ambient: 0.05,
+                ..base.clone()
+            },
+            "tif",
+            tol,
+        ),
+        // Texture and JPEG together (see above).
+        RecoveryCase {
+            bounds: &["black"],
+            ..case(
+                "all: noise, vignetting, texture, overlay, JPEG",
+                SynthFrame {
+                    noise_dn: 3.0,
+                    vignetting: 0.4,
+                    texture: 0.2,
+                    overlay: true,
+                    ..base
+                },
+                "jpg",
+                tol,
+            )
+        },
+    ]
+}
+
+/// Writes the case's frame into `dir`, calibrates it and returns the errors.
+pub fn recover(case: &RecoveryCase, dir: &Path, index: usize) -> Result<RecoveryErrors, String> {
+    let path = dir.join(format!("recovery-{index}.{}", case.ext));
+    case.frame.save(&path, 80)?;
+    let set = frames::load(&[path], None, None).map_err(|e| e.to_string())?;
+    let fr = &case.frame;
+    let cal = super::calibrate(
+        &set,
+        Light {
+            frequency_hz: fr.frequency_hz,
+            frequency_sigma_hz: 0.0,
+            duty: None,
+        },
+    )
+    .map_err(|e| format!("{}: {e}", case.name))?;
+    let true_exposure_us = fr.exposure_s * 1e6;
+    let exposure = match (cal.exposure_us, cal.exposure_us_sigma) {
+        (Some(e), Some(s)) => Recovered::value(e / true_exposure_us - 1.0, s / true_exposure_us),
+        _ => Recovered::Bound {
+            holds: cal.exposure_us_max.is_some_and(|m| true_exposure_us <= m),
+        },
+    };
+    let a = fr.full_scale();
+    let black = match (cal.black_level_dn, cal.black_level_dn_sigma) {
+        (Some(b), Some(s)) => Recovered::value((b - fr.black_dn) / a, s / a),
+        _ => Recovered::Bound {
+            holds: cal.black_level_dn_max.is_some_and(|m| fr.black_dn <= m),
+        },
+    };
+    let lt = cal.line_time_us * 1e-6;
+    Ok(RecoveryErrors {
+        line_time: Recovered::value(
+            lt / fr.line_time_s - 1.0,
+            cal.line_time_us_sigma * 1e-6 / fr.line_time_s,
+        ),
+        exposure,
+        duty: Recovered::value(cal.duty - fr.duty, cal.duty_sigma),
+        gamma: Recovered::value(cal.gamma / fr.gamma - 1.0, cal.gamma_sigma / fr.gamma),
+        black,
+        fit_rms: cal.fit_rms,
+    })
+}
+
+/// The markdown table of docs/calibration.md: measured error, tolerance
+/// and error in reported sigmas of every parameter in every case.
+pub fn table(dir: &Path) -> Result<String, String> {
+    let mut t = String::from(
+        "| case | line time | exposure | duty | gamma | black level | fit RMS |\n|---|---|---|---|---|---|---|\n",
+    );
+    for (i, case) in cases().iter().enumerate() {
+        let e = recover(case, dir, i)?;
+        let tol = case.tol;
+        t.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} | {:.4} |\n",
+            case.name,
+            e.line_time.cell(100.0, 4, " %", tol.line_time),
+            e.exposure.cell(100.0, 2, " %", tol.exposure),
+            e.duty.cell(1.0, 4, "", tol.duty),
+            e.gamma.cell(100.0, 2, " %", tol.gamma),
+            e.black.cell(100.0, 3, " %", tol.black),
+            e.fit_rms
+        ));
+    }
+    Ok(t)
+}
