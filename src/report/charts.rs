@@ -8,7 +8,11 @@ use plotters::prelude::*;
 
 use crate::backend::segments::SegmentsFound;
 use crate::metrics::flicker::Segment;
-use crate::runner::CaseResult;
+
+pub mod envelope;
+mod trace;
+
+pub use trace::{luma_trace_svg, pwm_zoom_frames, trace_zoom_svg};
 
 /// Font family named in every chart.
 pub const FONT: &str = "DejaVu Sans";
@@ -41,12 +45,13 @@ fn segment_fill(s: Segment) -> RGBAColor {
 }
 
 /// Shades the detected segments over their spans and, in red, the settle
-/// gaps between each step and the segment after it.
+/// gaps between each step and the segment after it; returns the settle
+/// gaps' legend text when there are any.
 fn shade_detected<DB: DrawingBackend>(
     chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     found: &SegmentsFound,
     (y0, y1): (f64, f64),
-) -> Result<(), String> {
+) -> Result<Option<String>, String> {
     let t0 = found.signal.first().map_or(0.0, |p| p.0);
     let spans = [
         (Segment::On, found.on_time_s),
@@ -78,179 +83,20 @@ fn shade_detected<DB: DrawingBackend>(
         .filter(|(a, b)| b > a)
         .collect();
     let hatch = RGBColor(220, 60, 60);
-    for (i, &(a, b)) in gaps.iter().enumerate() {
-        let series = chart
+    for &(a, b) in &gaps {
+        chart
             .draw_series(std::iter::once(Rectangle::new(
                 [(t0 + a, y0), (t0 + b, y1)],
                 hatch.mix(0.18).filled(),
             )))
             .map_err(|e| e.to_string())?;
-        if i == 0 {
-            series
-                .label(format!(
-                    "settle {} s after each step (left out)",
-                    found.settle_s.unwrap_or(0.0)
-                ))
-                .legend(move |(x, y)| {
-                    Rectangle::new([(x, y - 4), (x + 18, y + 4)], hatch.mix(0.3).filled())
-                });
-        }
     }
-    Ok(())
-}
-
-/// ROI luma against time for one case, like Figure 10 of Deegan 2018: the
-/// segments shaded, the ON and OFF reference levels of the first ROI drawn
-/// dashed, and the PWM-segment min and max of each ROI marked. With
-/// detected segments (`segments`), the whole capture's detection signal is
-/// drawn in grey and the settle gaps after each step are shaded red.
-pub fn luma_trace_svg(
-    result: &CaseResult,
-    segments: Option<&SegmentsFound>,
-) -> Result<String, ChartError> {
-    let err = |e: &dyn std::fmt::Display| ChartError {
-        chart: format!("trace {}", result.case.id),
-        message: e.to_string(),
-    };
-    let acq = &result.acquisition;
-    let frames = &acq.frames;
-    let detected = segments.filter(|s| !s.signal.is_empty());
-    let signal = detected.map_or(&[][..], |s| &s.signal[..]);
-    let t_end = frames
-        .last()
-        .map(|f| f.time_s)
-        .into_iter()
-        .chain(signal.last().map(|p| p.0))
-        .fold(1e-3, f64::max);
-    let mut lo = f64::INFINITY;
-    let mut hi = f64::NEG_INFINITY;
-    for &v in acq
-        .rois
-        .iter()
-        .flat_map(|r| &r.luma)
-        .chain(signal.iter().map(|p| &p.1))
-    {
-        lo = lo.min(v);
-        hi = hi.max(v);
-    }
-    if !(lo.is_finite() && hi.is_finite()) {
-        return Err(err(&"the trace is empty"));
-    }
-    let pad = ((hi - lo) * 0.08).max(1.0);
-    // Headroom above the data for the legend, so it never hides a sample.
-    let (y0, y1) = ((lo - pad).max(0.0), hi + pad + (hi - lo).max(1.0) * 0.45);
-
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (760, 250)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
-        let mut chart = ChartBuilder::on(&root)
-            .margin(10)
-            .x_label_area_size(34)
-            .y_label_area_size(52)
-            .build_cartesian_2d(0.0..t_end, y0..y1)
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("time (s)")
-            .y_desc("ROI luma (DN)")
-            .label_style((FONT, 12))
-            .axis_desc_style((FONT, 12))
-            .light_line_style(RGBColor(235, 235, 235))
-            .draw()
-            .map_err(|e| err(&e))?;
-
-        if let Some(found) = detected {
-            shade_detected(&mut chart, found, (y0, y1)).map_err(|e| err(&e))?;
-            chart
-                .draw_series(LineSeries::new(
-                    signal.iter().copied(),
-                    RGBColor(150, 150, 150).stroke_width(1),
-                ))
-                .map_err(|e| err(&e))?
-                .label("LED-ROI mean, whole capture (detection)")
-                .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], RGBColor(150, 150, 150)));
-        }
-        // Shade each run of frames of one segment.
-        let mut start = 0;
-        for i in (1..=frames.len()).filter(|_| detected.is_none()) {
-            if i == frames.len() || frames[i].segment != frames[start].segment {
-                let x0 = frames[start].time_s;
-                let x1 = if i == frames.len() {
-                    t_end
-                } else {
-                    frames[i].time_s
-                };
-                chart
-                    .draw_series(std::iter::once(Rectangle::new(
-                        [(x0, y0), (x1, y1)],
-                        segment_fill(frames[start].segment).filled(),
-                    )))
-                    .map_err(|e| err(&e))?;
-                start = i;
-            }
-        }
-
-        if let Some(m) = result.metrics.first() {
-            for (level, label, colour) in [
-                (m.levels.on, "ON level", RGBColor(200, 120, 0)),
-                (m.levels.off, "OFF level", RGBColor(60, 60, 60)),
-            ] {
-                let Some(level) = level else { continue };
-                chart
-                    .draw_series(DashedLineSeries::new(
-                        [(0.0, level), (t_end, level)],
-                        6,
-                        4,
-                        colour.stroke_width(1),
-                    ))
-                    .map_err(|e| err(&e))?
-                    .label(format!("{label} {level:.2} DN"))
-                    .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour));
-            }
-        }
-
-        for (i, roi) in acq.rois.iter().enumerate() {
-            let colour = SERIES_COLOURS[i % SERIES_COLOURS.len()];
-            chart
-                .draw_series(LineSeries::new(
-                    frames.iter().zip(&roi.luma).map(|(f, &v)| (f.time_s, v)),
-                    colour.stroke_width(1),
-                ))
-                .map_err(|e| err(&e))?
-                .label(roi.name.clone())
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour));
-            // Mark the PWM-segment extremes that the metrics use.
-            let pwm = || {
-                frames
-                    .iter()
-                    .zip(&roi.luma)
-                    .filter(|(f, _)| f.segment == Segment::Pwm)
-            };
-            let min = pwm().min_by(|a, b| a.1.total_cmp(b.1));
-            let max = pwm().max_by(|a, b| a.1.total_cmp(b.1));
-            for (f, &v) in min.into_iter().chain(max) {
-                chart
-                    .draw_series(std::iter::once(Circle::new(
-                        (f.time_s, v),
-                        3,
-                        colour.filled(),
-                    )))
-                    .map_err(|e| err(&e))?;
-            }
-        }
-
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT, 11))
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(200, 200, 200))
-            .draw()
-            .map_err(|e| err(&e))?;
-        root.present().map_err(|e| err(&e))?;
-    }
-    Ok(svg)
+    Ok((!gaps.is_empty()).then(|| {
+        format!(
+            "settle {} s after each step (left out)",
+            found.settle_s.unwrap_or(0.0)
+        )
+    }))
 }
 
 /// The flicker signal of one ROI: its trace folded by PWM phase (per-bin
