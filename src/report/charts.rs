@@ -99,6 +99,38 @@ fn shade_detected<DB: DrawingBackend>(
     }))
 }
 
+/// Fewest phase bins a fold must fill to be drawn; with fewer, every
+/// frame saw one or a few PWM phases (the PWM is phase locked to the
+/// frame rate) and the fold shows no waveform.
+pub const MIN_FOLD_PHASES: usize = 4;
+
+/// Whether a phase fold is degenerate: fewer than [`MIN_FOLD_PHASES`] of
+/// its bins hold a frame (all points at one phase, or a few). The report
+/// then prints [`degenerate_fold_sentence`] instead of the chart.
+pub fn phase_fold_is_degenerate(bins: &[Option<(f64, f64)>]) -> bool {
+    bins.iter().flatten().count() < MIN_FOLD_PHASES
+}
+
+/// The sentence that replaces a degenerate phase fold ([`None`] when the
+/// fold is worth drawing).
+pub fn degenerate_fold_sentence(bins: &[Option<(f64, f64)>]) -> Option<String> {
+    if !phase_fold_is_degenerate(bins) {
+        return None;
+    }
+    let filled = bins.iter().flatten().count();
+    Some(match filled {
+        0 => "No PWM frame fell in any phase bin: there is no phase fold.".to_string(),
+        1 => format!(
+            "Every PWM frame saw the same PWM phase (1 of {} phase bins): the frame rate locks to the PWM, so a phase fold would show one point.",
+            bins.len()
+        ),
+        n => format!(
+            "The PWM frames saw only {n} of {} PWM phases: the frame rate nearly locks to the PWM, so a phase fold shows no waveform.",
+            bins.len()
+        ),
+    })
+}
+
 /// The flicker signal of one ROI: its trace folded by PWM phase (per-bin
 /// min and max of the frames that fell in each bin), with the exact envelope
 /// over phase dashed when the backend knows it (Sumner, EI 2020).
@@ -256,8 +288,12 @@ pub fn finemap_svg(
             FineMapKind::Fdi => "FDI (2018), worst phase",
             FineMapKind::PercentFlicker => "Percent Flicker, worst phase",
         };
+        // Right and top margins hold half a tick label, so the labels at
+        // the ends of the axes are never cut off.
         let mut chart = ChartBuilder::on(&root)
             .margin(10)
+            .margin_right(36)
+            .margin_top(14)
             .caption(caption, (FONT, 13))
             .x_label_area_size(32)
             .y_label_area_size(46)
@@ -267,6 +303,8 @@ pub fn finemap_svg(
             .configure_mesh()
             .x_desc("PWM frequency (Hz)")
             .y_desc("duty (%)")
+            .x_label_formatter(&|x| crate::util::fixed(*x, 0))
+            .y_label_formatter(&|y| crate::util::fixed(*y, 0))
             .label_style((FONT, 11))
             .axis_desc_style((FONT, 11))
             .disable_mesh()
@@ -393,4 +431,78 @@ pub fn advise_svg(curve: &[crate::advise::Candidate], bound_s: f64) -> Result<St
         root.present().map_err(|e| err(&e))?;
     }
     Ok(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fold_with_few_phases_is_degenerate() {
+        let mut bins = vec![None; 32];
+        assert!(phase_fold_is_degenerate(&bins));
+        bins[0] = Some((1.0, 2.0));
+        assert!(phase_fold_is_degenerate(&bins));
+        assert!(
+            degenerate_fold_sentence(&bins)
+                .unwrap()
+                .contains("same PWM phase")
+        );
+        bins[7] = Some((1.0, 2.0));
+        bins[9] = Some((1.0, 2.0));
+        assert!(
+            degenerate_fold_sentence(&bins)
+                .unwrap()
+                .contains("only 3 of 32")
+        );
+        bins[20] = Some((1.0, 2.0));
+        assert!(!phase_fold_is_degenerate(&bins));
+        assert_eq!(degenerate_fold_sentence(&bins), None);
+    }
+
+    #[test]
+    fn fine_map_tick_labels_stay_on_the_canvas() {
+        let model = crate::report::matrix::tests::model_with(8);
+        let map = &model
+            .fine_maps
+            .first()
+            .expect("the daylight plan has a fine map")
+            .map;
+        for kind in [FineMapKind::Fdi, FineMapKind::PercentFlicker] {
+            let svg = finemap_svg(map, kind, Some(0.1)).unwrap();
+            let mut n = 0;
+            for part in svg.split("<text").skip(1) {
+                let (tag, rest) = part.split_once('>').unwrap();
+                let attr = |name: &str| -> String {
+                    tag.split(&format!(" {name}=\""))
+                        .nth(1)
+                        .and_then(|s| s.split('"').next())
+                        .unwrap_or("")
+                        .to_string()
+                };
+                let text = rest.split("</text>").next().unwrap().trim();
+                let x: f64 = attr("x").parse().unwrap();
+                let y: f64 = attr("y").parse().unwrap();
+                let size: f64 = attr("font-size").parse().unwrap();
+                let w = crate::report::matrix::text_width(text, size);
+                let (left, right) = match attr("text-anchor").as_str() {
+                    "middle" => (x - w / 2.0, x + w / 2.0),
+                    "end" => (x - w, x),
+                    _ => (x, x + w),
+                };
+                if attr("transform").is_empty() {
+                    assert!(
+                        left >= 0.0 && right <= 760.0,
+                        "`{text}` at x {x} runs off the canvas"
+                    );
+                }
+                assert!(
+                    y - size >= 0.0 && y + size <= 300.0,
+                    "`{text}` at y {y} runs off the canvas"
+                );
+                n += 1;
+            }
+            assert!(n > 10, "{n} texts");
+        }
+    }
 }

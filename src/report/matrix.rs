@@ -543,7 +543,7 @@ pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError>
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     #[test]
