@@ -164,11 +164,13 @@ impl Document {
         }
         let mut images = BTreeMap::new();
         for r in results {
-            if let Some(frame) = &r.sample_frame {
-                let small = super::frames::thumbnail(frame, super::frames::THUMBNAIL_WIDTH);
+            let info = model.cases.iter().find(|c| c.id == r.case.id);
+            if let (Some(frame), Some(info)) =
+                (&r.sample_frame, info.and_then(|c| c.sample_frame.as_ref()))
+            {
                 images.insert(
                     frame_image_path(&r.case.id),
-                    super::frames::png_bytes(&small)?,
+                    super::frames::view_png(frame, &info.rois)?,
                 );
             }
         }
@@ -276,6 +278,12 @@ impl Document {
                 continue;
             };
             let rel = frame_image_path(id);
+            // The annotated view as written, else (older reports) the frame.
+            let view = dir.join(super::frames::view_path(id));
+            if let Ok(bytes) = std::fs::read(&view) {
+                images.insert(rel, bytes);
+                continue;
+            }
             let path = dir.join(&rel);
             if !path.exists() {
                 continue;

@@ -95,6 +95,20 @@ pub fn column_centre(c: usize, (t0, t1): (f64, f64), columns: usize) -> f64 {
     t0 + (t1 - t0) * (c as f64 + 0.5) / columns.max(1) as f64
 }
 
+/// `points` without the interior points of runs of equal value: the
+/// same line, drawn from fewer points (a flat trace becomes two points).
+pub fn drop_flat(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut out: Vec<(f64, f64)> = Vec::with_capacity(points.len());
+    for (i, &p) in points.iter().enumerate() {
+        let flat =
+            i > 0 && i + 1 < points.len() && points[i - 1].1 == p.1 && points[i + 1].1 == p.1;
+        if !flat {
+            out.push(p);
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -187,5 +201,22 @@ mod tests {
         assert_eq!(runs(&frames), vec![0..10, 10..14, 14..19]);
         assert_eq!(runs(&frames[..3]), vec![0..3]);
         assert!(runs(&[]).is_empty());
+    }
+
+    #[test]
+    fn drop_flat_keeps_every_corner() {
+        let pts = [
+            (0.0, 1.0),
+            (1.0, 1.0),
+            (2.0, 1.0),
+            (3.0, 2.0),
+            (4.0, 2.0),
+            (5.0, 1.0),
+        ];
+        assert_eq!(
+            drop_flat(&pts),
+            vec![(0.0, 1.0), (2.0, 1.0), (3.0, 2.0), (4.0, 2.0), (5.0, 1.0)]
+        );
+        assert_eq!(drop_flat(&pts[..1]), vec![(0.0, 1.0)]);
     }
 }

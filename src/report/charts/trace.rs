@@ -131,36 +131,32 @@ fn draw_decimated(
     band: Option<RGBAColor>,
 ) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
-    if points.len() <= columns {
+    let line = |chart: &mut Chart<'_, '_>, points: Vec<(f64, f64)>| {
         chart
-            .draw_series(LineSeries::new(
-                points.iter().copied(),
-                colour.stroke_width(1),
-            ))
-            .map_err(e)?;
-        return Ok(());
+            .draw_series(LineSeries::new(points, colour.stroke_width(1)))
+            .map(|_| ())
+            .map_err(e)
+    };
+    if points.len() <= columns {
+        return line(chart, envelope::drop_flat(points));
     }
     let env = envelope::envelope(points, span, columns);
     let x = |c: usize| column_centre(c, span, columns);
+    let max: Vec<(f64, f64)> = env.iter().map(|c| (x(c.column), c.max)).collect();
+    if env.iter().all(|c| c.min == c.max) {
+        // One sample per column or a flat trace: a single line.
+        return line(chart, envelope::drop_flat(&max));
+    }
+    let min: Vec<(f64, f64)> = env.iter().map(|c| (x(c.column), c.min)).collect();
+    let (max, min) = (envelope::drop_flat(&max), envelope::drop_flat(&min));
     if let Some(fill) = band {
-        let outline: Vec<(f64, f64)> = env
-            .iter()
-            .map(|c| (x(c.column), c.max))
-            .chain(env.iter().rev().map(|c| (x(c.column), c.min)))
-            .collect();
+        let outline: Vec<(f64, f64)> = max.iter().chain(min.iter().rev()).copied().collect();
         chart
             .draw_series(std::iter::once(Polygon::new(outline, fill.filled())))
             .map_err(e)?;
     }
-    for pick in [|c: &envelope::Column| c.min, |c: &envelope::Column| c.max] {
-        chart
-            .draw_series(LineSeries::new(
-                env.iter().map(|c| (x(c.column), pick(c))),
-                colour.stroke_width(1),
-            ))
-            .map_err(e)?;
-    }
-    Ok(())
+    line(chart, min)?;
+    line(chart, max)
 }
 
 /// Lowest and highest finite value of the ROI traces and `extra`.
@@ -577,6 +573,18 @@ mod tests {
         out
     }
 
+    /// Points of a line through `v` that are not inside a run of equal
+    /// values: what the chart must draw.
+    fn corners(v: &[f64]) -> usize {
+        let mut n = 0;
+        for i in 0..v.len() {
+            if i == 0 || i + 1 == v.len() || !(v[i - 1] == v[i] && v[i + 1] == v[i]) {
+                n += 1;
+            }
+        }
+        n
+    }
+
     #[test]
     fn a_long_trace_has_no_line_longer_than_the_plot_is_wide() {
         let r = daylight_case();
@@ -614,8 +622,15 @@ mod tests {
             .filter(|s| s.0 == "polyline")
             .map(|s| s.1)
             .collect();
-        // One line per ROI, every frame a point; no envelope band.
-        assert_eq!(lines.iter().filter(|&&n| n == 300).count(), 2, "{lines:?}");
+        // The LED line has a point for every frame but the inside of runs
+        // of equal luma (counted here by brute force); no envelope band.
+        let led = &r.acquisition.rois[0].luma;
+        assert_eq!(
+            corners(led),
+            184,
+            "the daylight case has flat runs and PWM swings"
+        );
+        assert!(lines.contains(&corners(led)), "{lines:?}");
         assert!(!svg.contains("<polygon"));
     }
 
@@ -632,13 +647,19 @@ mod tests {
             roi.luma.remove(200);
         }
         let svg = luma_trace_svg(&r, None).unwrap();
-        let mut lines: Vec<usize> = shapes(&svg)
+        let lines: Vec<usize> = shapes(&svg)
             .into_iter()
             .filter(|s| s.0 == "polyline")
             .map(|s| s.1)
             .collect();
-        lines.sort();
-        assert!(lines.contains(&200) && lines.contains(&99), "{lines:?}");
+        // Two LED lines, frames 0-199 and 201-299, none across the gap.
+        let led = &r.acquisition.rois[0].luma;
+        let (a, b) = (corners(&led[..200]), corners(&led[200..]));
+        assert!(
+            lines.contains(&a) && lines.contains(&b),
+            "{a} {b} {lines:?}"
+        );
+        assert!(!lines.contains(&corners(led)), "{lines:?}");
         assert!(svg.contains("gap: frames left out"));
     }
 
