@@ -329,7 +329,7 @@ fn draw_colour_bar(
         text_style(10.0, Pos::new(HPos::Left, VPos::Top)),
     ))
     .map_err(e)?;
-    let steps = 60;
+    let steps = 24;
     for k in 0..steps {
         let (a, b) = (top + h * k / steps, top + h * (k + 1) / steps);
         let t = 1.0 - (k as f64 + 0.5) / steps as f64;
