@@ -64,16 +64,31 @@ fn wrap(text: &str, width: usize) -> Vec<String> {
     lines
 }
 
-/// Draws `entries` top down in `area` (a column beside the plot).
+/// Draws `entries` top down in `area` (a column beside the plot). Entries
+/// that do not fit are left out, the last one drawn saying how many
+/// (`more` names them, e.g. "ROIs").
 pub(crate) fn draw_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     entries: &[(Swatch, String)],
     top: i32,
+    more: &str,
 ) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     let style = TextStyle::from((FONT, 11).into_font()).color(&BLACK);
+    let height = area.dim_in_pixel().1 as i32;
+    let lines = |label: &str| wrap(label, 28).len() as i32;
     let mut y = top;
-    for (swatch, label) in entries {
+    for (k, (swatch, label)) in entries.iter().enumerate() {
+        let rest = entries.len() - k;
+        let fits = |n: i32| y + 13 * n + 4 <= height;
+        // Room for this entry, and for the count line after it if needed.
+        let truncated = !fits(lines(label) + if rest > 1 { 2 } else { 0 });
+        let count = format!("and {rest} more {more}");
+        let (swatch, label) = if truncated {
+            (&Swatch::None, &count)
+        } else {
+            (swatch, label)
+        };
         let (x, cy) = (6, y + 6);
         match *swatch {
             Swatch::Line(c) => area
@@ -115,6 +130,9 @@ pub(crate) fn draw_legend<DB: DrawingBackend>(
             y += 13;
         }
         y += 4;
+        if truncated {
+            break;
+        }
     }
     Ok(())
 }
@@ -175,6 +193,7 @@ fn shade_runs(
     frames: &[FrameInfo],
     x: impl Fn(&FrameInfo) -> f64,
     x_end: f64,
+    step: f64,
     (y0, y1): (f64, f64),
 ) -> Result<Vec<Segment>, String> {
     let mut shaded = Vec::new();
@@ -182,10 +201,12 @@ fn shade_runs(
     for i in 1..=frames.len() {
         if i == frames.len() || frames[i].segment != frames[start].segment {
             let x0 = x(&frames[start]);
+            // To the next run, or one frame after this run's last frame
+            // when frames are missing between them.
             let x1 = if i == frames.len() {
                 x_end
             } else {
-                x(&frames[i])
+                x(&frames[i]).min(x(&frames[i - 1]) + step)
             };
             chart
                 .draw_series(std::iter::once(Rectangle::new(
@@ -270,6 +291,7 @@ pub fn luma_trace_svg(
         let columns = chart.plotting_area().dim_in_pixel().0 as usize;
         let span = (0.0, t_end);
         let mut legend: Vec<(Swatch, String)> = Vec::new();
+        let mut roi_legend: Vec<(Swatch, String)> = Vec::new();
 
         if let Some(found) = detected {
             let settle = shade_detected(&mut chart, found, (y0, y1)).map_err(|e| err(&e))?;
@@ -295,8 +317,15 @@ pub fn luma_trace_svg(
                 "LED-ROI mean, whole capture (detection)".into(),
             ));
         } else {
-            let shaded = shade_runs(&mut chart, frames, |f| f.time_s, t_end, (y0, y1))
-                .map_err(|e| err(&e))?;
+            let shaded = shade_runs(
+                &mut chart,
+                frames,
+                |f| f.time_s,
+                t_end,
+                frame_interval(frames).unwrap_or(t_end),
+                (y0, y1),
+            )
+            .map_err(|e| err(&e))?;
             for seg in shaded {
                 legend.push((
                     Swatch::Fill(segment_fill(seg)),
@@ -341,7 +370,7 @@ pub fn luma_trace_svg(
                 )
                 .map_err(|e| err(&e))?;
             }
-            legend.push((Swatch::Line(colour), roi.name.clone()));
+            roi_legend.push((Swatch::Line(colour), roi.name.clone()));
             // Mark the PWM-segment extremes that the metrics use.
             let pwm = || {
                 frames
@@ -377,7 +406,9 @@ pub fn luma_trace_svg(
                 ),
             ));
         }
-        draw_legend(&side, &legend, 12).map_err(|e| err(&e))?;
+        // ROIs last: with many ROIs, the ones that do not fit are counted.
+        legend.append(&mut roi_legend);
+        draw_legend(&side, &legend, 12, "ROIs").map_err(|e| err(&e))?;
         root.present().map_err(|e| err(&e))?;
     }
     Ok(svg)
@@ -492,7 +523,14 @@ fn draw_panel(
         .light_line_style(RGBColor(235, 235, 235))
         .draw()
         .map_err(e)?;
-    shade_runs(&mut chart, frames, |f| f.index as f64 - 0.5, x1, (y0, y1))?;
+    shade_runs(
+        &mut chart,
+        frames,
+        |f| f.index as f64 - 0.5,
+        x1,
+        1.0,
+        (y0, y1),
+    )?;
     for (i, roi) in acq.rois.iter().enumerate() {
         let colour = SERIES_COLOURS[i % SERIES_COLOURS.len()];
         let luma = &roi.luma[panel.window.clone()];
