@@ -702,6 +702,40 @@ mod tests {
     }
 
     #[test]
+    fn a_legend_of_many_rois_stays_inside_the_chart() {
+        let mut r = daylight_case();
+        let roi = r.acquisition.rois[1].clone();
+        for k in 2..36 {
+            let mut extra = roi.clone();
+            extra.name = format!("roi{k}");
+            r.acquisition.rois.push(extra);
+        }
+        let svg = luma_trace_svg(&r, None).unwrap();
+        let shown = (0..36)
+            .filter(|k| svg.contains(&format!(">\n{}\n</text>", r.acquisition.rois[*k].name)))
+            .count();
+        assert!(shown > 0 && shown < 36, "{shown} ROI names shown");
+        assert!(
+            svg.contains(&format!("and {} more ROIs", 36 - shown)),
+            "the rest are counted"
+        );
+        // Legend lines (right of the plot) end inside the 250 px chart.
+        for part in svg.split("<text").skip(1) {
+            let attr = |name: &str| -> f64 {
+                let v = part.split(&format!(" {name}=\"")).nth(1).unwrap();
+                v.split('"').next().unwrap().parse().unwrap()
+            };
+            if attr("x") > f64::from(760 - LEGEND_WIDTH) {
+                assert!(
+                    attr("y") + 13.0 <= 250.0,
+                    "a legend line at y {} runs off",
+                    attr("y")
+                );
+            }
+        }
+    }
+
+    #[test]
     fn zoom_panels_cover_the_steps_and_two_beats() {
         let r = daylight_case();
         let panels = panels(&r.acquisition.frames, 10.0);
