@@ -285,7 +285,7 @@ pub fn luma_trace_svg(
             .y_desc("ROI luma (DN)")
             .label_style((FONT, 12))
             .axis_desc_style((FONT, 12))
-            .light_line_style(RGBColor(235, 235, 235))
+            .max_light_lines(0)
             .draw()
             .map_err(|e| err(&e))?;
         let columns = chart.plotting_area().dim_in_pixel().0 as usize;
@@ -520,7 +520,7 @@ fn draw_panel(
         .x_label_formatter(&|x| format!("{x:.0}"))
         .label_style((FONT, 10))
         .axis_desc_style((FONT, 10))
-        .light_line_style(RGBColor(235, 235, 235))
+        .max_light_lines(0)
         .draw()
         .map_err(e)?;
     shade_runs(
