@@ -172,7 +172,7 @@ pub fn phase_fold_svg(
             .y_desc("luma (DN)")
             .label_style((FONT, 10))
             .axis_desc_style((FONT, 10))
-            .light_line_style(RGBColor(235, 235, 235))
+            .max_light_lines(0)
             .draw()
             .map_err(|e| err(&e))?;
         if let Some((a, b)) = envelope {
