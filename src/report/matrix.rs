@@ -322,11 +322,11 @@ fn draw_colour_bar(
 ) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
     let (x0, x1) = (RIGHT + 24, RIGHT + 38);
-    let (top, h) = (TOP + 14, grid.height() - 14);
+    let (top, h) = (TOP + 18, grid.height() - 18);
     area.draw(&Text::new(
         title.to_string(),
-        (x0 - 4, TOP),
-        text_style(10.0, Pos::new(HPos::Left, VPos::Top)),
+        (x0 - 4, TOP - 6),
+        text_style(11.0, Pos::new(HPos::Left, VPos::Top)),
     ))
     .map_err(e)?;
     let steps = 24;
@@ -358,7 +358,7 @@ fn draw_colour_bar(
         area.draw(&Text::new(
             text,
             (x1 + 6, y),
-            text_style(10.0, Pos::new(HPos::Left, VPos::Center)),
+            text_style(11.0, Pos::new(HPos::Left, VPos::Center)),
         ))
         .map_err(e)?;
     }
@@ -412,7 +412,7 @@ fn draw_eq1(
     area.draw(&Text::new(
         text,
         (LEFT + 30, y),
-        text_style(10.0, Pos::new(HPos::Left, VPos::Center)),
+        text_style(11.0, Pos::new(HPos::Left, VPos::Center)),
     ))
     .map_err(e)?;
     Ok(())
