@@ -218,6 +218,34 @@ pub enum FineMapKind {
     PercentFlicker,
 }
 
+/// A run of one colour along the frequency axis: from, to, colour.
+type Run = (f64, f64, RGBColor);
+
+/// Merges runs of rows `(y0, y1, runs)` (bottom up) that repeat, with the
+/// same span and colour, in the rows above into one rectangle
+/// `(x0, x1, colour, y0, y1)`: the same picture from fewer rectangles.
+fn merge_rows(rows: &[(f64, f64, Vec<Run>)]) -> Vec<(f64, f64, RGBColor, f64, f64)> {
+    let mut done = Vec::new();
+    let mut open: Vec<(f64, f64, RGBColor, f64, f64)> = Vec::new();
+    for (y0, y1, runs) in rows {
+        let mut next = Vec::with_capacity(runs.len());
+        for &(a, b, c) in runs {
+            match open.iter().position(|o| (o.0, o.1, o.2) == (a, b, c)) {
+                Some(k) => {
+                    let mut o = open.swap_remove(k);
+                    o.4 = *y1;
+                    next.push(o);
+                }
+                None => next.push((a, b, c, *y0, *y1)),
+            }
+        }
+        done.append(&mut open);
+        open = next;
+    }
+    done.append(&mut open);
+    done
+}
+
 /// Heatmap of a fine map over frequency x duty. Cells are merged into
 /// display blocks (at most about 400 x 100) keeping the block's worst value
 /// (lowest FDI, highest Percent Flicker), so the picture never hides a bad
@@ -312,11 +340,12 @@ pub fn finemap_svg(
             .map_err(|e| err(&e))?;
         // Blocks of one colour that touch along the frequency axis are
         // merged into one rectangle: same picture, a fraction of the SVG.
-        let mut rects = Vec::new();
+        let mut rows: Vec<(f64, f64, Vec<Run>)> = Vec::new();
         for j0 in (0..nd).step_by(bd) {
             let j1 = (j0 + bd).min(nd);
             let y0 = 100.0 * (map.duty.at(j0) - map.duty.step / 2.0);
             let y1 = 100.0 * (map.duty.at(j1 - 1) + map.duty.step / 2.0);
+            let mut runs = Vec::new();
             let mut run: Option<(f64, f64, RGBColor)> = None;
             for i0 in (0..nf).step_by(bf) {
                 let i1 = (i0 + bf).min(nf);
@@ -339,17 +368,19 @@ pub fn finemap_svg(
                 let c = colour(worst.flatten());
                 run = match run {
                     Some((a, _, rc)) if rc == c => Some((a, x1, rc)),
-                    Some((a, b, rc)) => {
-                        rects.push(Rectangle::new([(a, y0), (b, y1)], rc.filled()));
+                    Some(done) => {
+                        runs.push(done);
                         Some((x0, x1, c))
                     }
                     None => Some((x0, x1, c)),
                 };
             }
-            if let Some((a, b, rc)) = run {
-                rects.push(Rectangle::new([(a, y0), (b, y1)], rc.filled()));
-            }
+            runs.extend(run);
+            rows.push((y0, y1, runs));
         }
+        let rects = merge_rows(&rows)
+            .into_iter()
+            .map(|(a, b, c, y0, y1)| Rectangle::new([(a, y0), (b, y1)], c.filled()));
         chart.draw_series(rects).map_err(|e| err(&e))?;
         root.present().map_err(|e| err(&e))?;
     }
@@ -458,6 +489,30 @@ mod tests {
         bins[20] = Some((1.0, 2.0));
         assert!(!phase_fold_is_degenerate(&bins));
         assert_eq!(degenerate_fold_sentence(&bins), None);
+    }
+
+    #[test]
+    fn merged_rows_paint_the_same_picture() {
+        let (r, g) = (RGBColor(255, 0, 0), RGBColor(0, 255, 0));
+        let rows = vec![
+            (0.0, 1.0, vec![(0.0, 2.0, r), (2.0, 3.0, g)]),
+            (1.0, 2.0, vec![(0.0, 2.0, r), (2.0, 3.0, r)]),
+            (2.0, 3.0, vec![(0.0, 2.0, r), (2.0, 3.0, g)]),
+        ];
+        let merged = merge_rows(&rows);
+        assert_eq!(merged.len(), 4, "{merged:?}");
+        // Brute force: the colour at every cell centre, and no overlap.
+        for (y0, y1, runs) in &rows {
+            for &(a, b, c) in runs {
+                let (x, y) = ((a + b) / 2.0, (y0 + y1) / 2.0);
+                let hits: Vec<RGBColor> = merged
+                    .iter()
+                    .filter(|m| m.0 < x && x < m.1 && m.3 < y && y < m.4)
+                    .map(|m| m.2)
+                    .collect();
+                assert_eq!(hits, vec![c], "at ({x}, {y})");
+            }
+        }
     }
 
     #[test]
