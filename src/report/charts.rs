@@ -8,7 +8,11 @@ use plotters::prelude::*;
 
 use crate::backend::segments::SegmentsFound;
 use crate::metrics::flicker::Segment;
-use crate::runner::CaseResult;
+
+pub mod envelope;
+mod trace;
+
+pub use trace::{luma_trace_svg, pwm_zoom_frames, trace_zoom_svg};
 
 /// Font family named in every chart.
 pub const FONT: &str = "DejaVu Sans";
@@ -41,12 +45,13 @@ fn segment_fill(s: Segment) -> RGBAColor {
 }
 
 /// Shades the detected segments over their spans and, in red, the settle
-/// gaps between each step and the segment after it.
+/// gaps between each step and the segment after it; returns the settle
+/// gaps' legend text when there are any.
 fn shade_detected<DB: DrawingBackend>(
     chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     found: &SegmentsFound,
     (y0, y1): (f64, f64),
-) -> Result<(), String> {
+) -> Result<Option<String>, String> {
     let t0 = found.signal.first().map_or(0.0, |p| p.0);
     let spans = [
         (Segment::On, found.on_time_s),
@@ -78,179 +83,52 @@ fn shade_detected<DB: DrawingBackend>(
         .filter(|(a, b)| b > a)
         .collect();
     let hatch = RGBColor(220, 60, 60);
-    for (i, &(a, b)) in gaps.iter().enumerate() {
-        let series = chart
+    for &(a, b) in &gaps {
+        chart
             .draw_series(std::iter::once(Rectangle::new(
                 [(t0 + a, y0), (t0 + b, y1)],
                 hatch.mix(0.18).filled(),
             )))
             .map_err(|e| e.to_string())?;
-        if i == 0 {
-            series
-                .label(format!(
-                    "settle {} s after each step (left out)",
-                    found.settle_s.unwrap_or(0.0)
-                ))
-                .legend(move |(x, y)| {
-                    Rectangle::new([(x, y - 4), (x + 18, y + 4)], hatch.mix(0.3).filled())
-                });
-        }
     }
-    Ok(())
+    Ok((!gaps.is_empty()).then(|| {
+        format!(
+            "settle {} s after each step (left out)",
+            found.settle_s.unwrap_or(0.0)
+        )
+    }))
 }
 
-/// ROI luma against time for one case, like Figure 10 of Deegan 2018: the
-/// segments shaded, the ON and OFF reference levels of the first ROI drawn
-/// dashed, and the PWM-segment min and max of each ROI marked. With
-/// detected segments (`segments`), the whole capture's detection signal is
-/// drawn in grey and the settle gaps after each step are shaded red.
-pub fn luma_trace_svg(
-    result: &CaseResult,
-    segments: Option<&SegmentsFound>,
-) -> Result<String, ChartError> {
-    let err = |e: &dyn std::fmt::Display| ChartError {
-        chart: format!("trace {}", result.case.id),
-        message: e.to_string(),
-    };
-    let acq = &result.acquisition;
-    let frames = &acq.frames;
-    let detected = segments.filter(|s| !s.signal.is_empty());
-    let signal = detected.map_or(&[][..], |s| &s.signal[..]);
-    let t_end = frames
-        .last()
-        .map(|f| f.time_s)
-        .into_iter()
-        .chain(signal.last().map(|p| p.0))
-        .fold(1e-3, f64::max);
-    let mut lo = f64::INFINITY;
-    let mut hi = f64::NEG_INFINITY;
-    for &v in acq
-        .rois
-        .iter()
-        .flat_map(|r| &r.luma)
-        .chain(signal.iter().map(|p| &p.1))
-    {
-        lo = lo.min(v);
-        hi = hi.max(v);
+/// Fewest phase bins a fold must fill to be drawn; with fewer, every
+/// frame saw one or a few PWM phases (the PWM is phase locked to the
+/// frame rate) and the fold shows no waveform.
+pub const MIN_FOLD_PHASES: usize = 4;
+
+/// Whether a phase fold is degenerate: fewer than [`MIN_FOLD_PHASES`] of
+/// its bins hold a frame (all points at one phase, or a few). The report
+/// then prints [`degenerate_fold_sentence`] instead of the chart.
+pub fn phase_fold_is_degenerate(bins: &[Option<(f64, f64)>]) -> bool {
+    bins.iter().flatten().count() < MIN_FOLD_PHASES
+}
+
+/// The sentence that replaces a degenerate phase fold ([`None`] when the
+/// fold is worth drawing).
+pub fn degenerate_fold_sentence(bins: &[Option<(f64, f64)>]) -> Option<String> {
+    if !phase_fold_is_degenerate(bins) {
+        return None;
     }
-    if !(lo.is_finite() && hi.is_finite()) {
-        return Err(err(&"the trace is empty"));
-    }
-    let pad = ((hi - lo) * 0.08).max(1.0);
-    // Headroom above the data for the legend, so it never hides a sample.
-    let (y0, y1) = ((lo - pad).max(0.0), hi + pad + (hi - lo).max(1.0) * 0.45);
-
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (760, 250)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
-        let mut chart = ChartBuilder::on(&root)
-            .margin(10)
-            .x_label_area_size(34)
-            .y_label_area_size(52)
-            .build_cartesian_2d(0.0..t_end, y0..y1)
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("time (s)")
-            .y_desc("ROI luma (DN)")
-            .label_style((FONT, 12))
-            .axis_desc_style((FONT, 12))
-            .light_line_style(RGBColor(235, 235, 235))
-            .draw()
-            .map_err(|e| err(&e))?;
-
-        if let Some(found) = detected {
-            shade_detected(&mut chart, found, (y0, y1)).map_err(|e| err(&e))?;
-            chart
-                .draw_series(LineSeries::new(
-                    signal.iter().copied(),
-                    RGBColor(150, 150, 150).stroke_width(1),
-                ))
-                .map_err(|e| err(&e))?
-                .label("LED-ROI mean, whole capture (detection)")
-                .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], RGBColor(150, 150, 150)));
-        }
-        // Shade each run of frames of one segment.
-        let mut start = 0;
-        for i in (1..=frames.len()).filter(|_| detected.is_none()) {
-            if i == frames.len() || frames[i].segment != frames[start].segment {
-                let x0 = frames[start].time_s;
-                let x1 = if i == frames.len() {
-                    t_end
-                } else {
-                    frames[i].time_s
-                };
-                chart
-                    .draw_series(std::iter::once(Rectangle::new(
-                        [(x0, y0), (x1, y1)],
-                        segment_fill(frames[start].segment).filled(),
-                    )))
-                    .map_err(|e| err(&e))?;
-                start = i;
-            }
-        }
-
-        if let Some(m) = result.metrics.first() {
-            for (level, label, colour) in [
-                (m.levels.on, "ON level", RGBColor(200, 120, 0)),
-                (m.levels.off, "OFF level", RGBColor(60, 60, 60)),
-            ] {
-                let Some(level) = level else { continue };
-                chart
-                    .draw_series(DashedLineSeries::new(
-                        [(0.0, level), (t_end, level)],
-                        6,
-                        4,
-                        colour.stroke_width(1),
-                    ))
-                    .map_err(|e| err(&e))?
-                    .label(format!("{label} {level:.2} DN"))
-                    .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour));
-            }
-        }
-
-        for (i, roi) in acq.rois.iter().enumerate() {
-            let colour = SERIES_COLOURS[i % SERIES_COLOURS.len()];
-            chart
-                .draw_series(LineSeries::new(
-                    frames.iter().zip(&roi.luma).map(|(f, &v)| (f.time_s, v)),
-                    colour.stroke_width(1),
-                ))
-                .map_err(|e| err(&e))?
-                .label(roi.name.clone())
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour));
-            // Mark the PWM-segment extremes that the metrics use.
-            let pwm = || {
-                frames
-                    .iter()
-                    .zip(&roi.luma)
-                    .filter(|(f, _)| f.segment == Segment::Pwm)
-            };
-            let min = pwm().min_by(|a, b| a.1.total_cmp(b.1));
-            let max = pwm().max_by(|a, b| a.1.total_cmp(b.1));
-            for (f, &v) in min.into_iter().chain(max) {
-                chart
-                    .draw_series(std::iter::once(Circle::new(
-                        (f.time_s, v),
-                        3,
-                        colour.filled(),
-                    )))
-                    .map_err(|e| err(&e))?;
-            }
-        }
-
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT, 11))
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(200, 200, 200))
-            .draw()
-            .map_err(|e| err(&e))?;
-        root.present().map_err(|e| err(&e))?;
-    }
-    Ok(svg)
+    let filled = bins.iter().flatten().count();
+    Some(match filled {
+        0 => "No PWM frame fell in any phase bin: there is no phase fold.".to_string(),
+        1 => format!(
+            "Every PWM frame saw the same PWM phase (1 of {} phase bins): the frame rate locks to the PWM, so a phase fold would show one point.",
+            bins.len()
+        ),
+        n => format!(
+            "The PWM frames saw only {n} of {} PWM phases: the frame rate nearly locks to the PWM, so a phase fold shows no waveform.",
+            bins.len()
+        ),
+    })
 }
 
 /// The flicker signal of one ROI: its trace folded by PWM phase (per-bin
@@ -294,7 +172,7 @@ pub fn phase_fold_svg(
             .y_desc("luma (DN)")
             .label_style((FONT, 10))
             .axis_desc_style((FONT, 10))
-            .light_line_style(RGBColor(235, 235, 235))
+            .max_light_lines(0)
             .draw()
             .map_err(|e| err(&e))?;
         if let Some((a, b)) = envelope {
@@ -338,6 +216,34 @@ pub enum FineMapKind {
     Fdi,
     /// Worst-phase Percent Flicker, 0 (white) to 100 % (dark red).
     PercentFlicker,
+}
+
+/// A run of one colour along the frequency axis: from, to, colour.
+type Run = (f64, f64, RGBColor);
+
+/// Merges runs of rows `(y0, y1, runs)` (bottom up) that repeat, with the
+/// same span and colour, in the rows above into one rectangle
+/// `(x0, x1, colour, y0, y1)`: the same picture from fewer rectangles.
+fn merge_rows(rows: &[(f64, f64, Vec<Run>)]) -> Vec<(f64, f64, RGBColor, f64, f64)> {
+    let mut done = Vec::new();
+    let mut open: Vec<(f64, f64, RGBColor, f64, f64)> = Vec::new();
+    for (y0, y1, runs) in rows {
+        let mut next = Vec::with_capacity(runs.len());
+        for &(a, b, c) in runs {
+            match open.iter().position(|o| (o.0, o.1, o.2) == (a, b, c)) {
+                Some(k) => {
+                    let mut o = open.swap_remove(k);
+                    o.4 = *y1;
+                    next.push(o);
+                }
+                None => next.push((a, b, c, *y0, *y1)),
+            }
+        }
+        done.append(&mut open);
+        open = next;
+    }
+    done.append(&mut open);
+    done
 }
 
 /// Heatmap of a fine map over frequency x duty. Cells are merged into
@@ -410,8 +316,12 @@ pub fn finemap_svg(
             FineMapKind::Fdi => "FDI (2018), worst phase",
             FineMapKind::PercentFlicker => "Percent Flicker, worst phase",
         };
+        // Right and top margins hold half a tick label, so the labels at
+        // the ends of the axes are never cut off.
         let mut chart = ChartBuilder::on(&root)
             .margin(10)
+            .margin_right(36)
+            .margin_top(14)
             .caption(caption, (FONT, 13))
             .x_label_area_size(32)
             .y_label_area_size(46)
@@ -421,6 +331,8 @@ pub fn finemap_svg(
             .configure_mesh()
             .x_desc("PWM frequency (Hz)")
             .y_desc("duty (%)")
+            .x_label_formatter(&|x| crate::util::fixed(*x, 0))
+            .y_label_formatter(&|y| crate::util::fixed(*y, 0))
             .label_style((FONT, 11))
             .axis_desc_style((FONT, 11))
             .disable_mesh()
@@ -428,11 +340,12 @@ pub fn finemap_svg(
             .map_err(|e| err(&e))?;
         // Blocks of one colour that touch along the frequency axis are
         // merged into one rectangle: same picture, a fraction of the SVG.
-        let mut rects = Vec::new();
+        let mut rows: Vec<(f64, f64, Vec<Run>)> = Vec::new();
         for j0 in (0..nd).step_by(bd) {
             let j1 = (j0 + bd).min(nd);
             let y0 = 100.0 * (map.duty.at(j0) - map.duty.step / 2.0);
             let y1 = 100.0 * (map.duty.at(j1 - 1) + map.duty.step / 2.0);
+            let mut runs = Vec::new();
             let mut run: Option<(f64, f64, RGBColor)> = None;
             for i0 in (0..nf).step_by(bf) {
                 let i1 = (i0 + bf).min(nf);
@@ -455,17 +368,19 @@ pub fn finemap_svg(
                 let c = colour(worst.flatten());
                 run = match run {
                     Some((a, _, rc)) if rc == c => Some((a, x1, rc)),
-                    Some((a, b, rc)) => {
-                        rects.push(Rectangle::new([(a, y0), (b, y1)], rc.filled()));
+                    Some(done) => {
+                        runs.push(done);
                         Some((x0, x1, c))
                     }
                     None => Some((x0, x1, c)),
                 };
             }
-            if let Some((a, b, rc)) = run {
-                rects.push(Rectangle::new([(a, y0), (b, y1)], rc.filled()));
-            }
+            runs.extend(run);
+            rows.push((y0, y1, runs));
         }
+        let rects = merge_rows(&rows)
+            .into_iter()
+            .map(|(a, b, c, y0, y1)| Rectangle::new([(a, y0), (b, y1)], c.filled()));
         chart.draw_series(rects).map_err(|e| err(&e))?;
         root.present().map_err(|e| err(&e))?;
     }
@@ -547,4 +462,102 @@ pub fn advise_svg(curve: &[crate::advise::Candidate], bound_s: f64) -> Result<St
         root.present().map_err(|e| err(&e))?;
     }
     Ok(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fold_with_few_phases_is_degenerate() {
+        let mut bins = vec![None; 32];
+        assert!(phase_fold_is_degenerate(&bins));
+        bins[0] = Some((1.0, 2.0));
+        assert!(phase_fold_is_degenerate(&bins));
+        assert!(
+            degenerate_fold_sentence(&bins)
+                .unwrap()
+                .contains("same PWM phase")
+        );
+        bins[7] = Some((1.0, 2.0));
+        bins[9] = Some((1.0, 2.0));
+        assert!(
+            degenerate_fold_sentence(&bins)
+                .unwrap()
+                .contains("only 3 of 32")
+        );
+        bins[20] = Some((1.0, 2.0));
+        assert!(!phase_fold_is_degenerate(&bins));
+        assert_eq!(degenerate_fold_sentence(&bins), None);
+    }
+
+    #[test]
+    fn merged_rows_paint_the_same_picture() {
+        let (r, g) = (RGBColor(255, 0, 0), RGBColor(0, 255, 0));
+        let rows = vec![
+            (0.0, 1.0, vec![(0.0, 2.0, r), (2.0, 3.0, g)]),
+            (1.0, 2.0, vec![(0.0, 2.0, r), (2.0, 3.0, r)]),
+            (2.0, 3.0, vec![(0.0, 2.0, r), (2.0, 3.0, g)]),
+        ];
+        let merged = merge_rows(&rows);
+        assert_eq!(merged.len(), 4, "{merged:?}");
+        // Brute force: the colour at every cell centre, and no overlap.
+        for (y0, y1, runs) in &rows {
+            for &(a, b, c) in runs {
+                let (x, y) = ((a + b) / 2.0, (y0 + y1) / 2.0);
+                let hits: Vec<RGBColor> = merged
+                    .iter()
+                    .filter(|m| m.0 < x && x < m.1 && m.3 < y && y < m.4)
+                    .map(|m| m.2)
+                    .collect();
+                assert_eq!(hits, vec![c], "at ({x}, {y})");
+            }
+        }
+    }
+
+    #[test]
+    fn fine_map_tick_labels_stay_on_the_canvas() {
+        let model = crate::report::matrix::tests::model_with(8);
+        let map = &model
+            .fine_maps
+            .first()
+            .expect("the daylight plan has a fine map")
+            .map;
+        for kind in [FineMapKind::Fdi, FineMapKind::PercentFlicker] {
+            let svg = finemap_svg(map, kind, Some(0.1)).unwrap();
+            let mut n = 0;
+            for part in svg.split("<text").skip(1) {
+                let (tag, rest) = part.split_once('>').unwrap();
+                let attr = |name: &str| -> String {
+                    tag.split(&format!(" {name}=\""))
+                        .nth(1)
+                        .and_then(|s| s.split('"').next())
+                        .unwrap_or("")
+                        .to_string()
+                };
+                let text = rest.split("</text>").next().unwrap().trim();
+                let x: f64 = attr("x").parse().unwrap();
+                let y: f64 = attr("y").parse().unwrap();
+                let size: f64 = attr("font-size").parse().unwrap();
+                let w = crate::report::matrix::text_width(text, size);
+                let (left, right) = match attr("text-anchor").as_str() {
+                    "middle" => (x - w / 2.0, x + w / 2.0),
+                    "end" => (x - w, x),
+                    _ => (x, x + w),
+                };
+                if attr("transform").is_empty() {
+                    assert!(
+                        left >= 0.0 && right <= 760.0,
+                        "`{text}` at x {x} runs off the canvas"
+                    );
+                }
+                assert!(
+                    y - size >= 0.0 && y + size <= 300.0,
+                    "`{text}` at y {y} runs off the canvas"
+                );
+                n += 1;
+            }
+            assert!(n > 10, "{n} texts");
+        }
+    }
 }

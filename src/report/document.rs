@@ -108,6 +108,12 @@ pub fn trace_chart_path(case_id: &str) -> String {
     format!("{CHARTS_DIR}/trace-{case_id}.svg")
 }
 
+/// Chart file name of one case's zoomed trace panels (the segment steps
+/// and two beat periods at full resolution).
+pub fn zoom_chart_path(case_id: &str) -> String {
+    format!("{CHARTS_DIR}/zoom-{case_id}.svg")
+}
+
 /// Chart file name of the matrix of the `index`-th light level.
 pub fn matrix_chart_path(index: usize) -> String {
     format!("{CHARTS_DIR}/matrix-{index}.svg")
@@ -175,6 +181,15 @@ impl Document {
                 trace_chart_path(&r.case.id),
                 super::charts::luma_trace_svg(r, segments)?,
             );
+            let apparent_hz = model
+                .cases
+                .iter()
+                .find(|c| c.id == r.case.id)
+                .map_or(0.0, |c| c.apparent_frequency_hz);
+            charts.insert(
+                zoom_chart_path(&r.case.id),
+                super::charts::trace_zoom_svg(r, apparent_hz)?,
+            );
         }
         for (i, lux) in super::matrix::light_levels(model).into_iter().enumerate() {
             charts.insert(matrix_chart_path(i), super::matrix::matrix_svg(model, lux)?);
@@ -214,11 +229,13 @@ impl Document {
         }
         let mut images = BTreeMap::new();
         for r in results {
-            if let Some(frame) = &r.sample_frame {
-                let small = super::frames::thumbnail(frame, super::frames::THUMBNAIL_WIDTH);
+            let info = model.cases.iter().find(|c| c.id == r.case.id);
+            if let (Some(frame), Some(info)) =
+                (&r.sample_frame, info.and_then(|c| c.sample_frame.as_ref()))
+            {
                 images.insert(
                     frame_image_path(&r.case.id),
-                    super::frames::png_bytes(&small)?,
+                    super::frames::view_png(frame, &info.rois)?,
                 );
             }
         }
@@ -391,6 +408,12 @@ impl Document {
                 continue;
             };
             let rel = frame_image_path(id);
+            // The annotated view as written, else (older reports) the frame.
+            let view = dir.join(super::frames::view_path(id));
+            if let Ok(bytes) = std::fs::read(&view) {
+                images.insert(rel, bytes);
+                continue;
+            }
             let path = dir.join(&rel);
             if !path.exists() {
                 continue;

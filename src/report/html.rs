@@ -77,10 +77,15 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             .unwrap_or_else(|| Value::from(()))
     };
     let mut traces = BTreeMap::new();
+    let mut zooms = BTreeMap::new();
     for case in doc.case_ids() {
         let path = trace_chart_path(&case);
         if doc.charts.contains_key(&path) {
-            traces.insert(case, inline(&path));
+            traces.insert(case.clone(), inline(&path));
+        }
+        let path = super::document::zoom_chart_path(&case);
+        if doc.charts.contains_key(&path) {
+            zooms.insert(case, inline(&path));
         }
     }
     // Sample frames inline as PNG data URIs.
@@ -130,6 +135,7 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             advice_chart => advice_chart,
             matrices => matrices(doc, inline),
             signatories => Serde(&doc.signatories),
+            zooms => zooms,
             pages => doc.case_pages(),
             caveats => doc.caveats(),
             detail => doc.detail().as_str(),

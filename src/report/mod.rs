@@ -199,11 +199,21 @@ pub fn write_report(
         .collect();
     replace_dir(dir, "traces", &traces)?;
 
-    let frames: Vec<(String, Vec<u8>)> = results
+    let mut frames: Vec<(String, Vec<u8>)> = Vec::new();
+    for (r, f) in results
         .iter()
         .filter_map(|r| r.sample_frame.as_ref().map(|f| (r, f)))
-        .map(|(r, f)| Ok((format!("{}.png", r.case.id), frames::png_bytes(f)?)))
-        .collect::<Result<_, ReportError>>()?;
+    {
+        frames.push((format!("{}.png", r.case.id), frames::png_bytes(f)?));
+        // The annotated view beside the frame (frames::view_path).
+        let info = model.cases.iter().find(|c| c.id == r.case.id);
+        if let Some(info) = info.and_then(|c| c.sample_frame.as_ref()) {
+            frames.push((
+                format!("{}-view.png", r.case.id),
+                frames::view_png(f, &info.rois)?,
+            ));
+        }
+    }
     if frames.is_empty() {
         let old = dir.join(document::FRAMES_DIR);
         if old.exists() {

@@ -271,6 +271,20 @@ pub struct SampleFrameInfo {
     pub path: String,
     /// Frame number.
     pub frame: u64,
+    /// The annotated view shown in the reports (display stretch, ROIs,
+    /// 4x crop around the LED ROI), relative to the report directory.
+    pub view: String,
+    /// Display stretch of the view.
+    pub stretch: super::frames::Stretch,
+    /// ROIs as drawn and numbered on the view.
+    pub rois: Vec<super::frames::RoiBox>,
+    /// Source rectangle `[x, y, w, h]` of the 4x crop; `null` without ROIs.
+    pub crop_px: Option<[u32; 4]>,
+    /// Row analysis of this frame in the LED ROI's columns; `null` without
+    /// an LED ROI or for an even frame.
+    pub banding: Option<super::frames::FrameBanding>,
+    /// Caption of the view: stretch, ROI key, crop, banding of this frame.
+    pub caption: String,
 }
 
 /// Relative path of a case's sample frame PNG.
@@ -418,10 +432,10 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                     && in_mitigation_range(r.case.frequency_hz, &plan.thresholds),
                 frames: r.acquisition.frames.len(),
                 trace: trace_path(&r.case.id),
-                sample_frame: r.sample_frame.as_ref().map(|f| SampleFrameInfo {
-                    path: frame_path(&r.case.id),
-                    frame: f.index,
-                }),
+                sample_frame: r
+                    .sample_frame
+                    .as_ref()
+                    .map(|f| super::frames::sample_frame_info(&r.case.id, f, &plan.rois)),
                 rois,
                 checks: r.checks.clone(),
                 apparent_frequency_hz: a.beat.apparent_frequency_hz,

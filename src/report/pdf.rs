@@ -150,10 +150,15 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
         super::html::num(v.0, digits)
     });
     let mut traces = BTreeMap::new();
+    let mut zooms = BTreeMap::new();
     for case in doc.case_ids() {
         let path = trace_chart_path(&case);
         if doc.charts.contains_key(&path) {
-            traces.insert(case, path);
+            traces.insert(case.clone(), path);
+        }
+        let path = super::document::zoom_chart_path(&case);
+        if doc.charts.contains_key(&path) {
+            zooms.insert(case, path);
         }
     }
     // Every other picture goes in by its virtual path in the world.
@@ -196,6 +201,7 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             charts => traces,
             matrices => super::html::matrices(doc, |p: &str| Value::from(p)),
             signatories => Serde(&doc.signatories),
+            zooms => zooms,
             pages => doc.case_pages(),
             caveats => doc.caveats(),
             detail => doc.detail().as_str(),

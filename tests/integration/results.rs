@@ -130,7 +130,7 @@ fn no_nan_reaches_the_report() {
     assert!(!json.contains("NaN") && !json.contains("Infinity"));
     let html = full_html(&model, &results);
     assert!(!html.contains("NaN"));
-    // One trace per case, one phase fold per LED ROI of each case, two
+    // One trace and one zoom per case, one phase fold per LED ROI of each case, two
     // fine maps per light level, the exposure-advice curve and one matrix
     // for the single light level.
     let led_rois = model.cases[0]
@@ -155,7 +155,7 @@ fn no_nan_reaches_the_report() {
     );
     assert_eq!(
         html.matches("<svg").count(),
-        results.len() + folds + 2 * model.fine_maps.len() + 1 + 1
+        2 * results.len() + folds + 2 * model.fine_maps.len() + 1 + 1
     );
     assert!(html.contains("ON level") && html.contains("OFF level"));
 }
