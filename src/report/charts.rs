@@ -104,31 +104,33 @@ fn shade_detected<DB: DrawingBackend>(
 /// frame rate) and the fold shows no waveform.
 pub const MIN_FOLD_PHASES: usize = 4;
 
-/// Whether a phase fold is degenerate: fewer than [`MIN_FOLD_PHASES`] of
-/// its bins hold a frame (all points at one phase, or a few). The report
-/// then prints [`degenerate_fold_sentence`] instead of the chart.
-pub fn phase_fold_is_degenerate(bins: &[Option<(f64, f64)>]) -> bool {
-    bins.iter().flatten().count() < MIN_FOLD_PHASES
-}
-
-/// The sentence that replaces a degenerate phase fold ([`None`] when the
-/// fold is worth drawing).
-pub fn degenerate_fold_sentence(bins: &[Option<(f64, f64)>]) -> Option<String> {
-    if !phase_fold_is_degenerate(bins) {
-        return None;
-    }
-    let filled = bins.iter().flatten().count();
-    Some(match filled {
-        0 => "No PWM frame fell in any phase bin: there is no phase fold.".to_string(),
+/// The sentence printed instead of the phase fold of ROI `roi` whose PWM
+/// frames fell in `covered` of its `bins` phase bins, or [`None`] when the
+/// fold is worth drawing (at least [`MIN_FOLD_PHASES`] bins hold a frame).
+/// Works from results.json (`phase_coverage`), so a report rendered again
+/// from its directory says the same.
+/// `frequency_known` is false for a capture of unknown PWM frequency, whose
+/// frames carry no phase.
+pub fn degenerate_fold_sentence(
+    roi: &str,
+    covered: usize,
+    bins: usize,
+    frequency_known: bool,
+) -> Option<String> {
+    let why = match covered {
+        c if c >= MIN_FOLD_PHASES => return None,
+        _ if !frequency_known => {
+            "the capture's PWM frequency is unknown, so its frames have no PWM phase".to_string()
+        }
+        0 => "no PWM frame fell in any phase bin".to_string(),
         1 => format!(
-            "Every PWM frame saw the same PWM phase (1 of {} phase bins): the frame rate locks to the PWM, so a phase fold would show one point.",
-            bins.len()
+            "every PWM frame saw the same PWM phase (1 of {bins} phase bins): the frame rate locks to the PWM, so a fold would show one point"
         ),
         n => format!(
-            "The PWM frames saw only {n} of {} PWM phases: the frame rate nearly locks to the PWM, so a phase fold shows no waveform.",
-            bins.len()
+            "the PWM frames saw only {n} of {bins} PWM phases: the frame rate nearly locks to the PWM, so a fold shows no waveform"
         ),
-    })
+    };
+    Some(format!("Phase fold of {roi} not drawn: {why}."))
 }
 
 /// The flicker signal of one ROI: its trace folded by PWM phase (per-bin
@@ -469,26 +471,20 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_fold_with_few_phases_is_degenerate() {
-        let mut bins = vec![None; 32];
-        assert!(phase_fold_is_degenerate(&bins));
-        bins[0] = Some((1.0, 2.0));
-        assert!(phase_fold_is_degenerate(&bins));
+    fn a_fold_with_few_phases_is_a_sentence() {
+        let say = |covered| degenerate_fold_sentence("led", covered, 32, true);
         assert!(
-            degenerate_fold_sentence(&bins)
+            degenerate_fold_sentence("led", 1, 32, false)
                 .unwrap()
-                .contains("same PWM phase")
+                .contains("PWM frequency is unknown")
         );
-        bins[7] = Some((1.0, 2.0));
-        bins[9] = Some((1.0, 2.0));
-        assert!(
-            degenerate_fold_sentence(&bins)
-                .unwrap()
-                .contains("only 3 of 32")
-        );
-        bins[20] = Some((1.0, 2.0));
-        assert!(!phase_fold_is_degenerate(&bins));
-        assert_eq!(degenerate_fold_sentence(&bins), None);
+        assert_eq!(degenerate_fold_sentence("led", 40, 64, false), None);
+        assert!(say(0).unwrap().contains("no PWM frame"));
+        assert!(say(1).unwrap().contains("same PWM phase (1 of 32"));
+        assert!(say(3).unwrap().contains("only 3 of 32"));
+        assert!(say(3).unwrap().starts_with("Phase fold of led not drawn"));
+        assert_eq!(say(MIN_FOLD_PHASES), None);
+        assert_eq!(say(32), None);
     }
 
     #[test]

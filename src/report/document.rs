@@ -72,11 +72,6 @@ impl Detail {
     }
 }
 
-/// A phase fold that hits fewer phase bins than this is not drawn: its
-/// points sit at one or two phases (a phase-locked or timing-free
-/// capture) and a sentence says so instead.
-pub const MIN_FOLD_BINS: usize = 4;
-
 /// Report metadata kept in results.json under `report`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ReportMeta {
@@ -171,21 +166,13 @@ impl Document {
     ) -> Result<Document, ReportError> {
         let mut charts = BTreeMap::new();
         for r in results {
-            let segments = model
-                .cases
-                .iter()
-                .find(|c| c.id == r.case.id)
-                .and_then(|c| c.capture.as_ref())
-                .map(|c| &c.segments);
+            let case = model.cases.iter().find(|c| c.id == r.case.id);
+            let segments = case.and_then(|c| c.capture.as_ref()).map(|c| &c.segments);
             charts.insert(
                 trace_chart_path(&r.case.id),
                 super::charts::luma_trace_svg(r, segments)?,
             );
-            let apparent_hz = model
-                .cases
-                .iter()
-                .find(|c| c.id == r.case.id)
-                .map_or(0.0, |c| c.apparent_frequency_hz);
+            let apparent_hz = case.map_or(0.0, |c| c.apparent_frequency_hz);
             charts.insert(
                 zoom_chart_path(&r.case.id),
                 super::charts::trace_zoom_svg(r, apparent_hz)?,
@@ -199,7 +186,9 @@ impl Document {
                 .rois
                 .iter()
                 .filter(|roi| roi.kind == crate::plan::RoiKind::Led);
-            let drawn = led.filter(|roi| roi.analysis.phase_coverage.covered_bins >= MIN_FOLD_BINS);
+            let drawn = led.filter(|roi| {
+                roi.analysis.phase_coverage.covered_bins >= super::charts::MIN_FOLD_PHASES
+            });
             for (k, roi) in drawn.enumerate() {
                 let svg = super::charts::phase_fold_svg(
                     &format!("{}: {}", c.id, roi.name),
@@ -311,6 +300,34 @@ impl Document {
             .filter(|c| detail.shows_case(c["verdict"].as_str().unwrap_or("")))
             .filter_map(|c| c["id"].as_str().map(str::to_string))
             .collect()
+    }
+
+    /// Per case, the sentences that stand for its phase folds that are not
+    /// drawn ([`super::charts::degenerate_fold_sentence`]).
+    pub fn fold_notes(&self) -> BTreeMap<String, Vec<String>> {
+        let mut out = BTreeMap::new();
+        for c in self.results["cases"].as_array().into_iter().flatten() {
+            let Some(id) = c["id"].as_str() else { continue };
+            let frequency_known = c["frequency_hz"].as_f64().is_some();
+            let notes = c["rois"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .filter(|roi| roi["kind"] == "led")
+                .filter_map(|roi| {
+                    let cov = &roi["analysis"]["phase_coverage"];
+                    let count = |k: &str| cov[k].as_u64().unwrap_or(0) as usize;
+                    super::charts::degenerate_fold_sentence(
+                        roi["name"].as_str().unwrap_or("?"),
+                        count("covered_bins"),
+                        count("bins"),
+                        frequency_known,
+                    )
+                })
+                .collect();
+            out.insert(id.to_string(), notes);
+        }
+        out
     }
 
     /// Per case, its caveats (metric values undefined or qualified), each

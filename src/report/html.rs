@@ -138,6 +138,7 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             zooms => zooms,
             pages => doc.case_pages(),
             caveats => doc.caveats(),
+            fold_notes => doc.fold_notes(),
             detail => doc.detail().as_str(),
             draft => doc.is_draft(),
             date => doc.date(),

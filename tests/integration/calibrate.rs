@@ -4,26 +4,14 @@
 //! and video input (issue 18).
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use ledflicker::calibrate::recovery;
 use ledflicker::calibrate::synth::SynthFrame;
 
-use crate::{root, scratch};
+use crate::{ledflicker, root, scratch, stderr};
 
 const GYROFLOW: &str = "reference-data/gyroflow-rs-banding/frame_example.png";
-
-fn ledflicker(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ledflicker"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn json(o: &Output) -> serde_json::Value {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(o));

@@ -7,14 +7,14 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 use ledflicker::capture::{
     self, LumaWeights, ReadOptions, RoiRect, VideoDecode, VideoRange, read_capture,
 };
 use serde_json::Value;
 
-use crate::{root, scratch};
+use crate::{ledflicker_in as ledflicker, root, scratch, stderr};
 
 const VIDEOS: [&str; 3] = ["test_vid1", "test_vid2", "test_vid3"];
 
@@ -22,18 +22,6 @@ fn data(file: &str) -> PathBuf {
     root()
         .join("reference-data/p2020-flicker-videos")
         .join(file)
-}
-
-fn ledflicker(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ledflicker"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 fn need_ffmpeg() {

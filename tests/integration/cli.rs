@@ -1,20 +1,8 @@
 //! The binary: exit codes, outputs, messages.
 
-use std::process::{Command, Output};
+use std::process::Command;
 
-use crate::{root, scratch};
-
-fn ledflicker(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ledflicker"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use crate::{ledflicker, root, scratch, stderr};
 
 #[test]
 fn validate_accepts_shipped_plans_by_path_and_by_name() {

@@ -18,6 +18,7 @@ mod signoff;
 mod verdicts;
 
 use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
 
 /// The repository root.
 pub fn root() -> &'static Path {
@@ -33,4 +34,35 @@ pub fn scratch(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
+}
+
+/// Runs the binary in `dir`, hermetically: no `SOURCE_DATE_EPOCH` or
+/// PKCS#12 passphrase from the caller's environment.
+pub fn ledflicker_in(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(args)
+        .current_dir(dir)
+        .env_remove("SOURCE_DATE_EPOCH")
+        .env_remove("LEDFLICKER_P12_PASSPHRASE")
+        .output()
+        .unwrap()
+}
+
+/// Runs the binary in the repository root (see [`ledflicker_in`]).
+pub fn ledflicker(args: &[&str]) -> Output {
+    ledflicker_in(args, root())
+}
+
+/// The command's stderr, as text.
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The command's stdout then stderr, as text.
+pub fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
 }

@@ -4,26 +4,9 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use crate::{root, scratch};
+use crate::{ledflicker, scratch, text};
 
 const DATE: &str = "2026-01-15";
-
-fn ledflicker(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ledflicker"))
-        .args(args)
-        .current_dir(root())
-        .env_remove("SOURCE_DATE_EPOCH")
-        .output()
-        .unwrap()
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
 
 /// Runs `plan` into `dir` with a fixed date; returns the output.
 fn run_plan(plan: &str, dir: &Path, extra: &[&str]) -> Output {

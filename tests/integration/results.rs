@@ -138,13 +138,13 @@ fn no_nan_reaches_the_report() {
         .iter()
         .filter(|r| r.kind == ledflicker::plan::RoiKind::Led)
         .count();
-    // Folds that hit fewer than MIN_FOLD_BINS phase bins are a sentence.
+    // Folds that hit fewer than MIN_FOLD_PHASES phase bins are a sentence.
     let folds: usize = model
         .cases
         .iter()
         .flat_map(|c| &c.rois)
         .filter(|r| r.kind == ledflicker::plan::RoiKind::Led)
-        .filter(|r| r.analysis.phase_coverage.covered_bins >= report::document::MIN_FOLD_BINS)
+        .filter(|r| r.analysis.phase_coverage.covered_bins >= report::charts::MIN_FOLD_PHASES)
         .count();
     let sentences = results.len() * led_rois - folds;
     // Daylight (30 fps, 50-1000 Hz) visits 1 or 3 phases: every fold is a sentence.

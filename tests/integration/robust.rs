@@ -5,25 +5,12 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::{root, scratch};
+use crate::{ledflicker_in as ledflicker, root, scratch, stderr};
 
 /// The binary under test; `LEDFLICKER_TEST_EXE` runs these tests against
 /// another build (e.g. the one before issue 10, to see them fail).
 fn exe() -> String {
     std::env::var("LEDFLICKER_TEST_EXE").unwrap_or(env!("CARGO_BIN_EXE_ledflicker").to_string())
-}
-
-fn ledflicker(args: &[&str], dir: &Path) -> Output {
-    Command::new(exe())
-        .args(args)
-        .current_dir(dir)
-        .env_remove("SOURCE_DATE_EPOCH")
-        .output()
-        .unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 /// A small, fast simulator plan (4 cases, 16 x 12 sensor), written to `dir`.

@@ -5,27 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use crate::{root, scratch};
+use crate::{ledflicker, root, scratch, text};
 
 const DATE: &str = "2026-01-15";
-
-fn ledflicker(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ledflicker"))
-        .args(args)
-        .current_dir(root())
-        .env_remove("SOURCE_DATE_EPOCH")
-        .env_remove("LEDFLICKER_P12_PASSPHRASE")
-        .output()
-        .unwrap()
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
 
 fn tool(program: &str, args: &[&str], dir: &Path) -> Output {
     Command::new(program)

@@ -11,16 +11,7 @@ use ledflicker::plan;
 use ledflicker::runner;
 use serde_json::Value;
 
-use crate::{root, scratch};
-
-fn ledflicker(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ledflicker"))
-        .args(args)
-        .current_dir(dir)
-        .env_remove("SOURCE_DATE_EPOCH")
-        .output()
-        .unwrap()
-}
+use crate::{ledflicker_in as ledflicker, root, scratch};
 
 fn run(plan: &Path, out: &Path) -> (Output, String) {
     let o = ledflicker(

@@ -646,20 +646,31 @@ mod tests {
         );
     }
 
-    #[test]
-    fn a_short_trace_is_drawn_point_by_point() {
+    /// The daylight case cut to its first `frames` frames.
+    fn daylight_case_of(frames: usize) -> CaseResult {
         let mut r = daylight_case();
-        // Keep 300 frames: fewer than the plot's pixel columns.
-        r.acquisition.frames.truncate(300);
+        r.acquisition.frames.truncate(frames);
         for roi in &mut r.acquisition.rois {
-            roi.luma.truncate(300);
+            roi.luma.truncate(frames);
         }
-        let svg = luma_trace_svg(&r, None).unwrap();
-        let lines: Vec<usize> = shapes(&svg)
+        r
+    }
+
+    /// Point counts of the SVG's polylines.
+    fn polyline_points(svg: &str) -> Vec<usize> {
+        shapes(svg)
             .into_iter()
             .filter(|s| s.0 == "polyline")
             .map(|s| s.1)
-            .collect();
+            .collect()
+    }
+
+    #[test]
+    fn a_short_trace_is_drawn_point_by_point() {
+        // 300 frames: fewer than the plot's pixel columns.
+        let r = daylight_case_of(300);
+        let svg = luma_trace_svg(&r, None).unwrap();
+        let lines = polyline_points(&svg);
         // The LED line has a point for every frame but the inside of runs
         // of equal luma (counted here by brute force); no envelope band.
         let led = &r.acquisition.rois[0].luma;
@@ -674,22 +685,14 @@ mod tests {
 
     #[test]
     fn a_dropped_frame_breaks_the_line() {
-        let mut r = daylight_case();
-        r.acquisition.frames.truncate(300);
-        for roi in &mut r.acquisition.rois {
-            roi.luma.truncate(300);
-        }
+        let mut r = daylight_case_of(300);
         // Drop frame 200.
         r.acquisition.frames.remove(200);
         for roi in &mut r.acquisition.rois {
             roi.luma.remove(200);
         }
         let svg = luma_trace_svg(&r, None).unwrap();
-        let lines: Vec<usize> = shapes(&svg)
-            .into_iter()
-            .filter(|s| s.0 == "polyline")
-            .map(|s| s.1)
-            .collect();
+        let lines = polyline_points(&svg);
         // Two LED lines, frames 0-199 and 201-299, none across the gap.
         let led = &r.acquisition.rois[0].luma;
         let (a, b) = (corners(&led[..200]), corners(&led[200..]));

@@ -52,9 +52,13 @@ impl Stretch {
     /// values; 0 to 1 DN when there are none.
     pub fn of(luma: &[f64]) -> Stretch {
         let mut v: Vec<f64> = luma.iter().copied().filter(|x| x.is_finite()).collect();
-        v.sort_by(f64::total_cmp);
-        let low_dn = percentile(&v, STRETCH_LOW_PERCENTILE).unwrap_or(0.0);
-        let high_dn = percentile(&v, STRETCH_HIGH_PERCENTILE)
+        // Two selections, O(n) each, instead of sorting a whole frame.
+        let mut nth = |p: f64| {
+            let i = rank(v.len(), p)?;
+            Some(*v.select_nth_unstable_by(i, f64::total_cmp).1)
+        };
+        let low_dn = nth(STRETCH_LOW_PERCENTILE).unwrap_or(0.0);
+        let high_dn = nth(STRETCH_HIGH_PERCENTILE)
             .unwrap_or(1.0)
             .max(low_dn + 1.0);
         Stretch { low_dn, high_dn }
@@ -80,14 +84,11 @@ impl Stretch {
     }
 }
 
-/// Nearest-rank percentile `p` (0..=100) of sorted values.
-pub fn percentile(sorted: &[f64], p: f64) -> Option<f64> {
-    let n = sorted.len();
-    if n == 0 {
-        return None;
-    }
+/// Index in sorted order of the nearest-rank percentile `p` (0..=100) of
+/// `n` values; `None` when there are none.
+fn rank(n: usize, p: f64) -> Option<usize> {
     let rank = ((p / 100.0) * n as f64).ceil() as usize;
-    Some(sorted[rank.clamp(1, n) - 1])
+    (n > 0).then(|| rank.clamp(1, n) - 1)
 }
 
 /// An ROI as drawn on the view.
@@ -471,6 +472,14 @@ mod tests {
         let black = luma.iter().filter(|&&v| v < s.low_dn).count();
         let white = luma.iter().filter(|&&v| v > s.high_dn).count();
         assert!(black <= 5 && white <= 5, "{black} {white}");
+        // Unordered values: the selection gives what a full sort gives.
+        let mixed: Vec<f64> = (0..997u64)
+            .map(|i| ((i * 7919) % 997) as f64 * 0.5)
+            .collect();
+        let mut sorted = mixed.clone();
+        sorted.sort_by(f64::total_cmp);
+        let s = Stretch::of(&mixed);
+        assert_eq!((s.low_dn, s.high_dn), (sorted[4], sorted[992]));
         // A flat frame gets a 1 DN span, never a division by zero.
         let flat = Stretch::of(&[31.0; 16]);
         assert_eq!((flat.low_dn, flat.high_dn), (31.0, 32.0));
