@@ -810,6 +810,25 @@ fn advise(a: AdviseArgs) -> anyhow::Result<i32> {
     Ok(EXIT_PASS)
 }
 
+/// The numpy peer's figure on the exact-core grid, measured now, and the
+/// batched core's ratio to it; a missing Python or numpy is said, not fatal.
+fn print_peer_ratio(rows: &[crate::bench::BenchRow]) {
+    let script =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/peer_closedform.py");
+    let Some(ours) = rows.iter().find(|r| r.method == "exact core, batched") else {
+        return;
+    };
+    let ours = 1.0 / ours.time_s;
+    match crate::bench::numpy_peer(&script, std::time::Duration::from_secs(120)) {
+        Ok(peer) => println!(
+            "numpy peer (scripts/peer_closedform.py, same grid): {peer:.2e} integrals/s; \
+             exact core, batched: {ours:.2e} integrals/s = {:.1}x numpy",
+            ours / peer
+        ),
+        Err(e) => println!("numpy peer not measured: {e} (pip install numpy to compare)"),
+    }
+}
+
 fn bench(a: BenchArgs) -> anyhow::Result<i32> {
     use crate::analysis::{FINE_DUTY, FINE_FREQUENCY, finemap};
     if a.repeat == 0 {
@@ -817,7 +836,9 @@ fn bench(a: BenchArgs) -> anyhow::Result<i32> {
     }
     println!("{:<44} {:>14} {:>12}  note", "method", "time", "max error");
     let mut print_row = |r: &crate::bench::BenchRow| {
-        let time = if r.time_s < 1e-3 {
+        let time = if r.time_s < 1e-6 {
+            format!("{:.2} ns/{}", r.time_s * 1e9, r.per)
+        } else if r.time_s < 1e-3 {
             format!("{:.3} us/{}", r.time_s * 1e6, r.per)
         } else {
             format!("{:.3} s/{}", r.time_s, r.per)
@@ -825,7 +846,9 @@ fn bench(a: BenchArgs) -> anyhow::Result<i32> {
         let err = r.max_error.map_or("-".to_string(), |e| format!("{e:.2e}"));
         println!("{:<44} {:>14} {:>12}  {}", r.method, time, err, r.note);
     };
-    crate::bench::run(a.quick, &mut print_row).map_err(|e| anyhow::anyhow!("bench failed: {e}"))?;
+    let rows = crate::bench::run(a.quick, &mut print_row)
+        .map_err(|e| anyhow::anyhow!("bench failed: {e}"))?;
+    print_peer_ratio(&rows);
     let repeat = if a.quick { a.repeat.min(3) } else { a.repeat };
     let path = plan::resolve_plan_path(&a.plan)?;
     let plan = plan::load(&path)?;
