@@ -146,6 +146,144 @@ pub fn bench_plan(profile: Option<&str>) -> Result<Plan, plan::PlanError> {
     )
 }
 
+/// Frequencies of the exact-core grid, Hz: the same grid as
+/// scripts/peer_closedform.py.
+pub const CORE_FREQUENCIES_HZ: [f64; 12] = [
+    50.0, 60.0, 75.0, 90.0, 100.0, 120.0, 150.0, 200.0, 300.0, 400.0, 600.0, 1000.0,
+];
+/// Duty cycles of the exact-core grid.
+pub const CORE_DUTIES: [f64; 6] = [0.05, 0.1, 0.2, 0.3, 0.5, 0.8];
+/// Frames per condition of the exact-core grid (64 s at 30 fps).
+pub const CORE_FRAMES: u64 = 1920;
+/// ROI rows of the exact-core grid: two rows of a rolling shutter.
+const CORE_ROWS: std::ops::Range<u32> = 399..401;
+
+/// The exact-core grid: 12 frequencies x 6 duty cycles, each a 2-row
+/// rolling-shutter ROI (14.565 us per line) with 5 ms exposures at 30 fps
+/// and the first rising edge 0.1234 ms into frame 0.
+fn core_grid() -> Vec<(PwmDrive, Shutter)> {
+    let shutter = Shutter {
+        model: ShutterModel::Rolling {
+            line_time_s: 14.565e-6,
+        },
+        exposure_s: 5e-3,
+        fps: 30.0,
+    };
+    CORE_FREQUENCIES_HZ
+        .iter()
+        .flat_map(|&f| {
+            CORE_DUTIES
+                .iter()
+                .map(move |&d| (PwmDrive::new(f, d, 1.234e-4).expect("valid drive"), shutter))
+        })
+        .collect()
+}
+
+/// Row integrals in one pass over the exact-core grid.
+pub fn core_integrals() -> usize {
+    CORE_FREQUENCIES_HZ.len() * CORE_DUTIES.len() * CORE_FRAMES as usize * CORE_ROWS.len()
+}
+
+/// Times the exact closed form on the exact-core grid, single threaded:
+/// the batched kernel ([`Shutter::frame_on_fractions`]) and the per-frame
+/// call it replaces. Both rows give the time per row integral; the batched
+/// row's error is its largest difference from the per-frame values.
+pub fn exact_core(reps: usize) -> [BenchRow; 2] {
+    let grid = core_grid();
+    let n = core_integrals() as f64;
+    let (t_batch, batched) = timed(reps, || {
+        let mut out = Vec::with_capacity(grid.len() * CORE_FRAMES as usize);
+        for (pwm, shutter) in &grid {
+            shutter.frame_on_fractions(pwm, 0..CORE_FRAMES, CORE_ROWS, &mut out);
+        }
+        out
+    });
+    let (t_frame, per_frame) = timed(reps, || {
+        grid.iter()
+            .flat_map(|(pwm, shutter)| {
+                (0..CORE_FRAMES).map(move |k| shutter.frame_on_fraction(pwm, k, CORE_ROWS))
+            })
+            .collect::<Vec<_>>()
+    });
+    let err = batched
+        .iter()
+        .zip(&per_frame)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    let note = |t: f64| {
+        format!(
+            "{:.2e} integrals/s; 12 f x 6 D x {CORE_FRAMES} frames x 2 rows, 1 thread",
+            n / t
+        )
+    };
+    [
+        BenchRow {
+            method: "exact core, batched".into(),
+            per: "integral",
+            time_s: t_batch / n,
+            max_error: Some(err),
+            note: note(t_batch),
+        },
+        BenchRow {
+            method: "exact core, frame by frame".into(),
+            per: "integral",
+            time_s: t_frame / n,
+            max_error: Some(0.0),
+            note: note(t_frame),
+        },
+    ]
+}
+
+/// Runs the numpy peer (scripts/peer_closedform.py) and returns its row
+/// integrals per second. The script runs in its own process group, is killed
+/// after `timeout`, and only its first 64 KiB of output are read.
+pub fn numpy_peer(script: &std::path::Path, timeout: std::time::Duration) -> Result<f64, String> {
+    use std::io::Read;
+    use std::os::unix::process::CommandExt;
+    use std::process::{Command, Stdio};
+    if !script.is_file() {
+        return Err(format!("{} not found", script.display()));
+    }
+    let mut child = Command::new("python3")
+        .arg(script)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .process_group(0)
+        .spawn()
+        .map_err(|e| format!("cannot start python3: {e}"))?;
+    let started = Instant::now();
+    let status = loop {
+        match child.try_wait().map_err(|e| e.to_string())? {
+            Some(status) => break status,
+            None if started.elapsed() > timeout => {
+                // The group, so that anything the script started goes too.
+                let _ = Command::new("kill")
+                    .args(["-KILL", "--", &format!("-{}", child.id())])
+                    .status();
+                let _ = child.wait();
+                return Err(format!("timed out after {} s", timeout.as_secs()));
+            }
+            None => std::thread::sleep(std::time::Duration::from_millis(20)),
+        }
+    };
+    let mut text = String::new();
+    if let Some(out) = child.stdout.take() {
+        let _ = out.take(64 * 1024).read_to_string(&mut text);
+    }
+    if !status.success() {
+        return Err(match status.code() {
+            Some(3) => "numpy not found".into(),
+            _ => format!("python3 exited with {status}"),
+        });
+    }
+    text.lines()
+        .find_map(|l| l.strip_prefix("integrals_per_s="))
+        .and_then(|v| v.trim().parse::<f64>().ok())
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .ok_or_else(|| "no integrals_per_s line in its output".into())
+}
+
 /// Runs the bench. `quick` makes it CI-sized (a few seconds).
 pub fn run(
     quick: bool,
@@ -159,6 +297,9 @@ pub fn run(
         rows.push(row);
     };
     let n_frames = (n_cond * frames) as f64;
+    for row in exact_core(if quick { 3 } else { 9 }) {
+        push(row, &mut rows);
+    }
 
     let (t_exact, exact) = timed(reps, || {
         conds

@@ -262,6 +262,9 @@ struct PlanArgs {
     /// Per-metric tolerance, METRIC=VALUE (repeatable), e.g. fdi_2018=0.05.
     #[arg(long = "golden-tolerance", requires = "golden")]
     golden_tolerance: Vec<String>,
+    /// Print where the wall time went (plan, run, report parts) to stderr.
+    #[arg(long)]
+    timings: bool,
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -663,8 +666,14 @@ fn report_date(arg: Option<&str>) -> anyhow::Result<String> {
 }
 
 fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
+    if args.timings {
+        crate::timings::enable();
+    }
+    let total = crate::timings::span("total");
+    let t = crate::timings::span("load and validate plan");
     let path = plan::resolve_plan_path(&args.plan)?;
     let plan = plan::load(&path)?;
+    drop(t);
     let date = report_date(args.date.as_deref())?;
     if args.threads == Some(0) {
         return Err(UsageError("--threads must be at least 1".into()).into());
@@ -736,10 +745,14 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
             bar.inc(1);
         }
     };
+    let t = crate::timings::span("run cases");
     let mut results = runner::run(&plan, &cases, backend, args.threads, &on_event)
         .with_context(|| format!("run of plan `{}` failed", plan.id))?;
+    drop(t);
+    let t = crate::timings::span("render sample frames");
     runner::render_sample_frames(&plan, &mut results, backend)
         .with_context(|| format!("cannot render the sample frames of plan `{}`", plan.id))?;
+    drop(t);
     bar.finish_and_clear();
     // The report stage takes seconds on large plans: say what it does.
     let stage = if std::io::stderr().is_terminal() {
@@ -755,7 +768,9 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     };
     stage.set_message(format!("analysing {} cases", results.len()));
 
+    let t = crate::timings::span("report model (analyses)");
     let mut model = report::build(&plan, backend.id(), &results);
+    drop(t);
     if let Some(captured) = &captured {
         for case in &mut model.cases {
             if let Some(s) = captured.summaries().get(&case.id) {
@@ -773,6 +788,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     report::method::describe(&mut model, &plan);
     crate::interrupt::check()?;
     stage.set_message("drawing charts, writing report.html and report.pdf".to_string());
+    let t = crate::timings::span("write report");
     report::write_report(
         generation.path(),
         &model,
@@ -786,6 +802,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
         },
     )
     .with_context(|| format!("cannot write the report to `{}`", out.display()))?;
+    drop(t);
     if let (Some((key, key_files)), Some(signer)) = (signer_key, &args.signer) {
         let done = crate::signoff::sign(
             generation.path(),
@@ -819,6 +836,10 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
         let cmp = report::golden::compare(g, &model, &tolerances);
         print!("{}", cmp.to_text());
         drift = !cmp.ok();
+    }
+    drop(total);
+    if args.timings {
+        eprint!("{}", crate::timings::table(&crate::timings::take()));
     }
     Ok(if model.verdict == Verdict::Fail || drift {
         EXIT_FAIL
@@ -1042,6 +1063,25 @@ fn advise(a: AdviseArgs) -> anyhow::Result<i32> {
     Ok(EXIT_PASS)
 }
 
+/// The numpy peer's figure on the exact-core grid, measured now, and the
+/// batched core's ratio to it; a missing Python or numpy is said, not fatal.
+fn print_peer_ratio(rows: &[crate::bench::BenchRow]) {
+    let script =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/peer_closedform.py");
+    let Some(ours) = rows.iter().find(|r| r.method == "exact core, batched") else {
+        return;
+    };
+    let ours = 1.0 / ours.time_s;
+    match crate::bench::numpy_peer(&script, std::time::Duration::from_secs(120)) {
+        Ok(peer) => println!(
+            "numpy peer (scripts/peer_closedform.py, same grid): {peer:.2e} integrals/s; \
+             exact core, batched: {ours:.2e} integrals/s = {:.1}x numpy",
+            ours / peer
+        ),
+        Err(e) => println!("numpy peer not measured: {e} (pip install numpy to compare)"),
+    }
+}
+
 fn bench(a: BenchArgs) -> anyhow::Result<i32> {
     use crate::analysis::{FINE_DUTY, FINE_FREQUENCY, finemap};
     if a.repeat == 0 {
@@ -1049,7 +1089,9 @@ fn bench(a: BenchArgs) -> anyhow::Result<i32> {
     }
     println!("{:<44} {:>14} {:>12}  note", "method", "time", "max error");
     let mut print_row = |r: &crate::bench::BenchRow| {
-        let time = if r.time_s < 1e-3 {
+        let time = if r.time_s < 1e-6 {
+            format!("{:.2} ns/{}", r.time_s * 1e9, r.per)
+        } else if r.time_s < 1e-3 {
             format!("{:.3} us/{}", r.time_s * 1e6, r.per)
         } else {
             format!("{:.3} s/{}", r.time_s, r.per)
@@ -1057,7 +1099,9 @@ fn bench(a: BenchArgs) -> anyhow::Result<i32> {
         let err = r.max_error.map_or("-".to_string(), |e| format!("{e:.2e}"));
         println!("{:<44} {:>14} {:>12}  {}", r.method, time, err, r.note);
     };
-    crate::bench::run(a.quick, &mut print_row).map_err(|e| anyhow::anyhow!("bench failed: {e}"))?;
+    let rows = crate::bench::run(a.quick, &mut print_row)
+        .map_err(|e| anyhow::anyhow!("bench failed: {e}"))?;
+    print_peer_ratio(&rows);
     let repeat = if a.quick { a.repeat.min(3) } else { a.repeat };
     let path = plan::resolve_plan_path(&a.plan)?;
     let plan = plan::load(&path)?;

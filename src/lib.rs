@@ -47,4 +47,5 @@ pub mod render;
 pub mod report;
 pub mod runner;
 pub mod signoff;
+pub mod timings;
 pub mod util;

@@ -166,14 +166,15 @@ impl Simulator {
                 } else {
                     0.0
                 };
+                let pwm_frames = pwm_frame_range(&frames);
+                let mut on = Vec::new();
+                shutter.frame_on_fractions(pwm, pwm_frames.clone(), roi.rows(), &mut on);
                 let luma = frames
                     .iter()
                     .map(|f| match f.segment {
                         Segment::On => out(case.duty, led),
                         Segment::Off => out(0.0, led),
-                        Segment::Pwm => {
-                            out(shutter.frame_on_fraction(pwm, f.index, roi.rows()), led)
-                        }
+                        Segment::Pwm => out(on[(f.index - pwm_frames.start) as usize], led),
                     })
                     .collect();
                 let (lo, hi) = shutter.phase_envelope(pwm, roi.rows());
@@ -564,5 +565,16 @@ impl Backend for Simulator {
         frame: u64,
     ) -> Option<Result<RenderedFrame, BackendError>> {
         Some(self.render(case, frame))
+    }
+}
+
+/// The frame indices of the PWM segment, which is one contiguous run (the
+/// sequence is ON, OFF, PWM); empty when the sequence has no PWM frames.
+fn pwm_frame_range(frames: &[FrameInfo]) -> std::ops::Range<u64> {
+    let mut pwm = frames.iter().filter(|f| f.segment == Segment::Pwm);
+    match (pwm.next(), pwm.next_back()) {
+        (Some(first), Some(last)) => first.index..last.index + 1,
+        (Some(first), None) => first.index..first.index + 1,
+        _ => 0..0,
     }
 }

@@ -44,7 +44,7 @@ impl Shutter {
 
     /// The rows whose exposures differ; a global shutter integrates one row
     /// for the whole ROI because every row sees the same light.
-    fn distinct_rows(&self, rows: Range<u32>) -> Range<u32> {
+    pub(crate) fn distinct_rows(&self, rows: Range<u32>) -> Range<u32> {
         match self.model {
             ShutterModel::Global => rows.start..rows.start + 1,
             ShutterModel::Rolling { line_time_s: 0.0 } => rows.start..rows.start + 1,

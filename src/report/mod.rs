@@ -161,8 +161,14 @@ fn replace_dir(dir: &Path, name: &str, files: &[(String, Vec<u8>)]) -> Result<()
 /// Renders report.html and report.pdf from `doc` into `dir`, atomically.
 /// Returns the PDF's page count.
 pub fn write_renderings(dir: &Path, doc: &document::Document) -> Result<usize, ReportError> {
-    let html = html::render_document(doc)?;
-    let (pdf, pages) = pdf::render(doc)?;
+    let html = {
+        let _t = crate::timings::span("report: html");
+        html::render_document(doc)?
+    };
+    let (pdf, pages) = {
+        let _t = crate::timings::span("report: pdf (typst)");
+        pdf::render(doc)?
+    };
     let path = dir.join("report.html");
     write_atomic(&path, html.as_bytes()).map_err(io_err(&path))?;
     let path = dir.join("report.pdf");
@@ -193,6 +199,7 @@ pub fn write_report(
         }
     }
 
+    let t = crate::timings::span("report: traces and frames");
     let traces: Vec<(String, Vec<u8>)> = results
         .iter()
         .map(|r| (format!("{}.csv", r.case.id), trace_csv(r).into_bytes()))
@@ -223,6 +230,8 @@ pub fn write_report(
         replace_dir(dir, document::FRAMES_DIR, &frames)?;
     }
 
+    drop(t);
+    let t = crate::timings::span("report: charts");
     let mut model = model.clone();
     model.report = Some(document::ReportMeta {
         date: options.date.clone(),
@@ -242,7 +251,9 @@ pub fn write_report(
         })
         .collect();
     replace_dir(dir, document::CHARTS_DIR, &files)?;
+    drop(t);
     write_renderings(dir, &doc)?;
+    let _t = crate::timings::span("report: exports and results.json");
 
     for (name, text) in [
         (export::JUNIT_FILE, export::junit_xml(model)),

@@ -1,0 +1,116 @@
+//! Timing spans for `plan --timings`: where a run spends its wall time.
+//!
+//! A span is recorded when its guard drops, only when timings were switched
+//! on for this process, so the instrumented code pays one atomic load
+//! otherwise. Depth is per thread (spans opened on rayon workers nest
+//! under nothing). Spans may nest (the report stage holds its parts); the table
+//! prints them in the order they finished, with their nesting depth.
+
+use std::cell::Cell;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+static ENABLED: AtomicBool = AtomicBool::new(false);
+static SPANS: Mutex<Vec<Span>> = Mutex::new(Vec::new());
+
+thread_local! {
+    /// Nesting depth of the open spans of this thread.
+    static DEPTH: Cell<usize> = const { Cell::new(0) };
+}
+
+/// One finished span.
+#[derive(Debug, Clone)]
+pub struct Span {
+    /// What ran, e.g. "report: pdf".
+    pub name: &'static str,
+    /// Nesting depth when it started (0 = top level).
+    pub depth: usize,
+    /// Wall time in seconds.
+    pub seconds: f64,
+}
+
+/// Switches recording on for the rest of the process.
+pub fn enable() {
+    ENABLED.store(true, Ordering::Relaxed);
+}
+
+/// Records the wall time from now until the guard drops, under `name`.
+#[must_use = "the span ends when the guard drops"]
+pub fn span(name: &'static str) -> Guard {
+    if !ENABLED.load(Ordering::Relaxed) {
+        return Guard(None);
+    }
+    let depth = DEPTH.with(|d| {
+        let v = d.get();
+        d.set(v + 1);
+        v
+    });
+    Guard(Some((name, depth, Instant::now())))
+}
+
+/// Ends its span when dropped.
+pub struct Guard(Option<(&'static str, usize, Instant)>);
+
+impl Drop for Guard {
+    fn drop(&mut self) {
+        if let Some((name, depth, start)) = self.0.take() {
+            DEPTH.with(|d| d.set(d.get().saturating_sub(1)));
+            let seconds = start.elapsed().as_secs_f64();
+            if let Ok(mut spans) = SPANS.lock() {
+                spans.push(Span {
+                    name,
+                    depth,
+                    seconds,
+                });
+            }
+        }
+    }
+}
+
+/// The spans recorded so far, in the order they finished.
+pub fn take() -> Vec<Span> {
+    SPANS
+        .lock()
+        .map(|mut s| std::mem::take(&mut *s))
+        .unwrap_or_default()
+}
+
+/// The spans as an indented table, children above their parent.
+pub fn table(spans: &[Span]) -> String {
+    let mut out = String::from("timings (wall, seconds):\n");
+    for s in spans {
+        out.push_str(&format!(
+            "  {:indent$}{:<width$} {:>8.3}\n",
+            "",
+            s.name,
+            s.seconds,
+            indent = 2 * s.depth,
+            width = 34 - 2 * s.depth.min(8)
+        ));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spans_nest_and_record_only_when_enabled() {
+        drop(span("before enable"));
+        enable();
+        {
+            let _outer = span("outer");
+            let _inner = span("inner");
+        }
+        // Other tests may record spans meanwhile: look at ours only.
+        let spans: Vec<_> = take()
+            .into_iter()
+            .filter(|s| ["before enable", "outer", "inner"].contains(&s.name))
+            .collect();
+        let names: Vec<_> = spans.iter().map(|s| (s.name, s.depth)).collect();
+        assert_eq!(names, vec![("inner", 1), ("outer", 0)]);
+        assert!(table(&spans).contains("    inner"));
+    }
+}
