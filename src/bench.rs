@@ -284,6 +284,71 @@ pub fn numpy_peer(script: &std::path::Path, timeout: std::time::Duration) -> Res
         .ok_or_else(|| "no integrals_per_s line in its output".into())
 }
 
+/// The 8K calibration scene of `ledflicker bench --calibrate-8k` and
+/// `cargo bench --bench calibrate`: a 7680 x 4320 16-bit PNG of a 1 kHz,
+/// 50 % LED seen by a sensor reading 4320 rows in 15.7 ms, with noise and
+/// vignetting. Writes it to `path`.
+pub fn write_8k_frame(path: &std::path::Path) -> Result<(), String> {
+    crate::calibrate::synth::SynthFrame {
+        width: 7680,
+        height: 4320,
+        line_time_s: 3.641e-6,
+        noise_dn: 200.0,
+        vignetting: 0.3,
+        bits16: true,
+        ..crate::calibrate::synth::SynthFrame::base()
+    }
+    .save(path, 90)
+}
+
+/// One `calibrate` of the 8K frame at `frame`, as the command runs it:
+/// read the frame, estimate the bands, fit the camera, write the profile to
+/// `profile_out`, and close the loop through the simulator (all 4320 rows).
+/// Returns the closed-loop `profile_rms`.
+pub fn calibrate_8k_once(
+    frame: &std::path::Path,
+    profile_out: &std::path::Path,
+) -> Result<f64, String> {
+    use crate::calibrate::profile::{self, ProfileOptions};
+    let set =
+        crate::calibrate::frames::load(std::slice::from_ref(&frame.to_path_buf()), None, None)
+            .map_err(|e| e.to_string())?;
+    let light = crate::calibrate::Light {
+        frequency_hz: 1000.0,
+        frequency_sigma_hz: 0.0,
+        duty: None,
+    };
+    let cal = crate::calibrate::calibrate(&set, light).map_err(|e| e.to_string())?;
+    let opts = ProfileOptions {
+        name: "bench".to_string(),
+        fps: None,
+    };
+    std::fs::write(profile_out, profile::profile_toml(&cal, &opts)).map_err(|e| e.to_string())?;
+    let fps = profile::frame_rate(&cal, &opts);
+    profile::closed_loop(&cal, profile_out, fps).map(|(_, rms)| rms)
+}
+
+/// Wall times, seconds, of `reps` runs of [`calibrate_8k_once`] (sorted),
+/// and the closed-loop `profile_rms` of the last run.
+pub fn calibrate_8k(reps: usize) -> Result<(Vec<f64>, f64), String> {
+    let dir = tempfile::Builder::new()
+        .prefix("ledflicker-bench-8k-")
+        .tempdir()
+        .map_err(|e| e.to_string())?;
+    let frame = dir.path().join("frame-8k.png");
+    write_8k_frame(&frame)?;
+    let out = dir.path().join("profile.toml");
+    let mut times = Vec::with_capacity(reps);
+    let mut rms = f64::NAN;
+    for _ in 0..reps.max(1) {
+        let t = Instant::now();
+        rms = calibrate_8k_once(&frame, &out)?;
+        times.push(t.elapsed().as_secs_f64());
+    }
+    times.sort_by(f64::total_cmp);
+    Ok((times, rms))
+}
+
 /// Runs the bench. `quick` makes it CI-sized (a few seconds).
 pub fn run(
     quick: bool,

@@ -173,6 +173,10 @@ struct BenchArgs {
     /// Timed repetitions of the fine map (>= 1); the median is reported.
     #[arg(long, default_value_t = 11)]
     repeat: usize,
+    /// Also time `calibrate` on a synthetic 8K frame (7680 x 4320, 16-bit
+    /// PNG; read, band estimate, fit, profile, closed loop), 5 runs.
+    #[arg(long = "calibrate-8k")]
+    calibrate_8k: bool,
 }
 
 #[derive(Args, Debug)]
@@ -1136,6 +1140,18 @@ fn bench(a: BenchArgs) -> anyhow::Result<i32> {
         1e3 * times[times.len() - 1],
         repeat
     );
+    if a.calibrate_8k {
+        let (t, rms) = crate::bench::calibrate_8k(5)
+            .map_err(|e| anyhow::anyhow!("bench of calibrate on an 8K frame failed: {e}"))?;
+        println!(
+            "calibrate, one 8K frame (7680 x 4320, 16-bit PNG), {} threads: median {:.2} s (min {:.2}, max {:.2}) over {} runs; closed-loop profile_rms {rms:.4}",
+            rayon::current_num_threads(),
+            t[t.len() / 2],
+            t[0],
+            t[t.len() - 1],
+            t.len()
+        );
+    }
     Ok(EXIT_PASS)
 }
 

@@ -257,15 +257,31 @@ fn print_text(cal: &super::Calibration, out: Option<&std::path::Path>) -> std::i
         "line_time_us:   {}",
         pm(cal.line_time_us, cal.line_time_us_sigma, 4)
     )?;
-    match (cal.exposure_us, cal.exposure_us_sigma, cal.exposure_us_max) {
-        (Some(e), Some(s), _) => writeln!(w, "exposure_us:    {}", pm(e, s, 2))?,
-        (_, _, Some(m)) => writeln!(
+    match (
+        cal.exposure_us,
+        cal.exposure_us_sigma,
+        cal.exposure_us_min,
+        cal.exposure_us_max,
+    ) {
+        (Some(e), Some(s), _, _) => writeln!(w, "exposure_us:    {}", pm(e, s, 2))?,
+        (_, _, Some(lo), Some(hi)) => writeln!(
+            w,
+            "exposure_us:    {lo:.2} ..= {hi:.2} (undetermined: rows clip, only duty + exposure is fixed; give --duty)"
+        )?,
+        (_, _, None, Some(m)) => writeln!(
             w,
             "exposure_us:    <= {m:.2} (undetermined: edges sharper than a row)"
         )?,
         _ => {}
     }
-    writeln!(w, "duty:           {}", pm(cal.duty, cal.duty_sigma, 4))?;
+    match (cal.duty, cal.duty_sigma, cal.duty_min, cal.duty_max) {
+        (Some(d), Some(s), _, _) => writeln!(w, "duty:           {}", pm(d, s, 4))?,
+        (_, _, Some(lo), Some(hi)) => writeln!(
+            w,
+            "duty:           {lo:.4} ..= {hi:.4} (undetermined: rows clip; give --duty)"
+        )?,
+        _ => {}
+    }
     writeln!(w, "gamma:          {}", pm(cal.gamma, cal.gamma_sigma, 3))?;
     match (
         cal.black_level_dn,

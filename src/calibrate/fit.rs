@@ -84,7 +84,7 @@ impl ModelParams {
 }
 
 /// Illumination falloff `g(r)`.
-fn shading(v: &[f64], r: usize, n: usize) -> f64 {
+pub fn shading(v: &[f64], r: usize, n: usize) -> f64 {
     let t = 2.0 * r as f64 / (n.max(2) - 1) as f64 - 1.0;
     1.0 + v[idx::V1] * t + v[idx::V2] * t * t
 }

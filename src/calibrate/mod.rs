@@ -81,10 +81,22 @@ pub struct Calibration {
     pub exposure_us_sigma: Option<f64>,
     /// Upper bound when the exposure is undetermined, microseconds.
     pub exposure_us_max: Option<f64>,
-    /// Duty cycle (given or fitted).
-    pub duty: f64,
+    /// Lower bound when the exposure is undetermined, microseconds: set
+    /// when clipped rows leave only `duty + exposure` determined.
+    pub exposure_us_min: Option<f64>,
+    /// Duty cycle (given or fitted); `None` when clipped rows leave it
+    /// undetermined, with `duty_min..=duty_max` beside it.
+    pub duty: Option<f64>,
     /// Its sigma (0 when given).
-    pub duty_sigma: f64,
+    pub duty_sigma: Option<f64>,
+    /// Lower bound when the duty is undetermined.
+    pub duty_min: Option<f64>,
+    /// Upper bound when the duty is undetermined.
+    pub duty_max: Option<f64>,
+    /// Duty of the fitted model (one member of the family when the duty is
+    /// undetermined), used for the closed loop.
+    #[serde(skip)]
+    pub model_duty: f64,
     /// Tone curve `y = u^(1/gamma)`: gamma.
     pub gamma: f64,
     /// Its sigma.
@@ -280,7 +292,10 @@ fn summarise(
     let exposure_s = v[idx::EXPOSURE] / f;
     let exposure_sigma = exposure_s * (s[idx::EXPOSURE] / v[idx::EXPOSURE]).hypot(rel_f);
     let exposure_rows = v[idx::EXPOSURE] * p;
-    let determined = exposure_rows >= 1.0 && exposure_sigma < 0.5 * exposure_s;
+    let traded = (saturated && light.duty.is_none())
+        .then(|| traded_bounds(&fit.params, data.first().map_or(0, Vec::len)))
+        .flatten();
+    let determined = traded.is_none() && exposure_rows >= 1.0 && exposure_sigma < 0.5 * exposure_s;
     let vmax = data
         .iter()
         .flatten()
@@ -298,10 +313,16 @@ fn summarise(
         line_time_us_sigma: line_time * rel_t * 1e6,
         exposure_us: determined.then_some(exposure_s * 1e6),
         exposure_us_sigma: determined.then_some(exposure_sigma * 1e6),
-        exposure_us_max: (!determined)
-            .then(|| (exposure_s + 2.0 * exposure_sigma).max(line_time) * 1e6),
-        duty: v[idx::DUTY],
-        duty_sigma: s[idx::DUTY],
+        exposure_us_max: match traded {
+            Some((_, hi)) => Some(hi / f * 1e6),
+            None => (!determined).then(|| (exposure_s + 2.0 * exposure_sigma).max(line_time) * 1e6),
+        },
+        exposure_us_min: traded.map(|(lo, _)| lo / f * 1e6),
+        duty: traded.is_none().then_some(v[idx::DUTY]),
+        duty_sigma: traded.is_none().then_some(s[idx::DUTY]),
+        duty_min: traded.map(|(lo, _)| lo),
+        duty_max: traded.map(|(_, hi)| hi.min(1.0)),
+        model_duty: v[idx::DUTY],
         gamma: v[idx::GAMMA],
         gamma_sigma: s[idx::GAMMA],
         black_level_dn: black.value,
@@ -324,6 +345,40 @@ fn summarise(
         frame_size: set.frame_size,
         measured: data.first().cloned().unwrap_or_default(),
     }
+}
+
+/// Bounds, in PWM cycles, on the duty `D` and the exposure `e` when rows
+/// clip and the duty is not given (docs/calibration.md, "Saturation").
+/// The frames fix the rising slope of the linear level, `k = c1 / e`, and
+/// the base width of a band, `D + e`; the family `c1 / e = k`,
+/// `D + e = sum` fits them all equally, as long as its peak,
+/// `c0 + k g min(D, e)`, is hidden above the clipping level `u_S`. So
+/// `min(D, e) >= m = (u_S - c0) / (k g_max)` and both lie in
+/// `[m, sum - m]`. `None` when the fit is not of that kind (no room
+/// between the bounds).
+fn traded_bounds(params: &ModelParams, rows: usize) -> Option<(f64, f64)> {
+    let v = &params.values;
+    let (e, d) = (v[idx::EXPOSURE], v[idx::DUTY]);
+    let sum = d + e;
+    let k = v[idx::C1] / e.max(1e-12);
+    let black = v[idx::BLACK].max(0.0);
+    let u_s = ((params.clip - black) / params.full_scale)
+        .clamp(0.0, 1.0)
+        .powf(v[idx::GAMMA]);
+    let g_max = [0, rows / 2, rows.saturating_sub(1)]
+        .into_iter()
+        .map(|r| fit::shading(v, r, rows.max(2)))
+        .chain(vertex_shading(v))
+        .fold(f64::MIN_POSITIVE, f64::max);
+    let m = ((u_s - v[idx::C0].max(0.0)) / (k * g_max)).max(0.0);
+    (k.is_finite() && m.is_finite() && sum - m > m).then_some((m, sum - m))
+}
+
+/// The falloff at its extremum inside the rows, if it has one there.
+fn vertex_shading(v: &[f64]) -> Option<f64> {
+    let (v1, v2) = (v[idx::V1], v[idx::V2]);
+    let t = -v1 / (2.0 * v2);
+    (v2 != 0.0 && t.abs() <= 1.0).then_some(1.0 + v1 * t + v2 * t * t)
 }
 
 #[cfg(test)]

@@ -96,13 +96,22 @@ pub fn profile_toml(cal: &Calibration, opts: &ProfileOptions) -> String {
                 "# {e:.2} +- {s:.2} us, from the width of the band edges."
             );
         }
-        _ => {
-            let _ = writeln!(
-                t,
-                "# Undetermined (edges sharper than a row): at most {:.2} us, written as the bound.",
-                exposure * 1e6
-            );
-        }
+        _ => match cal.exposure_us_min {
+            Some(lo) => {
+                let _ = writeln!(
+                    t,
+                    "# Undetermined (rows clip; only duty + exposure is fixed): {lo:.2} to {:.2} us,\n# written as the upper bound. Calibrate with --duty or below clipping to fix it.",
+                    exposure * 1e6
+                );
+            }
+            None => {
+                let _ = writeln!(
+                    t,
+                    "# Undetermined (edges sharper than a row): at most {:.2} us, written as the bound.",
+                    exposure * 1e6
+                );
+            }
+        },
     }
     let _ = writeln!(t, "exposure-ms = {:.7}", exposure * 1e3);
     let _ = writeln!(
@@ -196,7 +205,7 @@ pub fn closed_loop_plan(cal: &Calibration, profile: &Path, fps: f64) -> String {
         "format-version = 2\n\n[plan]\nid = \"calibration-check\"\ntitle = \"Closed loop of ledflicker calibrate\"\n\n[sequence]\non-s = 0.0\noff-s = 0.0\npwm-s = {}\n\n[light]\nlevels-lux = [{lux:?}]\n\n[grid]\nfrequencies-hz = [{:?}]\nduty-cycles = [{:?}]\n\n[dut]\nbackend = \"simulator\"\ncamera-profile = {}\n\n[scene]\nbackground-reflectance = 1.0\nled-luminance-cd-m2 = {REFERENCE_LED_CD_M2:?}\nled-fill = 1.0\n\n[thresholds]\nfdi-2018-min = 0.1\n",
         2.0 / fps,
         cal.frequency_hz,
-        cal.duty.clamp(1e-6, 1.0),
+        cal.model_duty.clamp(1e-6, 1.0),
         toml_str(&profile.display().to_string())
     );
     for r in 0..cal.rows as u32 {

@@ -268,6 +268,20 @@ pub fn cases() -> Vec<RecoveryCase> {
             "tif",
             tol,
         ),
+        // The LED at 3x what the output can hold: rows clip at full scale,
+        // so only duty + exposure is fixed and both come out as bounds.
+        RecoveryCase {
+            bounds: &["exposure", "duty"],
+            ..case(
+                "clipped (LED at 3x full scale)",
+                SynthFrame {
+                    led_level: 3.0,
+                    ..base.clone()
+                },
+                "png",
+                tol,
+            )
+        },
         // Texture and JPEG together (see above).
         RecoveryCase {
             bounds: &["black"],
@@ -306,7 +320,8 @@ pub fn recover(case: &RecoveryCase, dir: &Path, index: usize) -> Result<Recovery
     let exposure = match (cal.exposure_us, cal.exposure_us_sigma) {
         (Some(e), Some(s)) => Recovered::value(e / true_exposure_us - 1.0, s / true_exposure_us),
         _ => Recovered::Bound {
-            holds: cal.exposure_us_max.is_some_and(|m| true_exposure_us <= m),
+            holds: cal.exposure_us_max.is_some_and(|m| true_exposure_us <= m)
+                && cal.exposure_us_min.is_none_or(|m| true_exposure_us >= m),
         },
     };
     let a = fr.full_scale();
@@ -323,7 +338,15 @@ pub fn recover(case: &RecoveryCase, dir: &Path, index: usize) -> Result<Recovery
             cal.line_time_us_sigma * 1e-6 / fr.line_time_s,
         ),
         exposure,
-        duty: Recovered::value(cal.duty - fr.duty, cal.duty_sigma),
+        duty: match (cal.duty, cal.duty_sigma) {
+            (Some(d), Some(s)) => Recovered::value(d - fr.duty, s),
+            _ => Recovered::Bound {
+                holds: cal
+                    .duty_min
+                    .zip(cal.duty_max)
+                    .is_some_and(|(lo, hi)| (lo..=hi).contains(&fr.duty)),
+            },
+        },
         gamma: Recovered::value(cal.gamma / fr.gamma - 1.0, cal.gamma_sigma / fr.gamma),
         black,
         fit_rms: cal.fit_rms,
