@@ -206,21 +206,27 @@ pub fn write_report(
         .collect();
     replace_dir(dir, "traces", &traces)?;
 
-    let mut frames: Vec<(String, Vec<u8>)> = Vec::new();
-    for (r, f) in results
-        .iter()
-        .filter_map(|r| r.sample_frame.as_ref().map(|f| (r, f)))
-    {
-        frames.push((format!("{}.png", r.case.id), frames::png_bytes(f)?));
-        // The annotated view beside the frame (frames::view_path).
-        let info = model.cases.iter().find(|c| c.id == r.case.id);
-        if let Some(info) = info.and_then(|c| c.sample_frame.as_ref()) {
-            frames.push((
-                format!("{}-view.png", r.case.id),
-                frames::view_png(f, &info.rois)?,
-            ));
-        }
-    }
+    // PNG encoding is independent per frame: in parallel, in case order.
+    let encoded: Vec<Vec<(String, Vec<u8>)>> = {
+        use rayon::prelude::*;
+        results
+            .par_iter()
+            .filter_map(|r| r.sample_frame.as_ref().map(|f| (r, f)))
+            .map(|(r, f)| {
+                let mut out = vec![(format!("{}.png", r.case.id), frames::png_bytes(f)?)];
+                // The annotated view beside the frame (frames::view_path).
+                let info = model.cases.iter().find(|c| c.id == r.case.id);
+                if let Some(info) = info.and_then(|c| c.sample_frame.as_ref()) {
+                    out.push((
+                        format!("{}-view.png", r.case.id),
+                        frames::view_png(f, &info.rois)?,
+                    ));
+                }
+                Ok(out)
+            })
+            .collect::<Result<_, ReportError>>()?
+    };
+    let frames: Vec<(String, Vec<u8>)> = encoded.into_iter().flatten().collect();
     if frames.is_empty() {
         let old = dir.join(document::FRAMES_DIR);
         if old.exists() {

@@ -354,18 +354,25 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         total: results.len(),
         ..Counts::default()
     };
-    // The analyses are independent per case: in parallel, collected in order.
-    let analyses: Vec<analysis::CaseAnalysis> = {
+    // The analyses and the sample frames' banding are independent per
+    // case: in parallel, collected in order.
+    let analyses: Vec<_> = {
         use rayon::prelude::*;
         results
             .par_iter()
-            .map(|r| analysis::analyse_case(plan, r))
+            .map(|r| {
+                let frame = r
+                    .sample_frame
+                    .as_ref()
+                    .map(|f| super::frames::sample_frame_info(&r.case.id, f, &plan.rois));
+                (analysis::analyse_case(plan, r), frame)
+            })
             .collect()
     };
     let cases = results
         .iter()
         .zip(analyses)
-        .map(|(r, a)| {
+        .map(|(r, (a, sample_frame))| {
             match r.verdict {
                 Verdict::Pass => counts.pass += 1,
                 Verdict::Fail => counts.fail += 1,
@@ -432,10 +439,7 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
                     && in_mitigation_range(r.case.frequency_hz, &plan.thresholds),
                 frames: r.acquisition.frames.len(),
                 trace: trace_path(&r.case.id),
-                sample_frame: r
-                    .sample_frame
-                    .as_ref()
-                    .map(|f| super::frames::sample_frame_info(&r.case.id, f, &plan.rois)),
+                sample_frame,
                 rois,
                 checks: r.checks.clone(),
                 apparent_frequency_hz: a.beat.apparent_frequency_hz,
