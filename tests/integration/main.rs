@@ -1,5 +1,6 @@
 //! Integration tests: one binary (ripgrep style) with a module per area.
 
+mod advice;
 mod banding;
 mod beyond;
 mod calibrate;
@@ -15,6 +16,7 @@ mod report;
 mod results;
 mod robust;
 mod signoff;
+mod timing;
 mod verdicts;
 
 use std::path::{Path, PathBuf};
