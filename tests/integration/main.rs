@@ -4,6 +4,7 @@ mod advice;
 mod banding;
 mod beyond;
 mod calibrate;
+mod camera_model;
 mod captured;
 mod cli;
 mod detect;
