@@ -7,6 +7,7 @@
 //! Nothing in here knows about plans or reports.
 
 pub mod ae;
+pub mod extremes;
 pub mod hdr;
 pub mod pwm;
 pub mod sensor;
