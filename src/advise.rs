@@ -16,11 +16,25 @@
 //! takes the short capture, so the set is judged by its shorter captures
 //! `T* / ratio`: the table gives the share of the range where each can lose
 //! the LED. (Per-pixel merge rules belong to the camera model, issue 3.)
+//!
+//! Frame time: a camera at `fps` frames per second cannot expose longer
+//! than its frame time `1 / fps`; an HDR camera whose captures run one
+//! after the other in the frame (sequential, DOL) has that time for all of
+//! them, so its long capture `T` satisfies `T + sum_i T / r_i + sum_j F_j
+//! <= 1 / fps` (ratio captures `T / r_i`, fixed captures `F_j`). Split-pixel
+//! captures run at the same time and each has the whole frame time. Advice
+//! with a [`FrameBound`] offers no exposure beyond that bound: longer ones
+//! are listed in `left_out` with the reason, and when even the longest
+//! exposure the camera can make is at or below `T*`, the advice says so and
+//! names the lowest frequency (at `D_min`) and the lowest duty (at `f_min`)
+//! that the longest exposure always catches: `f > (1 - D_min) / T_max`,
+//! `D > 1 - f_min T_max`.
 
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::analysis::finemap::Axis;
+use crate::physics::hdr::{Capture, CaptureExposure, HdrMode};
 use crate::physics::{PwmDrive, Shutter, ShutterModel};
 
 /// What to advise on.
@@ -38,6 +52,90 @@ pub struct AdviseRequest {
     pub speed_px_per_s: Option<f64>,
     /// Exposure ratios of shorter HDR captures (> 1), e.g. `[4, 16]`.
     pub hdr_ratios: Vec<f64>,
+    /// The camera's frame time, which bounds every exposure; `None`: no bound.
+    pub frame: Option<FrameBound>,
+}
+
+/// What bounds an exposure: the frame time less the frame's other captures.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FrameBound {
+    /// Frame rate, frames/s (> 0).
+    pub fps: f64,
+    /// Sum of the other captures' exposures as fractions of the advised
+    /// capture's (sequential HDR: `sum 1 / r_i`; 0 for one capture or
+    /// split pixels).
+    pub other_ratio: f64,
+    /// Sum of the other captures' fixed exposures, seconds.
+    pub other_fixed_s: f64,
+}
+
+impl FrameBound {
+    /// A single-capture camera (or split pixels) at `fps`.
+    pub fn frame_time(fps: f64) -> Self {
+        Self {
+            fps,
+            other_ratio: 0.0,
+            other_fixed_s: 0.0,
+        }
+    }
+
+    /// Sequential HDR captures at `fps` whose shorter captures are the long
+    /// one over `ratios`.
+    pub fn sequential(fps: f64, ratios: &[f64]) -> Self {
+        Self {
+            fps,
+            other_ratio: ratios.iter().map(|r| 1.0 / r).sum(),
+            other_fixed_s: 0.0,
+        }
+    }
+
+    /// The frame bound of the first of `captures` (the long one, whose
+    /// exposure is advised) at `fps`: sequential captures share the frame
+    /// time, split-pixel ones each have all of it.
+    pub fn of_captures(fps: f64, captures: &[Capture], mode: HdrMode) -> Self {
+        let mut b = Self::frame_time(fps);
+        if mode == HdrMode::Sequential {
+            for c in captures.iter().skip(1) {
+                match c.exposure {
+                    CaptureExposure::Ratio(r) => b.other_ratio += r,
+                    CaptureExposure::Fixed(s) => b.other_fixed_s += s,
+                }
+            }
+        }
+        b
+    }
+
+    /// Longest exposure of the advised capture: `(1 / fps - fixed) / (1 +
+    /// ratio)`, seconds (may be <= 0: nothing fits).
+    pub fn max_exposure_s(&self) -> f64 {
+        (1.0 / self.fps - self.other_fixed_s) / (1.0 + self.other_ratio)
+    }
+
+    /// Why an exposure beyond the bound is left out.
+    fn reason(&self) -> String {
+        let frame_ms = 1e3 / self.fps;
+        if self.other_ratio == 0.0 && self.other_fixed_s == 0.0 {
+            format!(
+                "longer than the frame time {frame_ms:.3} ms at {} fps",
+                self.fps
+            )
+        } else {
+            format!(
+                "longer than {:.3} ms, the frame time {frame_ms:.3} ms at {} fps less the other captures",
+                self.max_exposure_s() * 1e3,
+                self.fps
+            )
+        }
+    }
+}
+
+/// An exposure the advice does not offer, and why.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LeftOut {
+    /// Exposure, seconds.
+    pub exposure_s: f64,
+    /// Why the camera cannot make it.
+    pub reason: String,
 }
 
 /// An invalid request.
@@ -76,6 +174,21 @@ pub struct Advice {
     pub hdr: Vec<Candidate>,
     /// Cells in the residual grid.
     pub grid_cells: usize,
+    /// The frame bound applied, if any.
+    pub frame: Option<FrameBound>,
+    /// Longest exposure the camera can make, seconds (with a frame bound).
+    pub max_exposure_s: Option<f64>,
+    /// Multiples of `T*` (and HDR captures) beyond the bound, not offered.
+    pub left_out: Vec<LeftOut>,
+    /// Set when no exposure the camera can make keeps the LED over the
+    /// whole range: what it cannot cover, and what it can.
+    pub infeasible: Option<String>,
+    /// Lowest frequency at `D_min` that the longest exposure always
+    /// catches, Hz (`(1 - D_min) / T_max`, strictly above); with a bound.
+    pub lowest_covered_frequency_hz: Option<f64>,
+    /// Lowest duty at `f_min` that the longest exposure always catches
+    /// (`1 - f_min T_max`, strictly above; 0: every duty); with a bound.
+    pub lowest_covered_duty: Option<f64>,
 }
 
 /// Multiples of `T*` tabulated.
@@ -160,23 +273,77 @@ pub fn advise(req: &AdviseRequest) -> Result<Advice, AdviseError> {
         ));
     }
     let bound = (1.0 - d0) / f0;
+    let t_max = match req.frame {
+        Some(fb) => {
+            let t = fb.max_exposure_s();
+            if !(fb.fps.is_finite() && fb.fps > 0.0 && t > 0.0) {
+                return Err(AdviseError(format!(
+                    "at {} fps the other captures leave no time in the frame for an exposure",
+                    fb.fps
+                )));
+            }
+            Some(t)
+        }
+        None => None,
+    };
+    let fits = |t: f64| t_max.is_none_or(|m| t <= m * (1.0 + 1e-12));
     let fa = axis(req.frequency_hz, req.frequency_step_hz);
     let da = axis(req.duty, req.duty_step);
-    let candidates = MULTIPLES
-        .iter()
-        .map(|m| evaluate(bound * m, bound, fa, da, req.speed_px_per_s))
-        .collect();
-    let hdr = req
-        .hdr_ratios
-        .iter()
-        .map(|r| evaluate(bound / r, bound, fa, da, req.speed_px_per_s))
-        .collect();
+    let eval = |t: f64| evaluate(t, bound, fa, da, req.speed_px_per_s);
+    let mut left_out = Vec::new();
+    let mut candidates = Vec::new();
+    for m in MULTIPLES {
+        let t = bound * m;
+        if fits(t) {
+            candidates.push(eval(t));
+        } else if let Some(fb) = req.frame {
+            left_out.push(LeftOut {
+                exposure_s: t,
+                reason: fb.reason(),
+            });
+        }
+    }
+    // The longest exposure the camera can make, when the table stops short
+    // of it (or offers nothing).
+    if let Some(m) = t_max
+        && candidates
+            .last()
+            .is_none_or(|c| c.exposure_s < m * (1.0 - 1e-9))
+        && MULTIPLES.iter().any(|k| bound * k > m)
+    {
+        candidates.push(eval(m));
+    }
+    // HDR: the short captures of a long capture at T* (or at the longest
+    // the camera can make, if shorter).
+    let long = t_max.map_or(bound, |m| bound.min(m));
+    let hdr = req.hdr_ratios.iter().map(|r| eval(long / r)).collect();
+    let covered = t_max.map(|m| ((1.0 - d0) / m, (1.0 - f0 * m).max(0.0)));
+    let infeasible = match (t_max, req.frame) {
+        (Some(m), Some(fb)) if m <= bound => {
+            let (fc, dc) = covered.unwrap_or_default();
+            Some(format!(
+                "no exposure this camera can make keeps the LED over the whole range: T* = {:.3} ms, but the longest exposure is {:.3} ms at {} fps; at this frame rate the longest exposure always catches the LED only above {fc:.1} Hz at duty {:.1} %, or above duty {:.1} % at {f0} Hz",
+                bound * 1e3,
+                m * 1e3,
+                fb.fps,
+                100.0 * d0,
+                100.0 * dc
+            ))
+        }
+        _ => None,
+    };
     Ok(Advice {
         min_exposure_s: bound,
         binding: (f0, d0),
         candidates,
         hdr,
         grid_cells: fa.count * da.count,
+        frame: req.frame,
+        max_exposure_s: t_max,
+        left_out,
+        infeasible,
+        lowest_covered_frequency_hz: covered.map(|c| c.0),
+        lowest_covered_duty: covered.map(|c| c.1),
     })
 }
 
@@ -196,6 +363,27 @@ pub fn table(a: &Advice) -> String {
         2.0 * f0,
         (1.0 + d0) / 2.0
     );
+    if let (Some(fb), Some(m)) = (a.frame, a.max_exposure_s) {
+        let _ = writeln!(
+            out,
+            "frame bound: at {} fps the longest exposure is {:.4} ms (frame time {:.4} ms{}); nothing longer is offered.",
+            fb.fps,
+            m * 1e3,
+            1e3 / fb.fps,
+            if fb.other_ratio > 0.0 || fb.other_fixed_s > 0.0 {
+                " less the other captures"
+            } else {
+                ""
+            }
+        );
+        if let Some(why) = &a.infeasible {
+            let _ = writeln!(out, "{why}.");
+        }
+        for l in &a.left_out {
+            let _ = writeln!(out, "left out: {:.4} ms, {}", l.exposure_s * 1e3, l.reason);
+        }
+        out.push('\n');
+    }
     let blur = a.candidates.iter().any(|c| c.blur_px.is_some());
     let _ = writeln!(
         out,
@@ -247,13 +435,15 @@ pub fn curve(req: &AdviseRequest, points: usize) -> Result<Vec<Candidate>, Advis
     let fa = axis(req.frequency_hz, req.frequency_step_hz);
     let da = axis(req.duty, req.duty_step);
     let n = points.max(2);
+    let t_max = a.max_exposure_s.unwrap_or(f64::INFINITY);
     Ok((0..n)
         .map(|i| {
-            // Log-spaced from T*/4 to 4 T*.
+            // Log-spaced from T*/4 to 4 T*, none beyond the frame bound.
             let x = -2.0 + 4.0 * i as f64 / (n - 1) as f64;
-            let t = a.min_exposure_s * 2f64.powf(x);
-            evaluate(t, a.min_exposure_s, fa, da, req.speed_px_per_s)
+            a.min_exposure_s * 2f64.powf(x)
         })
+        .filter(|&t| t <= t_max)
+        .map(|t| evaluate(t, a.min_exposure_s, fa, da, req.speed_px_per_s))
         .collect())
 }
 
@@ -270,6 +460,7 @@ mod tests {
             duty_step: 0.05,
             speed_px_per_s: Some(1000.0),
             hdr_ratios: vec![4.0],
+            frame: None,
         };
         let a = advise(&req).unwrap();
         let brute = (0..=51)
@@ -303,10 +494,131 @@ mod tests {
             duty_step: 0.01,
             speed_px_per_s: None,
             hdr_ratios: vec![],
+            frame: None,
         };
         assert!(advise(&req).is_err());
         req.frequency_hz = (90.0, 100.0);
         req.duty = (0.0, 0.5);
         assert!(advise(&req).is_err());
+    }
+
+    fn request(
+        f: (f64, f64),
+        d: (f64, f64),
+        frame: Option<FrameBound>,
+        hdr: Vec<f64>,
+    ) -> AdviseRequest {
+        AdviseRequest {
+            frequency_hz: f,
+            duty: d,
+            frequency_step_hz: 5.0,
+            duty_step: 0.05,
+            speed_px_per_s: None,
+            hdr_ratios: hdr,
+            frame,
+        }
+    }
+
+    /// A 60 fps camera: nothing beyond 16.67 ms is offered; the multiples
+    /// of T* beyond it are listed with the reason, and the frame time itself
+    /// is offered instead.
+    #[test]
+    fn no_offer_exceeds_the_frame_time() {
+        let fb = FrameBound::frame_time(60.0);
+        let a = advise(&request((90.0, 600.0), (0.1, 0.9), Some(fb), vec![])).unwrap();
+        assert!((a.min_exposure_s - 0.01).abs() < 1e-15);
+        assert!(
+            a.candidates
+                .iter()
+                .all(|c| c.exposure_s <= 1.0 / 60.0 + 1e-15)
+        );
+        assert_eq!(a.left_out.len(), 3, "{:?}", a.left_out);
+        assert!(
+            a.left_out[0]
+                .reason
+                .contains("frame time 16.667 ms at 60 fps")
+        );
+        let last = a.candidates.last().unwrap();
+        assert!((last.exposure_s - 1.0 / 60.0).abs() < 1e-15);
+        assert_eq!(last.loses_led_fraction, 0.0);
+        assert!(a.infeasible.is_none());
+        let unbounded = advise(&request((90.0, 600.0), (0.1, 0.9), None, vec![])).unwrap();
+        assert_eq!(unbounded.candidates.len(), MULTIPLES.len());
+        // The chart's curve stops at the bound too.
+        let curve = curve(&request((90.0, 600.0), (0.1, 0.9), Some(fb), vec![]), 33).unwrap();
+        assert!(curve.iter().all(|c| c.exposure_s <= 1.0 / 60.0 + 1e-15));
+        assert!(curve.len() < 33);
+    }
+
+    /// T* = (1 - 0.11) / 45 Hz = 19.8 ms does not fit a 60 fps frame: the
+    /// advice says so, offers only the frame time, and names what it covers;
+    /// checked against the exact envelope just above and below.
+    #[test]
+    fn infeasible_range_names_what_the_frame_rate_can_cover() {
+        let fb = FrameBound::frame_time(60.0);
+        let a = advise(&request((45.0, 400.0), (0.11, 0.5), Some(fb), vec![])).unwrap();
+        assert_eq!(a.candidates.len(), 1);
+        assert!(a.candidates[0].loses_led_fraction > 0.0);
+        assert_eq!(a.left_out.len(), MULTIPLES.len());
+        let why = a.infeasible.as_deref().unwrap();
+        assert!(why.contains("no exposure this camera can make"), "{why}");
+        let t = 1.0 / 60.0;
+        let fc = a.lowest_covered_frequency_hz.unwrap();
+        let dc = a.lowest_covered_duty.unwrap();
+        assert!((fc - 0.89 * 60.0).abs() < 1e-9 && (dc - 0.25).abs() < 1e-12);
+        let shutter = Shutter {
+            model: ShutterModel::Global,
+            exposure_s: t,
+            fps: 60.0,
+        };
+        let lowest = |f: f64, d: f64| {
+            shutter
+                .phase_envelope(&PwmDrive::new(f, d, 0.0).unwrap(), 0..1)
+                .0
+        };
+        assert!(lowest(fc * 1.001, 0.11) > 0.0 && lowest(fc * 0.999, 0.11) <= 1e-12);
+        assert!(lowest(45.0, dc + 0.001) > 0.0 && lowest(45.0, dc - 0.001) <= 1e-12);
+    }
+
+    /// Sequential HDR at 30 fps with captures T, T/4, T/16: the long capture
+    /// gets (1/30) / (1 + 1/4 + 1/16) = 25.4 ms, and every offer fits the frame
+    /// with its short captures.
+    #[test]
+    fn sequential_hdr_shares_the_frame_time() {
+        let fb = FrameBound::sequential(30.0, &[4.0, 16.0]);
+        let a = advise(&request(
+            (50.0, 400.0),
+            (0.1, 0.9),
+            Some(fb),
+            vec![4.0, 16.0],
+        ))
+        .unwrap();
+        let m = a.max_exposure_s.unwrap();
+        assert!((m - (1.0 / 30.0) / 1.3125).abs() < 1e-15);
+        for c in &a.candidates {
+            assert!(c.exposure_s * (1.0 + 0.25 + 0.0625) <= 1.0 / 30.0 + 1e-15);
+        }
+        let split = FrameBound::of_captures(
+            30.0,
+            &[
+                Capture {
+                    name: "L".into(),
+                    exposure: CaptureExposure::Ratio(1.0),
+                    sensitivity_ratio: 1.0,
+                },
+                Capture {
+                    name: "S".into(),
+                    exposure: CaptureExposure::Fixed(0.011),
+                    sensitivity_ratio: 0.1,
+                },
+            ],
+            HdrMode::SplitPixel,
+        );
+        assert_eq!(split.max_exposure_s(), 1.0 / 30.0);
+        let seq = FrameBound {
+            other_fixed_s: 0.04,
+            ..split
+        };
+        assert!(advise(&request((50.0, 400.0), (0.1, 0.9), Some(seq), vec![])).is_err());
     }
 }

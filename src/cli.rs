@@ -154,6 +154,10 @@ struct AdviseArgs {
     /// Exposure ratio of a shorter HDR capture (repeatable), e.g. 4 and 16.
     #[arg(long)]
     hdr_ratio: Vec<f64>,
+    /// The camera's frame rate: no exposure beyond its frame time (less the
+    /// shorter HDR captures, taken one after the other) is offered.
+    #[arg(long)]
+    fps: Option<f64>,
     /// Also write a plot of residual flicker against exposure to this SVG.
     #[arg(long)]
     svg: Option<PathBuf>,
@@ -1044,7 +1048,15 @@ fn advise(a: AdviseArgs) -> anyhow::Result<i32> {
     {
         return Err(UsageError("--speed-px-per-s must be >= 0".into()).into());
     }
+    if a.fps
+        .is_some_and(|f| !(f.is_finite() && f > 0.0 && f <= 1000.0))
+    {
+        return Err(UsageError("--fps must be > 0 and at most 1000".into()).into());
+    }
     let req = AdviseRequest {
+        frame: a
+            .fps
+            .map(|f| crate::advise::FrameBound::sequential(f, &a.hdr_ratio)),
         frequency_hz: (a.min_hz, a.max_hz),
         duty: (a.min_duty, a.max_duty),
         frequency_step_hz: a.hz_step,

@@ -28,12 +28,34 @@ pub fn phase_step_cycles(frequency_hz: f64, fps: f64) -> f64 {
     if r > 0.5 { r - 1.0 } else { r }
 }
 
+/// Where an apparent frequency came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ApparentMethod {
+    /// The PWM frequency is known: `|f - fps round(f / fps)|` with the
+    /// frame rate of the frames' own times (the simulator's clock, or a
+    /// capture's container timestamps, sidecar or `frame-rate-fps`).
+    FrameTimes,
+    /// The PWM frequency is unknown: the dominant frequency of the LED
+    /// trace's spectrum, to within `resolution_hz`.
+    Spectrum,
+}
+
 /// The beat of a case: its apparent frequency and whether the capture was
 /// long enough to show one full beat.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Beat {
-    /// Apparent frequency from the physics, Hz (0 when phase locked).
+    /// Apparent frequency, Hz (0 when phase locked, or when the PWM
+    /// frequency is unknown and the spectrum shows none).
     pub apparent_frequency_hz: f64,
+    /// How `apparent_frequency_hz` was found.
+    pub method: ApparentMethod,
+    /// Frame rate used, frames/s: the camera's, or measured from the frames'
+    /// times for captures and rigs.
+    pub frame_rate_fps: f64,
+    /// Resolution of the spectrum (one bin, `fps / frames`), Hz, when the
+    /// frequency comes from the spectrum.
+    pub resolution_hz: Option<f64>,
     /// One beat, `1 / f_a`, in seconds; `None` when phase locked (infinite).
     pub period_s: Option<f64>,
     /// Duration of the PWM capture, seconds.
@@ -64,9 +86,50 @@ pub fn beat(frequency_hz: f64, fps: f64, capture_s: f64) -> Beat {
     };
     Beat {
         apparent_frequency_hz: fa,
+        method: ApparentMethod::FrameTimes,
+        frame_rate_fps: fps,
+        resolution_hz: None,
         period_s,
         capture_s,
         longer_than_capture: longer,
+        note,
+    }
+}
+
+/// The beat of a trace whose PWM frequency is unknown, from its spectrum
+/// `measured` (at `fps` frames/s, over `capture_s` seconds, one bin
+/// `resolution_hz`).
+pub fn beat_from_spectrum(
+    measured: &Result<f64, SpectrumError>,
+    fps: f64,
+    capture_s: f64,
+    resolution_hz: f64,
+) -> Beat {
+    let (fa, note) = match measured {
+        Ok(fa) => {
+            let p = 1.0 / fa;
+            (
+                *fa,
+                format!(
+                    "the PWM frequency is unknown: measured from the LED trace's spectrum, the video flickers at {fa:.4} Hz (resolution {resolution_hz:.4} Hz, peak refined between bins; one beat every {p:.4} s, {:.1} beats in the capture at {fps:.4} fps); the strongest component is taken as the beat, though it can be an aliased PWM harmonic",
+                    capture_s / p
+                ),
+            )
+        }
+        Err(e) => (
+            0.0,
+            format!("the PWM frequency is unknown and the LED trace's spectrum gives no beat: {e}"),
+        ),
+    };
+    let period_s = (fa > 0.0).then(|| 1.0 / fa);
+    Beat {
+        apparent_frequency_hz: fa,
+        method: ApparentMethod::Spectrum,
+        frame_rate_fps: fps,
+        resolution_hz: Some(resolution_hz),
+        period_s,
+        capture_s,
+        longer_than_capture: period_s.is_none_or(|p| p > capture_s),
         note,
     }
 }

@@ -14,7 +14,8 @@
 //! - [`banding`]: band period, contrast and velocity of a rolling shutter;
 //! - [`finemap`]: worst-phase FDI and Percent Flicker over frequency x duty;
 //! - [`colour`]: per-channel modulation and chroma shift (RGB and white LEDs);
-//! - [`summary`]: `simulate --summary`.
+//! - [`summary`]: `simulate --summary`;
+//! - [`timing`]: frame rate, drops and spectrum from a capture's own frame times.
 
 pub mod apparent;
 pub mod banding;
@@ -24,19 +25,21 @@ pub mod finemap;
 pub mod hazard;
 pub mod phase_fold;
 pub mod summary;
+pub mod timing;
 
 use serde::Serialize;
 
 use crate::metrics::flicker::Segment;
 use crate::physics::{PwmDrive, Shutter, ShutterModel};
-use crate::plan::{CameraConfig, Plan, RoiKind, ShutterKind};
+use crate::plan::{BackendKind, CameraConfig, Plan, RoiKind, ShutterKind};
 use crate::runner::CaseResult;
 
-pub use apparent::Beat;
+pub use apparent::{ApparentMethod, Beat};
 pub use banding::Banding;
 pub use drive::DriveFlicker;
 pub use hazard::HazardClass;
 pub use phase_fold::PhaseCoverage;
+pub use timing::FrameTiming;
 
 /// Exposure timing of the plan's camera: shutter model, exposure and frame
 /// rate. (Built here from the plan rather than taken from the simulator, so
@@ -62,8 +65,12 @@ pub struct RoiAnalysis {
     pub apparent_frequency_spectrum_hz: Option<f64>,
     /// Why the spectrum gave no frequency, or why it differs from `f_a`.
     pub spectrum_reason: Option<String>,
-    /// What the flicker looks like (from the physics' apparent frequency
-    /// and the trace's Percent Flicker).
+    /// The apparent frequency the hazard class is judged on, Hz.
+    pub apparent_frequency_hz: f64,
+    /// Where `apparent_frequency_hz` came from.
+    pub apparent_method: ApparentMethod,
+    /// What the flicker looks like (from the apparent frequency and the
+    /// trace's Percent Flicker).
     pub hazard_class: HazardClass,
     /// Every named band the apparent frequency falls in (when visible).
     pub hazard_matches: Vec<HazardClass>,
@@ -75,26 +82,93 @@ pub struct RoiAnalysis {
     /// Exact (min, max) luma over phase, when known, for the chart.
     #[serde(skip)]
     pub envelope: Option<(f64, f64)>,
+    /// The dominant frequency of the spectrum, or why there is none.
+    #[serde(skip)]
+    pub spectrum: Result<f64, apparent::SpectrumError>,
 }
 
-/// Analyses one trace of the PWM segment: `frames` (frame numbers; frame
-/// `n` starts at `n / fps`) and `luma` (DN) of the PWM frames, the PWM `frequency_hz`, `fps`, the ROI's
-/// first-row offset `row_offset_s`, its exact `envelope` if known and its
-/// Percent Flicker as captured.
+/// When the frames of a trace were taken.
+#[derive(Debug, Clone, Copy)]
+pub enum Sampling<'a> {
+    /// Frame `n` starts at `n / fps` exactly (the simulator's clock).
+    Numbered {
+        /// Frame numbers.
+        frames: &'a [u64],
+        /// Frame rate, frames/s.
+        fps: f64,
+    },
+    /// Frames start at their own measured times (captures and rigs).
+    Timed(&'a FrameTiming),
+}
+
+impl Sampling<'_> {
+    /// Frame rate, frames/s.
+    pub fn fps(&self) -> f64 {
+        match self {
+            Sampling::Numbered { fps, .. } => *fps,
+            Sampling::Timed(t) => t.fps,
+        }
+    }
+
+    /// Duration of the capture, seconds.
+    pub fn capture_s(&self) -> f64 {
+        match self {
+            Sampling::Numbered { frames, fps } => frames.len() as f64 / fps,
+            Sampling::Timed(t) => t.capture_s,
+        }
+    }
+
+    /// The spectrum of `luma`: an FFT over regular frames, a direct
+    /// Fourier sum over the real times otherwise.
+    fn spectrum(&self, luma: &[f64]) -> Result<f64, apparent::SpectrumError> {
+        match self {
+            Sampling::Timed(t) if !t.regular => {
+                timing::dominant_frequency_at_times_hz(&t.times_s, luma, t.fps)
+            }
+            _ => apparent::dominant_frequency_hz(luma, self.fps()),
+        }
+    }
+
+    /// (phase, luma) of each frame for a PWM (or beat) at `frequency_hz`.
+    fn fold(&self, luma: &[f64], frequency_hz: f64, row_offset_s: f64) -> Vec<(f64, f64)> {
+        match self {
+            Sampling::Numbered { frames, fps } => {
+                phase_fold::fold(frames, luma, frequency_hz, *fps, row_offset_s)
+            }
+            Sampling::Timed(t) => {
+                phase_fold::fold_times(&t.times_s, luma, frequency_hz, row_offset_s)
+            }
+        }
+    }
+}
+
+/// Analyses one trace of the PWM segment: its `sampling`, `luma` (DN) of
+/// the PWM frames, the PWM `frequency_hz` when known, the ROI's first-row
+/// offset `row_offset_s`, its exact `envelope` if known and its Percent
+/// Flicker as captured.
+///
+/// With the frequency known, the apparent frequency is
+/// `|f - fps round(f / fps)|` at the frame rate of `sampling`, and frames
+/// are folded by PWM phase. Without it, the apparent frequency is the
+/// dominant frequency of the spectrum, and frames are folded by the phase
+/// of that beat: at frame times `t_n = n / fps` the PWM phase
+/// `frac(f t_n)` equals `frac(+-f_a t_n)`, so the bins hit are the same up
+/// to a reflection of the circle.
 pub fn analyse_trace(
-    frames: &[u64],
+    sampling: &Sampling<'_>,
     luma: &[f64],
-    frequency_hz: f64,
-    fps: f64,
+    frequency_hz: Option<f64>,
     row_offset_s: f64,
     envelope: Option<(f64, f64)>,
     percent_flicker: Option<f64>,
 ) -> RoiAnalysis {
-    let fa = apparent::apparent_frequency_hz(frequency_hz, fps);
+    let fps = sampling.fps();
     let resolution = fps / luma.len().max(1) as f64;
-    let (spectrum_hz, spectrum_reason) = match apparent::dominant_frequency_hz(luma, fps) {
-        Ok(s) => {
-            let note = match apparent::aliased_harmonic(s, frequency_hz, fps, resolution) {
+    let spectrum = sampling.spectrum(luma);
+    let (spectrum_hz, spectrum_reason) = match (&spectrum, frequency_hz) {
+        (Ok(s), Some(f)) => {
+            let fa = apparent::apparent_frequency_hz(f, fps);
+            let note = match apparent::aliased_harmonic(*s, f, fps, resolution) {
                 Some(1) => None,
                 Some(k) => Some(format!(
                     "the strongest component is PWM harmonic {k} aliased to {s:.4} Hz; the fundamental's alias f_a is {fa:.4} Hz"
@@ -103,20 +177,49 @@ pub fn analyse_trace(
                     "the strongest component ({s:.4} Hz) is not an alias of the PWM harmonics 1-8 (f_a = {fa:.4} Hz)"
                 )),
             };
-            (Some(s), note)
+            (Some(*s), note)
         }
-        Err(e) => (None, Some(e.to_string())),
+        (Ok(s), None) => (Some(*s), None),
+        (Err(e), _) => (None, Some(e.to_string())),
     };
-    let (hazard_class, hazard_matches) = hazard::classify(fa, percent_flicker);
-    let points = phase_fold::fold(frames, luma, frequency_hz, fps, row_offset_s);
+    let visible = percent_flicker.is_some_and(|p| p >= hazard::VISIBLE_PERCENT_FLICKER);
+    let (fa, method, fold_hz, row_offset) = match frequency_hz {
+        Some(f) => (
+            apparent::apparent_frequency_hz(f, fps),
+            ApparentMethod::FrameTimes,
+            f,
+            row_offset_s,
+        ),
+        None => {
+            let s = spectrum_hz.unwrap_or(0.0);
+            (s, ApparentMethod::Spectrum, s, 0.0)
+        }
+    };
+    let (hazard_class, hazard_matches) = match (&spectrum, frequency_hz) {
+        // A visible beat slower than the capture resolves: a slow pulsing.
+        (Err(apparent::SpectrumError::Unresolved(_)), None) if visible => {
+            (HazardClass::SlowDrift, Vec::new())
+        }
+        _ => hazard::classify(fa, percent_flicker),
+    };
+    let points = sampling.fold(luma, fold_hz, row_offset);
     RoiAnalysis {
         apparent_frequency_spectrum_hz: spectrum_hz,
         spectrum_reason,
+        apparent_frequency_hz: fa,
+        apparent_method: method,
         hazard_class,
         hazard_matches,
-        phase_coverage: phase_fold::coverage(&points, fps, frequency_hz, envelope),
+        phase_coverage: phase_fold::coverage_over(
+            &points,
+            fps,
+            sampling.capture_s(),
+            fold_hz,
+            envelope,
+        ),
         folded_bins: phase_fold::bin_extremes(&points, phase_fold::PHASE_BINS),
         envelope,
+        spectrum,
     }
 }
 
@@ -135,11 +238,15 @@ pub struct CaseAnalysis {
     pub rois: Vec<RoiAnalysis>,
 }
 
-/// Analyses a finished case with the plan's camera.
+/// Analyses a finished case. The simulator's frames run on the plan
+/// camera's clock (`n / fps`); captured and rig frames carry their own
+/// times, which give the frame rate, the fold and the coverage. A case
+/// whose PWM frequency is unknown (0) takes its apparent frequency from the
+/// spectrum of its LED trace.
 pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
     let cam: &CameraConfig = &plan.dut.camera;
     let f = r.case.frequency_hz;
-    let fps = cam.fps;
+    let known = (f > 0.0).then_some(f);
     let shutter = shutter_of(cam);
     let pwm_frames: Vec<usize> = r
         .acquisition
@@ -153,7 +260,22 @@ pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
         .iter()
         .map(|&i| r.acquisition.frames[i].index)
         .collect();
-    let capture_s = numbers.len() as f64 / fps;
+    let timing = (plan.dut.backend != BackendKind::Simulator)
+        .then(|| {
+            let times: Vec<f64> = pwm_frames
+                .iter()
+                .map(|&i| r.acquisition.frames[i].time_s)
+                .collect();
+            timing::from_times(&times)
+        })
+        .flatten();
+    let sampling = match &timing {
+        Some(t) => Sampling::Timed(t),
+        None => Sampling::Numbered {
+            frames: &numbers,
+            fps: cam.fps,
+        },
+    };
     let rois: Vec<RoiAnalysis> = r
         .acquisition
         .rois
@@ -163,34 +285,70 @@ pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
         .map(|((trace, roi), m)| {
             let luma: Vec<f64> = pwm_frames.iter().map(|&i| trace.luma[i]).collect();
             analyse_trace(
-                &numbers,
+                &sampling,
                 &luma,
-                f,
-                fps,
+                known,
                 shutter.row_offset_s(roi.y_px),
                 trace.phase_envelope,
                 m.percent_flicker.value,
             )
         })
         .collect();
-    let hazard_class = plan
-        .rois
-        .iter()
-        .zip(&rois)
-        .filter(|(roi, _)| roi.kind == RoiKind::Led)
-        .map(|(_, a)| a.hazard_class)
+    let led = || {
+        plan.rois
+            .iter()
+            .zip(&rois)
+            .filter(|(roi, _)| roi.kind == RoiKind::Led)
+            .map(|(_, a)| a)
+    };
+    let hazard_class = led()
+        .map(|a| a.hazard_class)
         .max()
         .unwrap_or(HazardClass::Steady);
     let banding = PwmDrive::new(f, r.case.duty, cam.pwm_delay_s)
         .ok()
         .and_then(|pwm| banding::banding(&shutter, &pwm, cam.sensor_rows));
+    let (fps, capture_s) = (sampling.fps(), sampling.capture_s());
+    let mut beat = match known {
+        Some(f) => apparent::beat(f, fps, capture_s),
+        None => {
+            // The most salient LED ROI (the first of the case's class).
+            let measured = led()
+                .find(|a| a.hazard_class == hazard_class)
+                .or_else(|| rois.first())
+                .map_or(Err(apparent::SpectrumError::TooShort(0)), |a| {
+                    a.spectrum.clone()
+                });
+            let resolution = fps / numbers.len().max(1) as f64;
+            apparent::beat_from_spectrum(&measured, fps, capture_s, resolution)
+        }
+    };
+    if let Some(t) = &timing {
+        beat.note += &timing_note(t);
+    }
     CaseAnalysis {
-        beat: apparent::beat(f, fps, capture_s),
+        beat,
         hazard_class,
         drive: drive::drive_flicker(f, r.case.duty),
         banding,
         rois,
     }
+}
+
+/// How a capture's frame times were used, for the beat's note.
+fn timing_note(t: &FrameTiming) -> String {
+    let irregular = if t.regular {
+        String::new()
+    } else {
+        format!(
+            "; the times are irregular ({} dropped frames), so the fold, the coverage and the spectrum use each frame's real time",
+            t.dropped_frames
+        )
+    };
+    format!(
+        "; frame rate {:.4} fps from the frames' own times{irregular}",
+        t.fps
+    )
 }
 
 /// The ideal linear camera of a plan at `lux`: the luma model the

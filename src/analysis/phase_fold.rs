@@ -64,6 +64,24 @@ pub fn fold(
         .collect()
 }
 
+/// (phase in cycles `[0, 1)`, luma) of frames starting at `times_s`
+/// seconds: `frac((t + row_offset_s) * frequency_hz)`. Used for captures and
+/// rigs, whose frames carry their own times (drops and a variable frame
+/// rate fold where the frames really fell).
+pub fn fold_times(
+    times_s: &[f64],
+    luma: &[f64],
+    frequency_hz: f64,
+    row_offset_s: f64,
+) -> Vec<(f64, f64)> {
+    let offset = wrap_unit(row_offset_s * frequency_hz);
+    times_s
+        .iter()
+        .zip(luma)
+        .map(|(&t, &y)| (wrap_unit((t * frequency_hz).rem_euclid(1.0) + offset), y))
+        .collect()
+}
+
 fn frame_phase(n: u64, frequency_hz: f64, fps: f64, offset: f64) -> f64 {
     wrap_unit(((n as f64 * frequency_hz) % fps) / fps + offset)
 }
@@ -132,9 +150,26 @@ pub fn coverage(
     frequency_hz: f64,
     envelope: Option<(f64, f64)>,
 ) -> PhaseCoverage {
+    coverage_over(
+        points,
+        fps,
+        points.len() as f64 / fps,
+        frequency_hz,
+        envelope,
+    )
+}
+
+/// [`coverage`] of a capture lasting `capture_s` seconds (its frames' own
+/// times; frames may be missing).
+pub fn coverage_over(
+    points: &[(f64, f64)],
+    fps: f64,
+    capture_s: f64,
+    frequency_hz: f64,
+    envelope: Option<(f64, f64)>,
+) -> PhaseCoverage {
     let bins = PHASE_BINS;
     let covered = covered_bins(points.iter().map(|p| p.0), bins);
-    let capture_s = points.len() as f64 / fps;
     let phase0 = points.first().map_or(0.0, |p| p.0);
     let max_frames = (MAX_NEEDED_CAPTURE_S * fps).ceil() as u64;
     let needed_capture_s =

@@ -83,11 +83,14 @@ pub fn summarise(
     let max = luma.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let mean = luma.iter().sum::<f64>() / luma.len().max(1) as f64;
     let pf = percent_flicker(min, max);
+    let sampling = super::Sampling::Numbered {
+        frames: &numbers,
+        fps: shutter.fps,
+    };
     let analysis = super::analyse_trace(
-        &numbers,
+        &sampling,
         &luma,
-        pwm.frequency_hz(),
-        shutter.fps,
+        Some(pwm.frequency_hz()),
         shutter.row_offset_s(rows.start),
         Some(envelope),
         pf.value,

@@ -118,7 +118,7 @@ pub fn method(plan: &Plan) -> Method {
         }
     };
     let verdict_basis = match basis {
-        VerdictBasis::WorstPhase => "Verdicts on FDI (2018) and Percent Flicker use the worst case over PWM phase, computed by the simulator; the IEEE P2020 KPIs (FMI, FDI, MMP) count frames and are judged on the trace as simulated.".to_string(),
+        VerdictBasis::WorstPhase => format!("Verdicts on FDI (2018) and Percent Flicker use the worst case over PWM phase, computed by the simulator{}; the IEEE P2020 KPIs (FMI, FDI, MMP) count frames and are judged on the trace as simulated.", physical_worst_case_words(plan)),
         VerdictBasis::AsCaptured if plan.dut.backend == BackendKind::Simulator => "Verdicts use the trace as simulated, at the plan's PWM phase (basis = \"as-captured\"); the worst case over phase is reported but not judged.".to_string(),
         VerdictBasis::AsCaptured => "Verdicts use the trace as captured: a recording shows only the PWM phases it caught, so there is no worst case over phase.".to_string(),
     };
@@ -127,6 +127,25 @@ pub fn method(plan: &Plan) -> Method {
         acquisition,
         verdict_basis,
         limits: limits_lines(&plan.thresholds),
+    }
+}
+
+/// How a physical camera's worst case over phase is found (issue 20;
+/// docs/camera-model.md, "Worst case over phase"); empty for the ideal
+/// camera, whose worst case is exact from its corners.
+fn physical_worst_case_words(plan: &Plan) -> &'static str {
+    use crate::physics::hdr::{MergeRule, ToneCurve};
+    let Some(p) = &plan.dut.camera.physical else {
+        return "";
+    };
+    let concave = !matches!(p.tone.curve, ToneCurve::Gamma(g) if g < 1.0);
+    match p.merge {
+        MergeRule::LongestUnsaturated if concave => {
+            " (auto exposure held at its final setting, noise off; searched between the phases where a capture edge meets a PWM edge or a capture starts or stops saturating, exact to 1e-10 of a PWM cycle for this merge and tone curve)"
+        }
+        _ => {
+            " (auto exposure held at its final setting, noise off; searched between the phases where a capture edge meets a PWM edge or a capture crosses saturation or its merge weight's knee, plus 1 024 even phases, with a golden-section search where an interval's end slopes show an interior extreme: for this merge and tone curve that search is not proven exact, and is checked against a 16 384-phase brute force on the shipped profiles)"
+        }
     }
 }
 

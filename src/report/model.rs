@@ -105,6 +105,7 @@ fn plan_advice(plan: &Plan) -> Option<PlanAdvice> {
         duty_step: ADVICE_STEP_DUTY,
         speed_px_per_s: None,
         hdr_ratios: Vec::new(),
+        frame: Some(frame_bound(plan)),
     };
     let advice = crate::advise::advise(&req).ok()?;
     let curve = crate::advise::curve(&req, 33).ok()?;
@@ -114,6 +115,16 @@ fn plan_advice(plan: &Plan) -> Option<PlanAdvice> {
         advice,
         curve,
     })
+}
+
+/// What bounds the plan camera's (long) exposure: its frame time, less its
+/// other captures when they run one after the other.
+fn frame_bound(plan: &Plan) -> crate::advise::FrameBound {
+    let cam = &plan.dut.camera;
+    match &cam.physical {
+        Some(p) => crate::advise::FrameBound::of_captures(cam.fps, &p.captures, p.hdr_mode),
+        None => crate::advise::FrameBound::frame_time(cam.fps),
+    }
 }
 
 /// Tool name and version.

@@ -1,8 +1,10 @@
 //! Integration tests: one binary (ripgrep style) with a module per area.
 
+mod advice;
 mod banding;
 mod beyond;
 mod calibrate;
+mod camera_model;
 mod captured;
 mod cli;
 mod detect;
@@ -15,6 +17,7 @@ mod report;
 mod results;
 mod robust;
 mod signoff;
+mod timing;
 mod verdicts;
 
 use std::path::{Path, PathBuf};
