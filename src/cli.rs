@@ -1,4 +1,4 @@
-//! Command-line interface: `plan`, `validate`, `simulate`, `advise`,
+//! Command-line interface: `plan`, `merge`, `validate`, `simulate`, `advise`,
 //! `bench`, `linetime`, `render`, `bands`, `calibrate`, `keygen`, `sign` and
 //! `verify`. `linetime`, `bands` and `calibrate` live in
 //! [`crate::calibrate::command`].
@@ -64,6 +64,9 @@ enum Command {
     /// Run a test plan and write results.json, traces, charts, report.html,
     /// report.pdf, junit.xml and summary.csv.
     Plan(PlanArgs),
+    /// Check the shard directories of a sharded run (`plan --shard`) and
+    /// write the whole plan's report, as one `plan` run would have.
+    Merge(crate::shard::command::MergeArgs),
     /// Check a test plan without running it.
     Validate {
         /// Plan file, or a plan name from test-plans/ (e.g. `daylight`).
@@ -262,12 +265,21 @@ struct PlanArgs {
     /// Per-metric tolerance, METRIC=VALUE (repeatable), e.g. fdi_2018=0.05.
     #[arg(long = "golden-tolerance", requires = "golden")]
     golden_tolerance: Vec<String>,
+    /// Run only shard K of N (numbered from 0) and write a shard directory
+    /// to --out for `ledflicker merge`, no report; `auto` reads a Slurm
+    /// array task or a Kubernetes Indexed Job (docs/scale-out.md).
+    #[arg(long, requires = "out", conflicts_with_all = ["golden", "sign_key"])]
+    shard: Option<String>,
 }
 
+/// `--detail` of `plan` and `merge`.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-enum DetailArg {
+pub enum DetailArg {
+    /// No case pages.
     Summary,
+    /// A page for each failing or not judged case.
     Standard,
+    /// A page for every case.
     Full,
 }
 
@@ -435,6 +447,7 @@ pub fn main() -> i32 {
 fn run(cli: Cli) -> anyhow::Result<i32> {
     match cli.command {
         Command::Plan(args) => run_plan(args),
+        Command::Merge(args) => crate::shard::command::merge(args),
         Command::Validate { plan } => validate(&plan),
         Command::Simulate(args) => simulate(args),
         Command::Advise(args) => advise(args),
@@ -623,7 +636,8 @@ fn validate(arg: &str) -> anyhow::Result<i32> {
     Ok(EXIT_PASS)
 }
 
-fn report_date(arg: Option<&str>) -> anyhow::Result<String> {
+/// The report date: `--date`, else $SOURCE_DATE_EPOCH, else today.
+pub(crate) fn report_date(arg: Option<&str>) -> anyhow::Result<String> {
     if let Some(d) = arg {
         let ok = d.len() == 10
             && d.chars().enumerate().all(|(i, c)| {
@@ -668,6 +682,16 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     let date = report_date(args.date.as_deref())?;
     if args.threads == Some(0) {
         return Err(UsageError("--threads must be at least 1".into()).into());
+    }
+    if let Some(spec) = &args.shard {
+        let spec = crate::shard::ShardSpec::parse(spec, &|k| std::env::var(k).ok())?;
+        return crate::shard::command::run_shard(&crate::shard::command::ShardRun {
+            plan: &plan,
+            spec,
+            out: args.out.as_deref().unwrap_or(std::path::Path::new(".")),
+            threads: args.threads,
+            quiet: args.quiet,
+        });
     }
     let out = args
         .out
@@ -755,22 +779,13 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     };
     stage.set_message(format!("analysing {} cases", results.len()));
 
-    let mut model = report::build(&plan, backend.id(), &results);
-    if let Some(captured) = &captured {
-        for case in &mut model.cases {
-            if let Some(s) = captured.summaries().get(&case.id) {
-                case.source = Some(s.source.clone());
-                case.capture = Some(s.clone());
-            }
-        }
-    }
-    if let Some(rig) = &rig {
-        let summaries = rig.summaries();
-        for case in &mut model.cases {
-            case.capture = summaries.get(&case.id).cloned();
-        }
-    }
-    report::method::describe(&mut model, &plan);
+    let backend_id = backend.id().to_string();
+    let summaries = match (&captured, &rig) {
+        (Some(c), _) => c.summaries().clone(),
+        (_, Some(r)) => r.summaries(),
+        _ => Default::default(),
+    };
+    let model = crate::shard::report_model(&plan, &backend_id, &results, &summaries);
     crate::interrupt::check()?;
     stage.set_message("drawing charts, writing report.html and report.pdf".to_string());
     report::write_report(

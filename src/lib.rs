@@ -46,5 +46,6 @@ pub mod plan;
 pub mod render;
 pub mod report;
 pub mod runner;
+pub mod shard;
 pub mod signoff;
 pub mod util;
