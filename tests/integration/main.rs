@@ -14,6 +14,7 @@ mod recgen;
 mod report;
 mod results;
 mod robust;
+mod shard;
 mod signoff;
 mod verdicts;
 
