@@ -450,3 +450,107 @@ fn a_merged_report_signs_and_verifies() {
     let o = merge(&dir, &[&s[0], &s[1], &s[2]]);
     assert_eq!(code(&o), 2, "{}", text(&o));
 }
+
+fn yaml(name: &str) -> serde_yaml::Value {
+    let path = root().join("examples/kubernetes").join(name);
+    serde_yaml::from_str(&std::fs::read_to_string(&path).unwrap())
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+fn strings(v: &serde_yaml::Value) -> Vec<String> {
+    v.as_sequence()
+        .unwrap()
+        .iter()
+        .map(|s| s.as_str().unwrap().to_string())
+        .collect()
+}
+
+/// The container's env var `name`, from the manifest.
+fn env_value(container: &serde_yaml::Value, name: &str) -> Option<String> {
+    container["env"]
+        .as_sequence()?
+        .iter()
+        .find(|e| e["name"] == name)
+        .and_then(|e| e["value"].as_str().map(str::to_string))
+}
+
+#[test]
+fn kubernetes_manifests_parse_and_their_commands_run() {
+    let pvc = yaml("volume.yaml");
+    let shards = yaml("shards-job.yaml");
+    let merge_job = yaml("merge-job.yaml");
+    assert_eq!(pvc["kind"], "PersistentVolumeClaim");
+    assert!(strings(&pvc["spec"]["accessModes"]).contains(&"ReadWriteMany".to_string()));
+    let claim = pvc["metadata"]["name"].as_str().unwrap();
+    let spec = &shards["spec"];
+    assert_eq!(shards["kind"], "Job");
+    assert_eq!(spec["completionMode"], "Indexed");
+    let completions = spec["completions"].as_u64().unwrap();
+    assert!(spec["parallelism"].as_u64().unwrap() <= completions);
+    let mut pods = Vec::new();
+    for job in [&shards, &merge_job] {
+        let pod = &job["spec"]["template"]["spec"];
+        assert_eq!(pod["restartPolicy"], "Never");
+        assert_eq!(
+            pod["volumes"][0]["persistentVolumeClaim"]["claimName"],
+            claim
+        );
+        let c = &pod["containers"][0];
+        assert_eq!(c["volumeMounts"][0]["name"], pod["volumes"][0]["name"]);
+        assert_eq!(c["volumeMounts"][0]["mountPath"], c["workingDir"]);
+        assert_eq!(strings(&c["command"]), ["ledflicker"]);
+        pods.push(c.clone());
+    }
+    assert_eq!(pods[0]["workingDir"], pods[1]["workingDir"]);
+    // --shard auto reads the count the manifest passes: spec.completions.
+    assert_eq!(
+        env_value(&pods[0], "LEDFLICKER_SHARD_COUNT"),
+        Some(completions.to_string())
+    );
+    let shard_args = strings(&pods[0]["args"]);
+    assert!(
+        shard_args.windows(2).any(|w| w == ["--shard", "auto"]),
+        "{shard_args:?}"
+    );
+    let merge_args = strings(&pods[1]["args"]);
+    assert_eq!(merge_args[0], "merge");
+
+    // Run both Jobs' commands as the pods would, in a scratch /work that
+    // holds the small plan under the manifest's plan path.
+    let work = scratch("shard-k8s");
+    let plan_arg = &shard_args[1];
+    std::fs::create_dir_all(work.join(plan_arg).parent().unwrap()).unwrap();
+    std::fs::copy(
+        root().join("tests/fixtures/plans/base.toml"),
+        work.join(plan_arg),
+    )
+    .unwrap();
+    for k in 0..completions {
+        let args: Vec<String> = shard_args
+            .iter()
+            .map(|a| a.replace("$(JOB_COMPLETION_INDEX)", &k.to_string()))
+            .collect();
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+            .args(&args)
+            .current_dir(&work)
+            .env_remove("SLURM_ARRAY_TASK_ID")
+            .env("JOB_COMPLETION_INDEX", k.to_string())
+            .env(
+                "LEDFLICKER_SHARD_COUNT",
+                env_value(&pods[0], "LEDFLICKER_SHARD_COUNT").unwrap(),
+            )
+            .output()
+            .unwrap();
+        assert_eq!(code(&o), 0, "shard {k}: {}", text(&o));
+    }
+    let o = run(
+        &merge_args.iter().map(String::as_str).collect::<Vec<_>>(),
+        &work,
+    );
+    assert_eq!(code(&o), 0, "{}", text(&o));
+    assert!(
+        text(&o).contains(&format!("merged {completions} shards")),
+        "{}",
+        text(&o)
+    );
+}
