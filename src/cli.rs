@@ -7,11 +7,11 @@
 //!
 //! | code | meaning |
 //! |---|---|
-//! | 0 | every judged case passed and at least one was judged (informational cases do not count); `verify`: every hash and signature matched and every signer is trusted (`--trust`) |
+//! | 0 | every judged case passed and at least one was judged (informational cases do not count); `plan --shard`: the shard ran and wrote its directory (verdicts are the merge's); `verify`: every hash and signature matched and every signer is trusted (`--trust`) |
 //! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash, signature or input mismatch, an untrusted signer, or no signature |
-//! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way |
+//! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way; `merge`: shards that do not fit together (missing, duplicated, of another plan, tool or seed, damaged) |
 //! | 3 | internal or backend error |
-//! | 4 | per command: `plan`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked; `linetime`, `bands`, `calibrate`: no confident estimate, the reason (flat rows, no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
+//! | 4 | per command: `plan`, `merge`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked; `linetime`, `bands`, `calibrate`: no confident estimate, the reason (flat rows, no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
 //! | 130, 143 | `plan` stopped by SIGINT (Ctrl-C) or SIGTERM (128 + signal); the old report is left as it was |
 
 use std::io::{IsTerminal, Write};
@@ -690,6 +690,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
             spec,
             out: args.out.as_deref().unwrap_or(std::path::Path::new(".")),
             threads: args.threads,
+            force: args.force,
             quiet: args.quiet,
         });
     }

@@ -57,6 +57,8 @@ pub struct ShardRun<'a> {
     pub out: &'a Path,
     /// Worker threads.
     pub threads: Option<usize>,
+    /// Replace a signed report at `out`.
+    pub force: bool,
     /// Print nothing on success.
     pub quiet: bool,
 }
@@ -65,6 +67,11 @@ pub struct ShardRun<'a> {
 /// the merge judges (a failing case must not stop a dependent merge job).
 pub fn run_shard(r: &ShardRun<'_>) -> anyhow::Result<i32> {
     let plan = r.plan;
+    if r.threads == Some(0) {
+        return Err(UsageError("--threads must be at least 1".into()).into());
+    }
+    // As `plan`: never a signed report without --force, never a user's folder.
+    report::check_overwrite(r.out, r.force)?;
     let generation = crate::outdir::Generation::begin(r.out)?;
     crate::interrupt::install();
     let all = plan::expand_cases(plan);
