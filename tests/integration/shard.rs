@@ -554,3 +554,78 @@ fn kubernetes_manifests_parse_and_their_commands_run() {
         text(&o)
     );
 }
+
+/// results.json with the rig's temporary frame directories
+/// (`.../ledflicker-rig-<pid>-<case>-<random>/frames`) blanked out: they
+/// differ between any two runs of a rig plan, sharded or not.
+fn without_rig_temp_dirs(json: &str) -> String {
+    let mut out = String::new();
+    let mut rest = json;
+    while let Some(i) = rest.find("ledflicker-rig-") {
+        out.push_str(&rest[..i]);
+        let tail = &rest[i..];
+        let end = tail.find("/frames").unwrap_or(tail.len());
+        out.push_str("ledflicker-rig-*");
+        rest = &tail[end..];
+    }
+    out.push_str(rest);
+    out
+}
+
+#[test]
+fn rig_plan_shards_by_case_and_merges() {
+    let dir = scratch("shard-rig");
+    let plan = "test-plans/command-sim-rig.toml";
+    let single = dir.join("single");
+    let o = run(
+        &[
+            "plan",
+            plan,
+            "--date",
+            DATE,
+            "-q",
+            "--out",
+            single.to_str().unwrap(),
+        ],
+        root(),
+    );
+    assert_eq!(code(&o), 0, "{}", text(&o));
+    let mut args = vec![
+        "merge".to_string(),
+        "--date".into(),
+        DATE.into(),
+        "-q".into(),
+    ];
+    args.extend(["--out".into(), dir.join("merged").display().to_string()]);
+    for k in 0..2 {
+        let out = dir.join(format!("s{k}"));
+        let spec = format!("{k}/2");
+        let o = run(
+            &[
+                "plan",
+                plan,
+                "--shard",
+                &spec,
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            root(),
+        );
+        assert_eq!(code(&o), 0, "{}", text(&o));
+        args.push(out.display().to_string());
+    }
+    let o = run(&args.iter().map(String::as_str).collect::<Vec<_>>(), root());
+    assert_eq!(code(&o), 0, "{}", text(&o));
+    for f in ["report.html", "report.pdf"] {
+        let a = std::fs::read(single.join(f)).unwrap();
+        let b = std::fs::read(dir.join("merged").join(f)).unwrap();
+        assert!(a == b, "rig plan: merged {f} differs");
+    }
+    let a = std::fs::read_to_string(single.join("results.json")).unwrap();
+    let b = std::fs::read_to_string(dir.join("merged/results.json")).unwrap();
+    assert!(
+        a.contains("ledflicker-rig-"),
+        "the rig's frame directories are named"
+    );
+    assert_eq!(without_rig_temp_dirs(&a), without_rig_temp_dirs(&b));
+}
