@@ -141,7 +141,7 @@ merge_code=$?
 set -e
 step "array job $array: task states"
 scontrol -o show job "$array" | grep -o 'JobId=[0-9]* ArrayJobId=[0-9]* ArrayTaskId=[0-9]*\|JobState=[A-Z]*\|ExitCode=[0-9:]*' |
-X
+    paste -d ' ' - - - || true
 for log in "$work"/logs/shard-*.out; do
     echo "== $(basename "$log")"
     cat "$log"
