@@ -1,4 +1,4 @@
-//! Command-line interface: `plan`, `validate`, `simulate`, `advise`,
+//! Command-line interface: `plan`, `merge`, `validate`, `simulate`, `advise`,
 //! `bench`, `linetime`, `render`, `bands`, `calibrate`, `keygen`, `sign` and
 //! `verify`. `linetime`, `bands` and `calibrate` live in
 //! [`crate::calibrate::command`].
@@ -7,11 +7,11 @@
 //!
 //! | code | meaning |
 //! |---|---|
-//! | 0 | every judged case passed and at least one was judged (informational cases do not count); `verify`: every hash and signature matched and every signer is trusted (`--trust`) |
+//! | 0 | every judged case passed and at least one was judged (informational cases do not count); `plan --shard`: the shard ran and wrote its directory (verdicts are the merge's); `verify`: every hash and signature matched and every signer is trusted (`--trust`) |
 //! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash, signature or input mismatch, an untrusted signer, or no signature |
-//! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way |
+//! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way; `merge`: shards that do not fit together (missing, duplicated, of another plan, tool or seed, damaged) |
 //! | 3 | internal or backend error |
-//! | 4 | per command: `plan`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked; `linetime`, `bands`, `calibrate`: no confident estimate, the reason (flat rows, no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
+//! | 4 | per command: `plan`, `merge`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked; `linetime`, `bands`, `calibrate`: no confident estimate, the reason (flat rows, no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
 //! | 130, 143 | `plan` stopped by SIGINT (Ctrl-C) or SIGTERM (128 + signal); the old report is left as it was |
 
 use std::io::{IsTerminal, Write};
@@ -64,6 +64,9 @@ enum Command {
     /// Run a test plan and write results.json, traces, charts, report.html,
     /// report.pdf, junit.xml and summary.csv.
     Plan(PlanArgs),
+    /// Check the shard directories of a sharded run (`plan --shard`) and
+    /// write the whole plan's report, as one `plan` run would have.
+    Merge(crate::shard::command::MergeArgs),
     /// Check a test plan without running it.
     Validate {
         /// Plan file, or a plan name from test-plans/ (e.g. `daylight`).
@@ -273,12 +276,21 @@ struct PlanArgs {
     /// Print where the wall time went (plan, run, report parts) to stderr.
     #[arg(long)]
     timings: bool,
+    /// Run only shard K of N (numbered from 0) and write a shard directory
+    /// to --out for `ledflicker merge`, no report; `auto` reads a Slurm
+    /// array task or a Kubernetes Indexed Job (docs/scale-out.md).
+    #[arg(long, requires = "out", conflicts_with_all = ["golden", "sign_key"])]
+    shard: Option<String>,
 }
 
+/// `--detail` of `plan` and `merge`.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-enum DetailArg {
+pub enum DetailArg {
+    /// No case pages.
     Summary,
+    /// A page for each failing or not judged case.
     Standard,
+    /// A page for every case.
     Full,
 }
 
@@ -446,6 +458,7 @@ pub fn main() -> i32 {
 fn run(cli: Cli) -> anyhow::Result<i32> {
     match cli.command {
         Command::Plan(args) => run_plan(args),
+        Command::Merge(args) => crate::shard::command::merge(args),
         Command::Validate { plan } => validate(&plan),
         Command::Simulate(args) => simulate(args),
         Command::Advise(args) => advise(args),
@@ -634,7 +647,8 @@ fn validate(arg: &str) -> anyhow::Result<i32> {
     Ok(EXIT_PASS)
 }
 
-fn report_date(arg: Option<&str>) -> anyhow::Result<String> {
+/// The report date: `--date`, else $SOURCE_DATE_EPOCH, else today.
+pub(crate) fn report_date(arg: Option<&str>) -> anyhow::Result<String> {
     if let Some(d) = arg {
         let ok = d.len() == 10
             && d.chars().enumerate().all(|(i, c)| {
@@ -685,6 +699,17 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     let date = report_date(args.date.as_deref())?;
     if args.threads == Some(0) {
         return Err(UsageError("--threads must be at least 1".into()).into());
+    }
+    if let Some(spec) = &args.shard {
+        let spec = crate::shard::ShardSpec::parse(spec, &|k| std::env::var(k).ok())?;
+        return crate::shard::command::run_shard(&crate::shard::command::ShardRun {
+            plan: &plan,
+            spec,
+            out: args.out.as_deref().unwrap_or(std::path::Path::new(".")),
+            threads: args.threads,
+            force: args.force,
+            quiet: args.quiet,
+        });
     }
     let out = args
         .out
@@ -776,24 +801,15 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     };
     stage.set_message(format!("analysing {} cases", results.len()));
 
+    let backend_id = backend.id().to_string();
+    let summaries = match (&captured, &rig) {
+        (Some(c), _) => c.summaries().clone(),
+        (_, Some(r)) => r.summaries(),
+        _ => Default::default(),
+    };
     let t = crate::timings::span("report model (analyses)");
-    let mut model = report::build(&plan, backend.id(), &results);
+    let model = crate::shard::report_model(&plan, &backend_id, &results, &summaries);
     drop(t);
-    if let Some(captured) = &captured {
-        for case in &mut model.cases {
-            if let Some(s) = captured.summaries().get(&case.id) {
-                case.source = Some(s.source.clone());
-                case.capture = Some(s.clone());
-            }
-        }
-    }
-    if let Some(rig) = &rig {
-        let summaries = rig.summaries();
-        for case in &mut model.cases {
-            case.capture = summaries.get(&case.id).cloned();
-        }
-    }
-    report::method::describe(&mut model, &plan);
     crate::interrupt::check()?;
     stage.set_message("drawing charts, writing report.html and report.pdf".to_string());
     let t = crate::timings::span("write report");

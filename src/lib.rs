@@ -46,6 +46,7 @@ pub mod plan;
 pub mod render;
 pub mod report;
 pub mod runner;
+pub mod shard;
 pub mod signoff;
 pub mod timings;
 pub mod util;

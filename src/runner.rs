@@ -14,8 +14,9 @@ use crate::metrics::{Check, RoiMetrics, Verdict, evaluate_case, evaluate_roi};
 use crate::plan::RoiKind;
 use crate::plan::{Plan, TestCase};
 
-/// Everything known about one finished case.
-#[derive(Debug, Clone)]
+/// Everything known about one finished case. Serialisable so that a
+/// shard can hand it to `ledflicker merge` unchanged ([`crate::shard`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CaseResult {
     /// The condition tested.
     pub case: TestCase,

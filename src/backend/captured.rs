@@ -176,14 +176,15 @@ pub fn to_acquisition(
 }
 
 /// What was read for one case, for the report.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CaptureSummary {
     /// The source as written in the plan.
     pub source: String,
     /// What was read, e.g. "video h264 yuv420p 1280x800 (ffmpeg, rgb24)".
     pub format: String,
     /// Where frame times came from.
-    pub timestamps: &'static str,
+    #[serde(deserialize_with = "crate::shard::record::static_str")]
+    pub timestamps: crate::shard::record::Word,
     /// Segments and how they were found.
     pub segments: SegmentsFound,
 }

@@ -15,7 +15,7 @@ use crate::metrics::flicker::Segment;
 use crate::plan::TestCase;
 
 /// One frame of an acquisition.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FrameInfo {
     /// Frame number from 0.
     pub index: u64,
@@ -26,7 +26,7 @@ pub struct FrameInfo {
 }
 
 /// The luma trace of one ROI.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RoiTrace {
     /// ROI name, as in the plan.
     pub name: String,
@@ -38,7 +38,7 @@ pub struct RoiTrace {
 }
 
 /// Frames and ROI traces for one case.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Acquisition {
     /// Every frame, in order.
     pub frames: Vec<FrameInfo>,
@@ -61,7 +61,7 @@ pub struct BackendError {
 }
 
 /// A whole frame, as output luma, row-major.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RenderedFrame {
     /// Frame number.
     pub index: u64,

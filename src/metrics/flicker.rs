@@ -7,10 +7,10 @@
 //! mean luma of the OFF segment. Undefined values are `None` with a reason:
 //! a report never shows NaN.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// A metric value, or why it has none.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Metric {
     /// The value; `None` when it cannot be defined.
     pub value: Option<f64>,
@@ -41,7 +41,7 @@ impl Metric {
 }
 
 /// Luma levels of an ROI, in DN.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Levels {
     /// Mean of the OFF segment (L_OFF); `None` when the sequence has no OFF frames.
     pub off: Option<f64>,
@@ -56,7 +56,7 @@ pub struct Levels {
 }
 
 /// Everything measured on one ROI of one case.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RoiMetrics {
     /// Luma levels.
     pub levels: Levels,
@@ -116,7 +116,7 @@ pub fn percent_flicker(min: f64, max: f64) -> Metric {
 }
 
 /// Which part of the light sequence a frame belongs to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Segment {
     /// Steady ON, luminance matched to the PWM average.

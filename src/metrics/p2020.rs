@@ -10,7 +10,7 @@
 //! `x` is the ROI luma of each frame of the PWM segment. Not to be confused
 //! with the Deegan 2018 FDI in [`super::flicker`]: same name, other quantity.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::flicker::{Metric, Segment};
 
@@ -46,7 +46,7 @@ impl Default for P2020Options {
 }
 
 /// The P2020 KPIs of one ROI.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct P2020Metrics {
     /// Flicker Modulation Index, 0..1.
     pub fmi: Metric,

@@ -6,7 +6,7 @@
 //! is a case the plan marks `informative`, and one no limit applies to. A
 //! plan with no judged case is `info` overall, never `pass`.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::flicker::{Metric, RoiMetrics};
 use super::p2020::P2020Metrics;
@@ -19,7 +19,7 @@ use crate::plan::{BackendKind, Limits, Roi, RoiKind, Thresholds, VerdictBasis};
 pub const VERDICT_TOLERANCE: f64 = 1e-9;
 
 /// Outcome of a case (or of a whole plan).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Verdict {
     /// Every check met its threshold.
@@ -44,7 +44,7 @@ impl Verdict {
 }
 
 /// One metric compared with one threshold.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Check {
     /// ROI name.
     pub roi: String,
@@ -55,7 +55,8 @@ pub struct Check {
     /// The value is +infinity (a contrast over a zero reference).
     pub unbounded: bool,
     /// `>=` or `<=`.
-    pub comparison: &'static str,
+    #[serde(deserialize_with = "crate::shard::record::static_str")]
+    pub comparison: crate::shard::record::Word,
     /// Threshold.
     pub threshold: f64,
     /// Whether the check is met.

@@ -4,7 +4,7 @@
 use super::Plan;
 
 /// One condition to test: a light level, a PWM frequency and a duty cycle.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TestCase {
     /// Position in the plan's expansion (light-major, then frequency, then duty).
     pub index: usize,

@@ -16,6 +16,7 @@ mod recgen;
 mod report;
 mod results;
 mod robust;
+mod shard;
 mod signoff;
 mod timing;
 mod verdicts;

@@ -89,12 +89,14 @@ fn led_rois(plan: &Plan) -> Vec<usize> {
 
 /// Where a case's segments are, in frames (start inclusive, end exclusive)
 /// and in seconds from the first frame.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SegmentsFound {
     /// "plan" or "detected".
-    pub method: &'static str,
+    #[serde(deserialize_with = "crate::shard::record::static_str")]
+    pub method: crate::shard::record::Word,
     /// Detection rule: "sequence" or "off-then-pwm"; `None` for "plan".
-    pub rule: Option<&'static str>,
+    #[serde(deserialize_with = "crate::shard::record::static_str_opt")]
+    pub rule: Option<crate::shard::record::Word>,
     /// OFF reference frames.
     pub off: Option<(u64, u64)>,
     /// Steady-ON frames.
@@ -178,7 +180,7 @@ impl SegmentsFound {
 }
 
 /// Mean LED-ROI luma of the detected segments, DN.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LevelsFound {
     /// OFF reference (settled part).
     pub off: Option<f64>,
@@ -189,17 +191,19 @@ pub struct LevelsFound {
 }
 
 /// One step of the sequence as found in the capture.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StepFound {
     /// "on", "off", "pwm" or "end" (end of the PWM segment).
-    pub kind: &'static str,
+    #[serde(deserialize_with = "crate::shard::record::static_str")]
+    pub kind: crate::shard::record::Word,
     /// First frame after the step.
     pub frame: u64,
     /// Its time, seconds from the first frame.
     pub time_s: f64,
     /// "luma" (seen in the trace), "timing" (from the sequence's durations)
     /// or "capture" (the capture starts or ends there).
-    pub from: &'static str,
+    #[serde(deserialize_with = "crate::shard::record::static_str")]
+    pub from: crate::shard::record::Word,
 }
 
 /// The frame times and the LED-ROI mean luma of a capture.
