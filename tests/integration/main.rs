@@ -16,6 +16,7 @@ mod results;
 mod robust;
 mod signoff;
 mod verdicts;
+mod visual;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
