@@ -36,6 +36,18 @@ if ! command -v openssl >/dev/null; then
     fi
 fi
 
+# The visual tests (tests/integration/visual.rs) load report.html in headless
+# Chromium (Debian package `chromium`) for a screenshot and its console.
+if ! command -v chromium >/dev/null 2>&1; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+        echo "--- installing chromium (apt-get)"
+        apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium >/dev/null
+    else
+        echo "error: chromium not found; install it (e.g. sudo apt-get install chromium)" >&2
+        exit 2
+    fi
+fi
+
 # Snapshots never update silently in a test run; see README "Golden files".
 export INSTA_UPDATE="${INSTA_UPDATE:-no}"
 

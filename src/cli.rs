@@ -687,6 +687,30 @@ pub(crate) fn report_date(arg: Option<&str>) -> anyhow::Result<String> {
     Ok(crate::util::utc_date(now))
 }
 
+/// "captures: 1234 frames decoded (617 frames/s)" on a terminal while a
+/// captured plan's captures are read; hidden with -q or off a terminal.
+fn decode_spinner(quiet: bool) -> ProgressBar {
+    if quiet || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let start = crate::capture::frames_decoded();
+    let style = ProgressStyle::with_template("{spinner} captures: {decoded}")
+        .map(|s| {
+            s.with_key(
+                "decoded",
+                move |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                    let n = crate::capture::frames_decoded().saturating_sub(start);
+                    let _ = w.write_str(&crate::capture::decode_progress_text(n, state.elapsed()));
+                },
+            )
+        })
+        .unwrap_or_else(|_| ProgressStyle::default_spinner());
+    let s = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+    s.set_style(style);
+    s.enable_steady_tick(std::time::Duration::from_millis(120));
+    s
+}
+
 fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     if args.timings {
         crate::timings::enable();
@@ -751,10 +775,15 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
             sim = Simulator::new(&plan);
             &sim
         }
-        plan::BackendKind::Captured => &*captured.insert(
-            Captured::load(&plan)
-                .with_context(|| format!("cannot read the captures of plan `{}`", plan.id))?,
-        ),
+        plan::BackendKind::Captured => {
+            let decoding = decode_spinner(args.quiet);
+            let loaded = Captured::load(&plan);
+            decoding.finish_and_clear();
+            &*captured.insert(
+                loaded
+                    .with_context(|| format!("cannot read the captures of plan `{}`", plan.id))?,
+            )
+        }
         plan::BackendKind::Command => &*rig.insert(
             CommandRig::new(&plan)
                 .ok_or_else(|| UsageError("the plan has no [capture] command".into()))?,

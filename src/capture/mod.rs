@@ -14,11 +14,13 @@
 
 mod csv_trace;
 mod images;
+mod progress;
 mod video;
 mod y4m;
 
 use std::path::{Path, PathBuf};
 
+pub use progress::{decode_progress_text, frames_decoded};
 pub use video::ffmpeg_available;
 
 /// A rectangle of pixels, 0-based from the top-left corner.
@@ -419,6 +421,7 @@ impl<'r> Accumulator<'r> {
 
     /// Adds one frame. The view must cover every ROI.
     pub fn push(&mut self, view: &FrameView<'_>) {
+        progress::count_frame();
         let w = self.weights;
         let stride = view.width as usize;
         for (i, r) in self.rois.iter().enumerate() {

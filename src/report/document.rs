@@ -155,6 +155,10 @@ pub struct Document {
     pub images: BTreeMap<String, Vec<u8>>,
 }
 
+/// Reasons of an LED ROI that both reports print in the case table (the
+/// spectrum's reason and the phase-coverage warning), so not as caveats.
+const SHOWN_IN_CASE_TABLE: [&str; 2] = ["apparent_frequency_spectrum_hz", "phase_coverage"];
+
 impl Document {
     /// Builds the document of a finished run: draws every chart and adds
     /// the `report` metadata (date, inputs, notes) to the model.
@@ -303,27 +307,38 @@ impl Document {
     }
 
     /// Per case, the sentences that stand for its phase folds that are not
-    /// drawn ([`super::charts::degenerate_fold_sentence`]).
+    /// drawn ([`super::charts::degenerate_fold_sentence`]); ROIs with the
+    /// same reason share one sentence ("Phase fold of roi0, roi1 not drawn").
     pub fn fold_notes(&self) -> BTreeMap<String, Vec<String>> {
+        const NAME: &str = "\u{0}";
         let mut out = BTreeMap::new();
         for c in self.results["cases"].as_array().into_iter().flatten() {
             let Some(id) = c["id"].as_str() else { continue };
             let frequency_known = c["frequency_hz"].as_f64().is_some();
-            let notes = c["rois"]
-                .as_array()
+            // Sentence with a placeholder name -> the ROIs it stands for.
+            let mut notes: Vec<(String, Vec<&str>)> = Vec::new();
+            for roi in c["rois"].as_array().into_iter().flatten() {
+                if roi["kind"] != "led" {
+                    continue;
+                }
+                let cov = &roi["analysis"]["phase_coverage"];
+                let count = |k: &str| cov[k].as_u64().unwrap_or(0) as usize;
+                let sentence = super::charts::degenerate_fold_sentence(
+                    NAME,
+                    count("covered_bins"),
+                    count("bins"),
+                    frequency_known,
+                );
+                let Some(sentence) = sentence else { continue };
+                let name = roi["name"].as_str().unwrap_or("?");
+                match notes.iter_mut().find(|(s, _)| *s == sentence) {
+                    Some((_, names)) => names.push(name),
+                    None => notes.push((sentence, vec![name])),
+                }
+            }
+            let notes = notes
                 .into_iter()
-                .flatten()
-                .filter(|roi| roi["kind"] == "led")
-                .filter_map(|roi| {
-                    let cov = &roi["analysis"]["phase_coverage"];
-                    let count = |k: &str| cov[k].as_u64().unwrap_or(0) as usize;
-                    super::charts::degenerate_fold_sentence(
-                        roi["name"].as_str().unwrap_or("?"),
-                        count("covered_bins"),
-                        count("bins"),
-                        frequency_known,
-                    )
-                })
+                .map(|(s, names)| s.replace(NAME, &names.join(", ")))
                 .collect();
             out.insert(id.to_string(), notes);
         }
@@ -331,7 +346,9 @@ impl Document {
     }
 
     /// Per case, its caveats (metric values undefined or qualified), each
-    /// text once: `"led, background / fdi_2018: <why>"`.
+    /// text once: `"led, background / fdi_2018: <why>"`. An LED ROI's
+    /// reasons in [`SHOWN_IN_CASE_TABLE`] are left out: the case table's
+    /// "Apparent flicker" and "Phase coverage" rows print them.
     pub fn caveats(&self) -> BTreeMap<String, Vec<String>> {
         let mut out = BTreeMap::new();
         for c in self.results["cases"].as_array().into_iter().flatten() {
@@ -340,7 +357,11 @@ impl Document {
             let mut seen: Vec<(String, Vec<String>, Vec<String>)> = Vec::new();
             for roi in c["rois"].as_array().into_iter().flatten() {
                 let name = roi["name"].as_str().unwrap_or("?").to_string();
+                let led = roi["kind"] == "led";
                 for (metric, why) in roi["reasons"].as_object().into_iter().flatten() {
+                    if led && SHOWN_IN_CASE_TABLE.contains(&metric.as_str()) {
+                        continue;
+                    }
                     let why = why.as_str().unwrap_or("").to_string();
                     let at = match seen.iter().position(|(w, _, _)| *w == why) {
                         Some(i) => i,

@@ -693,3 +693,55 @@ fn sidecar_timestamps_override_the_frame_rate() {
         "{e}"
     );
 }
+
+#[test]
+fn decoded_frames_are_counted_and_a_run_off_a_terminal_prints_no_progress() {
+    let dir = scratch("decode-progress");
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for k in 0..10u32 {
+        let level = if k < 4 {
+            1000
+        } else {
+            20000 + 5000 * (k % 2) as u16
+        };
+        save_grey16(&frames.join(format!("f{k:03}.png")), 16, 8, |_, _| level);
+    }
+    let rois = [RoiRect {
+        x: 2,
+        y: 3,
+        width: 4,
+        height: 2,
+    }];
+    let o = ReadOptions {
+        fps: Some(30.0),
+        ..opts(VideoDecode::Rgb)
+    };
+    let before = capture::frames_decoded();
+    read_capture(&frames, &rois, &[], &o).unwrap();
+    // Other tests in this process may decode at the same time.
+    assert!(capture::frames_decoded() >= before + 10);
+
+    // The progress line is for terminals: a run without -q whose stderr is
+    // a pipe prints no "frames decoded".
+    let plan = one_case_plan(
+        &dir,
+        "frames",
+        (2, 3, 4, 2),
+        "off-frames = [0, 4]\npwm-frames = [4]",
+    );
+    let out = dir.join("out");
+    let args = [
+        "plan",
+        plan.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let o = ledflicker(&args, &dir);
+    assert!(
+        o.status.code() == Some(0) || o.status.code() == Some(1),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!stderr(&o).contains("decoded"), "{}", stderr(&o));
+}

@@ -20,6 +20,7 @@ mod shard;
 mod signoff;
 mod timing;
 mod verdicts;
+mod visual;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
