@@ -168,20 +168,29 @@ impl Document {
         date: &str,
         signatories: Vec<Signatory>,
     ) -> Result<Document, ReportError> {
+        use rayon::prelude::*;
         let mut charts = BTreeMap::new();
-        for r in results {
-            let case = model.cases.iter().find(|c| c.id == r.case.id);
-            let segments = case.and_then(|c| c.capture.as_ref()).map(|c| &c.segments);
-            charts.insert(
-                trace_chart_path(&r.case.id),
-                super::charts::luma_trace_svg(r, segments)?,
-            );
-            let apparent_hz = case.map_or(0.0, |c| c.apparent_frequency_hz);
-            charts.insert(
-                zoom_chart_path(&r.case.id),
-                super::charts::trace_zoom_svg(r, apparent_hz)?,
-            );
-        }
+        // Each case's charts are independent: drawn in parallel; the map
+        // orders them by path, so the result does not depend on threads.
+        let traces: Vec<[(String, String); 2]> = results
+            .par_iter()
+            .map(|r| {
+                let case = model.cases.iter().find(|c| c.id == r.case.id);
+                let segments = case.and_then(|c| c.capture.as_ref()).map(|c| &c.segments);
+                let apparent_hz = case.map_or(0.0, |c| c.apparent_frequency_hz);
+                Ok([
+                    (
+                        trace_chart_path(&r.case.id),
+                        super::charts::luma_trace_svg(r, segments)?,
+                    ),
+                    (
+                        zoom_chart_path(&r.case.id),
+                        super::charts::trace_zoom_svg(r, apparent_hz)?,
+                    ),
+                ])
+            })
+            .collect::<Result<_, ReportError>>()?;
+        charts.extend(traces.into_iter().flatten());
         for (i, lux) in super::matrix::light_levels(model).into_iter().enumerate() {
             charts.insert(matrix_chart_path(i), super::matrix::matrix_svg(model, lux)?);
         }
@@ -220,18 +229,20 @@ impl Document {
                 super::charts::advise_svg(&a.curve, a.advice.min_exposure_s)?,
             );
         }
-        let mut images = BTreeMap::new();
-        for r in results {
-            let info = model.cases.iter().find(|c| c.id == r.case.id);
-            if let (Some(frame), Some(info)) =
-                (&r.sample_frame, info.and_then(|c| c.sample_frame.as_ref()))
-            {
-                images.insert(
-                    frame_image_path(&r.case.id),
-                    super::frames::view_png(frame, &info.rois)?,
-                );
-            }
-        }
+        let images: BTreeMap<String, Vec<u8>> = results
+            .par_iter()
+            .filter_map(|r| {
+                let info = model.cases.iter().find(|c| c.id == r.case.id);
+                let frame = r.sample_frame.as_ref()?;
+                let info = info.and_then(|c| c.sample_frame.as_ref())?;
+                Some(
+                    super::frames::view_png(frame, &info.rois)
+                        .map(|png| (frame_image_path(&r.case.id), png)),
+                )
+            })
+            .collect::<Result<Vec<_>, ReportError>>()?
+            .into_iter()
+            .collect();
         let mut model = model.clone();
         let detail = model
             .report
