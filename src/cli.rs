@@ -249,7 +249,7 @@ struct PlanArgs {
     /// Replace a signed report in the output directory.
     #[arg(long)]
     force: bool,
-    /// Print no summary table.
+    /// Print no summary table and no progress.
     #[arg(long, short)]
     quiet: bool,
     /// How much of each case the report shows: `summary` (no case pages),
@@ -777,7 +777,9 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
         }
         plan::BackendKind::Captured => {
             let decoding = decode_spinner(args.quiet);
+            let t = crate::timings::span("read captures (decode and ROI means)");
             let loaded = Captured::load(&plan);
+            drop(t);
             decoding.finish_and_clear();
             &*captured.insert(
                 loaded
@@ -791,7 +793,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     };
     // After the backend has checked that the captures exist.
     let inputs = crate::inputs::collect(&plan).map_err(|e| UsageError(e.to_string()))?;
-    let bar = if std::io::stderr().is_terminal() {
+    let bar = if !args.quiet && std::io::stderr().is_terminal() {
         ProgressBar::with_draw_target(Some(cases.len() as u64), ProgressDrawTarget::stderr())
     } else {
         ProgressBar::hidden()
@@ -817,7 +819,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     drop(t);
     bar.finish_and_clear();
     // The report stage takes seconds on large plans: say what it does.
-    let stage = if std::io::stderr().is_terminal() {
+    let stage = if !args.quiet && std::io::stderr().is_terminal() {
         let s = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
         s.set_style(
             ProgressStyle::with_template("{spinner} report: {msg} ({elapsed})")
