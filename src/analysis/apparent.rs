@@ -199,6 +199,20 @@ pub fn dominant_frequency_hz(x: &[f64], fps: f64) -> Result<f64, SpectrumError> 
     // Skip the main lobe around DC: below 1.5 resolution bins of the data.
     let min_hz = 1.5 * fps / n as f64;
     let first = ((min_hz / bin_hz).ceil() as usize).max(1);
+    spectrum_peak_hz(&mag, first, bin_hz, min_hz, fps)
+}
+
+/// The frequency of the largest magnitude at or above bin `first` of a
+/// spectrum sampled every `bin_hz`, refined by a parabola through the peak
+/// and its neighbours; `Unresolved(min_hz)` when the peak is the first
+/// allowed bin and the DC lobe's skirt below it is higher (a slow drift).
+pub(super) fn spectrum_peak_hz(
+    mag: &[f64],
+    first: usize,
+    bin_hz: f64,
+    min_hz: f64,
+    fps: f64,
+) -> Result<f64, SpectrumError> {
     let (k, _) = mag.iter().enumerate().skip(first.min(mag.len() - 1)).fold(
         (0usize, f64::NEG_INFINITY),
         |(bk, bm), (i, &m)| {

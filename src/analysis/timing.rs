@@ -142,29 +142,7 @@ pub fn dominant_frequency_at_times_hz(
         .collect();
     let min_hz = 1.5 / span;
     let first = ((min_hz / step).ceil() as usize).clamp(1, count - 1);
-    let (k, _) =
-        mag.iter()
-            .enumerate()
-            .skip(first)
-            .fold((first, f64::NEG_INFINITY), |(bk, bm), (i, &m)| {
-                if m > bm { (i, m) } else { (bk, bm) }
-            });
-    let dc_skirt = mag[..first].iter().copied().fold(0.0, f64::max);
-    if k == first && dc_skirt > mag[k] {
-        return Err(SpectrumError::Unresolved(min_hz));
-    }
-    let offset = if k + 1 < mag.len() {
-        let (a, b, c) = (mag[k - 1], mag[k], mag[k + 1]);
-        let d = a - 2.0 * b + c;
-        if d < 0.0 {
-            (0.5 * (a - c) / d).clamp(-0.5, 0.5)
-        } else {
-            0.0
-        }
-    } else {
-        0.0
-    };
-    Ok(((k as f64 + offset) * step).clamp(0.0, fps / 2.0))
+    super::apparent::spectrum_peak_hz(&mag, first, step, min_hz, fps)
 }
 
 #[cfg(test)]
