@@ -290,8 +290,12 @@ impl Backend for CommandRig {
             // Frames without timestamps run at the plan's frame rate.
             let mut opts = read_options(&self.capture);
             opts.fps = opts.fps.or(Some(self.fps));
-            let trace = capture::read_capture(&source, &roi_rects(&self.rois), &names, &opts)
+            let mut trace = capture::read_capture(&source, &roi_rects(&self.rois), &names, &opts)
                 .map_err(|e| self.fail(case, format!("the command's frames: {e}")))?;
+            // The scratch directory's name is random: results name the
+            // rig's output `frames/...`, so the same plan gives the same
+            // results.json on every run.
+            trace.format = trace.format.replace(&out.display().to_string(), "frames");
             let found = find_segments(&self.segments(), &trace, &source)
                 .map_err(|e| self.fail(case, e.to_string()))?;
             let acq = to_acquisition(&trace, &found, &self.rois, self.capture.saturation_dn);
