@@ -833,13 +833,8 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     stage.set_message(format!("analysing {} cases", results.len()));
 
     let backend_id = backend.id().to_string();
-    let summaries = match (&captured, &rig) {
-        (Some(c), _) => c.summaries().clone(),
-        (_, Some(r)) => r.summaries(),
-        _ => Default::default(),
-    };
     let t = crate::timings::span("report model (analyses)");
-    let model = crate::shard::report_model(&plan, &backend_id, &results, &summaries);
+    let model = crate::shard::report_model(&plan, &backend_id, &results);
     drop(t);
     crate::interrupt::check()?;
     stage.set_message("drawing charts, writing report.html and report.pdf".to_string());

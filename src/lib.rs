@@ -49,4 +49,5 @@ pub mod runner;
 pub mod shard;
 pub mod signoff;
 pub mod timings;
+pub mod trace;
 pub mod util;

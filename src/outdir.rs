@@ -210,19 +210,6 @@ fn temp_prefix(name: &str) -> String {
     format!(".{name}.ledflicker-")
 }
 
-/// True while process `pid` exists (it may belong to another user).
-pub(crate) fn alive(pid: u32) -> bool {
-    if pid == std::process::id() {
-        return true;
-    }
-    let Ok(pid) = libc::pid_t::try_from(pid) else {
-        return false;
-    };
-    // SAFETY: kill with signal 0 only checks that the process exists.
-    let r = unsafe { libc::kill(pid, 0) };
-    r == 0 || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM)
-}
-
 /// Removes what killed runs left beside `out`, and puts an old report back
 /// when a run died between the two renames of a non-atomic swap. Returns
 /// the number of directories removed.
@@ -244,7 +231,7 @@ pub fn clean_stale(out: &Path) -> Result<usize, OutDirError> {
         let Ok(pid) = pid.parse::<u32>() else {
             continue;
         };
-        if alive(pid) {
+        if crate::util::alive(pid) {
             continue;
         }
         let path = e.path();

@@ -172,28 +172,16 @@ pub fn to_acquisition(
         frames,
         rois: traces,
         saturation_dn: saturation_dn.unwrap_or(trace.full_scale_dn * 240.0 / 255.0),
+        capture: None,
     }
 }
 
-/// What was read for one case, for the report.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct CaptureSummary {
-    /// The source as written in the plan.
-    pub source: String,
-    /// What was read, e.g. "video h264 yuv420p 1280x800 (ffmpeg, rgb24)".
-    pub format: String,
-    /// Where frame times came from.
-    #[serde(deserialize_with = "crate::shard::record::static_str")]
-    pub timestamps: crate::shard::record::Word,
-    /// Segments and how they were found.
-    pub segments: SegmentsFound,
-}
+pub use crate::trace::CaptureSummary;
 
 /// The captured backend: every case's capture, read.
 #[derive(Debug)]
 pub struct Captured {
     acquisitions: HashMap<String, Acquisition>,
-    summaries: HashMap<String, CaptureSummary>,
 }
 
 impl Captured {
@@ -202,44 +190,29 @@ impl Captured {
         let Some(cap) = &plan.capture else {
             return Ok(Self {
                 acquisitions: HashMap::new(),
-                summaries: HashMap::new(),
             });
         };
         let rects = roi_rects(&plan.rois);
         let names: Vec<String> = plan.rois.iter().map(|r| r.name.clone()).collect();
         let opts = read_options(cap);
         let detection = Detection::for_plan(plan);
-        let loaded: Vec<(String, Acquisition, CaptureSummary)> = cap
+        let acquisitions = cap
             .cases
             .par_iter()
             .map(|c| {
                 let trace = capture::read_capture(&c.source, &rects, &names, &opts)?;
                 let found = find_segments_with(&c.segments, &trace, &c.source, &detection)?;
-                let acq = to_acquisition(&trace, &found, &plan.rois, cap.saturation_dn);
-                let summary = CaptureSummary {
+                let mut acq = to_acquisition(&trace, &found, &plan.rois, cap.saturation_dn);
+                acq.capture = Some(CaptureSummary {
                     source: c.source_text.clone(),
                     format: trace.format.clone(),
                     timestamps: trace.timestamps,
                     segments: found,
-                };
-                Ok((c.id.clone(), acq, summary))
+                });
+                Ok((c.id.clone(), acq))
             })
-            .collect::<Result<_, CaptureError>>()?;
-        let mut acquisitions = HashMap::new();
-        let mut summaries = HashMap::new();
-        for (id, acq, summary) in loaded {
-            acquisitions.insert(id.clone(), acq);
-            summaries.insert(id, summary);
-        }
-        Ok(Self {
-            acquisitions,
-            summaries,
-        })
-    }
-
-    /// What was read for each case, by case id.
-    pub fn summaries(&self) -> &HashMap<String, CaptureSummary> {
-        &self.summaries
+            .collect::<Result<HashMap<_, _>, CaptureError>>()?;
+        Ok(Self { acquisitions })
     }
 }
 

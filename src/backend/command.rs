@@ -15,9 +15,6 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
-use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
-
 use super::captured::{CaptureSummary, find_segments, read_options, roi_rects, to_acquisition};
 use super::rig::{self, RigError};
 use super::{Acquisition, Backend, BackendError};
@@ -44,7 +41,7 @@ pub fn clean_stale_scratch() -> usize {
         else {
             continue;
         };
-        if !crate::outdir::alive(pid) && std::fs::remove_dir_all(e.path()).is_ok() {
+        if !crate::util::alive(pid) && std::fs::remove_dir_all(e.path()).is_ok() {
             removed += 1;
         }
     }
@@ -61,7 +58,6 @@ pub struct CommandRig {
     sequence: Sequence,
     fps: f64,
     rois: Vec<Roi>,
-    summaries: Arc<Mutex<HashMap<String, CaptureSummary>>>,
 }
 
 impl CommandRig {
@@ -89,7 +85,6 @@ impl CommandRig {
             sequence: plan.sequence,
             fps: plan.dut.camera.fps,
             rois: plan.rois.clone(),
-            summaries: Arc::default(),
         })
     }
 
@@ -241,11 +236,6 @@ impl CommandRig {
         }
     }
 
-    /// What was read for each case so far, by case id.
-    pub fn summaries(&self) -> HashMap<String, CaptureSummary> {
-        self.summaries.lock().map(|m| m.clone()).unwrap_or_default()
-    }
-
     fn segments(&self) -> SegmentSpec {
         if !self.capture.segments.detect() {
             return self.capture.segments;
@@ -298,18 +288,13 @@ impl Backend for CommandRig {
             trace.format = trace.format.replace(&out.display().to_string(), "frames");
             let found = find_segments(&self.segments(), &trace, &source)
                 .map_err(|e| self.fail(case, e.to_string()))?;
-            let acq = to_acquisition(&trace, &found, &self.rois, self.capture.saturation_dn);
-            if let Ok(mut m) = self.summaries.lock() {
-                m.insert(
-                    case.id.clone(),
-                    CaptureSummary {
-                        source: format!("command: {}", self.argv.join(" ")),
-                        format: trace.format.clone(),
-                        timestamps: trace.timestamps,
-                        segments: found,
-                    },
-                );
-            }
+            let mut acq = to_acquisition(&trace, &found, &self.rois, self.capture.saturation_dn);
+            acq.capture = Some(CaptureSummary {
+                source: format!("command: {}", self.argv.join(" ")),
+                format: trace.format.clone(),
+                timestamps: trace.timestamps,
+                segments: found,
+            });
             Ok(acq)
         })();
         drop(scratch);

@@ -11,42 +11,8 @@ pub mod rig;
 pub mod segments;
 pub mod sim;
 
-use crate::metrics::flicker::Segment;
 use crate::plan::TestCase;
-
-/// One frame of an acquisition.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct FrameInfo {
-    /// Frame number from 0.
-    pub index: u64,
-    /// Start of row 0's exposure, seconds from the start of frame 0.
-    pub time_s: f64,
-    /// ON, OFF or PWM.
-    pub segment: Segment,
-}
-
-/// The luma trace of one ROI.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct RoiTrace {
-    /// ROI name, as in the plan.
-    pub name: String,
-    /// Mean ROI luma of each frame, DN; same length as the frames.
-    pub luma: Vec<f64>,
-    /// Lowest and highest PWM-segment luma over every PWM phase, when the
-    /// backend can compute it exactly (the simulator can, a capture cannot).
-    pub phase_envelope: Option<(f64, f64)>,
-}
-
-/// Frames and ROI traces for one case.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Acquisition {
-    /// Every frame, in order.
-    pub frames: Vec<FrameInfo>,
-    /// One trace per plan ROI, in plan order.
-    pub rois: Vec<RoiTrace>,
-    /// Luma at or above which an ROI is flagged saturated, DN.
-    pub saturation_dn: f64,
-}
+pub use crate::trace::{Acquisition, FrameInfo, RenderedFrame, RoiTrace};
 
 /// A backend failed to acquire a case.
 #[derive(Debug, thiserror::Error)]
@@ -58,21 +24,6 @@ pub struct BackendError {
     pub case: String,
     /// What went wrong.
     pub message: String,
-}
-
-/// A whole frame, as output luma, row-major.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct RenderedFrame {
-    /// Frame number.
-    pub index: u64,
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// Luma of each pixel, DN, `width * height` values.
-    pub luma: Vec<f64>,
-    /// Output full scale, DN (255 for 8-bit output).
-    pub full_scale_dn: f64,
 }
 
 /// A source of frames for test cases: a camera simulator or captured data.

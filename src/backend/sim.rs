@@ -191,6 +191,7 @@ impl Simulator {
             })
             .collect();
         Acquisition {
+            capture: None,
             frames,
             rois,
             saturation_dn: cam.saturation_dn,
@@ -497,6 +498,7 @@ impl Simulator {
             .collect();
         (
             Acquisition {
+                capture: None,
                 frames,
                 rois,
                 saturation_dn: self.camera.saturation_dn,

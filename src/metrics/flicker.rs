@@ -115,28 +115,7 @@ pub fn percent_flicker(min: f64, max: f64) -> Metric {
     }
 }
 
-/// Which part of the light sequence a frame belongs to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Segment {
-    /// Steady ON, luminance matched to the PWM average.
-    On,
-    /// LED off: the reference level.
-    Off,
-    /// PWM drive.
-    Pwm,
-}
-
-impl Segment {
-    /// Lowercase name used in trace CSVs.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Segment::On => "on",
-            Segment::Off => "off",
-            Segment::Pwm => "pwm",
-        }
-    }
-}
+pub use crate::trace::Segment;
 
 fn mean(xs: impl Iterator<Item = f64>) -> Option<f64> {
     let (n, s) = xs.fold((0usize, 0.0), |(n, s), x| (n + 1, s + x));

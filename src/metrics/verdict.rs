@@ -55,8 +55,8 @@ pub struct Check {
     /// The value is +infinity (a contrast over a zero reference).
     pub unbounded: bool,
     /// `>=` or `<=`.
-    #[serde(deserialize_with = "crate::shard::record::static_str")]
-    pub comparison: crate::shard::record::Word,
+    #[serde(deserialize_with = "crate::util::static_str")]
+    pub comparison: crate::util::Word,
     /// Threshold.
     pub threshold: f64,
     /// Whether the check is met.

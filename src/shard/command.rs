@@ -1,7 +1,6 @@
 //! `ledflicker plan PLAN --shard K/N --out DIR` (a shard run) and
 //! `ledflicker merge --out DIR SHARD_DIR...`; `cli.rs` dispatches to them.
 
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -10,7 +9,7 @@ use clap::Args;
 use super::record::{self, CASES, MANIFEST, Manifest, ShardCase};
 use super::{ShardSpec, assign};
 use crate::backend::Backend;
-use crate::backend::captured::{CaptureSummary, Captured};
+use crate::backend::captured::Captured;
 use crate::backend::command::CommandRig;
 use crate::backend::sim::Simulator;
 use crate::cli::UsageError;
@@ -106,26 +105,21 @@ pub fn run_shard(r: &ShardRun<'_>) -> anyhow::Result<i32> {
     runner::render_sample_frames(plan, &mut results, backend)
         .with_context(|| format!("cannot render the sample frames of plan `{}`", plan.id))?;
     let backend_id = backend.id().to_string();
-    let summaries = match (&captured, &rig) {
-        (Some(c), _) => c.summaries().clone(),
-        (_, Some(r)) => r.summaries(),
-        _ => HashMap::new(),
-    };
     let traces: Vec<(String, String)> = results
         .iter()
         .map(|c| (format!("{}.csv", c.case.id), report::trace_csv(c)))
         .collect();
     let records: Vec<ShardCase> = results
         .into_iter()
-        .map(|result| {
-            let mut capture = summaries.get(&result.case.id).cloned();
-            let capture_signal = capture
+        .map(|mut result| {
+            let capture_signal = result
+                .acquisition
+                .capture
                 .as_mut()
                 .map(|s| std::mem::take(&mut s.segments.signal))
                 .unwrap_or_default();
             ShardCase {
                 result,
-                capture,
                 capture_signal,
             }
         })
@@ -203,7 +197,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<i32> {
         .collect::<Result<Vec<_>, _>>()?;
     check_shards(&shards)?;
     let first = &shards[0].1;
-    let (results, summaries) = read_cases(&shards)?;
+    let results = read_cases(&shards)?;
     let plan = load_plan(a.plan.as_deref(), first)?;
     let expected = plan::expand_cases(&plan);
     if let Some((want, got)) = expected.iter().zip(&results).find(|(w, g)| **w != g.case) {
@@ -220,7 +214,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<i32> {
     report::check_overwrite(&out, a.force)?;
     let generation = crate::outdir::Generation::begin(&out)?;
     crate::interrupt::install();
-    let model = super::report_model(&plan, &first.backend, &results, &summaries);
+    let model = super::report_model(&plan, &first.backend, &results);
     crate::interrupt::check()?;
     report::write_report(
         generation.path(),
@@ -408,11 +402,9 @@ fn check_shards(shards: &[(PathBuf, Manifest)]) -> Result<(), UsageError> {
     )))
 }
 
-/// Every case of every shard, in case order, and the capture summaries by
-/// case id; each `cases.cbor` checked against its manifest.
-fn read_cases(
-    shards: &[(PathBuf, Manifest)],
-) -> anyhow::Result<(Vec<CaseResult>, HashMap<String, CaptureSummary>)> {
+/// Every case of every shard, in case order; each `cases.cbor` checked
+/// against its manifest.
+fn read_cases(shards: &[(PathBuf, Manifest)]) -> anyhow::Result<Vec<CaseResult>> {
     let total = shards[0].1.case_count;
     let mut slots: Vec<Option<(ShardCase, &Path)>> = vec![None; total];
     for (dir, m) in shards {
@@ -463,15 +455,7 @@ fn read_cases(
         ))
         .into());
     }
-    let mut results = Vec::with_capacity(total);
-    let mut summaries = HashMap::new();
-    for (c, _) in slots.into_iter().flatten() {
-        if let Some(s) = c.capture {
-            summaries.insert(c.result.case.id.clone(), s);
-        }
-        results.push(c.result);
-    }
-    Ok((results, summaries))
+    Ok(slots.into_iter().flatten().map(|(c, _)| c.result).collect())
 }
 
 /// The plan the shards ran, checked against their plan hash; its path

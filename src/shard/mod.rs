@@ -15,11 +15,8 @@ pub mod assign;
 pub mod command;
 pub mod record;
 
-use std::collections::HashMap;
-
 use serde::{Deserialize, Serialize};
 
-use crate::backend::captured::CaptureSummary;
 use crate::cli::UsageError;
 use crate::plan::{BackendKind, Plan};
 use crate::runner::CaseResult;
@@ -143,29 +140,22 @@ impl ShardSpec {
 
 /// The report model of a finished run, as `plan` writes it and `merge`
 /// rebuilds it: [`crate::report::build`], the capture summaries of captured
-/// and rig runs (`summaries`, by case id), then the method section.
+/// and rig runs (from each case's acquisition), then the method section.
 pub fn report_model(
     plan: &Plan,
     backend_id: &str,
     results: &[CaseResult],
-    summaries: &HashMap<String, CaptureSummary>,
 ) -> crate::report::Results {
     let mut model = crate::report::build(plan, backend_id, results);
-    match plan.dut.backend {
-        BackendKind::Captured => {
-            for case in &mut model.cases {
-                if let Some(s) = summaries.get(&case.id) {
-                    case.source = Some(s.source.clone());
-                    case.capture = Some(s.clone());
-                }
-            }
+    for (case, r) in model.cases.iter_mut().zip(results) {
+        debug_assert_eq!(case.id, r.case.id);
+        let Some(s) = &r.acquisition.capture else {
+            continue;
+        };
+        if plan.dut.backend == BackendKind::Captured {
+            case.source = Some(s.source.clone());
         }
-        BackendKind::Command => {
-            for case in &mut model.cases {
-                case.capture = summaries.get(&case.id).cloned();
-            }
-        }
-        BackendKind::Simulator => {}
+        case.capture = Some(s.clone());
     }
     crate::report::method::describe(&mut model, plan);
     model
@@ -174,6 +164,7 @@ pub fn report_model(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::HashMap;
 
     fn env_of(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
         let map: HashMap<String, String> = pairs

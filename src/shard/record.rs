@@ -10,15 +10,12 @@
 //!
 //! The types here are the start of one typed results model read back typed.
 
-use std::collections::BTreeSet;
 use std::path::Path;
-use std::sync::Mutex;
 
-use serde::{Deserialize, Deserializer, Serialize};
+use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use super::ShardSpec;
-use crate::backend::captured::CaptureSummary;
 use crate::report::document::InputFile;
 use crate::runner::CaseResult;
 
@@ -98,10 +95,9 @@ impl From<&InputRecord> for InputFile {
 /// One case as a shard ran it: everything the report stage reads.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ShardCase {
-    /// The case result (metrics, traces, segments, verdict, sample frame).
+    /// The case result (metrics, traces, segments, verdict, sample frame,
+    /// and what a captured or rig case read).
     pub result: CaseResult,
-    /// What a captured or rig case read.
-    pub capture: Option<CaptureSummary>,
     /// The capture's segment-detection signal, which results.json leaves
     /// out (`SegmentsFound::signal`) but the trace chart draws.
     pub capture_signal: Vec<(f64, f64)>,
@@ -139,7 +135,7 @@ pub fn decode_cases(bytes: &[u8], path: &Path) -> Result<Vec<ShardCase>, String>
         )
     })?;
     for c in &mut cases {
-        if let Some(s) = &mut c.capture {
+        if let Some(s) = &mut c.result.acquisition.capture {
             s.segments.signal = std::mem::take(&mut c.capture_signal);
         }
     }
@@ -149,35 +145,6 @@ pub fn decode_cases(bytes: &[u8], path: &Path) -> Result<Vec<ShardCase>, String>
 /// SHA-256 of bytes, lowercase hex.
 pub fn sha256(bytes: &[u8]) -> String {
     hex(&Sha256::digest(bytes))
-}
-
-/// A word from a small fixed set (`>=`, `detected`, ...), as the result
-/// types hold it. The alias keeps serde's derive from treating the field as
-/// borrowed from the input (which would tie the whole result to `'static`
-/// input); [`static_str`] reads it.
-pub type Word = &'static str;
-
-/// Deserialises a `&'static str` field (a word from a small fixed set such
-/// as `>=` or `detected`) by interning it: each distinct word is allocated
-/// once per process.
-pub fn static_str<'de, D: Deserializer<'de>>(d: D) -> Result<&'static str, D::Error> {
-    String::deserialize(d).map(intern)
-}
-
-/// [`static_str`] of an optional field.
-pub fn static_str_opt<'de, D: Deserializer<'de>>(d: D) -> Result<Option<&'static str>, D::Error> {
-    Option::<String>::deserialize(d).map(|s| s.map(intern))
-}
-
-fn intern(s: String) -> &'static str {
-    static WORDS: Mutex<BTreeSet<&'static str>> = Mutex::new(BTreeSet::new());
-    let mut words = WORDS.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(w) = words.get(s.as_str()) {
-        return w;
-    }
-    let w: &'static str = Box::leak(s.into_boxed_str());
-    words.insert(w);
-    w
 }
 
 #[cfg(test)]
@@ -229,6 +196,7 @@ mod tests {
                         phase_envelope: Some((values[0], values[1])),
                     }],
                     saturation_dn: 254.5,
+                    capture: None,
                 },
                 metrics: Vec::new(),
                 verdict: Verdict::Info,
@@ -244,7 +212,6 @@ mod tests {
                 }),
                 p2020: Vec::new(),
             },
-            capture: None,
             capture_signal: Vec::new(),
         }
     }
@@ -293,14 +260,6 @@ mod tests {
         let bytes = encode_cases(&[case_with(&AWKWARD)]).unwrap();
         let e = decode_cases(&bytes[..bytes.len() / 2], Path::new("s/cases.cbor")).unwrap_err();
         assert!(e.contains("s/cases.cbor"), "{e}");
-    }
-
-    #[test]
-    fn interned_words_are_shared() {
-        let a = intern(">=".to_string());
-        let b = intern(">=".to_string());
-        assert!(std::ptr::eq(a, b));
-        assert_eq!(a, ">=");
     }
 
     #[test]

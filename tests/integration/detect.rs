@@ -97,7 +97,7 @@ fn judge(plan_path: &Path) -> HashMap<String, Judged> {
     results
         .iter()
         .map(|r| {
-            let s = &backend.summaries()[&r.case.id].segments;
+            let s = &r.acquisition.capture.as_ref().unwrap().segments;
             let m = &r.metrics[0];
             let judged = Judged {
                 spans: [s.on.unwrap(), s.off.unwrap(), s.pwm],
