@@ -294,7 +294,7 @@ pub enum DetailArg {
     Full,
 }
 
-impl From<DetailArg> for report::document::Detail {
+impl From<DetailArg> for crate::model::Detail {
     fn from(d: DetailArg) -> Self {
         match d {
             DetailArg::Summary => Self::Summary,
@@ -834,7 +834,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
 
     let backend_id = backend.id().to_string();
     let t = crate::timings::span("report model (analyses)");
-    let model = crate::shard::report_model(&plan, &backend_id, &results);
+    let model = crate::model::assemble(&plan, &backend_id, &results);
     drop(t);
     crate::interrupt::check()?;
     stage.set_message("drawing charts, writing report.html and report.pdf".to_string());
@@ -900,7 +900,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     })
 }
 
-fn print_summary(model: &report::Results, out: &std::path::Path) -> anyhow::Result<()> {
+fn print_summary(model: &crate::model::Results, out: &std::path::Path) -> anyhow::Result<()> {
     let mut w = std::io::stdout().lock();
     w.write_all(report::terminal::summary(model, out).as_bytes())?;
     Ok(())

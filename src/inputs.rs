@@ -14,7 +14,19 @@ use sha2::{Digest, Sha256};
 
 use crate::capture::{SourceKind, source_kind};
 use crate::plan::{BackendKind, Plan};
-use crate::report::document::InputFile;
+
+/// One input file of the run, with its hash.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct InputFile {
+    /// What it is, e.g. "plan".
+    pub role: String,
+    /// Path as given on the command line.
+    pub path: String,
+    /// SHA-256 of its bytes, lowercase hex.
+    pub sha256: String,
+    /// Size in bytes.
+    pub size: u64,
+}
 
 /// Why an input could not be hashed.
 #[derive(Debug, thiserror::Error)]

@@ -6,7 +6,7 @@
 //! ```text
 //! TOML plan --plan::load--> Plan --expand_cases--> Vec<TestCase>
 //!   --runner::run (rayon) + dyn Backend--> Vec<CaseResult>
-//!   --report::build--> Results (results.json) --report::{html,pdf,export}-->
+//!   --crate::model::build--> Results (results.json) --report::{html,pdf,export}-->
 //!   report.html, report.pdf, junit.xml, summary.csv --signoff--> signed report.pdf,
 //!   manifest.txt, signoff.p7s
 //! ```
@@ -40,6 +40,7 @@ pub mod cli;
 pub mod inputs;
 pub mod interrupt;
 pub mod metrics;
+pub mod model;
 pub mod outdir;
 pub mod physics;
 pub mod plan;

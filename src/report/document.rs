@@ -1,6 +1,6 @@
 //! The renderers' input: results.json plus the charts and the signatories.
 //!
-//! Sits between the report model ([`super::model::Results`]) and the
+//! Sits between the report model ([`crate::model::Results`]) and the
 //! renderers (HTML, PDF). Everything in a [`Document`] is stored in the report
 //! directory (results.json, `charts/*.svg`, signoff.json), so a report can be
 //! rendered again from its directory alone; `ledflicker sign` does that to
@@ -12,80 +12,10 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::ReportError;
-use super::model::Results;
-use crate::runner::CaseResult;
+use crate::model::{CaseResult, Detail, InputFile, ReportMeta, Results};
 
 /// Folder of the chart SVGs, relative to the report directory.
 pub const CHARTS_DIR: &str = "charts";
-
-/// One input file of the run, with its hash.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
-pub struct InputFile {
-    /// What it is, e.g. "plan".
-    pub role: String,
-    /// Path as given on the command line.
-    pub path: String,
-    /// SHA-256 of its bytes, lowercase hex.
-    pub sha256: String,
-    /// Size in bytes.
-    pub size: u64,
-}
-
-/// How much of each case the report shows (`--detail`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Detail {
-    /// Cover, summary, matrices and the one-line table of every case; no
-    /// case pages.
-    Summary,
-    /// As `Summary`, plus a page for every failing or not judged case.
-    #[default]
-    Standard,
-    /// A page for every case.
-    Full,
-}
-
-impl Detail {
-    /// Every level, in the order of `--detail`'s help.
-    pub const ALL: [Detail; 3] = [Detail::Summary, Detail::Standard, Detail::Full];
-
-    /// Its name in results.json and on the command line.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Detail::Summary => "summary",
-            Detail::Standard => "standard",
-            Detail::Full => "full",
-        }
-    }
-
-    /// Parses [`Detail::as_str`]'s names.
-    pub fn parse(s: &str) -> Option<Detail> {
-        Detail::ALL.into_iter().find(|d| d.as_str() == s)
-    }
-
-    /// Whether a case with this verdict gets its own page.
-    pub fn shows_case(self, verdict: &str) -> bool {
-        match self {
-            Detail::Summary => false,
-            Detail::Standard => verdict != "pass",
-            Detail::Full => true,
-        }
-    }
-}
-
-/// Report metadata kept in results.json under `report`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ReportMeta {
-    /// Report date, `YYYY-MM-DD`.
-    pub date: String,
-    /// How much of each case the report shows: `summary`, `standard` or
-    /// `full` (`--detail`).
-    pub detail: String,
-    /// Every input file, plan first.
-    pub inputs: Vec<InputFile>,
-    /// Deviations from the method of Deegan 2018 and other notes, one
-    /// sentence each.
-    pub notes: Vec<String>,
-}
 
 /// A person who signed the report, as shown in the sign-off block.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -419,14 +349,14 @@ impl Document {
                 path: path.clone(),
                 message: format!("not valid JSON: {e}"),
             })?;
-        if results["schema"].as_str() != Some(super::model::RESULTS_SCHEMA)
+        if results["schema"].as_str() != Some(crate::model::RESULTS_SCHEMA)
             || !results["report"].is_object()
         {
             return Err(ReportError::Invalid {
                 path,
                 message: format!(
                     "not a `{}` file written by `ledflicker plan` (no `report` section)",
-                    super::model::RESULTS_SCHEMA
+                    crate::model::RESULTS_SCHEMA
                 ),
             });
         }

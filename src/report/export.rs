@@ -2,12 +2,12 @@
 //! and a CSV summary for spreadsheets.
 //!
 //! Part of the report stage; both are pure functions of
-//! [`Results`](super::model::Results), written next to results.json.
+//! [`Results`](crate::model::Results), written next to results.json.
 
 use std::fmt::Write as _;
 
-use super::model::{CaseInfo, Results};
 use crate::metrics::Verdict;
+use crate::model::{CaseInfo, Results};
 
 /// File name of the JUnit export.
 pub const JUNIT_FILE: &str = "junit.xml";

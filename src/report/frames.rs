@@ -7,17 +7,12 @@ use std::io::Cursor;
 use image::{DynamicImage, ImageBuffer, ImageFormat, Luma};
 
 use super::ReportError;
-use super::model::SampleFrameInfo;
-use crate::backend::RenderedFrame;
+use crate::model::RenderedFrame;
+use crate::model::frame::RoiBox;
 
 pub mod view;
 
-pub use view::{FrameBanding, RoiBox, Stretch};
-
-/// A case's annotated view, relative to the report directory.
-pub fn view_path(case_id: &str) -> String {
-    format!("{}/{case_id}-view.png", super::document::FRAMES_DIR)
-}
+pub use crate::model::view_path;
 
 /// The annotated view of a frame ([`view::sample_view`]) as an RGB PNG.
 pub fn view_png(frame: &RenderedFrame, rois: &[RoiBox]) -> Result<Vec<u8>, ReportError> {
@@ -27,31 +22,6 @@ pub fn view_png(frame: &RenderedFrame, rois: &[RoiBox]) -> Result<Vec<u8>, Repor
         .write_to(&mut out, ImageFormat::Png)
         .map_err(image_err)?;
     Ok(out.into_inner())
-}
-
-/// What results.json says of a case's sample frame: its files, the
-/// display stretch, the ROIs as drawn, the crop, the banding of this very
-/// frame and the caption that states them.
-pub fn sample_frame_info(
-    case_id: &str,
-    frame: &RenderedFrame,
-    plan_rois: &[crate::plan::Roi],
-) -> SampleFrameInfo {
-    let rois = RoiBox::from_plan(plan_rois);
-    let stretch = Stretch::of(&frame.luma);
-    let crop_px = view::crop_rect(&rois, (frame.width, frame.height));
-    let banding = view::frame_banding(frame, &rois);
-    let caption = view::caption(&stretch, &rois, crop_px, banding.as_ref());
-    SampleFrameInfo {
-        path: super::model::frame_path(case_id),
-        frame: frame.index,
-        view: view_path(case_id),
-        stretch,
-        rois,
-        crop_px,
-        banding,
-        caption,
-    }
 }
 
 /// Width of the inline copy in the HTML report, pixels.

@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::ReportError;
-use super::model::Results;
+use crate::model::Results;
 
 /// Absolute tolerance per metric, in the metric's units (FDI: a ratio;
 /// Percent Flicker: percentage points).
@@ -169,12 +169,12 @@ pub fn load(path: &Path) -> Result<serde_json::Value, ReportError> {
     })?;
     let v: serde_json::Value =
         serde_json::from_str(&text).map_err(|e| invalid(path, format!("not valid JSON: {e}")))?;
-    if v["schema"].as_str() != Some(super::model::RESULTS_SCHEMA) || !v["cases"].is_array() {
+    if v["schema"].as_str() != Some(crate::model::RESULTS_SCHEMA) || !v["cases"].is_array() {
         return Err(invalid(
             path,
             format!(
                 "not a `{}` file\n    hint: pass the results.json of an earlier run",
-                super::model::RESULTS_SCHEMA
+                crate::model::RESULTS_SCHEMA
             ),
         ));
     }

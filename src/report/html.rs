@@ -60,7 +60,7 @@ pub(crate) fn matrices(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec
 
 /// Renders report.html for a run in memory (a draft: no signatories).
 pub fn render(
-    model: &super::model::Results,
+    model: &crate::model::Results,
     results: &[crate::runner::CaseResult],
     date: &str,
 ) -> Result<String, ReportError> {

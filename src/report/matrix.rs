@@ -11,8 +11,8 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::charts::{ChartError, FONT};
-use super::model::{CaseInfo, Results};
 use crate::metrics::Verdict;
+use crate::model::{CaseInfo, Results};
 use crate::plan::{RoiKind, VerdictBasis};
 
 /// Which metric a matrix shows.
@@ -583,7 +583,7 @@ pub(crate) mod tests {
         let cases = crate::plan::expand_cases(&plan);
         let backend = crate::backend::sim::Simulator::new(&plan);
         let results = crate::runner::run(&plan, &cases, &backend, Some(1), &|_| {}).unwrap();
-        super::super::build(&plan, "sim-ideal", &results)
+        crate::model::build(&plan, "sim-ideal", &results)
     }
 
     /// (x, y, font size, anchor, text) of every `<text>` of an SVG.

@@ -12,18 +12,14 @@ pub mod frames;
 pub mod golden;
 pub mod html;
 pub mod matrix;
-pub mod method;
-pub mod model;
 pub mod pdf;
 pub mod terminal;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use crate::runner::CaseResult;
+use crate::model::{CaseResult, Detail, InputFile, ReportMeta, Results};
 use crate::util::write_atomic;
-
-pub use model::{Results, build};
 
 /// A file in a report directory that marks it as signed (the CMS signature
 /// of its manifest); such a directory is never overwritten without `--force`.
@@ -105,9 +101,9 @@ pub struct WriteOptions {
     pub signatories: Vec<document::Signatory>,
     /// Every input of the run ([`crate::inputs::collect`]); empty lists
     /// the plan alone.
-    pub inputs: Vec<document::InputFile>,
+    pub inputs: Vec<InputFile>,
     /// How much of each case the report shows.
-    pub detail: document::Detail,
+    pub detail: Detail,
 }
 
 /// One case's trace as CSV: `frame,time_s,segment,<one luma column per ROI>`.
@@ -239,7 +235,7 @@ pub fn write_report(
     drop(t);
     let t = crate::timings::span("report: charts");
     let mut model = model.clone();
-    model.report = Some(document::ReportMeta {
+    model.report = Some(ReportMeta {
         date: options.date.clone(),
         detail: options.detail.as_str().to_string(),
         inputs: options.inputs.clone(),

@@ -8,8 +8,8 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::model::{CaseInfo, Results, RoiInfo};
 use crate::metrics::Verdict;
+use crate::model::{CaseInfo, Results, RoiInfo};
 use crate::plan::RoiKind;
 
 /// Metric columns: header, results.json name, decimals.
@@ -156,7 +156,7 @@ pub fn summary(model: &Results, out: &Path) -> String {
         .unwrap_or(3)
         .max(3);
     // `*` marks a captured case whose segments were detected from the luma.
-    let detected = |c: &super::model::CaseInfo| {
+    let detected = |c: &crate::model::CaseInfo| {
         c.capture
             .as_ref()
             .is_some_and(|s| s.segments.method == "detected")

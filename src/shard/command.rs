@@ -214,7 +214,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<i32> {
     report::check_overwrite(&out, a.force)?;
     let generation = crate::outdir::Generation::begin(&out)?;
     crate::interrupt::install();
-    let model = super::report_model(&plan, &first.backend, &results);
+    let model = crate::model::assemble(&plan, &first.backend, &results);
     crate::interrupt::check()?;
     report::write_report(
         generation.path(),

@@ -18,8 +18,6 @@ pub mod record;
 use serde::{Deserialize, Serialize};
 
 use crate::cli::UsageError;
-use crate::plan::{BackendKind, Plan};
-use crate::runner::CaseResult;
 
 /// Largest shard count: more shards than this is a mistake, not a cluster.
 pub const MAX_SHARDS: usize = 100_000;
@@ -136,29 +134,6 @@ impl ShardSpec {
             "--shard auto: neither SLURM_ARRAY_TASK_ID (a Slurm array task) nor JOB_COMPLETION_INDEX (a Kubernetes Indexed Job) is set\n    hint: outside those, give the shard explicitly, e.g. --shard 0/4".to_string(),
         ))
     }
-}
-
-/// The report model of a finished run, as `plan` writes it and `merge`
-/// rebuilds it: [`crate::report::build`], the capture summaries of captured
-/// and rig runs (from each case's acquisition), then the method section.
-pub fn report_model(
-    plan: &Plan,
-    backend_id: &str,
-    results: &[CaseResult],
-) -> crate::report::Results {
-    let mut model = crate::report::build(plan, backend_id, results);
-    for (case, r) in model.cases.iter_mut().zip(results) {
-        debug_assert_eq!(case.id, r.case.id);
-        let Some(s) = &r.acquisition.capture else {
-            continue;
-        };
-        if plan.dut.backend == BackendKind::Captured {
-            case.source = Some(s.source.clone());
-        }
-        case.capture = Some(s.clone());
-    }
-    crate::report::method::describe(&mut model, plan);
-    model
 }
 
 #[cfg(test)]

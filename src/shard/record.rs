@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use super::ShardSpec;
-use crate::report::document::InputFile;
+use crate::inputs::InputFile;
 use crate::runner::CaseResult;
 
 /// Schema of `shard.json`.

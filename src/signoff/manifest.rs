@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use crate::report::document::InputFile;
+use crate::inputs::InputFile;
 
 /// First line of every manifest.
 pub const HEADER: &str = "# ledflicker sign-off manifest 1; check the files with `sha256sum -c manifest.txt` in the report directory";

@@ -10,7 +10,8 @@ use super::manifest::{Manifest, scan};
 use super::{
     HISTORY_DIR, LEGACY_FILE, MANIFEST_FILE, SIGNATURE_FILE, SignoffError, cms, keys, pdf,
 };
-use crate::report::document::{Document, InputFile, Signatory};
+use crate::model::InputFile;
+use crate::report::document::{Document, Signatory};
 use crate::util::sha256_hex;
 
 /// One signatory whose manifest signature is sound.

@@ -2,7 +2,7 @@
 //! banding and phase coverage of a small plan, against closed forms.
 
 use ledflicker::backend::sim::Simulator;
-use ledflicker::{plan, report, runner};
+use ledflicker::{plan, runner};
 use serde_json::Value;
 
 use crate::root;
@@ -22,7 +22,7 @@ fn model(frequencies: &str, duties: &str) -> Value {
     let p = plan::parse(&text, std::path::Path::new("beyond.toml"), String::new()).unwrap();
     let cases = plan::expand_cases(&p);
     let results = runner::run(&p, &cases, &Simulator::new(&p), Some(2), &|_| {}).unwrap();
-    serde_json::to_value(report::build(&p, "sim-ideal", &results)).unwrap()
+    serde_json::to_value(ledflicker::model::build(&p, "sim-ideal", &results)).unwrap()
 }
 
 fn case<'a>(m: &'a Value, id: &str) -> &'a Value {

@@ -9,12 +9,19 @@ use serde_json::Value;
 
 use crate::root;
 
-fn run(path: &str, threads: usize) -> (plan::Plan, Vec<runner::CaseResult>, report::Results) {
+fn run(
+    path: &str,
+    threads: usize,
+) -> (
+    plan::Plan,
+    Vec<runner::CaseResult>,
+    ledflicker::model::Results,
+) {
     let p = plan::load(std::path::Path::new(path)).unwrap();
     let cases = plan::expand_cases(&p);
     let backend = Simulator::new(&p);
     let results = runner::run(&p, &cases, &backend, Some(threads), &|_| {}).unwrap();
-    let model = report::build(&p, "sim-ideal", &results);
+    let model = ledflicker::model::build(&p, "sim-ideal", &results);
     (p, results, model)
 }
 
@@ -172,7 +179,7 @@ fn dark_off_reference_is_reported_as_unbounded() {
     let p = plan::parse(&text, std::path::Path::new("dark.toml"), String::new()).unwrap();
     let cases = plan::expand_cases(&p);
     let results = runner::run(&p, &cases, &Simulator::new(&p), Some(1), &|_| {}).unwrap();
-    let model = report::build(&p, "sim-ideal", &results);
+    let model = ledflicker::model::build(&p, "sim-ideal", &results);
     let json = serde_json::to_value(&model).unwrap();
     let case = json["cases"]
         .as_array()
@@ -194,9 +201,12 @@ fn dark_off_reference_is_reported_as_unbounded() {
 }
 
 /// report.html of a run at `--detail full`: a section for every case.
-fn full_html(model: &report::Results, results: &[ledflicker::runner::CaseResult]) -> String {
+fn full_html(
+    model: &ledflicker::model::Results,
+    results: &[ledflicker::runner::CaseResult],
+) -> String {
     let mut model = model.clone();
-    model.report = Some(report::document::ReportMeta {
+    model.report = Some(ledflicker::model::ReportMeta {
         date: "2026-01-01".to_string(),
         detail: "full".to_string(),
         inputs: Vec::new(),

@@ -324,7 +324,7 @@ fn simulated_report_names_its_camera_and_the_worst_phase_basis() {
     let p = plan::load(&root().join("test-plans/deegan2018.toml")).unwrap();
     let cases = plan::expand_cases(&p);
     let results = runner::run(&p, &cases, &Simulator::new(&p), Some(2), &|_| {}).unwrap();
-    let model = ledflicker::report::build(&p, "sim-physical", &results);
+    let model = ledflicker::model::build(&p, "sim-physical", &results);
     assert!(
         model
             .method
@@ -344,12 +344,12 @@ fn simulated_report_names_its_camera_and_the_worst_phase_basis() {
     );
     assert!(!notes.iter().any(|n| n.contains("ideal camera")));
     let daylight = plan::load(&root().join("test-plans/daylight.toml")).unwrap();
-    let m = ledflicker::report::method::method(&daylight);
+    let m = ledflicker::model::method::method(&daylight);
     assert!(m.verdict_basis.contains("worst case over PWM phase"));
     assert!(m.acquisition.contains("ideal camera simulator"));
     // The rig: its command, and judged as captured whatever the plan asks.
     let rig = plan::load(&root().join("test-plans/command-sim-rig.toml")).unwrap();
-    let m = ledflicker::report::method::method(&rig);
+    let m = ledflicker::model::method::method(&rig);
     assert!(m.acquisition.contains("sim-rig.sh"), "{}", m.acquisition);
     assert!(
         m.verdict_basis.contains("as captured"),

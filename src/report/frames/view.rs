@@ -1,244 +1,28 @@
-//! The annotated view of a sample frame: the whole frame with a documented
-//! display stretch and the ROIs drawn and numbered, and a 4x crop around
-//! the LED ROI beside it, as one RGB PNG (docs/report.md, "Sample frames").
-//!
-//! The stretch maps the frame's 0.5th percentile of luma to black and its
-//! 99.5th percentile to white, linearly, clipping the rest: a frame whose
-//! values span 24 to 66 DN of 255 fills the grey scale instead of looking
-//! black. The row analysis of the frame ([`frame_banding`]) gives the
-//! banding sentence printed beside it, so the text always describes the
-//! frame shown.
+//! The annotated view of a sample frame: the whole frame with its display
+//! stretch and the ROIs drawn and numbered, and a 4x crop around the LED
+//! ROI beside it, as one RGB PNG (docs/report.md, "Sample frames"). The
+//! stretch, ROI boxes, crop and caption come from the model
+//! ([`crate::model::frame`]); this module only draws them.
 
 use image::{Rgb, RgbImage};
-use serde::Serialize;
 
-use crate::backend::RenderedFrame;
-use crate::plan::{Roi, RoiKind};
+use crate::model::frame::{CROP_ZOOM, RoiBox, Stretch, crop_rect};
+use crate::model::{RenderedFrame, RoiKind};
 
-/// Percentile of the frame's luma shown black.
-pub const STRETCH_LOW_PERCENTILE: f64 = 0.5;
-/// Percentile of the frame's luma shown white.
-pub const STRETCH_HIGH_PERCENTILE: f64 = 99.5;
-/// Magnification of the crop around the LED ROI.
-pub const CROP_ZOOM: u32 = 4;
 /// Width of the whole-frame part of the view, pixels (frames narrower are
 /// shown 1:1).
 pub const VIEW_WIDTH: u32 = 480;
-/// Largest crop, source pixels (wide ROIs are cropped around their centre).
-const CROP_MAX: (u32, u32) = (120, 80);
-/// Smallest crop, source pixels.
-const CROP_MIN: u32 = 24;
 /// Gap between the frame and the crop, pixels.
 const GAP: u32 = 10;
-/// Row contrast below which a frame's LED rows count as even (no bands), %.
-pub const NO_BANDS_CONTRAST_PERCENT: f64 = 1.0;
 
 const LED_COLOUR: Rgb<u8> = Rgb([235, 40, 40]);
 const BACKGROUND_COLOUR: Rgb<u8> = Rgb([40, 120, 255]);
 const CROP_COLOUR: Rgb<u8> = Rgb([255, 200, 0]);
 
-/// The linear display stretch of a frame.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Stretch {
-    /// Luma shown black: the frame's [`STRETCH_LOW_PERCENTILE`], DN.
-    pub low_dn: f64,
-    /// Luma shown white: the frame's [`STRETCH_HIGH_PERCENTILE`], DN (at
-    /// least `low_dn + 1`).
-    pub high_dn: f64,
-}
-
-impl Stretch {
-    /// The stretch of `luma`: its percentiles (nearest rank) of the finite
-    /// values; 0 to 1 DN when there are none.
-    pub fn of(luma: &[f64]) -> Stretch {
-        let mut v: Vec<f64> = luma.iter().copied().filter(|x| x.is_finite()).collect();
-        // Two selections, O(n) each, instead of sorting a whole frame.
-        let mut nth = |p: f64| {
-            let i = rank(v.len(), p)?;
-            Some(*v.select_nth_unstable_by(i, f64::total_cmp).1)
-        };
-        let low_dn = nth(STRETCH_LOW_PERCENTILE).unwrap_or(0.0);
-        let high_dn = nth(STRETCH_HIGH_PERCENTILE)
-            .unwrap_or(1.0)
-            .max(low_dn + 1.0);
-        Stretch { low_dn, high_dn }
-    }
-
-    /// Display grey of luma `v`, 0..=255.
-    pub fn apply(&self, v: f64) -> u8 {
-        let u = (v - self.low_dn) / (self.high_dn - self.low_dn);
-        if u.is_nan() {
-            0
-        } else {
-            (u * 255.0).round().clamp(0.0, 255.0) as u8
-        }
-    }
-
-    /// The caption sentence stating the stretch.
-    pub fn caption(&self) -> String {
-        format!(
-            "Display stretch: the frame's {STRETCH_LOW_PERCENTILE}th percentile of luma ({} DN) is shown black and its {STRETCH_HIGH_PERCENTILE}th percentile ({} DN) white, linearly in between; darker and brighter pixels are clipped.",
-            crate::util::fixed(self.low_dn, 1),
-            crate::util::fixed(self.high_dn, 1)
-        )
-    }
-}
-
-/// Index in sorted order of the nearest-rank percentile `p` (0..=100) of
-/// `n` values; `None` when there are none.
-fn rank(n: usize, p: f64) -> Option<usize> {
-    let rank = ((p / 100.0) * n as f64).ceil() as usize;
-    (n > 0).then(|| rank.clamp(1, n) - 1)
-}
-
-/// An ROI as drawn on the view.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct RoiBox {
-    /// Number written on the view, from 1 in plan order.
-    pub number: usize,
-    /// ROI name.
-    pub name: String,
-    /// led or background.
-    pub kind: RoiKind,
-    /// Left column, top row, width and height, source pixels.
-    pub rect_px: [u32; 4],
-}
-
-impl RoiBox {
-    /// The plan's ROIs, numbered from 1.
-    pub fn from_plan(rois: &[Roi]) -> Vec<RoiBox> {
-        rois.iter()
-            .enumerate()
-            .map(|(i, r)| RoiBox {
-                number: i + 1,
-                name: r.name.clone(),
-                kind: r.kind,
-                rect_px: [r.x_px, r.y_px, r.width_px, r.height_px],
-            })
-            .collect()
-    }
-
-    fn colour(&self) -> Rgb<u8> {
-        match self.kind {
-            RoiKind::Led => LED_COLOUR,
-            RoiKind::Background => BACKGROUND_COLOUR,
-        }
-    }
-}
-
-/// The source rectangle `[x, y, w, h]` shown at [`CROP_ZOOM`]x: the first
-/// LED ROI (else the first ROI) with a margin of a quarter of its size (at
-/// least 8 px), between [`CROP_MIN`] and [`CROP_MAX`] pixels a side,
-/// centred on the ROI and inside the frame.
-pub fn crop_rect(rois: &[RoiBox], (width, height): (u32, u32)) -> Option<[u32; 4]> {
-    let roi = rois
-        .iter()
-        .find(|r| r.kind == RoiKind::Led)
-        .or(rois.first())?;
-    let [x, y, w, h] = roi.rect_px;
-    let side = |size: u32, max: u32, limit: u32| {
-        (size + 2 * (size / 4).max(8))
-            .clamp(CROP_MIN, max)
-            .min(limit)
-    };
-    let (cw, ch) = (side(w, CROP_MAX.0, width), side(h, CROP_MAX.1, height));
-    if cw == 0 || ch == 0 {
-        return None;
-    }
-    let centre = |start: u32, size: u32, crop: u32, limit: u32| {
-        (start + size / 2)
-            .saturating_sub(crop / 2)
-            .min(limit - crop)
-    };
-    Some([centre(x, w, cw, width), centre(y, h, ch, height), cw, ch])
-}
-
-/// Row analysis of the frame shown: the mean luma of each row over the LED
-/// ROI's columns, between the first and the last row the LED lights.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct FrameBanding {
-    /// First and last lit row (inclusive).
-    pub lit_rows: (u32, u32),
-    /// Michelson contrast x 100 of the row means over the lit rows.
-    pub row_contrast_percent: f64,
-    /// Mean spacing of the bands over the lit rows, rows; `None` when the
-    /// lit rows hold fewer than two band periods or show no bands.
-    pub band_period_rows: Option<f64>,
-}
-
-/// Row means of `frame` over the columns of `roi`.
-fn row_profile(frame: &RenderedFrame, roi: &RoiBox) -> Vec<f64> {
-    let w = frame.width as usize;
-    let x0 = (roi.rect_px[0] as usize).min(w);
-    let x1 = (roi.rect_px[0] as usize + roi.rect_px[2] as usize).min(w);
-    if x1 <= x0 {
-        return Vec::new();
-    }
-    frame
-        .luma
-        .chunks(w)
-        .map(|row| row[x0..x1].iter().sum::<f64>() / (x1 - x0) as f64)
-        .collect()
-}
-
-/// Banding of the frame shown, in the columns of the first LED ROI; `None`
-/// without an LED ROI or when no row differs from the darkest.
-pub fn frame_banding(frame: &RenderedFrame, rois: &[RoiBox]) -> Option<FrameBanding> {
-    let led = rois.iter().find(|r| r.kind == RoiKind::Led)?;
-    let profile = row_profile(frame, led);
-    let (lo, hi) = profile
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    if hi - lo <= 1e-9 || hi.is_nan() || lo.is_nan() {
-        return None;
-    }
-    // Lit: more than 5 % of the way from the darkest row to the brightest.
-    let lit = |v: &f64| *v > lo + 0.05 * (hi - lo);
-    let first = profile.iter().position(lit)?;
-    let last = profile.iter().rposition(lit)?;
-    let span = &profile[first..=last];
-    let (slo, shi) = span
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    let row_contrast_percent = if shi + slo > 0.0 {
-        100.0 * (shi - slo) / (shi + slo)
-    } else {
-        0.0
-    };
-    let band_period_rows = (row_contrast_percent >= NO_BANDS_CONTRAST_PERCENT)
-        .then(|| crate::analysis::banding::band_period_from_profile(span).ok())
-        .flatten();
-    Some(FrameBanding {
-        lit_rows: (first as u32, last as u32),
-        row_contrast_percent,
-        band_period_rows,
-    })
-}
-
-/// The sentence on the banding of the frame shown.
-pub fn banding_sentence(banding: Option<&FrameBanding>) -> String {
-    let Some(b) = banding else {
-        return "The LED ROI's columns are even in this frame: it shows no bands.".to_string();
-    };
-    let rows = b.lit_rows.1 - b.lit_rows.0 + 1;
-    let contrast = crate::util::fixed(b.row_contrast_percent, 1);
-    if b.row_contrast_percent < NO_BANDS_CONTRAST_PERCENT {
-        return format!(
-            "The {rows} lit rows of the LED in this frame are even (row contrast {contrast} %): it shows no bands."
-        );
-    }
-    match b.band_period_rows {
-        Some(p) => format!(
-            "The LED in this frame shows bands {} rows apart (row contrast {contrast} % over {rows} lit rows).",
-            crate::util::fixed(p, 1)
-        ),
-        None => format!(
-            "The LED rows of this frame vary (row contrast {contrast} % over {rows} lit rows), with fewer than two band periods."
-        ),
+fn colour(roi: &RoiBox) -> Rgb<u8> {
+    match roi.kind {
+        RoiKind::Led => LED_COLOUR,
+        RoiKind::Background => BACKGROUND_COLOUR,
     }
 }
 
@@ -377,61 +161,30 @@ pub fn sample_view(frame: &RenderedFrame, rois: &[RoiBox]) -> (RgbImage, Stretch
                     (bx - ax) * CROP_ZOOM,
                     (by - ay) * CROP_ZOOM,
                 ];
-                outline(&mut img, r, 2, roi.colour());
-                label(&mut img, roi.number, (r[0], r[1] + r[3] + 3), roi.colour());
+                outline(&mut img, r, 2, colour(roi));
+                label(&mut img, roi.number, (r[0], r[1] + r[3] + 3), colour(roi));
             }
         }
         outline(&mut img, [left, 0, cw, ch], 1, CROP_COLOUR);
     }
     for roi in rois {
         let r = scale_rect(roi.rect_px);
-        outline(&mut img, r, 2, roi.colour());
+        outline(&mut img, r, 2, colour(roi));
         // Number above the box, or below it at the top edge.
         let ly = if r[1] >= 18 {
             r[1] - 17
         } else {
             r[1] + r[3] + 3
         };
-        label(&mut img, roi.number, (r[0], ly), roi.colour());
+        label(&mut img, roi.number, (r[0], ly), colour(roi));
     }
     (img, stretch)
-}
-
-/// The caption of a view: the stretch, the ROI key, the crop and the
-/// banding of the frame shown.
-pub fn caption(
-    stretch: &Stretch,
-    rois: &[RoiBox],
-    crop: Option<[u32; 4]>,
-    banding: Option<&FrameBanding>,
-) -> String {
-    let key: Vec<String> = rois
-        .iter()
-        .map(|r| {
-            let colour = match r.kind {
-                RoiKind::Led => "red",
-                RoiKind::Background => "blue",
-            };
-            format!("{} = {} ({colour})", r.number, r.name)
-        })
-        .collect();
-    let mut out = stretch.caption();
-    if !key.is_empty() {
-        out.push_str(&format!(" ROIs: {}.", key.join(", ")));
-    }
-    if let Some([x, y, w, h]) = crop {
-        out.push_str(&format!(
-            " Right: the {w} x {h} px around the LED ROI (from column {x}, row {y}; yellow box) at {CROP_ZOOM}x."
-        ));
-    }
-    out.push(' ');
-    out.push_str(&banding_sentence(banding));
-    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::frame::*;
 
     fn frame(width: u32, height: u32, f: impl Fn(u32, u32) -> f64) -> RenderedFrame {
         let luma = (0..height)

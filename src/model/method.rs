@@ -7,7 +7,7 @@
 
 use serde::Serialize;
 
-use super::model::{CaseInfo, Results};
+use super::{CaseInfo, Results};
 use crate::backend::sim::SegmentFrames;
 use crate::plan::{BackendKind, Limits, Plan, ShutterKind, Thresholds, VerdictBasis};
 

@@ -1,4 +1,8 @@
-//! The report model: results.json. HTML and PDF are rendered from it.
+//! The results model: every struct of results.json, typed both ways
+//! (written with serde, read back with serde), and the analysis stage that
+//! fills it from the run's case results ([`build`]). The report renders
+//! this model and imports nothing else of the pipeline; the types it shows
+//! from lower modules are re-exported here (docs/architecture.md).
 //!
 //! Contract `ledflicker.results/2` (see docs/changes.md; fields may be added,
 //! never renamed):
@@ -14,15 +18,21 @@
 //! `phase_coverage` and an `analysis` object; at the top `fine_maps` and
 //! `advice`.
 
+pub mod build;
+pub mod frame;
+pub mod method;
+
 use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use crate::analysis::{self, Banding, Beat, DriveFlicker, FineMapInfo, HazardClass, RoiAnalysis};
-use crate::metrics::verdict::{effective_basis, in_mitigation_range, overall};
-use crate::metrics::{Check, Levels, Metric, Verdict};
-use crate::plan::{Plan, RoiKind, Sequence, ShutterKind, Thresholds};
-use crate::runner::CaseResult;
+pub use crate::analysis::{Banding, Beat, DriveFlicker, FineMapInfo, HazardClass, RoiAnalysis};
+pub use crate::inputs::InputFile;
+pub use crate::metrics::{Check, Levels, Metric, Verdict};
+pub use crate::plan::{RoiKind, Thresholds};
+pub use crate::runner::CaseResult;
+pub use crate::trace::{CaptureSummary, RenderedFrame};
+pub use build::{assemble, build};
 
 /// Schema id of results.json.
 pub const RESULTS_SCHEMA: &str = "ledflicker.results/2";
@@ -44,7 +54,7 @@ pub struct Results {
     /// captures and rigs).
     pub thresholds: Thresholds,
     /// How the frames were acquired and which verdict basis was used.
-    pub method: super::method::Method,
+    pub method: method::Method,
     /// IEEE P2020 KPI settings (`[p2020]`).
     pub p2020: crate::metrics::p2020::P2020Options,
     /// Overall verdict: fail if any case failed, else pass if any case was
@@ -65,7 +75,7 @@ pub struct Results {
     /// Date and input files; set when the report is written, absent in
     /// models built in memory.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub report: Option<super::document::ReportMeta>,
+    pub report: Option<ReportMeta>,
 }
 
 /// Exposure advice for a plan's range.
@@ -80,51 +90,6 @@ pub struct PlanAdvice {
     /// Residual against exposure, for the chart (not serialised).
     #[serde(skip)]
     pub curve: Vec<crate::advise::Candidate>,
-}
-
-/// Grid of the report's advice: coarser than `ledflicker advise`'s default
-/// so that a report stays quick to build.
-const ADVICE_STEP_HZ: f64 = 5.0;
-const ADVICE_STEP_DUTY: f64 = 0.01;
-
-fn plan_advice(plan: &Plan) -> Option<PlanAdvice> {
-    let fold = |xs: &[f64]| {
-        xs.iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-                (a.min(x), b.max(x))
-            })
-    };
-    let (f0, f1) = fold(&plan.frequencies_hz);
-    let f0 = f0.max(plan.thresholds.mitigation_min_hz);
-    let f1 = plan.thresholds.mitigation_max_hz.map_or(f1, |m| f1.min(m));
-    let duty = fold(&plan.duty_cycles);
-    let req = crate::advise::AdviseRequest {
-        frequency_hz: (f0, f1),
-        duty,
-        frequency_step_hz: ADVICE_STEP_HZ,
-        duty_step: ADVICE_STEP_DUTY,
-        speed_px_per_s: None,
-        hdr_ratios: Vec::new(),
-        frame: Some(frame_bound(plan)),
-    };
-    let advice = crate::advise::advise(&req).ok()?;
-    let curve = crate::advise::curve(&req, 33).ok()?;
-    Some(PlanAdvice {
-        frequency_hz: (f0, f1),
-        duty,
-        advice,
-        curve,
-    })
-}
-
-/// What bounds the plan camera's (long) exposure: its frame time, less its
-/// other captures when they run one after the other.
-fn frame_bound(plan: &Plan) -> crate::advise::FrameBound {
-    let cam = &plan.dut.camera;
-    match &cam.physical {
-        Some(p) => crate::advise::FrameBound::of_captures(cam.fps, &p.captures, p.hdr_mode),
-        None => crate::advise::FrameBound::frame_time(cam.fps),
-    }
 }
 
 /// Tool name and version.
@@ -237,7 +202,7 @@ pub struct CaseInfo {
     /// What was read from the capture and the segments used (captured and
     /// command backends).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub capture: Option<crate::backend::captured::CaptureSummary>,
+    pub capture: Option<CaptureSummary>,
     /// Case seed.
     pub seed: u64,
     /// pass, fail or info.
@@ -286,14 +251,14 @@ pub struct SampleFrameInfo {
     /// 4x crop around the LED ROI), relative to the report directory.
     pub view: String,
     /// Display stretch of the view.
-    pub stretch: super::frames::Stretch,
+    pub stretch: frame::Stretch,
     /// ROIs as drawn and numbered on the view.
-    pub rois: Vec<super::frames::RoiBox>,
+    pub rois: Vec<frame::RoiBox>,
     /// Source rectangle `[x, y, w, h]` of the 4x crop; `null` without ROIs.
     pub crop_px: Option<[u32; 4]>,
     /// Row analysis of this frame in the LED ROI's columns; `null` without
     /// an LED ROI or for an even frame.
-    pub banding: Option<super::frames::FrameBanding>,
+    pub banding: Option<frame::FrameBanding>,
     /// Caption of the view: stretch, ROI key, crop, banding of this frame.
     pub caption: String,
 }
@@ -345,174 +310,68 @@ fn positive_or_null<S: serde::Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Err
     }
 }
 
-fn insert(roi: &mut RoiInfo, name: &str, m: &Metric) {
-    roi.metrics.insert(name.to_string(), m.value);
-    if let Some(r) = &m.reason {
-        roi.reasons.insert(name.to_string(), r.clone());
-    }
-    roi.contrast_unbounded |= m.unbounded;
-}
-
 /// Relative path of a case's trace CSV.
 pub fn trace_path(case_id: &str) -> String {
     format!("traces/{case_id}.csv")
 }
 
-/// Builds results.json's model. `plan_path` is the path as the user gave it.
-pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
-    let cam = &plan.dut.camera;
-    let mut counts = Counts {
-        total: results.len(),
-        ..Counts::default()
-    };
-    // The analyses and the sample frames' banding are independent per
-    // case: in parallel, collected in order.
-    let analyses: Vec<_> = {
-        use rayon::prelude::*;
-        results
-            .par_iter()
-            .map(|r| {
-                let frame = r
-                    .sample_frame
-                    .as_ref()
-                    .map(|f| super::frames::sample_frame_info(&r.case.id, f, &plan.rois));
-                (analysis::analyse_case(plan, r), frame)
-            })
-            .collect()
-    };
-    let cases = results
-        .iter()
-        .zip(analyses)
-        .map(|(r, (a, sample_frame))| {
-            match r.verdict {
-                Verdict::Pass => counts.pass += 1,
-                Verdict::Fail => counts.fail += 1,
-                Verdict::Info => counts.info += 1,
-            }
-            let rois = plan
-                .rois
-                .iter()
-                .zip(&r.metrics)
-                .zip(a.rois)
-                .enumerate()
-                .map(|(i, ((roi, m), ra))| {
-                    let mut info = RoiInfo {
-                        name: roi.name.clone(),
-                        kind: roi.kind,
-                        metrics: BTreeMap::new(),
-                        reasons: BTreeMap::new(),
-                        levels: m.levels.clone(),
-                        saturated: m.saturated,
-                        contrast_unbounded: false,
-                        analysis: ra,
-                    };
-                    insert(&mut info, "fdi_2018", &m.fdi_2018);
-                    insert(&mut info, "percent_flicker", &m.percent_flicker);
-                    if let Some(x) = &m.fdi_2018_worst_phase {
-                        insert(&mut info, "fdi_2018_worst_phase", x);
-                    }
-                    if let Some(x) = &m.percent_flicker_worst_phase {
-                        insert(&mut info, "percent_flicker_worst_phase", x);
-                    }
-                    let spectrum = Metric {
-                        value: info.analysis.apparent_frequency_spectrum_hz,
-                        unbounded: false,
-                        reason: info.analysis.spectrum_reason.clone(),
-                    };
-                    insert(&mut info, "apparent_frequency_spectrum_hz", &spectrum);
-                    let coverage = info.analysis.phase_coverage.coverage;
-                    info.metrics
-                        .insert("phase_coverage".to_string(), Some(coverage));
-                    if let Some(w) = &info.analysis.phase_coverage.warning {
-                        info.reasons.insert("phase_coverage".to_string(), w.clone());
-                    }
-                    if let Some(p) = r.p2020.get(i) {
-                        insert(&mut info, "fmi", &p.fmi);
-                        insert(&mut info, "fdi_p2020", &p.fdi);
-                        insert(&mut info, "mmp", &p.mmp);
-                    }
-                    info
-                })
-                .collect();
-            CaseInfo {
-                id: r.case.id.clone(),
-                light_lux: r.case.light_lux,
-                frequency_hz: r.case.frequency_hz,
-                duty: r.case.duty,
-                source: None,
-                capture: None,
-                seed: r.case.seed,
-                verdict: r.verdict,
-                not_judged: r.not_judged.clone(),
-                not_checked: r.not_checked.clone(),
-                acquisition: String::new(),
-                in_mitigation_range: r.case.frequency_hz > 0.0
-                    && in_mitigation_range(r.case.frequency_hz, &plan.thresholds),
-                frames: r.acquisition.frames.len(),
-                trace: trace_path(&r.case.id),
-                sample_frame,
-                rois,
-                checks: r.checks.clone(),
-                apparent_frequency_hz: a.beat.apparent_frequency_hz,
-                hazard_class: a.hazard_class,
-                beat: a.beat,
-                drive: a.drive,
-                banding: a.banding,
-            }
-        })
-        .collect();
-    let Sequence { on_s, off_s, pwm_s } = plan.sequence;
-    let mut thresholds = plan.thresholds.clone();
-    thresholds.basis = effective_basis(plan.dut.backend, &plan.thresholds);
-    let mut model = Results {
-        schema: RESULTS_SCHEMA,
-        tool: Tool {
-            name: "ledflicker",
-            version: env!("CARGO_PKG_VERSION"),
-        },
-        plan: PlanInfo {
-            id: plan.id.clone(),
-            title: plan.title.clone(),
-            path: plan.path.display().to_string(),
-            sha256: plan.sha256.clone(),
-            standard: plan.standard.clone(),
-            description: plan.description.clone(),
-            lab: plan.lab.clone(),
-            seed: plan.seed,
-        },
-        dut: DutInfo {
-            backend: backend_id.to_string(),
-            supplier: plan.dut.supplier.clone(),
-            model: plan.dut.model.clone(),
-            serial: plan.dut.serial.clone(),
-            firmware: plan.dut.firmware.clone(),
-            camera: (plan.dut.backend == crate::plan::BackendKind::Simulator).then_some(
-                CameraInfo {
-                    shutter: match cam.shutter {
-                        ShutterKind::Global => "global",
-                        ShutterKind::Rolling => "rolling",
-                    },
-                    sensor_rows: cam.sensor_rows,
-                    sensor_columns: cam.sensor_columns,
-                    line_time_us: cam.line_time_s * 1e6,
-                    exposure_ms: cam.exposure_s * 1e3,
-                    frame_rate_fps: cam.fps,
-                    pwm_delay_ms: cam.pwm_delay_s * 1e3,
-                },
-            ),
-        },
-        sequence: SequenceInfo { on_s, off_s, pwm_s },
-        thresholds,
-        method: super::method::method(plan),
-        p2020: plan.p2020,
-        verdict: overall(results.iter().map(|r| r.verdict)),
-        counts,
-        cases,
-        fine_maps: analysis::fine_maps(plan),
-        fine_maps_note: analysis::fine_maps_note(plan),
-        advice: plan_advice(plan),
-        report: None,
-    };
-    super::method::describe(&mut model, plan);
-    model
+/// How much of each case the report shows (`--detail`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Detail {
+    /// Cover, summary, matrices and the one-line table of every case; no
+    /// case pages.
+    Summary,
+    /// As `Summary`, plus a page for every failing or not judged case.
+    #[default]
+    Standard,
+    /// A page for every case.
+    Full,
+}
+
+impl Detail {
+    /// Every level, in the order of `--detail`'s help.
+    pub const ALL: [Detail; 3] = [Detail::Summary, Detail::Standard, Detail::Full];
+
+    /// Its name in results.json and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Detail::Summary => "summary",
+            Detail::Standard => "standard",
+            Detail::Full => "full",
+        }
+    }
+
+    /// Parses [`Detail::as_str`]'s names.
+    pub fn parse(s: &str) -> Option<Detail> {
+        Detail::ALL.into_iter().find(|d| d.as_str() == s)
+    }
+
+    /// Whether a case with this verdict gets its own page.
+    pub fn shows_case(self, verdict: &str) -> bool {
+        match self {
+            Detail::Summary => false,
+            Detail::Standard => verdict != "pass",
+            Detail::Full => true,
+        }
+    }
+}
+
+/// Report metadata kept in results.json under `report`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ReportMeta {
+    /// Report date, `YYYY-MM-DD`.
+    pub date: String,
+    /// How much of each case the report shows: `summary`, `standard` or
+    /// `full` (`--detail`).
+    pub detail: String,
+    /// Every input file, plan first.
+    pub inputs: Vec<InputFile>,
+    /// Deviations from the method of Deegan 2018 and other notes, one
+    /// sentence each.
+    pub notes: Vec<String>,
+}
+
+/// A case's annotated view, relative to the report directory.
+pub fn view_path(case_id: &str) -> String {
+    format!("frames/{case_id}-view.png")
 }

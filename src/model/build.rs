@@ -1,0 +1,240 @@
+//! The analysis stage: from the run's case results to the results model.
+//! Apparent frequency, hazard class, banding, phase folds, fine maps,
+//! advice and the sample frames' row analysis run here, once, in parallel
+//! per case; the report only reads what this stage wrote.
+
+use std::collections::BTreeMap;
+
+use super::*;
+use crate::analysis;
+use crate::metrics::verdict::{effective_basis, in_mitigation_range, overall};
+use crate::plan::{BackendKind, Plan, Sequence, ShutterKind};
+
+/// Grid of the report's advice: coarser than `ledflicker advise`'s default
+/// so that a report stays quick to build.
+const ADVICE_STEP_HZ: f64 = 5.0;
+const ADVICE_STEP_DUTY: f64 = 0.01;
+
+fn plan_advice(plan: &Plan) -> Option<PlanAdvice> {
+    let fold = |xs: &[f64]| {
+        xs.iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                (a.min(x), b.max(x))
+            })
+    };
+    let (f0, f1) = fold(&plan.frequencies_hz);
+    let f0 = f0.max(plan.thresholds.mitigation_min_hz);
+    let f1 = plan.thresholds.mitigation_max_hz.map_or(f1, |m| f1.min(m));
+    let duty = fold(&plan.duty_cycles);
+    let req = crate::advise::AdviseRequest {
+        frequency_hz: (f0, f1),
+        duty,
+        frequency_step_hz: ADVICE_STEP_HZ,
+        duty_step: ADVICE_STEP_DUTY,
+        speed_px_per_s: None,
+        hdr_ratios: Vec::new(),
+        frame: Some(frame_bound(plan)),
+    };
+    let advice = crate::advise::advise(&req).ok()?;
+    let curve = crate::advise::curve(&req, 33).ok()?;
+    Some(PlanAdvice {
+        frequency_hz: (f0, f1),
+        duty,
+        advice,
+        curve,
+    })
+}
+
+/// What bounds the plan camera's (long) exposure: its frame time, less its
+/// other captures when they run one after the other.
+fn frame_bound(plan: &Plan) -> crate::advise::FrameBound {
+    let cam = &plan.dut.camera;
+    match &cam.physical {
+        Some(p) => crate::advise::FrameBound::of_captures(cam.fps, &p.captures, p.hdr_mode),
+        None => crate::advise::FrameBound::frame_time(cam.fps),
+    }
+}
+
+fn insert(roi: &mut RoiInfo, name: &str, m: &Metric) {
+    roi.metrics.insert(name.to_string(), m.value);
+    if let Some(r) = &m.reason {
+        roi.reasons.insert(name.to_string(), r.clone());
+    }
+    roi.contrast_unbounded |= m.unbounded;
+}
+
+/// Builds results.json's model. `plan_path` is the path as the user gave it.
+pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
+    let cam = &plan.dut.camera;
+    let mut counts = Counts {
+        total: results.len(),
+        ..Counts::default()
+    };
+    // The analyses and the sample frames' banding are independent per
+    // case: in parallel, collected in order.
+    let analyses: Vec<_> = {
+        use rayon::prelude::*;
+        results
+            .par_iter()
+            .map(|r| {
+                let frame = r
+                    .sample_frame
+                    .as_ref()
+                    .map(|f| super::frame::sample_frame_info(&r.case.id, f, &plan.rois));
+                (analysis::analyse_case(plan, r), frame)
+            })
+            .collect()
+    };
+    let cases = results
+        .iter()
+        .zip(analyses)
+        .map(|(r, (a, sample_frame))| {
+            match r.verdict {
+                Verdict::Pass => counts.pass += 1,
+                Verdict::Fail => counts.fail += 1,
+                Verdict::Info => counts.info += 1,
+            }
+            let rois = plan
+                .rois
+                .iter()
+                .zip(&r.metrics)
+                .zip(a.rois)
+                .enumerate()
+                .map(|(i, ((roi, m), ra))| {
+                    let mut info = RoiInfo {
+                        name: roi.name.clone(),
+                        kind: roi.kind,
+                        metrics: BTreeMap::new(),
+                        reasons: BTreeMap::new(),
+                        levels: m.levels.clone(),
+                        saturated: m.saturated,
+                        contrast_unbounded: false,
+                        analysis: ra,
+                    };
+                    insert(&mut info, "fdi_2018", &m.fdi_2018);
+                    insert(&mut info, "percent_flicker", &m.percent_flicker);
+                    if let Some(x) = &m.fdi_2018_worst_phase {
+                        insert(&mut info, "fdi_2018_worst_phase", x);
+                    }
+                    if let Some(x) = &m.percent_flicker_worst_phase {
+                        insert(&mut info, "percent_flicker_worst_phase", x);
+                    }
+                    let spectrum = Metric {
+                        value: info.analysis.apparent_frequency_spectrum_hz,
+                        unbounded: false,
+                        reason: info.analysis.spectrum_reason.clone(),
+                    };
+                    insert(&mut info, "apparent_frequency_spectrum_hz", &spectrum);
+                    let coverage = info.analysis.phase_coverage.coverage;
+                    info.metrics
+                        .insert("phase_coverage".to_string(), Some(coverage));
+                    if let Some(w) = &info.analysis.phase_coverage.warning {
+                        info.reasons.insert("phase_coverage".to_string(), w.clone());
+                    }
+                    if let Some(p) = r.p2020.get(i) {
+                        insert(&mut info, "fmi", &p.fmi);
+                        insert(&mut info, "fdi_p2020", &p.fdi);
+                        insert(&mut info, "mmp", &p.mmp);
+                    }
+                    info
+                })
+                .collect();
+            CaseInfo {
+                id: r.case.id.clone(),
+                light_lux: r.case.light_lux,
+                frequency_hz: r.case.frequency_hz,
+                duty: r.case.duty,
+                source: None,
+                capture: None,
+                seed: r.case.seed,
+                verdict: r.verdict,
+                not_judged: r.not_judged.clone(),
+                not_checked: r.not_checked.clone(),
+                acquisition: String::new(),
+                in_mitigation_range: r.case.frequency_hz > 0.0
+                    && in_mitigation_range(r.case.frequency_hz, &plan.thresholds),
+                frames: r.acquisition.frames.len(),
+                trace: trace_path(&r.case.id),
+                sample_frame,
+                rois,
+                checks: r.checks.clone(),
+                apparent_frequency_hz: a.beat.apparent_frequency_hz,
+                hazard_class: a.hazard_class,
+                beat: a.beat,
+                drive: a.drive,
+                banding: a.banding,
+            }
+        })
+        .collect();
+    let Sequence { on_s, off_s, pwm_s } = plan.sequence;
+    let mut thresholds = plan.thresholds.clone();
+    thresholds.basis = effective_basis(plan.dut.backend, &plan.thresholds);
+    let mut model = Results {
+        schema: RESULTS_SCHEMA,
+        tool: Tool {
+            name: "ledflicker",
+            version: env!("CARGO_PKG_VERSION"),
+        },
+        plan: PlanInfo {
+            id: plan.id.clone(),
+            title: plan.title.clone(),
+            path: plan.path.display().to_string(),
+            sha256: plan.sha256.clone(),
+            standard: plan.standard.clone(),
+            description: plan.description.clone(),
+            lab: plan.lab.clone(),
+            seed: plan.seed,
+        },
+        dut: DutInfo {
+            backend: backend_id.to_string(),
+            supplier: plan.dut.supplier.clone(),
+            model: plan.dut.model.clone(),
+            serial: plan.dut.serial.clone(),
+            firmware: plan.dut.firmware.clone(),
+            camera: (plan.dut.backend == BackendKind::Simulator).then_some(CameraInfo {
+                shutter: match cam.shutter {
+                    ShutterKind::Global => "global",
+                    ShutterKind::Rolling => "rolling",
+                },
+                sensor_rows: cam.sensor_rows,
+                sensor_columns: cam.sensor_columns,
+                line_time_us: cam.line_time_s * 1e6,
+                exposure_ms: cam.exposure_s * 1e3,
+                frame_rate_fps: cam.fps,
+                pwm_delay_ms: cam.pwm_delay_s * 1e3,
+            }),
+        },
+        sequence: SequenceInfo { on_s, off_s, pwm_s },
+        thresholds,
+        method: super::method::method(plan),
+        p2020: plan.p2020,
+        verdict: overall(results.iter().map(|r| r.verdict)),
+        counts,
+        cases,
+        fine_maps: analysis::fine_maps(plan),
+        fine_maps_note: analysis::fine_maps_note(plan),
+        advice: plan_advice(plan),
+        report: None,
+    };
+    super::method::describe(&mut model, plan);
+    model
+}
+
+/// The results model of a finished run, as `plan` writes it and `merge`
+/// rebuilds it: [`build`], the capture summaries of captured and rig runs
+/// (from each case's acquisition), then the method section.
+pub fn assemble(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
+    let mut model = build(plan, backend_id, results);
+    for (case, r) in model.cases.iter_mut().zip(results) {
+        debug_assert_eq!(case.id, r.case.id);
+        let Some(s) = &r.acquisition.capture else {
+            continue;
+        };
+        if plan.dut.backend == BackendKind::Captured {
+            case.source = Some(s.source.clone());
+        }
+        case.capture = Some(s.clone());
+    }
+    super::method::describe(&mut model, plan);
+    model
+}
