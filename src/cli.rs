@@ -421,15 +421,21 @@ pub fn exit_code(err: &anyhow::Error) -> i32 {
                 _ => EXIT_INVALID,
             };
         }
-        if let Some(report::ReportError::Signed { .. } | report::ReportError::Invalid { .. }) =
-            cause.downcast_ref()
-        {
+        if let Some(report::ReportError::Invalid { .. }) = cause.downcast_ref() {
             return EXIT_INVALID;
+        }
+        if let Some(report::ReportError::OutDir(e)) = cause.downcast_ref() {
+            return if e.is_usage_error() {
+                EXIT_INVALID
+            } else {
+                EXIT_INTERNAL
+            };
         }
         if let Some(e) = cause.downcast_ref::<crate::signoff::SignoffError>() {
             return match e {
                 crate::signoff::SignoffError::Report(
-                    report::ReportError::Invalid { .. } | report::ReportError::Signed { .. },
+                    report::ReportError::Invalid { .. }
+                    | report::ReportError::OutDir(crate::outdir::OutDirError::Signed { .. }),
                 )
                 | crate::signoff::SignoffError::Io { .. }
                 | crate::signoff::SignoffError::Key { .. }
@@ -741,7 +747,7 @@ fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
     // Refuse before spending time on the run: a signed report without
     // --force, a directory ledflicker did not write, an unwritable place.
-    report::check_overwrite(&out, args.force)?;
+    crate::outdir::check_overwrite(&out, args.force)?;
     let generation = crate::outdir::Generation::begin(&out)?;
     crate::interrupt::install();
     let mut tolerances = report::golden::Tolerances::default();

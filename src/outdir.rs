@@ -48,6 +48,29 @@ const KNOWN_ENTRIES: &[&str] = &[
     MARKER,
 ];
 
+/// A file in a report directory that marks it as signed (the CMS signature
+/// of its manifest); such a directory is never overwritten without `--force`.
+pub const SIGNOFF_FILE: &str = "signoff.p7s";
+
+/// Every file and folder the sign-off writes (see `crate::signoff`),
+/// including `signoff.json` of the old format; `--force` removes them.
+pub const SIGNOFF_FILES: [&str; 4] = ["signoff.p7s", "manifest.txt", "signatures", "signoff.json"];
+
+/// Whether `dir` holds a signed report, of the current format or the old one.
+pub fn is_signed(dir: &Path) -> bool {
+    SIGNOFF_FILES.iter().any(|f| dir.join(f).exists())
+}
+
+/// Fails if `dir` holds a signed report and `force` is off.
+pub fn check_overwrite(dir: &Path, force: bool) -> Result<(), OutDirError> {
+    if !force && is_signed(dir) {
+        return Err(OutDirError::Signed {
+            dir: dir.to_path_buf(),
+        });
+    }
+    Ok(())
+}
+
 /// Why a report directory cannot be used.
 #[derive(Debug, thiserror::Error)]
 pub enum OutDirError {
@@ -61,6 +84,14 @@ pub enum OutDirError {
         message: String,
         /// How to fix it.
         hint: String,
+    },
+    /// The directory holds a signed report.
+    #[error(
+        "`{dir}` holds a signed report ({SIGNOFF_FILE}); refusing to overwrite it\n    hint: choose another --out directory, or pass --force to replace it"
+    )]
+    Signed {
+        /// Report directory.
+        dir: PathBuf,
     },
     /// File system error while swapping generations.
     #[error("output directory `{dir}`: cannot {action} `{path}`: {source}")]
@@ -81,7 +112,7 @@ impl OutDirError {
     /// code 2); false for a file-system failure mid-swap (exit code 3).
     pub fn is_usage_error(&self) -> bool {
         match self {
-            OutDirError::Refused { .. } => true,
+            OutDirError::Refused { .. } | OutDirError::Signed { .. } => true,
             OutDirError::Io { source, .. } => matches!(
                 source.kind(),
                 std::io::ErrorKind::PermissionDenied
@@ -152,7 +183,7 @@ pub fn classify(dir: &Path) -> Result<DirKind, OutDirError> {
             .collect();
         owned.insert(MARKER.to_string());
         // `ledflicker sign` adds these after the marker was written.
-        owned.extend(crate::report::SIGNOFF_FILES.iter().map(|s| s.to_string()));
+        owned.extend(SIGNOFF_FILES.iter().map(|s| s.to_string()));
         return Ok(DirKind::Report { owned });
     }
     if results_schema_is_ours(&dir.join("results.json")) {

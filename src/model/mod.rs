@@ -26,12 +26,15 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
+pub use crate::advise::{Advice, Candidate};
+pub use crate::analysis::finemap::FineMap;
 pub use crate::analysis::{Banding, Beat, DriveFlicker, FineMapInfo, HazardClass, RoiAnalysis};
 pub use crate::inputs::InputFile;
+pub use crate::metrics::verdict::VERDICT_TOLERANCE;
 pub use crate::metrics::{Check, Levels, Metric, Verdict};
-pub use crate::plan::{RoiKind, Thresholds};
+pub use crate::plan::{RoiKind, Thresholds, VerdictBasis};
 pub use crate::runner::CaseResult;
-pub use crate::trace::{CaptureSummary, RenderedFrame};
+pub use crate::trace::{CaptureSummary, FrameInfo, RenderedFrame, Segment, SegmentsFound};
 pub use build::{assemble, build};
 
 /// Schema id of results.json.

@@ -6,8 +6,8 @@
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
-use crate::backend::segments::SegmentsFound;
-use crate::metrics::flicker::Segment;
+use crate::model::Segment;
+use crate::model::SegmentsFound;
 
 pub mod envelope;
 mod trace;
@@ -254,7 +254,7 @@ fn merge_rows(rows: &[(f64, f64, Vec<Run>)]) -> Vec<(f64, f64, RGBColor, f64, f6
 /// cell; colours come in steps (FDI: 8 per side of the threshold; Percent
 /// Flicker: 20 steps of its square root).
 pub fn finemap_svg(
-    map: &crate::analysis::finemap::FineMap,
+    map: &crate::model::FineMap,
     kind: FineMapKind,
     fdi_threshold: Option<f64>,
 ) -> Result<String, ChartError> {
@@ -277,7 +277,7 @@ pub fn finemap_svg(
             (_, None) => RGBColor(160, 160, 160),
             (FineMapKind::Fdi, Some(v)) => {
                 let t = fdi_threshold.unwrap_or(0.1);
-                if v < t - crate::metrics::verdict::VERDICT_TOLERANCE {
+                if v < t - crate::model::VERDICT_TOLERANCE {
                     // Red, darker the closer the light comes to vanishing.
                     let x = ((v / t).clamp(0.0, 1.0) * 8.0).round() / 8.0;
                     RGBColor(
@@ -391,7 +391,7 @@ pub fn finemap_svg(
 
 /// `ledflicker advise`: worst residual Percent Flicker and the share of the
 /// range where the LED can vanish, against exposure, with the bound `T*`.
-pub fn advise_svg(curve: &[crate::advise::Candidate], bound_s: f64) -> Result<String, ChartError> {
+pub fn advise_svg(curve: &[crate::model::Candidate], bound_s: f64) -> Result<String, ChartError> {
     let err = |e: &dyn std::fmt::Display| ChartError {
         chart: "advise".to_string(),
         message: e.to_string(),

@@ -128,7 +128,7 @@ impl Document {
             let led = c
                 .rois
                 .iter()
-                .filter(|roi| roi.kind == crate::plan::RoiKind::Led);
+                .filter(|roi| roi.kind == crate::model::RoiKind::Led);
             let drawn = led.filter(|roi| {
                 roi.analysis.phase_coverage.covered_bins >= super::charts::MIN_FOLD_PHASES
             });
@@ -403,7 +403,7 @@ impl Document {
                     message: format!("not a readable PNG: {e}"),
                 })?
                 .to_luma16();
-            let frame = crate::backend::RenderedFrame {
+            let frame = crate::model::RenderedFrame {
                 index: case["sample_frame"]["frame"].as_u64().unwrap_or(0),
                 width: img.width(),
                 height: img.height(),
@@ -516,7 +516,7 @@ pub fn notes(model: &Results) -> Vec<String> {
             model.counts.info
         ));
     }
-    if model.verdict == crate::metrics::Verdict::Info {
+    if model.verdict == crate::model::Verdict::Info {
         out.push("No case was judged: the run shows no pass.".to_string());
     }
     if !model.plan.description.trim().is_empty() {

@@ -6,7 +6,7 @@
 
 use std::fmt::Write as _;
 
-use crate::metrics::Verdict;
+use crate::model::Verdict;
 use crate::model::{CaseInfo, Results};
 
 /// File name of the JUnit export.
@@ -76,7 +76,7 @@ fn xml(text: &str) -> String {
 
 /// One check as a sentence, e.g. `fmi 1.000 > 0.1 on roi07`, with the
 /// reason of an undefined value.
-fn check_line(k: &crate::metrics::Check) -> String {
+fn check_line(k: &crate::model::Check) -> String {
     let mut s = k.describe();
     if let Some(r) = &k.reason {
         let _ = write!(s, " ({r})");
@@ -88,7 +88,7 @@ fn check_line(k: &crate::metrics::Check) -> String {
 fn metric_lines(c: &CaseInfo) -> Vec<String> {
     c.rois
         .iter()
-        .filter(|r| r.kind == crate::plan::RoiKind::Led)
+        .filter(|r| r.kind == crate::model::RoiKind::Led)
         .map(|r| {
             let values: Vec<String> = CSV_METRICS
                 .iter()
@@ -253,8 +253,8 @@ pub fn summary_csv(model: &Results) -> String {
         ];
         for r in &c.rois {
             let kind = match r.kind {
-                crate::plan::RoiKind::Led => "led",
-                crate::plan::RoiKind::Background => "background",
+                crate::model::RoiKind::Led => "led",
+                crate::model::RoiKind::Background => "background",
             };
             let _ = write!(
                 out,
@@ -278,7 +278,7 @@ pub fn summary_csv(model: &Results) -> String {
             let _ = write!(out, ",{}", r.saturated);
             for l in limits {
                 out.push(',');
-                if r.kind == crate::plan::RoiKind::Led
+                if r.kind == crate::model::RoiKind::Led
                     && let Some(v) = l
                 {
                     out.push_str(&csv_number(v));

@@ -61,7 +61,7 @@ pub(crate) fn matrices(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec
 /// Renders report.html for a run in memory (a draft: no signatories).
 pub fn render(
     model: &crate::model::Results,
-    results: &[crate::runner::CaseResult],
+    results: &[crate::model::CaseResult],
     date: &str,
 ) -> Result<String, ReportError> {
     render_document(&Document::build(model, results, date, Vec::new())?)

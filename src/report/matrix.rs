@@ -11,9 +11,9 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::charts::{ChartError, FONT};
-use crate::metrics::Verdict;
+use crate::model::Verdict;
 use crate::model::{CaseInfo, Results};
-use crate::plan::{RoiKind, VerdictBasis};
+use crate::model::{RoiKind, VerdictBasis};
 
 /// Which metric a matrix shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -21,19 +21,6 @@ use std::path::{Path, PathBuf};
 use crate::model::{CaseResult, Detail, InputFile, ReportMeta, Results};
 use crate::util::write_atomic;
 
-/// A file in a report directory that marks it as signed (the CMS signature
-/// of its manifest); such a directory is never overwritten without `--force`.
-pub const SIGNOFF_FILE: &str = "signoff.p7s";
-
-/// Every file and folder the sign-off writes (see [`crate::signoff`]),
-/// including `signoff.json` of the old format; `--force` removes them.
-pub const SIGNOFF_FILES: [&str; 4] = ["signoff.p7s", "manifest.txt", "signatures", "signoff.json"];
-
-/// Whether `dir` holds a signed report, of the current format or the old one.
-pub fn is_signed(dir: &Path) -> bool {
-    SIGNOFF_FILES.iter().any(|f| dir.join(f).exists())
-}
-
 /// Why a report could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
@@ -45,14 +32,9 @@ pub enum ReportError {
         /// Cause.
         source: std::io::Error,
     },
-    /// The directory holds a signed report.
-    #[error(
-        "`{dir}` holds a signed report ({SIGNOFF_FILE}); refusing to overwrite it\n    hint: choose another --out directory, or pass --force to replace it"
-    )]
-    Signed {
-        /// Report directory.
-        dir: PathBuf,
-    },
+    /// The directory holds a signed report (and `--force` is off).
+    #[error(transparent)]
+    OutDir(#[from] crate::outdir::OutDirError),
     /// A template failed to render.
     #[error("cannot render template `{template}`: {message}")]
     Template {
@@ -125,16 +107,6 @@ pub fn trace_csv(result: &CaseResult) -> String {
     out
 }
 
-/// Fails if `dir` holds a signed report and `force` is off.
-pub fn check_overwrite(dir: &Path, force: bool) -> Result<(), ReportError> {
-    if !force && is_signed(dir) {
-        return Err(ReportError::Signed {
-            dir: dir.to_path_buf(),
-        });
-    }
-    Ok(())
-}
-
 /// Replaces `dir/name` by a directory holding `files` (name -> bytes),
 /// built aside and renamed into place, so readers never see half of it.
 fn replace_dir(dir: &Path, name: &str, files: &[(String, Vec<u8>)]) -> Result<(), ReportError> {
@@ -182,10 +154,10 @@ pub fn write_report(
     results: &[CaseResult],
     options: &WriteOptions,
 ) -> Result<(), ReportError> {
-    check_overwrite(dir, options.force)?;
+    crate::outdir::check_overwrite(dir, options.force)?;
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
     if options.force {
-        for name in SIGNOFF_FILES {
+        for name in crate::outdir::SIGNOFF_FILES {
             let path = dir.join(name);
             if path.is_dir() {
                 std::fs::remove_dir_all(&path).map_err(io_err(&path))?;

@@ -8,9 +8,9 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::metrics::Verdict;
+use crate::model::RoiKind;
+use crate::model::Verdict;
 use crate::model::{CaseInfo, Results, RoiInfo};
-use crate::plan::RoiKind;
 
 /// Metric columns: header, results.json name, decimals.
 const COLUMNS: [(&str, &str, usize); 7] = [
@@ -95,7 +95,7 @@ fn criterion(case: &CaseInfo, roi: Option<&RoiInfo>) -> String {
         ),
         Verdict::Fail => {
             let failed: Vec<_> = case.checks.iter().filter(|k| !k.pass).collect();
-            let on_roi = |k: &&&crate::metrics::Check| roi.is_none_or(|r| k.roi == r.name);
+            let on_roi = |k: &&&crate::model::Check| roi.is_none_or(|r| k.roi == r.name);
             let first = failed
                 .iter()
                 .filter(on_roi)

@@ -70,7 +70,7 @@ pub fn run_shard(r: &ShardRun<'_>) -> anyhow::Result<i32> {
         return Err(UsageError("--threads must be at least 1".into()).into());
     }
     // As `plan`: never a signed report without --force, never a user's folder.
-    report::check_overwrite(r.out, r.force)?;
+    crate::outdir::check_overwrite(r.out, r.force)?;
     let generation = crate::outdir::Generation::begin(r.out)?;
     crate::interrupt::install();
     let all = plan::expand_cases(plan);
@@ -211,7 +211,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<i32> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
-    report::check_overwrite(&out, a.force)?;
+    crate::outdir::check_overwrite(&out, a.force)?;
     let generation = crate::outdir::Generation::begin(&out)?;
     crate::interrupt::install();
     let model = crate::model::assemble(&plan, &first.backend, &results);

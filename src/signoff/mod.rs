@@ -85,7 +85,7 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> SignoffError + '_ {
 
 /// Whether `dir` holds a signed report, of this format or the old one.
 pub fn is_signed(dir: &Path) -> bool {
-    report::is_signed(dir)
+    crate::outdir::is_signed(dir)
 }
 
 /// `path` with symbolic links resolved, also when its last parts do not

@@ -10,7 +10,7 @@
 
 use std::ops::Range;
 
-use crate::backend::FrameInfo;
+use crate::model::FrameInfo;
 
 /// A time step longer than this many median frame intervals breaks a run.
 pub const GAP_FACTOR: f64 = 1.5;

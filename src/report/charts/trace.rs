@@ -11,10 +11,10 @@ use plotters::prelude::*;
 
 use super::envelope::{self, column_centre};
 use super::{ChartError, FONT, SERIES_COLOURS, segment_fill, shade_detected};
-use crate::backend::FrameInfo;
-use crate::backend::segments::SegmentsFound;
-use crate::metrics::flicker::Segment;
-use crate::runner::CaseResult;
+use crate::model::CaseResult;
+use crate::model::FrameInfo;
+use crate::model::Segment;
+use crate::model::SegmentsFound;
 
 /// Width of the legend column right of the trace, pixels.
 const LEGEND_WIDTH: u32 = 200;
