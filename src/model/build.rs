@@ -65,7 +65,6 @@ fn insert(roi: &mut RoiInfo, name: &str, m: &Metric) {
 
 /// Builds results.json's model. `plan_path` is the path as the user gave it.
 pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
-    let cam = &plan.dut.camera;
     let mut counts = Counts {
         total: results.len(),
         ..Counts::default()
@@ -88,82 +87,14 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
     let cases = results
         .iter()
         .zip(analyses)
-        .map(|(r, (a, sample_frame))| {
+        .map(|(r, (mut a, sample_frame))| {
             match r.verdict {
                 Verdict::Pass => counts.pass += 1,
                 Verdict::Fail => counts.fail += 1,
                 Verdict::Info => counts.info += 1,
             }
-            let rois = plan
-                .rois
-                .iter()
-                .zip(&r.metrics)
-                .zip(a.rois)
-                .enumerate()
-                .map(|(i, ((roi, m), ra))| {
-                    let mut info = RoiInfo {
-                        name: roi.name.clone(),
-                        kind: roi.kind,
-                        metrics: BTreeMap::new(),
-                        reasons: BTreeMap::new(),
-                        levels: m.levels.clone(),
-                        saturated: m.saturated,
-                        contrast_unbounded: false,
-                        analysis: ra,
-                    };
-                    insert(&mut info, "fdi_2018", &m.fdi_2018);
-                    insert(&mut info, "percent_flicker", &m.percent_flicker);
-                    if let Some(x) = &m.fdi_2018_worst_phase {
-                        insert(&mut info, "fdi_2018_worst_phase", x);
-                    }
-                    if let Some(x) = &m.percent_flicker_worst_phase {
-                        insert(&mut info, "percent_flicker_worst_phase", x);
-                    }
-                    let spectrum = Metric {
-                        value: info.analysis.apparent_frequency_spectrum_hz,
-                        unbounded: false,
-                        reason: info.analysis.spectrum_reason.clone(),
-                    };
-                    insert(&mut info, "apparent_frequency_spectrum_hz", &spectrum);
-                    let coverage = info.analysis.phase_coverage.coverage;
-                    info.metrics
-                        .insert("phase_coverage".to_string(), Some(coverage));
-                    if let Some(w) = &info.analysis.phase_coverage.warning {
-                        info.reasons.insert("phase_coverage".to_string(), w.clone());
-                    }
-                    if let Some(p) = r.p2020.get(i) {
-                        insert(&mut info, "fmi", &p.fmi);
-                        insert(&mut info, "fdi_p2020", &p.fdi);
-                        insert(&mut info, "mmp", &p.mmp);
-                    }
-                    info
-                })
-                .collect();
-            CaseInfo {
-                id: r.case.id.clone(),
-                light_lux: r.case.light_lux,
-                frequency_hz: r.case.frequency_hz,
-                duty: r.case.duty,
-                source: None,
-                capture: None,
-                seed: r.case.seed,
-                verdict: r.verdict,
-                not_judged: r.not_judged.clone(),
-                not_checked: r.not_checked.clone(),
-                acquisition: String::new(),
-                in_mitigation_range: r.case.frequency_hz > 0.0
-                    && in_mitigation_range(r.case.frequency_hz, &plan.thresholds),
-                frames: r.acquisition.frames.len(),
-                trace: trace_path(&r.case.id),
-                sample_frame,
-                rois,
-                checks: r.checks.clone(),
-                apparent_frequency_hz: a.beat.apparent_frequency_hz,
-                hazard_class: a.hazard_class,
-                beat: a.beat,
-                drive: a.drive,
-                banding: a.banding,
-            }
+            let rois = roi_infos(plan, r, std::mem::take(&mut a.rois));
+            case_info(plan, r, a, sample_frame, rois)
         })
         .collect();
     let Sequence { on_s, off_s, pwm_s } = plan.sequence;
@@ -185,25 +116,7 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
             lab: plan.lab.clone(),
             seed: plan.seed,
         },
-        dut: DutInfo {
-            backend: backend_id.to_string(),
-            supplier: plan.dut.supplier.clone(),
-            model: plan.dut.model.clone(),
-            serial: plan.dut.serial.clone(),
-            firmware: plan.dut.firmware.clone(),
-            camera: (plan.dut.backend == BackendKind::Simulator).then_some(CameraInfo {
-                shutter: match cam.shutter {
-                    ShutterKind::Global => "global",
-                    ShutterKind::Rolling => "rolling",
-                },
-                sensor_rows: cam.sensor_rows,
-                sensor_columns: cam.sensor_columns,
-                line_time_us: cam.line_time_s * 1e6,
-                exposure_ms: cam.exposure_s * 1e3,
-                frame_rate_fps: cam.fps,
-                pwm_delay_ms: cam.pwm_delay_s * 1e3,
-            }),
-        },
+        dut: dut_info(plan, backend_id),
         sequence: SequenceInfo { on_s, off_s, pwm_s },
         thresholds,
         method: super::method::method(plan),
@@ -237,4 +150,112 @@ pub fn assemble(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Result
     }
     super::method::describe(&mut model, plan);
     model
+}
+
+/// The ROIs of one case: the run's metrics, the analyses and the P2020
+/// KPIs, by name.
+fn roi_infos(plan: &Plan, r: &CaseResult, analyses: Vec<RoiAnalysis>) -> Vec<RoiInfo> {
+    plan.rois
+        .iter()
+        .zip(&r.metrics)
+        .zip(analyses)
+        .enumerate()
+        .map(|(i, ((roi, m), ra))| {
+            let mut info = RoiInfo {
+                name: roi.name.clone(),
+                kind: roi.kind,
+                metrics: BTreeMap::new(),
+                reasons: BTreeMap::new(),
+                levels: m.levels.clone(),
+                saturated: m.saturated,
+                contrast_unbounded: false,
+                analysis: ra,
+            };
+            insert(&mut info, "fdi_2018", &m.fdi_2018);
+            insert(&mut info, "percent_flicker", &m.percent_flicker);
+            if let Some(x) = &m.fdi_2018_worst_phase {
+                insert(&mut info, "fdi_2018_worst_phase", x);
+            }
+            if let Some(x) = &m.percent_flicker_worst_phase {
+                insert(&mut info, "percent_flicker_worst_phase", x);
+            }
+            let spectrum = Metric {
+                value: info.analysis.apparent_frequency_spectrum_hz,
+                unbounded: false,
+                reason: info.analysis.spectrum_reason.clone(),
+            };
+            insert(&mut info, "apparent_frequency_spectrum_hz", &spectrum);
+            let coverage = info.analysis.phase_coverage.coverage;
+            info.metrics
+                .insert("phase_coverage".to_string(), Some(coverage));
+            if let Some(w) = &info.analysis.phase_coverage.warning {
+                info.reasons.insert("phase_coverage".to_string(), w.clone());
+            }
+            if let Some(p) = r.p2020.get(i) {
+                insert(&mut info, "fmi", &p.fmi);
+                insert(&mut info, "fdi_p2020", &p.fdi);
+                insert(&mut info, "mmp", &p.mmp);
+            }
+            info
+        })
+        .collect()
+}
+
+/// One case of results.json from its run result and its analysis.
+fn case_info(
+    plan: &Plan,
+    r: &CaseResult,
+    a: analysis::CaseAnalysis,
+    sample_frame: Option<SampleFrameInfo>,
+    rois: Vec<RoiInfo>,
+) -> CaseInfo {
+    CaseInfo {
+        id: r.case.id.clone(),
+        light_lux: r.case.light_lux,
+        frequency_hz: r.case.frequency_hz,
+        duty: r.case.duty,
+        source: None,
+        capture: None,
+        seed: r.case.seed,
+        verdict: r.verdict,
+        not_judged: r.not_judged.clone(),
+        not_checked: r.not_checked.clone(),
+        acquisition: String::new(),
+        in_mitigation_range: r.case.frequency_hz > 0.0
+            && in_mitigation_range(r.case.frequency_hz, &plan.thresholds),
+        frames: r.acquisition.frames.len(),
+        trace: trace_path(&r.case.id),
+        sample_frame,
+        rois,
+        checks: r.checks.clone(),
+        apparent_frequency_hz: a.beat.apparent_frequency_hz,
+        hazard_class: a.hazard_class,
+        beat: a.beat,
+        drive: a.drive,
+        banding: a.banding,
+    }
+}
+
+/// The device under test; the camera only for the simulator.
+fn dut_info(plan: &Plan, backend_id: &str) -> DutInfo {
+    let cam = &plan.dut.camera;
+    DutInfo {
+        backend: backend_id.to_string(),
+        supplier: plan.dut.supplier.clone(),
+        model: plan.dut.model.clone(),
+        serial: plan.dut.serial.clone(),
+        firmware: plan.dut.firmware.clone(),
+        camera: (plan.dut.backend == BackendKind::Simulator).then_some(CameraInfo {
+            shutter: match cam.shutter {
+                ShutterKind::Global => "global",
+                ShutterKind::Rolling => "rolling",
+            },
+            sensor_rows: cam.sensor_rows,
+            sensor_columns: cam.sensor_columns,
+            line_time_us: cam.line_time_s * 1e6,
+            exposure_ms: cam.exposure_s * 1e3,
+            frame_rate_fps: cam.fps,
+            pwm_delay_ms: cam.pwm_delay_s * 1e3,
+        }),
+    }
 }

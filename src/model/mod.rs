@@ -34,7 +34,9 @@ pub use crate::metrics::verdict::VERDICT_TOLERANCE;
 pub use crate::metrics::{Check, Levels, Metric, Verdict};
 pub use crate::plan::{RoiKind, Thresholds, VerdictBasis};
 pub use crate::runner::CaseResult;
-pub use crate::trace::{CaptureSummary, FrameInfo, RenderedFrame, Segment, SegmentsFound};
+pub use crate::trace::{
+    Acquisition, CaptureSummary, FrameInfo, RenderedFrame, Segment, SegmentsFound,
+};
 pub use build::{assemble, build};
 
 /// Schema id of results.json.

@@ -272,40 +272,7 @@ pub fn finemap_svg(
         FineMapKind::Fdi => &map.fdi_worst,
         FineMapKind::PercentFlicker => &map.pf_worst,
     };
-    let colour = |v: Option<f64>| -> RGBColor {
-        match (kind, v) {
-            (_, None) => RGBColor(160, 160, 160),
-            (FineMapKind::Fdi, Some(v)) => {
-                let t = fdi_threshold.unwrap_or(0.1);
-                if v < t - crate::model::VERDICT_TOLERANCE {
-                    // Red, darker the closer the light comes to vanishing.
-                    let x = ((v / t).clamp(0.0, 1.0) * 8.0).round() / 8.0;
-                    RGBColor(
-                        150 + (90.0 * x) as u8,
-                        (40.0 + 120.0 * x) as u8,
-                        (40.0 + 120.0 * x) as u8,
-                    )
-                } else {
-                    let x = (((v - t) / (10.0 * t)).clamp(0.0, 1.0) * 8.0).round() / 8.0;
-                    RGBColor(
-                        (200.0 - 170.0 * x) as u8,
-                        (235.0 - 95.0 * x) as u8,
-                        (200.0 - 150.0 * x) as u8,
-                    )
-                }
-            }
-            (FineMapKind::PercentFlicker, Some(v)) => {
-                // 20 steps of sqrt(PF / 100), so that small modulation still
-                // shows; equal colours merge into one rectangle.
-                let x = ((v / 100.0).clamp(0.0, 1.0).sqrt() * 20.0).round() / 20.0;
-                RGBColor(
-                    255 - (90.0 * x) as u8,
-                    255 - (235.0 * x) as u8,
-                    255 - (225.0 * x) as u8,
-                )
-            }
-        }
-    };
+    let colour = |v: Option<f64>| finemap_colour(kind, fdi_threshold, v);
     let f_lo = map.frequency.start - map.frequency.step / 2.0;
     let f_hi = map.frequency.end() + map.frequency.step / 2.0;
     let d_lo = 100.0 * (map.duty.start - map.duty.step / 2.0);
@@ -342,44 +309,7 @@ pub fn finemap_svg(
             .map_err(|e| err(&e))?;
         // Blocks of one colour that touch along the frequency axis are
         // merged into one rectangle: same picture, a fraction of the SVG.
-        let mut rows: Vec<(f64, f64, Vec<Run>)> = Vec::new();
-        for j0 in (0..nd).step_by(bd) {
-            let j1 = (j0 + bd).min(nd);
-            let y0 = 100.0 * (map.duty.at(j0) - map.duty.step / 2.0);
-            let y1 = 100.0 * (map.duty.at(j1 - 1) + map.duty.step / 2.0);
-            let mut runs = Vec::new();
-            let mut run: Option<(f64, f64, RGBColor)> = None;
-            for i0 in (0..nf).step_by(bf) {
-                let i1 = (i0 + bf).min(nf);
-                let mut worst: Option<Option<f64>> = None;
-                for i in i0..i1 {
-                    for j in j0..j1 {
-                        let v = values[i * nd + j];
-                        worst = Some(match (worst, v) {
-                            (None, v) => v,
-                            (Some(None), _) | (_, None) => None,
-                            (Some(Some(w)), Some(v)) => Some(match kind {
-                                FineMapKind::Fdi => w.min(v),
-                                FineMapKind::PercentFlicker => w.max(v),
-                            }),
-                        });
-                    }
-                }
-                let x0 = map.frequency.at(i0) - map.frequency.step / 2.0;
-                let x1 = map.frequency.at(i1 - 1) + map.frequency.step / 2.0;
-                let c = colour(worst.flatten());
-                run = match run {
-                    Some((a, _, rc)) if rc == c => Some((a, x1, rc)),
-                    Some(done) => {
-                        runs.push(done);
-                        Some((x0, x1, c))
-                    }
-                    None => Some((x0, x1, c)),
-                };
-            }
-            runs.extend(run);
-            rows.push((y0, y1, runs));
-        }
+        let rows = finemap_rows(map, values, kind, (bf, bd), colour);
         let rects = merge_rows(&rows)
             .into_iter()
             .map(|(a, b, c, y0, y1)| Rectangle::new([(a, y0), (b, y1)], c.filled()));
@@ -387,6 +317,94 @@ pub fn finemap_svg(
         root.present().map_err(|e| err(&e))?;
     }
     Ok(svg)
+}
+
+/// Colour of a fine-map cell of value `v` (grey when undefined).
+fn finemap_colour(kind: FineMapKind, fdi_threshold: Option<f64>, v: Option<f64>) -> RGBColor {
+    match (kind, v) {
+        (_, None) => RGBColor(160, 160, 160),
+        (FineMapKind::Fdi, Some(v)) => {
+            let t = fdi_threshold.unwrap_or(0.1);
+            if v < t - crate::model::VERDICT_TOLERANCE {
+                // Red, darker the closer the light comes to vanishing.
+                let x = ((v / t).clamp(0.0, 1.0) * 8.0).round() / 8.0;
+                RGBColor(
+                    150 + (90.0 * x) as u8,
+                    (40.0 + 120.0 * x) as u8,
+                    (40.0 + 120.0 * x) as u8,
+                )
+            } else {
+                let x = (((v - t) / (10.0 * t)).clamp(0.0, 1.0) * 8.0).round() / 8.0;
+                RGBColor(
+                    (200.0 - 170.0 * x) as u8,
+                    (235.0 - 95.0 * x) as u8,
+                    (200.0 - 150.0 * x) as u8,
+                )
+            }
+        }
+        (FineMapKind::PercentFlicker, Some(v)) => {
+            // 20 steps of sqrt(PF / 100), so that small modulation still
+            // shows; equal colours merge into one rectangle.
+            let x = ((v / 100.0).clamp(0.0, 1.0).sqrt() * 20.0).round() / 20.0;
+            RGBColor(
+                255 - (90.0 * x) as u8,
+                255 - (235.0 * x) as u8,
+                255 - (225.0 * x) as u8,
+            )
+        }
+    }
+}
+
+/// The map's display blocks (`bf` x `bd` cells each, keeping the worst
+/// value), row by row; touching blocks of one colour along the frequency
+/// axis merged into one run.
+fn finemap_rows(
+    map: &crate::model::FineMap,
+    values: &[Option<f64>],
+    kind: FineMapKind,
+    (bf, bd): (usize, usize),
+    colour: impl Fn(Option<f64>) -> RGBColor,
+) -> Vec<(f64, f64, Vec<Run>)> {
+    let (nf, nd) = (map.frequency.count, map.duty.count);
+    let mut rows: Vec<(f64, f64, Vec<Run>)> = Vec::new();
+    for j0 in (0..nd).step_by(bd) {
+        let j1 = (j0 + bd).min(nd);
+        let y0 = 100.0 * (map.duty.at(j0) - map.duty.step / 2.0);
+        let y1 = 100.0 * (map.duty.at(j1 - 1) + map.duty.step / 2.0);
+        let mut runs = Vec::new();
+        let mut run: Option<(f64, f64, RGBColor)> = None;
+        for i0 in (0..nf).step_by(bf) {
+            let i1 = (i0 + bf).min(nf);
+            let mut worst: Option<Option<f64>> = None;
+            for i in i0..i1 {
+                for j in j0..j1 {
+                    let v = values[i * nd + j];
+                    worst = Some(match (worst, v) {
+                        (None, v) => v,
+                        (Some(None), _) | (_, None) => None,
+                        (Some(Some(w)), Some(v)) => Some(match kind {
+                            FineMapKind::Fdi => w.min(v),
+                            FineMapKind::PercentFlicker => w.max(v),
+                        }),
+                    });
+                }
+            }
+            let x0 = map.frequency.at(i0) - map.frequency.step / 2.0;
+            let x1 = map.frequency.at(i1 - 1) + map.frequency.step / 2.0;
+            let c = colour(worst.flatten());
+            run = match run {
+                Some((a, _, rc)) if rc == c => Some((a, x1, rc)),
+                Some(done) => {
+                    runs.push(done);
+                    Some((x0, x1, c))
+                }
+                None => Some((x0, x1, c)),
+            };
+        }
+        runs.extend(run);
+        rows.push((y0, y1, runs));
+    }
+    rows
 }
 
 /// `ledflicker advise`: worst residual Percent Flicker and the share of the

@@ -10,6 +10,9 @@
 
 use std::ops::Range;
 
+use plotters::prelude::*;
+
+use super::trace::Chart;
 use crate::model::FrameInfo;
 
 /// A time step longer than this many median frame intervals breaks a run.
@@ -107,6 +110,46 @@ pub fn drop_flat(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
         }
     }
     out
+}
+
+/// Draws `points` (time order) as a line; when there are more points than
+/// `columns` pixel columns over `span`, as the min and max line per column
+/// with the band between them filled (`band`), else point by point.
+pub(super) fn draw_decimated(
+    chart: &mut Chart<'_, '_>,
+    points: &[(f64, f64)],
+    span: (f64, f64),
+    columns: usize,
+    colour: RGBColor,
+    band: Option<RGBAColor>,
+) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
+    let line = |chart: &mut Chart<'_, '_>, points: Vec<(f64, f64)>| {
+        chart
+            .draw_series(LineSeries::new(points, colour.stroke_width(1)))
+            .map(|_| ())
+            .map_err(e)
+    };
+    if points.len() <= columns {
+        return line(chart, drop_flat(points));
+    }
+    let env = envelope(points, span, columns);
+    let x = |c: usize| column_centre(c, span, columns);
+    let max: Vec<(f64, f64)> = env.iter().map(|c| (x(c.column), c.max)).collect();
+    if env.iter().all(|c| c.min == c.max) {
+        // One sample per column or a flat trace: a single line.
+        return line(chart, drop_flat(&max));
+    }
+    let min: Vec<(f64, f64)> = env.iter().map(|c| (x(c.column), c.min)).collect();
+    let (max, min) = (drop_flat(&max), drop_flat(&min));
+    if let Some(fill) = band {
+        let outline: Vec<(f64, f64)> = max.iter().chain(min.iter().rev()).copied().collect();
+        chart
+            .draw_series(std::iter::once(Polygon::new(outline, fill.filled())))
+            .map_err(e)?;
+    }
+    line(chart, min)?;
+    line(chart, max)
 }
 
 #[cfg(test)]

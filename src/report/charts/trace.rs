@@ -9,7 +9,7 @@ use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
-use super::envelope::{self, column_centre};
+use super::envelope::{self, draw_decimated};
 use super::{ChartError, FONT, SERIES_COLOURS, segment_fill, shade_detected};
 use crate::model::CaseResult;
 use crate::model::FrameInfo;
@@ -47,7 +47,8 @@ pub(crate) enum Swatch {
     None,
 }
 
-type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+pub(super) type Chart<'a, 'b> =
+    ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 /// Splits `text` into lines of at most about `width` characters.
 fn wrap(text: &str, width: usize) -> Vec<String> {
@@ -135,46 +136,6 @@ pub(crate) fn draw_legend<DB: DrawingBackend>(
         }
     }
     Ok(())
-}
-
-/// Draws `points` (time order) as a line; when there are more points than
-/// `columns` pixel columns over `span`, as the min and max line per column
-/// with the band between them filled (`band`), else point by point.
-fn draw_decimated(
-    chart: &mut Chart<'_, '_>,
-    points: &[(f64, f64)],
-    span: (f64, f64),
-    columns: usize,
-    colour: RGBColor,
-    band: Option<RGBAColor>,
-) -> Result<(), String> {
-    let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
-    let line = |chart: &mut Chart<'_, '_>, points: Vec<(f64, f64)>| {
-        chart
-            .draw_series(LineSeries::new(points, colour.stroke_width(1)))
-            .map(|_| ())
-            .map_err(e)
-    };
-    if points.len() <= columns {
-        return line(chart, envelope::drop_flat(points));
-    }
-    let env = envelope::envelope(points, span, columns);
-    let x = |c: usize| column_centre(c, span, columns);
-    let max: Vec<(f64, f64)> = env.iter().map(|c| (x(c.column), c.max)).collect();
-    if env.iter().all(|c| c.min == c.max) {
-        // One sample per column or a flat trace: a single line.
-        return line(chart, envelope::drop_flat(&max));
-    }
-    let min: Vec<(f64, f64)> = env.iter().map(|c| (x(c.column), c.min)).collect();
-    let (max, min) = (envelope::drop_flat(&max), envelope::drop_flat(&min));
-    if let Some(fill) = band {
-        let outline: Vec<(f64, f64)> = max.iter().chain(min.iter().rev()).copied().collect();
-        chart
-            .draw_series(std::iter::once(Polygon::new(outline, fill.filled())))
-            .map_err(e)?;
-    }
-    line(chart, min)?;
-    line(chart, max)
 }
 
 /// Lowest and highest finite value of the ROI traces and `extra`.
@@ -290,106 +251,11 @@ pub fn luma_trace_svg(
             .map_err(|e| err(&e))?;
         let columns = chart.plotting_area().dim_in_pixel().0 as usize;
         let span = (0.0, t_end);
-        let mut legend: Vec<(Swatch, String)> = Vec::new();
-        let mut roi_legend: Vec<(Swatch, String)> = Vec::new();
-
-        if let Some(found) = detected {
-            let settle = shade_detected(&mut chart, found, (y0, y1)).map_err(|e| err(&e))?;
-            for (seg, span) in [
-                (Segment::On, found.on_time_s),
-                (Segment::Off, found.off_time_s),
-                (Segment::Pwm, Some(found.pwm_time_s)),
-            ] {
-                if span.is_some() {
-                    legend.push((
-                        Swatch::Fill(segment_fill(seg)),
-                        format!("{} segment", segment_name(seg)),
-                    ));
-                }
-            }
-            if let Some(label) = settle {
-                legend.push((Swatch::Fill(RGBColor(220, 60, 60).mix(0.3)), label));
-            }
-            let grey = RGBColor(150, 150, 150);
-            draw_decimated(&mut chart, signal, span, columns, grey, None).map_err(|e| err(&e))?;
-            legend.push((
-                Swatch::Line(grey),
-                "LED-ROI mean, whole capture (detection)".into(),
-            ));
-        } else {
-            let shaded = shade_runs(
-                &mut chart,
-                frames,
-                |f| f.time_s,
-                t_end,
-                frame_interval(frames).unwrap_or(t_end),
-                (y0, y1),
-            )
+        let mut legend = draw_segments(&mut chart, frames, detected, t_end, columns, (y0, y1))
             .map_err(|e| err(&e))?;
-            for seg in shaded {
-                legend.push((
-                    Swatch::Fill(segment_fill(seg)),
-                    format!("{} segment", segment_name(seg)),
-                ));
-            }
-        }
-
-        if let Some(m) = result.metrics.first() {
-            for (level, label, colour) in [
-                (m.levels.on, "ON level", RGBColor(200, 120, 0)),
-                (m.levels.off, "OFF level", RGBColor(60, 60, 60)),
-            ] {
-                let Some(level) = level else { continue };
-                chart
-                    .draw_series(DashedLineSeries::new(
-                        [(0.0, level), (t_end, level)],
-                        6,
-                        4,
-                        colour.stroke_width(1),
-                    ))
-                    .map_err(|e| err(&e))?;
-                legend.push((Swatch::Dashed(colour), format!("{label} {level:.2} DN")));
-            }
-        }
-
-        for (i, roi) in acq.rois.iter().enumerate() {
-            let colour = SERIES_COLOURS[i % SERIES_COLOURS.len()];
-            for run in &runs {
-                let points: Vec<(f64, f64)> = frames[run.clone()]
-                    .iter()
-                    .zip(&roi.luma[run.clone()])
-                    .map(|(f, &v)| (f.time_s, v))
-                    .collect();
-                draw_decimated(
-                    &mut chart,
-                    &points,
-                    span,
-                    columns,
-                    colour,
-                    Some(colour.mix(0.35)),
-                )
-                .map_err(|e| err(&e))?;
-            }
-            roi_legend.push((Swatch::Line(colour), roi.name.clone()));
-            // Mark the PWM-segment extremes that the metrics use.
-            let pwm = || {
-                frames
-                    .iter()
-                    .zip(&roi.luma)
-                    .filter(|(f, _)| f.segment == Segment::Pwm)
-            };
-            let min = pwm().min_by(|a, b| a.1.total_cmp(b.1));
-            let max = pwm().max_by(|a, b| a.1.total_cmp(b.1));
-            for (f, &v) in min.into_iter().chain(max) {
-                chart
-                    .draw_series(std::iter::once(Circle::new(
-                        (f.time_s, v),
-                        3,
-                        colour.filled(),
-                    )))
-                    .map_err(|e| err(&e))?;
-            }
-        }
+        legend.extend(draw_levels(&mut chart, result, t_end).map_err(|e| err(&e))?);
+        let mut roi_legend =
+            draw_rois(&mut chart, acq, &runs, span, columns).map_err(|e| err(&e))?;
         legend.push((Swatch::Dot(RGBColor(90, 90, 90)), "PWM min and max".into()));
         if runs.len() > 1 {
             legend.push((
@@ -412,6 +278,146 @@ pub fn luma_trace_svg(
         root.present().map_err(|e| err(&e))?;
     }
     Ok(svg)
+}
+
+/// Legend entries of a trace chart.
+type Legend = Vec<(Swatch, String)>;
+
+/// Shades the segments (the detected ones with the whole capture's
+/// detection signal, else the frames' own labels); their legend entries.
+fn draw_segments(
+    chart: &mut Chart<'_, '_>,
+    frames: &[FrameInfo],
+    detected: Option<&SegmentsFound>,
+    t_end: f64,
+    columns: usize,
+    (y0, y1): (f64, f64),
+) -> Result<Legend, String> {
+    let mut legend = Legend::new();
+    let span = (0.0, t_end);
+    let signal = detected.map_or(&[][..], |s| &s.signal[..]);
+    if let Some(found) = detected {
+        let settle = shade_detected(chart, found, (y0, y1))?;
+        for (seg, span) in [
+            (Segment::On, found.on_time_s),
+            (Segment::Off, found.off_time_s),
+            (Segment::Pwm, Some(found.pwm_time_s)),
+        ] {
+            if span.is_some() {
+                legend.push((
+                    Swatch::Fill(segment_fill(seg)),
+                    format!("{} segment", segment_name(seg)),
+                ));
+            }
+        }
+        if let Some(label) = settle {
+            legend.push((Swatch::Fill(RGBColor(220, 60, 60).mix(0.3)), label));
+        }
+        let grey = RGBColor(150, 150, 150);
+        draw_decimated(chart, signal, span, columns, grey, None)?;
+        legend.push((
+            Swatch::Line(grey),
+            "LED-ROI mean, whole capture (detection)".into(),
+        ));
+    } else {
+        let shaded = shade_runs(
+            chart,
+            frames,
+            |f| f.time_s,
+            t_end,
+            frame_interval(frames).unwrap_or(t_end),
+            (y0, y1),
+        )?;
+        for seg in shaded {
+            legend.push((
+                Swatch::Fill(segment_fill(seg)),
+                format!("{} segment", segment_name(seg)),
+            ));
+        }
+    }
+
+    Ok(legend)
+}
+
+/// The ON and OFF levels of the first ROI, dashed; their legend entries.
+fn draw_levels(
+    chart: &mut Chart<'_, '_>,
+    result: &CaseResult,
+    t_end: f64,
+) -> Result<Legend, String> {
+    let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
+    let mut legend = Legend::new();
+    if let Some(m) = result.metrics.first() {
+        for (level, label, colour) in [
+            (m.levels.on, "ON level", RGBColor(200, 120, 0)),
+            (m.levels.off, "OFF level", RGBColor(60, 60, 60)),
+        ] {
+            let Some(level) = level else { continue };
+            chart
+                .draw_series(DashedLineSeries::new(
+                    [(0.0, level), (t_end, level)],
+                    6,
+                    4,
+                    colour.stroke_width(1),
+                ))
+                .map_err(e)?;
+            legend.push((Swatch::Dashed(colour), format!("{label} {level:.2} DN")));
+        }
+    }
+
+    Ok(legend)
+}
+
+/// Each ROI's trace, run by run, with its PWM-segment extremes marked;
+/// the ROI legend.
+fn draw_rois(
+    chart: &mut Chart<'_, '_>,
+    acq: &crate::model::Acquisition,
+    runs: &[std::ops::Range<usize>],
+    span: (f64, f64),
+    columns: usize,
+) -> Result<Legend, String> {
+    let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
+    let frames = &acq.frames;
+    let mut roi_legend = Legend::new();
+    for (i, roi) in acq.rois.iter().enumerate() {
+        let colour = SERIES_COLOURS[i % SERIES_COLOURS.len()];
+        for run in runs {
+            let points: Vec<(f64, f64)> = frames[run.clone()]
+                .iter()
+                .zip(&roi.luma[run.clone()])
+                .map(|(f, &v)| (f.time_s, v))
+                .collect();
+            draw_decimated(
+                chart,
+                &points,
+                span,
+                columns,
+                colour,
+                Some(colour.mix(0.35)),
+            )?;
+        }
+        roi_legend.push((Swatch::Line(colour), roi.name.clone()));
+        // Mark the PWM-segment extremes that the metrics use.
+        let pwm = || {
+            frames
+                .iter()
+                .zip(&roi.luma)
+                .filter(|(f, _)| f.segment == Segment::Pwm)
+        };
+        let min = pwm().min_by(|a, b| a.1.total_cmp(b.1));
+        let max = pwm().max_by(|a, b| a.1.total_cmp(b.1));
+        for (f, &v) in min.into_iter().chain(max) {
+            chart
+                .draw_series(std::iter::once(Circle::new(
+                    (f.time_s, v),
+                    3,
+                    colour.filled(),
+                )))
+                .map_err(e)?;
+        }
+    }
+    Ok(roi_legend)
 }
 
 /// One zoomed panel: frames `window` of the acquisition, and its title.
