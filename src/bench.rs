@@ -7,7 +7,6 @@
 
 use std::time::Instant;
 
-use crate::backend::sim::Simulator;
 use crate::physics::PwmDrive;
 use crate::physics::sensor::Rng;
 use crate::physics::shutter::{Shutter, ShutterModel};
@@ -349,23 +348,63 @@ pub fn calibrate_8k(reps: usize) -> Result<(Vec<f64>, f64), String> {
     Ok((times, rms))
 }
 
+/// The rows so far, each handed to `on_row` as it is measured.
+struct Table<'a> {
+    rows: Vec<BenchRow>,
+    on_row: &'a mut dyn FnMut(&BenchRow),
+}
+
+impl Table<'_> {
+    fn push(&mut self, row: BenchRow) {
+        (self.on_row)(&row);
+        self.rows.push(row);
+    }
+}
+
+/// How much a run measures: `quick` is CI-sized.
+struct Size {
+    conditions: usize,
+    frames: usize,
+    reps: usize,
+}
+
 /// Runs the bench. `quick` makes it CI-sized (a few seconds).
 pub fn run(
     quick: bool,
     on_row: &mut dyn FnMut(&BenchRow),
 ) -> Result<Vec<BenchRow>, Box<dyn std::error::Error>> {
-    let (n_cond, frames, reps) = if quick { (8, 60, 3) } else { (40, 300, 5) };
-    let conds = conditions(n_cond);
-    let mut rows = Vec::new();
-    let mut push = |row: BenchRow, rows: &mut Vec<BenchRow>| {
-        on_row(&row);
-        rows.push(row);
+    let size = if quick {
+        Size {
+            conditions: 8,
+            frames: 60,
+            reps: 3,
+        }
+    } else {
+        Size {
+            conditions: 40,
+            frames: 300,
+            reps: 5,
+        }
     };
-    let n_frames = (n_cond * frames) as f64;
+    let conds = conditions(size.conditions);
+    let mut table = Table {
+        rows: Vec::new(),
+        on_row,
+    };
     for row in exact_core(if quick { 3 } else { 9 }) {
-        push(row, &mut rows);
+        table.push(row);
     }
+    trace_rows(&conds, &size, &mut table);
+    phase_rows(&conds, &size, &mut table);
+    plan_rows(quick, &mut table)?;
+    Ok(table.rows)
+}
 
+/// The exact closed form per frame, then time stepping at three steps
+/// against it.
+fn trace_rows(conds: &[Condition], size: &Size, table: &mut Table<'_>) {
+    let (n_cond, frames, reps) = (size.conditions, size.frames, size.reps);
+    let n_frames = (n_cond * frames) as f64;
     let (t_exact, exact) = timed(reps, || {
         conds
             .iter()
@@ -376,16 +415,13 @@ pub fn run(
             })
             .collect::<Vec<_>>()
     });
-    push(
-        BenchRow {
-            method: "exact closed form".into(),
-            per: "frame",
-            time_s: t_exact / n_frames,
-            max_error: Some(0.0),
-            note: format!("{n_cond} conditions x {frames} frames, 2-row rolling ROI"),
-        },
-        &mut rows,
-    );
+    table.push(BenchRow {
+        method: "exact closed form".into(),
+        per: "frame",
+        time_s: t_exact / n_frames,
+        max_error: Some(0.0),
+        note: format!("{n_cond} conditions x {frames} frames, 2-row rolling ROI"),
+    });
 
     for dt in [100e-6, 10e-6, 1e-6] {
         let reps_here = if dt < 5e-6 { 1 } else { reps };
@@ -407,18 +443,20 @@ pub fn run(
             .zip(stepped.iter().flatten())
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
-        push(
-            BenchRow {
-                method: format!("time-stepped, {} us", dt * 1e6),
-                per: "frame",
-                time_s: t / n_frames,
-                max_error: Some(err),
-                note: "midpoint samples of the square wave".into(),
-            },
-            &mut rows,
-        );
+        table.push(BenchRow {
+            method: format!("time-stepped, {} us", dt * 1e6),
+            per: "frame",
+            time_s: t / n_frames,
+            max_error: Some(err),
+            note: "midpoint samples of the square wave".into(),
+        });
     }
+}
 
+/// The exact worst case over the PWM phase, then phase sweeps of three
+/// sizes against it.
+fn phase_rows(conds: &[Condition], size: &Size, table: &mut Table<'_>) {
+    let (n_cond, reps) = (size.conditions, size.reps);
     let exact_worst: Vec<(f64, f64)> = conds
         .iter()
         .map(|c| c.shutter.phase_envelope(&c.pwm, c.rows.clone()))
@@ -429,16 +467,13 @@ pub fn run(
             .map(|c| c.shutter.phase_envelope(&c.pwm, c.rows.clone()))
             .collect::<Vec<_>>()
     });
-    push(
-        BenchRow {
-            method: "exact worst case over phase".into(),
-            per: "case",
-            time_s: t_env / n_cond as f64,
-            max_error: Some(0.0),
-            note: "corners of the piecewise-linear response".into(),
-        },
-        &mut rows,
-    );
+    table.push(BenchRow {
+        method: "exact worst case over phase".into(),
+        per: "case",
+        time_s: t_env / n_cond as f64,
+        max_error: Some(0.0),
+        note: "corners of the piecewise-linear response".into(),
+    });
     for n in [16usize, 64, 256] {
         let (t, swept) = timed(reps, || {
             conds
@@ -463,18 +498,18 @@ pub fn run(
             .zip(&swept)
             .map(|(e, s)| (s.0 - e.0).abs().max((e.1 - s.1).abs()))
             .fold(0.0, f64::max);
-        push(
-            BenchRow {
-                method: format!("phase sweep, {n} phases"),
-                per: "case",
-                time_s: t / n_cond as f64,
-                max_error: Some(err),
-                note: "min/max over sampled phases vs exact".into(),
-            },
-            &mut rows,
-        );
+        table.push(BenchRow {
+            method: format!("phase sweep, {n} phases"),
+            per: "case",
+            time_s: t / n_cond as f64,
+            max_error: Some(err),
+            note: "min/max over sampled phases vs exact".into(),
+        });
     }
+}
 
+/// Whole-plan times of the bench plan on two camera profiles.
+fn plan_rows(quick: bool, table: &mut Table<'_>) -> Result<(), Box<dyn std::error::Error>> {
     for (label, profile) in [
         (
             "daylight plan, ideal rolling profile",
@@ -487,31 +522,28 @@ pub fn run(
     ] {
         let plan = bench_plan(Some(profile))?;
         let cases = plan::expand_cases(&plan);
-        let backend = Simulator::new(&plan);
+        let backend = crate::backend::for_plan(&plan, None)?;
         let (t, results) = timed(if quick { 1 } else { 3 }, || {
             runner::run(&plan, &cases, &backend, None, &|_| {})
         });
         results?;
         let frames =
             crate::backend::sim::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps).total();
-        push(
-            BenchRow {
-                method: label.into(),
-                per: "plan",
-                time_s: t,
-                max_error: None,
-                note: format!(
-                    "{} cases x {frames} frames ({} s at {} fps), {} threads",
-                    cases.len(),
-                    plan.sequence.on_s + plan.sequence.off_s + plan.sequence.pwm_s,
-                    plan.dut.camera.fps,
-                    rayon::current_num_threads()
-                ),
-            },
-            &mut rows,
-        );
+        table.push(BenchRow {
+            method: label.into(),
+            per: "plan",
+            time_s: t,
+            max_error: None,
+            note: format!(
+                "{} cases x {frames} frames ({} s at {} fps), {} threads",
+                cases.len(),
+                plan.sequence.on_s + plan.sequence.off_s + plan.sequence.pwm_s,
+                plan.dut.camera.fps,
+                rayon::current_num_threads()
+            ),
+        });
     }
-    Ok(rows)
+    Ok(())
 }
 
 #[cfg(test)]

@@ -37,6 +37,7 @@ pub mod bench;
 pub mod calibrate;
 pub mod capture;
 pub mod cli;
+pub mod error;
 pub mod inputs;
 pub mod interrupt;
 pub mod metrics;

@@ -3,13 +3,17 @@
 //! The runner hands each [`TestCase`] to a [`Backend`] and gets back an
 //! [`Acquisition`]: per-frame timing and segment labels, and the mean luma of
 //! every ROI in every frame. The built-in simulator is [`sim::Simulator`];
-//! captured data and lab rigs plug in through the same trait.
+//! captured data and lab rigs plug in through the same trait, and
+//! [`for_plan`] builds the one a plan names.
 
 pub mod captured;
 pub mod command;
+pub mod factory;
 pub mod rig;
 pub mod segments;
 pub mod sim;
+
+pub use factory::{PlanBackend, SetupError, for_plan};
 
 use crate::plan::TestCase;
 pub use crate::trace::{Acquisition, FrameInfo, RenderedFrame, RoiTrace};

@@ -10,7 +10,6 @@
 //! the loop by letting the simulator render the same scene with it.
 
 pub mod bands;
-pub mod command;
 pub mod fit;
 pub mod frames;
 mod linalg;
@@ -192,6 +191,52 @@ pub fn calibrate(set: &FrameSet, light: Light) -> Result<Calibration, NoConfiden
         saturated,
         &data,
     ))
+}
+
+/// The fitted profile could not be written or simulated back.
+#[derive(Debug, thiserror::Error)]
+pub enum ProfileError {
+    /// Writing the profile file failed.
+    #[error("cannot write `{}`: {error}", path.display())]
+    Write {
+        /// The profile file.
+        path: std::path::PathBuf,
+        /// Why (in the message, not a source: said once).
+        error: std::io::Error,
+    },
+    /// The simulator could not render the scene with the profile.
+    #[error("closed loop failed: {0}")]
+    ClosedLoop(String),
+}
+
+/// Writes `cal`'s camera profile to `out` (else to a temporary file, removed
+/// after), closes the loop (the simulator renders the same scene with the
+/// profile) and stores its `profile_rms`.
+pub fn write_profile(
+    cal: &mut Calibration,
+    opts: &profile::ProfileOptions,
+    out: Option<&std::path::Path>,
+) -> Result<(), ProfileError> {
+    let text = profile::profile_toml(cal, opts);
+    let (path, temporary) = match out {
+        Some(p) => (p.to_path_buf(), false),
+        None => (
+            std::env::temp_dir().join(format!("ledflicker-calibrate-{}.toml", std::process::id())),
+            true,
+        ),
+    };
+    crate::util::write_atomic(&path, text.as_bytes()).map_err(|error| ProfileError::Write {
+        path: path.clone(),
+        error,
+    })?;
+    let fps_used = profile::frame_rate(cal, opts);
+    let looped = profile::closed_loop(cal, &path, fps_used);
+    if temporary {
+        let _ = std::fs::remove_file(&path);
+    }
+    let (_, rms) = looped.map_err(ProfileError::ClosedLoop)?;
+    cal.profile_rms = Some(rms);
+    Ok(())
 }
 
 /// The clipping level and whether the rows reach it: at least 3 % of the

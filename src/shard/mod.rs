@@ -8,16 +8,18 @@
 //!   (a Slurm array task or a Kubernetes Indexed Job).
 //! - [`assign`]: the deterministic case-to-shard assignment.
 //! - [`record`]: the on-disk shard format, read back typed.
-//! - [`command`]: the shard run and the `merge` subcommand.
+//! - [`write`]: a shard run's directory, written from its case results.
+//! - [`merge`]: the shard directories read back and checked, for `merge`.
 //! - [`report_model`]: the report model `plan` and `merge` both write.
 
 pub mod assign;
-pub mod command;
+pub mod merge;
 pub mod record;
+pub mod write;
 
 use serde::{Deserialize, Serialize};
 
-use crate::cli::UsageError;
+use crate::error::UsageError;
 
 /// Largest shard count: more shards than this is a mistake, not a cluster.
 pub const MAX_SHARDS: usize = 100_000;

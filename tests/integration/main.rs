@@ -13,6 +13,7 @@ mod mutate;
 mod physics;
 mod plans;
 mod recgen;
+mod render;
 mod report;
 mod results;
 mod robust;

@@ -10,10 +10,14 @@
 
 use std::ops::Range;
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
-use super::trace::Chart;
 use crate::model::FrameInfo;
+
+/// The trace charts' drawing area: time in seconds against luma in DN.
+pub(super) type Chart<'a, 'b> =
+    ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 /// A time step longer than this many median frame intervals breaks a run.
 pub const GAP_FACTOR: f64 = 1.5;

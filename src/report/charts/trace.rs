@@ -6,10 +6,9 @@
 //! of the plot, never over the data.
 
 use plotters::coord::Shift;
-use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
-use super::envelope::{self, draw_decimated};
+use super::envelope::{self, Chart, draw_decimated};
 use super::{ChartError, FONT, SERIES_COLOURS, segment_fill, shade_detected};
 use crate::model::CaseResult;
 use crate::model::FrameInfo;
@@ -46,9 +45,6 @@ pub(crate) enum Swatch {
     /// Text only.
     None,
 }
-
-pub(super) type Chart<'a, 'b> =
-    ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 /// Splits `text` into lines of at most about `width` characters.
 fn wrap(text: &str, width: usize) -> Vec<String> {

@@ -1,16 +1,17 @@
-//! The `linetime`, `bands` and `calibrate` subcommands (arguments and
-//! output); `cli.rs` dispatches to them.
+//! `ledflicker linetime`, `bands` and `calibrate`: their arguments and
+//! output. The estimators and the camera fit are in `crate::calibrate`.
 
 use std::io::Write;
 use std::path::PathBuf;
 
 use clap::Args;
 
-use super::bands::NoConfidence;
-use super::frames::{self, FrameSet};
-use super::profile::{self, ProfileOptions};
-use super::{Light, estimate_bands};
-use crate::cli::UsageError;
+use super::EXIT_PASS;
+use crate::calibrate::bands::NoConfidence;
+use crate::calibrate::frames::{self, FrameSet};
+use crate::calibrate::profile::ProfileOptions;
+use crate::calibrate::{Calibration, Light, estimate_bands};
+use crate::error::UsageError;
 
 /// No confident estimate: the input shows no usable banding. Exit code 4.
 #[derive(Debug, thiserror::Error)]
@@ -163,7 +164,7 @@ pub fn linetime(a: LinetimeArgs) -> anyhow::Result<i32> {
         if divided { ", texture divided out" } else { "" }
     )?;
     writeln!(w, "fit_quality: {:.3}", e.quality)?;
-    Ok(crate::cli::EXIT_PASS)
+    Ok(EXIT_PASS)
 }
 
 /// `bands`: the PWM frequency from the band spacing, JSON.
@@ -187,7 +188,7 @@ pub fn bands(a: BandsArgs) -> anyhow::Result<i32> {
         "estimated_frequency_hz_sigma": sigma,
     });
     println!("{}", serde_json::to_string_pretty(&out)?);
-    Ok(crate::cli::EXIT_PASS)
+    Ok(EXIT_PASS)
 }
 
 /// `calibrate`: fits the camera, closes the loop, writes the profile.
@@ -212,7 +213,7 @@ pub fn calibrate(a: CalibrateArgs) -> anyhow::Result<i32> {
         frequency_sigma_hz: a.frequency_sigma_hz,
         duty: a.duty,
     };
-    let mut cal = super::calibrate(&set, light).map_err(|r| refuse(&a.input, r))?;
+    let mut cal = crate::calibrate::calibrate(&set, light).map_err(|r| refuse(&a.input, r))?;
     let name = a
         .name
         .clone()
@@ -224,32 +225,16 @@ pub fn calibrate(a: CalibrateArgs) -> anyhow::Result<i32> {
         })
         .unwrap_or_else(|| "calibrated".to_string());
     let opts = ProfileOptions { name, fps };
-    let text = profile::profile_toml(&cal, &opts);
-    let (path, temporary) = match &a.out {
-        Some(p) => (p.clone(), false),
-        None => (
-            std::env::temp_dir().join(format!("ledflicker-calibrate-{}.toml", std::process::id())),
-            true,
-        ),
-    };
-    crate::util::write_atomic(&path, text.as_bytes())
-        .map_err(|e| anyhow::anyhow!("cannot write `{}`: {e}", path.display()))?;
-    let fps_used = profile::frame_rate(&cal, &opts);
-    let looped = profile::closed_loop(&cal, &path, fps_used);
-    if temporary {
-        let _ = std::fs::remove_file(&path);
-    }
-    let (_, rms) = looped.map_err(|e| anyhow::anyhow!("closed loop failed: {e}"))?;
-    cal.profile_rms = Some(rms);
+    crate::calibrate::write_profile(&mut cal, &opts, a.out.as_deref())?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&cal)?);
     } else {
         print_text(&cal, a.out.as_deref())?;
     }
-    Ok(crate::cli::EXIT_PASS)
+    Ok(EXIT_PASS)
 }
 
-fn print_text(cal: &super::Calibration, out: Option<&std::path::Path>) -> std::io::Result<()> {
+fn print_text(cal: &Calibration, out: Option<&std::path::Path>) -> std::io::Result<()> {
     let mut w = std::io::stdout().lock();
     let pm = |v: f64, s: f64, d: usize| format!("{v:.d$} +- {s:.d$}");
     writeln!(

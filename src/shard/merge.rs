@@ -1,196 +1,32 @@
-//! `ledflicker plan PLAN --shard K/N --out DIR` (a shard run) and
-//! `ledflicker merge --out DIR SHARD_DIR...`; `cli.rs` dispatches to them.
+//! Reading back a sharded run for `ledflicker merge`: the shard
+//! directories (globs expanded), their manifests checked against each other,
+//! every case result in case order and the plan they ran, checked against
+//! the plan hash. The CLI's `merge` then writes the report as `plan` does.
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
-use clap::Args;
-
 use super::record::{self, CASES, MANIFEST, Manifest, ShardCase};
-use super::{ShardSpec, assign};
-use crate::backend::Backend;
-use crate::backend::captured::Captured;
-use crate::backend::command::CommandRig;
-use crate::backend::sim::Simulator;
-use crate::cli::UsageError;
-use crate::metrics::Verdict;
-use crate::plan::{self, BackendKind, Plan};
-use crate::report::{self, WriteOptions};
-use crate::runner::{self, CaseResult};
+use super::write::tool;
+use crate::error::UsageError;
+use crate::plan::{self, Plan};
+use crate::runner::CaseResult;
 
-/// `ledflicker merge` arguments.
-#[derive(Args, Debug)]
-pub struct MergeArgs {
-    /// Shard directories written by `plan --shard`, or a quoted glob of
-    /// them such as 'shards/*' (`*` and `?` in the last path component).
-    #[arg(required = true)]
-    pub shards: Vec<String>,
-    /// Output directory [default: reports/<plan-id>/].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// The plan, when it is no longer where the shards read it [default:
-    /// the shards' plan path, as given, else as an absolute path].
-    #[arg(long)]
-    pub plan: Option<PathBuf>,
-    /// Report date, YYYY-MM-DD [default: $SOURCE_DATE_EPOCH, else today].
-    #[arg(long)]
-    pub date: Option<String>,
-    /// Replace a signed report in the output directory.
-    #[arg(long)]
-    pub force: bool,
-    /// Print no summary table.
-    #[arg(long, short)]
-    pub quiet: bool,
-    /// How much of each case the report shows (as for `plan`).
-    #[arg(long, value_enum, default_value_t = crate::cli::DetailArg::Standard)]
-    pub detail: crate::cli::DetailArg,
+/// A sharded run read back whole.
+pub struct Merged {
+    /// The plan the shards ran (its path as the shards recorded it).
+    pub plan: Plan,
+    /// How many shard directories were read.
+    pub shards: usize,
+    /// The first shard's manifest (every shard agrees on what a report uses).
+    pub manifest: Manifest,
+    /// Every case result, in case order.
+    pub results: Vec<CaseResult>,
 }
 
-/// A shard run of `plan` (read from `path`).
-pub struct ShardRun<'a> {
-    /// The plan.
-    pub plan: &'a Plan,
-    /// Which share of its cases.
-    pub spec: ShardSpec,
-    /// The shard directory.
-    pub out: &'a Path,
-    /// Worker threads.
-    pub threads: Option<usize>,
-    /// Replace a signed report at `out`.
-    pub force: bool,
-    /// Print nothing on success.
-    pub quiet: bool,
-}
-
-/// Runs one shard and writes its directory. Exit 0 whatever the verdicts:
-/// the merge judges (a failing case must not stop a dependent merge job).
-pub fn run_shard(r: &ShardRun<'_>) -> anyhow::Result<i32> {
-    let plan = r.plan;
-    if r.threads == Some(0) {
-        return Err(UsageError("--threads must be at least 1".into()).into());
-    }
-    // As `plan`: never a signed report without --force, never a user's folder.
-    crate::outdir::check_overwrite(r.out, r.force)?;
-    let generation = crate::outdir::Generation::begin(r.out)?;
-    crate::interrupt::install();
-    let all = plan::expand_cases(plan);
-    let mine = assign::cases_of(plan, &all, r.spec);
-    let sim;
-    let mut captured = None;
-    let mut rig = None;
-    let backend: &dyn Backend = match plan.dut.backend {
-        BackendKind::Simulator => {
-            sim = Simulator::new(plan);
-            &sim
-        }
-        BackendKind::Captured => {
-            // Read only this shard's captures.
-            let mut own = plan.clone();
-            if let Some(c) = &mut own.capture {
-                c.cases.retain(|k| mine.iter().any(|m| m.id == k.id));
-            }
-            &*captured.insert(
-                Captured::load(&own)
-                    .with_context(|| format!("cannot read the captures of plan `{}`", plan.id))?,
-            )
-        }
-        BackendKind::Command => &*rig.insert(
-            CommandRig::new(plan)
-                .ok_or_else(|| UsageError("the plan has no [capture] command".into()))?,
-        ),
-    };
-    let inputs = crate::inputs::collect(plan).map_err(|e| UsageError(e.to_string()))?;
-    let mut results = runner::run(plan, &mine, backend, r.threads, &|_| {})
-        .with_context(|| format!("run of shard {} of plan `{}` failed", r.spec, plan.id))?;
-    runner::render_sample_frames(plan, &mut results, backend)
-        .with_context(|| format!("cannot render the sample frames of plan `{}`", plan.id))?;
-    let backend_id = backend.id().to_string();
-    let traces: Vec<(String, String)> = results
-        .iter()
-        .map(|c| (format!("{}.csv", c.case.id), report::trace_csv(c)))
-        .collect();
-    let records: Vec<ShardCase> = results
-        .into_iter()
-        .map(|mut result| {
-            let capture_signal = result
-                .acquisition
-                .capture
-                .as_mut()
-                .map(|s| std::mem::take(&mut s.segments.signal))
-                .unwrap_or_default();
-            ShardCase {
-                result,
-                capture_signal,
-            }
-        })
-        .collect();
-    let bytes = record::encode_cases(&records)
-        .map_err(|e| anyhow::anyhow!("cannot encode the case results: {e}"))?;
-    let manifest = Manifest {
-        schema: record::SCHEMA.to_string(),
-        tool: tool(),
-        plan_id: plan.id.clone(),
-        plan_path: plan.path.display().to_string(),
-        plan_path_absolute: std::path::absolute(&plan.path)
-            .unwrap_or_else(|_| plan.path.clone())
-            .display()
-            .to_string(),
-        plan_hash: record::plan_hash(&inputs),
-        seed: plan.seed,
-        backend: backend_id,
-        shard: r.spec,
-        case_count: all.len(),
-        cases: mine.iter().map(|c| c.index).collect(),
-        inputs: inputs.iter().map(Into::into).collect(),
-        cases_sha256: record::sha256(&bytes),
-    };
-    write_shard_dir(generation.path(), &manifest, &bytes, &traces)?;
-    crate::interrupt::check()?;
-    generation.commit()?;
-    if !r.quiet {
-        println!(
-            "shard {} of plan `{}`: {} of {} cases written to {}; merge with `ledflicker merge --out DIR SHARD_DIR...`",
-            r.spec,
-            plan.id,
-            manifest.cases.len(),
-            manifest.case_count,
-            r.out.display()
-        );
-    }
-    Ok(crate::cli::EXIT_PASS)
-}
-
-/// `ledflicker <version>`.
-fn tool() -> String {
-    format!("ledflicker {}", env!("CARGO_PKG_VERSION"))
-}
-
-fn write_shard_dir(
-    dir: &Path,
-    manifest: &Manifest,
-    cases: &[u8],
-    traces: &[(String, String)],
-) -> anyhow::Result<()> {
-    let write = |path: PathBuf, bytes: &[u8]| {
-        std::fs::write(&path, bytes).with_context(|| format!("cannot write `{}`", path.display()))
-    };
-    write(dir.join(CASES), cases)?;
-    let json = serde_json::to_string_pretty(manifest)?;
-    write(dir.join(MANIFEST), format!("{json}\n").as_bytes())?;
-    let traces_dir = dir.join("traces");
-    std::fs::create_dir_all(&traces_dir)
-        .with_context(|| format!("cannot create `{}`", traces_dir.display()))?;
-    for (name, text) in traces {
-        write(traces_dir.join(name), text.as_bytes())?;
-    }
-    Ok(())
-}
-
-/// `ledflicker merge`: checks the shards, then writes the report of the
-/// whole plan through the same report stage as `plan`.
-pub fn merge(a: MergeArgs) -> anyhow::Result<i32> {
-    let date = crate::cli::report_date(a.date.as_deref())?;
-    let dirs = expand_globs(&a.shards)?;
+/// Reads and checks the shard directories `args` (globs allowed) and the
+/// plan (`plan`, else where the shards read it).
+pub fn gather(args: &[String], plan: Option<&Path>) -> anyhow::Result<Merged> {
+    let dirs = expand_globs(args)?;
     let shards = dirs
         .iter()
         .map(|d| read_manifest(d))
@@ -198,7 +34,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<i32> {
     check_shards(&shards)?;
     let first = &shards[0].1;
     let results = read_cases(&shards)?;
-    let plan = load_plan(a.plan.as_deref(), first)?;
+    let plan = load_plan(plan, first)?;
     let expected = plan::expand_cases(&plan);
     if let Some((want, got)) = expected.iter().zip(&results).find(|(w, g)| **w != g.case) {
         return Err(UsageError(format!(
@@ -207,43 +43,11 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<i32> {
         ))
         .into());
     }
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
-    crate::outdir::check_overwrite(&out, a.force)?;
-    let generation = crate::outdir::Generation::begin(&out)?;
-    crate::interrupt::install();
-    let model = crate::model::assemble(&plan, &first.backend, &results);
-    crate::interrupt::check()?;
-    report::write_report(
-        generation.path(),
-        &model,
-        &results,
-        &WriteOptions {
-            date,
-            force: a.force,
-            signatories: Vec::new(),
-            inputs: first.inputs.iter().map(Into::into).collect(),
-            detail: a.detail.into(),
-        },
-    )
-    .with_context(|| format!("cannot write the report to `{}`", out.display()))?;
-    crate::interrupt::check()?;
-    generation.commit()?;
-    if !a.quiet {
-        println!(
-            "merged {} shards ({} cases) of plan `{}`",
-            shards.len(),
-            results.len(),
-            plan.id
-        );
-        print!("{}", report::terminal::summary(&model, &out));
-    }
-    Ok(match model.verdict {
-        Verdict::Fail => crate::cli::EXIT_FAIL,
-        Verdict::Info => crate::cli::EXIT_NOT_JUDGED,
-        Verdict::Pass => crate::cli::EXIT_PASS,
+    Ok(Merged {
+        manifest: first.clone(),
+        plan,
+        shards: shards.len(),
+        results,
     })
 }
 

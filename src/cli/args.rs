@@ -1,0 +1,126 @@
+//! Arguments that several subcommands share: the LED's PWM drive and the
+//! ideal camera (`simulate`, `render`), the report detail (`plan`,
+//! `merge`) and the report date (`plan`, `merge`, `sign`).
+
+use clap::{Args, ValueEnum};
+
+use crate::error::UsageError;
+use crate::physics::{Shutter, ShutterModel};
+
+/// `--detail` of `plan` and `merge`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DetailArg {
+    /// No case pages.
+    Summary,
+    /// A page for each failing or not judged case.
+    Standard,
+    /// A page for every case.
+    Full,
+}
+
+impl From<DetailArg> for crate::model::Detail {
+    fn from(d: DetailArg) -> Self {
+        match d {
+            DetailArg::Summary => Self::Summary,
+            DetailArg::Standard => Self::Standard,
+            DetailArg::Full => Self::Full,
+        }
+    }
+}
+
+/// `--shutter`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ShutterArg {
+    /// Every row exposed at once.
+    Global,
+    /// Row `r` starts `r` line times after row 0.
+    Rolling,
+}
+
+/// The LED's PWM drive.
+#[derive(Args, Debug)]
+pub struct PwmArgs {
+    /// PWM frequency in Hz (> 0).
+    #[arg(long)]
+    pub frequency_hz: f64,
+    /// Duty cycle in (0, 1].
+    #[arg(long)]
+    pub duty: f64,
+    /// Time of the first PWM rising edge after the start of frame 0's
+    /// exposure (row 0), in milliseconds.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub pwm_delay_ms: f64,
+}
+
+/// The ideal camera: exposure, frame rate and shutter.
+#[derive(Args, Debug)]
+pub struct CameraArgs {
+    /// Exposure time in milliseconds (> 0).
+    #[arg(long)]
+    pub exposure_ms: f64,
+    /// Frame rate in frames per second (> 0).
+    #[arg(long)]
+    pub fps: f64,
+    /// Shutter type.
+    #[arg(long, value_enum, default_value_t = ShutterArg::Global)]
+    pub shutter: ShutterArg,
+    /// Rolling-shutter line time in microseconds (>= 0).
+    #[arg(long, default_value_t = 0.0)]
+    pub line_time_us: f64,
+}
+
+impl CameraArgs {
+    /// The shutter these flags describe (unchecked: callers check ranges).
+    pub fn shutter(&self) -> Shutter {
+        Shutter {
+            model: match self.shutter {
+                ShutterArg::Global => ShutterModel::Global,
+                ShutterArg::Rolling => ShutterModel::Rolling {
+                    line_time_s: self.line_time_us * 1e-6,
+                },
+            },
+            exposure_s: self.exposure_ms * 1e-3,
+            fps: self.fps,
+        }
+    }
+}
+
+/// The report date: `--date`, else $SOURCE_DATE_EPOCH, else today.
+pub fn report_date(arg: Option<&str>) -> anyhow::Result<String> {
+    if let Some(d) = arg {
+        let ok = d.len() == 10
+            && d.chars().enumerate().all(|(i, c)| {
+                if i == 4 || i == 7 {
+                    c == '-'
+                } else {
+                    c.is_ascii_digit()
+                }
+            });
+        if !ok || !crate::util::is_calendar_date(d) {
+            return Err(UsageError(format!(
+                "--date `{d}` is not a date YYYY-MM-DD (e.g. 2026-11-23)"
+            ))
+            .into());
+        }
+        return Ok(d.to_string());
+    }
+    if let Ok(s) = std::env::var("SOURCE_DATE_EPOCH") {
+        let secs: i64 = s
+            .trim()
+            .parse()
+            .ok()
+            .filter(|v| (0..=crate::util::MAX_UNIX_S).contains(v))
+            .ok_or_else(|| {
+                UsageError(format!(
+                    "SOURCE_DATE_EPOCH `{s}` is not a whole number of seconds between 0 and {} (years 1970 to 9999)\n    hint: unset it, or set it to e.g. $(date +%s)",
+                    crate::util::MAX_UNIX_S
+                ))
+            })?;
+        return Ok(crate::util::utc_date(secs));
+    }
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs() as i64)
+        .unwrap_or(0);
+    Ok(crate::util::utc_date(now))
+}

@@ -1,0 +1,215 @@
+//! Command-line interface: `plan`, `merge`, `validate`, `simulate`, `advise`,
+//! `bench`, `linetime`, `render`, `bands`, `calibrate`, `keygen`, `sign` and
+//! `verify`, one module each (`linetime`, `bands` and `calibrate` share
+//! `calibrate`; `keygen`, `sign` and `verify` share `sign`; `plan --shard`
+//! is `shard`). This module holds the clap `Command` list, the exit codes,
+//! the error-to-exit-code map and [`main`]; `args` holds the flags several
+//! commands share. The CLI sits on top: it may import any module, and no
+//! module imports it.
+//!
+//! Exit codes (stable; CI scripts depend on them):
+//!
+//! | code | meaning |
+//! |---|---|
+//! | 0 | every judged case passed and at least one was judged (informational cases do not count); `plan --shard`: the shard ran and wrote its directory (verdicts are the merge's); `verify`: every hash and signature matched and every signer is trusted (`--trust`) |
+//! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash, signature or input mismatch, an untrusted signer, or no signature |
+//! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way; `merge`: shards that do not fit together (missing, duplicated, of another plan, tool or seed, damaged) |
+//! | 3 | internal or backend error |
+//! | 4 | per command: `plan`, `merge`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked; `linetime`, `bands`, `calibrate`: no confident estimate, the reason (flat rows, no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
+//! | 130, 143 | `plan` stopped by SIGINT (Ctrl-C) or SIGTERM (128 + signal); the old report is left as it was |
+
+use clap::{Parser, Subcommand};
+
+use crate::backend::SetupError;
+pub use crate::error::UsageError;
+use crate::plan::PlanError;
+use crate::{report, runner};
+
+mod advise;
+mod args;
+mod bench;
+mod calibrate;
+mod merge;
+mod plan;
+mod render;
+mod shard;
+mod sign;
+mod simulate;
+mod validate;
+
+pub use args::DetailArg;
+
+/// Every case passed.
+pub const EXIT_PASS: i32 = 0;
+/// Some case failed.
+pub const EXIT_FAIL: i32 = 1;
+/// Invalid plan, input or usage.
+pub const EXIT_INVALID: i32 = 2;
+/// Internal or backend error.
+pub const EXIT_INTERNAL: i32 = 3;
+/// `plan`: the run completed but no case was judged (every case informational).
+pub const EXIT_NOT_JUDGED: i32 = 4;
+/// `verify` without `--trust`: intact, but nobody vouched for the signers.
+/// Same number as [`EXIT_NOT_JUDGED`]: each command documents its own use.
+pub const EXIT_IDENTITY_UNCHECKED: i32 = 4;
+/// `linetime`, `bands`, `calibrate`: the input gives no confident estimate.
+/// Same number as [`EXIT_NOT_JUDGED`]: each command documents its own use.
+pub const EXIT_NO_CONFIDENCE: i32 = 4;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "ledflicker",
+    version,
+    about = "LED flicker conformance tests for automotive cameras"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// The subcommands; each variant's doc comment is its `--help` summary.
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run a test plan and write results.json, traces, charts, report.html,
+    /// report.pdf, junit.xml and summary.csv.
+    Plan(plan::PlanArgs),
+    /// Check the shard directories of a sharded run (`plan --shard`) and
+    /// write the whole plan's report, as one `plan` run would have.
+    Merge(merge::MergeArgs),
+    /// Check a test plan without running it.
+    Validate {
+        /// Plan file, or a plan name from test-plans/ (e.g. `daylight`).
+        plan: String,
+    },
+    /// Probe the ideal camera for one condition; prints a CSV trace, or with
+    /// --summary one JSON object of metrics.
+    Simulate(simulate::SimulateArgs),
+    /// Shortest exposure that never loses a PWM LED over a frequency and a
+    /// duty range, the flicker it leaves and its motion-blur cost.
+    Advise(advise::AdviseArgs),
+    /// Speed against error of the integration methods, whole-plan times, and
+    /// the time of the analytic fine map (worst-phase FDI and Percent Flicker
+    /// over 50 Hz..2 kHz x 1..100 % duty) for a plan's camera.
+    Bench(bench::BenchArgs),
+    /// Estimate a rolling shutter's line time from frames of a diffusely
+    /// lit PWM scene; prints the line time in microseconds on the first line.
+    /// Exit code 4 when the frames give no confident estimate.
+    Linetime(calibrate::LinetimeArgs),
+    /// Render ideal-camera frames (ON, OFF, PWM) as grey PNG files.
+    Render(render::RenderArgs),
+    /// Estimate a PWM frequency from the band spacing of rolling-shutter
+    /// frames with a known line time; prints JSON. Exit code 4 when the
+    /// frames give no confident estimate.
+    Bands(calibrate::BandsArgs),
+    /// Fit a rolling-shutter camera model (line time, exposure, duty, black
+    /// level, saturation, tone curve) to banding frames of a PWM light;
+    /// writes a camera profile with --out. Exit code 4 when the frames give
+    /// no confident estimate.
+    Calibrate(calibrate::CalibrateArgs),
+    /// Make an ECDSA P-256 private key (FILE, PKCS#8 PEM, mode 0600) and a
+    /// self-signed X.509 certificate (FILE with `.crt`, PEM) for signing.
+    Keygen(sign::KeygenArgs),
+    /// Sign a report directory: a PDF signature in report.pdf and a CMS
+    /// signature (signoff.p7s) of manifest.txt.
+    Sign(sign::SignArgs),
+    /// Check every hash and signature of a signed report directory.
+    Verify(sign::VerifyArgs),
+}
+
+/// Maps an error to its exit code.
+pub fn exit_code(err: &anyhow::Error) -> i32 {
+    for cause in err.chain() {
+        if let Some(i) = cause.downcast_ref::<crate::interrupt::Interrupted>() {
+            return i.exit_code();
+        }
+        if let Some(runner::RunError::Interrupted(i)) = cause.downcast_ref() {
+            return i.exit_code();
+        }
+        if let Some(e) = cause.downcast_ref::<crate::outdir::OutDirError>() {
+            return if e.is_usage_error() {
+                EXIT_INVALID
+            } else {
+                EXIT_INTERNAL
+            };
+        }
+        if cause.is::<PlanError>() || cause.is::<UsageError>() {
+            return EXIT_INVALID;
+        }
+        if let Some(SetupError::NoCommand) = cause.downcast_ref() {
+            return EXIT_INVALID;
+        }
+        if let Some(e) = cause.downcast_ref::<crate::capture::CaptureError>() {
+            return if e.is_input_error() {
+                EXIT_INVALID
+            } else {
+                EXIT_INTERNAL
+            };
+        }
+        if cause.is::<calibrate::NoEstimate>() {
+            return EXIT_NO_CONFIDENCE;
+        }
+        if let Some(e) = cause.downcast_ref::<crate::calibrate::frames::FrameError>() {
+            return match e {
+                crate::calibrate::frames::FrameError::Capture(c) if !c.is_input_error() => {
+                    EXIT_INTERNAL
+                }
+                _ => EXIT_INVALID,
+            };
+        }
+        if let Some(report::ReportError::Invalid { .. }) = cause.downcast_ref() {
+            return EXIT_INVALID;
+        }
+        if let Some(report::ReportError::OutDir(e)) = cause.downcast_ref() {
+            return if e.is_usage_error() {
+                EXIT_INVALID
+            } else {
+                EXIT_INTERNAL
+            };
+        }
+        if let Some(e) = cause.downcast_ref::<crate::signoff::SignoffError>() {
+            return match e {
+                crate::signoff::SignoffError::Report(
+                    report::ReportError::Invalid { .. }
+                    | report::ReportError::OutDir(crate::outdir::OutDirError::Signed { .. }),
+                )
+                | crate::signoff::SignoffError::Io { .. }
+                | crate::signoff::SignoffError::Key { .. }
+                | crate::signoff::SignoffError::Pdf(_)
+                | crate::signoff::SignoffError::Refused(_) => EXIT_INVALID,
+                crate::signoff::SignoffError::Report(_)
+                | crate::signoff::SignoffError::Crypto(_) => EXIT_INTERNAL,
+            };
+        }
+    }
+    EXIT_INTERNAL
+}
+
+/// Runs the CLI and returns the process exit code.
+pub fn main() -> i32 {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(code) => code,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            exit_code(&err)
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<i32> {
+    match cli.command {
+        Command::Plan(args) => plan::run_plan(args),
+        Command::Merge(args) => merge::merge(args),
+        Command::Validate { plan } => validate::validate(&plan),
+        Command::Simulate(args) => simulate::simulate(args),
+        Command::Advise(args) => advise::advise(args),
+        Command::Bench(args) => bench::bench(args),
+        Command::Linetime(args) => calibrate::linetime(args),
+        Command::Render(args) => render::render(args),
+        Command::Bands(args) => calibrate::bands(args),
+        Command::Calibrate(args) => calibrate::calibrate(args),
+        Command::Keygen(args) => sign::keygen(args),
+        Command::Sign(args) => sign::sign(args),
+        Command::Verify(args) => sign::verify(args),
+    }
+}

@@ -1,0 +1,406 @@
+//! `ledflicker plan`: runs a test plan and writes its report directory
+//! (results.json, traces, charts, report.html, report.pdf, junit.xml,
+//! summary.csv), optionally signed and compared with a golden run. With
+//! `--shard` it hands over to [`super::shard`].
+//!
+//! The run goes in stages, one function each: load the plan, prepare the
+//! output (refusals before any work), build the backend, run the cases,
+//! write the report, sign it, print the summary.
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use super::args::{DetailArg, report_date};
+use super::sign::{load_signer, signing_time};
+use super::{EXIT_FAIL, EXIT_NOT_JUDGED, EXIT_PASS};
+use crate::backend::{Backend, PlanBackend};
+use crate::error::UsageError;
+use crate::metrics::Verdict;
+use crate::outdir::Generation;
+use crate::plan::{self, Plan};
+use crate::report::{self, WriteOptions};
+use crate::runner::{self, CaseResult, RunEvent};
+use crate::signoff::SignerKey;
+
+#[derive(Args, Debug)]
+pub(super) struct PlanArgs {
+    /// Plan file, or a plan name from test-plans/ (e.g. `daylight`).
+    plan: String,
+    /// Output directory [default: reports/<plan-id>/].
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Worker threads [default: one per core]. Results do not depend on it.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Report date, YYYY-MM-DD [default: $SOURCE_DATE_EPOCH, else today].
+    #[arg(long)]
+    date: Option<String>,
+    /// Replace a signed report in the output directory.
+    #[arg(long)]
+    force: bool,
+    /// Print no summary table and no progress.
+    #[arg(long, short)]
+    quiet: bool,
+    /// How much of each case the report shows: `summary` (no case pages),
+    /// `standard` (a page for each failing or not judged case; passing
+    /// cases one line each in the appendix) or `full` (a page for every case).
+    #[arg(long, value_enum, default_value_t = DetailArg::Standard)]
+    detail: DetailArg,
+    /// Sign the report with this private key (PKCS#8 PEM, from `ledflicker keygen`).
+    #[arg(long, requires = "signer")]
+    sign_key: Option<PathBuf>,
+    /// Certificate of --sign-key [default: the key file with `.crt`].
+    #[arg(long, requires = "sign_key")]
+    sign_cert: Option<PathBuf>,
+    /// Who signs, "Name, Role"; with --sign-key.
+    #[arg(long, requires = "sign_key")]
+    signer: Option<String>,
+    /// Compare with a stored results.json and report the drift; exit 1 on
+    /// drift beyond tolerance.
+    #[arg(long)]
+    golden: Option<PathBuf>,
+    /// Per-metric tolerance, METRIC=VALUE (repeatable), e.g. fdi_2018=0.05.
+    #[arg(long = "golden-tolerance", requires = "golden")]
+    golden_tolerance: Vec<String>,
+    /// Print where the wall time went (plan, run, report parts) to stderr.
+    #[arg(long)]
+    timings: bool,
+    /// Run only shard K of N (numbered from 0) and write a shard directory
+    /// to --out for `ledflicker merge`, no report; `auto` reads a Slurm
+    /// array task or a Kubernetes Indexed Job (docs/scale-out.md).
+    #[arg(long, requires = "out", conflicts_with_all = ["golden", "sign_key"])]
+    shard: Option<String>,
+}
+
+pub(super) fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
+    if args.timings {
+        crate::timings::enable();
+    }
+    let total = crate::timings::span("total");
+    let (plan, date) = load(&args)?;
+    if let Some(spec) = &args.shard {
+        let spec = crate::shard::ShardSpec::parse(spec, &|k| std::env::var(k).ok())?;
+        return super::shard::run_shard(&super::shard::ShardRun {
+            plan: &plan,
+            spec,
+            out: args.out.as_deref().unwrap_or(Path::new(".")),
+            threads: args.threads,
+            force: args.force,
+            quiet: args.quiet,
+        });
+    }
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
+    let generation = prepare_output(&out, args.force)?;
+    let golden = golden_check(&args)?;
+    let signing = signing(&args, &out)?;
+
+    let backend = build_backend(&plan, args.quiet)?;
+    // After the backend has checked that the captures exist.
+    let inputs = crate::inputs::collect(&plan).map_err(|e| UsageError(e.to_string()))?;
+    let results = run_cases(&plan, &backend, &args)?;
+    let run = Run {
+        args: &args,
+        plan: &plan,
+        out: &out,
+        date: &date,
+        generation: &generation,
+    };
+    let model = write_report(&run, &backend, &results, inputs, signing)?;
+    // The new generation replaces the old report in one step, or not at all.
+    crate::interrupt::check()?;
+    generation.commit()?;
+    finish(
+        &args,
+        &model,
+        &out,
+        golden.map(|g| Box::new(g) as Box<_>),
+        total,
+    )
+}
+
+/// The summary table, the drift from `--golden`, the `--timings` table
+/// (after the "total" span ends) and the exit code.
+fn finish(
+    args: &PlanArgs,
+    model: &crate::model::Results,
+    out: &Path,
+    golden: Option<GoldenCheck>,
+    total: crate::timings::Guard,
+) -> anyhow::Result<i32> {
+    if !args.quiet {
+        print_summary(model, out)?;
+    }
+    let drift = golden.is_some_and(|check| check(model));
+    drop(total);
+    if args.timings {
+        eprint!("{}", crate::timings::table(&crate::timings::take()));
+    }
+    Ok(if model.verdict == Verdict::Fail || drift {
+        EXIT_FAIL
+    } else if model.verdict == Verdict::Info {
+        EXIT_NOT_JUDGED
+    } else {
+        EXIT_PASS
+    })
+}
+
+/// The plan and the report date, checked with `--threads`.
+fn load(args: &PlanArgs) -> anyhow::Result<(Plan, String)> {
+    let t = crate::timings::span("load and validate plan");
+    let path = plan::resolve_plan_path(&args.plan)?;
+    let plan = plan::load(&path)?;
+    drop(t);
+    let date = report_date(args.date.as_deref())?;
+    if args.threads == Some(0) {
+        return Err(UsageError("--threads must be at least 1".into()).into());
+    }
+    Ok((plan, date))
+}
+
+/// A run under way: what the report stage needs besides the results.
+struct Run<'a> {
+    args: &'a PlanArgs,
+    plan: &'a Plan,
+    out: &'a Path,
+    date: &'a str,
+    generation: &'a Generation,
+}
+
+/// The report stage: the model (analyses), report.html, report.pdf and
+/// the rest into the new generation, signed with `--sign-key`.
+fn write_report(
+    run: &Run<'_>,
+    backend: &PlanBackend,
+    results: &[CaseResult],
+    inputs: Vec<crate::inputs::InputFile>,
+    signing: Option<Signing<'_>>,
+) -> anyhow::Result<crate::model::Results> {
+    let stage = report_spinner(run.args.quiet);
+    stage.set_message(format!("analysing {} cases", results.len()));
+    let t = crate::timings::span("report model (analyses)");
+    let model = report_model(run.plan, backend, results);
+    drop(t);
+    crate::interrupt::check()?;
+    stage.set_message("drawing charts, writing report.html and report.pdf".to_string());
+    let t = crate::timings::span("write report");
+    report::write_report(
+        run.generation.path(),
+        &model,
+        results,
+        &WriteOptions {
+            date: run.date.to_string(),
+            force: run.args.force,
+            signatories: Vec::new(),
+            inputs,
+            detail: run.args.detail.into(),
+        },
+    )
+    .with_context(|| format!("cannot write the report to `{}`", run.out.display()))?;
+    drop(t);
+    if let Some(s) = signing {
+        sign_report(run, s)?;
+    }
+    stage.finish_and_clear();
+    Ok(model)
+}
+
+/// Refuses before spending time on the run (a signed report without
+/// --force, a directory ledflicker did not write, an unwritable place),
+/// then starts the new generation of `out` and installs the signal handler.
+fn prepare_output(out: &Path, force: bool) -> anyhow::Result<Generation> {
+    crate::outdir::check_overwrite(out, force)?;
+    let generation = Generation::begin(out)?;
+    crate::interrupt::install();
+    Ok(generation)
+}
+
+/// Prints the drift of a model from the golden results; true when it is
+/// beyond tolerance.
+type GoldenCheck = Box<dyn FnOnce(&crate::model::Results) -> bool>;
+
+/// `--golden`: reads the tolerances and the stored results now (a bad file
+/// fails before the run); the check returned prints the drift of a model
+/// and says whether it is beyond tolerance.
+fn golden_check(args: &PlanArgs) -> anyhow::Result<Option<GoldenCheck>> {
+    let mut tolerances = report::golden::Tolerances::default();
+    for t in &args.golden_tolerance {
+        tolerances.set(t).map_err(UsageError)?;
+    }
+    let Some(p) = &args.golden else {
+        return Ok(None);
+    };
+    let golden = report::golden::load(p)
+        .with_context(|| format!("cannot read the golden results `{}`", p.display()))?;
+    Ok(Some(Box::new(move |model: &crate::model::Results| {
+        let cmp = report::golden::compare(&golden, model, &tolerances);
+        print!("{}", cmp.to_text());
+        !cmp.ok()
+    })))
+}
+
+/// The plan's backend; a captured plan's captures are read now, under a
+/// "frames decoded" spinner.
+fn build_backend(plan: &Plan, quiet: bool) -> anyhow::Result<PlanBackend> {
+    let decoding = (plan.dut.backend == plan::BackendKind::Captured).then(|| decode_spinner(quiet));
+    let backend = crate::backend::for_plan(plan, None);
+    if let Some(d) = decoding {
+        d.finish_and_clear();
+    }
+    Ok(backend?)
+}
+
+/// Runs every case with a progress bar, then renders the sample frames.
+fn run_cases(
+    plan: &Plan,
+    backend: &PlanBackend,
+    args: &PlanArgs,
+) -> anyhow::Result<Vec<CaseResult>> {
+    let cases = plan::expand_cases(plan);
+    let bar = case_bar(cases.len(), args.quiet);
+    bar.set_message(plan.id.clone());
+    let on_event = |ev: RunEvent<'_>| {
+        if let RunEvent::CaseFinished { .. } = ev {
+            bar.inc(1);
+        }
+    };
+    let t = crate::timings::span("run cases");
+    let mut results = runner::run(plan, &cases, backend, args.threads, &on_event)
+        .with_context(|| format!("run of plan `{}` failed", plan.id))?;
+    drop(t);
+    let t = crate::timings::span("render sample frames");
+    runner::render_sample_frames(plan, &mut results, backend)
+        .with_context(|| format!("cannot render the sample frames of plan `{}`", plan.id))?;
+    drop(t);
+    bar.finish_and_clear();
+    Ok(results)
+}
+
+/// The results model of the run (the analysis stage).
+fn report_model(
+    plan: &Plan,
+    backend: &PlanBackend,
+    results: &[CaseResult],
+) -> crate::model::Results {
+    crate::model::assemble(plan, backend.id(), results)
+}
+
+/// Who signs `plan --sign-key`'s report, with what key, and when.
+struct Signing<'a> {
+    signer: &'a str,
+    key: SignerKey,
+    key_files: Vec<PathBuf>,
+    time_unix_s: u64,
+}
+
+/// `--sign-key`: the key is loaded now, so that a bad key fails before the
+/// run, not after it. The signing time is checked even without a key.
+fn signing<'a>(args: &'a PlanArgs, out: &Path) -> anyhow::Result<Option<Signing<'a>>> {
+    let loaded = match &args.sign_key {
+        Some(key) => {
+            let loaded = load_signer(Some(key), args.sign_cert.as_deref(), None)?;
+            crate::signoff::check_key_outside(out, key)?;
+            Some(loaded)
+        }
+        None => None,
+    };
+    let time_unix_s = signing_time(args.date.as_deref())?;
+    Ok(match (loaded, &args.signer) {
+        (Some((key, key_files)), Some(signer)) => Some(Signing {
+            signer,
+            key,
+            key_files,
+            time_unix_s,
+        }),
+        _ => None,
+    })
+}
+
+/// Signs the new generation (report.pdf and manifest.txt).
+fn sign_report(run: &Run<'_>, s: Signing<'_>) -> anyhow::Result<()> {
+    let done = crate::signoff::sign(
+        run.generation.path(),
+        &crate::signoff::SignRequest {
+            signer: s.signer,
+            date: run.date,
+            time_unix_s: s.time_unix_s,
+            key: &s.key,
+            key_files: s.key_files,
+        },
+    )
+    .with_context(|| format!("cannot sign `{}`", run.out.display()))?;
+    if !run.args.quiet {
+        println!(
+            "signed by {} (certificate SHA-256 {})",
+            s.signer.trim(),
+            done.fingerprint
+        );
+    }
+    Ok(())
+}
+
+fn print_summary(model: &crate::model::Results, out: &Path) -> anyhow::Result<()> {
+    let mut w = std::io::stdout().lock();
+    w.write_all(report::terminal::summary(model, out).as_bytes())?;
+    Ok(())
+}
+
+/// The cases' progress bar on a terminal; hidden with -q or off a terminal.
+fn case_bar(cases: usize, quiet: bool) -> ProgressBar {
+    let bar = if !quiet && std::io::stderr().is_terminal() {
+        ProgressBar::with_draw_target(Some(cases as u64), ProgressDrawTarget::stderr())
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {msg:>10} [{bar:30}] {pos}/{len} cases, {elapsed}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar
+}
+
+/// "report: <stage> (elapsed)" on a terminal: the report stage takes
+/// seconds on large plans, so say what it does.
+fn report_spinner(quiet: bool) -> ProgressBar {
+    if quiet || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let s = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+    s.set_style(
+        ProgressStyle::with_template("{spinner} report: {msg} ({elapsed})")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    s.enable_steady_tick(std::time::Duration::from_millis(120));
+    s
+}
+
+/// "captures: 1234 frames decoded (617 frames/s)" on a terminal while a
+/// captured plan's captures are read; hidden with -q or off a terminal.
+fn decode_spinner(quiet: bool) -> ProgressBar {
+    if quiet || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let start = crate::capture::frames_decoded();
+    let style = ProgressStyle::with_template("{spinner} captures: {decoded}")
+        .map(|s| {
+            s.with_key(
+                "decoded",
+                move |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                    let n = crate::capture::frames_decoded().saturating_sub(start);
+                    let _ = w.write_str(&crate::capture::decode_progress_text(n, state.elapsed()));
+                },
+            )
+        })
+        .unwrap_or_else(|_| ProgressStyle::default_spinner());
+    let s = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+    s.set_style(style);
+    s.enable_steady_tick(std::time::Duration::from_millis(120));
+    s
+}

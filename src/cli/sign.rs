@@ -1,0 +1,199 @@
+//! `ledflicker keygen`, `sign` and `verify`: a signing key and its
+//! certificate, the signatures of a report directory, and their check.
+//! `plan --sign-key` signs through [`load_signer`] and [`signing_time`] too.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+
+use super::args::report_date;
+use super::{EXIT_FAIL, EXIT_IDENTITY_UNCHECKED, EXIT_PASS};
+use crate::error::UsageError;
+
+#[derive(Args, Debug)]
+pub(super) struct KeygenArgs {
+    /// Who signs, "Name, Role": the certificate's common name.
+    #[arg(long)]
+    signer: String,
+    /// Organisation: the certificate's O.
+    #[arg(long, default_value = "")]
+    org: String,
+    /// Private key file, e.g. ~/keys/ada.key (certificate: ~/keys/ada.crt).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+#[derive(Args, Debug)]
+pub(super) struct SignArgs {
+    /// Report directory.
+    dir: PathBuf,
+    /// Private key, PKCS#8 PEM (ECDSA P-256), e.g. from `ledflicker keygen`.
+    #[arg(long, required_unless_present = "p12", conflicts_with = "p12")]
+    key: Option<PathBuf>,
+    /// Certificate of the key, PEM [default: the key file with `.crt`].
+    #[arg(long, requires = "key")]
+    cert: Option<PathBuf>,
+    /// Key and certificate in one PKCS#12 file; the passphrase comes from
+    /// $LEDFLICKER_P12_PASSPHRASE, else from a prompt.
+    #[arg(long)]
+    p12: Option<PathBuf>,
+    /// Who signs, "Name, Role" (e.g. "Jane Doe, Approved by").
+    #[arg(long)]
+    signer: String,
+    /// Signing date, YYYY-MM-DD [default: $SOURCE_DATE_EPOCH, else today].
+    #[arg(long)]
+    date: Option<String>,
+}
+
+#[derive(Args, Debug)]
+pub(super) struct VerifyArgs {
+    /// Report directory.
+    dir: PathBuf,
+    /// Trusted certificate (PEM or DER), or a directory of them;
+    /// repeatable. Without it the signers' identity is not checked
+    /// (exit 4).
+    #[arg(long = "trust")]
+    trust: Vec<PathBuf>,
+    /// Also hash every input again at its recorded path.
+    #[arg(long)]
+    inputs: bool,
+    /// Look for relative input paths under this directory (implies --inputs).
+    #[arg(long)]
+    inputs_root: Option<PathBuf>,
+}
+
+pub(super) fn keygen(a: KeygenArgs) -> anyhow::Result<i32> {
+    let files = crate::signoff::keygen(&a.out, &a.signer, &a.org, now_unix_s())?;
+    println!(
+        "private key: {} (PKCS#8 PEM, mode 0600; keep it secret, outside report directories)\ncertificate: {} (self-signed X.509 PEM; give it to whoever verifies your reports)\nSHA-256:     {}",
+        files.key.display(),
+        files.cert.display(),
+        files.fingerprint
+    );
+    Ok(EXIT_PASS)
+}
+
+fn now_unix_s() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+/// Signing time: $SOURCE_DATE_EPOCH, else midnight UTC of --date, else now.
+pub(super) fn signing_time(date_arg: Option<&str>) -> anyhow::Result<u64> {
+    if let Ok(s) = std::env::var("SOURCE_DATE_EPOCH") {
+        return s.trim().parse().map_err(|_| {
+            UsageError(format!(
+                "SOURCE_DATE_EPOCH `{s}` is not an integer number of seconds"
+            ))
+            .into()
+        });
+    }
+    Ok(match date_arg {
+        Some(d) => crate::signoff::unix_of_date(d)
+            .ok_or_else(|| UsageError(format!("--date `{d}` is not a valid date")))?,
+        None => now_unix_s(),
+    })
+}
+
+/// Loads the signing key and certificate (PEM pair or PKCS#12).
+pub(super) fn load_signer(
+    key: Option<&Path>,
+    cert: Option<&Path>,
+    p12: Option<&Path>,
+) -> anyhow::Result<(crate::signoff::SignerKey, Vec<PathBuf>)> {
+    if let Some(p12) = p12 {
+        let pass = match std::env::var("LEDFLICKER_P12_PASSPHRASE") {
+            Ok(p) => p,
+            Err(_) => crate::signoff::prompt_passphrase(p12)?,
+        };
+        return Ok((
+            crate::signoff::pkcs12::load(p12, &pass)?,
+            vec![p12.to_path_buf()],
+        ));
+    }
+    let key = key.ok_or_else(|| UsageError("give --key or --p12".into()))?;
+    let cert = cert.map_or_else(
+        || crate::signoff::keys::certificate_path(key),
+        PathBuf::from,
+    );
+    let signer = crate::signoff::keys::load_signer(key, &cert)?;
+    Ok((signer, vec![key.to_path_buf()]))
+}
+
+pub(super) fn sign(args: SignArgs) -> anyhow::Result<i32> {
+    let date = report_date(args.date.as_deref())?;
+    let time = signing_time(args.date.as_deref())?;
+    let (key, key_files) = load_signer(
+        args.key.as_deref(),
+        args.cert.as_deref(),
+        args.p12.as_deref(),
+    )?;
+    let done = crate::signoff::sign(
+        &args.dir,
+        &crate::signoff::SignRequest {
+            signer: &args.signer,
+            date: &date,
+            time_unix_s: time,
+            key: &key,
+            key_files,
+        },
+    )
+    .with_context(|| format!("cannot sign `{}`", args.dir.display()))?;
+    println!(
+        "signed `{}` as {} (signature {}, certificate SHA-256 {}), {} files in manifest.txt",
+        args.dir.display(),
+        args.signer.trim(),
+        done.index,
+        done.fingerprint,
+        done.files
+    );
+    Ok(EXIT_PASS)
+}
+
+pub(super) fn verify(a: VerifyArgs) -> anyhow::Result<i32> {
+    let inputs = (a.inputs || a.inputs_root.is_some()).then_some(a.inputs_root.as_deref());
+    let (dir, trust) = (a.dir.as_path(), a.trust.as_slice());
+    let trusted = crate::signoff::verify::load_trusted(trust)?;
+    let v = crate::signoff::verify(dir, &trusted, inputs)
+        .with_context(|| format!("cannot verify `{}`", dir.display()))?;
+    let n = v.signatures.len();
+    for s in &v.signatures {
+        let trust = match s.trusted {
+            Some(true) => "trusted certificate",
+            Some(false) => "NOT a trusted certificate",
+            None => "identity not checked",
+        };
+        println!(
+            "signature {} of {n}: \"{}\" on {}, certificate \"{}\" SHA-256 {} ({trust})",
+            s.index, s.signer, s.date, s.subject, s.fingerprint
+        );
+    }
+    for p in &v.problems {
+        println!("FAIL: {p}");
+    }
+    if !v.ok() {
+        println!("NOT VERIFIED: {} problem(s)", v.problems.len());
+        return Ok(EXIT_FAIL);
+    }
+    println!(
+        "intact: {} files, {n} manifest signature(s), {} PDF signature(s){}",
+        v.files,
+        v.pdf_signatures,
+        if inputs.is_some() {
+            format!(", {} input(s) unchanged", v.inputs_checked)
+        } else {
+            String::new()
+        }
+    );
+    if v.identity_checked {
+        println!("verified: every signer holds a trusted certificate");
+        Ok(EXIT_PASS)
+    } else {
+        println!(
+            "IDENTITY NOT CHECKED: anyone can sign under any name; pass --trust CERT (the signers' certificates, obtained from them directly) to check who signed (exit {EXIT_IDENTITY_UNCHECKED})"
+        );
+        Ok(EXIT_IDENTITY_UNCHECKED)
+    }
+}

@@ -1,0 +1,252 @@
+//! `ledflicker simulate`: probes the ideal camera for one condition; a CSV
+//! trace of ON fractions, or with `--summary` one JSON object of metrics.
+
+use std::io::Write;
+
+use clap::Args;
+
+use super::EXIT_PASS;
+use super::args::{CameraArgs, PwmArgs};
+use crate::analysis::colour::Die;
+use crate::error::UsageError;
+use crate::physics::{PwmDrive, Shutter};
+
+#[derive(Args, Debug)]
+pub(super) struct SimulateArgs {
+    #[command(flatten)]
+    pwm: PwmArgs,
+    #[command(flatten)]
+    camera: CameraArgs,
+    /// Number of frames (>= 1).
+    #[arg(long, default_value_t = 30)]
+    frames: u64,
+    /// ROI rows `A:B`, A inclusive, B exclusive.
+    #[arg(long, default_value = "0:1")]
+    rows: String,
+    /// Print one JSON object with this condition's metrics (results.json
+    /// names) instead of the CSV trace.
+    #[arg(long)]
+    summary: bool,
+    /// With --summary: steady light in the ROI (also the OFF reference), in
+    /// units of the LED's full ON level (>= 0). 0 leaves FDI unbounded.
+    #[arg(long, default_value_t = 0.0)]
+    background: f64,
+    /// With --summary: sensor rows rendered for the banding KPIs.
+    #[arg(long, default_value_t = 800)]
+    sensor_rows: u32,
+    /// With --summary: an RGB LED whose red, green and blue dies run at these
+    /// duties (`R,G,B`, each in (0, 1]) on common rising edges; adds colour KPIs.
+    #[arg(long)]
+    rgb_duty: Option<String>,
+    /// With --summary: a white LED of this linear camera RGB (`R,G,B`) at
+    /// --duty; adds colour KPIs.
+    #[arg(long)]
+    led_rgb: Option<String>,
+    /// With --summary: background linear RGB (`R,G,B`) [default: --background
+    /// in every channel].
+    #[arg(long)]
+    background_rgb: Option<String>,
+}
+
+fn usage(m: String) -> anyhow::Error {
+    anyhow::Error::from(UsageError(m))
+}
+
+fn parse_rgb(flag: &str, s: &str) -> Result<[f64; 3], UsageError> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| UsageError(format!("{flag} `{s}` is not three numbers R,G,B")))?;
+    match v.as_slice() {
+        [r, g, b] if v.iter().all(|x| x.is_finite() && *x >= 0.0) => Ok([*r, *g, *b]),
+        _ => Err(UsageError(format!(
+            "{flag} `{s}` is not three numbers R,G,B, each >= 0"
+        ))),
+    }
+}
+
+fn parse_rows(s: &str) -> Result<std::ops::Range<u32>, UsageError> {
+    let bad = || {
+        UsageError(format!(
+            "--rows `{s}` is not A:B with A < B (A inclusive, B exclusive), e.g. 399:401"
+        ))
+    };
+    let (a, b) = s.split_once(':').ok_or_else(bad)?;
+    let a: u32 = a.trim().parse().map_err(|_| bad())?;
+    let b: u32 = b.trim().parse().map_err(|_| bad())?;
+    if a >= b {
+        return Err(bad());
+    }
+    Ok(a..b)
+}
+
+/// Physical bounds of `simulate` inputs (docs/plan-format.md, "Limits"):
+/// beyond them the arithmetic loses meaning or overflows.
+fn check_bounds(a: &SimulateArgs) -> Result<(), UsageError> {
+    use crate::plan::bounds::{MAX_FPS, MAX_FRAMES_PER_CASE, MAX_FREQUENCY_HZ, MIN_EXPOSURE_S};
+    let (p, c) = (&a.pwm, &a.camera);
+    let problems = [
+        (
+            p.frequency_hz > MAX_FREQUENCY_HZ,
+            format!("--frequency-hz must be at most {MAX_FREQUENCY_HZ:.0}"),
+        ),
+        (
+            c.fps > MAX_FPS,
+            format!("--fps must be at most {MAX_FPS:.0}"),
+        ),
+        (c.fps < 0.01, "--fps must be at least 0.01".to_string()),
+        (
+            c.exposure_ms * 1e-3 < MIN_EXPOSURE_S,
+            "--exposure-ms must be at least 0.001".to_string(),
+        ),
+        (
+            c.exposure_ms > 1e4,
+            "--exposure-ms must be at most 10000".to_string(),
+        ),
+        (
+            a.frames > MAX_FRAMES_PER_CASE,
+            format!("--frames must be at most {MAX_FRAMES_PER_CASE}"),
+        ),
+        (
+            p.pwm_delay_ms.is_nan() || p.pwm_delay_ms.abs() > 1e6,
+            "--pwm-delay-ms must be within +-1e6".to_string(),
+        ),
+        (
+            c.line_time_us > 1e6,
+            "--line-time-us must be at most 1e6".to_string(),
+        ),
+        (
+            a.sensor_rows > crate::plan::bounds::MAX_SENSOR_SIDE,
+            format!(
+                "--sensor-rows must be at most {}",
+                crate::plan::bounds::MAX_SENSOR_SIDE
+            ),
+        ),
+    ];
+    match problems.iter().find(|(bad, _)| *bad) {
+        Some((_, m)) => Err(UsageError(m.clone())),
+        None => Ok(()),
+    }
+}
+
+/// The checked drive and shutter, and the ROI rows.
+fn condition(a: &SimulateArgs) -> anyhow::Result<(PwmDrive, Shutter, std::ops::Range<u32>)> {
+    check_bounds(a)?;
+    let (p, c) = (&a.pwm, &a.camera);
+    let pwm = PwmDrive::new(p.frequency_hz, p.duty, p.pwm_delay_ms * 1e-3).map_err(usage)?;
+    if !(c.exposure_ms.is_finite() && c.exposure_ms > 0.0) {
+        return Err(usage(format!(
+            "--exposure-ms must be > 0, got {}",
+            c.exposure_ms
+        )));
+    }
+    if !(c.fps.is_finite() && c.fps > 0.0) {
+        return Err(usage(format!("--fps must be > 0, got {}", c.fps)));
+    }
+    if a.frames == 0 {
+        return Err(usage("--frames must be at least 1".into()));
+    }
+    if !(c.line_time_us.is_finite() && c.line_time_us >= 0.0) {
+        return Err(usage(format!(
+            "--line-time-us must be >= 0, got {}",
+            c.line_time_us
+        )));
+    }
+    let rows = parse_rows(&a.rows)?;
+    Ok((pwm, c.shutter(), rows))
+}
+
+pub(super) fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
+    let (pwm, shutter, rows) = condition(&a)?;
+    if a.summary {
+        return summary(&a, &pwm, &shutter, rows);
+    }
+    let mut w = std::io::BufWriter::new(std::io::stdout().lock());
+    writeln!(w, "frame,time_s,on_fraction")?;
+    for k in 0..a.frames {
+        let s = shutter.frame_on_fraction(&pwm, k, rows.clone());
+        let t = k as f64 / a.camera.fps;
+        if !(s.is_finite() && t.is_finite()) {
+            // Never print NaN: the inputs are beyond what the model covers.
+            return Err(usage(format!(
+                "frame {k} has no finite ON fraction for these inputs; check their ranges (`ledflicker simulate --help`)"
+            )));
+        }
+        writeln!(w, "{k},{t},{s}")?;
+    }
+    w.flush()?;
+    Ok(EXIT_PASS)
+}
+
+/// The LED dies `--rgb-duty` or `--led-rgb` describe, if either.
+fn dies(a: &SimulateArgs) -> anyhow::Result<Option<Vec<Die>>> {
+    Ok(match (&a.rgb_duty, &a.led_rgb) {
+        (Some(_), Some(_)) => {
+            return Err(usage("give --rgb-duty or --led-rgb, not both".into()));
+        }
+        (Some(d), None) => {
+            let d = parse_rgb("--rgb-duty", d)?;
+            if d.iter().any(|x| !(*x > 0.0 && *x <= 1.0)) {
+                return Err(usage(format!(
+                    "--rgb-duty duties must be in (0, 1], got {d:?}"
+                )));
+            }
+            let primary = |k: usize| {
+                let mut c = [0.0; 3];
+                c[k] = 1.0;
+                Die {
+                    rgb: c,
+                    duty: d[k],
+                    offset_cycles: 0.0,
+                }
+            };
+            Some(vec![primary(0), primary(1), primary(2)])
+        }
+        (None, Some(c)) => Some(vec![Die {
+            rgb: parse_rgb("--led-rgb", c)?,
+            duty: a.pwm.duty,
+            offset_cycles: 0.0,
+        }]),
+        (None, None) => None,
+    })
+}
+
+/// `--summary`: one JSON object of this condition's metrics.
+fn summary(
+    a: &SimulateArgs,
+    pwm: &PwmDrive,
+    shutter: &Shutter,
+    rows: std::ops::Range<u32>,
+) -> anyhow::Result<i32> {
+    if !(a.background.is_finite() && a.background >= 0.0) {
+        return Err(usage(format!(
+            "--background must be >= 0, got {}",
+            a.background
+        )));
+    }
+    if a.sensor_rows == 0 {
+        return Err(usage("--sensor-rows must be at least 1".into()));
+    }
+    let dies = dies(a)?;
+    let background_rgb = match &a.background_rgb {
+        Some(b) => parse_rgb("--background-rgb", b)?,
+        None => [a.background; 3],
+    };
+    let scene = dies.map(|dies| crate::analysis::summary::ColourScene {
+        background: background_rgb,
+        dies,
+    });
+    let summary = crate::analysis::summary::summarise(
+        shutter,
+        pwm,
+        rows,
+        a.frames,
+        a.background,
+        a.sensor_rows,
+        scene.as_ref(),
+    );
+    // serde_json writes a non-finite number as null, never NaN.
+    println!("{}", serde_json::to_string_pretty(&summary)?);
+    Ok(EXIT_PASS)
+}

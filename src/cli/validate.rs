@@ -1,0 +1,36 @@
+//! `ledflicker validate`: checks a plan without running it and says what
+//! a run would do.
+
+use super::EXIT_PASS;
+use crate::plan;
+
+pub(super) fn validate(arg: &str) -> anyhow::Result<i32> {
+    let path = plan::resolve_plan_path(arg)?;
+    let plan = plan::load(&path)?;
+    let cases = plan::expand_cases(&plan);
+    if plan.dut.backend == plan::BackendKind::Captured {
+        println!(
+            "plan `{}` ({}) is valid: {} captured cases, {} ROIs",
+            plan.id,
+            path.display(),
+            cases.len(),
+            plan.rois.len()
+        );
+        println!("{}", plan::WorkEstimate::of(&plan).summary());
+        return Ok(EXIT_PASS);
+    }
+    let frames = crate::backend::sim::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps);
+    println!(
+        "plan `{}` ({}) is valid: {} cases ({} light levels x {} frequencies x {} duty cycles), {} ROIs, {} frames per case",
+        plan.id,
+        path.display(),
+        cases.len(),
+        plan.light_levels_lux.len(),
+        plan.frequencies_hz.len(),
+        plan.duty_cycles.len(),
+        plan.rois.len(),
+        frames.total()
+    );
+    println!("{}", plan::WorkEstimate::of(&plan).summary());
+    Ok(EXIT_PASS)
+}
