@@ -11,9 +11,46 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+use super::p2020::{MmpReference, P2020Options};
 use super::validate::Checker;
-use crate::capture::{LumaWeights, VideoDecode, VideoRange};
-use crate::metrics::p2020::{MmpReference, P2020Options};
+
+/// Default settle time after each detected step, seconds (`[capture] settle-s`).
+pub const DEFAULT_SETTLE_S: f64 = 0.5;
+
+/// Weights that turn R, G, B into luma.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LumaWeights {
+    /// ITU-R BT.601: 0.299 R + 0.587 G + 0.114 B (OpenCV's grey; P2020 reference).
+    Bt601,
+    /// ITU-R BT.709: 0.2126 R + 0.7152 G + 0.0722 B.
+    Bt709,
+}
+
+/// How video is decoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum VideoDecode {
+    /// Decode to full-range RGB (FFmpeg's swscale, as OpenCV does in the P2020
+    /// reference pipeline), then take luma: matches the reference exactly.
+    Rgb,
+    /// Read the Y' plane only and expand its range to full scale: no R, G, B
+    /// means; 1.1-1.3 DN (max 2 DN) above the RGB path on the P2020
+    /// samples, enough to move FMI and MMP by up to 0.05 there.
+    LumaPlane,
+}
+
+/// Signal range of Y' in video and Y4M.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum VideoRange {
+    /// From the file's tag; limited (16-235) when untagged, as H.264 usually is.
+    Auto,
+    /// 16-235 (8-bit), expanded to 0-255.
+    Limited,
+    /// 0-255, used as is.
+    Full,
+}
 
 /// `[capture]`
 #[derive(Debug, Default, Deserialize)]
@@ -139,7 +176,7 @@ pub struct CaptureConfig {
     pub segments: SegmentSpec,
     /// Time left out after each detected step (auto exposure settling),
     /// seconds (>= 0); `[capture] settle-s`, default
-    /// [`crate::backend::segments::DEFAULT_SETTLE_S`].
+    /// [`DEFAULT_SETTLE_S`].
     pub settle_s: f64,
     /// The lab-rig command (command backend only).
     pub command: Option<CommandSpec>,
@@ -337,8 +374,7 @@ pub(super) fn capture_config(
         None => None,
     };
     let settle_s = c.non_negative(
-        raw.settle_s
-            .unwrap_or(crate::backend::segments::DEFAULT_SETTLE_S),
+        raw.settle_s.unwrap_or(DEFAULT_SETTLE_S),
         "capture.settle-s",
         "seconds left out after each detected step; default 0.5",
     );

@@ -22,8 +22,7 @@ use std::path::Path;
 use crate::capture::{CaptureError, CaptureTrace};
 use crate::plan::{Plan, RoiKind, Sequence};
 
-/// Default settle time after each step, seconds (`[capture] settle-s`).
-pub const DEFAULT_SETTLE_S: f64 = 0.5;
+pub use crate::plan::DEFAULT_SETTLE_S;
 /// Frames left out before each detected step (the frame that straddles it).
 pub const GUARD_FRAMES: usize = 1;
 /// Frames kept out on each side of the ON step by the `off-then-pwm` rule.
