@@ -7,11 +7,11 @@
 
 pub mod bounds;
 mod capture;
+mod check;
 mod grid;
 mod p2020;
 mod raw;
 mod spans;
-mod thresholds;
 mod validate;
 
 use std::fmt;
