@@ -7,7 +7,7 @@ use super::ae;
 use crate::physics::hdr::{Capture, CaptureExposure, HdrMode, MergeRule, Tone, ToneCurve};
 use crate::physics::sensor::Sensor;
 use crate::plan::PhysicalCamera;
-use crate::plan::check::Checker;
+use crate::plan::check::{Checker, One};
 use crate::plan::raw::{RawCamera, RawCapture, RawHdr, RawSensor, RawTone};
 
 /// Validates the physical camera of `cam`, which has a `[sensor]` table.
@@ -173,14 +173,8 @@ fn capture(c: &mut Checker<'_>, cap: &RawCapture, key: &str) -> Option<(CaptureE
         (Some(r), None) => {
             let r = c.positive(r, &kk("exposure-ratio"), "a fraction of the L exposure");
             let hint = "ratios are relative to the first, longest capture";
-            c.up_to_one(
-                r,
-                crate::plan::check::One::AtMost,
-                &kk("exposure-ratio"),
-                "",
-                hint,
-            )
-            .map(CaptureExposure::Ratio)
+            c.up_to_one(r, One::AtMost, &kk("exposure-ratio"), "", hint)
+                .map(CaptureExposure::Ratio)
         }
         (None, Some(ms)) => c
             .positive(ms, &kk("exposure-ms"), "milliseconds")
