@@ -49,28 +49,11 @@ pub struct Simulator {
     rois: Vec<Roi>,
 }
 
-/// Frame counts of the three segments.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SegmentFrames {
-    /// Steady-ON frames.
-    pub on: u64,
-    /// OFF frames.
-    pub off: u64,
-    /// PWM frames.
-    pub pwm: u64,
-}
+pub use crate::plan::SegmentFrames;
 
+// Which segment a frame is in is the simulator's concern; the counts are
+// the plan's.
 impl SegmentFrames {
-    /// Frames per segment at `fps`, each duration rounded to whole frames.
-    pub fn new(sequence: &Sequence, fps: f64) -> Self {
-        let frames = |s: f64| (s * fps).round() as u64;
-        Self {
-            on: frames(sequence.on_s),
-            off: frames(sequence.off_s),
-            pwm: frames(sequence.pwm_s),
-        }
-    }
-
     /// Segment of frame `k`.
     pub fn segment(&self, k: u64) -> Segment {
         if k < self.on {
@@ -80,11 +63,6 @@ impl SegmentFrames {
         } else {
             Segment::Pwm
         }
-    }
-
-    /// Total frames.
-    pub fn total(&self) -> u64 {
-        self.on + self.off + self.pwm
     }
 }
 

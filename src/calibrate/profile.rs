@@ -48,12 +48,21 @@ fn exposure_s(cal: &Calibration) -> f64 {
 /// The profile text.
 pub fn profile_toml(cal: &Calibration, opts: &ProfileOptions) -> String {
     let mut t = String::new();
-    let f = cal.frequency_hz;
+    let exposure = exposure_s(cal);
+    header(&mut t, cal);
+    camera_timing(&mut t, cal, opts, exposure);
+    output_levels(&mut t, cal);
+    sensor_and_tone(&mut t, cal, exposure);
+    t
+}
+
+/// The comment block: what was fitted, from which files, how well.
+fn header(t: &mut String, cal: &Calibration) {
     let _ = writeln!(
         t,
         "# Camera profile fitted by `ledflicker calibrate` (docs/calibration.md) to\n# {} frame(s) of a {} Hz PWM light, rows {}..{} of {}x{} frames:",
         cal.frames,
-        f,
+        cal.frequency_hz,
         cal.roi[1],
         cal.roi[1] + cal.roi[3],
         cal.frame_size.0,
@@ -67,9 +76,13 @@ pub fn profile_toml(cal: &Calibration, opts: &ProfileOptions) -> String {
         "# Each value's comment gives its one-sigma uncertainty. Model: the physical\n# camera of docs/camera-model.md with one capture, fixed exposure, no noise.\n# Measured minus fitted row profile: RMS {:.4} of full scale.\n",
         cal.fit_rms
     );
-    let exposure = exposure_s(cal);
+}
+
+/// `[camera]` from its name to `pwm-delay-ms`: identity, sensor size,
+/// line time, exposure (`exposure`, seconds), frame rate and PWM phase.
+fn camera_timing(t: &mut String, cal: &Calibration, opts: &ProfileOptions, exposure: f64) {
+    let f = cal.frequency_hz;
     let fps = frame_rate(cal, opts);
-    let bits = if cal.full_scale_dn > 255.0 { 16 } else { 8 };
     let _ = writeln!(t, "[camera]\nname = {}", toml_str(&opts.name));
     let _ = writeln!(
         t,
@@ -89,6 +102,27 @@ pub fn profile_toml(cal: &Calibration, opts: &ProfileOptions) -> String {
         "# {:.5} +- {:.5} us (band period {:.4} rows at {f} Hz).\nline-time-us = {:.6}",
         cal.line_time_us, cal.line_time_us_sigma, cal.band_period_rows, cal.line_time_us
     );
+    exposure_comment(t, cal, exposure);
+    let _ = writeln!(t, "exposure-ms = {:.7}", exposure * 1e3);
+    let _ = writeln!(
+        t,
+        "# Not measured: a still frame has no frame rate ({}).\nframe-rate-fps = {fps}",
+        if opts.fps.is_some() {
+            "given with --fps"
+        } else {
+            "default"
+        }
+    );
+    let _ = writeln!(
+        t,
+        "# PWM phase of the calibration frame (first rising edge after frame 0 starts).\npwm-delay-ms = {:.7}",
+        pwm_delay_s(cal) * 1e3
+    );
+}
+
+/// How the exposure written (`exposure`, seconds) was found: fitted with
+/// its sigma, or a bound when the frame cannot determine it.
+fn exposure_comment(t: &mut String, cal: &Calibration, exposure: f64) {
     match (cal.exposure_us, cal.exposure_us_sigma) {
         (Some(e), Some(s)) => {
             let _ = writeln!(
@@ -113,21 +147,11 @@ pub fn profile_toml(cal: &Calibration, opts: &ProfileOptions) -> String {
             }
         },
     }
-    let _ = writeln!(t, "exposure-ms = {:.7}", exposure * 1e3);
-    let _ = writeln!(
-        t,
-        "# Not measured: a still frame has no frame rate ({}).\nframe-rate-fps = {fps}",
-        if opts.fps.is_some() {
-            "given with --fps"
-        } else {
-            "default"
-        }
-    );
-    let _ = writeln!(
-        t,
-        "# PWM phase of the calibration frame (first rising edge after frame 0 starts).\npwm-delay-ms = {:.7}",
-        pwm_delay_s(cal) * 1e3
-    );
+}
+
+/// `black-level-dn`, `full-scale-dn` and `saturation-dn`, each with how
+/// it was found.
+fn output_levels(t: &mut String, cal: &Calibration) {
     match (cal.black_level_dn, cal.black_level_dn_sigma) {
         (Some(b), Some(s)) => {
             let _ = writeln!(t, "# {b:.2} +- {s:.2} DN.");
@@ -156,6 +180,12 @@ pub fn profile_toml(cal: &Calibration, opts: &ProfileOptions) -> String {
         }
     };
     let _ = writeln!(t, "full-scale-dn = {clip:.4}\nsaturation-dn = {clip:.4}\n");
+}
+
+/// `[camera.sensor]` (relative sensitivity at exposure `exposure`,
+/// seconds) and `[camera.tone]` (the fitted gamma).
+fn sensor_and_tone(t: &mut String, cal: &Calibration, exposure: f64) {
+    let bits = if cal.full_scale_dn > 255.0 { 16 } else { 8 };
     let sensitivity = cal.led_level * FULL_WELL_E / (exposure * REFERENCE_LED_CD_M2);
     let _ = writeln!(
         t,
@@ -167,7 +197,6 @@ pub fn profile_toml(cal: &Calibration, opts: &ProfileOptions) -> String {
         "[camera.tone]\n# y = u^(1/gamma), gamma {:.4} +- {:.4}.\ncurve = \"gamma\"\ngamma = {:.6}\noutput-bits = {bits}",
         cal.gamma, cal.gamma_sigma, cal.gamma
     );
-    t
 }
 
 /// First PWM rising edge after frame 0 starts, seconds, such that the first

@@ -157,22 +157,38 @@ fn frequency_for(bands: f64) -> f64 {
 /// The recovery cases: each degradation alone, then all at once.
 pub fn cases() -> Vec<RecoveryCase> {
     let base = SynthFrame::base();
-    let tol = Tolerance {
-        line_time: 0.001,
-        exposure: 0.10,
-        duty: 0.01,
-        gamma: 0.05,
-        black: 0.01,
-    };
-    let case = |name, frame: SynthFrame, ext, tol| RecoveryCase {
+    let mut all = response_cases(&base);
+    all.extend(scene_cases(&base));
+    all.extend(band_cases(&base));
+    all.extend(output_cases(&base));
+    all.push(combined_case(base));
+    all
+}
+
+/// Tolerances of every recovery case.
+const TOLERANCE: Tolerance = Tolerance {
+    line_time: 0.001,
+    exposure: 0.10,
+    duty: 0.01,
+    gamma: 0.05,
+    black: 0.01,
+};
+
+/// A case with the common tolerances and every parameter a value.
+fn case(name: &'static str, frame: SynthFrame, ext: &'static str) -> RecoveryCase {
+    RecoveryCase {
         name,
         frame,
         ext,
-        tol,
+        tol: TOLERANCE,
         bounds: &[],
-    };
+    }
+}
+
+/// The tone response: the base frame (gamma 2.2), and a linear one.
+fn response_cases(base: &SynthFrame) -> Vec<RecoveryCase> {
     vec![
-        case("clean, gamma 2.2, 15.7 bands", base.clone(), "png", tol),
+        case("clean, gamma 2.2, 15.7 bands", base.clone(), "png"),
         // Linear: black level and ambient light trade off exactly.
         RecoveryCase {
             bounds: &["black"],
@@ -184,9 +200,15 @@ pub fn cases() -> Vec<RecoveryCase> {
                     ..base.clone()
                 },
                 "png",
-                tol,
             )
         },
+    ]
+}
+
+/// What the picture adds to the bands: noise, vignetting, scene texture,
+/// a text overlay, JPEG compression.
+fn scene_cases(base: &SynthFrame) -> Vec<RecoveryCase> {
+    vec![
         case(
             "noise 3 DN per pixel",
             SynthFrame {
@@ -194,7 +216,6 @@ pub fn cases() -> Vec<RecoveryCase> {
                 ..base.clone()
             },
             "png",
-            tol,
         ),
         case(
             "vignetting 40 %",
@@ -203,7 +224,6 @@ pub fn cases() -> Vec<RecoveryCase> {
                 ..base.clone()
             },
             "png",
-            tol,
         ),
         // Texture steps every 16 rows, which the smooth shading term cannot
         // follow: black level and ambient trade off within the residual.
@@ -216,7 +236,6 @@ pub fn cases() -> Vec<RecoveryCase> {
                     ..base.clone()
                 },
                 "png",
-                tol,
             )
         },
         case(
@@ -226,14 +245,19 @@ pub fn cases() -> Vec<RecoveryCase> {
                 ..base.clone()
             },
             "png",
-            tol,
         ),
         // JPEG blocks blur the foot of the ramps, where black level and
         // ambient differ.
         RecoveryCase {
             bounds: &["black"],
-            ..case("JPEG quality 80", base.clone(), "jpg", tol)
+            ..case("JPEG quality 80", base.clone(), "jpg")
         },
+    ]
+}
+
+/// Few and many bands in the frame.
+fn band_cases(base: &SynthFrame) -> Vec<RecoveryCase> {
+    vec![
         case(
             "3.3 bands",
             SynthFrame {
@@ -241,7 +265,6 @@ pub fn cases() -> Vec<RecoveryCase> {
                 ..base.clone()
             },
             "png",
-            tol,
         ),
         // A band period of exactly 36 rows: every band repeats the same 36
         // samples, too few to tell black level from ambient.
@@ -254,9 +277,14 @@ pub fn cases() -> Vec<RecoveryCase> {
                     ..base.clone()
                 },
                 "png",
-                tol,
             )
         },
+    ]
+}
+
+/// The output range: 16-bit TIFF with ambient light, and clipping.
+fn output_cases(base: &SynthFrame) -> Vec<RecoveryCase> {
+    vec![
         case(
             "16-bit TIFF, duty 0.2, ambient 5 %",
             SynthFrame {
@@ -266,7 +294,6 @@ pub fn cases() -> Vec<RecoveryCase> {
                 ..base.clone()
             },
             "tif",
-            tol,
         ),
         // The LED at 3x what the output can hold: rows clip at full scale,
         // so only duty + exposure is fixed and both come out as bounds.
@@ -279,26 +306,28 @@ pub fn cases() -> Vec<RecoveryCase> {
                     ..base.clone()
                 },
                 "png",
-                tol,
-            )
-        },
-        // Texture and JPEG together (see above).
-        RecoveryCase {
-            bounds: &["black"],
-            ..case(
-                "all: noise, vignetting, texture, overlay, JPEG",
-                SynthFrame {
-                    noise_dn: 3.0,
-                    vignetting: 0.4,
-                    texture: 0.2,
-                    overlay: true,
-                    ..base
-                },
-                "jpg",
-                tol,
             )
         },
     ]
+}
+
+/// Every degradation of [`scene_cases`] at once.
+fn combined_case(base: SynthFrame) -> RecoveryCase {
+    // Texture and JPEG together (see above).
+    RecoveryCase {
+        bounds: &["black"],
+        ..case(
+            "all: noise, vignetting, texture, overlay, JPEG",
+            SynthFrame {
+                noise_dn: 3.0,
+                vignetting: 0.4,
+                texture: 0.2,
+                overlay: true,
+                ..base
+            },
+            "jpg",
+        )
+    }
 }
 
 /// Writes the case's frame into `dir`, calibrates it and returns the errors.

@@ -23,6 +23,9 @@ use std::path::{Path, PathBuf};
 pub use progress::{decode_progress_text, frames_decoded};
 pub use video::ffmpeg_available;
 
+// The plan's `[capture]` choices; defined with the plan, read here.
+pub use crate::plan::{LumaWeights, VideoDecode, VideoRange};
+
 /// A rectangle of pixels, 0-based from the top-left corner.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RoiRect {
@@ -36,16 +39,7 @@ pub struct RoiRect {
     pub height: u32,
 }
 
-/// Weights that turn R, G, B into luma.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum LumaWeights {
-    /// ITU-R BT.601: 0.299 R + 0.587 G + 0.114 B (OpenCV's grey; P2020 reference).
-    Bt601,
-    /// ITU-R BT.709: 0.2126 R + 0.7152 G + 0.0722 B.
-    Bt709,
-}
-
+// The luma arithmetic belongs to reading frames; the enum is a plan choice.
 impl LumaWeights {
     /// Per-pixel luma of integer R, G, B, rounded to a whole DN. BT.601
     /// uses OpenCV's 14-bit fixed-point weights so that 8-bit grey is
@@ -59,31 +53,6 @@ impl LumaWeights {
             }
         }
     }
-}
-
-/// How video is decoded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum VideoDecode {
-    /// Decode to full-range RGB (FFmpeg's swscale, as OpenCV does in the P2020
-    /// reference pipeline), then take luma: matches the reference exactly.
-    Rgb,
-    /// Read the Y' plane only and expand its range to full scale: no R, G, B
-    /// means; 1.1-1.3 DN (max 2 DN) above the RGB path on the P2020
-    /// samples, enough to move FMI and MMP by up to 0.05 there.
-    LumaPlane,
-}
-
-/// Signal range of Y' in video and Y4M.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum VideoRange {
-    /// From the file's tag; limited (16-235) when untagged, as H.264 usually is.
-    Auto,
-    /// 16-235 (8-bit), expanded to 0-255.
-    Limited,
-    /// 0-255, used as is.
-    Full,
 }
 
 /// How to read a capture.

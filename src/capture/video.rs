@@ -14,7 +14,7 @@
 
 use std::io::Read;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::{Child, Command, Stdio};
 
 use super::{
     Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, ReadOptions, RoiRect, VideoDecode,
@@ -130,46 +130,17 @@ pub(super) fn read(
 ) -> Result<CaptureTrace, CaptureError> {
     let p = probe(path)?;
     check_rois(path, 0, rois, p.width, p.height)?;
-    // Crop to the ROIs' bounding box plus a 2-pixel margin, on even
-    // coordinates (4:2:0 chroma sites), so the crop does not change pixels.
-    let bbox = bounding_box(rois).unwrap_or(RoiRect {
-        x: 0,
-        y: 0,
-        width: p.width,
-        height: p.height,
-    });
-    let x0 = bbox.x.saturating_sub(2) & !1;
-    let y0 = bbox.y.saturating_sub(2) & !1;
-    let x1 = ((bbox.x + bbox.width + 3) & !1).min(p.width);
-    let y1 = ((bbox.y + bbox.height + 3) & !1).min(p.height);
-    let (cw, ch) = (x1 - x0, y1 - y0);
-    let crop = format!("crop={cw}:{ch}:{x0}:{y0}");
+    let crop = Crop::around(rois, &p);
+    let crop_filter = format!(
+        "crop={}:{}:{}:{}",
+        crop.width, crop.height, crop.x0, crop.y0
+    );
     let (filter, pix_fmt, bpp) = match opts.video_decode {
-        VideoDecode::Rgb => (crop, "rgb24", 3usize),
+        VideoDecode::Rgb => (crop_filter, "rgb24", 3usize),
         // Crop first (no copy), so extractplanes copies only the box.
-        VideoDecode::LumaPlane => (format!("{crop},extractplanes=y"), "gray", 1usize),
+        VideoDecode::LumaPlane => (format!("{crop_filter},extractplanes=y"), "gray", 1usize),
     };
-    let mut child = Command::new("ffmpeg")
-        .args(["-nostdin", "-v", "error", "-xerror", "-i"])
-        .arg(path)
-        .args([
-            "-map",
-            "0:v:0",
-            "-fps_mode",
-            "passthrough",
-            "-vf",
-            &filter,
-            "-f",
-            "rawvideo",
-            "-pix_fmt",
-            pix_fmt,
-            "-",
-        ])
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .map_err(|e| tool_error(path, "ffmpeg", e))?;
+    let mut child = spawn_ffmpeg(path, &filter, pix_fmt)?;
     // Drain stderr on a thread so that a chatty ffmpeg cannot block.
     let mut stderr = child.stderr.take();
     let err_thread = std::thread::spawn(move || {
@@ -188,62 +159,143 @@ pub(super) fn read(
     if opts.video_decode == VideoDecode::LumaPlane && !full {
         acc.expand = Some(limited_to_full_lut(8));
     }
-    let frame_bytes = cw as usize * ch as usize * bpp;
+    let frame_bytes = crop.width as usize * crop.height as usize * bpp;
+    let (frame, partial) = read_frames(path, &mut child, &mut acc, &crop, frame_bytes, opts)?;
+    let status = child.wait().map_err(|e| tool_error(path, "ffmpeg", e))?;
+    let stderr_text = err_thread.join().unwrap_or_default();
+    if !status.success() || partial {
+        return Err(undecodable(path, frame, &stderr_text));
+    }
+    Ok(trace(acc, p, opts, full))
+}
+
+/// The ROIs' bounding box (the whole frame without ROIs) plus a 2-pixel
+/// margin, on even coordinates (4:2:0 chroma sites), so the crop does not
+/// change pixels.
+struct Crop {
+    x0: u32,
+    y0: u32,
+    width: u32,
+    height: u32,
+}
+
+impl Crop {
+    fn around(rois: &[RoiRect], p: &Probe) -> Crop {
+        let bbox = bounding_box(rois).unwrap_or(RoiRect {
+            x: 0,
+            y: 0,
+            width: p.width,
+            height: p.height,
+        });
+        let x0 = bbox.x.saturating_sub(2) & !1;
+        let y0 = bbox.y.saturating_sub(2) & !1;
+        let x1 = ((bbox.x + bbox.width + 3) & !1).min(p.width);
+        let y1 = ((bbox.y + bbox.height + 3) & !1).min(p.height);
+        Crop {
+            x0,
+            y0,
+            width: x1 - x0,
+            height: y1 - y0,
+        }
+    }
+}
+
+/// Starts ffmpeg decoding the first video stream of `path` through
+/// `filter` to raw `pix_fmt` frames on its stdout.
+fn spawn_ffmpeg(path: &Path, filter: &str, pix_fmt: &str) -> Result<Child, CaptureError> {
+    Command::new("ffmpeg")
+        .args(["-nostdin", "-v", "error", "-xerror", "-i"])
+        .arg(path)
+        .args([
+            "-map",
+            "0:v:0",
+            "-fps_mode",
+            "passthrough",
+            "-vf",
+            filter,
+            "-f",
+            "rawvideo",
+            "-pix_fmt",
+            pix_fmt,
+            "-",
+        ])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| tool_error(path, "ffmpeg", e))
+}
+
+/// Feeds every whole frame of ffmpeg's stdout to `acc`. Returns the frames
+/// read and whether the stream ended inside a frame; a read error kills
+/// ffmpeg and names the frame.
+fn read_frames(
+    path: &Path,
+    child: &mut Child,
+    acc: &mut Accumulator<'_>,
+    crop: &Crop,
+    frame_bytes: usize,
+    opts: &ReadOptions,
+) -> Result<(u64, bool), CaptureError> {
     let mut buf = vec![0u8; frame_bytes];
     let mut frame: u64 = 0;
-    let mut partial = None;
-    if let Some(mut out) = child.stdout.take() {
-        loop {
-            match read_full(&mut out, &mut buf) {
-                Ok(0) => break,
-                Ok(n) if n == frame_bytes => {
-                    let pixels = match opts.video_decode {
-                        VideoDecode::Rgb => Pixels::Rgb8(&buf, 3),
-                        VideoDecode::LumaPlane => Pixels::Grey8(&buf),
-                    };
-                    acc.push(&FrameView {
-                        pixels,
-                        origin: (x0, y0),
-                        width: cw,
-                    });
-                    frame += 1;
-                }
-                Ok(n) => {
-                    partial = Some(n);
-                    break;
-                }
-                Err(e) => {
-                    let _ = child.kill();
-                    let _ = child.wait();
-                    return Err(CaptureError::Frame {
-                        path: path.to_path_buf(),
-                        frame,
-                        message: format!("reading decoded frames failed: {e}"),
-                    });
-                }
+    let Some(mut out) = child.stdout.take() else {
+        return Ok((frame, false));
+    };
+    loop {
+        match read_full(&mut out, &mut buf) {
+            Ok(0) => return Ok((frame, false)),
+            Ok(n) if n == frame_bytes => {
+                let pixels = match opts.video_decode {
+                    VideoDecode::Rgb => Pixels::Rgb8(&buf, 3),
+                    VideoDecode::LumaPlane => Pixels::Grey8(&buf),
+                };
+                acc.push(&FrameView {
+                    pixels,
+                    origin: (crop.x0, crop.y0),
+                    width: crop.width,
+                });
+                frame += 1;
+            }
+            Ok(_) => return Ok((frame, true)),
+            Err(e) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err(CaptureError::Frame {
+                    path: path.to_path_buf(),
+                    frame,
+                    message: format!("reading decoded frames failed: {e}"),
+                });
             }
         }
     }
-    let status = child.wait().map_err(|e| tool_error(path, "ffmpeg", e))?;
-    let stderr_text = err_thread.join().unwrap_or_default();
-    if !status.success() || partial.is_some() {
-        let detail = stderr_text.trim();
-        return Err(CaptureError::Frame {
-            path: path.to_path_buf(),
-            frame,
-            message: format!(
-                "the video cannot be decoded from this frame on (corrupt or truncated){}",
-                if detail.is_empty() {
-                    String::new()
-                } else {
-                    format!(
-                        ": {}",
-                        detail.lines().take(3).collect::<Vec<_>>().join("; ")
-                    )
-                }
-            ),
-        });
+}
+
+/// ffmpeg failed, or stopped inside a frame, at `frame`; its first lines
+/// of stderr say why.
+fn undecodable(path: &Path, frame: u64, stderr_text: &str) -> CaptureError {
+    let detail = stderr_text.trim();
+    CaptureError::Frame {
+        path: path.to_path_buf(),
+        frame,
+        message: format!(
+            "the video cannot be decoded from this frame on (corrupt or truncated){}",
+            if detail.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    ": {}",
+                    detail.lines().take(3).collect::<Vec<_>>().join("; ")
+                )
+            }
+        ),
     }
+}
+
+/// The trace of the frames in `acc`: timestamps from the container when
+/// every frame has one, else from the frame rate. `full` is the Y' range
+/// used.
+fn trace(acc: Accumulator<'_>, p: Probe, opts: &ReadOptions, full: bool) -> CaptureTrace {
     let n = acc.frames();
     let (luma, rgb) = acc.finish();
     let (time_s, timestamps) = if p.packet_times.len() == n && n > 0 {
@@ -254,7 +306,7 @@ pub(super) fn read(
             None => (times_from_fps(n, f64::NAN), "none"),
         }
     };
-    Ok(CaptureTrace {
+    CaptureTrace {
         time_s,
         luma,
         rgb,
@@ -273,7 +325,7 @@ pub(super) fn read(
                     format!("Y' plane, {} range", if full { "full" } else { "limited" }),
             }
         ),
-    })
+    }
 }
 
 /// Reads until `buf` is full or the stream ends; returns the bytes read.

@@ -14,36 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::flicker::{Metric, Segment};
 
-/// The level MMP compares each frame with.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum MmpReference {
-    /// Mean of the PWM segment, as the P2020 reference code does.
-    PwmMean,
-    /// Mean of the steady-ON segment (luminance matched to the PWM average).
-    OnLevel,
-}
-
-/// Parameters of the P2020 KPIs.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct P2020Options {
-    /// FDI contrast threshold (the reference code uses 0.1).
-    pub contrast_threshold: f64,
-    /// MMP half-band as a fraction of the reference level (reference: 0.1).
-    pub mmp_delta: f64,
-    /// MMP reference level.
-    pub mmp_reference: MmpReference,
-}
-
-impl Default for P2020Options {
-    fn default() -> Self {
-        Self {
-            contrast_threshold: 0.1,
-            mmp_delta: 0.1,
-            mmp_reference: MmpReference::PwmMean,
-        }
-    }
-}
+pub use crate::plan::{MmpReference, P2020Options};
 
 /// The P2020 KPIs of one ROI.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -71,7 +71,7 @@ impl WorkEstimate {
         let cases = super::expand_cases(plan).len();
         let sim = plan.dut.backend == BackendKind::Simulator;
         let frames = if sim {
-            crate::backend::sim::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps).total()
+            super::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps).total()
         } else {
             0
         };
@@ -273,7 +273,7 @@ fn physical(plan: &Plan, index: &SpanIndex, diags: &mut Vec<Diagnostic>) {
         ),
         "an 8K automotive sensor is 7680 x 4320",
     );
-    let frames = crate::backend::sim::SegmentFrames::new(&plan.sequence, cam.fps).total();
+    let frames = super::SegmentFrames::new(&plan.sequence, cam.fps).total();
     bound(
         frames <= MAX_FRAMES_PER_CASE,
         "sequence.pwm-s",

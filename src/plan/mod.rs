@@ -7,18 +7,23 @@
 
 pub mod bounds;
 mod capture;
+mod check;
 mod grid;
+mod p2020;
 mod raw;
 mod spans;
-mod thresholds;
 mod validate;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use bounds::WorkEstimate;
-pub use capture::{CaptureCase, CaptureConfig, CommandSpec, SegmentSpec, Span};
+pub use capture::{
+    CaptureCase, CaptureConfig, CommandSpec, DEFAULT_SETTLE_S, LumaWeights, SegmentSpec, Span,
+    VideoDecode, VideoRange,
+};
 pub use grid::{TestCase, expand_cases};
+pub use p2020::{MmpReference, P2020Options};
 
 /// Upper bound on cases in one plan. A report holds every case, at about
 /// 2 MB of memory each (charts, HTML, PDF layout): at this maximum a run
@@ -65,7 +70,7 @@ pub struct Plan {
     /// `Some` for the captured and command backends.
     pub capture: Option<CaptureConfig>,
     /// IEEE P2020 KPI settings (`[p2020]`).
-    pub p2020: crate::metrics::p2020::P2020Options,
+    pub p2020: P2020Options,
 }
 
 /// The light sequence of one case: steady ON (luminance matched to the PWM
@@ -79,6 +84,34 @@ pub struct Sequence {
     pub off_s: f64,
     /// PWM duration in seconds.
     pub pwm_s: f64,
+}
+
+/// Frame counts of the three segments.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SegmentFrames {
+    /// Steady-ON frames.
+    pub on: u64,
+    /// OFF frames.
+    pub off: u64,
+    /// PWM frames.
+    pub pwm: u64,
+}
+
+impl SegmentFrames {
+    /// Frames per segment at `fps`, each duration rounded to whole frames.
+    pub fn new(sequence: &Sequence, fps: f64) -> Self {
+        let frames = |s: f64| (s * fps).round() as u64;
+        Self {
+            on: frames(sequence.on_s),
+            off: frames(sequence.off_s),
+            pwm: frames(sequence.pwm_s),
+        }
+    }
+
+    /// Total frames.
+    pub fn total(&self) -> u64 {
+        self.on + self.off + self.pwm
+    }
 }
 
 /// What an ROI looks at.

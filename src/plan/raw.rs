@@ -32,12 +32,12 @@ pub struct RawPlan {
     /// `[thresholds]`: pass criteria.
     pub thresholds: Option<RawThresholds>,
     /// `[capture]`: how captured data is read.
-    pub capture: Option<super::capture::RawCapture>,
+    pub capture: Option<RawCaptureTable>,
     /// `[[case]]`: captures of a captured plan.
     #[serde(default)]
-    pub case: Vec<super::capture::RawCaseEntry>,
+    pub case: Vec<RawCaseEntry>,
     /// `[p2020]`: IEEE P2020 KPI settings.
-    pub p2020: Option<super::capture::RawP2020>,
+    pub p2020: Option<RawP2020>,
 }
 
 /// `[plan]`
@@ -239,4 +239,63 @@ pub struct RawLevelThresholds {
     pub fmi_max: Option<f64>,
     pub fdi_p2020_min: Option<f64>,
     pub mmp_min: Option<f64>,
+}
+
+/// `[capture]`
+#[derive(Debug, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawCaptureTable {
+    pub luma: Option<String>,
+    pub video_decode: Option<String>,
+    pub video_range: Option<String>,
+    pub frame_rate_fps: Option<f64>,
+    pub saturation_dn: Option<f64>,
+    pub off_frames: Option<Vec<i64>>,
+    pub on_frames: Option<Vec<i64>>,
+    pub pwm_frames: Option<Vec<i64>>,
+    pub off_time_s: Option<Vec<f64>>,
+    pub on_time_s: Option<Vec<f64>>,
+    pub pwm_time_s: Option<Vec<f64>>,
+    pub command: Option<Vec<String>>,
+    pub timeout_s: Option<f64>,
+    pub settle_s: Option<f64>,
+}
+
+/// Segment keys, in `[capture]` (defaults) and in each `[[case]]` (no
+/// `serde(flatten)`: it would hide unknown keys from the checks).
+#[derive(Debug, Default)]
+pub struct RawSegments {
+    pub off_frames: Option<Vec<i64>>,
+    pub on_frames: Option<Vec<i64>>,
+    pub pwm_frames: Option<Vec<i64>>,
+    pub off_time_s: Option<Vec<f64>>,
+    pub on_time_s: Option<Vec<f64>>,
+    pub pwm_time_s: Option<Vec<f64>>,
+}
+
+/// `[[case]]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawCaseEntry {
+    pub id: Option<String>,
+    pub source: Option<String>,
+    pub light_lux: Option<f64>,
+    pub frequency_hz: Option<f64>,
+    pub duty_cycle: Option<f64>,
+    pub off_frames: Option<Vec<i64>>,
+    pub on_frames: Option<Vec<i64>>,
+    pub pwm_frames: Option<Vec<i64>>,
+    pub off_time_s: Option<Vec<f64>>,
+    pub on_time_s: Option<Vec<f64>>,
+    pub pwm_time_s: Option<Vec<f64>>,
+    pub informative: Option<bool>,
+}
+
+/// `[p2020]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawP2020 {
+    pub contrast_threshold: Option<f64>,
+    pub mmp_delta: Option<f64>,
+    pub mmp_reference: Option<String>,
 }

@@ -22,8 +22,7 @@ use std::path::Path;
 use crate::capture::{CaptureError, CaptureTrace};
 use crate::plan::{Plan, RoiKind, Sequence};
 
-/// Default settle time after each step, seconds (`[capture] settle-s`).
-pub const DEFAULT_SETTLE_S: f64 = 0.5;
+pub use crate::plan::DEFAULT_SETTLE_S;
 /// Frames left out before each detected step (the frame that straddles it).
 pub const GUARD_FRAMES: usize = 1;
 /// Frames kept out on each side of the ON step by the `off-then-pwm` rule.
@@ -192,6 +191,7 @@ fn median_mut(v: &mut [f64]) -> f64 {
 }
 
 /// The ON/OFF step found by [`find_on_off`].
+#[derive(Debug, Clone, Copy)]
 struct OnOff {
     /// First frame of the bright ON run (0 when the capture starts in ON).
     rise: usize,
@@ -278,24 +278,7 @@ fn detect_sequence(
 ) -> Result<SegmentsFound, CaptureError> {
     let seq = &det.sequence;
     let settle = det.settle_s;
-    let n = sig.n();
-    if seq.off_s <= 0.0 {
-        return Err(refuse(
-            path,
-            "cannot detect segments: the plan's sequence has an ON segment but no OFF reference (sequence.off-s = 0)".to_string(),
-            KEYS_HINT.to_string(),
-        ));
-    }
-    if settle + 2.0 * sig.dt >= seq.off_s.min(seq.on_s).min(seq.pwm_s) {
-        return Err(refuse(
-            path,
-            format!(
-                "cannot detect segments: the settle time {settle} s leaves no frames of a {} s ON, {} s OFF, {} s PWM sequence",
-                seq.on_s, seq.off_s, seq.pwm_s
-            ),
-            "shorten [capture] settle-s".to_string(),
-        ));
-    }
+    check_sequence_detectable(sig, seq, settle, path)?;
     let Some(step) = find_on_off(sig, seq, settle) else {
         return Err(refuse(
             path,
@@ -309,112 +292,30 @@ fn detect_sequence(
             KEYS_HINT.to_string(),
         ));
     };
-    let OnOff { rise, fall, mid } = step;
-    let (t_rise, t_fall) = (sig.t[rise], sig.t[fall]);
-    let on_seen = t_fall - t_rise;
-    let tol_on = sig.tolerance(seq.on_s);
-    let on_wrong = if rise > 0 {
-        (on_seen - seq.on_s).abs() > tol_on
-    } else {
-        on_seen > seq.on_s + tol_on
+    let s = SequenceSteps {
+        sig,
+        seq,
+        settle,
+        path,
+        step,
     };
-    let found = || {
-        format!(
-            "ON from frame {rise} ({t_rise:.3} s) to frame {fall} ({t_fall:.3} s), midpoint {mid:.1} DN; {}",
-            describe_runs(sig)
-        )
-    };
-    if on_wrong {
-        return Err(refuse(
-            path,
-            format!(
-                "cannot detect segments: the ON segment lasts {on_seen:.3} s, the sequence's {} s +- {tol_on:.3} s; found {}",
-                seq.on_s,
-                found()
-            ),
-            format!("{KEYS_HINT}; e.g. on-time-s = [{t_rise:.3}, {t_fall:.3}]"),
-        ));
-    }
-    // The PWM step: seen as the first bright frame after the OFF segment
-    // when it is near the sequence's time, else from the timing (a PWM
-    // segment may start looking dark: the light "appears OFF").
-    let t_pwm = t_fall + seq.off_s;
-    let tol_off = sig.tolerance(seq.off_s);
-    let seen = (fall..n).find(|&k| sig.s[k] >= mid);
-    if let Some(k) = seen.filter(|&k| sig.t[k] < t_pwm - tol_off) {
-        return Err(refuse(
-            path,
-            format!(
-                "cannot detect segments: the OFF segment lasts {:.3} s (frames {fall}..{k}), the sequence's {} s +- {tol_off:.3} s; found {}",
-                sig.t[k] - t_fall,
-                seq.off_s,
-                found()
-            ),
-            format!(
-                "{KEYS_HINT}; e.g. off-time-s = [{t_fall:.3}, {:.3}]",
-                sig.t[k]
-            ),
-        ));
-    }
-    let (pwm_step, pwm_from) = match seen.filter(|&k| sig.t[k] <= t_pwm + 1.5 * sig.dt) {
-        Some(k) => (k, "luma"),
-        None => (sig.at(t_pwm - 0.5 * sig.dt), "timing"),
-    };
-    let t_end = sig.time(pwm_step) - 0.5 * sig.dt + seq.pwm_s;
-    let tol_pwm = sig.tolerance(seq.pwm_s);
-    if sig.time(n) < t_end - tol_pwm {
-        return Err(refuse(
-            path,
-            format!(
-                "cannot detect segments: the capture ends {:.3} s into the PWM segment, which the sequence makes {} s (+- {tol_pwm:.3} s) long; found {}",
-                sig.time(n) - sig.time(pwm_step),
-                seq.pwm_s,
-                found()
-            ),
-            format!(
-                "{KEYS_HINT}; e.g. pwm-time-s = [{:.3}] (to the end), or set [sequence] pwm-s to the recorded length",
-                sig.time(pwm_step)
-            ),
-        ));
-    }
-    let (end, end_from) = if t_end < sig.time(n) {
-        (sig.at(t_end), "timing")
-    } else {
-        (n, "capture")
-    };
-    let after = |k: usize| if k == 0 { 0 } else { sig.at(sig.t[k] + settle) };
-    let on = (after(rise), fall - GUARD_FRAMES);
-    let off = (after(fall), pwm_step.saturating_sub(GUARD_FRAMES));
-    let pwm = (
-        after(pwm_step),
-        if end < n { end - GUARD_FRAMES } else { n },
-    );
-    for (name, (a, b)) in [("ON", on), ("OFF", off), ("PWM", pwm)] {
-        if b < a + 2 {
-            return Err(refuse(
-                path,
-                format!(
-                    "cannot detect segments: after the {settle} s settle time the {name} segment holds {} frames; found {}",
-                    b.saturating_sub(a),
-                    found()
-                ),
-                format!("shorten [capture] settle-s, or {KEYS_HINT}"),
-            ));
-        }
-    }
+    s.check_on_duration()?;
+    let (pwm_step, pwm_from) = s.pwm_step()?;
+    let (end, end_from) = s.pwm_end(pwm_step)?;
+    let (on, off, pwm) = s.settled_windows(pwm_step, end)?;
     let (l_on, l_off) = (sig.mean(on.0, on.1), sig.mean(off.0, off.1));
     if !contrast_ok(l_on, l_off, sig.full_scale) {
-        return Err(refuse(
-            path,
+        return Err(s.refuse(
             format!(
                 "cannot detect segments: the settled ON level {l_on:.2} DN is not {:.0} % (and {:.1} DN) above the OFF level {l_off:.2} DN; found {}",
                 100.0 * MIN_ON_OFF_CONTRAST,
                 MIN_STEP_OF_FULL_SCALE * sig.full_scale,
-                found()
+                s.found()
             ),
             KEYS_HINT.to_string(),
         ));
     }
+    let OnOff { rise, fall, mid } = step;
     let step = |kind, k: usize, from| StepFound {
         kind,
         frame: k as u64,
@@ -437,7 +338,7 @@ fn detect_sequence(
         off_time_s: Some(sig.span_s(frames(off))),
         on_time_s: Some(sig.span_s(frames(on))),
         pwm_time_s: sig.span_s(frames(pwm)),
-        capture_frames: n as u64,
+        capture_frames: sig.n() as u64,
         threshold_dn: Some(mid),
         settle_s: Some(settle),
         levels_dn: Some(LevelsFound {
@@ -453,6 +354,180 @@ fn detect_sequence(
         "detected from the LED-ROI luma by the plan's sequence ({} s ON, {} s OFF, {} s PWM)",
         seq.on_s, seq.off_s, seq.pwm_s
     )))
+}
+
+/// Refuses a sequence the `sequence` rule cannot work with: no OFF
+/// reference, or a settle time that leaves a segment without frames.
+fn check_sequence_detectable(
+    sig: &Signal,
+    seq: &Sequence,
+    settle: f64,
+    path: &Path,
+) -> Result<(), CaptureError> {
+    if seq.off_s <= 0.0 {
+        return Err(refuse(
+            path,
+            "cannot detect segments: the plan's sequence has an ON segment but no OFF reference (sequence.off-s = 0)".to_string(),
+            KEYS_HINT.to_string(),
+        ));
+    }
+    if settle + 2.0 * sig.dt >= seq.off_s.min(seq.on_s).min(seq.pwm_s) {
+        return Err(refuse(
+            path,
+            format!(
+                "cannot detect segments: the settle time {settle} s leaves no frames of a {} s ON, {} s OFF, {} s PWM sequence",
+                seq.on_s, seq.off_s, seq.pwm_s
+            ),
+            "shorten [capture] settle-s".to_string(),
+        ));
+    }
+    Ok(())
+}
+
+/// A frame window: first frame, one past the last.
+type Window = (usize, usize);
+
+/// The `sequence` rule after its ON -> OFF step was found: the checks and
+/// steps that follow from it, each refusal naming what was found.
+struct SequenceSteps<'a> {
+    sig: &'a Signal,
+    seq: &'a Sequence,
+    settle: f64,
+    path: &'a Path,
+    step: OnOff,
+}
+
+impl SequenceSteps<'_> {
+    fn refuse(&self, message: String, hint: String) -> CaptureError {
+        refuse(self.path, message, hint)
+    }
+
+    /// The ON step and the runs of the signal, for messages.
+    fn found(&self) -> String {
+        let OnOff { rise, fall, mid } = self.step;
+        let (t_rise, t_fall) = (self.sig.t[rise], self.sig.t[fall]);
+        format!(
+            "ON from frame {rise} ({t_rise:.3} s) to frame {fall} ({t_fall:.3} s), midpoint {mid:.1} DN; {}",
+            describe_runs(self.sig)
+        )
+    }
+
+    /// The ON run must last the sequence's ON time (at most that when the
+    /// capture starts in ON).
+    fn check_on_duration(&self) -> Result<(), CaptureError> {
+        let OnOff { rise, fall, .. } = self.step;
+        let (t_rise, t_fall) = (self.sig.t[rise], self.sig.t[fall]);
+        let on_seen = t_fall - t_rise;
+        let tol_on = self.sig.tolerance(self.seq.on_s);
+        let on_wrong = if rise > 0 {
+            (on_seen - self.seq.on_s).abs() > tol_on
+        } else {
+            on_seen > self.seq.on_s + tol_on
+        };
+        if !on_wrong {
+            return Ok(());
+        }
+        Err(self.refuse(
+            format!(
+                "cannot detect segments: the ON segment lasts {on_seen:.3} s, the sequence's {} s +- {tol_on:.3} s; found {}",
+                self.seq.on_s,
+                self.found()
+            ),
+            format!("{KEYS_HINT}; e.g. on-time-s = [{t_rise:.3}, {t_fall:.3}]"),
+        ))
+    }
+
+    /// The PWM step and where it came from: seen as the first bright frame
+    /// after the OFF segment when it is near the sequence's time, else from
+    /// the timing (a PWM segment may start looking dark: the light "appears
+    /// OFF"). A bright frame well before that time is refused.
+    fn pwm_step(&self) -> Result<(usize, &'static str), CaptureError> {
+        let (sig, seq) = (self.sig, self.seq);
+        let OnOff { fall, mid, .. } = self.step;
+        let t_fall = sig.t[fall];
+        let t_pwm = t_fall + seq.off_s;
+        let tol_off = sig.tolerance(seq.off_s);
+        let seen = (fall..sig.n()).find(|&k| sig.s[k] >= mid);
+        if let Some(k) = seen.filter(|&k| sig.t[k] < t_pwm - tol_off) {
+            return Err(self.refuse(
+                format!(
+                    "cannot detect segments: the OFF segment lasts {:.3} s (frames {fall}..{k}), the sequence's {} s +- {tol_off:.3} s; found {}",
+                    sig.t[k] - t_fall,
+                    seq.off_s,
+                    self.found()
+                ),
+                format!(
+                    "{KEYS_HINT}; e.g. off-time-s = [{t_fall:.3}, {:.3}]",
+                    sig.t[k]
+                ),
+            ));
+        }
+        Ok(match seen.filter(|&k| sig.t[k] <= t_pwm + 1.5 * sig.dt) {
+            Some(k) => (k, "luma"),
+            None => (sig.at(t_pwm - 0.5 * sig.dt), "timing"),
+        })
+    }
+
+    /// The end of the PWM segment and where it came from: the sequence's
+    /// PWM time after `pwm_step`, or the end of the capture. A capture
+    /// shorter than that (beyond the tolerance) is refused.
+    fn pwm_end(&self, pwm_step: usize) -> Result<(usize, &'static str), CaptureError> {
+        let (sig, seq) = (self.sig, self.seq);
+        let n = sig.n();
+        let t_end = sig.time(pwm_step) - 0.5 * sig.dt + seq.pwm_s;
+        let tol_pwm = sig.tolerance(seq.pwm_s);
+        if sig.time(n) < t_end - tol_pwm {
+            return Err(self.refuse(
+                format!(
+                    "cannot detect segments: the capture ends {:.3} s into the PWM segment, which the sequence makes {} s (+- {tol_pwm:.3} s) long; found {}",
+                    sig.time(n) - sig.time(pwm_step),
+                    seq.pwm_s,
+                    self.found()
+                ),
+                format!(
+                    "{KEYS_HINT}; e.g. pwm-time-s = [{:.3}] (to the end), or set [sequence] pwm-s to the recorded length",
+                    sig.time(pwm_step)
+                ),
+            ));
+        }
+        Ok(if t_end < sig.time(n) {
+            (sig.at(t_end), "timing")
+        } else {
+            (n, "capture")
+        })
+    }
+
+    /// The ON, OFF and PWM frame windows, each after the settle time and
+    /// before the guard frames; each must hold at least 2 frames.
+    fn settled_windows(
+        &self,
+        pwm_step: usize,
+        end: usize,
+    ) -> Result<(Window, Window, Window), CaptureError> {
+        let (sig, settle) = (self.sig, self.settle);
+        let n = sig.n();
+        let OnOff { rise, fall, .. } = self.step;
+        let after = |k: usize| if k == 0 { 0 } else { sig.at(sig.t[k] + settle) };
+        let on = (after(rise), fall - GUARD_FRAMES);
+        let off = (after(fall), pwm_step.saturating_sub(GUARD_FRAMES));
+        let pwm = (
+            after(pwm_step),
+            if end < n { end - GUARD_FRAMES } else { n },
+        );
+        for (name, (a, b)) in [("ON", on), ("OFF", off), ("PWM", pwm)] {
+            if b < a + 2 {
+                return Err(self.refuse(
+                    format!(
+                        "cannot detect segments: after the {settle} s settle time the {name} segment holds {} frames; found {}",
+                        b.saturating_sub(a),
+                        self.found()
+                    ),
+                    format!("shorten [capture] settle-s, or {KEYS_HINT}"),
+                ));
+            }
+        }
+        Ok((on, off, pwm))
+    }
 }
 
 /// The `off-then-pwm` rule (format version 1): a dark baseline, then the

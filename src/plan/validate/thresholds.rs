@@ -6,9 +6,9 @@
 //! globally and may be overridden per light level. Every problem is reported
 //! with its key, line and a hint, as for the rest of the plan.
 
-use super::raw::{RawLevelThresholds, RawThresholds};
-use super::validate::Checker;
-use super::{LevelLimits, Limits, Thresholds, VerdictBasis};
+use crate::plan::check::Checker;
+use crate::plan::raw::{RawLevelThresholds, RawThresholds};
+use crate::plan::{LevelLimits, Limits, Thresholds, VerdictBasis};
 
 /// Defaults: FDI (2018) >= 0.1 (Deegan 2018), nothing else checked, every
 /// frequency in the mitigation range, verdicts on the worst phase.

@@ -1,0 +1,219 @@
+//! Raw plan -> validated [`Plan`]: defaults, ranges and cross-checks, one
+//! function per TOML table, each in its own module:
+//!
+//! - `meta`: `format-version`, `[plan]`, `[sequence]`;
+//! - `grid`: `[light]`, `[grid]`;
+//! - `capture`: `[capture]`, `[[case]]` (captured and command backends);
+//! - `p2020`: `[p2020]`;
+//! - `dut`: `[dut]` and camera profiles; `camera`: `[dut.camera]`;
+//!   `sensor`: its `[sensor]`, `[[capture]]`, `[hdr]`, `[tone]` and gains;
+//!   `ae`: its `[auto-exposure]`;
+//! - `roi`: `[[roi]]`; `scene`: `[scene]`; `thresholds`: `[thresholds]`.
+//!
+//! Every check pushes a [`Diagnostic`] into the shared collector
+//! (`plan::check::Checker`) and carries on, so the user sees all the
+//! problems of a file in one run. The tables are checked in a fixed order,
+//! which is the order of diagnostics on the same line.
+
+mod ae;
+mod camera;
+mod capture;
+mod dut;
+mod grid;
+mod meta;
+mod p2020;
+mod roi;
+mod scene;
+mod sensor;
+mod thresholds;
+
+use std::path::Path;
+
+use super::check::Checker;
+use super::raw::{RawCaptureTable, RawCaseEntry, RawDut, RawGrid, RawLight, RawPlan};
+use super::spans::SpanIndex;
+use super::{CaptureConfig, Diagnostic, MAX_CASES, Plan, Sequence};
+
+/// Longest capture the simulator will make for one case, in frames.
+const MAX_FRAMES: f64 = 10_000_000.0;
+
+/// Validates `raw`, pushing every problem into `diags`. Returns `None` when
+/// something required is missing or invalid.
+pub(super) fn validate(
+    raw: RawPlan,
+    index: &SpanIndex,
+    diags: &mut Vec<Diagnostic>,
+    path: &Path,
+    sha256: String,
+) -> Option<Plan> {
+    let mut c = Checker::new(index, diags);
+    meta::format_version(&mut c, raw.format_version);
+    let meta = meta::plan_table(&mut c, raw.plan);
+    let (on_s, off_s, pwm_s) = meta::sequence_table(&mut c, raw.sequence);
+    let role = Role::of(raw.dut.as_ref());
+    let (light, grid) = (raw.light, raw.grid);
+    let (capture, capture_failed) = case_sources(
+        &mut c,
+        role,
+        (light.is_some(), grid.is_some()),
+        raw.capture,
+        raw.case,
+        path,
+    );
+    let p2020 = p2020::p2020_options(&mut c, raw.p2020);
+    let (levels, freqs, duties) = conditions(&mut c, light, grid, role.captured);
+    let dut = dut::dut_table(&mut c, raw.dut, role.is_sim, path);
+    let rois = roi::rois(&mut c, raw.roi, dut.as_ref().map(|d| &d.camera));
+    let scene = scene::scene_table(&mut c, raw.scene);
+    let known_lux: Option<Vec<f64>> = if role.captured {
+        capture
+            .as_ref()
+            .map(|cap| cap.cases.iter().filter_map(|k| k.light_lux).collect())
+    } else {
+        levels.clone()
+    };
+    let thresholds = thresholds::thresholds(&mut c, raw.thresholds, known_lux.as_deref());
+    let sequence = Sequence {
+        on_s: on_s?,
+        off_s: off_s?,
+        pwm_s: pwm_s?,
+    };
+    let dut = dut?;
+    if capture_failed {
+        return None;
+    }
+    sequence_fits(&mut c, &sequence, dut.camera.fps)?;
+    Some(Plan {
+        id: meta.id?,
+        title: meta.title?,
+        standard: meta.standard,
+        description: meta.description,
+        lab: meta.lab,
+        seed: meta.seed,
+        path: path.to_path_buf(),
+        sha256,
+        sequence,
+        light_levels_lux: levels?,
+        frequencies_hz: freqs?,
+        duty_cycles: duties?,
+        rois: rois?,
+        dut,
+        scene: scene?,
+        thresholds: thresholds?,
+        capture,
+        p2020: p2020?,
+    })
+}
+
+/// Which tables the backend named in `[dut]` reads.
+#[derive(Debug, Clone, Copy)]
+struct Role {
+    /// `backend = "captured"`: cases from `[[case]]`, not `[light]` and `[grid]`.
+    captured: bool,
+    /// The simulator, or an unknown backend (reported under `[dut]` and
+    /// checked as a simulator): no `[capture]` or `[[case]]`.
+    is_sim: bool,
+}
+
+impl Role {
+    fn of(dut: Option<&RawDut>) -> Role {
+        let backend = dut.and_then(|d| d.backend.as_deref());
+        Role {
+            captured: backend == Some("captured"),
+            is_sim: !matches!(backend, Some("captured" | "command")),
+        }
+    }
+}
+
+/// The tables that say where the cases come from: refuses `[light]` and
+/// `[grid]` (`present`) in a captured plan and `[capture]` and `[[case]]`
+/// in a simulator plan, and validates the latter two otherwise. The flag is
+/// true when they were given and are invalid.
+fn case_sources(
+    c: &mut Checker<'_>,
+    role: Role,
+    present: (bool, bool),
+    raw_capture: Option<RawCaptureTable>,
+    cases: Vec<RawCaseEntry>,
+    path: &Path,
+) -> (Option<CaptureConfig>, bool) {
+    for (present, key) in [(present.0, "light"), (present.1, "grid")] {
+        if role.captured && present {
+            c.error(
+                key,
+                "a captured plan lists its cases in [[case]], not in [light] and [grid]",
+                Some("give each [[case]] its light-lux, frequency-hz and duty-cycle"),
+            );
+        }
+    }
+    if !role.is_sim {
+        let cap = capture::capture_config(c, raw_capture, cases, role.captured, path);
+        let failed = cap.is_none();
+        return (cap, failed);
+    }
+    for (present, key) in [
+        (raw_capture.is_some(), "capture"),
+        (!cases.is_empty(), "case"),
+    ] {
+        if present {
+            c.error(
+                key,
+                "only the captured and command backends read this table",
+                Some("set [dut] backend = \"captured\" or \"command\", or remove it"),
+            );
+        }
+    }
+    (None, false)
+}
+
+/// Light levels, frequencies and duty cycles of the grid; all empty for a
+/// captured plan, whose cases come from `[[case]]`. The grid may expand to
+/// at most [`MAX_CASES`] cases.
+type Conditions = (Option<Vec<f64>>, Option<Vec<f64>>, Option<Vec<f64>>);
+
+fn conditions(
+    c: &mut Checker<'_>,
+    light: Option<RawLight>,
+    grid: Option<RawGrid>,
+    captured: bool,
+) -> Conditions {
+    if captured {
+        return (Some(Vec::new()), Some(Vec::new()), Some(Vec::new()));
+    }
+    let levels = grid::light_table(c, light);
+    let (freqs, duties) = grid::grid_table(c, grid);
+    if let (Some(l), Some(f), Some(d)) = (&levels, &freqs, &duties) {
+        let n = l.len() * f.len() * d.len();
+        if n > MAX_CASES {
+            c.error(
+                "grid",
+                format!("the plan expands to {n} cases; at most {MAX_CASES}"),
+                Some("use coarser grids or split the plan"),
+            );
+        }
+    }
+    (levels, freqs, duties)
+}
+
+/// The sequence at the camera's frame rate `fps`: at most [`MAX_FRAMES`]
+/// frames, and at least 2 in the PWM segment.
+fn sequence_fits(c: &mut Checker<'_>, sequence: &Sequence, fps: f64) -> Option<()> {
+    let total_frames = (sequence.on_s + sequence.off_s + sequence.pwm_s) * fps;
+    if total_frames > MAX_FRAMES {
+        c.error(
+            "sequence.pwm-s",
+            format!("the sequence is {total_frames:.0} frames long; at most {MAX_FRAMES:.0}"),
+            Some("shorten the PWM segment"),
+        );
+        return None;
+    }
+    if (sequence.pwm_s * fps).round() < 2.0 {
+        c.error(
+            "sequence.pwm-s",
+            "the PWM segment holds fewer than 2 frames",
+            Some("make pwm-s at least 2 frame times long"),
+        );
+        return None;
+    }
+    Some(())
+}

@@ -1,0 +1,147 @@
+//! `[[roi]]`: the regions of interest, checked against the camera's sensor.
+
+use crate::plan::check::Checker;
+use crate::plan::raw::RawRoi;
+use crate::plan::{CameraConfig, Roi, RoiKind};
+
+/// Default ROI size from Deegan 2018: 100 px wide, 2 rows high (a taller ROI
+/// mixes ON and OFF rows of a rolling shutter).
+const DEFAULT_ROI_WIDTH_PX: u32 = 100;
+const DEFAULT_ROI_HEIGHT_PX: u32 = 2;
+
+/// Validates `[[roi]]`. With no ROI, one LED ROI of the default size in the
+/// middle of the sensor. `camera` is `None` when it is invalid; the ROIs
+/// are then checked on their own and the result is `None`.
+pub(super) fn rois(
+    c: &mut Checker<'_>,
+    raw: Vec<RawRoi>,
+    camera: Option<&CameraConfig>,
+) -> Option<Vec<Roi>> {
+    if raw.is_empty() {
+        return Some(vec![default_roi(camera?)]);
+    }
+    let mut out = Vec::new();
+    let mut ok = true;
+    for (i, r) in raw.into_iter().enumerate() {
+        match roi(c, r, i, &out, &mut ok) {
+            Some(roi) => {
+                if let Some(cam) = camera {
+                    ok &= fits_sensor(c, &roi, i, cam);
+                }
+                out.push(roi);
+            }
+            None => ok = false,
+        }
+    }
+    (ok && camera.is_some()).then_some(out)
+}
+
+/// One LED ROI of 100 x 2 px in the middle of the sensor.
+fn default_roi(cam: &CameraConfig) -> Roi {
+    let w = DEFAULT_ROI_WIDTH_PX.min(cam.sensor_columns);
+    let h = DEFAULT_ROI_HEIGHT_PX.min(cam.sensor_rows);
+    Roi {
+        name: "led".to_string(),
+        kind: RoiKind::Led,
+        x_px: (cam.sensor_columns - w) / 2,
+        y_px: (cam.sensor_rows - h) / 2,
+        width_px: w,
+        height_px: h,
+    }
+}
+
+/// `[[roi]]` number `i`; `earlier` are the ROIs before it. A bad name
+/// clears `ok` but keeps the ROI; a bad kind or position is `None`.
+fn roi(c: &mut Checker<'_>, r: RawRoi, i: usize, earlier: &[Roi], ok: &mut bool) -> Option<Roi> {
+    let k = |s: &str| format!("roi[{i}].{s}");
+    let name = r.name.unwrap_or_else(|| format!("roi{i}"));
+    if name.is_empty()
+        || !name
+            .chars()
+            .all(|ch| ch.is_ascii_alphanumeric() || ch == '-' || ch == '_')
+    {
+        c.error(
+            &k("name"),
+            format!("ROI name `{name}` must be letters, digits, `-` or `_`"),
+            Some("the name is a CSV column header"),
+        );
+        *ok = false;
+    } else if earlier.iter().any(|o| o.name == name) {
+        c.error(
+            &k("name"),
+            format!("ROI name `{name}` is used twice"),
+            Some("give each ROI its own name"),
+        );
+        *ok = false;
+    }
+    let kind = match r.kind.as_deref() {
+        None | Some("led") => Some(RoiKind::Led),
+        Some("background") => Some(RoiKind::Background),
+        Some(other) => {
+            c.error(
+                &k("kind"),
+                format!("unknown ROI kind `{other}`"),
+                Some("use \"led\" or \"background\""),
+            );
+            None
+        }
+    };
+    let hint = "ROI position in pixels, 0-based from the top-left corner";
+    let x = c
+        .required(r.x_px, &k("x-px"), hint)
+        .and_then(|v| c.pixels(v, &k("x-px"), 0));
+    let y = c
+        .required(r.y_px, &k("y-px"), hint)
+        .and_then(|v| c.pixels(v, &k("y-px"), 0));
+    let w = c.pixels(
+        r.width_px.unwrap_or(DEFAULT_ROI_WIDTH_PX as i64),
+        &k("width-px"),
+        1,
+    );
+    let h = c.pixels(
+        r.height_px.unwrap_or(DEFAULT_ROI_HEIGHT_PX as i64),
+        &k("height-px"),
+        1,
+    );
+    Some(Roi {
+        name,
+        kind: kind?,
+        x_px: x?,
+        y_px: y?,
+        width_px: w?,
+        height_px: h?,
+    })
+}
+
+/// Whether `roi` (number `i`) lies on the sensor; reports each side that
+/// does not.
+fn fits_sensor(c: &mut Checker<'_>, roi: &Roi, i: usize, cam: &CameraConfig) -> bool {
+    let k = |s: &str| format!("roi[{i}].{s}");
+    let mut ok = true;
+    let (x, y, w, h) = (roi.x_px, roi.y_px, roi.width_px, roi.height_px);
+    if x as u64 + w as u64 > cam.sensor_columns as u64 {
+        c.error(
+            &k("x-px"),
+            format!(
+                "ROI columns {x}..{} fall outside the sensor's {} columns",
+                x as u64 + w as u64,
+                cam.sensor_columns
+            ),
+            Some("x-px + width-px must not exceed dut.camera.sensor-columns"),
+        );
+        ok = false;
+    }
+    if y as u64 + h as u64 > cam.sensor_rows as u64 {
+        c.error(
+            &k("y-px"),
+            format!(
+                "ROI rows {y}..{} fall outside the sensor's {} rows",
+                y as u64 + h as u64,
+                cam.sensor_rows
+            ),
+            Some("y-px + height-px must not exceed dut.camera.sensor-rows"),
+        );
+        ok = false;
+    }
+    ok
+}
