@@ -1,0 +1,374 @@
+//! The pipeline's shape, kept true (docs/architecture.md): read from the
+//! `crate::` paths of every file under src/, as cargo-deny reads a
+//! dependency graph.
+//!
+//! - Top-level modules import only modules below them in [`LAYERS`], so the
+//!   module graph has no cycle and data flows one way.
+//! - The report imports only the results model and the leaf helpers.
+//! - Within a top-level module, the submodules import each other without a
+//!   cycle.
+//! - No function over 120 lines, no file over 800 lines.
+//!
+//! Test modules (`#[cfg(test)] mod tests`) and comments are not read: tests
+//! may reach anywhere.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// Top-level modules from the bottom of the pipeline to the top. A module
+/// may import only modules listed before it.
+const LAYERS: [&str; 23] = [
+    "util",
+    "error",
+    "outdir",
+    "timings",
+    "interrupt",
+    "trace",
+    "physics",
+    "render",
+    "plan",
+    "capture",
+    "metrics",
+    "inputs",
+    "backend",
+    "runner",
+    "calibrate",
+    "analysis",
+    "advise",
+    "model",
+    "report",
+    "signoff",
+    "shard",
+    "bench",
+    "cli",
+];
+
+/// What the report may import: the model and the leaf helpers.
+const REPORT_MAY_IMPORT: [&str; 4] = ["model", "util", "timings", "outdir"];
+
+const MAX_FN_LINES: usize = 120;
+const MAX_FILE_LINES: usize = 800;
+
+struct Source {
+    /// Module path, e.g. `report::charts::trace` (`lib` for lib.rs).
+    module: Vec<String>,
+    /// The file relative to the crate root.
+    path: PathBuf,
+    /// Whole text.
+    text: String,
+    /// Text without test modules and comment lines.
+    code: String,
+}
+
+fn sources() -> Vec<Source> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut out = Vec::new();
+    let mut stack = vec![root.join("src")];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                let text = std::fs::read_to_string(&path).unwrap();
+                let rel = path.strip_prefix(root.join("src")).unwrap();
+                let mut module: Vec<String> = rel
+                    .with_extension("")
+                    .iter()
+                    .map(|p| p.to_string_lossy().into_owned())
+                    .collect();
+                if module.last().is_some_and(|m| m == "mod") {
+                    module.pop();
+                }
+                let code = code_of(&text);
+                out.push(Source {
+                    module,
+                    path: path.strip_prefix(root).unwrap().to_path_buf(),
+                    text,
+                    code,
+                });
+            }
+        }
+    }
+    out.sort_by(|a, b| a.path.cmp(&b.path));
+    out
+}
+
+/// `text` up to its test module, without comment lines.
+fn code_of(text: &str) -> String {
+    let mut out = String::new();
+    let mut lines = text.lines().peekable();
+    while let Some(line) = lines.next() {
+        let t = line.trim_start();
+        if t.starts_with("#[cfg(test)]") {
+            let next = lines.peek().map_or("", |l| l.trim_start());
+            if next.starts_with("mod tests") || next.starts_with("pub(crate) mod tests") {
+                break;
+            }
+        }
+        if !t.starts_with("//") {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    out
+}
+
+fn is_ident(c: char) -> bool {
+    c.is_ascii_alphanumeric() || c == '_'
+}
+
+/// Every path that follows `prefix` in `code`, as its `::` segments; a
+/// group `prefix{a, b::c}` gives one path per member.
+fn paths_after(code: &str, prefix: &str) -> Vec<Vec<String>> {
+    let mut out = Vec::new();
+    let mut rest = code;
+    while let Some(i) = rest.find(prefix) {
+        let before = rest[..i].chars().next_back();
+        rest = &rest[i + prefix.len()..];
+        if before.is_some_and(is_ident) {
+            continue;
+        }
+        if let Some(group) = rest.strip_prefix('{') {
+            let end = group.find('}').unwrap_or(group.len());
+            for member in group[..end].split(',') {
+                let segs = segments(member.trim());
+                if !segs.is_empty() {
+                    out.push(segs);
+                }
+            }
+        } else {
+            let segs = segments(rest);
+            if !segs.is_empty() {
+                out.push(segs);
+            }
+        }
+    }
+    out
+}
+
+/// The `a::b::c` identifiers at the start of `s`.
+fn segments(s: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut rest = s;
+    loop {
+        let end = rest.find(|c: char| !is_ident(c)).unwrap_or(rest.len());
+        if end == 0 {
+            break;
+        }
+        out.push(rest[..end].to_string());
+        match rest[end..].strip_prefix("::") {
+            Some(r) => rest = r,
+            None => break,
+        }
+    }
+    out
+}
+
+/// Top-level module -> the top-level modules it imports.
+fn top_level_graph(sources: &[Source]) -> BTreeMap<String, BTreeSet<String>> {
+    let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for s in sources {
+        let Some(top) = s.module.first() else {
+            continue;
+        };
+        if top == "lib" || top == "main" {
+            continue;
+        }
+        let entry = graph.entry(top.clone()).or_default();
+        for p in paths_after(&s.code, "crate::") {
+            if p[0] != *top {
+                entry.insert(p[0].clone());
+            }
+        }
+    }
+    graph
+}
+
+#[test]
+fn every_module_is_in_a_layer() {
+    let graph = top_level_graph(&sources());
+    let unknown: Vec<&String> = graph
+        .keys()
+        .filter(|m| !LAYERS.contains(&m.as_str()))
+        .collect();
+    assert!(
+        unknown.is_empty(),
+        "modules {unknown:?} are in no layer: add them to LAYERS in tests/architecture.rs and to docs/architecture.md"
+    );
+}
+
+#[test]
+fn modules_import_only_layers_below_them() {
+    let graph = top_level_graph(&sources());
+    let rank = |m: &str| LAYERS.iter().position(|l| *l == m);
+    let mut wrong = Vec::new();
+    for (module, imports) in &graph {
+        let Some(r) = rank(module) else { continue };
+        for i in imports {
+            if rank(i).is_none_or(|ri| ri >= r) {
+                wrong.push(format!("{module} -> {i}"));
+            }
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "imports against the pipeline's direction (docs/architecture.md): {wrong:#?}"
+    );
+}
+
+#[test]
+fn the_report_reads_only_the_model() {
+    let mut wrong = Vec::new();
+    for s in sources().iter().filter(|s| s.module[0] == "report") {
+        for p in paths_after(&s.code, "crate::") {
+            if p[0] != "report" && !REPORT_MAY_IMPORT.contains(&p[0].as_str()) {
+                wrong.push(format!("{}: crate::{}", s.path.display(), p.join("::")));
+            }
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "the report imports only {REPORT_MAY_IMPORT:?}; re-export what it shows from crate::model: {wrong:#?}"
+    );
+}
+
+/// The submodule a path names inside `top`, resolved to a file's module.
+fn resolve(modules: &BTreeSet<Vec<String>>, path: &[String]) -> Option<Vec<String>> {
+    (1..=path.len())
+        .rev()
+        .map(|k| path[..k].to_vec())
+        .find(|m| modules.contains(m))
+}
+
+#[test]
+fn submodules_have_no_import_cycle() {
+    let sources = sources();
+    let modules: BTreeSet<Vec<String>> = sources.iter().map(|s| s.module.clone()).collect();
+    let mut graph: BTreeMap<Vec<String>, BTreeSet<Vec<String>>> = BTreeMap::new();
+    for s in &sources {
+        let mut targets = BTreeSet::new();
+        for p in paths_after(&s.code, "crate::") {
+            if p[0] == s.module[0] {
+                targets.extend(resolve(&modules, &p));
+            }
+        }
+        let parent = &s.module[..s.module.len().saturating_sub(1)];
+        for p in paths_after(&s.code, "super::") {
+            let mut full = parent.to_vec();
+            full.extend(p);
+            targets.extend(resolve(&modules, &full));
+        }
+        // A module always reaches its own children and parent through
+        // `mod` and `super`: only edges between siblings' subtrees count.
+        targets.retain(|t| !t.starts_with(&s.module) && !s.module.starts_with(t));
+        graph.insert(s.module.clone(), targets);
+    }
+    // Depth-first search for a back edge.
+    fn visit(
+        m: &Vec<String>,
+        graph: &BTreeMap<Vec<String>, BTreeSet<Vec<String>>>,
+        state: &mut BTreeMap<Vec<String>, u8>,
+        stack: &mut Vec<Vec<String>>,
+    ) -> Option<Vec<String>> {
+        state.insert(m.clone(), 1);
+        stack.push(m.clone());
+        for t in graph.get(m).into_iter().flatten() {
+            match state.get(t) {
+                Some(1) => {
+                    let from = stack.iter().position(|s| s == t).unwrap_or(0);
+                    let mut cycle: Vec<String> =
+                        stack[from..].iter().map(|s| s.join("::")).collect();
+                    cycle.push(t.join("::"));
+                    return Some(cycle);
+                }
+                Some(_) => {}
+                None => {
+                    if let Some(c) = visit(t, graph, state, stack) {
+                        return Some(c);
+                    }
+                }
+            }
+        }
+        stack.pop();
+        state.insert(m.clone(), 2);
+        None
+    }
+    let mut state = BTreeMap::new();
+    for m in graph.keys() {
+        if !state.contains_key(m) {
+            let cycle = visit(m, &graph, &mut state, &mut Vec::new());
+            assert!(
+                cycle.is_none(),
+                "import cycle: {}",
+                cycle.unwrap().join(" -> ")
+            );
+        }
+    }
+}
+
+/// (first line, length) of every function of `text` longer than `max`.
+fn long_functions(text: &str, max: usize) -> Vec<(usize, usize, String)> {
+    let lines: Vec<&str> = text.lines().collect();
+    let mut out = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        let t = line.trim_start();
+        let t = t
+            .strip_prefix("pub(crate) ")
+            .or_else(|| t.strip_prefix("pub(super) "))
+            .or_else(|| t.strip_prefix("pub "))
+            .unwrap_or(t);
+        let t = t.strip_prefix("const ").unwrap_or(t);
+        if !t.starts_with("fn ") || line.trim_end().ends_with(';') {
+            continue;
+        }
+        let indent = line.len() - line.trim_start().len();
+        let end = lines[i + 1..].iter().position(|l| {
+            l.len() > indent
+                && l.len() - l.trim_start().len() == indent
+                && l.trim_start().starts_with('}')
+        });
+        if let Some(e) = end {
+            let n = e + 2;
+            if n > max {
+                out.push((i + 1, n, t.chars().take(60).collect()));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn functions_and_files_stay_short() {
+    let mut wrong = Vec::new();
+    for s in sources() {
+        let n = s.text.lines().count();
+        if n > MAX_FILE_LINES {
+            wrong.push(format!("{}: {n} lines", s.path.display()));
+        }
+        for (line, len, head) in long_functions(&s.text, MAX_FN_LINES) {
+            wrong.push(format!("{}:{line}: {len} lines: {head}", s.path.display()));
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "files over {MAX_FILE_LINES} lines or functions over {MAX_FN_LINES}: {wrong:#?}"
+    );
+}
+
+#[test]
+fn the_reader_finds_imports_and_cycles() {
+    // The checks above can fail: their reader sees plain, grouped and
+    // nested paths, and skips comments and test modules.
+    let code = code_of(
+        "use crate::plan::Plan;\nuse crate::{model, report::html};\n// crate::cli\nfn f() { crate::runner::run(); }\n#[cfg(test)]\nmod tests {\n    use crate::cli;\n}\n",
+    );
+    let tops: Vec<String> = paths_after(&code, "crate::")
+        .into_iter()
+        .map(|p| p[0].clone())
+        .collect();
+    assert_eq!(tops, ["plan", "model", "report", "runner"]);
+    let long = format!("fn long() {{\n{}}}\n", "    x();\n".repeat(130));
+    assert_eq!(long_functions(&long, MAX_FN_LINES).len(), 1);
+    assert!(long_functions("fn short() {\n    x();\n}\n", MAX_FN_LINES).is_empty());
+}
