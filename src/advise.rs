@@ -31,7 +31,7 @@
 //! `D > 1 - f_min T_max`.
 
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::analysis::finemap::Axis;
 use crate::physics::hdr::{Capture, CaptureExposure, HdrMode};
@@ -57,7 +57,7 @@ pub struct AdviseRequest {
 }
 
 /// What bounds an exposure: the frame time less the frame's other captures.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct FrameBound {
     /// Frame rate, frames/s (> 0).
     pub fps: f64,
@@ -130,7 +130,7 @@ impl FrameBound {
 }
 
 /// An exposure the advice does not offer, and why.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LeftOut {
     /// Exposure, seconds.
     pub exposure_s: f64,
@@ -144,7 +144,7 @@ pub struct LeftOut {
 pub struct AdviseError(pub String);
 
 /// One exposure and what it leaves.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Candidate {
     /// Exposure, seconds.
     pub exposure_s: f64,
@@ -162,7 +162,7 @@ pub struct Candidate {
 }
 
 /// The advice.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Advice {
     /// `T* = (1 - D_min) / f_min`, seconds.
     pub min_exposure_s: f64,

@@ -255,3 +255,143 @@ pub fn render_sample_frames(
         Ok(())
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trace::{FrameInfo, RoiTrace, Segment};
+
+    /// What the fake backend does for every case.
+    #[derive(Clone, Copy)]
+    enum Fault {
+        None,
+        Fails,
+        MissingRoi,
+        ShortTrace,
+        NanLuma,
+        NoPwmFrames,
+        InfiniteEnvelope,
+    }
+
+    /// A backend that returns a fixed, well-formed trace (OFF, ON, then a
+    /// PWM segment alternating between two levels), broken as `fault` says.
+    struct Fake {
+        rois: usize,
+        fault: Fault,
+    }
+
+    impl Backend for Fake {
+        fn id(&self) -> &str {
+            "fake"
+        }
+
+        fn acquire(&self, case: &TestCase) -> Result<Acquisition, BackendError> {
+            if let Fault::Fails = self.fault {
+                return Err(BackendError {
+                    backend: "fake".into(),
+                    case: case.id.clone(),
+                    message: "the rig is unplugged".into(),
+                });
+            }
+            let pwm = if let Fault::NoPwmFrames = self.fault {
+                Segment::On
+            } else {
+                Segment::Pwm
+            };
+            let segment = |i: u64| match i {
+                0..10 => Segment::Off,
+                10..20 => Segment::On,
+                _ => pwm,
+            };
+            let frames: Vec<FrameInfo> = (0..60)
+                .map(|i| FrameInfo {
+                    index: i,
+                    time_s: i as f64 / 30.0,
+                    segment: segment(i),
+                })
+                .collect();
+            let level = |i: u64| match segment(i) {
+                Segment::Off => 10.0,
+                Segment::On => 100.0,
+                Segment::Pwm => [60.0, 140.0][(i % 2) as usize],
+            };
+            let mut luma: Vec<f64> = (0..60).map(level).collect();
+            let mut envelope = None;
+            match self.fault {
+                Fault::ShortTrace => luma.truncate(59),
+                Fault::NanLuma => luma[30] = f64::NAN,
+                Fault::InfiniteEnvelope => envelope = Some((0.0, f64::INFINITY)),
+                _ => {}
+            }
+            let rois = if let Fault::MissingRoi = self.fault {
+                self.rois - 1
+            } else {
+                self.rois
+            };
+            Ok(Acquisition {
+                frames,
+                rois: (0..rois)
+                    .map(|k| RoiTrace {
+                        name: format!("roi{k}"),
+                        luma: luma.clone(),
+                        phase_envelope: envelope,
+                    })
+                    .collect(),
+                saturation_dn: 250.0,
+                capture: None,
+            })
+        }
+    }
+
+    fn plan() -> Plan {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("test-plans/daylight.toml");
+        crate::plan::load(&path).unwrap()
+    }
+
+    fn run_with(fault: Fault) -> Result<Vec<CaseResult>, RunError> {
+        let plan = plan();
+        let cases = crate::plan::expand_cases(&plan);
+        let fake = Fake {
+            rois: plan.rois.len(),
+            fault,
+        };
+        run(&plan, &cases[..3], &fake, Some(1), &|_| {})
+    }
+
+    #[test]
+    fn a_well_formed_trace_is_evaluated() {
+        let results = run_with(Fault::None).unwrap();
+        assert_eq!(results.len(), 3);
+        // PWM alternates 60/140 DN over a 10 DN OFF: PF = 80/200 = 40 %.
+        let pf = results[0].metrics[0].percent_flicker.value.unwrap();
+        assert!((pf - 40.0).abs() < 1e-9, "{pf}");
+    }
+
+    #[test]
+    fn every_broken_acquisition_is_a_named_error() {
+        let cases = [
+            (Fault::Fails, "the rig is unplugged"),
+            (Fault::MissingRoi, "ROI traces for"),
+            (Fault::ShortTrace, "59 luma values for 60 frames"),
+            (Fault::NanLuma, "luma of frame 30 is not a finite number"),
+            (Fault::NoPwmFrames, "no PWM frames"),
+            (
+                Fault::InfiniteEnvelope,
+                "worst case over phase is not finite",
+            ),
+        ];
+        for (fault, words) in cases {
+            let e = run_with(fault).unwrap_err();
+            let text = e.to_string();
+            assert!(text.contains(words), "{text}");
+            assert!(text.contains("2000lux-"), "names the case: {text}");
+            match (fault, &e) {
+                (Fault::Fails, RunError::Backend(_)) => {}
+                (Fault::Fails, _) => panic!("a backend failure is RunError::Backend: {e:?}"),
+                (_, RunError::BadTrace { .. }) => {}
+                _ => panic!("a malformed trace is RunError::BadTrace: {e:?}"),
+            }
+        }
+    }
+}

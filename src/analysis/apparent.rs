@@ -9,7 +9,7 @@
 
 use rustfft::FftPlanner;
 use rustfft::num_complex::Complex;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Apparent frequency in Hz (`0..=fps/2`) of a PWM at `frequency_hz` seen at
 /// `fps` frames per second: `|f - fps * round(f / fps)|`.
@@ -29,7 +29,7 @@ pub fn phase_step_cycles(frequency_hz: f64, fps: f64) -> f64 {
 }
 
 /// Where an apparent frequency came from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ApparentMethod {
     /// The PWM frequency is known: `|f - fps round(f / fps)|` with the
@@ -43,7 +43,7 @@ pub enum ApparentMethod {
 
 /// The beat of a case: its apparent frequency and whether the capture was
 /// long enough to show one full beat.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Beat {
     /// Apparent frequency, Hz (0 when phase locked, or when the PWM
     /// frequency is unknown and the spectrum shows none).

@@ -6,13 +6,13 @@
 //! Rows are rendered with the exact closed-form integral, LED light only
 //! (no background): the largest contrast the bands can have.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::apparent::phase_step_cycles;
 use crate::physics::{PwmDrive, Shutter, ShutterModel};
 
 /// Banding of one PWM condition on a rolling shutter.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Banding {
     /// Rows between successive bands, `1 / (f * t_line)`.
     pub band_period_rows: f64,

@@ -25,7 +25,7 @@
 // four arrays reads worse than `for k in 0..3`.
 #![allow(clippy::needless_range_loop)]
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::physics::pwm::{on_fraction, wrap_unit};
 
@@ -51,7 +51,7 @@ fn wrap_deg(x: f64) -> f64 {
 
 /// One channel's die: its peak contribution when ON for the whole
 /// exposure, its duty and its rising edge in cycles after the common one.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Die {
     /// Linear camera RGB added by this die fully ON (>= 0 each).
     pub rgb: Rgb,
@@ -62,7 +62,7 @@ pub struct Die {
 }
 
 /// Colour KPIs of one condition.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ColourFlicker {
     /// Percent Flicker of R, G and B, worst over phase (`None` where a
     /// channel has no light).

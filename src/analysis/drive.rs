@@ -17,10 +17,10 @@
 //! - no observable effect (NOEL): `0.01 f` % below 90 Hz, `0.0333 f` %
 //!   (taken as `f / 30`, reaching 100 % at 3 kHz) up to 3 kHz, no limit above.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// IEEE 1789-2015 region of a light source.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Ieee1789Region {
     /// Within the no-observable-effect limit (Recommended Practice 2).
@@ -32,7 +32,7 @@ pub enum Ieee1789Region {
 }
 
 /// Flicker of the PWM drive itself.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DriveFlicker {
     /// Percent Flicker (modulation %) of the drive, 0..=100.
     pub percent_flicker: f64,

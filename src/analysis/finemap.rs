@@ -5,14 +5,14 @@
 //! independently, so the map does not depend on the thread count.
 
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::metrics::flicker::{fdi_2018, percent_flicker};
 use crate::physics::{PwmDrive, Shutter};
 
 /// A linear camera response for one light level: ROI luma is
 /// `min(off_dn + led_peak_dn * s, full_scale_dn)` for an ON fraction `s`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct LumaModel {
     /// Luma with the LED off (background and black level), DN (>= 0).
     pub off_dn: f64,
@@ -30,7 +30,7 @@ impl LumaModel {
 }
 
 /// An evenly spaced axis: `start + i * step` for `i` in `0..count`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
 pub struct Axis {
     /// First value.
     pub start: f64,
@@ -52,7 +52,7 @@ impl Axis {
 }
 
 /// Worst-phase FDI and Percent Flicker over a frequency x duty grid.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct FineMap {
     /// Frequencies, Hz.
     pub frequency: Axis,
@@ -104,7 +104,7 @@ pub fn compute(
 }
 
 /// What a fine map says, for results.json.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FineMapSummary {
     /// Frequency axis, Hz.
     pub frequency_hz: Axis,

@@ -17,7 +17,7 @@
 //! A class applies only when the flicker is visible: see
 //! [`VISIBLE_PERCENT_FLICKER`].
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Percent Flicker of the ROI luma trace (Michelson contrast x 100) at or
 /// above which the flicker is taken as visible on a monitor.
@@ -30,7 +30,7 @@ use serde::Serialize;
 pub const VISIBLE_PERCENT_FLICKER: f64 = 2.0;
 
 /// What the apparent flicker looks like to a driver.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum HazardClass {
     /// No visible modulation, or phase locked (a constant level).

@@ -27,11 +27,11 @@ pub mod phase_fold;
 pub mod summary;
 pub mod timing;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::metrics::flicker::Segment;
-use crate::physics::{PwmDrive, Shutter, ShutterModel};
-use crate::plan::{BackendKind, CameraConfig, Plan, RoiKind, ShutterKind};
+use crate::physics::PwmDrive;
+use crate::plan::{BackendKind, CameraConfig, Plan, RoiKind};
 use crate::runner::CaseResult;
 
 pub use apparent::{ApparentMethod, Beat};
@@ -41,24 +41,13 @@ pub use hazard::HazardClass;
 pub use phase_fold::PhaseCoverage;
 pub use timing::FrameTiming;
 
-/// Exposure timing of the plan's camera: shutter model, exposure and frame
-/// rate. (Built here from the plan rather than taken from the simulator, so
-/// the analysis does not depend on how a backend models its camera.)
-pub fn shutter_of(cam: &CameraConfig) -> Shutter {
-    Shutter {
-        model: match cam.shutter {
-            ShutterKind::Global => ShutterModel::Global,
-            ShutterKind::Rolling => ShutterModel::Rolling {
-                line_time_s: cam.line_time_s,
-            },
-        },
-        exposure_s: cam.exposure_s,
-        fps: cam.fps,
-    }
+/// [`RoiAnalysis::spectrum`] of a model read back from results.json.
+fn spectrum_not_stored() -> Result<f64, apparent::SpectrumError> {
+    Err(apparent::SpectrumError::TooShort(0))
 }
 
 /// The analysis of one ROI trace.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RoiAnalysis {
     /// Dominant frequency of the PWM-segment trace's spectrum, Hz; `None`
     /// with `spectrum_reason` when there is none.
@@ -82,8 +71,10 @@ pub struct RoiAnalysis {
     /// Exact (min, max) luma over phase, when known, for the chart.
     #[serde(skip)]
     pub envelope: Option<(f64, f64)>,
-    /// The dominant frequency of the spectrum, or why there is none.
-    #[serde(skip)]
+    /// The dominant frequency of the spectrum, or why there is none (not
+    /// in results.json, which holds it as `apparent_frequency_spectrum_hz`
+    /// and `spectrum_reason`).
+    #[serde(skip, default = "spectrum_not_stored")]
     pub spectrum: Result<f64, apparent::SpectrumError>,
 }
 
@@ -224,7 +215,7 @@ pub fn analyse_trace(
 }
 
 /// The analysis of one case.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CaseAnalysis {
     /// Apparent frequency and beat.
     pub beat: Beat,
@@ -247,7 +238,7 @@ pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
     let cam: &CameraConfig = &plan.dut.camera;
     let f = r.case.frequency_hz;
     let known = (f > 0.0).then_some(f);
-    let shutter = shutter_of(cam);
+    let shutter = cam.exposure_timing();
     let pwm_frames: Vec<usize> = r
         .acquisition
         .frames
@@ -366,7 +357,7 @@ pub fn ideal_luma_model(plan: &Plan, lux: f64) -> finemap::LumaModel {
 }
 
 /// A fine map for one light level, as reported.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FineMapInfo {
     /// Illuminance, lux.
     pub light_lux: f64,
@@ -423,7 +414,7 @@ pub fn fine_maps(plan: &Plan) -> Vec<FineMapInfo> {
     let Some(roi) = plan.rois.iter().find(|r| r.kind == RoiKind::Led) else {
         return Vec::new();
     };
-    let shutter = shutter_of(&plan.dut.camera);
+    let shutter = plan.dut.camera.exposure_timing();
     plan.light_levels_lux
         .iter()
         .map(|&lux| {

@@ -7,7 +7,7 @@
 //! from simulated and captured data alike. The phase circle is cut into
 //! [`PHASE_BINS`] bins; a capture "covers" the bins its frames fall in.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::physics::pwm::wrap_unit;
 
@@ -21,7 +21,7 @@ pub const PHASE_BINS: usize = 64;
 pub const MAX_NEEDED_CAPTURE_S: f64 = 3600.0;
 
 /// How well a capture sampled the flicker signal.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PhaseCoverage {
     /// Bins of the phase circle.
     pub bins: usize,

@@ -14,7 +14,7 @@
 //! real times ([`dominant_frequency_at_times_hz`]), with the same window,
 //! padding and refinement.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::apparent::SpectrumError;
 
@@ -27,7 +27,7 @@ pub const IRREGULAR_INTERVAL: f64 = 0.25;
 pub const MAX_DIRECT_FRAMES: usize = 20_000;
 
 /// Frame timing of a trace.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FrameTiming {
     /// Start of each frame, seconds.
     #[serde(skip)]

@@ -27,7 +27,7 @@ use crate::physics::extremes::extremes;
 use crate::physics::hdr::{HdrMode, merge};
 use crate::physics::pwm::{on_fraction, wrap_unit};
 use crate::physics::sensor::{CaptureSample, Rng};
-use crate::physics::{PwmDrive, Shutter, ShutterModel};
+use crate::physics::{PwmDrive, Shutter};
 use crate::plan::{
     CameraConfig, PhysicalCamera, Plan, Roi, RoiKind, Scene, Sequence, ShutterKind, TestCase,
 };
@@ -66,20 +66,6 @@ impl SegmentFrames {
     }
 }
 
-/// Exposure timing of a configured camera.
-pub fn shutter_of(camera: &CameraConfig) -> Shutter {
-    Shutter {
-        model: match camera.shutter {
-            ShutterKind::Global => ShutterModel::Global,
-            ShutterKind::Rolling => ShutterModel::Rolling {
-                line_time_s: camera.line_time_s,
-            },
-        },
-        exposure_s: camera.exposure_s,
-        fps: camera.fps,
-    }
-}
-
 /// What the LED does during one frame.
 #[derive(Debug, Clone, Copy)]
 enum Light<'a> {
@@ -108,7 +94,7 @@ impl Simulator {
 
     /// The camera's exposure timing.
     pub fn shutter(&self) -> Shutter {
-        shutter_of(&self.camera)
+        self.camera.exposure_timing()
     }
 
     fn pwm_for(&self, case: &TestCase) -> Result<PwmDrive, BackendError> {

@@ -72,7 +72,7 @@ pub(super) fn bench(a: BenchArgs) -> anyhow::Result<i32> {
         .iter()
         .find(|r| r.kind == plan::RoiKind::Led)
         .ok_or_else(|| UsageError(format!("plan `{}` has no LED ROI", plan.id)))?;
-    let shutter = crate::backend::sim::shutter_of(&plan.dut.camera);
+    let shutter = plan.dut.camera.exposure_timing();
     let lux = plan.light_levels_lux.first().copied().unwrap_or(0.0);
     let luma = crate::analysis::ideal_luma_model(&plan, lux);
     let mut times: Vec<f64> = (0..repeat)

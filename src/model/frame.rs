@@ -11,7 +11,7 @@
 //! banding sentence printed beside it, so the text always describes the
 //! frame shown.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::analysis::banding::band_period_from_profile;
 use crate::plan::{Roi, RoiKind};
@@ -31,7 +31,7 @@ const CROP_MIN: u32 = 24;
 pub const NO_BANDS_CONTRAST_PERCENT: f64 = 1.0;
 
 /// The linear display stretch of a frame.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Stretch {
     /// Luma shown black: the frame's [`STRETCH_LOW_PERCENTILE`], DN.
     pub low_dn: f64,
@@ -85,7 +85,7 @@ fn rank(n: usize, p: f64) -> Option<usize> {
 }
 
 /// An ROI as drawn on the view.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RoiBox {
     /// Number written on the view, from 1 in plan order.
     pub number: usize,
@@ -141,7 +141,7 @@ pub fn crop_rect(rois: &[RoiBox], (width, height): (u32, u32)) -> Option<[u32; 4
 
 /// Row analysis of the frame shown: the mean luma of each row over the LED
 /// ROI's columns, between the first and the last row the LED lights.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FrameBanding {
     /// First and last lit row (inclusive).
     pub lit_rows: (u32, u32),

@@ -5,17 +5,18 @@
 //! each case's `acquisition`), so HTML and PDF, and a report re-rendered at
 //! signing, all say the same.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::{CaseInfo, Results};
 use crate::backend::sim::SegmentFrames;
 use crate::plan::{BackendKind, Limits, Plan, ShutterKind, Thresholds, VerdictBasis};
 
 /// How the run was done, for the report's method section.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Method {
     /// "simulator", "captured" or "command".
-    pub backend: &'static str,
+    #[serde(deserialize_with = "crate::util::static_str")]
+    pub backend: crate::util::Word,
     /// Where the frames came from, one paragraph.
     pub acquisition: String,
     /// The verdict basis actually used, one sentence.

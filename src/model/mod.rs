@@ -24,7 +24,7 @@ pub mod method;
 
 use std::collections::BTreeMap;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 pub use crate::advise::{Advice, Candidate};
 pub use crate::analysis::finemap::FineMap;
@@ -43,10 +43,11 @@ pub use build::{assemble, build};
 pub const RESULTS_SCHEMA: &str = "ledflicker.results/2";
 
 /// Top of results.json.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Results {
     /// Always [`RESULTS_SCHEMA`].
-    pub schema: &'static str,
+    #[serde(deserialize_with = "crate::util::static_str")]
+    pub schema: crate::util::Word,
     /// Tool that made it.
     pub tool: Tool,
     /// The plan.
@@ -84,7 +85,7 @@ pub struct Results {
 }
 
 /// Exposure advice for a plan's range.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct PlanAdvice {
     /// The request's ranges and grid.
     pub frequency_hz: (f64, f64),
@@ -98,16 +99,18 @@ pub struct PlanAdvice {
 }
 
 /// Tool name and version.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Tool {
     /// "ledflicker".
-    pub name: &'static str,
+    #[serde(deserialize_with = "crate::util::static_str")]
+    pub name: crate::util::Word,
     /// Crate version.
-    pub version: &'static str,
+    #[serde(deserialize_with = "crate::util::static_str")]
+    pub version: crate::util::Word,
 }
 
 /// Plan identity.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct PlanInfo {
     /// Plan id.
     pub id: String,
@@ -128,7 +131,7 @@ pub struct PlanInfo {
 }
 
 /// Device under test.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct DutInfo {
     /// Backend id, e.g. "sim-ideal".
     pub backend: String,
@@ -145,10 +148,11 @@ pub struct DutInfo {
 }
 
 /// The simulated camera, in the plan's units.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct CameraInfo {
     /// "global" or "rolling".
-    pub shutter: &'static str,
+    #[serde(deserialize_with = "crate::util::static_str")]
+    pub shutter: crate::util::Word,
     /// Sensor rows.
     pub sensor_rows: u32,
     /// Sensor columns.
@@ -164,7 +168,7 @@ pub struct CameraInfo {
 }
 
 /// Sequence durations and frame counts.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SequenceInfo {
     /// Steady ON, seconds.
     pub on_s: f64,
@@ -175,7 +179,7 @@ pub struct SequenceInfo {
 }
 
 /// Case counts.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct Counts {
     /// All cases.
     pub total: usize,
@@ -188,18 +192,18 @@ pub struct Counts {
 }
 
 /// One case.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct CaseInfo {
     /// Case id.
     pub id: String,
     /// Illuminance, lux; `null` when unknown (a capture without conditions).
-    #[serde(serialize_with = "positive_or_null")]
+    #[serde(serialize_with = "positive_or_null", deserialize_with = "zero_if_null")]
     pub light_lux: f64,
     /// PWM frequency, Hz; `null` when unknown.
-    #[serde(serialize_with = "positive_or_null")]
+    #[serde(serialize_with = "positive_or_null", deserialize_with = "zero_if_null")]
     pub frequency_hz: f64,
     /// Duty cycle, 0..1; `null` when unknown.
-    #[serde(serialize_with = "positive_or_null")]
+    #[serde(serialize_with = "positive_or_null", deserialize_with = "zero_if_null")]
     pub duty: f64,
     /// Capture file of a captured case, as written in the plan.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -246,7 +250,7 @@ pub struct CaseInfo {
 }
 
 /// A rendered frame written next to the report.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SampleFrameInfo {
     /// PNG path, relative to the report directory.
     pub path: String,
@@ -274,7 +278,7 @@ pub fn frame_path(case_id: &str) -> String {
 }
 
 /// One ROI of one case.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RoiInfo {
     /// ROI name.
     pub name: String,
@@ -303,6 +307,31 @@ impl RoiInfo {
             && metric.starts_with("fdi_2018")
             && self.metrics.contains_key(metric)
     }
+}
+
+/// Reads a results.json back, typed. Checks the schema first, so a file of
+/// another schema gets a clear message instead of a missing field.
+pub fn read_results(text: &str) -> Result<Results, String> {
+    #[derive(Deserialize)]
+    struct Schema {
+        schema: Option<String>,
+    }
+    let head: Schema = serde_json::from_str(text).map_err(|e| format!("not valid JSON: {e}"))?;
+    if head.schema.as_deref() != Some(RESULTS_SCHEMA) {
+        return Err(format!(
+            "not a `{RESULTS_SCHEMA}` file (schema {})",
+            head.schema
+                .map_or("missing".to_string(), |s| format!("`{s}`"))
+        ));
+    }
+    serde_json::from_str(text).map_err(|e| {
+        format!("not a readable `{RESULTS_SCHEMA}` file: {e}\n    hint: write it again with this version of ledflicker")
+    })
+}
+
+/// Reads [`positive_or_null`]'s `null` back as 0.
+fn zero_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(0.0))
 }
 
 /// Conditions are > 0 when known; a captured case without conditions holds
@@ -362,7 +391,7 @@ impl Detail {
 }
 
 /// Report metadata kept in results.json under `report`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ReportMeta {
     /// Report date, `YYYY-MM-DD`.
     pub date: String,

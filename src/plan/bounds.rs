@@ -47,7 +47,7 @@ const CASE_OUTPUT_BYTES: f64 = 200.0e3;
 /// What running a plan costs, estimated before running it. Every figure is
 /// an upper bound for the simulator; for captured and command backends the
 /// frames come from files and only the report part is estimated.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WorkEstimate {
     /// Test cases.
     pub cases: usize,

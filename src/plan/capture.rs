@@ -15,7 +15,7 @@ use std::path::PathBuf;
 pub const DEFAULT_SETTLE_S: f64 = 0.5;
 
 /// Weights that turn R, G, B into luma.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum LumaWeights {
     /// ITU-R BT.601: 0.299 R + 0.587 G + 0.114 B (OpenCV's grey; P2020 reference).
@@ -25,7 +25,7 @@ pub enum LumaWeights {
 }
 
 /// How video is decoded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum VideoDecode {
     /// Decode to full-range RGB (FFmpeg's swscale, as OpenCV does in the P2020
@@ -38,7 +38,7 @@ pub enum VideoDecode {
 }
 
 /// Signal range of Y' in video and Y4M.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum VideoRange {
     /// From the file's tag; limited (16-235) when untagged, as H.264 usually is.
@@ -50,7 +50,7 @@ pub enum VideoRange {
 }
 
 /// A span of frames: `start` inclusive, `end` exclusive (`None`: to the end).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(tag = "unit", rename_all = "lowercase")]
 pub enum Span {
     /// Frame indices from 0.
@@ -70,7 +70,7 @@ pub enum Span {
 }
 
 /// Where the segments of a capture are. All `None`: detect them.
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct SegmentSpec {
     /// OFF reference (x_off, L_OFF).
     pub off: Option<Span>,

@@ -115,7 +115,7 @@ impl SegmentFrames {
 }
 
 /// What an ROI looks at.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum RoiKind {
     /// On the LED source: flicker metrics and verdicts apply.
@@ -125,7 +125,7 @@ pub enum RoiKind {
 }
 
 /// A rectangular region of interest in sensor pixels.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Roi {
     /// Unique name; also the trace CSV column.
     pub name: String,
@@ -223,6 +223,25 @@ pub struct CameraConfig {
     pub physical: Option<PhysicalCamera>,
 }
 
+impl CameraConfig {
+    /// Exposure timing of this camera: shutter model, exposure and frame
+    /// rate. The one mapping from the plan's camera to the physics; the
+    /// simulator and the analyses both use it.
+    pub fn exposure_timing(&self) -> crate::physics::Shutter {
+        use crate::physics::{Shutter, ShutterModel};
+        Shutter {
+            model: match self.shutter {
+                ShutterKind::Global => ShutterModel::Global,
+                ShutterKind::Rolling => ShutterModel::Rolling {
+                    line_time_s: self.line_time_s,
+                },
+            },
+            exposure_s: self.exposure_s,
+            fps: self.fps,
+        }
+    }
+}
+
 /// A physical camera: sensor, HDR captures, merge, tone curve, auto exposure.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PhysicalCamera {
@@ -268,7 +287,7 @@ impl Scene {
 }
 
 /// Which figure the verdict is taken from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum VerdictBasis {
     /// The worst case over PWM phase (conservative; default).
@@ -279,7 +298,7 @@ pub enum VerdictBasis {
 
 /// Pass limits on the metrics of one case; `None`: not checked. Every
 /// metric is the verdict basis's figure (worst phase or as captured).
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Limits {
     /// FDI (2018) must be >= this (Deegan 2018: the light appears OFF below 0.1).
     pub fdi_2018_min: Option<f64>,
@@ -309,7 +328,7 @@ impl Limits {
 }
 
 /// Limits for one light level, over the global ones.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LevelLimits {
     /// The light level, lux (> 0); a level of `[light]` or a case's `light-lux`.
     pub light_lux: f64,
@@ -320,7 +339,7 @@ pub struct LevelLimits {
 
 /// Pass criteria. A case whose frequency lies outside the mitigation range
 /// is informational.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Thresholds {
     /// FDI (2018) must be >= this (Deegan 2018: the light appears OFF below 0.1).
     pub fdi_2018_min: Option<f64>,

@@ -2,10 +2,10 @@
 //! gives them. The KPIs themselves are computed in `metrics::p2020`, which
 //! takes these types from here.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// The level MMP compares each frame with.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum MmpReference {
     /// Mean of the PWM segment, as the P2020 reference code does.
@@ -15,7 +15,7 @@ pub enum MmpReference {
 }
 
 /// Parameters of the P2020 KPIs.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct P2020Options {
     /// FDI contrast threshold (the reference code uses 0.1).
     pub contrast_threshold: f64,

@@ -12,7 +12,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::ReportError;
-use crate::model::{CaseResult, Detail, InputFile, ReportMeta, Results};
+use crate::model::{CaseResult, Detail, InputFile, ReportMeta, Results, RoiKind};
 
 /// Folder of the chart SVGs, relative to the report directory.
 pub const CHARTS_DIR: &str = "charts";
@@ -73,8 +73,8 @@ pub fn frame_image_path(case_id: &str) -> String {
 /// Everything a renderer needs.
 #[derive(Debug, Clone)]
 pub struct Document {
-    /// results.json as JSON (the report model, with `report` metadata).
-    pub results: serde_json::Value,
+    /// results.json, typed (the results model, with `report` metadata).
+    pub results: Results,
     /// Chart path relative to the report dir (see [`trace_chart_path`]) ->
     /// SVG text.
     pub charts: BTreeMap<String, String>,
@@ -181,7 +181,7 @@ impl Document {
             .unwrap_or_default();
         model.report = Some(report_meta(&model, date, detail));
         Ok(Document {
-            results: serde_json::to_value(&model)?,
+            results: model,
             charts,
             signatories,
             images,
@@ -193,34 +193,26 @@ impl Document {
         self.signatories.is_empty()
     }
 
+    /// results.json as the renderers read it: the JSON value of the
+    /// model, so HTML and PDF show exactly what results.json says.
+    pub fn json(&self) -> Result<serde_json::Value, ReportError> {
+        Ok(serde_json::to_value(&self.results)?)
+    }
+
     /// Case ids in plan order.
     pub fn case_ids(&self) -> Vec<String> {
-        self.results["cases"]
-            .as_array()
-            .map(|cases| {
-                cases
-                    .iter()
-                    .filter_map(|c| c["id"].as_str().map(str::to_string))
-                    .collect()
-            })
-            .unwrap_or_default()
+        self.results.cases.iter().map(|c| c.id.clone()).collect()
     }
 
     /// Light levels (lux) in order of first appearance; the matrix of the
     /// `i`-th is [`matrix_chart_path`]`(i)`.
     pub fn light_levels(&self) -> Vec<f64> {
         let mut out: Vec<f64> = Vec::new();
-        for c in self.results["cases"].as_array().into_iter().flatten() {
+        for c in &self.results.cases {
             // As `matrix::light_levels`: cases with known conditions only.
-            let known = ["frequency_hz", "duty"]
-                .iter()
-                .all(|k| c[*k].as_f64().is_some_and(|v| v > 0.0));
-            if let Some(lux) = c["light_lux"].as_f64()
-                && known
-                && lux > 0.0
-                && !out.contains(&lux)
-            {
-                out.push(lux);
+            let known = c.frequency_hz > 0.0 && c.duty > 0.0;
+            if known && c.light_lux > 0.0 && !out.contains(&c.light_lux) {
+                out.push(c.light_lux);
             }
         }
         out
@@ -229,21 +221,20 @@ impl Document {
     /// The `--detail` the report was written with (results.json
     /// `report.detail`; reports written before it existed are `full`).
     pub fn detail(&self) -> Detail {
-        match self.results["report"]["detail"].as_str() {
+        match self.results.report.as_ref().map(|r| r.detail.as_str()) {
+            Some("") | None => Detail::Full,
             Some(s) => Detail::parse(s).unwrap_or_default(),
-            None => Detail::Full,
         }
     }
 
     /// Ids of the cases that get their own page at this report's detail.
     pub fn case_pages(&self) -> std::collections::BTreeSet<String> {
         let detail = self.detail();
-        self.results["cases"]
-            .as_array()
-            .into_iter()
-            .flatten()
-            .filter(|c| detail.shows_case(c["verdict"].as_str().unwrap_or("")))
-            .filter_map(|c| c["id"].as_str().map(str::to_string))
+        self.results
+            .cases
+            .iter()
+            .filter(|c| detail.shows_case(c.verdict.as_str()))
+            .map(|c| c.id.clone())
             .collect()
     }
 
@@ -253,35 +244,29 @@ impl Document {
     pub fn fold_notes(&self) -> BTreeMap<String, Vec<String>> {
         const NAME: &str = "\u{0}";
         let mut out = BTreeMap::new();
-        for c in self.results["cases"].as_array().into_iter().flatten() {
-            let Some(id) = c["id"].as_str() else { continue };
-            let frequency_known = c["frequency_hz"].as_f64().is_some();
+        for c in &self.results.cases {
+            let frequency_known = c.frequency_hz > 0.0;
             // Sentence with a placeholder name -> the ROIs it stands for.
             let mut notes: Vec<(String, Vec<&str>)> = Vec::new();
-            for roi in c["rois"].as_array().into_iter().flatten() {
-                if roi["kind"] != "led" {
-                    continue;
-                }
-                let cov = &roi["analysis"]["phase_coverage"];
-                let count = |k: &str| cov[k].as_u64().unwrap_or(0) as usize;
+            for roi in c.rois.iter().filter(|r| r.kind == RoiKind::Led) {
+                let cov = &roi.analysis.phase_coverage;
                 let sentence = super::charts::degenerate_fold_sentence(
                     NAME,
-                    count("covered_bins"),
-                    count("bins"),
+                    cov.covered_bins,
+                    cov.bins,
                     frequency_known,
                 );
                 let Some(sentence) = sentence else { continue };
-                let name = roi["name"].as_str().unwrap_or("?");
                 match notes.iter_mut().find(|(s, _)| *s == sentence) {
-                    Some((_, names)) => names.push(name),
-                    None => notes.push((sentence, vec![name])),
+                    Some((_, names)) => names.push(&roi.name),
+                    None => notes.push((sentence, vec![&roi.name])),
                 }
             }
             let notes = notes
                 .into_iter()
                 .map(|(s, names)| s.replace(NAME, &names.join(", ")))
                 .collect();
-            out.insert(id.to_string(), notes);
+            out.insert(c.id.clone(), notes);
         }
         out
     }
@@ -292,18 +277,15 @@ impl Document {
     /// "Apparent flicker" and "Phase coverage" rows print them.
     pub fn caveats(&self) -> BTreeMap<String, Vec<String>> {
         let mut out = BTreeMap::new();
-        for c in self.results["cases"].as_array().into_iter().flatten() {
-            let Some(id) = c["id"].as_str() else { continue };
+        for c in &self.results.cases {
             // Reason text -> (ROIs, metrics), in order of first appearance.
-            let mut seen: Vec<(String, Vec<String>, Vec<String>)> = Vec::new();
-            for roi in c["rois"].as_array().into_iter().flatten() {
-                let name = roi["name"].as_str().unwrap_or("?").to_string();
-                let led = roi["kind"] == "led";
-                for (metric, why) in roi["reasons"].as_object().into_iter().flatten() {
+            let mut seen: Vec<(&str, Vec<&str>, Vec<&str>)> = Vec::new();
+            for roi in &c.rois {
+                let led = roi.kind == RoiKind::Led;
+                for (metric, why) in &roi.reasons {
                     if led && SHOWN_IN_CASE_TABLE.contains(&metric.as_str()) {
                         continue;
                     }
-                    let why = why.as_str().unwrap_or("").to_string();
                     let at = match seen.iter().position(|(w, _, _)| *w == why) {
                         Some(i) => i,
                         None => {
@@ -312,11 +294,11 @@ impl Document {
                         }
                     };
                     let (_, rois, metrics) = &mut seen[at];
-                    if !rois.contains(&name) {
-                        rois.push(name.clone());
+                    if !rois.contains(&roi.name.as_str()) {
+                        rois.push(&roi.name);
                     }
-                    if !metrics.contains(metric) {
-                        metrics.push(metric.clone());
+                    if !metrics.contains(&metric.as_str()) {
+                        metrics.push(metric);
                     }
                 }
             }
@@ -326,14 +308,14 @@ impl Document {
                     format!("{} / {}: {why}", rois.join(", "), metrics.join(", "))
                 })
                 .collect();
-            out.insert(id.to_string(), lines);
+            out.insert(c.id.clone(), lines);
         }
         out
     }
 
     /// Report date from results.json, or "" when missing.
     pub fn date(&self) -> &str {
-        self.results["report"]["date"].as_str().unwrap_or("")
+        self.results.report.as_ref().map_or("", |r| r.date.as_str())
     }
 
     /// Reads results.json and `charts/*.svg` from a report directory.
@@ -344,14 +326,12 @@ impl Document {
             path: path.clone(),
             source,
         })?;
-        let results: serde_json::Value =
-            serde_json::from_str(&text).map_err(|e| ReportError::Invalid {
+        let results =
+            crate::model::read_results(&text).map_err(|message| ReportError::Invalid {
                 path: path.clone(),
-                message: format!("not valid JSON: {e}"),
+                message,
             })?;
-        if results["schema"].as_str() != Some(crate::model::RESULTS_SCHEMA)
-            || !results["report"].is_object()
-        {
+        if results.report.is_none() {
             return Err(ReportError::Invalid {
                 path,
                 message: format!(
@@ -382,10 +362,8 @@ impl Document {
             charts.insert(format!("{CHARTS_DIR}/{name}"), svg);
         }
         let mut images = BTreeMap::new();
-        for case in results["cases"].as_array().into_iter().flatten() {
-            let Some(id) = case["id"].as_str() else {
-                continue;
-            };
+        for case in &results.cases {
+            let id = case.id.as_str();
             let rel = frame_image_path(id);
             // The annotated view as written, else (older reports) the frame.
             let view = dir.join(super::frames::view_path(id));
@@ -404,7 +382,7 @@ impl Document {
                 })?
                 .to_luma16();
             let frame = crate::model::RenderedFrame {
-                index: case["sample_frame"]["frame"].as_u64().unwrap_or(0),
+                index: case.sample_frame.as_ref().map_or(0, |f| f.frame),
                 width: img.width(),
                 height: img.height(),
                 luma: img.pixels().map(|p| f64::from(p.0[0])).collect(),

@@ -161,72 +161,53 @@ fn invalid(path: &Path, message: String) -> ReportError {
     }
 }
 
-/// Reads a golden results.json.
-pub fn load(path: &Path) -> Result<serde_json::Value, ReportError> {
+/// Reads a golden results.json, typed.
+pub fn load(path: &Path) -> Result<Results, ReportError> {
     let text = std::fs::read_to_string(path).map_err(|source| ReportError::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    let v: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| invalid(path, format!("not valid JSON: {e}")))?;
-    if v["schema"].as_str() != Some(crate::model::RESULTS_SCHEMA) || !v["cases"].is_array() {
-        return Err(invalid(
+    crate::model::read_results(&text).map_err(|m| {
+        invalid(
             path,
-            format!(
-                "not a `{}` file\n    hint: pass the results.json of an earlier run",
-                crate::model::RESULTS_SCHEMA
-            ),
-        ));
+            format!("{m}\n    hint: pass the results.json of an earlier run"),
+        )
+    })
+}
+
+/// A metric of an ROI: +infinity when the FDI is unbounded, else its value.
+fn metric_value(roi: &crate::model::RoiInfo, metric: &str) -> Option<f64> {
+    if roi.contrast_unbounded && metric.starts_with("fdi") {
+        Some(f64::INFINITY)
+    } else {
+        roi.metrics.get(metric).copied().flatten()
     }
-    Ok(v)
 }
 
 /// Compares `current` with `golden` (a results.json, see [`load`]).
-pub fn compare(golden: &serde_json::Value, current: &Results, tol: &Tolerances) -> Comparison {
+pub fn compare(golden: &Results, current: &Results, tol: &Tolerances) -> Comparison {
     let mut out = Comparison::default();
-    let golden_cases: BTreeMap<&str, &serde_json::Value> = golden["cases"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .filter_map(|c| c["id"].as_str().map(|id| (id, c)))
-        .collect();
+    let golden_cases: BTreeMap<&str, &crate::model::CaseInfo> =
+        golden.cases.iter().map(|c| (c.id.as_str(), c)).collect();
     for case in &current.cases {
         let Some(g) = golden_cases.get(case.id.as_str()) else {
             out.added.push(case.id.clone());
             continue;
         };
-        let gv = g["verdict"].as_str().unwrap_or("?");
-        if gv != case.verdict.as_str() {
+        if g.verdict != case.verdict {
             out.verdict_changes.push((
                 case.id.clone(),
-                gv.to_string(),
+                g.verdict.as_str().to_string(),
                 case.verdict.as_str().to_string(),
             ));
         }
         for roi in &case.rois {
-            let groi = g["rois"]
-                .as_array()
-                .into_iter()
-                .flatten()
-                .find(|r| r["name"].as_str() == Some(roi.name.as_str()));
+            let groi = g.rois.iter().find(|r| r.name == roi.name);
             for (metric, &tolerance) in &tol.0 {
-                let unbounded_now = roi.contrast_unbounded && metric.starts_with("fdi");
-                let current_v = if unbounded_now {
-                    Some(f64::INFINITY)
-                } else {
-                    roi.metrics.get(metric).copied().flatten()
-                };
-                let golden_v = groi.and_then(|r| {
-                    if r["contrast_unbounded"].as_bool() == Some(true) && metric.starts_with("fdi")
-                    {
-                        Some(f64::INFINITY)
-                    } else {
-                        r["metrics"][metric.as_str()].as_f64()
-                    }
-                });
+                let current_v = metric_value(roi, metric);
+                let golden_v = groi.and_then(|r| metric_value(r, metric));
                 let present_now = roi.metrics.contains_key(metric);
-                let present_then =
-                    groi.is_some_and(|r| r["metrics"].get(metric.as_str()).is_some());
+                let present_then = groi.is_some_and(|r| r.metrics.contains_key(metric));
                 if !present_now && !present_then {
                     continue;
                 }

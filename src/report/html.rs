@@ -119,6 +119,7 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
         })
         .collect();
     let advice_chart = inline(ADVICE_CHART);
+    let results = doc.json()?;
     let template = env
         .get_template("report.html.j2")
         .map_err(|e| ReportError::Template {
@@ -127,7 +128,7 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
         })?;
     template
         .render(minijinja::context! {
-            r => Serde(&doc.results),
+            r => Serde(&results),
             charts => traces,
             frames => frames,
             folds => folds,

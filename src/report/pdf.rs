@@ -191,9 +191,10 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
         .contains_key(super::document::ADVICE_CHART)
         .then_some(super::document::ADVICE_CHART);
     let template = env.get_template(TEMPLATE_NAME).map_err(template_error)?;
+    let results = doc.json()?;
     template
         .render(minijinja::context! {
-            r => Serde(&doc.results),
+            r => Serde(&results),
             frames => frames,
             folds => folds,
             finemaps => finemaps,
@@ -266,10 +267,7 @@ pub fn render(doc: &Document) -> Result<(Vec<u8>, usize), ReportError> {
         .map_err(|errors| diagnostics("typst could not lay out the report", &errors, &world))?;
     let options = typst_pdf::PdfOptions {
         // A stable identifier: the same report gives the same PDF bytes.
-        ident: typst::foundations::Smart::Custom(format!(
-            "ledflicker-{}",
-            doc.results["plan"]["id"].as_str().unwrap_or("report")
-        )),
+        ident: typst::foundations::Smart::Custom(format!("ledflicker-{}", doc.results.plan.id)),
         ..typst_pdf::PdfOptions::default()
     };
     let mut bytes = typst_pdf::pdf(&document, &options)

@@ -100,17 +100,11 @@ pub fn signatories(dir: &Path) -> Vec<Signatory> {
 
 /// The inputs recorded in results.json.
 pub fn recorded_inputs(doc: &Document) -> Vec<InputFile> {
-    doc.results["report"]["inputs"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .map(|i| InputFile {
-            role: i["role"].as_str().unwrap_or("").to_string(),
-            path: i["path"].as_str().unwrap_or("").to_string(),
-            sha256: i["sha256"].as_str().unwrap_or("").to_string(),
-            size: i["size"].as_u64().unwrap_or(0),
-        })
-        .collect()
+    doc.results
+        .report
+        .as_ref()
+        .map(|r| r.inputs.clone())
+        .unwrap_or_default()
 }
 
 /// One manifest whose signature matched.

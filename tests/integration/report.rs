@@ -265,3 +265,29 @@ fn golden_comparison_passes_on_itself_and_names_drift() {
     );
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
 }
+
+#[test]
+fn results_json_reads_back_typed_field_for_field() {
+    // Every field results.json holds is in the typed model both ways: the
+    // file read back and written again is the same JSON, for a simulator
+    // plan and a rig plan (capture summaries, detected segments).
+    for (plan, name) in [
+        ("tests/fixtures/plans/small_failing.toml", "typed-sim"),
+        ("test-plans/command-sim-rig.toml", "typed-rig"),
+    ] {
+        let dir = scratch(name);
+        let o = run_plan(plan, &dir, &[]);
+        assert!(matches!(o.status.code(), Some(0 | 1)), "{}", text(&o));
+        let json = std::fs::read_to_string(dir.join("results.json")).unwrap();
+        let typed = ledflicker::model::read_results(&json).unwrap_or_else(|e| panic!("{e}"));
+        let untyped: serde_json::Value = serde_json::from_str(&json).unwrap();
+        assert_eq!(serde_json::to_value(&typed).unwrap(), untyped, "{plan}");
+        assert!(typed.report.is_some() && !typed.cases.is_empty());
+    }
+    // A damaged file is refused, naming what is wrong.
+    let e = ledflicker::model::read_results(r#"{"schema": "ledflicker.results/2", "cases": 3}"#)
+        .unwrap_err();
+    assert!(e.contains("not a readable"), "{e}");
+    let e = ledflicker::model::read_results(r#"{"schema": "other/1"}"#).unwrap_err();
+    assert!(e.contains("`other/1`"), "{e}");
+}
