@@ -198,9 +198,13 @@ fn results_schema_is_ours(path: &Path) -> bool {
     let Ok(text) = std::fs::read_to_string(path) else {
         return false;
     };
-    serde_json::from_str::<serde_json::Value>(&text).is_ok_and(|v| {
-        v["schema"]
-            .as_str()
+    /// The one field that says whose file it is (any schema version).
+    #[derive(serde::Deserialize)]
+    struct Head {
+        schema: Option<String>,
+    }
+    serde_json::from_str::<Head>(&text).is_ok_and(|h| {
+        h.schema
             .is_some_and(|s| s.starts_with("ledflicker.results/"))
     })
 }

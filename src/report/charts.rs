@@ -161,22 +161,19 @@ pub fn phase_fold_svg(
     {
         let root = SVGBackend::with_string(&mut svg, (380, 220)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(&e))?;
-        let mut chart = ChartBuilder::on(&root)
-            .margin(8)
-            .caption(title, (FONT, 12))
-            .x_label_area_size(30)
-            .y_label_area_size(46)
-            .build_cartesian_2d(0.0..1.0, y0..y1)
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("PWM phase at exposure start (cycles)")
-            .y_desc("luma (DN)")
-            .label_style((FONT, 10))
-            .axis_desc_style((FONT, 10))
-            .max_light_lines(0)
-            .draw()
-            .map_err(|e| err(&e))?;
+        let mut chart = linear_axes(
+            &root,
+            &Axes {
+                margin: 8,
+                caption: Some((title, 12)),
+                label_areas: (30, 46),
+                x: 0.0..1.0,
+                y: y0..y1,
+                desc: ("PWM phase at exposure start (cycles)", "luma (DN)"),
+                font: 10,
+            },
+        )
+        .map_err(|e| err(&e))?;
         if let Some((a, b)) = envelope {
             for v in [a, b] {
                 chart
@@ -482,6 +479,52 @@ pub fn advise_svg(curve: &[crate::model::Candidate], bound_s: f64) -> Result<Str
         root.present().map_err(|e| err(&e))?;
     }
     Ok(svg)
+}
+
+/// The frame of a chart with linear axes and no light grid lines.
+pub(crate) struct Axes<'a> {
+    /// Margin around the chart, pixels.
+    pub margin: u32,
+    /// Title and its font size.
+    pub caption: Option<(&'a str, u32)>,
+    /// Heights of the x and y label areas, pixels.
+    pub label_areas: (u32, u32),
+    /// Range of the x axis.
+    pub x: std::ops::Range<f64>,
+    /// Range of the y axis.
+    pub y: std::ops::Range<f64>,
+    /// Descriptions of the x and y axes.
+    pub desc: (&'a str, &'a str),
+    /// Font size of the labels and descriptions.
+    pub font: u32,
+}
+
+/// Builds the chart `axes` describes on `area` and draws its axes.
+pub(crate) fn linear_axes<'a, 'b>(
+    area: &'a DrawingArea<SVGBackend<'b>, plotters::coord::Shift>,
+    axes: &Axes<'_>,
+) -> Result<envelope::Chart<'a, 'b>, String> {
+    let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
+    let mut builder = ChartBuilder::on(area);
+    builder.margin(axes.margin);
+    if let Some((title, size)) = axes.caption {
+        builder.caption(title, (FONT, size));
+    }
+    let mut chart = builder
+        .x_label_area_size(axes.label_areas.0)
+        .y_label_area_size(axes.label_areas.1)
+        .build_cartesian_2d(axes.x.clone(), axes.y.clone())
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc(axes.desc.0)
+        .y_desc(axes.desc.1)
+        .label_style((FONT, axes.font))
+        .axis_desc_style((FONT, axes.font))
+        .max_light_lines(0)
+        .draw()
+        .map_err(e)?;
+    Ok(chart)
 }
 
 #[cfg(test)]

@@ -230,21 +230,19 @@ pub fn luma_trace_svg(
         let root = SVGBackend::with_string(&mut svg, (760, 250)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(&e))?;
         let (plot, side) = root.split_horizontally(760 - LEGEND_WIDTH);
-        let mut chart = ChartBuilder::on(&plot)
-            .margin(10)
-            .x_label_area_size(34)
-            .y_label_area_size(52)
-            .build_cartesian_2d(0.0..t_end, y0..y1)
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("time (s)")
-            .y_desc("ROI luma (DN)")
-            .label_style((FONT, 12))
-            .axis_desc_style((FONT, 12))
-            .max_light_lines(0)
-            .draw()
-            .map_err(|e| err(&e))?;
+        let mut chart = super::linear_axes(
+            &plot,
+            &super::Axes {
+                margin: 10,
+                caption: None,
+                label_areas: (34, 52),
+                x: 0.0..t_end,
+                y: y0..y1,
+                desc: ("time (s)", "ROI luma (DN)"),
+                font: 12,
+            },
+        )
+        .map_err(|e| err(&e))?;
         let columns = chart.plotting_area().dim_in_pixel().0 as usize;
         let span = (0.0, t_end);
         let mut legend = draw_segments(&mut chart, frames, detected, t_end, columns, (y0, y1))
