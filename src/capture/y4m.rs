@@ -37,11 +37,15 @@ fn parse_header(line: &str, path: &Path) -> Result<Header, CaptureError> {
     let (mut width, mut height, mut fps, mut cs, mut full_range) =
         (None, None, None, "420jpeg".to_string(), None);
     for t in tokens {
-        let (tag, val) = t.split_at(1);
+        // The tag is the first character, which need not be ASCII in a
+        // damaged header (found by the read_y4m fuzz target).
+        let mut chars = t.chars();
+        let tag = chars.next();
+        let val = chars.as_str();
         match tag {
-            "W" => width = val.parse::<u32>().ok(),
-            "H" => height = val.parse::<u32>().ok(),
-            "F" => {
+            Some('W') => width = val.parse::<u32>().ok(),
+            Some('H') => height = val.parse::<u32>().ok(),
+            Some('F') => {
                 if let Some((n, d)) = val.split_once(':')
                     && let (Ok(n), Ok(d)) = (n.parse::<f64>(), d.parse::<f64>())
                     && n > 0.0
@@ -50,8 +54,8 @@ fn parse_header(line: &str, path: &Path) -> Result<Header, CaptureError> {
                     fps = Some(n / d);
                 }
             }
-            "C" => cs = val.to_string(),
-            "X" => {
+            Some('C') => cs = val.to_string(),
+            Some('X') => {
                 if let Some(r) = val.strip_prefix("COLORRANGE=") {
                     full_range = Some(r.eq_ignore_ascii_case("FULL"));
                 }
@@ -271,4 +275,22 @@ pub(super) fn read(
             if full { "full" } else { "limited" }
         ),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_header_token_starting_with_a_wide_character_is_skipped_not_a_panic() {
+        // The first line of the input the read_y4m fuzz target found
+        // (fuzz/README.md): a token that starts with a two-byte character.
+        let path = Path::new("c.y4m");
+        let e = parse_header("YUV4MPEG2 W8 \u{1fa} F31E", path)
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains("missing or zero W/H"), "{e}");
+        let h = parse_header("YUV4MPEG2 W8 \u{1fa} H2 F30:1 Cmono", path).unwrap();
+        assert_eq!((h.width, h.height, h.fps), (8, 2, Some(30.0)));
+    }
 }
