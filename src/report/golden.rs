@@ -168,10 +168,13 @@ pub fn load(path: &Path) -> Result<Results, ReportError> {
         source,
     })?;
     crate::model::read_results(&text).map_err(|m| {
-        invalid(
-            path,
-            format!("{m}\n    hint: pass the results.json of an earlier run"),
-        )
+        // One hint: the reader's own (write it again) when it has one.
+        let hint = if m.contains("hint:") {
+            ""
+        } else {
+            "\n    hint: pass the results.json of an earlier run"
+        };
+        invalid(path, format!("{m}{hint}"))
     })
 }
 
