@@ -83,11 +83,6 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> SignoffError + '_ {
     }
 }
 
-/// Whether `dir` holds a signed report, of this format or the old one.
-pub fn is_signed(dir: &Path) -> bool {
-    crate::outdir::is_signed(dir)
-}
-
 /// `path` with symbolic links resolved, also when its last parts do not
 /// exist yet (they are appended to the canonical existing ancestor).
 pub fn canonical(path: &Path) -> PathBuf {
@@ -130,7 +125,7 @@ fn inside_report_dir(path: &Path) -> Option<PathBuf> {
     canonical(path)
         .ancestors()
         .skip(1)
-        .find(|d| d.join("results.json").is_file() || is_signed(d))
+        .find(|d| d.join("results.json").is_file() || crate::outdir::is_signed(d))
         .map(Path::to_path_buf)
 }
 
