@@ -22,6 +22,15 @@ pub fn solve_spd(a: &[f64], b: &[f64], m: usize) -> Option<Vec<f64>> {
 
 /// Lower Cholesky factor of a symmetric positive-definite matrix.
 fn cholesky(a: &[f64], m: usize) -> Option<Vec<f64>> {
+    let (l, good) = cholesky_prefix(a, m);
+    (good == m).then_some(l)
+}
+
+/// Lower Cholesky factor of the largest leading block of `a` that is
+/// positive definite, and that block's size: columns `0..size` of the
+/// factor are valid (the factor of a leading block is the leading block of
+/// the factor).
+fn cholesky_prefix(a: &[f64], m: usize) -> (Vec<f64>, usize) {
     let mut l = vec![0.0; m * m];
     for i in 0..m {
         for j in 0..=i {
@@ -29,7 +38,7 @@ fn cholesky(a: &[f64], m: usize) -> Option<Vec<f64>> {
             if i == j {
                 let d = a[i * m + i] - s;
                 if d.is_nan() || d <= 0.0 || !d.is_finite() {
-                    return None;
+                    return (l, i);
                 }
                 l[i * m + j] = d.sqrt();
             } else {
@@ -37,7 +46,7 @@ fn cholesky(a: &[f64], m: usize) -> Option<Vec<f64>> {
             }
         }
     }
-    Some(l)
+    (l, m)
 }
 
 /// Inverse of a symmetric positive-definite matrix (column by column).
@@ -54,10 +63,14 @@ pub fn inverse_spd(a: &[f64], m: usize) -> Option<Vec<f64>> {
     Some(inv)
 }
 
-/// Residual sum of squares of the least-squares fit of `y` on the columns
-/// produced by `basis(i, out)` (which fills `out` with the `m` regressors
-/// of sample `i`). `None` when the design is singular.
-pub fn lsq_rss(y: &[f64], m: usize, mut basis: impl FnMut(usize, &mut [f64])) -> Option<f64> {
+/// The normal equations of `y` on the columns produced by `basis(i, out)`
+/// (which fills `out` with the `m` regressors of sample `i`): `A^T A`
+/// (row-major, both triangles), `A^T y` and `y^T y`.
+fn normal_equations(
+    y: &[f64],
+    m: usize,
+    mut basis: impl FnMut(usize, &mut [f64]),
+) -> (Vec<f64>, Vec<f64>, f64) {
     let mut ata = vec![0.0; m * m];
     let mut aty = vec![0.0; m];
     let mut row = vec![0.0; m];
@@ -80,6 +93,14 @@ pub fn lsq_rss(y: &[f64], m: usize, mut basis: impl FnMut(usize, &mut [f64])) ->
             ata[q * m + p] = ata[p * m + q];
         }
     }
+    (ata, aty, yy)
+}
+
+/// Residual sum of squares of the least-squares fit of `y` on the columns
+/// produced by `basis(i, out)` (which fills `out` with the `m` regressors
+/// of sample `i`). `None` when the design is singular.
+pub fn lsq_rss(y: &[f64], m: usize, basis: impl FnMut(usize, &mut [f64])) -> Option<f64> {
+    let (mut ata, aty, yy) = normal_equations(y, m, basis);
     // A relative ridge keeps nearly collinear columns (e.g. a harmonic at
     // a very low frequency against the trend) from breaking the solve.
     let trace: f64 = (0..m).map(|p| ata[p * m + p]).sum::<f64>() / m as f64;
@@ -89,6 +110,43 @@ pub fn lsq_rss(y: &[f64], m: usize, mut basis: impl FnMut(usize, &mut [f64])) ->
     let x = solve_spd(&ata, &aty, m)?;
     let explained: f64 = x.iter().zip(&aty).map(|(a, b)| a * b).sum();
     Some((yy - explained).max(0.0))
+}
+
+/// Residual sums of squares of the nested least-squares fits of `y` on the
+/// first `k` columns of `basis`, for every `k` in `0..=m`, from one pass
+/// over the samples and one Cholesky factorisation: with `A^T A = L L^T`
+/// and `L z = A^T y`, the fit on the first `k` columns explains
+/// `z_0^2 + ... + z_(k-1)^2`. The relative ridge (as in [`lsq_rss`]) is
+/// `1e-12` of the mean of the first `ridge_cols` diagonal entries, the same
+/// for every `k`, so the fits are truly nested. Entries whose leading block
+/// is singular are infinite.
+pub fn lsq_rss_nested(
+    y: &[f64],
+    m: usize,
+    ridge_cols: usize,
+    basis: impl FnMut(usize, &mut [f64]),
+) -> Vec<f64> {
+    let (mut ata, aty, yy) = normal_equations(y, m, basis);
+    let cols = ridge_cols.clamp(1, m.max(1));
+    let ridge = 1e-12 * (0..cols.min(m)).map(|p| ata[p * m + p]).sum::<f64>() / cols as f64;
+    for p in 0..m {
+        ata[p * m + p] += ridge;
+    }
+    let (l, good) = cholesky_prefix(&ata, m);
+    let mut rss = Vec::with_capacity(m + 1);
+    rss.push(yy.max(0.0));
+    let (mut z, mut explained) = (vec![0.0; m], 0.0);
+    for i in 0..m {
+        if i >= good {
+            rss.push(f64::INFINITY);
+            continue;
+        }
+        let s: f64 = (0..i).map(|k| l[i * m + k] * z[k]).sum();
+        z[i] = (aty[i] - s) / l[i * m + i];
+        explained += z[i] * z[i];
+        rss.push((yy - explained).max(0.0));
+    }
+    rss
 }
 
 #[cfg(test)]

@@ -44,12 +44,13 @@ impl Stretch {
     /// The stretch of `luma`: its percentiles (nearest rank) of the finite
     /// values; 0 to 1 DN when there are none.
     pub fn of(luma: &[f64]) -> Stretch {
-        let mut v: Vec<f64> = luma.iter().copied().filter(|x| x.is_finite()).collect();
-        // Two selections, O(n) each, instead of sorting a whole frame.
-        let mut nth = |p: f64| {
-            let i = rank(v.len(), p)?;
-            Some(*v.select_nth_unstable_by(i, f64::total_cmp).1)
-        };
+        let keys: Vec<u64> = luma
+            .iter()
+            .filter(|x| x.is_finite())
+            .map(|&x| order_key(x))
+            .collect();
+        // Two radix selections, O(n) each, instead of sorting a whole frame.
+        let nth = |p: f64| rank(keys.len(), p).map(|i| from_order_key(select_key(&keys, i)));
         let low_dn = nth(STRETCH_LOW_PERCENTILE).unwrap_or(0.0);
         let high_dn = nth(STRETCH_HIGH_PERCENTILE)
             .unwrap_or(1.0)
@@ -75,6 +76,54 @@ impl Stretch {
             crate::util::fixed(self.high_dn, 1)
         )
     }
+}
+
+/// A key whose unsigned order is the [`f64::total_cmp`] order of `x`.
+fn order_key(x: f64) -> u64 {
+    let bits = x.to_bits();
+    if bits >> 63 == 1 {
+        !bits
+    } else {
+        bits | 1 << 63
+    }
+}
+
+/// The double whose [`order_key`] is `key`.
+fn from_order_key(key: u64) -> f64 {
+    f64::from_bits(if key >> 63 == 1 {
+        key & !(1 << 63)
+    } else {
+        !key
+    })
+}
+
+/// The `k`-th smallest (from 0) of `keys`, `k < keys.len()`: a radix
+/// selection, 16 bits at a time from the top. Each pass counts the
+/// candidates' next 16 bits, keeps the bucket that holds rank `k`, and
+/// goes on inside it; at most four passes, the first over all keys.
+fn select_key(keys: &[u64], mut k: usize) -> u64 {
+    let mut candidates: Vec<u64> = Vec::new();
+    let mut counts = vec![0usize; 1 << 16];
+    for shift in [48u32, 32, 16, 0] {
+        let set: &[u64] = if shift == 48 { keys } else { &candidates };
+        counts.fill(0);
+        for &key in set {
+            counts[(key >> shift) as usize & 0xffff] += 1;
+        }
+        let mut bucket = 0;
+        while k >= counts[bucket] {
+            k -= counts[bucket];
+            bucket += 1;
+        }
+        let kept: Vec<u64> = set
+            .iter()
+            .copied()
+            .filter(|&key| (key >> shift) as usize & 0xffff == bucket)
+            .collect();
+        candidates = kept;
+    }
+    // Every candidate left has the same 64 bits.
+    candidates[k]
 }
 
 /// Index in sorted order of the nearest-rank percentile `p` (0..=100) of
@@ -282,5 +331,31 @@ pub fn sample_frame_info(
         crop_px,
         banding,
         caption,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn radix_selection_gives_every_rank_a_sort_gives() {
+        let mut rng = crate::physics::sensor::Rng::new(11);
+        let mut values: Vec<f64> = (0..3000).map(|_| rng.normal() * 40.0).collect();
+        // Duplicates, both zeros, tiny and huge magnitudes, whole numbers.
+        values.extend([0.0, -0.0, 0.0, 1e-300, -1e-300, 1e300, -1e300, 5e-324]);
+        values.extend(std::iter::repeat_n(17.0, 500));
+        values.extend((0..200).map(|i| f64::from(i % 7)));
+        let keys: Vec<u64> = values.iter().map(|&x| order_key(x)).collect();
+        let mut sorted = values.clone();
+        sorted.sort_by(f64::total_cmp);
+        let last = sorted.len() - 1;
+        for (k, want) in sorted.iter().enumerate() {
+            if k % 13 != 0 && k > 20 && k < last - 20 {
+                continue;
+            }
+            let got = from_order_key(select_key(&keys, k));
+            assert_eq!(got.to_bits(), want.to_bits(), "rank {k}");
+        }
     }
 }

@@ -166,7 +166,7 @@ impl Document {
                 let frame = r.sample_frame.as_ref()?;
                 let info = info.and_then(|c| c.sample_frame.as_ref())?;
                 Some(
-                    super::frames::view_png(frame, &info.rois)
+                    super::frames::view_png(frame, &info.rois, &info.stretch)
                         .map(|png| (frame_image_path(&r.case.id), png)),
                 )
             })

@@ -8,15 +8,20 @@ use image::{DynamicImage, ImageBuffer, ImageFormat, Luma};
 
 use super::ReportError;
 use crate::model::RenderedFrame;
-use crate::model::frame::RoiBox;
+use crate::model::frame::{RoiBox, Stretch};
 
 pub mod view;
 
 pub use crate::model::view_path;
 
-/// The annotated view of a frame ([`view::sample_view`]) as an RGB PNG.
-pub fn view_png(frame: &RenderedFrame, rois: &[RoiBox]) -> Result<Vec<u8>, ReportError> {
-    let (img, _) = view::sample_view(frame, rois);
+/// The annotated view of a frame ([`view::sample_view`]) with the
+/// model's display stretch, as an RGB PNG.
+pub fn view_png(
+    frame: &RenderedFrame,
+    rois: &[RoiBox],
+    stretch: &Stretch,
+) -> Result<Vec<u8>, ReportError> {
+    let img = view::stretched_view(frame, rois, stretch);
     let mut out = Cursor::new(Vec::new());
     DynamicImage::ImageRgb8(img)
         .write_to(&mut out, ImageFormat::Png)

@@ -126,6 +126,34 @@ fn replace_dir(dir: &Path, name: &str, files: &[(String, Vec<u8>)]) -> Result<()
     std::fs::rename(&staging, &target).map_err(io_err(&target))
 }
 
+/// Replaces frames/ by each case's full-size frame and, beside it, the
+/// annotated view the document shows ([`frames::view_path`]); removes it
+/// when no case has a frame.
+fn write_frames(
+    dir: &Path,
+    results: &[CaseResult],
+    full_frames: Vec<(String, Vec<u8>)>,
+    doc: &document::Document,
+) -> Result<(), ReportError> {
+    let _t = crate::timings::span("report: traces and frames");
+    if full_frames.is_empty() {
+        let old = dir.join(document::FRAMES_DIR);
+        if old.exists() {
+            std::fs::remove_dir_all(&old).map_err(io_err(&old))?;
+        }
+        return Ok(());
+    }
+    let mut files = Vec::with_capacity(2 * full_frames.len());
+    let mut full = full_frames.into_iter();
+    for r in results.iter().filter(|r| r.sample_frame.is_some()) {
+        files.extend(full.next());
+        if let Some(view) = doc.images.get(&document::frame_image_path(&r.case.id)) {
+            files.push((format!("{}-view.png", r.case.id), view.clone()));
+        }
+    }
+    replace_dir(dir, document::FRAMES_DIR, &files)
+}
+
 /// Renders report.html and report.pdf from `doc` into `dir`, atomically.
 /// Returns the PDF's page count.
 pub fn write_renderings(dir: &Path, doc: &document::Document) -> Result<usize, ReportError> {
@@ -175,35 +203,14 @@ pub fn write_report(
     replace_dir(dir, "traces", &traces)?;
 
     // PNG encoding is independent per frame: in parallel, in case order.
-    let encoded: Vec<Vec<(String, Vec<u8>)>> = {
+    let full_frames: Vec<(String, Vec<u8>)> = {
         use rayon::prelude::*;
         results
             .par_iter()
             .filter_map(|r| r.sample_frame.as_ref().map(|f| (r, f)))
-            .map(|(r, f)| {
-                let mut out = vec![(format!("{}.png", r.case.id), frames::png_bytes(f)?)];
-                // The annotated view beside the frame (frames::view_path).
-                let info = model.cases.iter().find(|c| c.id == r.case.id);
-                if let Some(info) = info.and_then(|c| c.sample_frame.as_ref()) {
-                    out.push((
-                        format!("{}-view.png", r.case.id),
-                        frames::view_png(f, &info.rois)?,
-                    ));
-                }
-                Ok(out)
-            })
+            .map(|(r, f)| Ok((format!("{}.png", r.case.id), frames::png_bytes(f)?)))
             .collect::<Result<_, ReportError>>()?
     };
-    let frames: Vec<(String, Vec<u8>)> = encoded.into_iter().flatten().collect();
-    if frames.is_empty() {
-        let old = dir.join(document::FRAMES_DIR);
-        if old.exists() {
-            std::fs::remove_dir_all(&old).map_err(io_err(&old))?;
-        }
-    } else {
-        replace_dir(dir, document::FRAMES_DIR, &frames)?;
-    }
-
     drop(t);
     let t = crate::timings::span("report: charts");
     let mut model = model.clone();
@@ -226,6 +233,7 @@ pub fn write_report(
         .collect();
     replace_dir(dir, document::CHARTS_DIR, &files)?;
     drop(t);
+    write_frames(dir, results, full_frames, &doc)?;
     write_renderings(dir, &doc)?;
     let _t = crate::timings::span("report: exports and results.json");
 

@@ -114,6 +114,11 @@ fn box_grey(
 /// neighbour, with the ROIs outlined. Returns the image and the stretch.
 pub fn sample_view(frame: &RenderedFrame, rois: &[RoiBox]) -> (RgbImage, Stretch) {
     let stretch = Stretch::of(&frame.luma);
+    (stretched_view(frame, rois, &stretch), stretch)
+}
+
+/// [`sample_view`] with the frame's stretch already known (the model's).
+pub fn stretched_view(frame: &RenderedFrame, rois: &[RoiBox], stretch: &Stretch) -> RgbImage {
     let (fw, fh) = (frame.width.max(1), frame.height.max(1));
     let vw = fw.min(VIEW_WIDTH);
     let vh = ((u64::from(fh) * u64::from(vw)) / u64::from(fw)).max(1) as u32;
@@ -127,7 +132,7 @@ pub fn sample_view(frame: &RenderedFrame, rois: &[RoiBox]) -> (RgbImage, Stretch
         let (y0, y1) = (to_view(y, vh, fh), to_view(y + 1, vh, fh));
         for x in 0..vw {
             let (x0, x1) = (to_view(x, vw, fw), to_view(x + 1, vw, fw));
-            let g = box_grey(frame, &stretch, (x0, x1), (y0, y1));
+            let g = box_grey(frame, stretch, (x0, x1), (y0, y1));
             img.put_pixel(x, y, Rgb([g, g, g]));
         }
     }
@@ -145,7 +150,7 @@ pub fn sample_view(frame: &RenderedFrame, rois: &[RoiBox]) -> (RgbImage, Stretch
         for y in 0..ch {
             for x in 0..cw {
                 let (sx, sy) = (c[0] + x / CROP_ZOOM, c[1] + y / CROP_ZOOM);
-                let g = box_grey(frame, &stretch, (sx, sx + 1), (sy, sy + 1));
+                let g = box_grey(frame, stretch, (sx, sx + 1), (sy, sy + 1));
                 img.put_pixel(left + x, y, Rgb([g, g, g]));
             }
         }
@@ -178,7 +183,7 @@ pub fn sample_view(frame: &RenderedFrame, rois: &[RoiBox]) -> (RgbImage, Stretch
         };
         label(&mut img, roi.number, (r[0], ly), colour(roi));
     }
-    (img, stretch)
+    img
 }
 
 #[cfg(test)]
