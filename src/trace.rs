@@ -67,7 +67,19 @@ pub struct Acquisition {
     pub capture: Option<CaptureSummary>,
 }
 
-/// A whole frame, as output luma, row-major.
+/// A run of pixels of equal luma along a row.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Run {
+    /// Pixels in the run.
+    pub len: u32,
+    /// Luma of each, DN.
+    pub value: f64,
+}
+
+/// A whole frame, as output luma, each row held as runs of equal values.
+/// A simulated frame has a few runs per row (the lamp and the background),
+/// so a 1280 x 800 frame takes kilobytes, not the 8 MB of one double per
+/// pixel; a frame made from pixels keeps one run per change of value.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RenderedFrame {
     /// Frame number.
@@ -76,10 +88,128 @@ pub struct RenderedFrame {
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    /// Luma of each pixel, DN, `width * height` values.
-    pub luma: Vec<f64>,
     /// Output full scale, DN (255 for 8-bit output).
     pub full_scale_dn: f64,
+    /// Rows top to bottom, each as runs left to right. Pixels that a short
+    /// row's runs do not reach read as NaN; runs past the width are ignored.
+    rows: Vec<Vec<Run>>,
+}
+
+impl RenderedFrame {
+    /// A frame of `width` x `rows.len()` pixels from its rows' runs.
+    pub fn from_runs(index: u64, width: u32, full_scale_dn: f64, rows: Vec<Vec<Run>>) -> Self {
+        Self {
+            index,
+            width,
+            height: rows.len() as u32,
+            full_scale_dn,
+            rows,
+        }
+    }
+
+    /// A frame from its pixels' luma, row-major; missing pixels read as NaN.
+    pub fn from_pixels(
+        index: u64,
+        width: u32,
+        height: u32,
+        luma: &[f64],
+        full_scale_dn: f64,
+    ) -> Self {
+        let w = width as usize;
+        let rows = (0..height as usize)
+            .map(|y| {
+                let start = (y * w).min(luma.len());
+                let row = &luma[start..(start + w).min(luma.len())];
+                let mut runs: Vec<Run> = Vec::new();
+                for &v in row {
+                    match runs.last_mut() {
+                        Some(r) if r.value.to_bits() == v.to_bits() => r.len += 1,
+                        _ => runs.push(Run { len: 1, value: v }),
+                    }
+                }
+                runs
+            })
+            .collect();
+        Self {
+            index,
+            width,
+            height,
+            full_scale_dn,
+            rows,
+        }
+    }
+
+    /// Calls `f(x, value)` for every pixel `x` in `x0..x1` of row `y`, left
+    /// to right (nothing for a row or columns outside the frame).
+    pub fn for_each_in_row(&self, y: u32, (x0, x1): (u32, u32), mut f: impl FnMut(u32, f64)) {
+        let x1 = x1.min(self.width);
+        let Some(runs) = self.rows.get(y as usize) else {
+            return;
+        };
+        let mut x = 0u32;
+        let mut runs = runs.iter();
+        while x < x1 {
+            let (len, value) = runs.next().map_or((x1 - x, f64::NAN), |r| (r.len, r.value));
+            let end = x.saturating_add(len).min(x1);
+            for px in x.max(x0)..end {
+                f(px, value);
+            }
+            x = end;
+        }
+    }
+
+    /// The luma of row `y`, `width` values (NaN outside the frame).
+    pub fn row(&self, y: u32) -> Vec<f64> {
+        let mut out = vec![f64::NAN; self.width as usize];
+        self.for_each_in_row(y, (0, self.width), |x, v| out[x as usize] = v);
+        out
+    }
+
+    /// The luma of pixel `(x, y)`; `None` outside the frame.
+    pub fn pixel(&self, x: u32, y: u32) -> Option<f64> {
+        let mut out = None;
+        if y < self.height {
+            self.for_each_in_row(y, (x, x.saturating_add(1)), |_, v| out = Some(v));
+        }
+        out
+    }
+
+    /// Every distinct run of the frame as `(value, pixels)`, row by row;
+    /// the pixels of all pairs sum to `width * height`.
+    pub fn value_counts(&self) -> Vec<(f64, u64)> {
+        let mut out = Vec::new();
+        for y in 0..self.height {
+            let mut last: Option<(f64, u64)> = None;
+            self.for_each_run(y, |value, len| match &mut last {
+                Some((v, n)) if v.to_bits() == value.to_bits() => *n += len,
+                _ => {
+                    out.extend(last.take());
+                    last = Some((value, len));
+                }
+            });
+            out.extend(last);
+        }
+        out
+    }
+
+    /// Calls `f(value, pixels)` for each run of row `y` clipped to the width
+    /// (and a NaN run for pixels the runs do not reach).
+    fn for_each_run(&self, y: u32, mut f: impl FnMut(f64, u64)) {
+        let Some(runs) = self.rows.get(y as usize) else {
+            return;
+        };
+        let mut x = 0u32;
+        for r in runs {
+            let end = x.saturating_add(r.len).min(self.width);
+            if end > x {
+                f(r.value, u64::from(end - x));
+            }
+            x = end;
+        }
+        if x < self.width {
+            f(f64::NAN, u64::from(self.width - x));
+        }
+    }
 }
 
 /// Where a case's segments are, in frames (start inclusive, end exclusive)

@@ -31,6 +31,7 @@ use crate::physics::{PwmDrive, Shutter};
 use crate::plan::{
     CameraConfig, PhysicalCamera, Plan, Roi, RoiKind, Scene, Sequence, ShutterKind, TestCase,
 };
+use crate::trace::Run;
 
 /// Phases evaluated, beside the exact corners, when searching a physical
 /// camera's worst case over phase.
@@ -546,24 +547,28 @@ impl Simulator {
                     .collect()
             }
         };
-        let mut luma = Vec::with_capacity(cam.sensor_rows as usize * cam.sensor_columns as usize);
-        for (r, &(lamp, bg)) in per_row.iter().enumerate() {
-            let in_rows = lamp_rows.contains(&(r as u32));
-            for c in 0..cam.sensor_columns {
-                luma.push(if in_rows && lamp_cols.contains(&c) {
-                    lamp
+        // Each row as runs: background, the lamp's columns, background.
+        let width = cam.sensor_columns;
+        let (c0, c1) = (lamp_cols.start.min(width), lamp_cols.end.min(width));
+        let rows = per_row
+            .iter()
+            .enumerate()
+            .map(|(r, &(lamp, bg))| {
+                let run = |len: u32, value: f64| Run { len, value };
+                let runs = if lamp_rows.contains(&(r as u32)) && c1 > c0 {
+                    vec![run(c0, bg), run(c1 - c0, lamp), run(width - c1, bg)]
                 } else {
-                    bg
-                });
-            }
-        }
-        Ok(RenderedFrame {
-            index: frame,
-            width: cam.sensor_columns,
-            height: cam.sensor_rows,
-            luma,
-            full_scale_dn: cam.full_scale_dn,
-        })
+                    vec![run(width, bg)]
+                };
+                runs.into_iter().filter(|r| r.len > 0).collect()
+            })
+            .collect();
+        Ok(RenderedFrame::from_runs(
+            frame,
+            width,
+            cam.full_scale_dn,
+            rows,
+        ))
     }
 }
 

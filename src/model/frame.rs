@@ -44,13 +44,29 @@ impl Stretch {
     /// The stretch of `luma`: its percentiles (nearest rank) of the finite
     /// values; 0 to 1 DN when there are none.
     pub fn of(luma: &[f64]) -> Stretch {
-        let keys: Vec<u64> = luma
-            .iter()
-            .filter(|x| x.is_finite())
-            .map(|&x| order_key(x))
-            .collect();
-        // Two radix selections, O(n) each, instead of sorting a whole frame.
-        let nth = |p: f64| rank(keys.len(), p).map(|i| from_order_key(select_key(&keys, i)));
+        Self::of_counts(luma.iter().map(|&v| (v, 1)).collect())
+    }
+
+    /// The stretch of a frame's luma: [`Stretch::of`] its pixels.
+    pub fn of_frame(frame: &RenderedFrame) -> Stretch {
+        Self::of_counts(frame.value_counts())
+    }
+
+    /// The stretch of the values `(value, pixels)`: the nearest-rank
+    /// percentiles of the finite values, found by sorting the distinct
+    /// values (a few thousand for a simulated frame) and counting pixels.
+    fn of_counts(mut counts: Vec<(f64, u64)>) -> Stretch {
+        counts.retain(|(v, _)| v.is_finite());
+        counts.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        let total: u64 = counts.iter().map(|c| c.1).sum();
+        let nth = |p: f64| {
+            let i = rank(total as usize, p)? as u64;
+            let mut below = 0;
+            counts.iter().find_map(|&(v, n)| {
+                below += n;
+                (below > i).then_some(v)
+            })
+        };
         let low_dn = nth(STRETCH_LOW_PERCENTILE).unwrap_or(0.0);
         let high_dn = nth(STRETCH_HIGH_PERCENTILE)
             .unwrap_or(1.0)
@@ -76,54 +92,6 @@ impl Stretch {
             crate::util::fixed(self.high_dn, 1)
         )
     }
-}
-
-/// A key whose unsigned order is the [`f64::total_cmp`] order of `x`.
-fn order_key(x: f64) -> u64 {
-    let bits = x.to_bits();
-    if bits >> 63 == 1 {
-        !bits
-    } else {
-        bits | 1 << 63
-    }
-}
-
-/// The double whose [`order_key`] is `key`.
-fn from_order_key(key: u64) -> f64 {
-    f64::from_bits(if key >> 63 == 1 {
-        key & !(1 << 63)
-    } else {
-        !key
-    })
-}
-
-/// The `k`-th smallest (from 0) of `keys`, `k < keys.len()`: a radix
-/// selection, 16 bits at a time from the top. Each pass counts the
-/// candidates' next 16 bits, keeps the bucket that holds rank `k`, and
-/// goes on inside it; at most four passes, the first over all keys.
-fn select_key(keys: &[u64], mut k: usize) -> u64 {
-    let mut candidates: Vec<u64> = Vec::new();
-    let mut counts = vec![0usize; 1 << 16];
-    for shift in [48u32, 32, 16, 0] {
-        let set: &[u64] = if shift == 48 { keys } else { &candidates };
-        counts.fill(0);
-        for &key in set {
-            counts[(key >> shift) as usize & 0xffff] += 1;
-        }
-        let mut bucket = 0;
-        while k >= counts[bucket] {
-            k -= counts[bucket];
-            bucket += 1;
-        }
-        let kept: Vec<u64> = set
-            .iter()
-            .copied()
-            .filter(|&key| (key >> shift) as usize & 0xffff == bucket)
-            .collect();
-        candidates = kept;
-    }
-    // Every candidate left has the same 64 bits.
-    candidates[k]
 }
 
 /// Index in sorted order of the nearest-rank percentile `p` (0..=100) of
@@ -203,16 +171,19 @@ pub struct FrameBanding {
 
 /// Row means of `frame` over the columns of `roi`.
 fn row_profile(frame: &RenderedFrame, roi: &RoiBox) -> Vec<f64> {
-    let w = frame.width as usize;
-    let x0 = (roi.rect_px[0] as usize).min(w);
-    let x1 = (roi.rect_px[0] as usize + roi.rect_px[2] as usize).min(w);
+    let w = frame.width;
+    let x0 = roi.rect_px[0].min(w);
+    let x1 = roi.rect_px[0].saturating_add(roi.rect_px[2]).min(w);
     if x1 <= x0 {
         return Vec::new();
     }
-    frame
-        .luma
-        .chunks(w)
-        .map(|row| row[x0..x1].iter().sum::<f64>() / (x1 - x0) as f64)
+    (0..frame.height)
+        .map(|y| {
+            // Pixel by pixel, left to right: the same sum as over a slice.
+            let mut sum = 0.0;
+            frame.for_each_in_row(y, (x0, x1), |_, v| sum += v);
+            sum / f64::from(x1 - x0)
+        })
         .collect()
 }
 
@@ -318,7 +289,7 @@ pub fn sample_frame_info(
     plan_rois: &[Roi],
 ) -> super::SampleFrameInfo {
     let rois = RoiBox::from_plan(plan_rois);
-    let stretch = Stretch::of(&frame.luma);
+    let stretch = Stretch::of_frame(frame);
     let crop_px = crop_rect(&rois, (frame.width, frame.height));
     let banding = frame_banding(frame, &rois);
     let caption = caption(&stretch, &rois, crop_px, banding.as_ref());
@@ -339,23 +310,45 @@ mod tests {
     use super::*;
 
     #[test]
-    fn radix_selection_gives_every_rank_a_sort_gives() {
+    fn counted_percentiles_are_the_sorted_pixels_percentiles() {
         let mut rng = crate::physics::sensor::Rng::new(11);
         let mut values: Vec<f64> = (0..3000).map(|_| rng.normal() * 40.0).collect();
-        // Duplicates, both zeros, tiny and huge magnitudes, whole numbers.
-        values.extend([0.0, -0.0, 0.0, 1e-300, -1e-300, 1e300, -1e300, 5e-324]);
+        // Duplicates, both zeros, tiny and huge magnitudes, NaN, whole numbers.
+        values.extend([
+            0.0,
+            -0.0,
+            0.0,
+            1e-300,
+            -1e-300,
+            1e300,
+            -1e300,
+            5e-324,
+            f64::NAN,
+        ]);
         values.extend(std::iter::repeat_n(17.0, 500));
         values.extend((0..200).map(|i| f64::from(i % 7)));
-        let keys: Vec<u64> = values.iter().map(|&x| order_key(x)).collect();
-        let mut sorted = values.clone();
+        let mut sorted: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
         sorted.sort_by(f64::total_cmp);
-        let last = sorted.len() - 1;
-        for (k, want) in sorted.iter().enumerate() {
-            if k % 13 != 0 && k > 20 && k < last - 20 {
-                continue;
-            }
-            let got = from_order_key(select_key(&keys, k));
-            assert_eq!(got.to_bits(), want.to_bits(), "rank {k}");
-        }
+        let at = |p: f64| sorted[rank(sorted.len(), p).unwrap()];
+        let s = Stretch::of(&values);
+        assert_eq!(s.low_dn.to_bits(), at(STRETCH_LOW_PERCENTILE).to_bits());
+        assert_eq!(s.high_dn.to_bits(), at(STRETCH_HIGH_PERCENTILE).to_bits());
+        // The same pixels as a frame (runs of repeated values) agree.
+        let frame = RenderedFrame::from_pixels(0, 70, 52, &values[..70 * 52], 255.0);
+        let mut part: Vec<f64> = values[..70 * 52]
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .collect();
+        part.sort_by(f64::total_cmp);
+        let f = Stretch::of_frame(&frame);
+        assert_eq!(
+            f.low_dn,
+            part[rank(part.len(), STRETCH_LOW_PERCENTILE).unwrap()]
+        );
+        assert_eq!(
+            f.high_dn,
+            part[rank(part.len(), STRETCH_HIGH_PERCENTILE).unwrap()]
+        );
     }
 }

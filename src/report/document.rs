@@ -381,13 +381,14 @@ impl Document {
                     message: format!("not a readable PNG: {e}"),
                 })?
                 .to_luma16();
-            let frame = crate::model::RenderedFrame {
-                index: case.sample_frame.as_ref().map_or(0, |f| f.frame),
-                width: img.width(),
-                height: img.height(),
-                luma: img.pixels().map(|p| f64::from(p.0[0])).collect(),
-                full_scale_dn: 65535.0,
-            };
+            let luma: Vec<f64> = img.pixels().map(|p| f64::from(p.0[0])).collect();
+            let frame = crate::model::RenderedFrame::from_pixels(
+                case.sample_frame.as_ref().map_or(0, |f| f.frame),
+                img.width(),
+                img.height(),
+                &luma,
+                65535.0,
+            );
             let small = super::frames::thumbnail(&frame, super::frames::THUMBNAIL_WIDTH);
             images.insert(rel, super::frames::png_bytes(&small)?);
         }

@@ -43,29 +43,51 @@ fn image_err(e: image::ImageError) -> ReportError {
 pub fn png_bytes(frame: &RenderedFrame) -> Result<Vec<u8>, ReportError> {
     let scale = |v: f64, max: f64| (v / frame.full_scale_dn * max).round().clamp(0.0, max);
     let (w, h) = (frame.width, frame.height);
+    let pixels = w as usize * h as usize;
+    // Each run is scaled once: a simulated row has a few runs.
     let image = if frame.full_scale_dn <= 255.0 {
-        let buf = frame.luma.iter().map(|&v| scale(v, 255.0) as u8).collect();
+        let mut buf = Vec::with_capacity(pixels);
+        for y in 0..h {
+            for_each_run_value(frame, y, |v, n| {
+                buf.extend(std::iter::repeat_n(scale(v, 255.0) as u8, n));
+            });
+        }
         ImageBuffer::<Luma<u8>, _>::from_raw(w, h, buf).map(DynamicImage::ImageLuma8)
     } else {
-        let buf = frame
-            .luma
-            .iter()
-            .map(|&v| scale(v, 65535.0) as u16)
-            .collect();
+        let mut buf = Vec::with_capacity(pixels);
+        for y in 0..h {
+            for_each_run_value(frame, y, |v, n| {
+                buf.extend(std::iter::repeat_n(scale(v, 65535.0) as u16, n));
+            });
+        }
         ImageBuffer::<Luma<u16>, _>::from_raw(w, h, buf).map(DynamicImage::ImageLuma16)
     };
     let image = image.ok_or_else(|| ReportError::Template {
         template: "sample frame PNG".to_string(),
-        message: format!(
-            "{} luma values do not fill {w} x {h} pixels",
-            frame.luma.len()
-        ),
+        message: format!("the luma values do not fill {w} x {h} pixels"),
     })?;
     let mut out = Cursor::new(Vec::new());
     image
         .write_to(&mut out, ImageFormat::Png)
         .map_err(image_err)?;
     Ok(out.into_inner())
+}
+
+/// Calls `f(value, pixels)` for each stretch of equal values along row `y`.
+fn for_each_run_value(frame: &RenderedFrame, y: u32, mut f: impl FnMut(f64, usize)) {
+    let mut run: Option<(f64, usize)> = None;
+    frame.for_each_in_row(y, (0, frame.width), |_, v| match &mut run {
+        Some((value, n)) if value.to_bits() == v.to_bits() => *n += 1,
+        _ => {
+            if let Some((value, n)) = run.take() {
+                f(value, n);
+            }
+            run = Some((v, 1));
+        }
+    });
+    if let Some((value, n)) = run {
+        f(value, n);
+    }
 }
 
 /// A nearest-neighbour copy at most `max_width` wide.
@@ -77,19 +99,13 @@ pub fn thumbnail(frame: &RenderedFrame, max_width: u32) -> RenderedFrame {
     let h = ((frame.height as u64 * w as u64) / frame.width as u64).max(1) as u32;
     let mut luma = Vec::with_capacity((w * h) as usize);
     for y in 0..h {
-        let sy = (y as u64 * frame.height as u64 / h as u64) as usize;
+        let sy = (y as u64 * frame.height as u64 / h as u64) as u32;
         for x in 0..w {
-            let sx = (x as u64 * frame.width as u64 / w as u64) as usize;
-            luma.push(frame.luma[sy * frame.width as usize + sx]);
+            let sx = (x as u64 * frame.width as u64 / w as u64) as u32;
+            luma.push(frame.pixel(sx, sy).unwrap_or(f64::NAN));
         }
     }
-    RenderedFrame {
-        index: frame.index,
-        width: w,
-        height: h,
-        luma,
-        full_scale_dn: frame.full_scale_dn,
-    }
+    RenderedFrame::from_pixels(frame.index, w, h, &luma, frame.full_scale_dn)
 }
 
 /// Standard base64 (RFC 4648) with padding.
@@ -134,13 +150,13 @@ mod tests {
     #[test]
     fn png_round_trips_8_and_16_bit() {
         for full in [255.0, 65535.0] {
-            let frame = RenderedFrame {
-                index: 3,
-                width: 4,
-                height: 2,
-                luma: vec![0.0, full / 2.0, full, full / 4.0, 1.0, 2.0, 3.0, 4.0],
-                full_scale_dn: full,
-            };
+            let frame = RenderedFrame::from_pixels(
+                3,
+                4,
+                2,
+                &[0.0, full / 2.0, full, full / 4.0, 1.0, 2.0, 3.0, 4.0],
+                full,
+            );
             let png = png_bytes(&frame).unwrap();
             let img = image::load_from_memory(&png).unwrap();
             assert_eq!((img.width(), img.height()), (4, 2));

@@ -203,13 +203,13 @@ mod tests {
                 checks: Vec::new(),
                 not_judged: Some("why".into()),
                 not_checked: vec!["x".into()],
-                sample_frame: Some(RenderedFrame {
-                    index: 2,
-                    width: 2,
-                    height: (n / 2) as u32,
-                    luma: values.to_vec(),
-                    full_scale_dn: 255.0,
-                }),
+                sample_frame: Some(RenderedFrame::from_pixels(
+                    2,
+                    2,
+                    (n / 2) as u32,
+                    values,
+                    255.0,
+                )),
                 p2020: Vec::new(),
             },
             capture_signal: Vec::new(),
@@ -227,7 +227,8 @@ mod tests {
         out.extend(
             r.sample_frame
                 .iter()
-                .flat_map(|f| f.luma.iter().map(|x| x.to_bits())),
+                .flat_map(|f| (0..f.height).flat_map(|y| f.row(y)))
+                .map(|x| x.to_bits()),
         );
         out
     }

@@ -326,7 +326,7 @@ fn rendered_rolling_shutter_frame_shows_bands_at_the_predicted_spacing() {
     // The lamp column through the middle of the sensor.
     let col = (frame.width / 2) as usize;
     let column: Vec<f64> = (0..frame.height as usize)
-        .map(|r| frame.luma[r * frame.width as usize + col])
+        .map(|r| frame.pixel(col as u32, r as u32).unwrap())
         .collect();
     let lamp: Vec<f64> = column[170..630].to_vec();
     let mid = (lamp.iter().cloned().fold(f64::MAX, f64::min)

@@ -93,16 +93,13 @@ fn box_grey(
     (x0, x1): (u32, u32),
     (y0, y1): (u32, u32),
 ) -> u8 {
-    let w = frame.width as usize;
     let mut sum = 0.0;
     let mut n = 0.0;
     for y in y0..y1.max(y0 + 1) {
-        for x in x0..x1.max(x0 + 1) {
-            if let Some(v) = frame.luma.get(y as usize * w + x as usize) {
-                sum += v;
-                n += 1.0;
-            }
-        }
+        frame.for_each_in_row(y, (x0, x1.max(x0 + 1)), |_, v| {
+            sum += v;
+            n += 1.0;
+        });
     }
     stretch.apply(if n > 0.0 { sum / n } else { f64::NAN })
 }
@@ -113,7 +110,7 @@ fn box_grey(
 /// outlined in yellow; right of it the crop at [`CROP_ZOOM`]x, nearest
 /// neighbour, with the ROIs outlined. Returns the image and the stretch.
 pub fn sample_view(frame: &RenderedFrame, rois: &[RoiBox]) -> (RgbImage, Stretch) {
-    let stretch = Stretch::of(&frame.luma);
+    let stretch = Stretch::of_frame(frame);
     (stretched_view(frame, rois, &stretch), stretch)
 }
 
@@ -192,17 +189,11 @@ mod tests {
     use crate::model::frame::*;
 
     fn frame(width: u32, height: u32, f: impl Fn(u32, u32) -> f64) -> RenderedFrame {
-        let luma = (0..height)
+        let luma: Vec<f64> = (0..height)
             .flat_map(|y| (0..width).map(move |x| (x, y)))
             .map(|(x, y)| f(x, y))
             .collect();
-        RenderedFrame {
-            index: 7,
-            width,
-            height,
-            luma,
-            full_scale_dn: 255.0,
-        }
+        RenderedFrame::from_pixels(7, width, height, &luma, 255.0)
     }
 
     fn led(rect_px: [u32; 4]) -> RoiBox {
@@ -352,7 +343,7 @@ mod tests {
         assert!(banding_sentence(None).contains("no bands"));
         assert!(
             !caption(
-                &Stretch::of(&banded.luma),
+                &Stretch::of_frame(&banded),
                 &rois,
                 None,
                 frame_banding(&banded, &rois).as_ref()
