@@ -127,9 +127,23 @@ pub fn stretched_view(frame: &RenderedFrame, rois: &[RoiBox], stretch: &Stretch)
     let mut img = RgbImage::from_pixel(width, vh.max(ch), Rgb([255, 255, 255]));
     for y in 0..vh {
         let (y0, y1) = (to_view(y, vh, fh), to_view(y + 1, vh, fh));
+        // The source rows of this view row, each expanded once.
+        let rows: Vec<Vec<f64>> = (y0..y1.max(y0 + 1))
+            .filter(|&r| r < frame.height)
+            .map(|r| frame.row(r))
+            .collect();
         for x in 0..vw {
             let (x0, x1) = (to_view(x, vw, fw), to_view(x + 1, vw, fw));
-            let g = box_grey(frame, stretch, (x0, x1), (y0, y1));
+            let cols = x0 as usize..(x1.max(x0 + 1).min(frame.width) as usize).max(x0 as usize);
+            // Row by row, left to right: the sum box_grey takes.
+            let (mut sum, mut n) = (0.0, 0.0);
+            for row in &rows {
+                for &v in &row[cols.clone()] {
+                    sum += v;
+                    n += 1.0;
+                }
+            }
+            let g = stretch.apply(if n > 0.0 { sum / n } else { f64::NAN });
             img.put_pixel(x, y, Rgb([g, g, g]));
         }
     }
