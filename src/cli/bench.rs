@@ -23,6 +23,11 @@ pub(super) struct BenchArgs {
     /// PNG; read, band estimate, fit, profile, closed loop), 5 runs.
     #[arg(long = "calibrate-8k")]
     calibrate_8k: bool,
+    /// Also run the daylight plan and the P2020 sample plan end to end as
+    /// separate processes (wall time and peak memory, medians), beside the
+    /// OpenCV reference (scripts/opencv_bench.py) when Python has cv2.
+    #[arg(long = "end-to-end")]
+    end_to_end: bool,
 }
 
 /// The numpy peer's figure on the exact-core grid, measured now, and the
@@ -109,6 +114,9 @@ pub(super) fn bench(a: BenchArgs) -> anyhow::Result<i32> {
             t[t.len() - 1],
             t.len()
         );
+    }
+    if a.end_to_end {
+        super::endtoend::bench_end_to_end(a.quick)?;
     }
     Ok(EXIT_PASS)
 }

@@ -29,6 +29,7 @@ mod advise;
 mod args;
 mod bench;
 mod calibrate;
+mod endtoend;
 mod merge;
 mod plan;
 mod render;

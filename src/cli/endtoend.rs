@@ -1,0 +1,202 @@
+//! `ledflicker bench --end-to-end`: whole runs as a user starts them. This
+//! binary runs the shipped daylight plan and the P2020 sample plan (every
+//! output, default detail) as separate processes, and the OpenCV reference
+//! pipeline (`scripts/opencv_bench.py`) on the same three videos in the
+//! same minute; it prints medians of wall time and peak memory and the
+//! ratio to OpenCV.
+
+use std::os::unix::process::CommandExt;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Longest any one timed run may take before its process group is killed.
+const RUN_TIMEOUT: Duration = Duration::from_secs(300);
+
+/// One finished child process.
+#[derive(Debug, Clone, Copy)]
+struct Finished {
+    wall_s: f64,
+    /// Peak resident set size, bytes (`ru_maxrss`).
+    peak_rss_bytes: f64,
+    /// Exit code; `None` when killed by a signal.
+    code: Option<i32>,
+}
+
+/// Runs `program args` in its own process group with no input and its
+/// output discarded; kills the group after [`RUN_TIMEOUT`]. Wall time and
+/// peak RSS come from `wait4`.
+fn run_timed(program: &Path, args: &[&str], dir: &Path) -> Result<Finished, String> {
+    let name = program.display();
+    let child = Command::new(program)
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .process_group(0)
+        .spawn()
+        .map_err(|e| format!("cannot start {name}: {e}"))?;
+    let pid = child.id() as libc::pid_t;
+    let started = Instant::now();
+    loop {
+        let mut status = 0;
+        // SAFETY: a zeroed rusage is a valid value for wait4 to fill.
+        let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+        // SAFETY: `pid` is our child, not yet reaped; both pointers are to
+        // live locals.
+        let got = unsafe { libc::wait4(pid, &mut status, libc::WNOHANG, &mut usage) };
+        if got == pid {
+            return Ok(Finished {
+                wall_s: started.elapsed().as_secs_f64(),
+                peak_rss_bytes: usage.ru_maxrss as f64 * 1024.0,
+                code: libc::WIFEXITED(status).then(|| libc::WEXITSTATUS(status)),
+            });
+        }
+        if got < 0 {
+            return Err(format!(
+                "waiting for {name}: {}",
+                std::io::Error::last_os_error()
+            ));
+        }
+        if started.elapsed() > RUN_TIMEOUT {
+            // SAFETY: signals the process group the child leads (started
+            // with process_group(0)), then reaps the child.
+            unsafe {
+                libc::kill(-pid, libc::SIGKILL);
+                libc::waitpid(pid, &mut status, 0);
+            }
+            return Err(format!(
+                "{name} timed out after {} s",
+                RUN_TIMEOUT.as_secs()
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
+/// Median of `xs` (the upper middle for an even count).
+fn median(xs: &[f64]) -> f64 {
+    let mut v = xs.to_vec();
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// `reps` runs of `ledflicker plan PLAN` into a scratch report directory;
+/// an exit code other than 0 or 1 (pass or fail) is an error.
+fn time_plan(exe: &Path, root: &Path, plan: &str, reps: usize) -> Result<Vec<Finished>, String> {
+    let scratch = tempfile::tempdir().map_err(|e| format!("no scratch directory: {e}"))?;
+    let out = scratch.path().join("report");
+    let plan_path = root.join("test-plans").join(plan);
+    let args = [
+        "plan",
+        plan_path.to_str().unwrap_or_default(),
+        "--out",
+        out.to_str().unwrap_or_default(),
+        "-q",
+        "--force",
+    ];
+    (0..reps)
+        .map(|_| {
+            let run = run_timed(exe, &args, root)?;
+            match run.code {
+                Some(0 | 1) => Ok(run),
+                code => Err(format!("`ledflicker plan {plan}` exited with {code:?}")),
+            }
+        })
+        .collect()
+}
+
+/// The OpenCV reference, `reps` times; `None` with the reason when Python
+/// or OpenCV is missing.
+fn time_opencv(root: &Path, reps: usize) -> Result<Vec<Finished>, String> {
+    let python = PathBuf::from("python3");
+    let probe = Command::new(&python)
+        .args(["-c", "import cv2, numpy"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status();
+    if !probe.is_ok_and(|s| s.success()) {
+        return Err(
+            "python3 with cv2 and numpy not found (pip install opencv-python-headless numpy)"
+                .into(),
+        );
+    }
+    let script = root.join("scripts/opencv_bench.py");
+    let script = script.to_str().unwrap_or_default();
+    (0..reps)
+        .map(|_| {
+            let run = run_timed(&python, &[script], root)?;
+            match run.code {
+                Some(0) => Ok(run),
+                code => Err(format!("scripts/opencv_bench.py exited with {code:?}")),
+            }
+        })
+        .collect()
+}
+
+/// One line: median wall and peak RSS of `runs`, with the range.
+fn describe(what: &str, runs: &[Finished]) -> String {
+    let walls: Vec<f64> = runs.iter().map(|r| r.wall_s).collect();
+    let rss: Vec<f64> = runs.iter().map(|r| r.peak_rss_bytes / 1e6).collect();
+    let (lo, hi) = walls
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &w| {
+            (a.min(w), b.max(w))
+        });
+    format!(
+        "{what}: wall median {:.3} s (min {lo:.3}, max {hi:.3}), peak RSS median {:.0} MB, {} runs",
+        median(&walls),
+        median(&rss),
+        runs.len()
+    )
+}
+
+/// Times the daylight plan and the P2020 sample plan end to end, and the
+/// OpenCV reference beside the P2020 plan; prints one line each and the
+/// ratio.
+pub(super) fn bench_end_to_end(quick: bool) -> anyhow::Result<()> {
+    let exe = std::env::current_exe()?;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let reps = if quick { 3 } else { 7 };
+    println!(
+        "end to end (this binary as a separate process, all outputs, default detail, {} threads):",
+        rayon::current_num_threads()
+    );
+    let daylight = time_plan(&exe, root, "daylight.toml", reps).map_err(anyhow::Error::msg)?;
+    println!("  {}", describe("daylight plan (35 cases)", &daylight));
+    let reps = if quick { 1 } else { 3 };
+    // Interleaved, so that both see the same load.
+    let mut ours = Vec::new();
+    let mut peer = Vec::new();
+    let mut peer_missing = None;
+    for _ in 0..reps {
+        ours.extend(time_plan(&exe, root, "p2020-samples.toml", 1).map_err(anyhow::Error::msg)?);
+        if peer_missing.is_none() {
+            match time_opencv(root, 1) {
+                Ok(r) => peer.extend(r),
+                Err(e) => peer_missing = Some(e),
+            }
+        }
+    }
+    println!(
+        "  {}",
+        describe("P2020 sample plan (3 videos, 1,697 frames)", &ours)
+    );
+    match peer_missing {
+        Some(e) => println!("  OpenCV reference not measured: {e}"),
+        None => {
+            println!(
+                "  {}",
+                describe("OpenCV reference (scripts/opencv_bench.py)", &peer)
+            );
+            let ratio = median(&peer.iter().map(|r| r.wall_s).collect::<Vec<_>>())
+                / median(&ours.iter().map(|r| r.wall_s).collect::<Vec<_>>());
+            println!(
+                "  P2020 sample plan against the OpenCV reference: {ratio:.2}x (ratio of median walls)"
+            );
+        }
+    }
+    Ok(())
+}
