@@ -73,6 +73,7 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
     // case: in parallel, collected in order.
     let analyses: Vec<_> = {
         use rayon::prelude::*;
+        let _t = crate::timings::span("analyses: cases and sample frames");
         results
             .par_iter()
             .map(|r| {
@@ -100,6 +101,14 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
     let Sequence { on_s, off_s, pwm_s } = plan.sequence;
     let mut thresholds = plan.thresholds.clone();
     thresholds.basis = effective_basis(plan.dut.backend, &plan.thresholds);
+    let fine_maps = {
+        let _t = crate::timings::span("analyses: fine maps");
+        analysis::fine_maps(plan)
+    };
+    let advice = {
+        let _t = crate::timings::span("analyses: exposure advice");
+        plan_advice(plan)
+    };
     let mut model = Results {
         schema: RESULTS_SCHEMA,
         tool: Tool {
@@ -124,9 +133,9 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         verdict: overall(results.iter().map(|r| r.verdict)),
         counts,
         cases,
-        fine_maps: analysis::fine_maps(plan),
+        fine_maps,
         fine_maps_note: analysis::fine_maps_note(plan),
-        advice: plan_advice(plan),
+        advice,
         report: None,
     };
     super::method::describe(&mut model, plan);
