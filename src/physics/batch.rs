@@ -220,7 +220,6 @@ impl Batch<'_> {
     fn fill(&self, floor: impl Fn(f64) -> f64 + Copy, start: u64, out: &mut [f64]) {
         let f = self.pwm.frequency_hz();
         let fps = self.shutter.fps;
-        let (width, duty) = (self.width, self.duty);
         let mut chains = [0.0; LANES];
         for (j, rem) in chains.iter_mut().enumerate() {
             // Frames past the range are stepped but never read.
@@ -230,15 +229,41 @@ impl Batch<'_> {
         for (c, acc) in out.chunks_mut(CHUNK).enumerate() {
             let whole = &mut whole[..acc.len()];
             self.cycle_phases(start + (c * CHUNK) as u64, whole, &mut chains);
-            acc.fill(0.0);
-            for row in self.rows.clone() {
-                let rest = self.row_rest(row);
-                for (a, &w) in acc.iter_mut().zip(whole.iter()) {
-                    let phase = wrap_nonneg(floor, w + rest);
-                    *a += on_fraction_unit(floor, phase, width, duty);
-                }
+            let mut rows = self.rows.clone();
+            if let Some(row) = rows.next() {
+                self.integrate_row(floor, whole, row, acc, false);
+            }
+            for row in rows {
+                self.integrate_row(floor, whole, row, acc, true);
             }
             mean_of_rows(acc, self.rows.len());
+        }
+    }
+
+    /// The ON fraction of row `row` for each frame phase in `whole`, stored
+    /// into `acc` (the first row) or added to it (the next rows, in row
+    /// order, as the scalar sum adds them). Storing equals adding to 0.0:
+    /// the fraction is never -0.0.
+    #[inline(always)]
+    fn integrate_row(
+        &self,
+        floor: impl Fn(f64) -> f64 + Copy,
+        whole: &[f64],
+        row: u32,
+        acc: &mut [f64],
+        add: bool,
+    ) {
+        let rest = self.row_rest(row);
+        let (width, duty) = (self.width, self.duty);
+        let fraction = |w: f64| on_fraction_unit(floor, wrap_nonneg(floor, w + rest), width, duty);
+        if add {
+            acc.iter_mut()
+                .zip(whole)
+                .for_each(|(a, &w)| *a += fraction(w));
+        } else {
+            acc.iter_mut()
+                .zip(whole)
+                .for_each(|(a, &w)| *a = fraction(w));
         }
     }
 
