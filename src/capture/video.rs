@@ -544,10 +544,11 @@ mod tests {
     /// bounding box, on a real H.264 capture, in both decode paths.
     #[test]
     fn tiles_read_the_same_means_as_the_bounding_box() {
-        if !ffmpeg_available() {
-            eprintln!("skipped: ffmpeg is not installed");
-            return;
-        }
+        // Like the integration tests: fail, never skip, without ffmpeg.
+        assert!(
+            ffmpeg_available(),
+            "this test needs `ffmpeg` and `ffprobe` (scripts/test.sh installs them)"
+        );
         let path = Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("reference-data/p2020-flicker-videos/test_vid3.mp4");
         let rois = spread_rois();
