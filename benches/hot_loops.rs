@@ -33,6 +33,20 @@ fn frame_on_fraction_2_rows(bencher: divan::Bencher) {
     });
 }
 
+/// The batched exact core: 1920 frames (64 s at 30 fps) of a 2-row ROI,
+/// bit-identical to 1920 calls of the function above.
+#[divan::bench]
+fn frame_on_fractions_1920_frames_2_rows(bencher: divan::Bencher) {
+    let pwm = PwmDrive::new(150.0, 0.2, 0.0).unwrap();
+    let s = shutter();
+    let mut out = Vec::with_capacity(1920);
+    bencher.bench_local(|| {
+        out.clear();
+        s.frame_on_fractions(divan::black_box(&pwm), 0..1920, 399..401, &mut out);
+        out.len()
+    });
+}
+
 /// The exact worst case over phase for a 2-row ROI.
 #[divan::bench]
 fn phase_envelope_2_rows(bencher: divan::Bencher) {

@@ -186,24 +186,30 @@ pub fn core_integrals() -> usize {
 /// Times the exact closed form on the exact-core grid, single threaded:
 /// the batched kernel ([`Shutter::frame_on_fractions`]) and the per-frame
 /// call it replaces. Both rows give the time per row integral; the batched
-/// row's error is its largest difference from the per-frame values.
+/// row's error is its largest difference from the per-frame values. Each
+/// is run once untimed first, as the numpy peer is, so that the median of
+/// a short (`--quick`) run does not include first-touch page faults.
 pub fn exact_core(reps: usize) -> [BenchRow; 2] {
     let grid = core_grid();
     let n = core_integrals() as f64;
-    let (t_batch, batched) = timed(reps, || {
+    let batch = || {
         let mut out = Vec::with_capacity(grid.len() * CORE_FRAMES as usize);
         for (pwm, shutter) in &grid {
             shutter.frame_on_fractions(pwm, 0..CORE_FRAMES, CORE_ROWS, &mut out);
         }
         out
-    });
-    let (t_frame, per_frame) = timed(reps, || {
+    };
+    std::hint::black_box(batch());
+    let (t_batch, batched) = timed(reps, batch);
+    let frame_by_frame = || {
         grid.iter()
             .flat_map(|(pwm, shutter)| {
                 (0..CORE_FRAMES).map(move |k| shutter.frame_on_fraction(pwm, k, CORE_ROWS))
             })
             .collect::<Vec<_>>()
-    });
+    };
+    std::hint::black_box(frame_by_frame());
+    let (t_frame, per_frame) = timed(reps, frame_by_frame);
     let err = batched
         .iter()
         .zip(&per_frame)
@@ -391,7 +397,9 @@ pub fn run(
         rows: Vec::new(),
         on_row,
     };
-    for row in exact_core(if quick { 3 } else { 9 }) {
+    // The grid takes well under a millisecond per pass: 9 repetitions cost
+    // nothing even in a quick run and steady its median.
+    for row in exact_core(9) {
         table.push(row);
     }
     trace_rows(&conds, &size, &mut table);
@@ -562,6 +570,50 @@ mod tests {
         let steps = (c.shutter.exposure_s / 1e-6).ceil();
         assert!(fine <= 2.0 * 2.0 / steps + 1e-12, "{fine}");
         assert!(fine <= coarse + 1e-12);
+    }
+
+    /// The ratio printed by `bench` means something only if the numpy peer
+    /// computes the same grid: read the script's constants and compare.
+    #[test]
+    fn core_grid_is_the_numpy_peers_grid() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/peer_closedform.py");
+        let text = std::fs::read_to_string(path).unwrap();
+        let numbers = |name: &str| -> Vec<f64> {
+            let line = text
+                .lines()
+                .find_map(|l| l.strip_prefix(&format!("{name} = ")))
+                .unwrap_or_else(|| panic!("no `{name} = ` line"));
+            let inner = match (line.find('['), line.find(']')) {
+                (Some(a), Some(b)) => &line[a + 1..b],
+                _ => line,
+            };
+            inner
+                .split(',')
+                .map(|t| {
+                    t.trim()
+                        .parse::<f64>()
+                        .unwrap_or_else(|_| panic!("{name}: {t}"))
+                })
+                .collect()
+        };
+        let grid = core_grid();
+        let (pwm, shutter) = grid[0];
+        assert_eq!(numbers("FREQS"), CORE_FREQUENCIES_HZ);
+        assert_eq!(numbers("DUTIES"), CORE_DUTIES);
+        assert_eq!(numbers("FRAMES"), [CORE_FRAMES as f64]);
+        let rows: Vec<f64> = CORE_ROWS.map(f64::from).collect();
+        assert_eq!(numbers("ROWS"), rows);
+        assert_eq!(numbers("FPS"), [shutter.fps]);
+        assert_eq!(numbers("EXPOSURE_S"), [shutter.exposure_s]);
+        assert_eq!(numbers("DELAY_S"), [pwm.first_rise_s()]);
+        let ShutterModel::Rolling { line_time_s } = shutter.model else {
+            panic!("the core grid is a rolling shutter");
+        };
+        assert_eq!(numbers("LINE_S"), [line_time_s]);
+        assert_eq!(grid.len(), CORE_FREQUENCIES_HZ.len() * CORE_DUTIES.len());
+        assert!(grid.iter().all(|(_, s)| *s == shutter));
+        assert_eq!(core_integrals(), 12 * 6 * 1920 * 2);
     }
 
     #[test]
