@@ -1,4 +1,4 @@
-//! The shard directory format (`ledflicker.shard/1`), written by a shard
+//! The shard directory format (`ledflicker.shard/2`), written by a shard
 //! run and read back typed by `merge`:
 //!
 //! - `shard.json`: the [`Manifest`] (plan hash, tool version, seed, shard
@@ -20,7 +20,7 @@ use crate::inputs::InputFile;
 use crate::runner::CaseResult;
 
 /// Schema of `shard.json`.
-pub const SCHEMA: &str = "ledflicker.shard/1";
+pub const SCHEMA: &str = "ledflicker.shard/2";
 /// The manifest's file name.
 pub const MANIFEST: &str = "shard.json";
 /// The case results' file name.
