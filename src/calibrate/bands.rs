@@ -357,15 +357,8 @@ impl<'a> PeriodicFit<'a> {
         let m = 3 + 2 * h;
         let mut total = vec![0.0; h];
         for p in self.profiles {
-            let rss = lsq_rss_nested(p, m, 3, |i, r| {
-                trend_basis(i, n, r);
-                let (s1, c1) = (2.0 * std::f64::consts::PI * f * i as f64).sin_cos();
-                let (mut s, mut c) = (s1, c1);
-                for k in 0..h {
-                    r[3 + 2 * k] = c;
-                    r[4 + 2 * k] = s;
-                    (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
-                }
+            let rss = lsq_rss_nested(p, m, 3, |design, stride| {
+                harmonic_design(design, stride, n, f, h)
             });
             for (t, k) in total.iter_mut().zip(1..=h) {
                 *t += rss[3 + 2 * k];
@@ -587,6 +580,28 @@ fn brent_minimum(mut g: impl FnMut(f64) -> f64, (mut a, mut b): (f64, f64), tol:
         }
     }
     x
+}
+
+/// Fills the design of `quadratic + h harmonics of f` over `n` rows (row
+/// `i` at `design[i * stride..]`): `1, t, t^2`, then `cos, sin` of `k` times
+/// the row's phase for `k` in `1..=h`. Harmonic `k + 1` is harmonic `k`
+/// turned by the row's phase (angle addition); the rows are independent,
+/// so harmonic by harmonic, all rows in turn, the CPU overlaps them.
+fn harmonic_design(design: &mut [f64], stride: usize, n: usize, f: f64, h: usize) {
+    for (i, r) in design.chunks_exact_mut(stride).enumerate() {
+        trend_basis(i, n, r);
+        let (s1, c1) = (2.0 * std::f64::consts::PI * f * i as f64).sin_cos();
+        r[3] = c1;
+        r[4] = s1;
+    }
+    for k in 1..h {
+        for r in design.chunks_exact_mut(stride) {
+            let (c1, s1) = (r[3], r[4]);
+            let (c, s) = (r[1 + 2 * k], r[2 + 2 * k]);
+            r[3 + 2 * k] = c * c1 - s * s1;
+            r[4 + 2 * k] = s * c1 + c * s1;
+        }
+    }
 }
 
 /// `1, t, t^2` with `t` in [-1, 1] over `n` rows.

@@ -63,9 +63,10 @@ pub fn inverse_spd(a: &[f64], m: usize) -> Option<Vec<f64>> {
     Some(inv)
 }
 
-/// The normal equations of `y` on the columns produced by `basis(i, out)`
-/// (which fills `out` with the `m` regressors of sample `i`): `A^T A`
-/// (row-major, both triangles), `A^T y` and `y^T y`.
+/// The normal equations of `y` on the design that `fill(design, stride)`
+/// writes (row `i`, the `m` regressors of sample `i`, at
+/// `design[i * stride..][..m]`; see [`per_row`]): `A^T A` (row-major, both
+/// triangles), `A^T y` and `y^T y`.
 ///
 /// On x86-64 with AVX2 the same loop runs compiled for AVX2 (four doubles
 /// per instruction instead of two). Every element is still one product
@@ -74,15 +75,28 @@ pub fn inverse_spd(a: &[f64], m: usize) -> Option<Vec<f64>> {
 fn normal_equations(
     y: &[f64],
     m: usize,
-    basis: impl FnMut(usize, &mut [f64]),
+    fill: impl FnOnce(&mut [f64], usize),
 ) -> (Vec<f64>, Vec<f64>, f64) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has just been found to support AVX2, the only
         // feature the function is compiled for.
-        return unsafe { normal_equations_avx2(y, m, basis) };
+        return unsafe { normal_equations_avx2(y, m, fill) };
     }
-    normal_equations_plain(y, m, basis)
+    normal_equations_plain(y, m, fill)
+}
+
+/// A design filler for [`normal_equations`] from `basis(i, out)`, which
+/// fills `out` with the `m` regressors of sample `i`.
+pub fn per_row(
+    m: usize,
+    mut basis: impl FnMut(usize, &mut [f64]),
+) -> impl FnOnce(&mut [f64], usize) {
+    move |design: &mut [f64], stride: usize| {
+        for (i, row) in design.chunks_exact_mut(stride).enumerate() {
+            basis(i, &mut row[..m]);
+        }
+    }
 }
 
 /// [`normal_equations`] compiled for AVX2.
@@ -91,9 +105,9 @@ fn normal_equations(
 fn normal_equations_avx2(
     y: &[f64],
     m: usize,
-    basis: impl FnMut(usize, &mut [f64]),
+    fill: impl FnOnce(&mut [f64], usize),
 ) -> (Vec<f64>, Vec<f64>, f64) {
-    normal_equations_plain(y, m, basis)
+    normal_equations_plain(y, m, fill)
 }
 
 /// Columns of `A^T A` that [`normal_equations`] sums at once: 16 running
@@ -111,14 +125,14 @@ const BLOCK: usize = 16;
 fn normal_equations_plain(
     y: &[f64],
     m: usize,
-    mut basis: impl FnMut(usize, &mut [f64]),
+    fill: impl FnOnce(&mut [f64], usize),
 ) -> (Vec<f64>, Vec<f64>, f64) {
     let stride = m.div_ceil(BLOCK).max(1) * BLOCK;
     let mut design = vec![0.0; y.len() * stride];
+    fill(&mut design, stride);
     let mut aty = vec![0.0; m];
     let mut yy = 0.0;
-    for (i, (row, &v)) in design.chunks_exact_mut(stride).zip(y).enumerate() {
-        basis(i, &mut row[..m]);
+    for (row, &v) in design.chunks_exact(stride).zip(y) {
         for (a, &r) in aty.iter_mut().zip(&row[..m]) {
             *a += r * v;
         }
@@ -150,7 +164,7 @@ fn normal_equations_plain(
 /// produced by `basis(i, out)` (which fills `out` with the `m` regressors
 /// of sample `i`). `None` when the design is singular.
 pub fn lsq_rss(y: &[f64], m: usize, basis: impl FnMut(usize, &mut [f64])) -> Option<f64> {
-    let (mut ata, aty, yy) = normal_equations(y, m, basis);
+    let (mut ata, aty, yy) = normal_equations(y, m, per_row(m, basis));
     // A relative ridge keeps nearly collinear columns (e.g. a harmonic at
     // a very low frequency against the trend) from breaking the solve.
     let trace: f64 = (0..m).map(|p| ata[p * m + p]).sum::<f64>() / m as f64;
@@ -163,7 +177,8 @@ pub fn lsq_rss(y: &[f64], m: usize, basis: impl FnMut(usize, &mut [f64])) -> Opt
 }
 
 /// Residual sums of squares of the nested least-squares fits of `y` on the
-/// first `k` columns of `basis`, for every `k` in `0..=m`, from one pass
+/// first `k` columns of the design `fill` writes (as for
+/// [`normal_equations`]), for every `k` in `0..=m`, from one pass
 /// over the samples and one Cholesky factorisation: with `A^T A = L L^T`
 /// and `L z = A^T y`, the fit on the first `k` columns explains
 /// `z_0^2 + ... + z_(k-1)^2`. The relative ridge (as in [`lsq_rss`]) is
@@ -174,9 +189,9 @@ pub fn lsq_rss_nested(
     y: &[f64],
     m: usize,
     ridge_cols: usize,
-    basis: impl FnMut(usize, &mut [f64]),
+    fill: impl FnOnce(&mut [f64], usize),
 ) -> Vec<f64> {
-    let (mut ata, aty, yy) = normal_equations(y, m, basis);
+    let (mut ata, aty, yy) = normal_equations(y, m, fill);
     let cols = ridge_cols.clamp(1, m.max(1));
     let ridge = 1e-12 * (0..cols.min(m)).map(|p| ata[p * m + p]).sum::<f64>() / cols as f64;
     for p in 0..m {
@@ -260,8 +275,8 @@ mod tests {
             }
         };
         for m in [1, 3, 5, 8, 23] {
-            let fast = normal_equations(&y, m, basis);
-            let plain = normal_equations_plain(&y, m, basis);
+            let fast = normal_equations(&y, m, per_row(m, basis));
+            let plain = normal_equations_plain(&y, m, per_row(m, basis));
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&fast.0), bits(&plain.0), "m={m}");
             assert_eq!(bits(&fast.1), bits(&plain.1), "m={m}");
