@@ -62,6 +62,7 @@ fn opts(decode: VideoDecode) -> ReadOptions {
         video_decode: decode,
         range: VideoRange::Auto,
         fps: None,
+        decoder_threads: None,
     }
 }
 

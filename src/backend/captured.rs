@@ -38,6 +38,7 @@ pub fn read_options(cap: &CaptureConfig) -> ReadOptions {
         video_decode: cap.video_decode,
         range: cap.video_range,
         fps: cap.frame_rate_fps,
+        decoder_threads: None,
     }
 }
 
@@ -194,7 +195,13 @@ impl Captured {
         };
         let rects = roi_rects(&plan.rois);
         let names: Vec<String> = plan.rois.iter().map(|r| r.name.clone()).collect();
-        let opts = read_options(cap);
+        let mut opts = read_options(cap);
+        // Captures are read in parallel: each decoder gets its share of
+        // the pool's threads, so that decoders do not fight over cores.
+        if cap.cases.len() > 1 {
+            let threads = rayon::current_num_threads();
+            opts.decoder_threads = Some((threads / cap.cases.len().min(threads)).max(1));
+        }
         let detection = Detection::for_plan(plan);
         let acquisitions = cap
             .cases

@@ -326,6 +326,7 @@ fn read_sequence(path: &Path, roi: Option<RoiRect>) -> Result<ReadOut, FrameErro
         video_decode: VideoDecode::Rgb,
         range: VideoRange::Auto,
         fps: Some(30.0),
+        decoder_threads: None,
     };
     // The frame size first: one 1x1 ROI reads it.
     let probe = [RoiRect {

@@ -66,6 +66,9 @@ pub struct ReadOptions {
     pub range: VideoRange,
     /// Frame rate used for timestamps when the source has none, frames/s.
     pub fps: Option<f64>,
+    /// Threads of each FFmpeg video decoder; `None` leaves FFmpeg's choice
+    /// (one per core). Several captures read at once share the cores.
+    pub decoder_threads: Option<usize>,
 }
 
 /// ROI means of every frame of a capture.

@@ -151,7 +151,7 @@ fn read_with(
         // Crop first (no copy), so extractplanes copies only the tiles.
         VideoDecode::LumaPlane => ("gray", 1usize, ",extractplanes=y"),
     };
-    let mut child = spawn_ffmpeg(path, &layout.filter(planes), pix_fmt)?;
+    let mut child = spawn_ffmpeg(path, &layout.filter(planes), pix_fmt, opts.decoder_threads)?;
     // Drain stderr on a thread so that a chatty ffmpeg cannot block.
     let mut stderr = child.stderr.take();
     let err_thread = std::thread::spawn(move || {
@@ -317,10 +317,19 @@ fn tiles_per_roi(rois: &[RoiRect], p: &Probe) -> Option<Vec<RoiRect>> {
 
 /// Starts ffmpeg decoding the first video stream of `path` through the
 /// filter graph `filter` (ending in `[out]`) to raw `pix_fmt` frames on its
-/// stdout.
-fn spawn_ffmpeg(path: &Path, filter: &str, pix_fmt: &str) -> Result<Child, CaptureError> {
-    Command::new("ffmpeg")
-        .args(["-nostdin", "-v", "error", "-xerror", "-i"])
+/// stdout, with `threads` decoder threads (FFmpeg's choice when `None`).
+fn spawn_ffmpeg(
+    path: &Path,
+    filter: &str,
+    pix_fmt: &str,
+    threads: Option<usize>,
+) -> Result<Child, CaptureError> {
+    let mut cmd = Command::new("ffmpeg");
+    cmd.args(["-nostdin", "-v", "error", "-xerror"]);
+    if let Some(n) = threads {
+        cmd.arg("-threads").arg(n.to_string());
+    }
+    cmd.arg("-i")
         .arg(path)
         .args([
             "-filter_complex",
@@ -558,6 +567,7 @@ mod tests {
                 video_decode,
                 range: VideoRange::Auto,
                 fps: None,
+                decoder_threads: None,
             };
             let tiled = read_with(&path, &rois, &opts, Layout::for_rois).unwrap();
             let boxed = read_with(&path, &rois, &opts, |rois, p| {
@@ -566,6 +576,14 @@ mod tests {
             .unwrap();
             assert_eq!(tiled.luma[0].len(), 369);
             assert_eq!(tiled, boxed, "{video_decode:?}");
+            // One decoder thread (captures read in parallel) decodes the
+            // same pixels as FFmpeg's own choice.
+            let one = ReadOptions {
+                decoder_threads: Some(1),
+                ..opts
+            };
+            let single = read_with(&path, &rois, &one, Layout::for_rois).unwrap();
+            assert_eq!(single, tiled, "{video_decode:?}, one decoder thread");
         }
     }
 }

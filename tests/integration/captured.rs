@@ -65,6 +65,7 @@ fn opts(decode: VideoDecode) -> ReadOptions {
         video_decode: decode,
         range: VideoRange::Auto,
         fps: None,
+        decoder_threads: None,
     }
 }
 
@@ -208,6 +209,7 @@ fn lzw_rgb_tiff_rois_match_opencv() {
         &[],
         &ReadOptions {
             fps: Some(30.0),
+            decoder_threads: None,
             ..opts(VideoDecode::Rgb)
         },
     )
@@ -324,6 +326,7 @@ fn png_sequences_8_and_16_bit_give_exact_roi_means() {
     }];
     let mut o = ReadOptions {
         fps: Some(30.0),
+        decoder_threads: None,
         ..opts(VideoDecode::Rgb)
     };
     let t = read_capture(&rgb, &rois, &[], &o).unwrap();
@@ -662,6 +665,7 @@ fn sidecar_timestamps_override_the_frame_rate() {
     }];
     let o = ReadOptions {
         fps: Some(30.0),
+        decoder_threads: None,
         ..opts(VideoDecode::Rgb)
     };
     assert_eq!(
@@ -715,6 +719,7 @@ fn decoded_frames_are_counted_and_a_run_off_a_terminal_prints_no_progress() {
     }];
     let o = ReadOptions {
         fps: Some(30.0),
+        decoder_threads: None,
         ..opts(VideoDecode::Rgb)
     };
     let before = capture::frames_decoded();

@@ -247,6 +247,7 @@ fn options() -> ReadOptions {
         video_decode: VideoDecode::Rgb,
         range: VideoRange::Auto,
         fps: Some(30.0),
+        decoder_threads: None,
     }
 }
 
