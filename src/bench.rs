@@ -87,9 +87,10 @@ pub fn time_stepped_on_fraction(
     total / n
 }
 
-fn median(mut xs: Vec<f64>) -> f64 {
+/// Median of `xs` (the upper middle for an even count); NaN when empty.
+pub(crate) fn median(mut xs: Vec<f64>) -> f64 {
     xs.sort_by(f64::total_cmp);
-    xs[xs.len() / 2]
+    xs.get(xs.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
 /// Runs `f` `reps` times and returns the median wall time in seconds and

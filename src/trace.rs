@@ -193,8 +193,8 @@ impl RenderedFrame {
     }
 
     /// Calls `f(value, pixels)` for each run of row `y` clipped to the width
-    /// (and a NaN run for pixels the runs do not reach).
-    fn for_each_run(&self, y: u32, mut f: impl FnMut(f64, u64)) {
+    /// (and a NaN run for pixels the runs do not reach), left to right.
+    pub fn for_each_run(&self, y: u32, mut f: impl FnMut(f64, u64)) {
         let Some(runs) = self.rows.get(y as usize) else {
             return;
         };

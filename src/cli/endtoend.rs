@@ -10,6 +10,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use crate::bench::median;
+
 /// Longest any one timed run may take before its process group is killed.
 const RUN_TIMEOUT: Duration = Duration::from_secs(300);
 
@@ -73,13 +75,6 @@ fn run_timed(program: &Path, args: &[&str], dir: &Path) -> Result<Finished, Stri
         }
         std::thread::sleep(Duration::from_millis(2));
     }
-}
-
-/// Median of `xs` (the upper middle for an even count).
-fn median(xs: &[f64]) -> f64 {
-    let mut v = xs.to_vec();
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
 /// `reps` runs of `ledflicker plan PLAN` into a scratch report directory;
@@ -147,8 +142,8 @@ fn describe(what: &str, runs: &[Finished]) -> String {
         });
     format!(
         "{what}: wall median {:.3} s (min {lo:.3}, max {hi:.3}), peak RSS median {:.0} MB, {} runs",
-        median(&walls),
-        median(&rss),
+        median(walls.clone()),
+        median(rss),
         runs.len()
     )
 }
@@ -191,8 +186,8 @@ pub(super) fn bench_end_to_end(quick: bool) -> anyhow::Result<()> {
                 "  {}",
                 describe("OpenCV reference (scripts/opencv_bench.py)", &peer)
             );
-            let ratio = median(&peer.iter().map(|r| r.wall_s).collect::<Vec<_>>())
-                / median(&ours.iter().map(|r| r.wall_s).collect::<Vec<_>>());
+            let ratio = median(peer.iter().map(|r| r.wall_s).collect())
+                / median(ours.iter().map(|r| r.wall_s).collect());
             println!(
                 "  P2020 sample plan against the OpenCV reference: {ratio:.2}x (ratio of median walls)"
             );

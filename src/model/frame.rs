@@ -43,7 +43,8 @@ pub struct Stretch {
 impl Stretch {
     /// The stretch of `luma`: its percentiles (nearest rank) of the finite
     /// values; 0 to 1 DN when there are none.
-    pub fn of(luma: &[f64]) -> Stretch {
+    #[cfg(test)]
+    pub(crate) fn of(luma: &[f64]) -> Stretch {
         Self::of_counts(luma.iter().map(|&v| (v, 1)).collect())
     }
 

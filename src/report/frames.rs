@@ -48,16 +48,16 @@ pub fn png_bytes(frame: &RenderedFrame) -> Result<Vec<u8>, ReportError> {
     let image = if frame.full_scale_dn <= 255.0 {
         let mut buf = Vec::with_capacity(pixels);
         for y in 0..h {
-            for_each_run_value(frame, y, |v, n| {
-                buf.extend(std::iter::repeat_n(scale(v, 255.0) as u8, n));
+            frame.for_each_run(y, |v, n| {
+                buf.extend(std::iter::repeat_n(scale(v, 255.0) as u8, n as usize));
             });
         }
         ImageBuffer::<Luma<u8>, _>::from_raw(w, h, buf).map(DynamicImage::ImageLuma8)
     } else {
         let mut buf = Vec::with_capacity(pixels);
         for y in 0..h {
-            for_each_run_value(frame, y, |v, n| {
-                buf.extend(std::iter::repeat_n(scale(v, 65535.0) as u16, n));
+            frame.for_each_run(y, |v, n| {
+                buf.extend(std::iter::repeat_n(scale(v, 65535.0) as u16, n as usize));
             });
         }
         ImageBuffer::<Luma<u16>, _>::from_raw(w, h, buf).map(DynamicImage::ImageLuma16)
@@ -71,23 +71,6 @@ pub fn png_bytes(frame: &RenderedFrame) -> Result<Vec<u8>, ReportError> {
         .write_to(&mut out, ImageFormat::Png)
         .map_err(image_err)?;
     Ok(out.into_inner())
-}
-
-/// Calls `f(value, pixels)` for each stretch of equal values along row `y`.
-fn for_each_run_value(frame: &RenderedFrame, y: u32, mut f: impl FnMut(f64, usize)) {
-    let mut run: Option<(f64, usize)> = None;
-    frame.for_each_in_row(y, (0, frame.width), |_, v| match &mut run {
-        Some((value, n)) if value.to_bits() == v.to_bits() => *n += 1,
-        _ => {
-            if let Some((value, n)) = run.take() {
-                f(value, n);
-            }
-            run = Some((v, 1));
-        }
-    });
-    if let Some((value, n)) = run {
-        f(value, n);
-    }
 }
 
 /// A nearest-neighbour copy at most `max_width` wide.

@@ -135,7 +135,7 @@ fn write_frames(
     full_frames: Vec<(String, Vec<u8>)>,
     doc: &document::Document,
 ) -> Result<(), ReportError> {
-    let _t = crate::timings::span("report: traces and frames");
+    let _t = crate::timings::span("report: write frames");
     if full_frames.is_empty() {
         let old = dir.join(document::FRAMES_DIR);
         if old.exists() {
