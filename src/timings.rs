@@ -38,24 +38,41 @@ pub fn enable() {
 /// Records the wall time from now until the guard drops, under `name`.
 #[must_use = "the span ends when the guard drops"]
 pub fn span(name: &'static str) -> Guard {
+    span_at(name, depth())
+}
+
+/// How deep the spans open on this thread are nested.
+pub fn depth() -> usize {
+    DEPTH.with(Cell::get)
+}
+
+/// A span nested at `depth`, for work handed to another thread: it shows
+/// under the spans open where the work was handed out.
+#[must_use = "the span ends when the guard drops"]
+pub fn span_at(name: &'static str, depth: usize) -> Guard {
     if !ENABLED.load(Ordering::Relaxed) {
         return Guard(None);
     }
-    let depth = DEPTH.with(|d| {
-        let v = d.get();
-        d.set(v + 1);
-        v
-    });
-    Guard(Some((name, depth, Instant::now())))
+    let outer = DEPTH.with(|d| d.replace(depth + 1));
+    Guard(Some((name, depth, Instant::now(), outer)))
+}
+
+/// Runs `f` with this thread's spans nested at `depth`: for work handed to
+/// another thread that opens spans of its own.
+pub fn at_depth<R>(depth: usize, f: impl FnOnce() -> R) -> R {
+    let outer = DEPTH.with(|d| d.replace(depth));
+    let r = f();
+    DEPTH.with(|d| d.set(outer));
+    r
 }
 
 /// Ends its span when dropped.
-pub struct Guard(Option<(&'static str, usize, Instant)>);
+pub struct Guard(Option<(&'static str, usize, Instant, usize)>);
 
 impl Drop for Guard {
     fn drop(&mut self) {
-        if let Some((name, depth, start)) = self.0.take() {
-            DEPTH.with(|d| d.set(d.get().saturating_sub(1)));
+        if let Some((name, depth, start, outer)) = self.0.take() {
+            DEPTH.with(|d| d.set(outer));
             let seconds = start.elapsed().as_secs_f64();
             if let Ok(mut spans) = SPANS.lock() {
                 spans.push(Span {
@@ -112,5 +129,39 @@ mod tests {
         let names: Vec<_> = spans.iter().map(|s| (s.name, s.depth)).collect();
         assert_eq!(names, vec![("inner", 1), ("outer", 0)]);
         assert!(table(&spans).contains("    inner"));
+
+        // A span handed to another thread nests where it was handed out.
+        {
+            let _outer = span("hand-out outer");
+            let depth = depth();
+            std::thread::scope(|s| {
+                s.spawn(|| {
+                    let _inner = span_at("handed out", depth);
+                    drop(span("under handed out"));
+                });
+                s.spawn(|| at_depth(depth, || drop(span("run at depth"))));
+            });
+            // The other thread's depth does not leak into this one's.
+            drop(span("after hand-out"));
+        }
+        let spans: Vec<_> = take()
+            .into_iter()
+            .filter(|s| s.name.contains("hand") || s.name == "run at depth")
+            .map(|s| (s.name, s.depth))
+            .collect();
+        assert!(spans.contains(&("run at depth", 1)), "{spans:?}");
+        let spans: Vec<_> = spans
+            .into_iter()
+            .filter(|s| s.0 != "run at depth")
+            .collect();
+        assert_eq!(
+            spans,
+            vec![
+                ("under handed out", 2),
+                ("handed out", 1),
+                ("after hand-out", 1),
+                ("hand-out outer", 0)
+            ]
+        );
     }
 }

@@ -157,14 +157,19 @@ fn write_frames(
 /// Renders report.html and report.pdf from `doc` into `dir`, atomically.
 /// Returns the PDF's page count.
 pub fn write_renderings(dir: &Path, doc: &document::Document) -> Result<usize, ReportError> {
-    let html = {
-        let _t = crate::timings::span("report: html");
-        html::render_document(doc)?
-    };
-    let (pdf, pages) = {
-        let _t = crate::timings::span("report: pdf (typst)");
-        pdf::render(doc)?
-    };
+    // Typst takes longest: the HTML is rendered beside it.
+    let depth = crate::timings::depth();
+    let (pdf, html) = rayon::join(
+        || {
+            let _t = crate::timings::span_at("report: pdf (typst)", depth);
+            pdf::render(doc)
+        },
+        || {
+            let _t = crate::timings::span_at("report: html", depth);
+            html::render_document(doc)
+        },
+    );
+    let ((pdf, pages), html) = (pdf?, html?);
     let path = dir.join("report.html");
     write_atomic(&path, html.as_bytes()).map_err(io_err(&path))?;
     let path = dir.join("report.pdf");
@@ -196,10 +201,13 @@ pub fn write_report(
     }
 
     let t = crate::timings::span("report: traces and frames");
-    let traces: Vec<(String, Vec<u8>)> = results
-        .iter()
-        .map(|r| (format!("{}.csv", r.case.id), trace_csv(r).into_bytes()))
-        .collect();
+    let traces: Vec<(String, Vec<u8>)> = {
+        use rayon::prelude::*;
+        results
+            .par_iter()
+            .map(|r| (format!("{}.csv", r.case.id), trace_csv(r).into_bytes()))
+            .collect()
+    };
     replace_dir(dir, "traces", &traces)?;
 
     // PNG encoding is independent per frame: in parallel, in case order.
@@ -234,21 +242,28 @@ pub fn write_report(
     replace_dir(dir, document::CHARTS_DIR, &files)?;
     drop(t);
     write_frames(dir, results, full_frames, &doc)?;
-    write_renderings(dir, &doc)?;
-    let _t = crate::timings::span("report: exports and results.json");
-
-    for (name, text) in [
-        (export::JUNIT_FILE, export::junit_xml(model)),
-        (export::CSV_FILE, export::summary_csv(model)),
-    ] {
+    // The exports and results.json are made while typst lays out the PDF.
+    let depth = crate::timings::depth();
+    let (pages, exports) = rayon::join(
+        || crate::timings::at_depth(depth, || write_renderings(dir, &doc)),
+        || {
+            let _t = crate::timings::span_at("report: exports and results.json", depth);
+            let files = [
+                (export::JUNIT_FILE, export::junit_xml(model)),
+                (export::CSV_FILE, export::summary_csv(model)),
+            ];
+            // The model plus its `report` metadata, in the model's field order.
+            let mut model = model.clone();
+            model.report = Some(document::report_meta(&model, &options.date, options.detail));
+            serde_json::to_string_pretty(&model).map(|json| (files, json))
+        },
+    );
+    pages?;
+    let (files, json) = exports?;
+    for (name, text) in files {
         let path = dir.join(name);
         write_atomic(&path, text.as_bytes()).map_err(io_err(&path))?;
     }
-
-    // The model plus its `report` metadata, in the model's field order.
-    let mut model = model.clone();
-    model.report = Some(document::report_meta(&model, &options.date, options.detail));
-    let json = serde_json::to_string_pretty(&model)?;
     let path = dir.join("results.json");
     write_atomic(&path, json.as_bytes()).map_err(io_err(&path))?;
     Ok(())
