@@ -69,22 +69,39 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         total: results.len(),
         ..Counts::default()
     };
-    // The analyses and the sample frames' banding are independent per
-    // case: in parallel, collected in order.
-    let analyses: Vec<_> = {
-        use rayon::prelude::*;
-        let _t = crate::timings::span("analyses: cases and sample frames");
-        results
-            .par_iter()
-            .map(|r| {
-                let frame = r
-                    .sample_frame
-                    .as_ref()
-                    .map(|f| super::frame::sample_frame_info(&r.case.id, f, &plan.rois));
-                (analysis::analyse_case(plan, r), frame)
-            })
-            .collect()
-    };
+    // The analyses, the sample frames' banding, the fine maps and the
+    // exposure advice are independent: all in parallel, collected in order.
+    let depth = crate::timings::depth();
+    let (analyses, (fine_maps, advice)) = rayon::join(
+        || {
+            use rayon::prelude::*;
+            let _t = crate::timings::span_at("analyses: cases and sample frames", depth);
+            results
+                .par_iter()
+                .map(|r| {
+                    let frame = || {
+                        r.sample_frame
+                            .as_ref()
+                            .map(|f| super::frame::sample_frame_info(&r.case.id, f, &plan.rois))
+                    };
+                    let (a, frame) = rayon::join(|| analysis::analyse_case(plan, r), frame);
+                    (a, frame)
+                })
+                .collect::<Vec<_>>()
+        },
+        || {
+            rayon::join(
+                || {
+                    let _t = crate::timings::span_at("analyses: fine maps", depth);
+                    analysis::fine_maps(plan)
+                },
+                || {
+                    let _t = crate::timings::span_at("analyses: exposure advice", depth);
+                    plan_advice(plan)
+                },
+            )
+        },
+    );
     let cases = results
         .iter()
         .zip(analyses)
@@ -101,14 +118,6 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
     let Sequence { on_s, off_s, pwm_s } = plan.sequence;
     let mut thresholds = plan.thresholds.clone();
     thresholds.basis = effective_basis(plan.dut.backend, &plan.thresholds);
-    let fine_maps = {
-        let _t = crate::timings::span("analyses: fine maps");
-        analysis::fine_maps(plan)
-    };
-    let advice = {
-        let _t = crate::timings::span("analyses: exposure advice");
-        plan_advice(plan)
-    };
     let mut model = Results {
         schema: RESULTS_SCHEMA,
         tool: Tool {
