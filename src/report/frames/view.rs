@@ -95,8 +95,6 @@ struct RowCursor<'a> {
     end: u32,
     /// Value of the current run (NaN past the row's runs).
     value: f64,
-    /// Runs entered so far: two reads with the same count saw the same run.
-    entered: u64,
 }
 
 impl<'a> RowCursor<'a> {
@@ -105,7 +103,6 @@ impl<'a> RowCursor<'a> {
             runs: frame.runs(y).iter(),
             end: 0,
             value: f64::NAN,
-            entered: 0,
         }
     }
 
@@ -114,7 +111,6 @@ impl<'a> RowCursor<'a> {
     #[inline]
     fn at(&mut self, x: u32) -> (f64, u32) {
         while x >= self.end {
-            self.entered += 1;
             match self.runs.next() {
                 Some(r) => {
                     self.end = self.end.saturating_add(r.len);
@@ -166,21 +162,24 @@ fn view_row_greys(
 ) {
     let mut cursors: Vec<RowCursor> = rows.iter().map(|&r| RowCursor::new(frame, r)).collect();
     out.clear();
-    // Greys of uniform boxes by width, valid while no cursor enters a run.
+    // Every cursor's run covers the columns from where they were last
+    // placed up to `segment_end`; the memo holds the greys of boxes of each
+    // width inside that segment.
+    let mut segment_end = 0;
     let mut memo: Vec<(u32, u8)> = Vec::new();
-    let mut memo_at = u64::MAX;
     for &(x0, x1) in cols {
-        let uniform = cursors.iter_mut().all(|c| x1 <= c.at(x0).1);
-        let entered: u64 = cursors.iter().map(|c| c.entered).sum();
-        if uniform {
-            if entered != memo_at {
-                memo.clear();
-                memo_at = entered;
-            }
-            if let Some(&(_, g)) = memo.iter().find(|m| m.0 == x1 - x0) {
-                out.push(g);
-                continue;
-            }
+        if x0 >= segment_end {
+            segment_end = cursors
+                .iter_mut()
+                .map(|c| c.at(x0).1)
+                .min()
+                .unwrap_or(u32::MAX);
+            memo.clear();
+        }
+        let uniform = x1 <= segment_end;
+        if uniform && let Some(&(_, g)) = memo.iter().find(|m| m.0 == x1 - x0) {
+            out.push(g);
+            continue;
         }
         let (mut sum, mut n) = (0.0, 0.0);
         for c in &mut cursors {
@@ -192,6 +191,9 @@ fn view_row_greys(
         let g = stretch.apply(if n > 0.0 { sum / n } else { f64::NAN });
         if uniform {
             memo.push((x1 - x0, g));
+        } else {
+            // The cursors moved on: place them again at the next box.
+            segment_end = 0;
         }
         out.push(g);
     }
@@ -237,17 +239,18 @@ fn draw_crop(img: &mut RgbImage, frame: &RenderedFrame, stretch: &Stretch, c: [u
     for sy in c[1]..c[1] + c[3] {
         let mut cursor = RowCursor::new(frame, sy);
         let in_frame = sy < frame.height;
-        // The grey of the current run, computed once per run.
-        let mut memo: Option<(u64, u8)> = None;
+        // The grey of the current run and the run's end: computed once
+        // per run.
+        let mut memo: Option<(u32, u8)> = None;
         greys.clear();
         for sx in c[0]..c[0] + c[2] {
             let g = if in_frame && sx < frame.width {
-                let (v, _) = cursor.at(sx);
                 match memo {
-                    Some((run, g)) if run == cursor.entered => g,
+                    Some((end, g)) if sx < end => g,
                     _ => {
+                        let (v, end) = cursor.at(sx);
                         let g = stretch.apply((0.0 + v) / 1.0);
-                        memo = Some((cursor.entered, g));
+                        memo = Some((end, g));
                         g
                     }
                 }
