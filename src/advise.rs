@@ -35,7 +35,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::analysis::finemap::Axis;
 use crate::physics::hdr::{Capture, CaptureExposure, HdrMode};
-use crate::physics::{PwmDrive, Shutter, ShutterModel};
+use crate::physics::{Shutter, ShutterModel};
 
 /// What to advise on.
 #[derive(Debug, Clone, PartialEq)]
@@ -220,11 +220,13 @@ pub fn evaluate(
     let cells: Vec<(bool, f64, f64, f64)> = (0..fa.count)
         .into_par_iter()
         .flat_map_iter(|i| {
-            (0..da.count).map(move |j| {
-                let (f, d) = (fa.at(i), da.at(j).min(1.0));
-                let (lo, hi) = PwmDrive::new(f, d, 0.0)
-                    .map(|p| shutter.phase_envelope(&p, 0..1))
-                    .unwrap_or((0.0, 0.0));
+            let f = fa.at(i);
+            let duties: Vec<f64> = (0..da.count).map(|j| da.at(j).min(1.0)).collect();
+            // A row's envelopes at once (the same doubles as one by one);
+            // an invalid drive gets (0, 0).
+            let envelopes = shutter.phase_envelopes_checked(f, &duties, 0..1);
+            duties.into_iter().zip(envelopes).map(move |(d, e)| {
+                let (lo, hi) = e.unwrap_or((0.0, 0.0));
                 let pf = if hi + lo > 0.0 {
                     100.0 * (hi - lo) / (hi + lo)
                 } else {
@@ -450,6 +452,7 @@ pub fn curve(req: &AdviseRequest, points: usize) -> Result<Vec<Candidate>, Advis
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::physics::PwmDrive;
 
     #[test]
     fn bound_is_the_maximum_of_eq1_over_a_brute_force_grid() {

@@ -158,6 +158,29 @@ impl RenderedFrame {
         }
     }
 
+    /// The runs of row `y` as stored, left to right (empty outside the
+    /// frame). Runs may reach past the width, and a row's pixels past its
+    /// runs read as NaN (see [`RenderedFrame::for_each_in_row`]).
+    pub fn runs(&self, y: u32) -> &[Run] {
+        self.rows.get(y as usize).map_or(&[], Vec::as_slice)
+    }
+
+    /// Whether rows `a` and `b` hold the same runs, bit for bit (so every
+    /// pixel of the one equals the same pixel of the other, NaN included).
+    /// `false` when either row is outside the frame.
+    pub fn same_runs(&self, a: u32, b: u32) -> bool {
+        match (self.rows.get(a as usize), self.rows.get(b as usize)) {
+            (Some(ra), Some(rb)) => {
+                ra.len() == rb.len()
+                    && ra
+                        .iter()
+                        .zip(rb)
+                        .all(|(p, q)| p.len == q.len && p.value.to_bits() == q.value.to_bits())
+            }
+            _ => false,
+        }
+    }
+
     /// The luma of row `y`, `width` values (NaN outside the frame).
     pub fn row(&self, y: u32) -> Vec<f64> {
         let mut out = vec![f64::NAN; self.width as usize];

@@ -1,14 +1,16 @@
 //! Fine maps: the worst case over PWM phase of FDI (2018) and Percent
 //! Flicker over the whole frequency x duty plane for one camera, computed
-//! analytically with [`Shutter::phase_envelope`] (exact, `4 * rows`
-//! corners per cell), in parallel over frequencies. Each cell is computed
-//! independently, so the map does not depend on the thread count.
+//! analytically with [`Shutter::phase_envelopes`] (exact, `4 * rows`
+//! corners per cell; a frequency's duties at once, each cell the same
+//! double as [`Shutter::phase_envelope`] gives), in parallel over
+//! frequencies. Each cell is computed independently, so the map does not
+//! depend on the thread count.
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::metrics::flicker::{fdi_2018, percent_flicker};
-use crate::physics::{PwmDrive, Shutter};
+use crate::physics::Shutter;
 
 /// A linear camera response for one light level: ROI luma is
 /// `min(off_dn + led_peak_dn * s, full_scale_dn)` for an ON fraction `s`.
@@ -77,21 +79,24 @@ pub fn compute(
         .into_par_iter()
         .flat_map_iter(|i| {
             let f = frequency.at(i);
-            let rows = rows.clone();
-            (0..duty.count).map(move |j| {
-                let d = duty.at(j).clamp(f64::MIN_POSITIVE, 1.0);
-                match PwmDrive::new(f, d, 0.0) {
-                    Ok(pwm) => {
-                        let (lo, hi) = shutter.phase_envelope(&pwm, rows.clone());
+            let duties: Vec<f64> = (0..duty.count)
+                .map(|j| duty.at(j).clamp(f64::MIN_POSITIVE, 1.0))
+                .collect();
+            // A row's envelopes at once; a cell whose drive is invalid (a
+            // NaN duty or frequency) gets none, as before.
+            shutter
+                .phase_envelopes_checked(f, &duties, rows.clone())
+                .into_iter()
+                .map(move |envelope| match envelope {
+                    Some((lo, hi)) => {
                         let (lo, hi) = (luma.luma(lo), luma.luma(hi));
                         (
                             fdi_2018(lo, Some(luma.off_dn)).value,
                             percent_flicker(lo, hi).value,
                         )
                     }
-                    Err(_) => (None, None),
-                }
-            })
+                    None => (None, None),
+                })
         })
         .collect();
     let (fdi_worst, pf_worst) = cells.into_iter().unzip();
@@ -160,7 +165,7 @@ impl FineMap {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::ShutterModel;
+    use crate::physics::{PwmDrive, ShutterModel};
 
     #[test]
     fn map_cells_equal_the_envelope_and_bound_a_phase_sweep() {
@@ -198,6 +203,19 @@ mod tests {
                 }
                 let fdi_sweep = (lo - 20.0) / 20.0;
                 let fdi = map.fdi_worst[i * da.count + j].unwrap();
+                // The row-at-once envelope is the single cell's, bit for bit.
+                let pwm = PwmDrive::new(f, d, 0.0).unwrap();
+                let (elo, ehi) = shutter.phase_envelope(&pwm, 399..401);
+                let (elo, ehi) = (luma.luma(elo), luma.luma(ehi));
+                let pf = map.pf_worst[i * da.count + j].unwrap();
+                assert_eq!(
+                    fdi.to_bits(),
+                    fdi_2018(elo, Some(20.0)).value.unwrap().to_bits()
+                );
+                assert_eq!(
+                    pf.to_bits(),
+                    percent_flicker(elo, ehi).value.unwrap().to_bits()
+                );
                 let tol = 200.0 / 20.0 * 2.0 / (0.005 * f) / 2000.0 + 1e-9;
                 assert!(
                     fdi <= fdi_sweep + 1e-9 && fdi_sweep - fdi <= tol,

@@ -73,10 +73,10 @@ pub fn summarise(
     colour: Option<&ColourScene>,
 ) -> Summary {
     let numbers: Vec<u64> = (0..frames).collect();
-    let luma: Vec<f64> = numbers
-        .iter()
-        .map(|&k| background + shutter.frame_on_fraction(pwm, k, rows.clone()))
-        .collect();
+    // The batched closed form: bit for bit the per-frame values.
+    let mut on = Vec::with_capacity(numbers.len());
+    shutter.frame_on_fractions(pwm, 0..frames, rows.clone(), &mut on);
+    let luma: Vec<f64> = on.iter().map(|&s| background + s).collect();
     let (lo, hi) = shutter.phase_envelope(pwm, rows.clone());
     let envelope = (background + lo, background + hi);
     let min = luma.iter().copied().fold(f64::INFINITY, f64::min);

@@ -8,6 +8,7 @@
 
 pub mod ae;
 pub mod batch;
+pub mod envelope;
 pub mod extremes;
 pub mod hdr;
 pub mod pwm;

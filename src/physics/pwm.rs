@@ -76,6 +76,7 @@ impl PwmDrive {
 }
 
 /// Wraps `x` into `[0, 1)`.
+#[inline]
 pub fn wrap_unit(x: f64) -> f64 {
     let w = x - x.floor();
     // x.floor() can round so that w == 1.0 for tiny negative x.
@@ -84,6 +85,7 @@ pub fn wrap_unit(x: f64) -> f64 {
 
 /// Integral of the unit square wave (ON on `[n, n + duty)`) from 0 to `u`
 /// cycles, in cycles of ON time.
+#[inline]
 pub fn on_cycles(u: f64, duty: f64) -> f64 {
     let n = u.floor();
     n * duty + (u - n).min(duty)
@@ -92,6 +94,7 @@ pub fn on_cycles(u: f64, duty: f64) -> f64 {
 /// Fraction of `[phase, phase + width)` (cycles) during which a PWM of the
 /// given duty is ON. `width` must be > 0. The result is clamped to `[0, 1]`
 /// so that rounding in the subtraction never leaves the physical range.
+#[inline]
 pub fn on_fraction(phase: f64, width: f64, duty: f64) -> f64 {
     if duty >= 1.0 {
         return 1.0;

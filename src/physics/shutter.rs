@@ -8,7 +8,7 @@
 
 use std::ops::Range;
 
-use super::pwm::{PwmDrive, on_fraction, wrap_unit};
+use super::pwm::{PwmDrive, on_fraction};
 
 /// How the rows of a frame are exposed.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,42 +66,6 @@ impl Shutter {
             })
             .sum();
         sum / n
-    }
-
-    /// Lowest and highest ROI-mean ON fraction over every possible start
-    /// phase of the PWM relative to the frame clock: the worst case that a
-    /// capture of unknown phase can show, computed exactly.
-    ///
-    /// The ROI mean is piecewise linear in the phase, with corners where a
-    /// row's exposure start or end crosses a rising or falling edge, so its
-    /// extremes lie at those corners. There are `4 * rows` of them.
-    pub fn phase_envelope(&self, pwm: &PwmDrive, rows: Range<u32>) -> (f64, f64) {
-        let duty = pwm.duty();
-        if duty >= 1.0 {
-            return (1.0, 1.0);
-        }
-        let f = pwm.frequency_hz();
-        let width = self.exposure_s * f;
-        let rows = self.distinct_rows(rows);
-        let offsets: Vec<f64> = rows.map(|r| wrap_unit(self.row_offset_s(r) * f)).collect();
-        let mean_at = |phase0: f64| -> f64 {
-            offsets
-                .iter()
-                .map(|&o| on_fraction(wrap_unit(phase0 + o), width, duty))
-                .sum::<f64>()
-                / offsets.len() as f64
-        };
-        let corners = [0.0, duty, -width, duty - width];
-        let mut lo = f64::INFINITY;
-        let mut hi = f64::NEG_INFINITY;
-        for &o in &offsets {
-            for &c in &corners {
-                let v = mean_at(wrap_unit(c - o));
-                lo = lo.min(v);
-                hi = hi.max(v);
-            }
-        }
-        (lo, hi)
     }
 }
 

@@ -8,6 +8,7 @@ use image::{Rgb, RgbImage};
 
 use crate::model::frame::{CROP_ZOOM, RoiBox, Stretch, crop_rect};
 use crate::model::{RenderedFrame, RoiKind};
+use crate::trace::Run;
 
 /// Width of the whole-frame part of the view, pixels (frames narrower are
 /// shown 1:1).
@@ -86,22 +87,184 @@ fn label(img: &mut RgbImage, number: usize, (x, y): (u32, u32), colour: Rgb<u8>)
     }
 }
 
-/// Stretched grey of the source box `[x0, x1) x [y0, y1)`, its mean.
-fn box_grey(
+/// Reads one source row left to right, run by run: the value of any
+/// column at or right of the last one asked, in amortised constant time.
+struct RowCursor<'a> {
+    runs: std::slice::Iter<'a, Run>,
+    /// End (exclusive) of the current run; 0 before the first.
+    end: u32,
+    /// Value of the current run (NaN past the row's runs).
+    value: f64,
+}
+
+impl<'a> RowCursor<'a> {
+    fn new(frame: &'a RenderedFrame, y: u32) -> Self {
+        Self {
+            runs: frame.runs(y).iter(),
+            end: 0,
+            value: f64::NAN,
+        }
+    }
+
+    /// The value of column `x` (never left of an earlier `x`) and the end
+    /// of its run; past the row's runs, NaN to the end of the row.
+    #[inline]
+    fn at(&mut self, x: u32) -> (f64, u32) {
+        while x >= self.end {
+            match self.runs.next() {
+                Some(r) => {
+                    self.end = self.end.saturating_add(r.len);
+                    self.value = r.value;
+                }
+                None => {
+                    self.end = u32::MAX;
+                    self.value = f64::NAN;
+                }
+            }
+        }
+        (self.value, self.end)
+    }
+}
+
+/// Fills pixels `x0..x0 + greys.len()` of image row `y` with the greys.
+fn put_greys(img: &mut RgbImage, y: u32, x0: u32, greys: &[u8]) {
+    let width = img.width() as usize;
+    let start = (y as usize * width + x0 as usize) * 3;
+    let buf: &mut [u8] = img;
+    let row = &mut buf[start..start + greys.len() * 3];
+    for (px, &g) in row.chunks_exact_mut(3).zip(greys) {
+        px.copy_from_slice(&[g, g, g]);
+    }
+}
+
+/// Copies pixels `x0..x0 + len` of image row `from` to row `to`.
+fn copy_row_part(img: &mut RgbImage, from: u32, to: u32, x0: u32, len: u32) {
+    let width = img.width() as usize;
+    let at = |y: u32| (y as usize * width + x0 as usize) * 3;
+    let src = at(from);
+    img.copy_within(src..src + len as usize * 3, at(to));
+}
+
+/// The greys of one view row: the box means of the source rows `rows` over
+/// the column boxes `cols` (one per view pixel), each summed row by row,
+/// left to right, from 0.0, then stretched.
+///
+/// Where every source row is one run across a box, the box's sum is the
+/// same sequence of additions as that of the last such box of the same
+/// width inside the same runs, so its grey is reused instead of summed and
+/// rounded again: bit for bit what the per-pixel sum gives.
+fn view_row_greys(
     frame: &RenderedFrame,
     stretch: &Stretch,
-    (x0, x1): (u32, u32),
-    (y0, y1): (u32, u32),
-) -> u8 {
-    let mut sum = 0.0;
-    let mut n = 0.0;
-    for y in y0..y1.max(y0 + 1) {
-        frame.for_each_in_row(y, (x0, x1.max(x0 + 1)), |_, v| {
-            sum += v;
-            n += 1.0;
-        });
+    rows: &[u32],
+    cols: &[(u32, u32)],
+    out: &mut Vec<u8>,
+) {
+    let mut cursors: Vec<RowCursor> = rows.iter().map(|&r| RowCursor::new(frame, r)).collect();
+    out.clear();
+    // Every cursor's run covers the columns from where they were last
+    // placed up to `segment_end`; the memo holds the greys of boxes of each
+    // width inside that segment.
+    let mut segment_end = 0;
+    let mut memo: Vec<(u32, u8)> = Vec::new();
+    for &(x0, x1) in cols {
+        if x0 >= segment_end {
+            segment_end = cursors
+                .iter_mut()
+                .map(|c| c.at(x0).1)
+                .min()
+                .unwrap_or(u32::MAX);
+            memo.clear();
+        }
+        let uniform = x1 <= segment_end;
+        if uniform && let Some(&(_, g)) = memo.iter().find(|m| m.0 == x1 - x0) {
+            out.push(g);
+            continue;
+        }
+        let (mut sum, mut n) = (0.0, 0.0);
+        for c in &mut cursors {
+            for x in x0..x1 {
+                sum += c.at(x).0;
+                n += 1.0;
+            }
+        }
+        let g = stretch.apply(if n > 0.0 { sum / n } else { f64::NAN });
+        if uniform {
+            memo.push((x1 - x0, g));
+        } else {
+            // The cursors moved on: place them again at the next box.
+            segment_end = 0;
+        }
+        out.push(g);
     }
-    stretch.apply(if n > 0.0 { sum / n } else { f64::NAN })
+}
+
+/// Draws the whole frame, box-averaged to `vw` x `vh`, at the top left.
+/// A view row whose source rows hold the same runs as the previous view
+/// row's is a copy of it.
+fn draw_frame(img: &mut RgbImage, frame: &RenderedFrame, stretch: &Stretch, (vw, vh): (u32, u32)) {
+    let (fw, fh) = (frame.width.max(1), frame.height.max(1));
+    let to_view =
+        |v: u32, full: u32, view: u32| (u64::from(v) * u64::from(view) / u64::from(full)) as u32;
+    let cols: Vec<(u32, u32)> = (0..vw)
+        .map(|x| {
+            let (x0, x1) = (to_view(x, vw, fw), to_view(x + 1, vw, fw));
+            (x0, x1.max(x0 + 1).min(frame.width).max(x0))
+        })
+        .collect();
+    let mut greys = Vec::with_capacity(vw as usize);
+    let mut last: Vec<u32> = Vec::new();
+    for y in 0..vh {
+        let (y0, y1) = (to_view(y, vh, fh), to_view(y + 1, vh, fh));
+        let rows: Vec<u32> = (y0..y1.max(y0 + 1)).filter(|&r| r < frame.height).collect();
+        let same = y > 0
+            && rows.len() == last.len()
+            && rows.iter().zip(&last).all(|(&a, &b)| frame.same_runs(a, b));
+        if same {
+            copy_row_part(img, y - 1, y, 0, vw);
+        } else {
+            view_row_greys(frame, stretch, &rows, &cols, &mut greys);
+            put_greys(img, y, 0, &greys);
+        }
+        last = rows;
+    }
+}
+
+/// Draws the crop `c` (source pixels) at [`CROP_ZOOM`]x, nearest
+/// neighbour, with its left edge at image column `left`. Each source pixel
+/// is shown as its own one-pixel box mean, `(0.0 + v) / 1.0`, stretched;
+/// pixels outside the frame are black.
+fn draw_crop(img: &mut RgbImage, frame: &RenderedFrame, stretch: &Stretch, c: [u32; 4], left: u32) {
+    let mut greys = Vec::with_capacity((c[2] * CROP_ZOOM) as usize);
+    for sy in c[1]..c[1] + c[3] {
+        let mut cursor = RowCursor::new(frame, sy);
+        let in_frame = sy < frame.height;
+        // The grey of the current run and the run's end: computed once
+        // per run.
+        let mut memo: Option<(u32, u8)> = None;
+        greys.clear();
+        for sx in c[0]..c[0] + c[2] {
+            let g = if in_frame && sx < frame.width {
+                match memo {
+                    Some((end, g)) if sx < end => g,
+                    _ => {
+                        let (v, end) = cursor.at(sx);
+                        let g = stretch.apply((0.0 + v) / 1.0);
+                        memo = Some((end, g));
+                        g
+                    }
+                }
+            } else {
+                stretch.apply(f64::NAN)
+            };
+            greys.extend([g; CROP_ZOOM as usize]);
+        }
+        let top = (sy - c[1]) * CROP_ZOOM;
+        put_greys(img, top, left, &greys);
+        for dy in 1..CROP_ZOOM {
+            copy_row_part(img, top, top + dy, left, greys.len() as u32);
+        }
+    }
 }
 
 /// The view of `frame`: the whole frame (box-averaged down to
@@ -125,28 +288,7 @@ pub fn stretched_view(frame: &RenderedFrame, rois: &[RoiBox], stretch: &Stretch)
     let (cw, ch) = crop.map_or((0, 0), |c| (c[2] * CROP_ZOOM, c[3] * CROP_ZOOM));
     let width = vw + if crop.is_some() { GAP + cw } else { 0 };
     let mut img = RgbImage::from_pixel(width, vh.max(ch), Rgb([255, 255, 255]));
-    for y in 0..vh {
-        let (y0, y1) = (to_view(y, vh, fh), to_view(y + 1, vh, fh));
-        // The source rows of this view row, each expanded once.
-        let rows: Vec<Vec<f64>> = (y0..y1.max(y0 + 1))
-            .filter(|&r| r < frame.height)
-            .map(|r| frame.row(r))
-            .collect();
-        for x in 0..vw {
-            let (x0, x1) = (to_view(x, vw, fw), to_view(x + 1, vw, fw));
-            let cols = x0 as usize..(x1.max(x0 + 1).min(frame.width) as usize).max(x0 as usize);
-            // Row by row, left to right: the sum box_grey takes.
-            let (mut sum, mut n) = (0.0, 0.0);
-            for row in &rows {
-                for &v in &row[cols.clone()] {
-                    sum += v;
-                    n += 1.0;
-                }
-            }
-            let g = stretch.apply(if n > 0.0 { sum / n } else { f64::NAN });
-            img.put_pixel(x, y, Rgb([g, g, g]));
-        }
-    }
+    draw_frame(&mut img, frame, stretch, (vw, vh));
     let scale_rect = |[x, y, w, h]: [u32; 4]| {
         [
             to_view(x, fw, vw),
@@ -158,13 +300,7 @@ pub fn stretched_view(frame: &RenderedFrame, rois: &[RoiBox], stretch: &Stretch)
     if let Some(c) = crop {
         outline(&mut img, scale_rect(c), 1, CROP_COLOUR);
         let left = vw + GAP;
-        for y in 0..ch {
-            for x in 0..cw {
-                let (sx, sy) = (c[0] + x / CROP_ZOOM, c[1] + y / CROP_ZOOM);
-                let g = box_grey(frame, stretch, (sx, sx + 1), (sy, sy + 1));
-                img.put_pixel(left + x, y, Rgb([g, g, g]));
-            }
-        }
+        draw_crop(&mut img, frame, stretch, c, left);
         for roi in rois {
             let [x, y, w, h] = roi.rect_px;
             // The part of the ROI inside the crop, in crop pixels.
@@ -216,6 +352,148 @@ mod tests {
             name: "led".into(),
             kind: RoiKind::Led,
             rect_px,
+        }
+    }
+
+    /// The view's frame and crop pixels as first written: every source row
+    /// expanded, every box summed pixel by pixel, every crop pixel looked
+    /// up on its own. The run-wise drawing must give the same image.
+    fn reference_pixels(frame: &RenderedFrame, rois: &[RoiBox], stretch: &Stretch) -> RgbImage {
+        let (fw, fh) = (frame.width.max(1), frame.height.max(1));
+        let vw = fw.min(VIEW_WIDTH);
+        let vh = ((u64::from(fh) * u64::from(vw)) / u64::from(fw)).max(1) as u32;
+        let to_view = |v: u32, full: u32, view: u32| {
+            (u64::from(v) * u64::from(view) / u64::from(full)) as u32
+        };
+        let crop = crop_rect(rois, (fw, fh));
+        let (cw, ch) = crop.map_or((0, 0), |c| (c[2] * CROP_ZOOM, c[3] * CROP_ZOOM));
+        let width = vw + if crop.is_some() { GAP + cw } else { 0 };
+        let mut img = RgbImage::from_pixel(width, vh.max(ch), Rgb([255, 255, 255]));
+        for y in 0..vh {
+            let (y0, y1) = (to_view(y, vh, fh), to_view(y + 1, vh, fh));
+            let rows: Vec<Vec<f64>> = (y0..y1.max(y0 + 1))
+                .filter(|&r| r < frame.height)
+                .map(|r| frame.row(r))
+                .collect();
+            for x in 0..vw {
+                let (x0, x1) = (to_view(x, vw, fw), to_view(x + 1, vw, fw));
+                let cols = x0 as usize..(x1.max(x0 + 1).min(frame.width) as usize).max(x0 as usize);
+                let (mut sum, mut n) = (0.0, 0.0);
+                for row in &rows {
+                    for &v in &row[cols.clone()] {
+                        sum += v;
+                        n += 1.0;
+                    }
+                }
+                let g = stretch.apply(if n > 0.0 { sum / n } else { f64::NAN });
+                img.put_pixel(x, y, Rgb([g, g, g]));
+            }
+        }
+        if let Some(c) = crop {
+            for y in 0..ch {
+                for x in 0..cw {
+                    let (sx, sy) = (c[0] + x / CROP_ZOOM, c[1] + y / CROP_ZOOM);
+                    let (mut sum, mut n) = (0.0, 0.0);
+                    frame.for_each_in_row(sy, (sx, sx + 1), |_, v| {
+                        sum += v;
+                        n += 1.0;
+                    });
+                    let g = stretch.apply(if n > 0.0 { sum / n } else { f64::NAN });
+                    img.put_pixel(vw + GAP + x, y, Rgb([g, g, g]));
+                }
+            }
+        }
+        img
+    }
+
+    /// The view with its annotations left out: [`stretched_view`] drawn
+    /// with no ROIs and the crop `c` (if any) pasted from a view with ROIs.
+    fn view_pixels(frame: &RenderedFrame, rois: &[RoiBox], stretch: &Stretch) -> RgbImage {
+        let (fw, fh) = (frame.width.max(1), frame.height.max(1));
+        let vw = fw.min(VIEW_WIDTH);
+        let vh = ((u64::from(fh) * u64::from(vw)) / u64::from(fw)).max(1) as u32;
+        let crop = crop_rect(rois, (fw, fh));
+        let (cw, ch) = crop.map_or((0, 0), |c| (c[2] * CROP_ZOOM, c[3] * CROP_ZOOM));
+        let width = vw + if crop.is_some() { GAP + cw } else { 0 };
+        let mut img = RgbImage::from_pixel(width, vh.max(ch), Rgb([255, 255, 255]));
+        draw_frame(&mut img, frame, stretch, (vw, vh));
+        if let Some(c) = crop {
+            draw_crop(&mut img, frame, stretch, c, vw + GAP);
+        }
+        img
+    }
+
+    #[test]
+    fn run_wise_drawing_equals_the_pixel_by_pixel_view() {
+        let mut seed = 12345u64;
+        let mut noise = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) as f64 / 2f64.powi(31)
+        };
+        let mut frames = Vec::new();
+        // Smooth, noisy (a run per pixel), banded rows, and rows of runs
+        // like the simulator's, with short rows (NaN tails) and a NaN run.
+        for &(w, h) in &[(1280, 800), (200, 100), (481, 37), (1000, 3), (7, 900)] {
+            let noisy: Vec<f64> = (0..w * h).map(|_| (noise() * 60.0).round()).collect();
+            frames.push(RenderedFrame::from_pixels(1, w, h, &noisy, 255.0));
+            frames.push(frame(w, h, |x, y| {
+                let lamp = (w / 3..w / 2).contains(&x) && (h / 4..h / 2).contains(&y);
+                let band = (f64::from(y) * 0.37).sin();
+                if lamp {
+                    100.0 + 50.0 * band
+                } else {
+                    24.0 + 0.1 * f64::from(x % 5)
+                }
+            }));
+            let rows: Vec<Vec<Run>> = (0..h)
+                .map(|y| {
+                    let lamp = 100.0 + (f64::from(y / 3) * 0.91).cos() * 40.0;
+                    let mut runs = vec![
+                        Run {
+                            len: w / 3,
+                            value: 24.0,
+                        },
+                        Run {
+                            len: w / 4 + y % 3,
+                            value: lamp,
+                        },
+                        Run { len: 0, value: 5.0 },
+                    ];
+                    if y % 17 == 5 {
+                        runs.push(Run {
+                            len: 2,
+                            value: f64::NAN,
+                        });
+                    }
+                    if y % 29 != 3 {
+                        runs.push(Run {
+                            len: w,
+                            value: 24.0,
+                        });
+                    }
+                    runs
+                })
+                .collect();
+            frames.push(RenderedFrame::from_runs(2, w, 255.0, rows));
+        }
+        frames.push(RenderedFrame::from_runs(3, 0, 255.0, Vec::new()));
+        for f in &frames {
+            let (w, h) = (f.width, f.height);
+            let roi_sets = [
+                vec![],
+                vec![led([w / 2, h / 2, (w / 10).max(1), 2.min(h.max(1))])],
+                // An ROI reaching past the frame's right and bottom edges.
+                vec![led([w.saturating_sub(3), h.saturating_sub(1), 40, 30])],
+            ];
+            for rois in &roi_sets {
+                let stretch = Stretch::of_frame(f);
+                let want = reference_pixels(f, rois, &stretch);
+                let got = view_pixels(f, rois, &stretch);
+                assert_eq!(got.dimensions(), want.dimensions(), "{w} x {h} {rois:?}");
+                assert!(got == want, "{w} x {h} {rois:?}: pixels differ");
+            }
         }
     }
 
