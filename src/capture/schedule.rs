@@ -42,7 +42,8 @@ pub fn read_captures(
     let costs: Vec<u64> = opened.iter().map(Opened::decode_cost).collect();
     let mut costliest_first = in_order;
     costliest_first.sort_by_key(|&i| std::cmp::Reverse(costs[i]));
-    let threads = decoder_threads(&opened, &costs, opts.decoder_threads, cores);
+    let videos = opened.iter().filter(|o| o.video.is_some()).count();
+    let threads = decoder_threads(&costs, videos, opts.decoder_threads, cores);
     run_bounded(opened, &costliest_first, |i, o| {
         let opts = ReadOptions {
             decoder_threads: threads[i],
@@ -52,21 +53,22 @@ pub fn read_captures(
     })
 }
 
-/// FFmpeg decoder threads of each capture (see the module's text); `given`
-/// (the caller's choice) wins, and a single video keeps FFmpeg's choice.
+/// FFmpeg decoder threads of each capture of decode cost `costs` (0 for
+/// one read in this process), `videos` of them videos (see the module's
+/// text); `given` (the caller's choice) wins, and a single video keeps
+/// FFmpeg's choice.
 fn decoder_threads(
-    opened: &[Opened],
     costs: &[u64],
+    videos: usize,
     given: Option<usize>,
     cores: usize,
 ) -> Vec<Option<usize>> {
-    let videos = opened.iter().filter(|o| o.video.is_some()).count();
     if given.is_some() || videos < 2 {
-        return vec![given; opened.len()];
+        return vec![given; costs.len()];
     }
     let total: u64 = costs.iter().sum();
     let costliest = (0..costs.len()).max_by_key(|&i| (costs[i], std::cmp::Reverse(i)));
-    (0..opened.len())
+    (0..costs.len())
         .map(|i| {
             let alone_longest = costs[i] as u128 * cores as u128 > total as u128;
             let all_cores = Some(i) == costliest && alone_longest;
@@ -130,6 +132,32 @@ fn into_inner<T>(slot: Mutex<T>) -> T {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_costliest_video_gets_every_core_only_when_it_is_the_longest_alone() {
+        // The P2020 samples: 899, 429 and 369 frames of one size.
+        assert_eq!(
+            decoder_threads(&[899, 429, 369], 3, None, 2),
+            vec![Some(2), Some(1), Some(1)]
+        );
+        // Equal captures share the cores, one decoder thread each.
+        assert_eq!(
+            decoder_threads(&[500, 500, 500], 3, None, 2),
+            vec![Some(1); 3]
+        );
+        // On 4 cores none of five equal videos is more than a quarter.
+        assert_eq!(decoder_threads(&[20; 5], 5, None, 4), vec![Some(1); 5]);
+        // Ties go to the first; the caller's choice and a lone video win.
+        assert_eq!(
+            decoder_threads(&[10, 10, 0], 2, None, 4),
+            vec![Some(4), Some(1), Some(1)]
+        );
+        assert_eq!(
+            decoder_threads(&[899, 429], 2, Some(3), 2),
+            vec![Some(3); 2]
+        );
+        assert_eq!(decoder_threads(&[899, 0], 1, None, 2), vec![None; 2]);
+    }
 
     #[test]
     fn run_bounded_keeps_item_order_whatever_the_running_order() {
