@@ -69,7 +69,8 @@ pub struct ReadOptions {
     /// Frame rate used for timestamps when the source has none, frames/s.
     pub fps: Option<f64>,
     /// Threads of each FFmpeg video decoder; `None` leaves FFmpeg's choice
-    /// (one per core). Several captures read at once share the cores.
+    /// (one per core). Several captures read at once share the cores;
+    /// with `Some`, the filter graph runs on one thread too.
     pub decoder_threads: Option<usize>,
 }
 
