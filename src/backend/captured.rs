@@ -200,8 +200,7 @@ impl Captured {
         let names: Vec<String> = plan.rois.iter().map(|r| r.name.clone()).collect();
         let opts = read_options(cap);
         let paths: Vec<&Path> = cap.cases.iter().map(|c| c.source.as_path()).collect();
-        let cores = rayon::current_num_threads();
-        let traces = capture::read_captures(&paths, &rects, &names, &opts, cores)?;
+        let traces = capture::read_captures(&paths, &rects, &names, &opts)?;
         let detection = Detection::for_plan(plan);
         let acquisitions = cap
             .cases

@@ -182,56 +182,18 @@ pub fn read_capture(
     roi_names: &[String],
     opts: &ReadOptions,
 ) -> Result<CaptureTrace, CaptureError> {
-    let opened = open(path)?;
-    read_opened(path, opened, rois, roi_names, opts)
-}
-
-/// A capture that was found and, for a video, probed: what
-/// [`read_captures`] needs to schedule the reading.
-pub(crate) struct Opened {
-    kind: SourceKind,
-    video: Option<video::Probe>,
-}
-
-impl Opened {
-    /// Pixels to decode (frames x width x height) when known; 0 for sources
-    /// read in this process.
-    fn decode_cost(&self) -> u64 {
-        self.video.as_ref().map_or(0, video::Probe::pixels)
-    }
-}
-
-/// Checks that `path` exists and probes it when it is a video.
-fn open(path: &Path) -> Result<Opened, CaptureError> {
     if !path.exists() {
         return Err(CaptureError::Read {
             path: path.to_path_buf(),
             message: "no such file or directory".to_string(),
         });
     }
-    let kind = source_kind(path);
-    let video = match kind {
-        SourceKind::Video => Some(video::probe(path)?),
-        _ => None,
-    };
-    Ok(Opened { kind, video })
-}
-
-/// [`read_capture`] of a capture [`open`] found.
-fn read_opened(
-    path: &Path,
-    opened: Opened,
-    rois: &[RoiRect],
-    roi_names: &[String],
-    opts: &ReadOptions,
-) -> Result<CaptureTrace, CaptureError> {
-    let mut trace = match (opened.kind, opened.video) {
-        (SourceKind::ImageDir, _) => images::read_dir(path, rois, opts)?,
-        (SourceKind::Image, _) => images::read_files(path, &[path.to_path_buf()], rois, opts)?,
-        (SourceKind::Y4m, _) => y4m::read(path, rois, opts)?,
-        (SourceKind::Video, Some(p)) => video::read(path, p, rois, opts)?,
-        (SourceKind::Video, None) => video::read(path, video::probe(path)?, rois, opts)?,
-        (SourceKind::Csv, _) => csv_trace::read(path, roi_names, opts)?,
+    let mut trace = match source_kind(path) {
+        SourceKind::ImageDir => images::read_dir(path, rois, opts)?,
+        SourceKind::Image => images::read_files(path, &[path.to_path_buf()], rois, opts)?,
+        SourceKind::Y4m => y4m::read(path, rois, opts)?,
+        SourceKind::Video => video::read(path, video::probe(path)?, rois, opts)?,
+        SourceKind::Csv => csv_trace::read(path, roi_names, opts)?,
     };
     if trace.time_s.is_empty() {
         return Err(CaptureError::Invalid {

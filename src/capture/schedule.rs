@@ -1,80 +1,66 @@
 //! Reading a plan's captures together.
 //!
-//! [`read_captures`] first opens every capture (a video is probed by
-//! ffprobe), then reads them all, the costliest first. Both steps run on
-//! threads of their own, at most [`AT_ONCE`] captures at a time, rather than
-//! on the rayon pool: a video's work is done in its FFmpeg process, so the
-//! threads here mostly wait on pipes, and every decoder starts at once
-//! instead of waiting for a pool thread.
+//! [`read_captures`] reads every capture at once, each on a thread of its
+//! own (at most [`AT_ONCE`] at a time), rather than on the rayon pool: a
+//! video's work is done in its FFmpeg process (ffprobe, then ffmpeg), so
+//! these threads mostly wait on pipes, and every decoder starts at once
+//! instead of waiting for a pool thread. The largest files start first
+//! (this only matters beyond [`AT_ONCE`] captures).
 //!
-//! Decoder threads: when several videos are read, each FFmpeg decoder gets
-//! one thread, so that the decoders share the cores without frame-threading
-//! overhead; except the costliest video (frames x pixels), which gets every
-//! core when it alone is more than its fair share of the work (more than
-//! `1 / cores` of all the pixels), because it then finishes last, alone.
-//! Frame threading changes no pixel (tests in `video`), so the numbers do
+//! When several videos are read, each FFmpeg decoder gets one thread and
+//! a one-thread filter graph: the decoders share the cores among
+//! themselves, without the CPU that frame threading and a filter thread
+//! pool add. Neither changes a pixel (tests in `video`), so the numbers do
 //! not depend on this choice.
 
 use std::path::Path;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-use super::{CaptureError, CaptureTrace, Opened, ReadOptions, RoiRect, open, read_opened};
+use super::{
+    CaptureError, CaptureTrace, ReadOptions, RoiRect, SourceKind, read_capture, source_kind,
+};
 
-/// Most captures opened or read at the same time.
+/// Most captures read at the same time.
 pub const AT_ONCE: usize = 8;
 
-/// Reads every capture of `paths` (as [`super::read_capture`] does) with the
-/// same ROIs and options; `cores` is the number of cores the run may use
-/// (the rayon pool's threads). The traces come back in the order of
-/// `paths`. On failure, no further capture is started, and the error is
-/// that of the first failing capture in the order of `paths` among those
-/// started.
+/// Reads every capture of `paths` (as [`read_capture`] does) with the same
+/// ROIs and options. The traces come back in the order of `paths`. On
+/// failure, no further capture is started, and the error is that of the
+/// first failing capture in the order of `paths` among those started.
 pub fn read_captures(
     paths: &[&Path],
     rois: &[RoiRect],
     roi_names: &[String],
     opts: &ReadOptions,
-    cores: usize,
 ) -> Result<Vec<CaptureTrace>, CaptureError> {
-    let in_order: Vec<usize> = (0..paths.len()).collect();
-    let opened = run_bounded(vec![(); paths.len()], &in_order, |i, ()| open(paths[i]))?;
-    let costs: Vec<u64> = opened.iter().map(Opened::decode_cost).collect();
-    let mut costliest_first = in_order;
-    costliest_first.sort_by_key(|&i| std::cmp::Reverse(costs[i]));
-    let videos = opened.iter().filter(|o| o.video.is_some()).count();
-    let threads = decoder_threads(&costs, videos, opts.decoder_threads, cores);
-    run_bounded(opened, &costliest_first, |i, o| {
-        let opts = ReadOptions {
-            decoder_threads: threads[i],
-            ..*opts
-        };
-        read_opened(paths[i], o, rois, roi_names, &opts)
+    let videos = paths
+        .iter()
+        .filter(|p| source_kind(p) == SourceKind::Video)
+        .count();
+    let opts = ReadOptions {
+        decoder_threads: decoder_threads(videos, opts.decoder_threads),
+        ..*opts
+    };
+    let sizes: Vec<u64> = paths
+        .iter()
+        .map(|p| std::fs::metadata(p).map_or(0, |m| m.len()))
+        .collect();
+    let mut largest_first: Vec<usize> = (0..paths.len()).collect();
+    largest_first.sort_by_key(|&i| std::cmp::Reverse(sizes[i]));
+    run_bounded(vec![(); paths.len()], &largest_first, |i, ()| {
+        read_capture(paths[i], rois, roi_names, &opts)
     })
 }
 
-/// FFmpeg decoder threads of each capture of decode cost `costs` (0 for
-/// one read in this process), `videos` of them videos (see the module's
-/// text); `given` (the caller's choice) wins, and a single video keeps
-/// FFmpeg's choice.
-fn decoder_threads(
-    costs: &[u64],
-    videos: usize,
-    given: Option<usize>,
-    cores: usize,
-) -> Vec<Option<usize>> {
-    if given.is_some() || videos < 2 {
-        return vec![given; costs.len()];
+/// Decoder threads of each of `videos` videos read together: the caller's
+/// choice (`given`) when made, FFmpeg's own for a single video, else one.
+fn decoder_threads(videos: usize, given: Option<usize>) -> Option<usize> {
+    match given {
+        Some(n) => Some(n),
+        None if videos < 2 => None,
+        None => Some(1),
     }
-    let total: u64 = costs.iter().sum();
-    let costliest = (0..costs.len()).max_by_key(|&i| (costs[i], std::cmp::Reverse(i)));
-    (0..costs.len())
-        .map(|i| {
-            let alone_longest = costs[i] as u128 * cores as u128 > total as u128;
-            let all_cores = Some(i) == costliest && alone_longest;
-            Some(if all_cores { cores.max(1) } else { 1 })
-        })
-        .collect()
 }
 
 /// Runs `f(i, items[i])` for every item, in `order`, on at most
@@ -134,29 +120,60 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_costliest_video_gets_every_core_only_when_it_is_the_longest_alone() {
-        // The P2020 samples: 899, 429 and 369 frames of one size.
-        assert_eq!(
-            decoder_threads(&[899, 429, 369], 3, None, 2),
-            vec![Some(2), Some(1), Some(1)]
+    fn videos_read_together_get_one_decoder_thread_each() {
+        assert_eq!(decoder_threads(3, None), Some(1));
+        assert_eq!(decoder_threads(1, None), None);
+        assert_eq!(decoder_threads(0, None), None);
+        assert_eq!(decoder_threads(3, Some(2)), Some(2));
+    }
+
+    /// Read together, the P2020 sample videos give exactly what each gives
+    /// read alone with FFmpeg's own threads, in the order asked; a missing
+    /// capture among them is the error.
+    #[test]
+    fn captures_read_together_equal_each_read_alone() {
+        assert!(
+            super::super::ffmpeg_available(),
+            "this test needs `ffmpeg` and `ffprobe` (scripts/test.sh installs them)"
         );
-        // Equal captures share the cores, one decoder thread each.
-        assert_eq!(
-            decoder_threads(&[500, 500, 500], 3, None, 2),
-            vec![Some(1); 3]
-        );
-        // On 4 cores none of five equal videos is more than a quarter.
-        assert_eq!(decoder_threads(&[20; 5], 5, None, 4), vec![Some(1); 5]);
-        // Ties go to the first; the caller's choice and a lone video win.
-        assert_eq!(
-            decoder_threads(&[10, 10, 0], 2, None, 4),
-            vec![Some(4), Some(1), Some(1)]
-        );
-        assert_eq!(
-            decoder_threads(&[899, 429], 2, Some(3), 2),
-            vec![Some(3); 2]
-        );
-        assert_eq!(decoder_threads(&[899, 0], 1, None, 2), vec![None; 2]);
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("reference-data/p2020-flicker-videos");
+        let paths: Vec<_> = ["test_vid3.mp4", "test_vid2.mp4"]
+            .iter()
+            .map(|f| dir.join(f))
+            .collect();
+        let refs: Vec<&Path> = paths.iter().map(|p| p.as_path()).collect();
+        let rois = [
+            RoiRect {
+                x: 457,
+                y: 247,
+                width: 20,
+                height: 2,
+            },
+            RoiRect {
+                x: 640,
+                y: 500,
+                width: 13,
+                height: 9,
+            },
+        ];
+        let opts = ReadOptions {
+            luma: super::super::LumaWeights::Bt601,
+            video_decode: super::super::VideoDecode::Rgb,
+            range: super::super::VideoRange::Auto,
+            fps: None,
+            decoder_threads: None,
+        };
+        let together = read_captures(&refs, &rois, &[], &opts).unwrap();
+        let alone: Vec<CaptureTrace> = refs
+            .iter()
+            .map(|p| read_capture(p, &rois, &[], &opts).unwrap())
+            .collect();
+        assert_eq!(together.len(), 2);
+        assert_eq!(together[0].luma[0].len(), 369);
+        assert_eq!(together, alone);
+        let missing = dir.join("no_such_video.mp4");
+        let e = read_captures(&[refs[0], &missing], &rois, &[], &opts).unwrap_err();
+        assert!(e.to_string().contains("no_such_video.mp4"), "{e}");
     }
 
     #[test]

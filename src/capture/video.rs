@@ -60,13 +60,6 @@ pub(super) struct Probe {
     packet_times: Vec<f64>,
 }
 
-impl Probe {
-    /// Pixels to decode: packets x width x height.
-    pub(super) fn pixels(&self) -> u64 {
-        self.packet_times.len() as u64 * self.width as u64 * self.height as u64
-    }
-}
-
 /// Most bytes of ffprobe's stdout read (about 10 million packet times);
 /// more is an error rather than unbounded memory.
 const PROBE_STDOUT_MAX: u64 = 256 << 20;
@@ -654,8 +647,8 @@ mod tests {
             assert_eq!(tiled.luma[0].len(), 369);
             assert_eq!(tiled, boxed, "{video_decode:?}");
             // One decoder thread and a one-thread filter graph (captures
-            // read together), and two decoder threads (the costliest of
-            // them), decode the same pixels as FFmpeg's own choice.
+            // read together), and two decoder threads, decode the same
+            // pixels as FFmpeg's own choice.
             let one = ReadOptions {
                 decoder_threads: Some(1),
                 ..opts
