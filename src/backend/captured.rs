@@ -186,7 +186,10 @@ pub struct Captured {
 }
 
 impl Captured {
-    /// Reads every case's capture (in parallel, on the current rayon pool).
+    /// Reads every case's capture, all at once ([`capture::read_captures`]),
+    /// then finds each one's segments (in parallel, on the current rayon
+    /// pool). A reading error comes first; then the segments error of the
+    /// first such case in plan order.
     pub fn load(plan: &Plan) -> Result<Self, CaptureError> {
         let Some(cap) = &plan.capture else {
             return Ok(Self {
@@ -195,19 +198,15 @@ impl Captured {
         };
         let rects = roi_rects(&plan.rois);
         let names: Vec<String> = plan.rois.iter().map(|r| r.name.clone()).collect();
-        let mut opts = read_options(cap);
-        // Captures are read in parallel: each decoder gets its share of
-        // the pool's threads, so that decoders do not fight over cores.
-        if cap.cases.len() > 1 {
-            let threads = rayon::current_num_threads();
-            opts.decoder_threads = Some((threads / cap.cases.len().min(threads)).max(1));
-        }
+        let opts = read_options(cap);
+        let paths: Vec<&Path> = cap.cases.iter().map(|c| c.source.as_path()).collect();
+        let traces = capture::read_captures(&paths, &rects, &names, &opts)?;
         let detection = Detection::for_plan(plan);
         let acquisitions = cap
             .cases
             .par_iter()
-            .map(|c| {
-                let trace = capture::read_capture(&c.source, &rects, &names, &opts)?;
+            .zip(traces)
+            .map(|(c, trace)| {
                 let found = find_segments_with(&c.segments, &trace, &c.source, &detection)?;
                 let mut acq = to_acquisition(&trace, &found, &plan.rois, cap.saturation_dn);
                 acq.capture = Some(CaptureSummary {
@@ -218,6 +217,8 @@ impl Captured {
                 });
                 Ok((c.id.clone(), acq))
             })
+            .collect::<Vec<Result<_, CaptureError>>>()
+            .into_iter()
             .collect::<Result<HashMap<_, _>, CaptureError>>()?;
         Ok(Self { acquisitions })
     }

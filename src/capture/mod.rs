@@ -15,12 +15,14 @@
 mod csv_trace;
 mod images;
 mod progress;
+mod schedule;
 mod video;
 mod y4m;
 
 use std::path::{Path, PathBuf};
 
 pub use progress::{decode_progress_text, frames_decoded};
+pub use schedule::read_captures;
 pub use video::ffmpeg_available;
 
 // The plan's `[capture]` choices; defined with the plan, read here.
@@ -67,7 +69,8 @@ pub struct ReadOptions {
     /// Frame rate used for timestamps when the source has none, frames/s.
     pub fps: Option<f64>,
     /// Threads of each FFmpeg video decoder; `None` leaves FFmpeg's choice
-    /// (one per core). Several captures read at once share the cores.
+    /// (one per core). Several captures read at once share the cores;
+    /// with `Some`, the filter graph runs on one thread too.
     pub decoder_threads: Option<usize>,
 }
 
@@ -189,7 +192,7 @@ pub fn read_capture(
         SourceKind::ImageDir => images::read_dir(path, rois, opts)?,
         SourceKind::Image => images::read_files(path, &[path.to_path_buf()], rois, opts)?,
         SourceKind::Y4m => y4m::read(path, rois, opts)?,
-        SourceKind::Video => video::read(path, rois, opts)?,
+        SourceKind::Video => video::read(path, video::probe(path)?, rois, opts)?,
         SourceKind::Csv => csv_trace::read(path, roi_names, opts)?,
     };
     if trace.time_s.is_empty() {

@@ -1,0 +1,242 @@
+//! Reading a plan's captures together.
+//!
+//! [`read_captures`] reads every capture at once, each on a thread of its
+//! own (at most [`AT_ONCE`] at a time), rather than on the rayon pool: a
+//! video's work is done in its FFmpeg process (ffprobe, then ffmpeg), so
+//! these threads mostly wait on pipes, and every decoder starts at once
+//! instead of waiting for a pool thread. The largest files start first
+//! (this only matters beyond [`AT_ONCE`] captures).
+//!
+//! When several videos are read, each FFmpeg decoder gets one thread and
+//! a one-thread filter graph: the decoders share the cores among
+//! themselves, without the CPU that frame threading and a filter thread
+//! pool add. Neither changes a pixel (tests in `video`), so the numbers do
+//! not depend on this choice.
+
+use std::path::Path;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+use super::{
+    CaptureError, CaptureTrace, ReadOptions, RoiRect, SourceKind, read_capture, source_kind,
+};
+
+/// Most captures read at the same time.
+pub const AT_ONCE: usize = 8;
+
+/// Reads every capture of `paths` (as [`read_capture`] does) with the same
+/// ROIs and options. The traces come back in the order of `paths`. On
+/// failure, no further capture is started, and the error is that of the
+/// first failing capture in the order of `paths` among those started.
+pub fn read_captures(
+    paths: &[&Path],
+    rois: &[RoiRect],
+    roi_names: &[String],
+    opts: &ReadOptions,
+) -> Result<Vec<CaptureTrace>, CaptureError> {
+    let videos = paths
+        .iter()
+        .filter(|p| source_kind(p) == SourceKind::Video)
+        .count();
+    let opts = ReadOptions {
+        decoder_threads: decoder_threads(videos, opts.decoder_threads),
+        ..*opts
+    };
+    let sizes: Vec<u64> = paths
+        .iter()
+        .map(|p| std::fs::metadata(p).map_or(0, |m| m.len()))
+        .collect();
+    let mut largest_first: Vec<usize> = (0..paths.len()).collect();
+    largest_first.sort_by_key(|&i| std::cmp::Reverse(sizes[i]));
+    run_bounded(vec![(); paths.len()], &largest_first, |i, ()| {
+        read_capture(paths[i], rois, roi_names, &opts)
+    })
+}
+
+/// Decoder threads of each of `videos` videos read together: the caller's
+/// choice (`given`) when made, FFmpeg's own for a single video, else one.
+fn decoder_threads(videos: usize, given: Option<usize>) -> Option<usize> {
+    match given {
+        Some(n) => Some(n),
+        None if videos < 2 => None,
+        None => Some(1),
+    }
+}
+
+/// Runs `f(i, items[i])` for every item, in `order`, on at most
+/// [`AT_ONCE`] threads. After the first error no item is started; the
+/// result is the first error in item order, or every output in item order.
+fn run_bounded<I: Send, O: Send, E: Send>(
+    items: Vec<I>,
+    order: &[usize],
+    f: impl Fn(usize, I) -> Result<O, E> + Sync,
+) -> Result<Vec<O>, E> {
+    let n = items.len();
+    let inputs: Vec<Mutex<Option<I>>> = items.into_iter().map(|x| Mutex::new(Some(x))).collect();
+    let outputs: Vec<Mutex<Option<Result<O, E>>>> = (0..n).map(|_| Mutex::new(None)).collect();
+    let next = AtomicUsize::new(0);
+    let failed = AtomicBool::new(false);
+    let worker = || {
+        while !failed.load(Ordering::Acquire) {
+            let Some(&i) = order.get(next.fetch_add(1, Ordering::AcqRel)) else {
+                return;
+            };
+            let Some(item) = take(&inputs[i]) else {
+                continue;
+            };
+            let out = f(i, item);
+            if out.is_err() {
+                failed.store(true, Ordering::Release);
+            }
+            *outputs[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(out);
+        }
+    };
+    std::thread::scope(|s| {
+        for _ in 0..n.min(AT_ONCE) {
+            s.spawn(worker);
+        }
+    });
+    let outputs: Vec<Option<Result<O, E>>> = outputs.into_iter().map(into_inner).collect();
+    if let Some(e) = outputs.iter().position(|o| matches!(o, Some(Err(_)))) {
+        let Some(Some(Err(e))) = outputs.into_iter().nth(e) else {
+            unreachable!("position() found an error here")
+        };
+        return Err(e);
+    }
+    // Without an error every item ran.
+    Ok(outputs.into_iter().flatten().flatten().collect())
+}
+
+fn take<T>(slot: &Mutex<Option<T>>) -> Option<T> {
+    slot.lock().unwrap_or_else(|e| e.into_inner()).take()
+}
+
+fn into_inner<T>(slot: Mutex<T>) -> T {
+    slot.into_inner().unwrap_or_else(|e| e.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn videos_read_together_get_one_decoder_thread_each() {
+        assert_eq!(decoder_threads(3, None), Some(1));
+        assert_eq!(decoder_threads(1, None), None);
+        assert_eq!(decoder_threads(0, None), None);
+        assert_eq!(decoder_threads(3, Some(2)), Some(2));
+    }
+
+    /// Read together, the P2020 sample videos give exactly what each gives
+    /// read alone with FFmpeg's own threads, in the order asked; a missing
+    /// capture among them is the error.
+    #[test]
+    fn captures_read_together_equal_each_read_alone() {
+        assert!(
+            super::super::ffmpeg_available(),
+            "this test needs `ffmpeg` and `ffprobe` (scripts/test.sh installs them)"
+        );
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("reference-data/p2020-flicker-videos");
+        let paths: Vec<_> = ["test_vid3.mp4", "test_vid2.mp4"]
+            .iter()
+            .map(|f| dir.join(f))
+            .collect();
+        let refs: Vec<&Path> = paths.iter().map(|p| p.as_path()).collect();
+        let rois = [
+            RoiRect {
+                x: 457,
+                y: 247,
+                width: 20,
+                height: 2,
+            },
+            RoiRect {
+                x: 640,
+                y: 500,
+                width: 13,
+                height: 9,
+            },
+        ];
+        let opts = ReadOptions {
+            luma: super::super::LumaWeights::Bt601,
+            video_decode: super::super::VideoDecode::Rgb,
+            range: super::super::VideoRange::Auto,
+            fps: None,
+            decoder_threads: None,
+        };
+        let together = read_captures(&refs, &rois, &[], &opts).unwrap();
+        let alone: Vec<CaptureTrace> = refs
+            .iter()
+            .map(|p| read_capture(p, &rois, &[], &opts).unwrap())
+            .collect();
+        assert_eq!(together.len(), 2);
+        assert_eq!(together[0].luma[0].len(), 369);
+        assert_eq!(together, alone);
+        let missing = dir.join("no_such_video.mp4");
+        let e = read_captures(&[refs[0], &missing], &rois, &[], &opts).unwrap_err();
+        assert!(e.to_string().contains("no_such_video.mp4"), "{e}");
+    }
+
+    #[test]
+    fn run_bounded_keeps_item_order_whatever_the_running_order() {
+        let order = [3, 0, 2, 1, 4];
+        let out = run_bounded(vec![10, 11, 12, 13, 14], &order, |i, x| {
+            Ok::<_, String>((i, x * 2))
+        })
+        .unwrap();
+        assert_eq!(out, vec![(0, 20), (1, 22), (2, 24), (3, 26), (4, 28)]);
+    }
+
+    #[test]
+    fn run_bounded_returns_the_first_error_in_item_order() {
+        // All four run at once (the barrier holds each until all started);
+        // items 1 and 3 fail, item 3 first: item 1's error is the one.
+        let all_started = std::sync::Barrier::new(4);
+        let err = run_bounded(vec![(); 4], &[3, 2, 1, 0], |i, ()| {
+            all_started.wait();
+            if i == 1 {
+                std::thread::sleep(std::time::Duration::from_millis(20));
+            }
+            if i % 2 == 1 {
+                Err(format!("item {i}"))
+            } else {
+                Ok(i)
+            }
+        });
+        assert_eq!(err.unwrap_err(), "item 1");
+    }
+
+    #[test]
+    fn run_bounded_starts_nothing_after_an_error() {
+        // Item 0 is taken first and fails; the items taken alongside it
+        // wait until it has failed (and a little longer, so that the
+        // failure is recorded), so no thread may take another item.
+        let n = 2 * AT_ONCE;
+        let started = AtomicUsize::new(0);
+        let first_done = AtomicBool::new(false);
+        let order: Vec<usize> = (0..n).collect();
+        let err = run_bounded(vec![(); n], &order, |i, ()| {
+            if i == 0 {
+                first_done.store(true, Ordering::Release);
+                return Err("item 0");
+            }
+            started.fetch_add(1, Ordering::AcqRel);
+            while !first_done.load(Ordering::Acquire) {
+                std::thread::yield_now();
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            Ok(i)
+        });
+        assert_eq!(err.unwrap_err(), "item 0");
+        assert!(first_done.load(Ordering::Acquire));
+        // At most the AT_ONCE - 1 items taken alongside item 0 ran.
+        assert!(started.load(Ordering::Acquire) < AT_ONCE, "{started:?}");
+    }
+
+    #[test]
+    fn run_bounded_runs_more_items_than_threads() {
+        let n = 3 * AT_ONCE + 1;
+        let order: Vec<usize> = (0..n).rev().collect();
+        let out = run_bounded((0..n).collect(), &order, |_, x: usize| Ok::<_, ()>(x)).unwrap();
+        assert_eq!(out, (0..n).collect::<Vec<_>>());
+    }
+}
