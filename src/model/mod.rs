@@ -35,7 +35,7 @@ pub use crate::metrics::{Check, Levels, Metric, Verdict};
 pub use crate::plan::{RoiKind, Thresholds, VerdictBasis};
 pub use crate::runner::CaseResult;
 pub use crate::trace::{
-    Acquisition, CaptureSummary, FrameInfo, RenderedFrame, Segment, SegmentsFound,
+    Acquisition, CaptureSummary, FrameInfo, RenderedFrame, Run, Segment, SegmentsFound,
 };
 pub use build::{assemble, build};
 

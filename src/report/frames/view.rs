@@ -7,8 +7,7 @@
 use image::{Rgb, RgbImage};
 
 use crate::model::frame::{CROP_ZOOM, RoiBox, Stretch, crop_rect};
-use crate::model::{RenderedFrame, RoiKind};
-use crate::trace::Run;
+use crate::model::{RenderedFrame, RoiKind, Run};
 
 /// Width of the whole-frame part of the view, pixels (frames narrower are
 /// shown 1:1).
