@@ -178,11 +178,7 @@ fn exited(pid: libc::pid_t) -> std::io::Result<bool> {
 
 /// Sends SIGKILL to every process of group `pgid`.
 fn kill_group(pgid: libc::pid_t) {
-    // SAFETY: kill(2) on a negative pid signals that process group; the
-    // group is ours (the command was started with process_group(0)).
-    unsafe {
-        libc::kill(-pgid, libc::SIGKILL);
-    }
+    crate::util::kill_group(pgid as u32);
 }
 
 #[cfg(test)]

@@ -17,6 +17,7 @@ mod images;
 mod progress;
 mod schedule;
 mod video;
+mod watch;
 mod y4m;
 
 use std::path::{Path, PathBuf};

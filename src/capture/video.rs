@@ -18,10 +18,12 @@
 //! sorted), with the frame rate as a fallback.
 
 use std::io::Read;
+use std::os::unix::process::CommandExt;
 use std::path::Path;
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::thread::JoinHandle;
 
+use super::watch::{Fired, STALL, Watchdog};
 use super::{
     Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, ReadOptions, RoiRect, VideoDecode,
     VideoRange, bounding_box, check_rois, limited_to_full_lut, times_from_fps,
@@ -104,8 +106,10 @@ fn run_ffprobe(path: &Path) -> Result<ProbeOutput, CaptureError> {
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
+        .process_group(0)
         .spawn()
         .map_err(|e| tool_error(path, "ffprobe", e))?;
+    let dog = Watchdog::start(child.id(), STALL);
     let err_thread = drain_stderr(child.stderr.take());
     let mut stdout = Vec::new();
     let read = match child.stdout.take() {
@@ -118,6 +122,9 @@ fn run_ffprobe(path: &Path) -> Result<ProbeOutput, CaptureError> {
     }
     let status = child.wait().map_err(|e| tool_error(path, "ffprobe", e))?;
     let stderr = err_thread.join().unwrap_or_default();
+    if let Some(fired) = dog.finish() {
+        return Err(stopped(path, fired, "ffprobe"));
+    }
     if let Err(e) = read {
         return Err(tool_error(path, "ffprobe", e));
     }
@@ -234,9 +241,14 @@ fn read_with(
         acc.expand = Some(limited_to_full_lut(8));
     }
     let frame_bytes = layout.width as usize * layout.height as usize * bpp;
-    let (frame, partial) = read_frames(path, &mut child, &mut acc, &layout, frame_bytes, opts)?;
-    let status = child.wait().map_err(|e| tool_error(path, "ffmpeg", e))?;
+    let dog = Watchdog::start(child.id(), STALL);
+    let read = read_frames(path, &mut child, &mut acc, &layout, frame_bytes, opts, &dog);
+    let status = child.wait().map_err(|e| tool_error(path, "ffmpeg", e));
     let stderr_text = err_thread.join().unwrap_or_default();
+    if let Some(fired) = dog.finish() {
+        return Err(stopped(path, fired, "ffmpeg"));
+    }
+    let ((frame, partial), status) = (read?, status?);
     if !status.success() || partial {
         return Err(undecodable(path, frame, &stderr_text));
     }
@@ -416,6 +428,7 @@ fn spawn_ffmpeg(
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
+        .process_group(0)
         .spawn()
         .map_err(|e| tool_error(path, "ffmpeg", e))
 }
@@ -430,6 +443,7 @@ fn read_frames(
     layout: &Layout,
     frame_bytes: usize,
     opts: &ReadOptions,
+    dog: &Watchdog,
 ) -> Result<(u64, bool), CaptureError> {
     let mut buf = vec![0u8; frame_bytes];
     let mut frame: u64 = 0;
@@ -450,6 +464,7 @@ fn read_frames(
                     width: layout.width,
                 });
                 frame += 1;
+                dog.tick();
             }
             Ok(_) => return Ok((frame, true)),
             Err(e) => {
@@ -462,6 +477,14 @@ fn read_frames(
                 });
             }
         }
+    }
+}
+
+/// The watchdog stopped `tool` on `path` ([`Fired`]).
+fn stopped(path: &Path, fired: Fired, tool: &str) -> CaptureError {
+    CaptureError::Tool {
+        path: path.to_path_buf(),
+        message: fired.message(tool),
     }
 }
 
