@@ -16,6 +16,8 @@ use serde::{Deserialize, Serialize};
 use crate::analysis::banding::band_period_from_profile;
 use crate::plan::{Roi, RoiKind};
 use crate::trace::RenderedFrame;
+/// A run of equal pixels along a frame row: the unit the view draws in.
+pub use crate::trace::Run;
 
 /// Percentile of the frame's luma shown black.
 pub const STRETCH_LOW_PERCENTILE: f64 = 0.5;

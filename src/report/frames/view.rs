@@ -6,9 +6,8 @@
 
 use image::{Rgb, RgbImage};
 
-use crate::model::frame::{CROP_ZOOM, RoiBox, Stretch, crop_rect};
+use crate::model::frame::{CROP_ZOOM, RoiBox, Run, Stretch, crop_rect};
 use crate::model::{RenderedFrame, RoiKind};
-use crate::trace::Run;
 
 /// Width of the whole-frame part of the view, pixels (frames narrower are
 /// shown 1:1).
