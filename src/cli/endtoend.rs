@@ -26,9 +26,14 @@ struct Finished {
 }
 
 /// Runs `program args` in its own process group with no input and its
-/// output discarded; kills the group after [`RUN_TIMEOUT`]. Wall time and
-/// peak RSS come from `wait4`.
-fn run_timed(program: &Path, args: &[&str], dir: &Path) -> Result<Finished, String> {
+/// output discarded; kills the group after `timeout` ([`RUN_TIMEOUT`] for
+/// the benchmarks). Wall time and peak RSS come from `wait4`.
+fn run_timed(
+    program: &Path,
+    args: &[&str],
+    dir: &Path,
+    timeout: Duration,
+) -> Result<Finished, String> {
     let name = program.display();
     let child = Command::new(program)
         .args(args)
@@ -61,7 +66,7 @@ fn run_timed(program: &Path, args: &[&str], dir: &Path) -> Result<Finished, Stri
                 std::io::Error::last_os_error()
             ));
         }
-        if started.elapsed() > RUN_TIMEOUT {
+        if started.elapsed() > timeout {
             // SAFETY: signals the process group the child leads (started
             // with process_group(0)), then reaps the child.
             unsafe {
@@ -69,8 +74,8 @@ fn run_timed(program: &Path, args: &[&str], dir: &Path) -> Result<Finished, Stri
                 libc::waitpid(pid, &mut status, 0);
             }
             return Err(format!(
-                "{name} timed out after {} s",
-                RUN_TIMEOUT.as_secs()
+                "{name} timed out after {:.1} s",
+                timeout.as_secs_f64()
             ));
         }
         std::thread::sleep(Duration::from_millis(2));
@@ -93,7 +98,7 @@ fn time_plan(exe: &Path, root: &Path, plan: &str, reps: usize) -> Result<Vec<Fin
     ];
     (0..reps)
         .map(|_| {
-            let run = run_timed(exe, &args, root)?;
+            let run = run_timed(exe, &args, root, RUN_TIMEOUT)?;
             match run.code {
                 Some(0 | 1) => Ok(run),
                 code => Err(format!("`ledflicker plan {plan}` exited with {code:?}")),
@@ -122,7 +127,7 @@ fn time_opencv(root: &Path, reps: usize) -> Result<Vec<Finished>, String> {
     let script = script.to_str().unwrap_or_default();
     (0..reps)
         .map(|_| {
-            let run = run_timed(&python, &[script], root)?;
+            let run = run_timed(&python, &[script], root, RUN_TIMEOUT)?;
             match run.code {
                 Some(0) => Ok(run),
                 code => Err(format!("scripts/opencv_bench.py exited with {code:?}")),
@@ -194,4 +199,55 @@ pub(super) fn bench_end_to_end(quick: bool) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sh(script: &str, timeout: Duration) -> Result<Finished, String> {
+        run_timed(Path::new("sh"), &["-c", script], Path::new("."), timeout)
+    }
+
+    #[test]
+    fn a_run_reports_its_exit_code_wall_time_and_peak_memory() {
+        let run = sh("exit 3", RUN_TIMEOUT).unwrap();
+        assert_eq!(run.code, Some(3));
+        assert!(run.wall_s > 0.0 && run.wall_s < RUN_TIMEOUT.as_secs_f64());
+        // A shell holds at least a few hundred kB resident.
+        assert!(run.peak_rss_bytes > 100e3, "{}", run.peak_rss_bytes);
+        // Killed by a signal: no exit code.
+        assert_eq!(sh("kill -9 $$", RUN_TIMEOUT).unwrap().code, None);
+    }
+
+    #[test]
+    fn a_run_past_its_time_limit_is_killed_with_its_group() {
+        let err = sh("sleep 30 & sleep 30", Duration::from_millis(300)).unwrap_err();
+        assert!(err.contains("timed out after 0.3 s"), "{err}");
+        let err = run_timed(
+            Path::new("/nonexistent/ledflicker-peer"),
+            &[],
+            Path::new("."),
+            RUN_TIMEOUT,
+        )
+        .unwrap_err();
+        assert!(
+            err.starts_with("cannot start /nonexistent/ledflicker-peer"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn the_line_gives_median_and_range() {
+        let run = |wall_s: f64, mb: f64| Finished {
+            wall_s,
+            peak_rss_bytes: mb * 1e6,
+            code: Some(0),
+        };
+        let line = describe("x", &[run(3.0, 90.0), run(1.0, 100.0), run(2.0, 95.0)]);
+        assert_eq!(
+            line,
+            "x: wall median 2.000 s (min 1.000, max 3.000), peak RSS median 95 MB, 3 runs"
+        );
+    }
 }
