@@ -5,7 +5,9 @@
 //! video's work is done in its FFmpeg process (ffprobe, then ffmpeg), so
 //! these threads mostly wait on pipes, and every decoder starts at once
 //! instead of waiting for a pool thread. The largest files start first
-//! (this only matters beyond [`AT_ONCE`] captures).
+//! (this only matters beyond [`AT_ONCE`] captures). A plan with image,
+//! Y4M or CSV captures, which are decoded in this process, reads as many
+//! at once as the rayon pool has threads, so its memory stays bounded.
 //!
 //! When several videos are read, each FFmpeg decoder gets one thread and
 //! a one-thread filter graph: the decoders share the cores among
@@ -25,7 +27,8 @@ use super::{
 pub const AT_ONCE: usize = 8;
 
 /// Reads every capture of `paths` (as [`read_capture`] does) with the same
-/// ROIs and options. The traces come back in the order of `paths`. On
+/// ROIs and options: all at once (up to [`AT_ONCE`]) when they are all
+/// videos, else as many at once as the rayon pool has threads. The traces come back in the order of `paths`. On
 /// failure, no further capture is started, and the error is that of the
 /// first failing capture in the order of `paths` among those started.
 pub fn read_captures(
@@ -48,7 +51,15 @@ pub fn read_captures(
         .collect();
     let mut largest_first: Vec<usize> = (0..paths.len()).collect();
     largest_first.sort_by_key(|&i| std::cmp::Reverse(sizes[i]));
-    run_bounded(vec![(); paths.len()], &largest_first, |i, ()| {
+    // Frames of other captures are decoded in this process, one frame of
+    // up to 320 MB each at a time: no more at once than the pool has
+    // threads, as before, so memory stays what it was.
+    let threads = if videos == paths.len() {
+        AT_ONCE
+    } else {
+        rayon::current_num_threads().clamp(1, AT_ONCE)
+    };
+    run_bounded(vec![(); paths.len()], &largest_first, threads, |i, ()| {
         read_capture(paths[i], rois, roi_names, &opts)
     })
 }
@@ -63,12 +74,13 @@ fn decoder_threads(videos: usize, given: Option<usize>) -> Option<usize> {
     }
 }
 
-/// Runs `f(i, items[i])` for every item, in `order`, on at most
-/// [`AT_ONCE`] threads. After the first error no item is started; the
+/// Runs `f(i, items[i])` for every item, in `order`, on at most `threads`
+/// threads. After the first error no item is started; the
 /// result is the first error in item order, or every output in item order.
 fn run_bounded<I: Send, O: Send, E: Send>(
     items: Vec<I>,
     order: &[usize],
+    threads: usize,
     f: impl Fn(usize, I) -> Result<O, E> + Sync,
 ) -> Result<Vec<O>, E> {
     let n = items.len();
@@ -92,7 +104,7 @@ fn run_bounded<I: Send, O: Send, E: Send>(
         }
     };
     std::thread::scope(|s| {
-        for _ in 0..n.min(AT_ONCE) {
+        for _ in 0..n.min(threads.max(1)) {
             s.spawn(worker);
         }
     });
@@ -179,7 +191,7 @@ mod tests {
     #[test]
     fn run_bounded_keeps_item_order_whatever_the_running_order() {
         let order = [3, 0, 2, 1, 4];
-        let out = run_bounded(vec![10, 11, 12, 13, 14], &order, |i, x| {
+        let out = run_bounded(vec![10, 11, 12, 13, 14], &order, AT_ONCE, |i, x| {
             Ok::<_, String>((i, x * 2))
         })
         .unwrap();
@@ -191,7 +203,7 @@ mod tests {
         // All four run at once (the barrier holds each until all started);
         // items 1 and 3 fail, item 3 first: item 1's error is the one.
         let all_started = std::sync::Barrier::new(4);
-        let err = run_bounded(vec![(); 4], &[3, 2, 1, 0], |i, ()| {
+        let err = run_bounded(vec![(); 4], &[3, 2, 1, 0], AT_ONCE, |i, ()| {
             all_started.wait();
             if i == 1 {
                 std::thread::sleep(std::time::Duration::from_millis(20));
@@ -214,7 +226,7 @@ mod tests {
         let started = AtomicUsize::new(0);
         let first_done = AtomicBool::new(false);
         let order: Vec<usize> = (0..n).collect();
-        let err = run_bounded(vec![(); n], &order, |i, ()| {
+        let err = run_bounded(vec![(); n], &order, AT_ONCE, |i, ()| {
             if i == 0 {
                 first_done.store(true, Ordering::Release);
                 return Err("item 0");
@@ -236,7 +248,10 @@ mod tests {
     fn run_bounded_runs_more_items_than_threads() {
         let n = 3 * AT_ONCE + 1;
         let order: Vec<usize> = (0..n).rev().collect();
-        let out = run_bounded((0..n).collect(), &order, |_, x: usize| Ok::<_, ()>(x)).unwrap();
+        let out = run_bounded((0..n).collect(), &order, AT_ONCE, |_, x: usize| {
+            Ok::<_, ()>(x)
+        })
+        .unwrap();
         assert_eq!(out, (0..n).collect::<Vec<_>>());
     }
 }
