@@ -110,15 +110,20 @@ fn normal_equations_avx2(
     normal_equations_plain(y, m, fill)
 }
 
-/// Columns of `A^T A` that [`normal_equations`] sums at once: 16 running
-/// sums in registers, so that the adds of one sample do not wait on each
-/// other.
+/// Most columns of `A^T A` that [`normal_equations`] sums at once: up to
+/// 16 running sums in registers, so that the adds of one sample do not wait
+/// on each other.
 const BLOCK: usize = 16;
+
+/// Columns of the design rows: `m` rounded up to whole AVX2 registers of
+/// four doubles, so that a block never sums more than three zero columns.
+const LANES: usize = 4;
 
 /// The loop of [`normal_equations`], inlined into each compiled copy. The
 /// design rows are built first (padded with zeros to a multiple of
-/// [`BLOCK`] columns); then each row `p` of the lower triangle is summed
-/// over the samples in blocks of [`BLOCK`] columns held in registers. Every
+/// [`LANES`] columns); then each row `p` of the lower triangle is summed
+/// over the samples in blocks of up to [`BLOCK`] columns held in registers
+/// (the last block of a row as narrow as the triangle allows). Every
 /// element is still the sum of its products in sample order from 0.0, so
 /// the result is bit for bit that of one pass over the samples.
 #[inline(always)]
@@ -127,7 +132,7 @@ fn normal_equations_plain(
     m: usize,
     fill: impl FnOnce(&mut [f64], usize),
 ) -> (Vec<f64>, Vec<f64>, f64) {
-    let stride = m.div_ceil(BLOCK).max(1) * BLOCK;
+    let stride = m.div_ceil(LANES).max(1) * LANES;
     let mut design = vec![0.0; y.len() * stride];
     fill(&mut design, stride);
     let mut aty = vec![0.0; m];
@@ -140,16 +145,18 @@ fn normal_equations_plain(
     }
     let mut ata = vec![0.0; m * m];
     for p in 0..m {
-        for q0 in (0..=p).step_by(BLOCK) {
-            let mut acc = [0.0f64; BLOCK];
-            for row in design.chunks_exact(stride) {
-                let rp = row[p];
-                for (a, &rq) in acc.iter_mut().zip(&row[q0..q0 + BLOCK]) {
-                    *a += rp * rq;
-                }
-            }
+        let mut q0 = 0;
+        while q0 <= p {
+            let width = (p + 1 - q0).div_ceil(LANES) * LANES;
             let end = (p + 1).min(q0 + BLOCK);
-            ata[p * m + q0..p * m + end].copy_from_slice(&acc[..end - q0]);
+            let out = &mut ata[p * m + q0..p * m + end];
+            match width {
+                w if w >= 16 => block_sums::<16>(&design, stride, p, q0, out),
+                12 => block_sums::<12>(&design, stride, p, q0, out),
+                8 => block_sums::<8>(&design, stride, p, q0, out),
+                _ => block_sums::<4>(&design, stride, p, q0, out),
+            }
+            q0 += BLOCK;
         }
     }
     for p in 0..m {
@@ -158,6 +165,21 @@ fn normal_equations_plain(
         }
     }
     (ata, aty, yy)
+}
+
+/// `sum_i A[i][p] A[i][q]` for the `W` columns `q0..q0 + W` of the design
+/// rows (`stride` apart), each summed in sample order from 0.0; the first
+/// `out.len()` of them are written to `out`.
+#[inline(always)]
+fn block_sums<const W: usize>(design: &[f64], stride: usize, p: usize, q0: usize, out: &mut [f64]) {
+    let mut acc = [0.0f64; W];
+    for row in design.chunks_exact(stride) {
+        let rp = row[p];
+        for (a, &rq) in acc.iter_mut().zip(&row[q0..q0 + W]) {
+            *a += rp * rq;
+        }
+    }
+    out.copy_from_slice(&acc[..out.len()]);
 }
 
 /// Residual sum of squares of the least-squares fit of `y` on the columns
@@ -238,8 +260,12 @@ mod tests {
     }
 
     /// The normal equations accumulated element by element, as written in
-    /// the textbook, then solved like `lsq_rss`.
-    fn naive_rss(y: &[f64], m: usize, basis: impl Fn(usize, &mut [f64])) -> Option<f64> {
+    /// the textbook.
+    fn textbook(
+        y: &[f64],
+        m: usize,
+        basis: impl Fn(usize, &mut [f64]),
+    ) -> (Vec<f64>, Vec<f64>, f64) {
         let (mut ata, mut aty, mut row, mut yy) =
             (vec![0.0; m * m], vec![0.0; m], vec![0.0; m], 0.0);
         for (i, &v) in y.iter().enumerate() {
@@ -257,6 +283,12 @@ mod tests {
                 ata[q * m + p] = ata[p * m + q];
             }
         }
+        (ata, aty, yy)
+    }
+
+    /// [`textbook`], then solved like `lsq_rss`.
+    fn naive_rss(y: &[f64], m: usize, basis: impl Fn(usize, &mut [f64])) -> Option<f64> {
+        let (mut ata, aty, yy) = textbook(y, m, basis);
         let trace: f64 = (0..m).map(|p| ata[p * m + p]).sum::<f64>() / m as f64;
         for p in 0..m {
             ata[p * m + p] += 1e-12 * trace;
@@ -274,13 +306,17 @@ mod tests {
                 *x = ((k + 1) as f64 * i as f64 * 0.013).sin();
             }
         };
-        for m in [1, 3, 5, 8, 23] {
+        // Every block width (4, 8, 12, 16 and a 16 plus a narrower tail).
+        for m in 1..=37 {
             let fast = normal_equations(&y, m, per_row(m, basis));
             let plain = normal_equations_plain(&y, m, per_row(m, basis));
+            let book = textbook(&y, m, basis);
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(&fast.0), bits(&plain.0), "m={m}");
-            assert_eq!(bits(&fast.1), bits(&plain.1), "m={m}");
-            assert_eq!(fast.2.to_bits(), plain.2.to_bits(), "m={m}");
+            for other in [&plain, &book] {
+                assert_eq!(bits(&fast.0), bits(&other.0), "m={m}");
+                assert_eq!(bits(&fast.1), bits(&other.1), "m={m}");
+                assert_eq!(fast.2.to_bits(), other.2.to_bits(), "m={m}");
+            }
         }
     }
 
