@@ -30,8 +30,74 @@ pub struct RenderSpec {
 }
 
 /// Writes `frame_000000.png`, ... into `dir`; returns the number written.
-pub fn render_frames(spec: &RenderSpec, pwm: &PwmDrive, dir: &Path) -> Result<u64, String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create `{}`: {e}", dir.display()))?;
+///
+/// `dir` must be new or empty: render never replaces a file it did not
+/// write. Each frame is written under a temporary name and renamed, and a
+/// failure removes the frames written so far (and `dir`, when this call
+/// created it), so a failed render leaves nothing half done.
+pub fn render_frames(spec: &RenderSpec, pwm: &PwmDrive, dir: &Path) -> Result<u64, RenderError> {
+    let created = prepare_dir(dir)?;
+    let mut written = Vec::new();
+    let result = write_frames(spec, pwm, dir, &mut written).map_err(RenderError::Write);
+    if result.is_err() {
+        for path in &written {
+            let _ = std::fs::remove_file(path);
+        }
+        if created {
+            let _ = std::fs::remove_dir(dir);
+        }
+    }
+    result
+}
+
+/// Why [`render_frames`] wrote nothing, or stopped.
+#[derive(Debug)]
+pub enum RenderError {
+    /// The output directory is not one render may write into.
+    Refused(String),
+    /// Writing failed; the frames written so far were removed.
+    Write(String),
+}
+
+impl std::fmt::Display for RenderError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Refused(m) | Self::Write(m) => f.write_str(m),
+        }
+    }
+}
+
+/// Checks that `dir` is missing or empty, and creates it when missing.
+/// Returns whether it was created.
+fn prepare_dir(dir: &Path) -> Result<bool, RenderError> {
+    match std::fs::read_dir(dir) {
+        Ok(mut entries) => match entries.next() {
+            None => Ok(false),
+            Some(_) => Err(RenderError::Refused(format!(
+                "`{}` is not empty: render writes its frames only into a new or empty \
+                 directory, so that it never replaces a file it did not write \
+                 (hint: choose another --out, or empty this one)",
+                dir.display()
+            ))),
+        },
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => std::fs::create_dir_all(dir)
+            .map(|()| true)
+            .map_err(|e| RenderError::Write(format!("cannot create `{}`: {e}", dir.display()))),
+        Err(e) => Err(RenderError::Refused(format!(
+            "cannot read `{}`: {e} (hint: --out must be a directory)",
+            dir.display()
+        ))),
+    }
+}
+
+/// The frames, each written as `.frame_NNNNNN.png.tmp` and renamed;
+/// `written` collects the final paths.
+fn write_frames(
+    spec: &RenderSpec,
+    pwm: &PwmDrive,
+    dir: &Path,
+    written: &mut Vec<std::path::PathBuf>,
+) -> Result<u64, String> {
     let (on, off, n_pwm) = spec.frames;
     let total = on + off + n_pwm;
     for k in 0..total {
@@ -51,9 +117,15 @@ pub fn render_frames(spec: &RenderSpec, pwm: &PwmDrive, dir: &Path) -> Result<u6
                 img.put_pixel(x, row, image::Luma([v]));
             }
         }
-        let path = dir.join(format!("frame_{k:06}.png"));
-        img.save(&path)
-            .map_err(|e| format!("cannot write `{}`: {e}", path.display()))?;
+        let name = format!("frame_{k:06}.png");
+        let (tmp, path) = (dir.join(format!(".{name}.tmp")), dir.join(&name));
+        img.save_with_format(&tmp, image::ImageFormat::Png)
+            .and_then(|()| std::fs::rename(&tmp, &path).map_err(image::ImageError::IoError))
+            .map_err(|e| {
+                let _ = std::fs::remove_file(&tmp);
+                format!("cannot write `{}`: {e}", path.display())
+            })?;
+        written.push(path);
     }
     Ok(total)
 }

@@ -69,6 +69,44 @@ pub struct CameraArgs {
     pub line_time_us: f64,
 }
 
+/// Physical bounds of the PWM drive and camera flags (docs/plan-format.md,
+/// "Limits"): beyond them the arithmetic loses meaning or overflows. The
+/// first flag out of bounds, with its bound.
+pub fn check_drive_and_camera(p: &PwmArgs, c: &CameraArgs) -> Result<(), UsageError> {
+    use crate::plan::bounds::{MAX_FPS, MAX_FREQUENCY_HZ, MIN_EXPOSURE_S};
+    let problems = [
+        (
+            p.frequency_hz > MAX_FREQUENCY_HZ,
+            format!("--frequency-hz must be at most {MAX_FREQUENCY_HZ:.0}"),
+        ),
+        (
+            c.fps > MAX_FPS,
+            format!("--fps must be at most {MAX_FPS:.0}"),
+        ),
+        (c.fps < 0.01, "--fps must be at least 0.01".to_string()),
+        (
+            c.exposure_ms * 1e-3 < MIN_EXPOSURE_S,
+            "--exposure-ms must be at least 0.001".to_string(),
+        ),
+        (
+            c.exposure_ms > 1e4,
+            "--exposure-ms must be at most 10000".to_string(),
+        ),
+        (
+            p.pwm_delay_ms.is_nan() || p.pwm_delay_ms.abs() > 1e6,
+            "--pwm-delay-ms must be within +-1e6".to_string(),
+        ),
+        (
+            c.line_time_us > 1e6,
+            "--line-time-us must be at most 1e6".to_string(),
+        ),
+    ];
+    match problems.into_iter().find(|(bad, _)| *bad) {
+        Some((_, m)) => Err(UsageError(m)),
+        None => Ok(()),
+    }
+}
+
 impl CameraArgs {
     /// The shutter these flags describe (unchecked: callers check ranges).
     pub fn shutter(&self) -> Shutter {

@@ -6,9 +6,12 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::EXIT_PASS;
-use super::args::{CameraArgs, PwmArgs};
+use super::args::{CameraArgs, PwmArgs, check_drive_and_camera};
 use crate::error::UsageError;
 use crate::physics::PwmDrive;
+use crate::plan::bounds::{
+    MAX_FRAMES_PER_CASE, MAX_OUTPUT_BYTES, MAX_SENSOR_PIXELS, MAX_SENSOR_SIDE,
+};
 
 #[derive(Args, Debug)]
 pub(super) struct RenderArgs {
@@ -51,16 +54,48 @@ pub(super) fn render(a: RenderArgs) -> anyhow::Result<i32> {
                 .into(),
         ));
     }
+    check_drive_and_camera(p, c)?;
     let frames = |d: f64| (d * c.fps).round() as u64;
+    let counts = (frames(a.on_s), frames(a.off_s), frames(a.pwm_s));
+    let total = counts.0.saturating_add(counts.1).saturating_add(counts.2);
+    check_size(a.width, a.height, total)?;
     let spec = crate::render::RenderSpec {
         shutter: c.shutter(),
         width: a.width,
         height: a.height,
-        frames: (frames(a.on_s), frames(a.off_s), frames(a.pwm_s)),
+        frames: counts,
         background_dn: 20.0,
         gain_dn: 200.0,
     };
-    let n = crate::render::render_frames(&spec, &pwm, &a.out).map_err(anyhow::Error::msg)?;
+    let n = crate::render::render_frames(&spec, &pwm, &a.out).map_err(|e| match e {
+        crate::render::RenderError::Refused(m) => usage(m),
+        crate::render::RenderError::Write(m) => anyhow::Error::msg(m),
+    })?;
     eprintln!("wrote {n} frames to {}", a.out.display());
     Ok(EXIT_PASS)
+}
+
+/// Frame size and count within the limits of a plan's sensor and case
+/// (docs/plan-format.md, "Limits"), and at most [`MAX_OUTPUT_BYTES`]
+/// of pixels in all, so that a typing slip cannot fill the disk.
+fn check_size(width: u32, height: u32, frames: u64) -> Result<(), UsageError> {
+    let pixels = u64::from(width) * u64::from(height);
+    let problem = if width.max(height) > MAX_SENSOR_SIDE {
+        format!("--width and --height must be at most {MAX_SENSOR_SIDE}")
+    } else if pixels > MAX_SENSOR_PIXELS {
+        format!("a frame must have at most {MAX_SENSOR_PIXELS} pixels, got {width} x {height}")
+    } else if frames > MAX_FRAMES_PER_CASE {
+        format!(
+            "at most {MAX_FRAMES_PER_CASE} frames, got {frames} (--on-s + --off-s + --pwm-s times --fps)"
+        )
+    } else if pixels as f64 * frames as f64 > MAX_OUTPUT_BYTES {
+        format!(
+            "{frames} frames of {width} x {height} are {:.1} GB of pixels, more than the {:.0} GB limit; render fewer or smaller frames",
+            (pixels * frames) as f64 / 1e9,
+            MAX_OUTPUT_BYTES / 1e9
+        )
+    } else {
+        return Ok(());
+    };
+    Err(UsageError(problem))
 }

@@ -82,52 +82,21 @@ fn parse_rows(s: &str) -> Result<std::ops::Range<u32>, UsageError> {
 }
 
 /// Physical bounds of `simulate` inputs (docs/plan-format.md, "Limits"):
-/// beyond them the arithmetic loses meaning or overflows.
+/// those of the drive and camera flags, then the frame count and sensor.
 fn check_bounds(a: &SimulateArgs) -> Result<(), UsageError> {
-    use crate::plan::bounds::{MAX_FPS, MAX_FRAMES_PER_CASE, MAX_FREQUENCY_HZ, MIN_EXPOSURE_S};
-    let (p, c) = (&a.pwm, &a.camera);
-    let problems = [
-        (
-            p.frequency_hz > MAX_FREQUENCY_HZ,
-            format!("--frequency-hz must be at most {MAX_FREQUENCY_HZ:.0}"),
-        ),
-        (
-            c.fps > MAX_FPS,
-            format!("--fps must be at most {MAX_FPS:.0}"),
-        ),
-        (c.fps < 0.01, "--fps must be at least 0.01".to_string()),
-        (
-            c.exposure_ms * 1e-3 < MIN_EXPOSURE_S,
-            "--exposure-ms must be at least 0.001".to_string(),
-        ),
-        (
-            c.exposure_ms > 1e4,
-            "--exposure-ms must be at most 10000".to_string(),
-        ),
-        (
-            a.frames > MAX_FRAMES_PER_CASE,
-            format!("--frames must be at most {MAX_FRAMES_PER_CASE}"),
-        ),
-        (
-            p.pwm_delay_ms.is_nan() || p.pwm_delay_ms.abs() > 1e6,
-            "--pwm-delay-ms must be within +-1e6".to_string(),
-        ),
-        (
-            c.line_time_us > 1e6,
-            "--line-time-us must be at most 1e6".to_string(),
-        ),
-        (
-            a.sensor_rows > crate::plan::bounds::MAX_SENSOR_SIDE,
-            format!(
-                "--sensor-rows must be at most {}",
-                crate::plan::bounds::MAX_SENSOR_SIDE
-            ),
-        ),
-    ];
-    match problems.iter().find(|(bad, _)| *bad) {
-        Some((_, m)) => Err(UsageError(m.clone())),
-        None => Ok(()),
+    use crate::plan::bounds::{MAX_FRAMES_PER_CASE, MAX_SENSOR_SIDE};
+    super::args::check_drive_and_camera(&a.pwm, &a.camera)?;
+    if a.frames > MAX_FRAMES_PER_CASE {
+        return Err(UsageError(format!(
+            "--frames must be at most {MAX_FRAMES_PER_CASE}"
+        )));
     }
+    if a.sensor_rows > MAX_SENSOR_SIDE {
+        return Err(UsageError(format!(
+            "--sensor-rows must be at most {MAX_SENSOR_SIDE}"
+        )));
+    }
+    Ok(())
 }
 
 /// The checked drive and shutter, and the ROI rows.

@@ -136,3 +136,70 @@ fn render_writes_on_off_and_pwm_frames_at_the_closed_form_levels() {
     let rows = rows_of(&out2.join("frame_000000.png"));
     assert!(rows.contains(&220) && rows.contains(&20), "{rows:?}");
 }
+
+#[test]
+fn render_refuses_a_used_directory_and_sizes_beyond_the_limits() {
+    let dir = scratch("render-refuse");
+    let args =
+        "--frequency-hz 100 --duty 0.5 --exposure-ms 1 --fps 30 --on-s 0 --off-s 0 --pwm-s 0.1";
+    // A directory holding a file of the user's: refused, the file untouched.
+    let used = dir.join("used");
+    std::fs::create_dir_all(&used).unwrap();
+    std::fs::write(used.join("frame_000000.png"), b"mine").unwrap();
+    let o = run_render(args, used.to_str().unwrap());
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("is not empty"), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(used.join("frame_000000.png")).unwrap(),
+        b"mine"
+    );
+    // An empty directory is fine, and holds only the frames afterwards.
+    let empty = dir.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let o = run_render(args, empty.to_str().unwrap());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let names: Vec<String> = std::fs::read_dir(&empty)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    assert_eq!(names.len(), 3, "{names:?}");
+    assert!(
+        names
+            .iter()
+            .all(|n| n.starts_with("frame_") && n.ends_with(".png"))
+    );
+    // Sizes a typing slip could give: refused before anything is written.
+    let base = "--frequency-hz 100 --duty 0.5 --on-s 0 --off-s 0";
+    for (extra, says) in [
+        (
+            "--exposure-ms 1 --fps 30 --pwm-s 0.1 --width 100000",
+            "at most 16384",
+        ),
+        (
+            "--exposure-ms 1 --fps 30 --pwm-s 0.1 --width 10000 --height 10000",
+            "at most 40000000 pixels",
+        ),
+        (
+            "--exposure-ms 1 --fps 1000 --pwm-s 1000",
+            "at most 100000 frames",
+        ),
+        (
+            "--exposure-ms 1 --fps 100 --pwm-s 2 --width 4000 --height 4000",
+            "GB of pixels",
+        ),
+        (
+            "--exposure-ms 1 --fps 5000 --pwm-s 0.1",
+            "--fps must be at most 1000",
+        ),
+        (
+            "--exposure-ms 1e9 --fps 30 --pwm-s 0.1",
+            "--exposure-ms must be at most 10000",
+        ),
+    ] {
+        let out = dir.join("big");
+        let o = run_render(&format!("{base} {extra}"), out.to_str().unwrap());
+        assert_eq!(o.status.code(), Some(2), "{extra}: {}", stderr(&o));
+        assert!(stderr(&o).contains(says), "{extra}: {}", stderr(&o));
+        assert!(!out.exists(), "{extra}: wrote {}", out.display());
+    }
+}
