@@ -59,11 +59,18 @@ pub fn span_at(name: &'static str, depth: usize) -> Guard {
 
 /// Runs `f` with this thread's spans nested at `depth`: for work handed to
 /// another thread that opens spans of its own.
+/// The thread's depth is restored however `f` ends, a panic included (a
+/// rayon worker thread goes on to run other work).
 pub fn at_depth<R>(depth: usize, f: impl FnOnce() -> R) -> R {
-    let outer = DEPTH.with(|d| d.replace(depth));
-    let r = f();
-    DEPTH.with(|d| d.set(outer));
-    r
+    /// Puts the thread's depth back when dropped.
+    struct Restore(usize);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            DEPTH.with(|d| d.set(self.0));
+        }
+    }
+    let _restore = Restore(DEPTH.with(|d| d.replace(depth)));
+    f()
 }
 
 /// Ends its span when dropped.
@@ -163,5 +170,17 @@ mod tests {
                 ("hand-out outer", 0)
             ]
         );
+    }
+
+    #[test]
+    fn a_panic_under_at_depth_restores_the_depth() {
+        std::thread::spawn(|| {
+            let before = depth();
+            let caught = std::panic::catch_unwind(|| at_depth(before + 5, || panic!("case")));
+            assert!(caught.is_err());
+            assert_eq!(depth(), before);
+        })
+        .join()
+        .unwrap();
     }
 }
