@@ -55,6 +55,22 @@ fn phase_envelope_2_rows(bencher: divan::Bencher) {
     bencher.bench_local(|| s.phase_envelope(divan::black_box(&pwm), 399..401));
 }
 
+/// The band estimator on one 800-row profile: the LED-only rows of the
+/// daylight camera at 500 Hz, 20 % duty (each daylight case and sample
+/// frame runs it once).
+#[divan::bench(sample_count = 20)]
+fn band_estimate_800_rows(bencher: divan::Bencher) {
+    let pwm = PwmDrive::new(500.0, 0.2, 0.0).unwrap();
+    let s = shutter();
+    let profile: Vec<f64> = (0..800)
+        .map(|r| s.frame_on_fraction(&pwm, 0, r..r + 1))
+        .collect();
+    bencher.bench_local(|| {
+        ledflicker::calibrate::bands::estimate_profile(divan::black_box(&profile))
+            .map(|e| e.period_rows)
+    });
+}
+
 /// One 64 s case on the 3-capture HDR + auto-exposure profile.
 #[divan::bench(sample_count = 10)]
 fn hdr_case_64_s(bencher: divan::Bencher) {

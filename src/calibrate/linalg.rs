@@ -144,17 +144,26 @@ fn normal_equations_plain(
         yy += v * v;
     }
     let mut ata = vec![0.0; m * m];
-    for p in 0..m {
+    // Rows `p` and `p + 1` of the triangle together: each design value
+    // loaded serves both.
+    for p in (0..m).step_by(2) {
+        let last = (p + 1).min(m - 1);
         let mut q0 = 0;
-        while q0 <= p {
-            let width = (p + 1 - q0).div_ceil(LANES) * LANES;
-            let end = (p + 1).min(q0 + BLOCK);
-            let out = &mut ata[p * m + q0..p * m + end];
+        while q0 <= last {
+            let width = (last + 1 - q0).div_ceil(LANES) * LANES;
+            let (mut a, mut b) = ([0.0; BLOCK], [0.0; BLOCK]);
+            let sums = (&mut a, &mut b);
             match width {
-                w if w >= 16 => block_sums::<16>(&design, stride, p, q0, out),
-                12 => block_sums::<12>(&design, stride, p, q0, out),
-                8 => block_sums::<8>(&design, stride, p, q0, out),
-                _ => block_sums::<4>(&design, stride, p, q0, out),
+                w if w >= 16 => block_sums::<16>(&design, stride, (p, last), q0, sums),
+                12 => block_sums::<12>(&design, stride, (p, last), q0, sums),
+                8 => block_sums::<8>(&design, stride, (p, last), q0, sums),
+                _ => block_sums::<4>(&design, stride, (p, last), q0, sums),
+            }
+            for (row, sums) in [(p, &a[..]), (last, &b[..])] {
+                let end = (row + 1).min(q0 + BLOCK);
+                if end > q0 {
+                    ata[row * m + q0..row * m + end].copy_from_slice(&sums[..end - q0]);
+                }
             }
             q0 += BLOCK;
         }
@@ -167,19 +176,28 @@ fn normal_equations_plain(
     (ata, aty, yy)
 }
 
-/// `sum_i A[i][p] A[i][q]` for the `W` columns `q0..q0 + W` of the design
-/// rows (`stride` apart), each summed in sample order from 0.0; the first
-/// `out.len()` of them are written to `out`.
+/// `sum_i A[i][p] A[i][q]` and `sum_i A[i][p2] A[i][q]` for the `W`
+/// columns `q0..q0 + W` of the design rows (`stride` apart), each summed in
+/// sample order from 0.0, into the first `W` entries of `sums`.
 #[inline(always)]
-fn block_sums<const W: usize>(design: &[f64], stride: usize, p: usize, q0: usize, out: &mut [f64]) {
-    let mut acc = [0.0f64; W];
+fn block_sums<const W: usize>(
+    design: &[f64],
+    stride: usize,
+    (p, p2): (usize, usize),
+    q0: usize,
+    sums: (&mut [f64; BLOCK], &mut [f64; BLOCK]),
+) {
+    let (mut a, mut b) = ([0.0f64; W], [0.0f64; W]);
     for row in design.chunks_exact(stride) {
-        let rp = row[p];
-        for (a, &rq) in acc.iter_mut().zip(&row[q0..q0 + W]) {
-            *a += rp * rq;
+        let (rp, rp2) = (row[p], row[p2]);
+        let cols: &[f64; W] = row[q0..q0 + W].try_into().expect("W columns");
+        for j in 0..W {
+            a[j] += rp * cols[j];
+            b[j] += rp2 * cols[j];
         }
     }
-    out.copy_from_slice(&acc[..out.len()]);
+    sums.0[..W].copy_from_slice(&a);
+    sums.1[..W].copy_from_slice(&b);
 }
 
 /// Residual sum of squares of the least-squares fit of `y` on the columns
