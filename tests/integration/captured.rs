@@ -6,6 +6,7 @@
 //! They fail (never skip) without it.
 
 use std::collections::HashMap;
+use std::os::unix::fs::OpenOptionsExt;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -903,7 +904,22 @@ fn an_interrupted_video_capture_leaves_no_ffmpeg_running() {
         unsafe { libc::kill(run.id() as libc::pid_t, libc::SIGINT) },
         0
     );
-    let status = run.wait().unwrap();
+    let stopped = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = run.try_wait().unwrap() {
+            break status;
+        }
+        if stopped.elapsed().as_secs() >= 60 {
+            let _ = run.kill();
+            // A writer lets the tools blocked on the FIFO go on, and end.
+            let _ = std::fs::OpenOptions::new()
+                .write(true)
+                .custom_flags(libc::O_NONBLOCK)
+                .open(&fifo);
+            panic!("ledflicker did not stop within 60 s of SIGINT");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
     let mut err = String::new();
     std::io::Read::read_to_string(&mut run.stderr.take().unwrap(), &mut err).unwrap();
     assert_eq!(status.code(), Some(3), "{err}");
