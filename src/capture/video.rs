@@ -859,10 +859,10 @@ mod tests {
         assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
         let path = sample_video();
         let opts = rgb_opts();
-        for rois in [
-            vec![rect(457, 247, 20, 2), rect(640, 500, 13, 9)],
-            spread_rois(),
-        ] {
+        let inner = vec![rect(457, 247, 20, 2), rect(640, 500, 13, 9)];
+        for (rois, kept) in [(inner, true), (spread_rois(), false)] {
+            let spec = Layout::speculative(&rois).unwrap();
+            assert_eq!(spec == Layout::for_rois(&rois, (1280, 800)), kept);
             let after = read_with(&path, probe(&path).unwrap(), &rois, &opts, Layout::for_rois);
             let with = probe_and_read(&path, &rois, &opts).unwrap();
             assert_eq!(with, after.unwrap());
