@@ -14,6 +14,7 @@
 
 mod csv_trace;
 mod images;
+mod layout;
 mod progress;
 mod schedule;
 mod video;
