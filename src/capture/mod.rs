@@ -14,6 +14,7 @@
 
 mod csv_trace;
 mod images;
+mod layout;
 mod progress;
 mod schedule;
 mod video;
@@ -193,7 +194,7 @@ pub fn read_capture(
         SourceKind::ImageDir => images::read_dir(path, rois, opts)?,
         SourceKind::Image => images::read_files(path, &[path.to_path_buf()], rois, opts)?,
         SourceKind::Y4m => y4m::read(path, rois, opts)?,
-        SourceKind::Video => video::read(path, video::probe(path)?, rois, opts)?,
+        SourceKind::Video => video::probe_and_read(path, rois, opts)?,
         SourceKind::Csv => csv_trace::read(path, roi_names, opts)?,
     };
     if trace.time_s.is_empty() {

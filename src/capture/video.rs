@@ -16,17 +16,24 @@
 //!
 //! Timestamps are the container's presentation times (ffprobe, packet PTS
 //! sorted), with the frame rate as a fallback.
+//!
+//! ffmpeg starts at the same time as ffprobe, with the cut of a frame too
+//! large to clamp any tile (`layout`), and is kept when ffprobe's frame
+//! gives the same cut ([`probe_and_read`]), so ffprobe's start-up is not
+//! paid before ffmpeg's.
 
 use std::io::Read;
 use std::os::unix::process::CommandExt;
 use std::path::Path;
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::thread::JoinHandle;
+use std::time::Duration;
 
+use super::layout::Layout;
 use super::watch::{Fired, STALL, Watchdog};
 use super::{
     Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, ReadOptions, RoiRect, VideoDecode,
-    VideoRange, bounding_box, check_rois, limited_to_full_lut, times_from_fps,
+    VideoRange, check_rois, limited_to_full_lut, times_from_fps,
 };
 
 /// True when `ffmpeg` and `ffprobe` can be run.
@@ -203,191 +210,160 @@ pub(super) fn probe(path: &Path) -> Result<Probe, CaptureError> {
     })
 }
 
-/// Reads the ROI means of every frame of the video at `path`, which `p`
-/// describes.
-pub(super) fn read(
+/// Probes the video at `path` and reads the ROI means of every frame.
+///
+/// ffmpeg starts at the same time as ffprobe, with the layout the ROIs get
+/// in a frame large enough that nothing is clamped to its edges
+/// ([`Layout::speculative`]); until the probe answers, ffmpeg blocks on its
+/// full pipe. When the probe's frame gives the same layout, that ffmpeg is
+/// read (the same command line as a start after the probe). Otherwise (ROIs
+/// near an edge or outside the frame, a failed probe) its process group is
+/// killed and reaped, and the capture goes on exactly as when ffprobe runs
+/// first: the same errors, and a second ffmpeg with the frame's layout.
+pub(super) fn probe_and_read(
     path: &Path,
-    p: Probe,
     rois: &[RoiRect],
     opts: &ReadOptions,
 ) -> Result<CaptureTrace, CaptureError> {
-    read_with(path, p, rois, opts, Layout::for_rois)
+    probe_and_read_with(path, rois, opts, probe, STALL)
 }
 
-/// [`read`] through the layout that `layout_for` chooses.
+/// [`probe_and_read`] through `probe_with`, with ffmpeg's watchdog at `stall`.
+fn probe_and_read_with(
+    path: &Path,
+    rois: &[RoiRect],
+    opts: &ReadOptions,
+    probe_with: impl FnOnce(&Path) -> Result<Probe, CaptureError>,
+    stall: Duration,
+) -> Result<CaptureTrace, CaptureError> {
+    // Not started (e.g. no `ffmpeg`): the start after the probe reports why.
+    let early = Layout::speculative(rois).and_then(|l| Decoder::start(path, l, opts).ok());
+    // On an error here `early` is dropped: its group killed and reaped.
+    let p = probe_with(path)?;
+    check_rois(path, 0, rois, p.width, p.height)?;
+    let layout = Layout::for_rois(rois, (p.width, p.height));
+    let decoder = match early {
+        Some(d) if d.layout == layout => d,
+        early => {
+            drop(early);
+            Decoder::start(path, layout, opts)?
+        }
+    };
+    // The watchdog starts now: the time ffmpeg waited for the probe is not
+    // a stall.
+    decoder.read(path, p, opts, stall)
+}
+
+/// Reads the ROI means of every frame of the video at `path`, which `p`
+/// describes, through the layout that `layout_for` chooses for the frame
+/// size (tests compare layouts with it).
+#[cfg(test)]
 fn read_with(
     path: &Path,
     p: Probe,
     rois: &[RoiRect],
     opts: &ReadOptions,
-    layout_for: fn(&[RoiRect], &Probe) -> Layout,
+    layout_for: fn(&[RoiRect], (u32, u32)) -> Layout,
 ) -> Result<CaptureTrace, CaptureError> {
     check_rois(path, 0, rois, p.width, p.height)?;
-    let layout = layout_for(rois, &p);
-    let (pix_fmt, bpp, planes) = match opts.video_decode {
-        VideoDecode::Rgb => ("rgb24", 3usize, ""),
+    let layout = layout_for(rois, (p.width, p.height));
+    Decoder::start(path, layout, opts)?.read(path, p, opts, STALL)
+}
+
+/// An ffmpeg process decoding a video through `layout`, its stderr drained
+/// on a thread. Dropped before [`Decoder::read`] has reaped it, its process
+/// group is killed and reaped (a speculative start not needed, an error, a
+/// panic).
+struct Decoder {
+    child: Child,
+    err_thread: Option<JoinHandle<String>>,
+    layout: Layout,
+    reaped: bool,
+}
+
+impl Decoder {
+    /// Starts ffmpeg on `path` through `layout`, in the pixel format of
+    /// `opts.video_decode`.
+    fn start(path: &Path, layout: Layout, opts: &ReadOptions) -> Result<Decoder, CaptureError> {
+        let (pix_fmt, _, planes) = pixel_format(opts.video_decode);
+        let mut child = spawn_ffmpeg(path, &layout.filter(planes), pix_fmt, opts.decoder_threads)?;
+        let err_thread = Some(drain_stderr(child.stderr.take()));
+        Ok(Decoder {
+            child,
+            err_thread,
+            layout,
+            reaped: false,
+        })
+    }
+
+    /// Reads every frame under a watchdog that fires after `stall` without
+    /// a frame; `p` is the probe of `path`.
+    fn read(
+        mut self,
+        path: &Path,
+        p: Probe,
+        opts: &ReadOptions,
+        stall: Duration,
+    ) -> Result<CaptureTrace, CaptureError> {
+        let (_, bpp, _) = pixel_format(opts.video_decode);
+        let mut acc = Accumulator::new(&self.layout.rois, opts.luma);
+        let full = match opts.range {
+            VideoRange::Full => true,
+            VideoRange::Limited => false,
+            VideoRange::Auto => p.full_range.unwrap_or(false),
+        };
+        if opts.video_decode == VideoDecode::LumaPlane && !full {
+            acc.expand = Some(limited_to_full_lut(8));
+        }
+        let layout = &self.layout;
+        let frame_bytes = layout.width as usize * layout.height as usize * bpp;
+        let dog = Watchdog::start(self.child.id(), stall);
+        let read = read_frames(
+            path,
+            &mut self.child,
+            &mut acc,
+            layout,
+            frame_bytes,
+            opts,
+            &dog,
+        );
+        let status = self.child.wait().map_err(|e| tool_error(path, "ffmpeg", e));
+        self.reaped = status.is_ok();
+        let stderr_text = self
+            .err_thread
+            .take()
+            .map_or_else(String::new, |t| t.join().unwrap_or_default());
+        if let Some(fired) = dog.finish() {
+            return Err(stopped(path, fired, "ffmpeg"));
+        }
+        let ((frame, partial), status) = (read?, status?);
+        if !status.success() || partial {
+            return Err(undecodable(path, frame, &stderr_text));
+        }
+        Ok(trace(acc, p, opts, full))
+    }
+}
+
+impl Drop for Decoder {
+    fn drop(&mut self) {
+        if !self.reaped {
+            crate::util::kill_group(self.child.id());
+            let _ = self.child.wait();
+        }
+        if let Some(t) = self.err_thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// ffmpeg's output pixel format, its bytes per pixel, and the filter that
+/// ends the graph, for `decode`.
+fn pixel_format(decode: VideoDecode) -> (&'static str, usize, &'static str) {
+    match decode {
+        VideoDecode::Rgb => ("rgb24", 3, ""),
         // Crop first (no copy), so extractplanes copies only the tiles.
-        VideoDecode::LumaPlane => ("gray", 1usize, ",extractplanes=y"),
-    };
-    let mut child = spawn_ffmpeg(path, &layout.filter(planes), pix_fmt, opts.decoder_threads)?;
-    let err_thread = drain_stderr(child.stderr.take());
-    let mut acc = Accumulator::new(&layout.rois, opts.luma);
-    let full = match opts.range {
-        VideoRange::Full => true,
-        VideoRange::Limited => false,
-        VideoRange::Auto => p.full_range.unwrap_or(false),
-    };
-    if opts.video_decode == VideoDecode::LumaPlane && !full {
-        acc.expand = Some(limited_to_full_lut(8));
+        VideoDecode::LumaPlane => ("gray", 1, ",extractplanes=y"),
     }
-    let frame_bytes = layout.width as usize * layout.height as usize * bpp;
-    let dog = Watchdog::start(child.id(), STALL);
-    let read = read_frames(path, &mut child, &mut acc, &layout, frame_bytes, opts, &dog);
-    let status = child.wait().map_err(|e| tool_error(path, "ffmpeg", e));
-    let stderr_text = err_thread.join().unwrap_or_default();
-    if let Some(fired) = dog.finish() {
-        return Err(stopped(path, fired, "ffmpeg"));
-    }
-    let ((frame, partial), status) = (read?, status?);
-    if !status.success() || partial {
-        return Err(undecodable(path, frame, &stderr_text));
-    }
-    Ok(trace(acc, p, opts, full))
-}
-
-/// Where FFmpeg cuts the frame: tiles of the frame, each `width` wide,
-/// stacked top to bottom into a `width` x `height` picture, and the ROIs in
-/// that picture's coordinates (same order as the plan's).
-struct Layout {
-    /// Frame rectangles, top to bottom.
-    tiles: Vec<RoiRect>,
-    width: u32,
-    height: u32,
-    rois: Vec<RoiRect>,
-}
-
-/// At most this many tiles; more ROIs are read through their bounding box.
-const MAX_TILES: usize = 256;
-
-impl Layout {
-    /// One tile per ROI when that halves the pixels or better, else the
-    /// bounding box (the whole frame without ROIs) as one tile.
-    fn for_rois(rois: &[RoiRect], p: &Probe) -> Layout {
-        let whole = RoiRect {
-            x: 0,
-            y: 0,
-            width: p.width,
-            height: p.height,
-        };
-        let bbox = with_margin(&bounding_box(rois).unwrap_or(whole), p);
-        let area = |t: &[RoiRect]| {
-            t.iter()
-                .map(|r| r.width as u64 * r.height as u64)
-                .sum::<u64>()
-        };
-        let tiles = (2..=MAX_TILES)
-            .contains(&rois.len())
-            .then(|| tiles_per_roi(rois, p))
-            .flatten()
-            .filter(|tiles| 2 * area(tiles) <= area(std::slice::from_ref(&bbox)));
-        if let Some(tiles) = tiles {
-            return Layout::stacked(tiles, rois);
-        }
-        Layout::single(bbox, rois)
-    }
-
-    /// `tiles[i]` holds `rois[i]`; stacked in that order.
-    fn stacked(tiles: Vec<RoiRect>, rois: &[RoiRect]) -> Layout {
-        let width = tiles.first().map_or(0, |t| t.width);
-        let mut top = 0;
-        let mut mapped = Vec::with_capacity(rois.len());
-        for (t, r) in tiles.iter().zip(rois) {
-            mapped.push(RoiRect {
-                x: r.x - t.x,
-                y: r.y - t.y + top,
-                ..*r
-            });
-            top += t.height;
-        }
-        Layout {
-            height: top,
-            width,
-            tiles,
-            rois: mapped,
-        }
-    }
-
-    /// One tile, `tile`, holding every ROI.
-    fn single(tile: RoiRect, rois: &[RoiRect]) -> Layout {
-        let rois = rois
-            .iter()
-            .map(|r| RoiRect {
-                x: r.x - tile.x,
-                y: r.y - tile.y,
-                ..*r
-            })
-            .collect();
-        Layout {
-            width: tile.width,
-            height: tile.height,
-            tiles: vec![tile],
-            rois,
-        }
-    }
-
-    /// The filter graph from the first video stream to `[out]`: crop each
-    /// tile (no copy), stack the tiles, then `suffix`.
-    fn filter(&self, suffix: &str) -> String {
-        let crop = |t: &RoiRect| format!("crop={}:{}:{}:{}", t.width, t.height, t.x, t.y);
-        if let [tile] = self.tiles.as_slice() {
-            return format!("[0:v:0]{}{suffix}[out]", crop(tile));
-        }
-        let n = self.tiles.len();
-        let mut g = format!("[0:v:0]split={n}");
-        (0..n).for_each(|i| g.push_str(&format!("[s{i}]")));
-        for (i, t) in self.tiles.iter().enumerate() {
-            g.push_str(&format!(";[s{i}]{}[c{i}]", crop(t)));
-        }
-        g.push(';');
-        (0..n).for_each(|i| g.push_str(&format!("[c{i}]")));
-        g.push_str(&format!("vstack=inputs={n}{suffix}[out]"));
-        g
-    }
-}
-
-/// `r` plus a 2-pixel margin, on even coordinates (4:2:0 chroma sites),
-/// clipped to the frame, so that cutting it out changes no pixel.
-fn with_margin(r: &RoiRect, p: &Probe) -> RoiRect {
-    let x0 = r.x.saturating_sub(2) & !1;
-    let y0 = r.y.saturating_sub(2) & !1;
-    let x1 = ((r.x + r.width + 3) & !1).min(p.width);
-    let y1 = ((r.y + r.height + 3) & !1).min(p.height);
-    RoiRect {
-        x: x0,
-        y: y0,
-        width: x1 - x0,
-        height: y1 - y0,
-    }
-}
-
-/// One tile per ROI, all as wide as the widest (stacking needs one width),
-/// moved left where they would pass the frame's right edge; `None` when a
-/// tile cannot hold its ROI that way.
-fn tiles_per_roi(rois: &[RoiRect], p: &Probe) -> Option<Vec<RoiRect>> {
-    let mut tiles: Vec<RoiRect> = rois.iter().map(|r| with_margin(r, p)).collect();
-    let width = tiles.iter().map(|t| t.width).max()?;
-    if width > p.width || width % 2 == 1 {
-        return None;
-    }
-    for (t, r) in tiles.iter_mut().zip(rois) {
-        t.x = t.x.min((p.width - width) & !1);
-        t.width = width;
-        let holds = t.x <= r.x && r.x + r.width <= t.x + t.width;
-        if !holds || t.height % 2 == 1 || t.y % 2 == 1 {
-            return None;
-        }
-    }
-    Some(tiles)
 }
 
 /// Starts ffmpeg decoding the first video stream of `path` through the
@@ -563,83 +539,9 @@ fn read_full(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
 mod tests {
     use super::*;
     use crate::capture::LumaWeights;
-
-    fn probe_of(width: u32, height: u32) -> Probe {
-        Probe {
-            width,
-            height,
-            codec: String::new(),
-            pix_fmt: String::new(),
-            full_range: None,
-            fps: None,
-            packet_times: Vec::new(),
-        }
-    }
-
-    fn rect(x: u32, y: u32, width: u32, height: u32) -> RoiRect {
-        RoiRect {
-            x,
-            y,
-            width,
-            height,
-        }
-    }
-
-    /// ROIs far apart, one odd-placed, one at the right and bottom edges.
-    fn spread_rois() -> Vec<RoiRect> {
-        vec![
-            rect(457, 247, 20, 2),
-            rect(101, 33, 7, 3),
-            rect(1270, 797, 10, 3),
-            rect(640, 500, 13, 9),
-        ]
-    }
-
-    #[test]
-    fn spread_rois_get_one_even_tile_each_and_map_into_it() {
-        let p = probe_of(1280, 800);
-        let rois = spread_rois();
-        let layout = Layout::for_rois(&rois, &p);
-        assert_eq!(layout.tiles.len(), rois.len());
-        let mut top = 0;
-        for ((t, r), m) in layout.tiles.iter().zip(&rois).zip(&layout.rois) {
-            assert_eq!(t.width, layout.width);
-            assert!(t.x % 2 == 0 && t.y % 2 == 0 && t.height % 2 == 0, "{t:?}");
-            assert!(t.x + t.width <= p.width && t.y + t.height <= p.height);
-            // The ROI sits in its tile, at the same place in the stack.
-            assert_eq!((m.x + t.x, m.y - top + t.y), (r.x, r.y));
-            assert_eq!((m.width, m.height), (r.width, r.height));
-            assert!(m.x + m.width <= t.width && m.y + m.height <= top + t.height);
-            top += t.height;
-        }
-        assert_eq!(layout.height, top);
-        let g = layout.filter(",extractplanes=y");
-        assert!(
-            g.starts_with("[0:v:0]split=4[s0][s1][s2][s3];[s0]crop="),
-            "{g}"
-        );
-        assert!(g.ends_with("[c0][c1][c2][c3]vstack=inputs=4,extractplanes=y[out]"));
-    }
-
-    #[test]
-    fn close_rois_and_a_single_roi_use_the_bounding_box() {
-        let p = probe_of(1280, 800);
-        for rois in [
-            vec![rect(100, 100, 50, 40), rect(150, 100, 50, 40)],
-            vec![rect(457, 247, 20, 2)],
-        ] {
-            let layout = Layout::for_rois(&rois, &p);
-            assert_eq!(layout.tiles.len(), 1);
-            let t = layout.tiles[0];
-            for (r, m) in rois.iter().zip(&layout.rois) {
-                assert_eq!((m.x + t.x, m.y + t.y), (r.x, r.y));
-            }
-            assert_eq!(
-                layout.filter(""),
-                format!("[0:v:0]crop={}:{}:{}:{}[out]", t.width, t.height, t.x, t.y)
-            );
-        }
-    }
+    use crate::capture::bounding_box;
+    use crate::capture::layout::tests::{rect, spread_rois};
+    use crate::capture::layout::with_margin;
 
     /// Cutting tiles changes no pixel: the same means, bit for bit, as the
     /// bounding box, on a real H.264 capture, in both decode paths.
@@ -663,8 +565,8 @@ mod tests {
             };
             let tiled =
                 read_with(&path, probe(&path).unwrap(), &rois, &opts, Layout::for_rois).unwrap();
-            let boxed = read_with(&path, probe(&path).unwrap(), &rois, &opts, |rois, p| {
-                Layout::single(with_margin(&bounding_box(rois).unwrap(), p), rois)
+            let boxed = read_with(&path, probe(&path).unwrap(), &rois, &opts, |rois, frame| {
+                Layout::single(with_margin(&bounding_box(rois).unwrap(), frame), rois)
             })
             .unwrap();
             assert_eq!(tiled.luma[0].len(), 369);
@@ -687,5 +589,102 @@ mod tests {
                 read_with(&path, probe(&path).unwrap(), &rois, &two, Layout::for_rois).unwrap();
             assert_eq!(pair, tiled, "{video_decode:?}, two decoder threads");
         }
+    }
+
+    fn sample_video() -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("reference-data/p2020-flicker-videos/test_vid3.mp4")
+    }
+
+    fn rgb_opts() -> ReadOptions {
+        ReadOptions {
+            luma: LumaWeights::Bt601,
+            video_decode: VideoDecode::Rgb,
+            range: VideoRange::Auto,
+            fps: None,
+            decoder_threads: Some(1),
+        }
+    }
+
+    /// ffmpeg started before the probe reads the same trace as ffmpeg
+    /// started after it, whether its layout is kept (inner ROIs) or not (a
+    /// ROI at the frame's corner); an ROI outside the frame is the same
+    /// error as before.
+    #[test]
+    fn starting_ffmpeg_with_the_probe_reads_what_starting_after_it_reads() {
+        assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
+        let path = sample_video();
+        let opts = rgb_opts();
+        let inner = vec![rect(457, 247, 20, 2), rect(640, 500, 13, 9)];
+        for (rois, kept) in [(inner, true), (spread_rois(), false)] {
+            let spec = Layout::speculative(&rois).unwrap();
+            assert_eq!(spec == Layout::for_rois(&rois, (1280, 800)), kept);
+            let after = read_with(&path, probe(&path).unwrap(), &rois, &opts, Layout::for_rois);
+            let with = probe_and_read(&path, &rois, &opts).unwrap();
+            assert_eq!(with, after.unwrap());
+            assert_eq!(with.luma[0].len(), 369);
+        }
+        let outside = [rect(457, 247, 20, 2), rect(1270, 0, 20, 2)];
+        let e = probe_and_read(&path, &outside, &opts).unwrap_err();
+        let before = read_with(
+            &path,
+            probe(&path).unwrap(),
+            &outside,
+            &opts,
+            Layout::for_rois,
+        );
+        assert_eq!(e.to_string(), before.unwrap_err().to_string());
+        assert!(e.to_string().contains("outside the 1280x800 frame"), "{e}");
+    }
+
+    /// A probe slower than the stall limit does not make ffmpeg's watchdog
+    /// fire: ffmpeg waits for it on a full pipe, and its watchdog starts
+    /// when the probe has answered.
+    #[test]
+    fn a_slow_probe_is_not_a_stall_of_ffmpeg() {
+        assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
+        let path = sample_video();
+        let rois = [rect(457, 247, 20, 2), rect(640, 500, 13, 9)];
+        let opts = rgb_opts();
+        let stall = Duration::from_millis(400);
+        let slow = |p: &Path| {
+            std::thread::sleep(3 * stall);
+            probe(p)
+        };
+        let got = probe_and_read_with(&path, &rois, &opts, slow, stall).unwrap();
+        assert_eq!(got, probe_and_read(&path, &rois, &opts).unwrap());
+    }
+
+    /// True while any process of group `pgid` exists.
+    fn group_exists(pgid: u32) -> bool {
+        // SAFETY: signal 0 only checks that the group exists.
+        unsafe { libc::kill(-(pgid as libc::pid_t), 0) == 0 }
+    }
+
+    /// A speculative ffmpeg that is not read is killed with its group and
+    /// reaped when dropped, as on a failed probe; one that is read is
+    /// reaped too.
+    #[test]
+    fn an_unused_ffmpeg_is_killed_and_reaped() {
+        assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
+        let path = sample_video();
+        let rois = [rect(457, 247, 20, 2), rect(640, 500, 13, 9)];
+        let layout = Layout::speculative(&rois).unwrap();
+        let d = Decoder::start(&path, layout, &rgb_opts()).unwrap();
+        let pgid = d.child.id();
+        // It blocks on its full pipe: alive until dropped.
+        std::thread::sleep(Duration::from_millis(300));
+        assert!(group_exists(pgid));
+        drop(d);
+        assert!(!group_exists(pgid));
+        // A probe error drops it the same way; the probe's error is returned.
+        let failed = |p: &Path| {
+            Err(CaptureError::Read {
+                path: p.to_path_buf(),
+                message: "probe failed".to_string(),
+            })
+        };
+        let e = probe_and_read_with(&path, &rois, &rgb_opts(), failed, STALL).unwrap_err();
+        assert!(e.to_string().contains("probe failed"), "{e}");
     }
 }

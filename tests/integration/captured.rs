@@ -6,6 +6,7 @@
 //! They fail (never skip) without it.
 
 use std::collections::HashMap;
+use std::os::unix::fs::OpenOptionsExt;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -749,4 +750,183 @@ fn decoded_frames_are_counted_and_a_run_off_a_terminal_prints_no_progress() {
         stderr(&o)
     );
     assert!(!stderr(&o).contains("decoded"), "{}", stderr(&o));
+}
+
+/// Processes whose command line names `needle` (a path of a scratch
+/// directory), as their program names.
+fn processes_naming(needle: &str) -> Vec<String> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
+        let is_pid = entry
+            .file_name()
+            .to_string_lossy()
+            .bytes()
+            .all(|b| b.is_ascii_digit());
+        let Ok(cmdline) = std::fs::read(entry.path().join("cmdline")) else {
+            continue;
+        };
+        let args: Vec<String> = cmdline
+            .split(|&b| b == 0)
+            .map(|a| String::from_utf8_lossy(a).into_owned())
+            .collect();
+        if is_pid && args.iter().any(|a| a.contains(needle)) {
+            found.push(args[0].clone());
+        }
+    }
+    found.sort();
+    found
+}
+
+/// ROIs touching the right and bottom edges of the frame (where FFmpeg
+/// starts before the probe with a layout the frame then clamps, so a second
+/// FFmpeg reads them) read the means of the pixels FFmpeg decodes for the
+/// whole frame, computed here. (The sample videos are black at their
+/// edges, so the video is FFmpeg's moving colour test pattern.)
+#[test]
+fn video_rois_touching_the_frame_edge_read_the_decoded_pixels() {
+    need_ffmpeg();
+    let dir = scratch("video-edge-rois");
+    let path = dir.join("pattern.mp4");
+    let (w, h, frames) = (320usize, 240usize, 12usize);
+    let o = Command::new("ffmpeg")
+        .args(["-v", "error", "-y", "-f", "lavfi", "-i"])
+        .arg(format!("testsrc2=s={w}x{h}:r=30"))
+        .args(["-frames:v", &frames.to_string(), "-c:v", "libx264"])
+        .args(["-pix_fmt", "yuv420p"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rect = |x, y, width, height| RoiRect {
+        x,
+        y,
+        width,
+        height,
+    };
+    // Right edge, bottom edge, bottom-right corner (odd), inside.
+    let rois = [
+        rect(310, 0, 10, 2),
+        rect(100, 236, 6, 4),
+        rect(313, 231, 7, 9),
+        rect(150, 101, 20, 2),
+    ];
+    let trace = read_capture(&path, &rois, &[], &opts(VideoDecode::Rgb)).unwrap();
+    assert_eq!(trace.luma[0].len(), frames);
+    let o = Command::new("ffmpeg")
+        .args(["-v", "error", "-i"])
+        .arg(&path)
+        .args(["-f", "rawvideo", "-pix_fmt", "rgb24", "-"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(o.stdout.len(), frames * w * h * 3);
+    let mut distinct = std::collections::BTreeSet::new();
+    for (k, frame) in o.stdout.chunks(w * h * 3).enumerate() {
+        for (i, r) in rois.iter().enumerate() {
+            let mut sum = 0u64;
+            for y in r.y as usize..(r.y + r.height) as usize {
+                for x in r.x as usize..(r.x + r.width) as usize {
+                    let p = 3 * (y * w + x);
+                    let [cr, cg, cb] = [frame[p], frame[p + 1], frame[p + 2]].map(u32::from);
+                    sum += u64::from(LumaWeights::Bt601.luma(cr, cg, cb));
+                }
+            }
+            let mean = sum as f64 / f64::from(r.width * r.height);
+            let got = trace.luma[i][k];
+            assert!(
+                (got - mean).abs() < 1e-9,
+                "ROI {i} frame {k}: {got} vs {mean}"
+            );
+            distinct.insert(mean.to_bits());
+        }
+    }
+    // Not a trivially uniform picture.
+    assert!(distinct.len() > 8, "{distinct:?}");
+}
+
+/// A file that is not a video is ffprobe's error, exit 2, and neither
+/// FFmpeg tool is left running.
+#[test]
+fn a_capture_that_is_not_a_video_exits_2_and_leaves_no_ffmpeg_running() {
+    need_ffmpeg();
+    let dir = scratch("not-a-video");
+    std::fs::write(dir.join("notes.mp4"), b"this is not a video\n").unwrap();
+    let plan = one_case_plan(&dir, "notes.mp4", (0, 0, 2, 2), "");
+    expect_invalid(
+        &dir,
+        &plan,
+        &[
+            "notes.mp4",
+            "ffprobe cannot read it",
+            "hint: check that the file is a complete video",
+        ],
+    );
+    let dir_text = dir.to_string_lossy().into_owned();
+    assert_eq!(processes_naming(&dir_text), Vec::<String>::new());
+}
+
+/// Interrupted while ffprobe (and ffmpeg, started with it) wait on a FIFO
+/// nobody writes: the run stops with exit 3 naming ffprobe, and both
+/// process groups are gone.
+#[test]
+fn an_interrupted_video_capture_leaves_no_ffmpeg_running() {
+    need_ffmpeg();
+    let dir = scratch("interrupted-video");
+    let fifo = dir.join("slow.mp4");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    let plan = one_case_plan(&dir, "slow.mp4", (600, 400, 20, 2), "");
+    let mut run = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(["plan", plan.to_str().unwrap(), "--out"])
+        .arg(dir.join("o"))
+        .arg("-q")
+        .current_dir(&dir)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let needle = fifo.to_string_lossy().into_owned();
+    let start = std::time::Instant::now();
+    let tools = || {
+        processes_naming(&needle)
+            .iter()
+            .filter(|p| p.ends_with("ffmpeg") || p.ends_with("ffprobe"))
+            .count()
+    };
+    while tools() < 2 {
+        assert!(
+            start.elapsed().as_secs() < 60,
+            "ffmpeg and ffprobe never started"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    // SAFETY: kill(2) on the child this test started.
+    assert_eq!(
+        unsafe { libc::kill(run.id() as libc::pid_t, libc::SIGINT) },
+        0
+    );
+    let stopped = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = run.try_wait().unwrap() {
+            break status;
+        }
+        if stopped.elapsed().as_secs() >= 60 {
+            let _ = run.kill();
+            // A writer lets the tools blocked on the FIFO go on, and end.
+            let _ = std::fs::OpenOptions::new()
+                .write(true)
+                .custom_flags(libc::O_NONBLOCK)
+                .open(&fifo);
+            panic!("ledflicker did not stop within 60 s of SIGINT");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut run.stderr.take().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(3), "{err}");
+    assert!(err.contains("slow.mp4"), "{err}");
+    assert!(
+        err.contains("interrupted (signal 2) while `ffprobe` was reading it"),
+        "{err}"
+    );
+    assert_eq!(processes_naming(&needle), Vec::<String>::new());
 }
