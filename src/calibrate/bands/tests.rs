@@ -1,0 +1,174 @@
+//! Tests of the band estimator.
+
+use super::*;
+use crate::physics::pwm::on_fraction;
+
+/// Row profile of a PWM light: duty `d`, period `p` rows, exposure
+/// `e` rows, phase `phi` cycles.
+fn bands(n: usize, p: f64, d: f64, e: f64, phi: f64) -> Vec<f64> {
+    (0..n)
+        .map(|r| 20.0 + 200.0 * on_fraction(phi + r as f64 / p, e / p, d))
+        .collect()
+}
+
+#[test]
+fn square_wave_gives_its_fundamental_at_any_duty() {
+    for (p, d, e) in [
+        (68.66, 0.5, 4.3),
+        (37.3, 0.1, 0.5),
+        (120.7, 0.9, 2.0),
+        (11.2, 0.3, 1.0),
+        (250.0, 0.05, 3.0),
+        (15.0, 0.5, 7.0),
+    ] {
+        let est = estimate_profile(&bands(1080, p, d, e, 0.3)).unwrap();
+        let err = est.period_rows - p;
+        assert!(
+            (err / p).abs() < 5e-4 && err.abs() < 3.0 * est.period_sigma_rows,
+            "p={p} d={d}: {est:?}"
+        );
+        assert!(est.period_sigma_rows < 0.01 * p, "{est:?}");
+    }
+}
+
+/// Deterministic noise in [-0.5, 0.5).
+fn noise(i: usize) -> f64 {
+    let x = (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    ((x >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+}
+
+#[test]
+fn refined_frequency_is_the_least_residual_on_a_fine_grid() {
+    // Candidates are located with at most CANDIDATE_HARMONICS
+    // harmonics and coarsely; the estimate must still be the minimum
+    // of the residual with its own harmonic count, found here by brute
+    // force over 401 frequencies around it, in noise and without.
+    for (p, d, e, amp) in [
+        (68.66, 0.05, 1.0, 0.0),
+        (137.3, 0.2, 4.0, 8.0),
+        (41.7, 0.5, 0.7, 20.0),
+        (250.0, 0.1, 30.0, 2.0),
+    ] {
+        let y: Vec<f64> = bands(800, p, d, e, 0.17)
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v + amp * noise(i))
+            .collect();
+        let est = estimate_profile(&y).unwrap();
+        let fit = PeriodicFit::new(std::slice::from_ref(&y));
+        let (f, h) = (1.0 / est.period_rows, est.harmonics);
+        let best = fit.rss(f, h);
+        let width = 0.2 / fit.padded as f64;
+        let (grid_f, grid_rss) = (0..=400)
+            .map(|k| f + width * (k as f64 / 200.0 - 1.0))
+            .map(|g| (g, fit.rss(g, h)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap();
+        let resolution = 800.0 * f64::EPSILON * fit.sum_squares;
+        assert!(best <= grid_rss + resolution, "p={p}: {best} > {grid_rss}");
+        assert!(
+            (grid_f - f).abs() <= width / 200.0,
+            "p={p}: grid minimum {grid_f} vs {f}"
+        );
+        assert!((est.period_rows - p).abs() < 3.0 * est.period_sigma_rows + 1e-6 * p);
+    }
+}
+
+#[test]
+fn brent_finds_smooth_and_kinked_minima_within_tolerance() {
+    for (centre, tol) in [(0.3, 1e-9), (-2.0, 1e-7), (0.0146, 1e-12)] {
+        let mut calls = 0;
+        let x = brent_minimum(
+            |x| {
+                calls += 1;
+                (x - centre).powi(2) * 3.0
+            },
+            (centre - 1.0, centre + 0.5),
+            tol,
+        );
+        assert!((x - centre).abs() < 3.0 * tol, "{x} vs {centre}");
+        assert!(calls <= 20, "a parabola takes few steps: {calls}");
+    }
+    // |x - c| has no parabola: golden-section steps still close in.
+    let x = brent_minimum(|x| (x - 0.7).abs(), (0.0, 1.0), 1e-8);
+    assert!((x - 0.7).abs() < 3e-8, "{x}");
+    // A minimum at the bracket's edge.
+    let x = brent_minimum(|x| x, (2.0, 3.0), 1e-9);
+    assert!((x - 2.0).abs() < 3e-9, "{x}");
+}
+
+#[test]
+fn design_phases_are_the_exact_ones_to_rounding() {
+    let (n, h) = (4000, 10);
+    let stride = 3 + 2 * h;
+    for f in [1.0 / 68.66, 0.2499, 1.0 / 1373.0, 0.013_579] {
+        let mut design = vec![0.0; n * stride];
+        harmonic_design(&mut design, stride, n, f, h);
+        for (i, r) in design.chunks_exact(stride).enumerate() {
+            for k in 1..=h {
+                let angle = 2.0 * std::f64::consts::PI * f * (k * i) as f64;
+                let (s, c) = angle.sin_cos();
+                let err = (r[1 + 2 * k] - c).abs().max((r[2 + 2 * k] - s).abs());
+                // The exact phase's own argument is rounded to about
+                // eps * angle.
+                let bound = 1e-14 + 4.0 * f64::EPSILON * angle;
+                assert!(err < bound, "f={f} row {i} harmonic {k}: {err:e}");
+            }
+        }
+    }
+}
+
+#[test]
+fn nested_residuals_are_the_separate_fits() {
+    let y = bands(800, 68.66, 0.2, 3.0, 0.1);
+    let fit = PeriodicFit::new(std::slice::from_ref(&y));
+    let f = 1.0 / 68.7;
+    let nested = fit.rss_upto(f, 6);
+    for h in 1..=6 {
+        let separate = lsq_rss(&y, 3 + 2 * h, |i, r| {
+            trend_basis(i, 800, r);
+            for k in 0..h {
+                let w = 2.0 * std::f64::consts::PI * f * ((k + 1) * i) as f64;
+                r[3 + 2 * k] = w.cos();
+                r[4 + 2 * k] = w.sin();
+            }
+        })
+        .unwrap();
+        let rel = (nested[h - 1] - separate).abs() / separate;
+        assert!(rel < 1e-8, "h={h}: {} vs {separate}", nested[h - 1]);
+    }
+    assert!(nested.windows(2).all(|w| w[1] <= w[0]), "{nested:?}");
+}
+
+#[test]
+fn flat_rows_and_noise_are_not_banding() {
+    assert!(matches!(
+        estimate_profile(&[5.0; 200]),
+        Err(NoConfidence::Flat { .. })
+    ));
+    let mut rng = crate::physics::sensor::Rng::new(3);
+    let noise: Vec<f64> = (0..1000).map(|_| rng.normal()).collect();
+    assert!(matches!(
+        estimate_profile(&noise),
+        Err(NoConfidence::NoBanding { .. })
+    ));
+}
+
+#[test]
+fn fewer_than_three_bands_are_refused_with_the_reason() {
+    let e = estimate_profile(&bands(500, 250.0, 0.5, 2.0, 0.1)).unwrap_err();
+    assert!(matches!(e, NoConfidence::TooFewBands { .. }), "{e}");
+    let ok = estimate_profile(&bands(500, 160.0, 0.5, 2.0, 0.1));
+    assert!(ok.is_ok(), "{ok:?}");
+}
+
+#[test]
+fn median_over_strips_ignores_an_overlay_in_one_strip() {
+    let clean = bands(600, 40.0, 0.4, 2.0, 0.0);
+    let mut strips = vec![clean.clone(); 5];
+    // A bright caption over rows 100..160 in one strip.
+    for v in &mut strips[1][100..160] {
+        *v = 255.0;
+    }
+    assert_eq!(combine_strips(&strips), clean);
+}
