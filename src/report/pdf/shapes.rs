@@ -116,6 +116,7 @@ struct Style<'a> {
 struct Run<'a> {
     colour: Option<&'a str>,
     groups: Vec<Group<'a>>,
+    arcs: Option<(&'a str, String)>,
 }
 
 /// The shapes of one style in a run.
@@ -136,11 +137,11 @@ impl<'a> Run<'a> {
         self.colour = Some(shape.colour());
         if let Some(group) = self.groups.iter_mut().find(|g| g.style == shape.style) {
             group.count += 1;
-            shape.write_subpath(&mut group.data);
+            shape.write_subpath(&mut group.data, &mut self.arcs);
             return;
         }
         let mut data = String::with_capacity(256);
-        shape.write_subpath(&mut data);
+        shape.write_subpath(&mut data, &mut self.arcs);
         self.groups.push(Group {
             style: shape.style,
             first: tag,
@@ -280,8 +281,9 @@ impl<'a> Shape<'a> {
         out.push_str("/>");
     }
 
-    /// Appends the shape as one subpath.
-    fn write_subpath(&self, d: &mut String) {
+    /// Appends the shape as one subpath; `arcs` keeps the last circle's
+    /// radius and its four quarters, which plotters' markers share.
+    fn write_subpath(&self, d: &mut String, arcs: &mut Option<(&'a str, String)>) {
         let [a, b, c, e] = self.geometry;
         match self.name {
             "line" => push_all(d, &["M", a, ",", b, "L", c, ",", e]),
@@ -289,25 +291,14 @@ impl<'a> Shape<'a> {
             "circle" => {
                 // From the rightmost point, clockwise on screen (y down).
                 push_all(d, &["M", a, ",", b, "m", c, ",0"]);
-                let r: f64 = c.parse().unwrap_or(0.0);
-                let k = r * KAPPA;
-                let m = r - k;
-                let quarters = [
-                    [0.0, k, -m, r, -r, r],
-                    [-k, 0.0, -r, -m, -r, -r],
-                    [0.0, -k, m, -r, r, -r],
-                    [k, 0.0, r, m, r, r],
-                ];
-                for q in quarters {
-                    d.push('c');
-                    for (i, v) in q.into_iter().enumerate() {
-                        if i > 0 {
-                            d.push(' ');
-                        }
-                        push_number(d, v);
+                match arcs {
+                    Some((r, text)) if *r == c => d.push_str(text),
+                    _ => {
+                        let text = quarter_arcs(c.parse().unwrap_or(0.0));
+                        d.push_str(&text);
+                        *arcs = Some((c, text));
                     }
                 }
-                d.push('z');
             }
             _ => push_all(d, &["M", a, ",", b, "h", c, "v", e, "H", a, "z"]),
         }
@@ -323,6 +314,31 @@ fn geometry_ok(name: &str, [a, b, c, d]: [&str; 4]) -> bool {
         "circle" => is_number(a) && is_number(b) && is_positive(c),
         _ => is_number(a) && is_number(b) && is_positive(c) && is_positive(d),
     }
+}
+
+/// The four quarters of a circle of radius `r` from its rightmost point,
+/// clockwise on screen, as relative cubic Béziers, closed.
+fn quarter_arcs(r: f64) -> String {
+    let k = r * KAPPA;
+    let m = r - k;
+    let quarters = [
+        [0.0, k, -m, r, -r, r],
+        [-k, 0.0, -r, -m, -r, -r],
+        [0.0, -k, m, -r, r, -r],
+        [k, 0.0, r, m, r, r],
+    ];
+    let mut d = String::with_capacity(128);
+    for q in quarters {
+        d.push('c');
+        for (i, v) in q.into_iter().enumerate() {
+            if i > 0 {
+                d.push(' ');
+            }
+            push_number(&mut d, v);
+        }
+    }
+    d.push('z');
+    d
 }
 
 fn push_all(d: &mut String, parts: &[&str]) {
@@ -346,7 +362,8 @@ fn attribute_pairs(mut text: &str) -> Option<Vec<(&str, &str)>> {
         if text.is_empty() {
             return Some(pairs);
         }
-        let (name, rest) = text.split_once("=\"")?;
+        let (name, rest) = text.split_once('=')?;
+        let rest = rest.strip_prefix('"')?;
         let end = rest.find('"')?;
         let value = &rest[..end];
         if name.contains(char::is_whitespace) || value.contains(['&', '<']) {
@@ -357,16 +374,24 @@ fn attribute_pairs(mut text: &str) -> Option<Vec<(&str, &str)>> {
     }
 }
 
-/// A plain decimal number (no units, no percent, no sign but a minus), as
-/// plotters writes them.
+/// A plain decimal number as plotters writes them: an optional minus,
+/// digits with at most one decimal point, no exponent, units or percent.
 fn is_number(v: &str) -> bool {
-    !v.is_empty()
-        && v.bytes().all(|b| b"0123456789.-eE".contains(&b))
-        && v.parse::<f64>().is_ok_and(f64::is_finite)
+    let digits = v.strip_prefix('-').unwrap_or(v);
+    let mut points = 0;
+    let mut any_digit = false;
+    for b in digits.bytes() {
+        match b {
+            b'0'..=b'9' => any_digit = true,
+            b'.' => points += 1,
+            _ => return false,
+        }
+    }
+    any_digit && points <= 1
 }
 
 fn is_positive(v: &str) -> bool {
-    is_number(v) && v.parse::<f64>().is_ok_and(|x| x > 0.0)
+    is_number(v) && !v.starts_with('-') && v.bytes().any(|b| matches!(b, b'1'..=b'9'))
 }
 
 /// A polyline's `points`: an even count (at least two) of plain numbers
