@@ -90,6 +90,12 @@ pub fn simplify(svg: &str) -> String {
 /// Length of the markup item at the start of `from` (which starts with
 /// `<`), up to and including its `>`, skipping quoted attribute values.
 fn tag_len(from: &str) -> Option<usize> {
+    // Plotters' tags: double quotes only, none of them around a `>`.
+    let end = from.find('>')? + 1;
+    let tag = &from.as_bytes()[..end];
+    if !tag.contains(&b'\'') && tag.iter().filter(|&&b| b == b'"').count() % 2 == 0 {
+        return Some(end);
+    }
     let mut quote = None;
     for (i, b) in from.bytes().enumerate() {
         match (quote, b) {
@@ -366,7 +372,9 @@ fn attribute_pairs(mut text: &str) -> Option<Vec<(&str, &str)>> {
         let rest = rest.strip_prefix('"')?;
         let end = rest.find('"')?;
         let value = &rest[..end];
-        if name.contains(char::is_whitespace) || value.contains(['&', '<']) {
+        // The values used are checked to be plain numbers or colours, so
+        // an entity never gets through.
+        if name.bytes().any(|b| b.is_ascii_whitespace()) {
             return None;
         }
         pairs.push((name, value));
@@ -395,16 +403,37 @@ fn is_positive(v: &str) -> bool {
 }
 
 /// A polyline's `points`: an even count (at least two) of plain numbers
-/// separated by commas or spaces.
+/// (see [`is_number`]) separated by commas or spaces. One pass over the
+/// bytes: a trace's points are most of a chart.
 fn is_points(v: &str) -> bool {
     let mut count = 0usize;
-    for n in v.split([',', ' ']).filter(|n| !n.is_empty()) {
-        if !is_number(n) {
-            return false;
+    // Within a number: whether it has a digit, and a decimal point.
+    let mut token: Option<(bool, bool)> = None;
+    // A comma since the last number (at most one between two numbers).
+    let mut comma = false;
+    for b in v.bytes() {
+        let start = token.is_none() && b != b',' && b != b' ';
+        if start {
+            count += 1;
+            comma = false;
         }
-        count += 1;
+        token = match (b, token) {
+            (_, Some((false, _))) if matches!(b, b',' | b' ') => return false,
+            (b',', _) if comma || count == 0 => return false,
+            (b',', _) => {
+                comma = true;
+                None
+            }
+            (b' ', _) => None,
+            (b'-', None) => Some((false, false)),
+            (b'.', None) => Some((false, true)),
+            (b'.', Some((digit, false))) => Some((digit, true)),
+            (b'0'..=b'9', None) => Some((true, false)),
+            (b'0'..=b'9', Some((_, point))) => Some((true, point)),
+            _ => return false,
+        };
     }
-    count >= 2 && count.is_multiple_of(2)
+    !comma && token.is_none_or(|(digit, _)| digit) && count >= 2 && count.is_multiple_of(2)
 }
 
 #[cfg(test)]

@@ -350,3 +350,20 @@ fn a_chart_keeps_all_but_its_shapes_and_gets_fewer_of_them() {
             .any(|t| { attribute(t, "opacity").is_some_and(|o| o != "1") })
     );
 }
+
+#[test]
+fn points_and_numbers_are_plain_decimals_and_tags_end_outside_quotes() {
+    for ok in ["1,2 3,4", "1,-2", "-0.5,.5 ", " 49,23 49,183 "] {
+        assert!(is_points(ok), "{ok}");
+    }
+    for bad in [
+        "", "1,2 3", "1..2,3", "1,2 -", "1e3,2", "1,,2", "1,2;3,4", "1,-,2,3", ",1,2", "1,2,",
+    ] {
+        assert!(!is_points(bad), "{bad}");
+    }
+    assert!(is_number("-12.5") && is_positive("0.5") && !is_positive("0.0"));
+    assert!(!is_number("1e3") && !is_number("10%") && !is_number("-") && !is_number("1.2.3"));
+    assert_eq!(tag_len("<a b=\"x>y\"/> rest"), Some(12));
+    assert_eq!(tag_len("<a b='x\">y'/>"), Some(13));
+    assert_eq!(tag_len("<a b=\"x/>"), None);
+}
