@@ -5,10 +5,14 @@
 //! below is deliberately minimal: every file comes from memory (the
 //! generated markup, the chart SVGs, the fonts compiled into the binary),
 //! nothing is read from disk or the network, and `today()` is the report
-//! date, so the same inputs give byte-identical PDFs.
+//! date, so the same inputs give byte-identical PDFs. The chart SVGs are
+//! simplified for Typst first ([`shapes`]): the same picture in fewer and
+//! cheaper shapes.
+
+mod shapes;
 
 use std::collections::BTreeMap;
-use std::sync::LazyLock;
+use std::sync::{LazyLock, OnceLock};
 
 use minijinja::value::{Serde, Value};
 use minijinja::{Environment, UndefinedBehavior};
@@ -55,12 +59,21 @@ static LIBRARY: LazyLock<LazyHash<Library>> =
     LazyLock::new(|| LazyHash::new(Library::builder().build()));
 
 /// The in-memory world one report is compiled in.
-struct ReportWorld {
+struct ReportWorld<'a> {
     main: FileId,
     source: Source,
-    /// Virtual path (no leading slash) -> bytes.
-    files: BTreeMap<String, Bytes>,
+    /// Virtual path (no leading slash) -> file.
+    files: BTreeMap<&'a str, WorldFile<'a>>,
     today: Option<Datetime>,
+}
+
+/// A file of the world: an image as it is, or a chart, simplified for
+/// Typst ([`shapes::simplify`]) when Typst first reads it. Typst reads the
+/// charts from the page runs it lays out in parallel, and only those the
+/// report shows.
+enum WorldFile<'a> {
+    Image(Bytes),
+    Chart(&'a str, OnceLock<Bytes>),
 }
 
 fn file_id(path: &str) -> Result<FileId, ReportError> {
@@ -70,7 +83,7 @@ fn file_id(path: &str) -> Result<FileId, ReportError> {
     Ok(RootedPath::new(VirtualRoot::Project, vpath).intern())
 }
 
-impl World for ReportWorld {
+impl World for ReportWorld<'_> {
     fn library(&self) -> &LazyHash<Library> {
         &LIBRARY
     }
@@ -93,10 +106,13 @@ impl World for ReportWorld {
 
     fn file(&self, id: FileId) -> FileResult<Bytes> {
         let path = id.vpath().get_without_slash();
-        self.files
-            .get(path)
-            .cloned()
-            .ok_or_else(|| FileError::NotFound(path.into()))
+        match self.files.get(path) {
+            Some(WorldFile::Image(bytes)) => Ok(bytes.clone()),
+            Some(WorldFile::Chart(svg, simplified)) => Ok(simplified
+                .get_or_init(|| Bytes::from_string(shapes::simplify(svg)))
+                .clone()),
+            None => Err(FileError::NotFound(path.into())),
+        }
     }
 
     fn font(&self, index: usize) -> Option<Font> {
@@ -213,7 +229,7 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
         .map_err(template_error)
 }
 
-fn diagnostics(what: &str, diags: &[SourceDiagnostic], world: &ReportWorld) -> ReportError {
+fn diagnostics(what: &str, diags: &[SourceDiagnostic], world: &ReportWorld<'_>) -> ReportError {
     let mut message = format!("{what}:");
     for d in diags {
         message.push_str("\n  - ");
@@ -248,11 +264,11 @@ pub fn render(doc: &Document) -> Result<(Vec<u8>, usize), ReportError> {
     let files = doc
         .charts
         .iter()
-        .map(|(path, svg)| (path.clone(), Bytes::from_string(svg.clone())))
+        .map(|(path, svg)| (path.as_str(), WorldFile::Chart(svg, OnceLock::new())))
         .chain(
             doc.images
                 .iter()
-                .map(|(path, png)| (path.clone(), Bytes::new(png.clone()))),
+                .map(|(path, png)| (path.as_str(), WorldFile::Image(Bytes::new(png.clone())))),
         )
         .collect();
     let world = ReportWorld {
