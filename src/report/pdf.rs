@@ -258,7 +258,10 @@ fn parse_date(date: &str) -> Option<Datetime> {
 
 /// Renders report.pdf. Returns the PDF bytes and its page count.
 pub fn render(doc: &Document) -> Result<(Vec<u8>, usize), ReportError> {
-    let markup = render_markup(doc)?;
+    let markup = {
+        let _t = crate::timings::span("pdf: markup");
+        render_markup(doc)?
+    };
     let main = file_id("report.typ")?;
     let source = Source::new(main, markup);
     let files = doc
@@ -277,7 +280,10 @@ pub fn render(doc: &Document) -> Result<(Vec<u8>, usize), ReportError> {
         files,
         today: parse_date(doc.date()),
     };
-    let compiled = typst::compile::<PagedDocument>(&world);
+    let compiled = {
+        let _t = crate::timings::span("pdf: layout");
+        typst::compile::<PagedDocument>(&world)
+    };
     let document = compiled
         .output
         .map_err(|errors| diagnostics("typst could not lay out the report", &errors, &world))?;
@@ -286,8 +292,11 @@ pub fn render(doc: &Document) -> Result<(Vec<u8>, usize), ReportError> {
         ident: typst::foundations::Smart::Custom(format!("ledflicker-{}", doc.results.plan.id)),
         ..typst_pdf::PdfOptions::default()
     };
-    let mut bytes = typst_pdf::pdf(&document, &options)
-        .map_err(|errors| diagnostics("typst could not write the PDF", &errors, &world))?;
+    let mut bytes = {
+        let _t = crate::timings::span("pdf: write");
+        typst_pdf::pdf(&document, &options)
+            .map_err(|errors| diagnostics("typst could not write the PDF", &errors, &world))?
+    };
     blank_suspects_false(&mut bytes);
     Ok((bytes, document.pages().len()))
 }
