@@ -220,6 +220,7 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             signatories => Serde(&doc.signatories),
             zooms => zooms,
             pages => doc.case_pages(),
+            appendix_pages => appendix_pages(doc.results.cases.iter().map(|c| c.rois.len())),
             caveats => doc.caveats(),
             fold_notes => doc.fold_notes(),
             detail => doc.detail().as_str(),
@@ -227,6 +228,44 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             date => doc.date(),
         })
         .map_err(template_error)
+}
+
+/// Rows of Appendix A's table (6.5 pt text, 3 pt inset: about 11.5 pt a
+/// row) that one page holds below the table's header, with room to spare:
+/// a full page takes 61.
+const APPENDIX_PAGE_ROWS: f64 = 56.0;
+/// The same on the appendix's first page, below its heading and lead text.
+const APPENDIX_FIRST_PAGE_ROWS: f64 = 50.0;
+/// A case of one ROI takes one row, as tall as its verdict badge.
+const APPENDIX_BADGE_ROWS: f64 = 1.4;
+
+/// Appendix A's cases page by page (indices into the cases, in order),
+/// given each case's ROI count: one table a page, so that Typst lays out
+/// the pages in parallel (a page break starts a new page run) instead of
+/// one long table at the end of the document. A case is never split; a
+/// case too large for a page has a table of its own, which breaks across
+/// pages as any table does.
+fn appendix_pages(rois_per_case: impl Iterator<Item = usize>) -> Vec<Vec<usize>> {
+    let mut pages: Vec<Vec<usize>> = Vec::new();
+    let (mut page, mut used) = (Vec::new(), 0.0);
+    for (i, rois) in rois_per_case.enumerate() {
+        let rows = (rois as f64).max(APPENDIX_BADGE_ROWS);
+        let room = if pages.is_empty() {
+            APPENDIX_FIRST_PAGE_ROWS
+        } else {
+            APPENDIX_PAGE_ROWS
+        };
+        if !page.is_empty() && used + rows > room {
+            pages.push(std::mem::take(&mut page));
+            used = 0.0;
+        }
+        page.push(i);
+        used += rows;
+    }
+    if !page.is_empty() {
+        pages.push(page);
+    }
+    pages
 }
 
 fn diagnostics(what: &str, diags: &[SourceDiagnostic], world: &ReportWorld<'_>) -> ReportError {
@@ -341,6 +380,22 @@ mod tests {
             text.ends_with("/Marked true                 >> >>"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn appendix_pages_fill_each_page_and_never_split_a_case() {
+        // Daylight: 35 cases of 2 ROIs, 25 under the heading, 10 after.
+        let pages = appendix_pages(std::iter::repeat_n(2, 35));
+        assert_eq!(pages.iter().map(Vec::len).collect::<Vec<_>>(), [25, 10]);
+        assert_eq!(pages.concat(), (0..35).collect::<Vec<_>>());
+        // One ROI each: badge rows, 35 and 40 a page.
+        let pages = appendix_pages(std::iter::repeat_n(1, 100));
+        assert_eq!(pages.iter().map(Vec::len).collect::<Vec<_>>(), [35, 40, 25]);
+        // A P2020 chart of 36 patches: one case a page; a case larger than
+        // a page stands alone.
+        let pages = appendix_pages([36, 36, 80, 3, 0].into_iter());
+        assert_eq!(pages, [vec![0], vec![1], vec![2], vec![3, 4]]);
+        assert!(appendix_pages(std::iter::empty()).is_empty());
     }
 
     #[test]

@@ -291,3 +291,68 @@ fn results_json_reads_back_typed_field_for_field() {
     let e = ledflicker::model::read_results(r#"{"schema": "other/1"}"#).unwrap_err();
     assert!(e.contains("`other/1`"), "{e}");
 }
+
+/// `pdftotext -layout` of one page.
+fn pdf_page_text(pdf: &Path, page: usize) -> String {
+    let p = page.to_string();
+    let o = Command::new("pdftotext")
+        .args(["-f", &p, "-l", &p, "-layout", pdf.to_str().unwrap(), "-"])
+        .output()
+        .expect("pdftotext not found: install poppler-utils (scripts/test.sh does)");
+    assert!(o.status.success(), "{}", text(&o));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+#[test]
+fn pdf_appendix_lists_every_case_once_on_well_filled_pages() {
+    // Appendix A is one table a page (so that Typst lays the pages out in
+    // parallel): each page's table must fit its page, or the page after
+    // would hold a short spill-over before the next table.
+    let dir = scratch("pdf-appendix");
+    let o = run_plan("test-plans/daylight.toml", &dir, &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap();
+    let ids: Vec<&str> = results["cases"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["id"].as_str().unwrap())
+        .collect();
+    let pdf = dir.join("report.pdf");
+    let pages = pdf_pages(&pdf);
+    let texts: Vec<String> = (1..=pages).map(|p| pdf_page_text(&pdf, p)).collect();
+    // The last mentions: the contents page names both headings too.
+    let first = texts
+        .iter()
+        .rposition(|t| t.contains("Appendix A: every case"))
+        .expect("no Appendix A");
+    let last = texts.iter().rposition(|t| t.contains("Sign-off")).unwrap() - 1;
+    assert!(last > first, "the appendix of 35 cases fits no one page");
+    // The first word of a line is the case id of the case's first ROI row.
+    let rows_of = |t: &str| -> Vec<String> {
+        t.lines()
+            .filter_map(|l| l.split_whitespace().next())
+            .filter(|w| ids.contains(&w.trim_end_matches('*')))
+            .map(|w| w.trim_end_matches('*').to_string())
+            .collect()
+    };
+    let mut listed = Vec::new();
+    for (i, t) in texts[first..=last].iter().enumerate() {
+        let cases = rows_of(t);
+        let header = t
+            .lines()
+            .any(|l| l.trim_start().starts_with("Case") && l.contains("Verdict"));
+        assert!(header, "page {} has no table header:\n{t}", first + i + 1);
+        if first + i < last {
+            assert!(
+                cases.len() >= 20,
+                "page {} holds only {} cases: a table spilled over its page",
+                first + i + 1,
+                cases.len()
+            );
+        }
+        listed.extend(cases);
+    }
+    assert_eq!(listed, ids, "every case once, in order");
+}
