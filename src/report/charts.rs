@@ -27,7 +27,7 @@ const SERIES_COLOURS: [RGBColor; 6] = [
 ];
 
 /// A chart could not be drawn.
-#[derive(Debug, thiserror::Error)]
+#[derive(Debug, Clone, thiserror::Error)]
 #[error("cannot draw chart `{chart}`: {message}")]
 pub struct ChartError {
     /// Which chart.

@@ -11,6 +11,10 @@ use std::path::Path;
 
 use serde::Serialize;
 
+mod jobs;
+
+pub use jobs::ChartJobs;
+
 use super::ReportError;
 use crate::model::{CaseResult, Detail, InputFile, ReportMeta, Results, RoiKind};
 
@@ -98,67 +102,20 @@ impl Document {
         date: &str,
         signatories: Vec<Signatory>,
     ) -> Result<Document, ReportError> {
+        let charts = ChartJobs::plan(model, results).draw_all()?;
+        Self::with_charts(model, results, date, signatories, charts)
+    }
+
+    /// [`Self::build`] with the charts given (path -> SVG): draws each
+    /// case's frame view and adds the `report` metadata to the model.
+    pub fn with_charts(
+        model: &Results,
+        results: &[CaseResult],
+        date: &str,
+        signatories: Vec<Signatory>,
+        charts: BTreeMap<String, String>,
+    ) -> Result<Document, ReportError> {
         use rayon::prelude::*;
-        let mut charts = BTreeMap::new();
-        // Each case's charts are independent: drawn in parallel; the map
-        // orders them by path, so the result does not depend on threads.
-        let traces: Vec<[(String, String); 2]> = results
-            .par_iter()
-            .map(|r| {
-                let case = model.cases.iter().find(|c| c.id == r.case.id);
-                let segments = case.and_then(|c| c.capture.as_ref()).map(|c| &c.segments);
-                let apparent_hz = case.map_or(0.0, |c| c.apparent_frequency_hz);
-                Ok([
-                    (
-                        trace_chart_path(&r.case.id),
-                        super::charts::luma_trace_svg(r, segments)?,
-                    ),
-                    (
-                        zoom_chart_path(&r.case.id),
-                        super::charts::trace_zoom_svg(r, apparent_hz)?,
-                    ),
-                ])
-            })
-            .collect::<Result<_, ReportError>>()?;
-        charts.extend(traces.into_iter().flatten());
-        for (i, lux) in super::matrix::light_levels(model).into_iter().enumerate() {
-            charts.insert(matrix_chart_path(i), super::matrix::matrix_svg(model, lux)?);
-        }
-        for c in &model.cases {
-            let led = c
-                .rois
-                .iter()
-                .filter(|roi| roi.kind == crate::model::RoiKind::Led);
-            let drawn = led.filter(|roi| {
-                roi.analysis.phase_coverage.covered_bins >= super::charts::MIN_FOLD_PHASES
-            });
-            for (k, roi) in drawn.enumerate() {
-                let svg = super::charts::phase_fold_svg(
-                    &format!("{}: {}", c.id, roi.name),
-                    &roi.analysis.folded_bins,
-                    roi.analysis.envelope,
-                )?;
-                charts.insert(fold_chart_path(&c.id, k), svg);
-            }
-        }
-        let threshold = model.thresholds.fdi_2018_min;
-        for (i, m) in model.fine_maps.iter().enumerate() {
-            use super::charts::{FineMapKind, finemap_svg};
-            charts.insert(
-                finemap_chart_path(i, "fdi"),
-                finemap_svg(&m.map, FineMapKind::Fdi, threshold)?,
-            );
-            charts.insert(
-                finemap_chart_path(i, "pf"),
-                finemap_svg(&m.map, FineMapKind::PercentFlicker, threshold)?,
-            );
-        }
-        if let Some(a) = &model.advice {
-            charts.insert(
-                ADVICE_CHART.to_string(),
-                super::charts::advise_svg(&a.curve, a.advice.min_exposure_s)?,
-            );
-        }
         let images: BTreeMap<String, Vec<u8>> = results
             .par_iter()
             .filter_map(|r| {

@@ -154,28 +154,54 @@ fn write_frames(
     replace_dir(dir, document::FRAMES_DIR, &files)
 }
 
-/// Renders report.html and report.pdf from `doc` into `dir`, atomically.
-/// Returns the PDF's page count.
-pub fn write_renderings(dir: &Path, doc: &document::Document) -> Result<usize, ReportError> {
-    // Typst takes longest: the HTML is rendered beside it.
-    let depth = crate::timings::depth();
-    let (pdf, html) = rayon::join(
-        || {
-            let _t = crate::timings::span_at("report: pdf (typst)", depth);
-            pdf::render(doc)
-        },
-        || {
-            let _t = crate::timings::span_at("report: html", depth);
-            html::render_document(doc)
-        },
-    );
-    let ((pdf, pages), html) = (pdf?, html?);
+/// What [`write_report`] makes while Typst lays out the PDF: charts/ (every
+/// chart, drawn now unless Typst drew it), frames/, report.html, and the
+/// text of junit.xml, summary.csv and results.json, which are written after
+/// the PDF.
+fn write_beside_pdf(
+    dir: &Path,
+    model: &Results,
+    results: &[CaseResult],
+    options: &WriteOptions,
+    jobs: &document::ChartJobs<'_>,
+    layout_doc: &document::Document,
+    full_frames: Vec<(String, Vec<u8>)>,
+) -> Result<(Exports, String), ReportError> {
+    let t = crate::timings::span("report: charts");
+    let charts = jobs.draw_all()?;
+    let files: Vec<(String, Vec<u8>)> = charts
+        .iter()
+        .map(|(path, svg)| {
+            let name = path.rsplit('/').next().unwrap_or(path).to_string();
+            (name, svg.clone().into_bytes())
+        })
+        .collect();
+    replace_dir(dir, document::CHARTS_DIR, &files)?;
+    drop(t);
+    let doc = document::Document {
+        charts,
+        ..layout_doc.clone()
+    };
+    write_frames(dir, results, full_frames, &doc)?;
+    let html = {
+        let _t = crate::timings::span("report: html");
+        html::render_document(&doc)?
+    };
     let path = dir.join("report.html");
     write_atomic(&path, html.as_bytes()).map_err(io_err(&path))?;
-    let path = dir.join("report.pdf");
-    write_atomic(&path, &pdf).map_err(io_err(&path))?;
-    Ok(pages)
+    let _t = crate::timings::span("report: exports and results.json");
+    let files = [
+        (export::JUNIT_FILE, export::junit_xml(model)),
+        (export::CSV_FILE, export::summary_csv(model)),
+    ];
+    // The model plus its `report` metadata, in the model's field order.
+    let mut model = model.clone();
+    model.report = Some(document::report_meta(&model, &options.date, options.detail));
+    Ok((files, serde_json::to_string_pretty(&model)?))
 }
+
+/// junit.xml and summary.csv: file name and text.
+type Exports = [(&'static str, String); 2];
 
 /// Writes results.json, traces/, charts/, report.html, report.pdf,
 /// junit.xml and summary.csv into `dir`. Every file is written atomically;
@@ -220,7 +246,6 @@ pub fn write_report(
             .collect::<Result<_, ReportError>>()?
     };
     drop(t);
-    let t = crate::timings::span("report: charts");
     let mut model = model.clone();
     model.report = Some(ReportMeta {
         date: options.date.clone(),
@@ -229,37 +254,45 @@ pub fn write_report(
         notes: Vec::new(),
     });
     let model = &model;
-    let doc =
-        document::Document::build(model, results, &options.date, options.signatories.clone())?;
-    let files: Vec<(String, Vec<u8>)> = doc
-        .charts
-        .iter()
-        .map(|(path, svg)| {
-            let name = path.rsplit('/').next().unwrap_or(path).to_string();
-            (name, svg.clone().into_bytes())
-        })
-        .collect();
-    replace_dir(dir, document::CHARTS_DIR, &files)?;
+    // Typst starts on a document that names every chart, and draws a chart
+    // when a page shows it; the charts it does not show (most traces), the
+    // HTML, the exports and the results.json text are made beside it.
+    let jobs = document::ChartJobs::plan(model, results);
+    let t = crate::timings::span("report: frame views");
+    let layout_doc = document::Document::with_charts(
+        model,
+        results,
+        &options.date,
+        options.signatories.clone(),
+        jobs.paths()
+            .map(|p| (p.to_string(), String::new()))
+            .collect(),
+    )?;
     drop(t);
-    write_frames(dir, results, full_frames, &doc)?;
-    // The exports and results.json are made while typst lays out the PDF.
     let depth = crate::timings::depth();
-    let (pages, exports) = rayon::join(
-        || crate::timings::at_depth(depth, || write_renderings(dir, &doc)),
+    let (pdf, others) = rayon::join(
         || {
-            let _t = crate::timings::span_at("report: exports and results.json", depth);
-            let files = [
-                (export::JUNIT_FILE, export::junit_xml(model)),
-                (export::CSV_FILE, export::summary_csv(model)),
-            ];
-            // The model plus its `report` metadata, in the model's field order.
-            let mut model = model.clone();
-            model.report = Some(document::report_meta(&model, &options.date, options.detail));
-            serde_json::to_string_pretty(&model).map(|json| (files, json))
+            let _t = crate::timings::span_at("report: pdf (typst)", depth);
+            pdf::render_with(&layout_doc, pdf::Charts::Jobs(&jobs))
+        },
+        || {
+            crate::timings::at_depth(depth, || {
+                write_beside_pdf(
+                    dir,
+                    model,
+                    results,
+                    options,
+                    &jobs,
+                    &layout_doc,
+                    full_frames,
+                )
+            })
         },
     );
-    pages?;
-    let (files, json) = exports?;
+    let (files, json) = others?;
+    let (pdf, _pages) = pdf?;
+    let path = dir.join("report.pdf");
+    write_atomic(&path, &pdf).map_err(io_err(&path))?;
     for (name, text) in files {
         let path = dir.join(name);
         write_atomic(&path, text.as_bytes()).map_err(io_err(&path))?;

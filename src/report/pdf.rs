@@ -25,7 +25,8 @@ use typst::{Library, LibraryExt, World, WorldExt};
 use typst_layout::PagedDocument;
 
 use super::ReportError;
-use super::document::{Document, trace_chart_path};
+use super::charts::ChartError;
+use super::document::{ChartJobs, Document, trace_chart_path};
 
 const TEMPLATE: &str = include_str!("../../templates/report.typ.j2");
 const TEMPLATE_NAME: &str = "report.typ.j2";
@@ -63,7 +64,9 @@ struct ReportWorld<'a> {
     main: FileId,
     source: Source,
     /// Virtual path (no leading slash) -> file.
-    files: BTreeMap<&'a str, WorldFile<'a>>,
+    files: BTreeMap<&'a str, WorldFile>,
+    /// Where the charts' SVGs come from.
+    charts: Charts<'a>,
     today: Option<Datetime>,
 }
 
@@ -71,9 +74,28 @@ struct ReportWorld<'a> {
 /// Typst ([`shapes::simplify`]) when Typst first reads it. Typst reads the
 /// charts from the page runs it lays out in parallel, and only those the
 /// report shows.
-enum WorldFile<'a> {
+enum WorldFile {
     Image(Bytes),
-    Chart(&'a str, OnceLock<Bytes>),
+    Chart(OnceLock<Result<Bytes, String>>),
+}
+
+/// The charts of a report: drawn already (a [`Document`]'s), or drawn when
+/// Typst first reads them ([`ChartJobs`]).
+#[derive(Clone, Copy)]
+pub enum Charts<'a> {
+    /// Path -> SVG.
+    Drawn(&'a BTreeMap<String, String>),
+    /// Drawn on first use, by whichever thread asks first.
+    Jobs(&'a ChartJobs<'a>),
+}
+
+impl<'a> Charts<'a> {
+    fn svg(self, path: &str) -> Option<Result<&'a str, ChartError>> {
+        match self {
+            Charts::Drawn(map) => map.get(path).map(|svg| Ok(svg.as_str())),
+            Charts::Jobs(jobs) => jobs.svg(path).map(|r| r.map_err(Clone::clone)),
+        }
+    }
 }
 
 fn file_id(path: &str) -> Result<FileId, ReportError> {
@@ -108,9 +130,14 @@ impl World for ReportWorld<'_> {
         let path = id.vpath().get_without_slash();
         match self.files.get(path) {
             Some(WorldFile::Image(bytes)) => Ok(bytes.clone()),
-            Some(WorldFile::Chart(svg, simplified)) => Ok(simplified
-                .get_or_init(|| Bytes::from_string(shapes::simplify(svg)))
-                .clone()),
+            Some(WorldFile::Chart(simplified)) => simplified
+                .get_or_init(|| match self.charts.svg(path) {
+                    Some(Ok(svg)) => Ok(Bytes::from_string(shapes::simplify(svg))),
+                    Some(Err(e)) => Err(e.to_string()),
+                    None => Err(format!("no chart `{path}`")),
+                })
+                .clone()
+                .map_err(|e| FileError::Other(Some(e.into()))),
             None => Err(FileError::NotFound(path.into())),
         }
     }
@@ -297,6 +324,12 @@ fn parse_date(date: &str) -> Option<Datetime> {
 
 /// Renders report.pdf. Returns the PDF bytes and its page count.
 pub fn render(doc: &Document) -> Result<(Vec<u8>, usize), ReportError> {
+    render_with(doc, Charts::Drawn(&doc.charts))
+}
+
+/// [`render`] with the charts from `charts`: `doc.charts` gives only their
+/// paths.
+pub fn render_with(doc: &Document, charts: Charts<'_>) -> Result<(Vec<u8>, usize), ReportError> {
     let markup = {
         let _t = crate::timings::span("pdf: markup");
         render_markup(doc)?
@@ -305,8 +338,8 @@ pub fn render(doc: &Document) -> Result<(Vec<u8>, usize), ReportError> {
     let source = Source::new(main, markup);
     let files = doc
         .charts
-        .iter()
-        .map(|(path, svg)| (path.as_str(), WorldFile::Chart(svg, OnceLock::new())))
+        .keys()
+        .map(|path| (path.as_str(), WorldFile::Chart(OnceLock::new())))
         .chain(
             doc.images
                 .iter()
@@ -317,6 +350,7 @@ pub fn render(doc: &Document) -> Result<(Vec<u8>, usize), ReportError> {
         main,
         source,
         files,
+        charts,
         today: parse_date(doc.date()),
     };
     let compiled = {
