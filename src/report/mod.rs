@@ -154,8 +154,9 @@ fn write_frames(
     replace_dir(dir, document::FRAMES_DIR, &files)
 }
 
-/// What [`write_report`] makes while Typst lays out the PDF: charts/ (every
-/// chart, drawn now unless Typst drew it), frames/, report.html, and the
+/// What [`write_report`] makes while Typst lays out the PDF: traces/,
+/// charts/ (every chart, drawn now unless Typst drew it), frames/,
+/// report.html, and the
 /// text of junit.xml, summary.csv and results.json, which are written after
 /// the PDF.
 fn write_beside_pdf(
@@ -165,7 +166,6 @@ fn write_beside_pdf(
     options: &WriteOptions,
     jobs: &document::ChartJobs<'_>,
     layout_doc: &document::Document,
-    full_frames: Vec<(String, Vec<u8>)>,
 ) -> Result<(Exports, String), ReportError> {
     let t = crate::timings::span("report: charts");
     let charts = jobs.draw_all()?;
@@ -177,6 +177,26 @@ fn write_beside_pdf(
         })
         .collect();
     replace_dir(dir, document::CHARTS_DIR, &files)?;
+    drop(t);
+    let t = crate::timings::span("report: traces and frames");
+    let traces: Vec<(String, Vec<u8>)> = {
+        use rayon::prelude::*;
+        results
+            .par_iter()
+            .map(|r| (format!("{}.csv", r.case.id), trace_csv(r).into_bytes()))
+            .collect()
+    };
+    replace_dir(dir, "traces", &traces)?;
+
+    // PNG encoding is independent per frame: in parallel, in case order.
+    let full_frames: Vec<(String, Vec<u8>)> = {
+        use rayon::prelude::*;
+        results
+            .par_iter()
+            .filter_map(|r| r.sample_frame.as_ref().map(|f| (r, f)))
+            .map(|(r, f)| Ok((format!("{}.png", r.case.id), frames::png_bytes(f)?)))
+            .collect::<Result<_, ReportError>>()?
+    };
     drop(t);
     let doc = document::Document {
         charts,
@@ -226,26 +246,6 @@ pub fn write_report(
         }
     }
 
-    let t = crate::timings::span("report: traces and frames");
-    let traces: Vec<(String, Vec<u8>)> = {
-        use rayon::prelude::*;
-        results
-            .par_iter()
-            .map(|r| (format!("{}.csv", r.case.id), trace_csv(r).into_bytes()))
-            .collect()
-    };
-    replace_dir(dir, "traces", &traces)?;
-
-    // PNG encoding is independent per frame: in parallel, in case order.
-    let full_frames: Vec<(String, Vec<u8>)> = {
-        use rayon::prelude::*;
-        results
-            .par_iter()
-            .filter_map(|r| r.sample_frame.as_ref().map(|f| (r, f)))
-            .map(|(r, f)| Ok((format!("{}.png", r.case.id), frames::png_bytes(f)?)))
-            .collect::<Result<_, ReportError>>()?
-    };
-    drop(t);
     let mut model = model.clone();
     model.report = Some(ReportMeta {
         date: options.date.clone(),
@@ -277,15 +277,7 @@ pub fn write_report(
         },
         || {
             crate::timings::at_depth(depth, || {
-                write_beside_pdf(
-                    dir,
-                    model,
-                    results,
-                    options,
-                    &jobs,
-                    &layout_doc,
-                    full_frames,
-                )
+                write_beside_pdf(dir, model, results, options, &jobs, &layout_doc)
             })
         },
     );
