@@ -13,7 +13,7 @@ use serde::Serialize;
 
 mod jobs;
 
-pub use jobs::ChartJobs;
+pub use jobs::{ChartJobs, Jobs, ViewJobs};
 
 use super::ReportError;
 use crate::model::{CaseResult, Detail, InputFile, ReportMeta, Results, RoiKind};
@@ -94,42 +94,37 @@ pub struct Document {
 const SHOWN_IN_CASE_TABLE: [&str; 2] = ["apparent_frequency_spectrum_hz", "phase_coverage"];
 
 impl Document {
-    /// Builds the document of a finished run: draws every chart and adds
-    /// the `report` metadata (date, inputs, notes) to the model.
+    /// Builds the document of a finished run: draws every chart and frame
+    /// view and adds the `report` metadata (date, inputs, notes) to the
+    /// model.
     pub fn build(
         model: &Results,
         results: &[CaseResult],
         date: &str,
         signatories: Vec<Signatory>,
     ) -> Result<Document, ReportError> {
-        let charts = ChartJobs::plan(model, results).draw_all()?;
-        Self::with_charts(model, results, date, signatories, charts)
+        let (charts, images) = rayon::join(
+            || ChartJobs::plan(model, results).draw_all(),
+            || ViewJobs::plan(model, results).draw_all(),
+        );
+        Ok(Self::with_pictures(
+            model,
+            date,
+            signatories,
+            charts?,
+            images?,
+        ))
     }
 
-    /// [`Self::build`] with the charts given (path -> SVG): draws each
-    /// case's frame view and adds the `report` metadata to the model.
-    pub fn with_charts(
+    /// [`Self::build`] with the charts and frame views given (path ->
+    /// picture): adds the `report` metadata to the model.
+    pub fn with_pictures(
         model: &Results,
-        results: &[CaseResult],
         date: &str,
         signatories: Vec<Signatory>,
         charts: BTreeMap<String, String>,
-    ) -> Result<Document, ReportError> {
-        use rayon::prelude::*;
-        let images: BTreeMap<String, Vec<u8>> = results
-            .par_iter()
-            .filter_map(|r| {
-                let info = model.cases.iter().find(|c| c.id == r.case.id);
-                let frame = r.sample_frame.as_ref()?;
-                let info = info.and_then(|c| c.sample_frame.as_ref())?;
-                Some(
-                    super::frames::view_png(frame, &info.rois, &info.stretch)
-                        .map(|png| (frame_image_path(&r.case.id), png)),
-                )
-            })
-            .collect::<Result<Vec<_>, ReportError>>()?
-            .into_iter()
-            .collect();
+        images: BTreeMap<String, Vec<u8>>,
+    ) -> Document {
         let mut model = model.clone();
         let detail = model
             .report
@@ -137,12 +132,12 @@ impl Document {
             .and_then(|r| Detail::parse(&r.detail))
             .unwrap_or_default();
         model.report = Some(report_meta(&model, date, detail));
-        Ok(Document {
+        Document {
             results: model,
             charts,
             signatories,
             images,
-        })
+        }
     }
 
     /// The report is a draft: nobody has signed it.

@@ -155,7 +155,7 @@ fn write_frames(
 }
 
 /// What [`write_report`] makes while Typst lays out the PDF: traces/,
-/// charts/ (every chart, drawn now unless Typst drew it), frames/,
+/// charts/ and frames/ (every picture, drawn now unless Typst drew it),
 /// report.html, and the
 /// text of junit.xml, summary.csv and results.json, which are written after
 /// the PDF.
@@ -164,11 +164,12 @@ fn write_beside_pdf(
     model: &Results,
     results: &[CaseResult],
     options: &WriteOptions,
-    jobs: &document::ChartJobs<'_>,
+    (charts, views): (&document::ChartJobs<'_>, &document::ViewJobs<'_>),
     layout_doc: &document::Document,
 ) -> Result<(Exports, String), ReportError> {
-    let t = crate::timings::span("report: charts");
-    let charts = jobs.draw_all()?;
+    let t = crate::timings::span("report: charts and frame views");
+    let (charts, images) = rayon::join(|| charts.draw_all(), || views.draw_all());
+    let (charts, images) = (charts?, images?);
     let files: Vec<(String, Vec<u8>)> = charts
         .iter()
         .map(|(path, svg)| {
@@ -200,6 +201,7 @@ fn write_beside_pdf(
     drop(t);
     let doc = document::Document {
         charts,
+        images,
         ..layout_doc.clone()
     };
     write_frames(dir, results, full_frames, &doc)?;
@@ -254,30 +256,31 @@ pub fn write_report(
         notes: Vec::new(),
     });
     let model = &model;
-    // Typst starts on a document that names every chart, and draws a chart
-    // when a page shows it; the charts it does not show (most traces), the
-    // HTML, the exports and the results.json text are made beside it.
-    let jobs = document::ChartJobs::plan(model, results);
-    let t = crate::timings::span("report: frame views");
-    let layout_doc = document::Document::with_charts(
+    // Typst starts on a document that names every picture, and draws a
+    // chart or frame view when a page shows it; the pictures it does not
+    // show (most traces), the HTML, the exports and the results.json text
+    // are made beside it.
+    let charts = document::ChartJobs::plan(model, results);
+    let views = document::ViewJobs::plan(model, results);
+    let layout_doc = document::Document::with_pictures(
         model,
-        results,
         &options.date,
         options.signatories.clone(),
-        jobs.paths()
+        charts
+            .paths()
             .map(|p| (p.to_string(), String::new()))
             .collect(),
-    )?;
-    drop(t);
+        views.paths().map(|p| (p.to_string(), Vec::new())).collect(),
+    );
     let depth = crate::timings::depth();
     let (pdf, others) = rayon::join(
         || {
             let _t = crate::timings::span_at("report: pdf (typst)", depth);
-            pdf::render_with(&layout_doc, pdf::Charts::Jobs(&jobs))
+            pdf::render_with(&layout_doc, pdf::Pictures::Jobs(&charts, &views))
         },
         || {
             crate::timings::at_depth(depth, || {
-                write_beside_pdf(dir, model, results, options, &jobs, &layout_doc)
+                write_beside_pdf(dir, model, results, options, (&charts, &views), &layout_doc)
             })
         },
     );

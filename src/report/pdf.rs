@@ -25,8 +25,7 @@ use typst::{Library, LibraryExt, World, WorldExt};
 use typst_layout::PagedDocument;
 
 use super::ReportError;
-use super::charts::ChartError;
-use super::document::{ChartJobs, Document, trace_chart_path};
+use super::document::{ChartJobs, Document, ViewJobs, trace_chart_path};
 
 const TEMPLATE: &str = include_str!("../../templates/report.typ.j2");
 const TEMPLATE_NAME: &str = "report.typ.j2";
@@ -65,35 +64,65 @@ struct ReportWorld<'a> {
     source: Source,
     /// Virtual path (no leading slash) -> file.
     files: BTreeMap<&'a str, WorldFile>,
-    /// Where the charts' SVGs come from.
-    charts: Charts<'a>,
+    /// Where the charts and frame views come from.
+    pictures: Pictures<'a>,
     today: Option<Datetime>,
 }
 
-/// A file of the world: an image as it is, or a chart, simplified for
-/// Typst ([`shapes::simplify`]) when Typst first reads it. Typst reads the
-/// charts from the page runs it lays out in parallel, and only those the
-/// report shows.
-enum WorldFile {
-    Image(Bytes),
-    Chart(OnceLock<Result<Bytes, String>>),
+/// A file of the world: a frame view as it is, or a chart, simplified for
+/// Typst ([`shapes::simplify`]); either loaded when Typst first reads it.
+/// Typst reads them from the page runs it lays out in parallel, and only
+/// those the report shows.
+struct WorldFile {
+    chart: bool,
+    bytes: OnceLock<Result<Bytes, String>>,
 }
 
-/// The charts of a report: drawn already (a [`Document`]'s), or drawn when
-/// Typst first reads them ([`ChartJobs`]).
+impl WorldFile {
+    fn new(chart: bool) -> Self {
+        WorldFile {
+            chart,
+            bytes: OnceLock::new(),
+        }
+    }
+}
+
+/// The charts and frame views of a report: drawn already (a
+/// [`Document`]'s), or drawn when Typst first reads them (jobs).
 #[derive(Clone, Copy)]
-pub enum Charts<'a> {
-    /// Path -> SVG.
-    Drawn(&'a BTreeMap<String, String>),
+pub enum Pictures<'a> {
+    /// The document's charts and images.
+    Drawn(&'a Document),
     /// Drawn on first use, by whichever thread asks first.
-    Jobs(&'a ChartJobs<'a>),
+    Jobs(&'a ChartJobs<'a>, &'a ViewJobs<'a>),
 }
 
-impl<'a> Charts<'a> {
-    fn svg(self, path: &str) -> Option<Result<&'a str, ChartError>> {
-        match self {
-            Charts::Drawn(map) => map.get(path).map(|svg| Ok(svg.as_str())),
-            Charts::Jobs(jobs) => jobs.svg(path).map(|r| r.map_err(Clone::clone)),
+impl Pictures<'_> {
+    /// The file at `path` as Typst reads it.
+    fn load(self, path: &str, chart: bool) -> Result<Bytes, String> {
+        let missing = || format!("no picture `{path}`");
+        if chart {
+            let svg = match self {
+                Pictures::Drawn(doc) => doc.charts.get(path).map(String::as_str),
+                Pictures::Jobs(charts, _) => match charts.get(path) {
+                    Some(Err(e)) => return Err(e.to_string()),
+                    Some(Ok(svg)) => Some(svg.as_str()),
+                    None => None,
+                },
+            };
+            Ok(Bytes::from_string(shapes::simplify(
+                svg.ok_or_else(missing)?,
+            )))
+        } else {
+            let png = match self {
+                Pictures::Drawn(doc) => doc.images.get(path),
+                Pictures::Jobs(_, views) => match views.get(path) {
+                    Some(Err(e)) => return Err(e.to_string()),
+                    Some(Ok(png)) => Some(png),
+                    None => None,
+                },
+            };
+            Ok(Bytes::new(png.ok_or_else(missing)?.clone()))
         }
     }
 }
@@ -128,18 +157,14 @@ impl World for ReportWorld<'_> {
 
     fn file(&self, id: FileId) -> FileResult<Bytes> {
         let path = id.vpath().get_without_slash();
-        match self.files.get(path) {
-            Some(WorldFile::Image(bytes)) => Ok(bytes.clone()),
-            Some(WorldFile::Chart(simplified)) => simplified
-                .get_or_init(|| match self.charts.svg(path) {
-                    Some(Ok(svg)) => Ok(Bytes::from_string(shapes::simplify(svg))),
-                    Some(Err(e)) => Err(e.to_string()),
-                    None => Err(format!("no chart `{path}`")),
-                })
-                .clone()
-                .map_err(|e| FileError::Other(Some(e.into()))),
-            None => Err(FileError::NotFound(path.into())),
-        }
+        let file = self
+            .files
+            .get(path)
+            .ok_or_else(|| FileError::NotFound(path.into()))?;
+        file.bytes
+            .get_or_init(|| self.pictures.load(path, file.chart))
+            .clone()
+            .map_err(|e| FileError::Other(Some(e.into())))
     }
 
     fn font(&self, index: usize) -> Option<Font> {
@@ -324,12 +349,15 @@ fn parse_date(date: &str) -> Option<Datetime> {
 
 /// Renders report.pdf. Returns the PDF bytes and its page count.
 pub fn render(doc: &Document) -> Result<(Vec<u8>, usize), ReportError> {
-    render_with(doc, Charts::Drawn(&doc.charts))
+    render_with(doc, Pictures::Drawn(doc))
 }
 
-/// [`render`] with the charts from `charts`: `doc.charts` gives only their
-/// paths.
-pub fn render_with(doc: &Document, charts: Charts<'_>) -> Result<(Vec<u8>, usize), ReportError> {
+/// [`render`] with the charts and frame views from `pictures`:
+/// `doc.charts` and `doc.images` give only their paths.
+pub fn render_with(
+    doc: &Document,
+    pictures: Pictures<'_>,
+) -> Result<(Vec<u8>, usize), ReportError> {
     let markup = {
         let _t = crate::timings::span("pdf: markup");
         render_markup(doc)?
@@ -339,18 +367,18 @@ pub fn render_with(doc: &Document, charts: Charts<'_>) -> Result<(Vec<u8>, usize
     let files = doc
         .charts
         .keys()
-        .map(|path| (path.as_str(), WorldFile::Chart(OnceLock::new())))
+        .map(|path| (path.as_str(), WorldFile::new(true)))
         .chain(
             doc.images
-                .iter()
-                .map(|(path, png)| (path.as_str(), WorldFile::Image(Bytes::new(png.clone())))),
+                .keys()
+                .map(|path| (path.as_str(), WorldFile::new(false))),
         )
         .collect();
     let world = ReportWorld {
         main,
         source,
         files,
-        charts,
+        pictures,
         today: parse_date(doc.date()),
     };
     let compiled = {

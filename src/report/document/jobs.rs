@@ -1,11 +1,16 @@
-//! The charts of a report as jobs: each chart's path and how to draw it,
-//! drawn once, on first use, by whichever renderer asks first.
+//! The pictures of a report as jobs: each chart's or frame view's path and
+//! how to draw it, drawn once, on first use, by whichever renderer asks
+//! first.
 //!
-//! `plan` hands the PDF its charts while they are drawn: Typst starts laying
-//! out the document at once and draws a chart when a page shows it (a page
-//! run blocks only on the charts it shows), while the other renderers draw
-//! the rest beside it. [`ChartJobs::draw_all`] gives the same charts, byte
-//! for byte, as drawing them one after the other.
+//! `plan` hands the PDF its pictures while they are drawn: Typst starts
+//! laying out the document at once and draws a picture when a page shows it
+//! (a page run blocks only on the pictures it shows), while the other
+//! renderers draw the rest beside it. [`Jobs::draw_all`] gives the same
+//! pictures, byte for byte, as drawing them one after the other.
+//!
+//! A drawing function must not use rayon: a thread that asks for a
+//! picture another thread is drawing waits for it while holding its rayon
+//! worker, so a drawing that waited on rayon work could wait for itself.
 
 use std::collections::BTreeMap;
 use std::sync::OnceLock;
@@ -13,23 +18,58 @@ use std::sync::OnceLock;
 use super::super::charts::{self, ChartError};
 use super::super::matrix;
 use super::{
-    ADVICE_CHART, finemap_chart_path, fold_chart_path, matrix_chart_path, trace_chart_path,
-    zoom_chart_path,
+    ADVICE_CHART, finemap_chart_path, fold_chart_path, frame_image_path, matrix_chart_path,
+    trace_chart_path, zoom_chart_path,
 };
 use crate::model::{CaseResult, Results, RoiKind};
 
-/// Draws one chart's SVG.
-type Draw<'a> = Box<dyn Fn() -> Result<String, ChartError> + Send + Sync + 'a>;
+/// Draws one picture.
+type Draw<'a, T> = Box<dyn Fn() -> Result<T, ChartError> + Send + Sync + 'a>;
 
-/// One chart: how to draw it, and its SVG once drawn.
-struct Job<'a> {
-    draw: Draw<'a>,
-    svg: OnceLock<Result<String, ChartError>>,
+/// One picture: how to draw it, and the picture once drawn.
+struct Job<'a, T> {
+    draw: Draw<'a, T>,
+    drawn: OnceLock<Result<T, ChartError>>,
 }
 
-/// Every chart of a report, by path relative to the report directory.
-pub struct ChartJobs<'a> {
-    jobs: BTreeMap<String, Job<'a>>,
+/// Pictures of a report by path relative to the report directory: charts
+/// (SVG text, [`ChartJobs`]) or frame views (PNG bytes, [`ViewJobs`]).
+pub struct Jobs<'a, T> {
+    jobs: BTreeMap<String, Job<'a, T>>,
+}
+
+/// Every chart of a report.
+pub type ChartJobs<'a> = Jobs<'a, String>;
+
+/// The annotated view of each case's sample frame.
+pub type ViewJobs<'a> = Jobs<'a, Vec<u8>>;
+
+impl<'a> ViewJobs<'a> {
+    /// The view of each case's sample frame, with the model's display
+    /// stretch and ROIs. Nothing is drawn yet.
+    pub fn plan(model: &'a Results, results: &'a [CaseResult]) -> Self {
+        let mut jobs = Jobs {
+            jobs: BTreeMap::new(),
+        };
+        for r in results {
+            let info = model.cases.iter().find(|c| c.id == r.case.id);
+            let Some(frame) = r.sample_frame.as_ref() else {
+                continue;
+            };
+            let Some(info) = info.and_then(|c| c.sample_frame.as_ref()) else {
+                continue;
+            };
+            jobs.add(frame_image_path(&r.case.id), move || {
+                super::super::frames::view_png(frame, &info.rois, &info.stretch).map_err(|e| {
+                    ChartError {
+                        chart: format!("frame view {}", r.case.id),
+                        message: e.to_string(),
+                    }
+                })
+            });
+        }
+        jobs
+    }
 }
 
 impl<'a> ChartJobs<'a> {
@@ -37,7 +77,7 @@ impl<'a> ChartJobs<'a> {
     /// matrix per light level, a phase fold per LED ROI with enough phases,
     /// the fine maps and the exposure advice. Nothing is drawn yet.
     pub fn plan(model: &'a Results, results: &'a [CaseResult]) -> Self {
-        let mut jobs = ChartJobs {
+        let mut jobs = Jobs {
             jobs: BTreeMap::new(),
         };
         for r in results {
@@ -86,44 +126,42 @@ impl<'a> ChartJobs<'a> {
         }
         jobs
     }
+}
 
-    fn add(
-        &mut self,
-        path: String,
-        draw: impl Fn() -> Result<String, ChartError> + Send + Sync + 'a,
-    ) {
+impl<'a, T: Clone + Send + Sync> Jobs<'a, T> {
+    fn add(&mut self, path: String, draw: impl Fn() -> Result<T, ChartError> + Send + Sync + 'a) {
         let job = Job {
             draw: Box::new(draw),
-            svg: OnceLock::new(),
+            drawn: OnceLock::new(),
         };
         self.jobs.insert(path, job);
     }
 
-    /// The chart paths, in order.
+    /// The picture paths, in order.
     pub fn paths(&self) -> impl Iterator<Item = &str> {
         self.jobs.keys().map(String::as_str)
     }
 
-    /// The SVG of the chart at `path`, drawn now unless it was before (or
-    /// is being drawn by another thread: then when that one is done).
-    /// `None` when the report has no such chart.
-    pub fn svg(&self, path: &str) -> Option<Result<&str, &ChartError>> {
+    /// The picture at `path`, drawn now unless it was before (or is being
+    /// drawn by another thread: then when that one is done). `None` when
+    /// the report has no such picture.
+    pub fn get(&self, path: &str) -> Option<Result<&T, &ChartError>> {
         let job = self.jobs.get(path)?;
-        Some(job.svg.get_or_init(&job.draw).as_ref().map(String::as_str))
+        Some(job.drawn.get_or_init(&job.draw).as_ref())
     }
 
-    /// Draws every chart not drawn yet, in parallel; returns them by path,
-    /// or the first error in path order.
-    pub fn draw_all(&self) -> Result<BTreeMap<String, String>, ChartError> {
+    /// Draws every picture not drawn yet, in parallel; returns them by
+    /// path, or the first error in path order.
+    pub fn draw_all(&self) -> Result<BTreeMap<String, T>, ChartError> {
         use rayon::prelude::*;
         let drawn: Vec<_> = self
             .jobs
             .par_iter()
-            .map(|(path, job)| (path, job.svg.get_or_init(&job.draw)))
+            .map(|(path, job)| (path, job.drawn.get_or_init(&job.draw)))
             .collect();
         drawn
             .into_iter()
-            .map(|(path, svg)| Ok((path.clone(), svg.clone()?)))
+            .map(|(path, picture)| Ok((path.clone(), picture.clone()?)))
             .collect()
     }
 }
@@ -167,7 +205,7 @@ mod tests {
             || {
                 paths
                     .iter()
-                    .map(|p| jobs.svg(p).unwrap().unwrap().to_string())
+                    .map(|p| jobs.get(p).unwrap().unwrap().clone())
                     .collect::<Vec<_>>()
             },
             || jobs.draw_all().unwrap(),
@@ -176,6 +214,6 @@ mod tests {
         for (p, svg) in paths.iter().zip(&read) {
             assert_eq!(&alone[*p], svg, "{p}");
         }
-        assert!(jobs.svg("charts/no-such-chart.svg").is_none());
+        assert!(jobs.get("charts/no-such-chart.svg").is_none());
     }
 }
