@@ -272,7 +272,7 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             signatories => Serde(&doc.signatories),
             zooms => zooms,
             pages => doc.case_pages(),
-            appendix_pages => appendix_pages(doc.results.cases.iter().map(|c| c.rois.len())),
+            appendix_pages => appendix_page_values(doc),
             caveats => doc.caveats(),
             fold_notes => doc.fold_notes(),
             detail => doc.detail().as_str(),
@@ -280,6 +280,33 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             date => doc.date(),
         })
         .map_err(template_error)
+}
+
+/// The longest case id and ROI name that Appendix A's table surely sets on
+/// one line (its case and ROI columns are as wide as their widest entry,
+/// unless the table is too wide for the page).
+const APPENDIX_ONE_LINE_ID: usize = 28;
+const APPENDIX_ONE_LINE_ROI: usize = 16;
+
+/// Appendix A page by page for the template: `cases` (indices into the
+/// cases) and `fixed`, whether every row is one line, so that the table
+/// can be given its row heights instead of measuring each row's cells
+/// first (about a third of the table's layout).
+fn appendix_page_values(doc: &Document) -> Vec<Value> {
+    let cases = &doc.results.cases;
+    appendix_pages(cases.iter().map(|c| c.rois.len()))
+        .into_iter()
+        .map(|page| {
+            let fixed = page.iter().all(|&i| {
+                let c = &cases[i];
+                c.id.chars().count() <= APPENDIX_ONE_LINE_ID
+                    && c.rois
+                        .iter()
+                        .all(|r| r.name.chars().count() <= APPENDIX_ONE_LINE_ROI)
+            });
+            minijinja::context! { cases => page, fixed => fixed }
+        })
+        .collect()
 }
 
 /// Rows of Appendix A's table (6.5 pt text, 3 pt inset: about 11.5 pt a
@@ -458,6 +485,29 @@ mod tests {
         let pages = appendix_pages([36, 36, 80, 3, 0].into_iter());
         assert_eq!(pages, [vec![0], vec![1], vec![2], vec![3, 4]]);
         assert!(appendix_pages(std::iter::empty()).is_empty());
+    }
+
+    #[test]
+    fn appendix_rows_get_their_heights_only_where_every_row_is_one_line() {
+        use crate::backend::sim::Simulator;
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/plans/base.toml");
+        let plan = crate::plan::load(&path).unwrap();
+        let cases = crate::plan::expand_cases(&plan);
+        let results =
+            crate::runner::run(&plan, &cases, &Simulator::new(&plan), Some(2), &|_| {}).unwrap();
+        let model = crate::model::build(&plan, "sim-ideal", &results);
+        let mut doc = Document::build(&model, &results, "2026-01-01", Vec::new()).unwrap();
+        let rows = |doc: &Document| {
+            let markup = render_markup(doc).unwrap();
+            markup.matches("rows: (auto").count()
+        };
+        let pages = appendix_pages(doc.results.cases.iter().map(|c| c.rois.len())).len();
+        assert!(pages >= 1);
+        assert_eq!(rows(&doc), pages, "short ids: every page's rows are given");
+        // A case id that may wrap: its page's rows are measured.
+        doc.results.cases[0].id = "a-case-id-long-enough-to-wrap-in-its-column".to_string();
+        assert_eq!(rows(&doc), pages - 1);
     }
 
     #[test]
