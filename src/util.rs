@@ -2,7 +2,7 @@
 
 use std::collections::BTreeSet;
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use serde::{Deserialize, Deserializer};
@@ -67,29 +67,66 @@ pub fn is_calendar_date(d: &str) -> bool {
 /// directory, flushed to disk, then renamed over `path`. A reader sees the
 /// old file or the new one, never half of one.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path.file_name().ok_or_else(|| {
-        std::io::Error::new(std::io::ErrorKind::InvalidInput, "path has no file name")
-    })?;
-    let tmp = dir.join(format!(
-        ".{}.tmp-{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
+    Staged::write(path, bytes)?.commit()
+}
+
+/// A file written and flushed to disk under a temporary name beside
+/// `path`, not yet renamed over it: [`write_atomic`] in two steps, so that
+/// the slow part (the flush) can run early or beside other work and the
+/// renames come in the order the caller needs. Dropped without
+/// [`Staged::commit`], it removes its temporary file.
+#[derive(Debug)]
+pub struct Staged {
+    tmp: PathBuf,
+    path: PathBuf,
+    committed: bool,
+}
+
+impl Staged {
+    /// Writes `bytes` under a temporary name in `path`'s directory and
+    /// flushes them to disk.
+    pub fn write(path: &Path, bytes: &[u8]) -> std::io::Result<Staged> {
+        let dir = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let name = path.file_name().ok_or_else(|| {
+            std::io::Error::new(std::io::ErrorKind::InvalidInput, "path has no file name")
+        })?;
+        let staged = Staged {
+            tmp: dir.join(format!(
+                ".{}.tmp-{}",
+                name.to_string_lossy(),
+                std::process::id()
+            )),
+            path: path.to_path_buf(),
+            committed: false,
+        };
+        let mut f = std::fs::File::create(&staged.tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
-        drop(f);
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+        Ok(staged)
     }
-    result
+
+    /// The path the file is renamed to.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Renames the file over its path.
+    pub fn commit(mut self) -> std::io::Result<()> {
+        std::fs::rename(&self.tmp, &self.path)?;
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
 }
 
 /// A word from a small fixed set (`>=`, `detected`, ...), as the result
@@ -153,6 +190,32 @@ pub fn kill_group(pgid: u32) {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_staged_file_is_renamed_on_commit_and_removed_if_dropped() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("results.json");
+        std::fs::write(&path, "old").unwrap();
+        let names = || {
+            let mut n: Vec<String> = std::fs::read_dir(dir.path())
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            n.sort();
+            n
+        };
+        // Written and flushed, not yet in place: the old file stands.
+        let staged = Staged::write(&path, b"new").unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "old");
+        assert_eq!(names().len(), 2);
+        drop(staged);
+        assert_eq!(names(), ["results.json"], "a dropped file leaves nothing");
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "old");
+        Staged::write(&path, b"new").unwrap().commit().unwrap();
+        assert_eq!(names(), ["results.json"]);
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "new");
+    }
+
     use super::*;
 
     #[test]

@@ -156,9 +156,9 @@ fn write_frames(
 
 /// What [`write_report`] makes while Typst lays out the PDF: traces/,
 /// charts/ and frames/ (every picture, drawn now unless Typst drew it),
-/// report.html, and the
-/// text of junit.xml, summary.csv and results.json, which are written after
-/// the PDF.
+/// report.html, and junit.xml, summary.csv and results.json written and
+/// flushed under temporary names, in that order, to be renamed after the
+/// PDF.
 fn write_beside_pdf(
     dir: &Path,
     model: &Results,
@@ -166,7 +166,7 @@ fn write_beside_pdf(
     options: &WriteOptions,
     (charts, views): (&document::ChartJobs<'_>, &document::ViewJobs<'_>),
     layout_doc: &document::Document,
-) -> Result<(Exports, String), ReportError> {
+) -> Result<Vec<crate::util::Staged>, ReportError> {
     let t = crate::timings::span("report: charts and frame views");
     let (charts, images) = rayon::join(|| charts.draw_all(), || views.draw_all());
     let (charts, images) = (charts?, images?);
@@ -212,18 +212,22 @@ fn write_beside_pdf(
     let path = dir.join("report.html");
     write_atomic(&path, html.as_bytes()).map_err(io_err(&path))?;
     let _t = crate::timings::span("report: exports and results.json");
+    // The model plus its `report` metadata, in the model's field order.
+    let mut full = model.clone();
+    full.report = Some(document::report_meta(&full, &options.date, options.detail));
     let files = [
         (export::JUNIT_FILE, export::junit_xml(model)),
         (export::CSV_FILE, export::summary_csv(model)),
+        ("results.json", serde_json::to_string_pretty(&full)?),
     ];
-    // The model plus its `report` metadata, in the model's field order.
-    let mut model = model.clone();
-    model.report = Some(document::report_meta(&model, &options.date, options.detail));
-    Ok((files, serde_json::to_string_pretty(&model)?))
+    files
+        .into_iter()
+        .map(|(name, text)| {
+            let path = dir.join(name);
+            crate::util::Staged::write(&path, text.as_bytes()).map_err(io_err(&path))
+        })
+        .collect()
 }
-
-/// junit.xml and summary.csv: file name and text.
-type Exports = [(&'static str, String); 2];
 
 /// Writes results.json, traces/, charts/, report.html, report.pdf,
 /// junit.xml and summary.csv into `dir`. Every file is written atomically;
@@ -284,15 +288,15 @@ pub fn write_report(
             })
         },
     );
-    let (files, json) = others?;
+    let staged = others?;
     let (pdf, _pages) = pdf?;
+    // report.pdf, then the exports, then results.json: its presence means
+    // the report is complete. Their flushes to disk ran beside Typst.
     let path = dir.join("report.pdf");
     write_atomic(&path, &pdf).map_err(io_err(&path))?;
-    for (name, text) in files {
-        let path = dir.join(name);
-        write_atomic(&path, text.as_bytes()).map_err(io_err(&path))?;
+    for file in staged {
+        let path = file.path().to_path_buf();
+        file.commit().map_err(io_err(&path))?;
     }
-    let path = dir.join("results.json");
-    write_atomic(&path, json.as_bytes()).map_err(io_err(&path))?;
     Ok(())
 }
