@@ -276,18 +276,25 @@ pub fn write_report(
             .collect(),
         views.paths().map(|p| (p.to_string(), Vec::new())).collect(),
     );
+    // The other renderers run on a thread of their own, not on a rayon
+    // worker: their file writes block it, and Typst's parallel page runs
+    // need every worker. Their drawing still runs on the pool.
     let depth = crate::timings::depth();
-    let (pdf, others) = rayon::join(
-        || {
-            let _t = crate::timings::span_at("report: pdf (typst)", depth);
-            pdf::render_with(&layout_doc, pdf::Pictures::Jobs(&charts, &views))
-        },
-        || {
+    let (pdf, others) = std::thread::scope(|scope| {
+        let beside = scope.spawn(|| {
             crate::timings::at_depth(depth, || {
                 write_beside_pdf(dir, model, results, options, (&charts, &views), &layout_doc)
             })
-        },
-    );
+        });
+        let pdf = {
+            let _t = crate::timings::span_at("report: pdf (typst)", depth);
+            pdf::render_with(&layout_doc, pdf::Pictures::Jobs(&charts, &views))
+        };
+        let others = beside
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        (pdf, others)
+    });
     let staged = others?;
     let (pdf, _pages) = pdf?;
     // report.pdf, then the exports, then results.json: its presence means
