@@ -30,7 +30,8 @@ use rustfft::FftPlanner;
 use rustfft::num_complex::Complex;
 use serde::Serialize;
 
-use super::linalg::{lsq_rss, lsq_rss_nested};
+use super::gram::{harmonic_gram, trend_sums};
+use super::linalg::{lsq_rss, lsq_rss_nested, lsq_rss_nested_gram};
 
 /// Fewest band periods in the analysed rows for a confident estimate.
 pub const MIN_BANDS: f64 = 3.0;
@@ -324,6 +325,8 @@ struct PeriodicFit<'a> {
     padded: usize,
     /// Sum of the squares of every profile value.
     sum_squares: f64,
+    /// `sum_i t^p`, `p` in `0..=4`: the trend block of every Gram matrix.
+    trend_sums: [f64; 5],
 }
 
 impl<'a> PeriodicFit<'a> {
@@ -339,6 +342,7 @@ impl<'a> PeriodicFit<'a> {
             trend_rss,
             padded: (8 * n).next_power_of_two(),
             sum_squares: profiles.iter().flatten().map(|v| v * v).sum(),
+            trend_sums: trend_sums(n),
         }
     }
 
@@ -351,15 +355,21 @@ impl<'a> PeriodicFit<'a> {
     /// Residuals of `quadratic + k harmonics of f` for every `k` in
     /// `1..=h` (entry `k - 1`), summed over profiles: the models are nested
     /// (harmonic `k` adds two columns), so one accumulation and one
-    /// factorisation give them all ([`lsq_rss_nested`]).
+    /// factorisation give them all ([`lsq_rss_nested`]). The Gram matrix
+    /// is the same for every profile and is in closed form
+    /// ([`harmonic_gram`]) where that is accurate; only `A^T y` is summed
+    /// over the rows.
     fn rss_upto(&self, f: f64, h: usize) -> Vec<f64> {
         let n = self.n;
         let m = 3 + 2 * h;
+        let gram = harmonic_gram(n, 2.0 * std::f64::consts::PI * f, h, &self.trend_sums);
         let mut total = vec![0.0; h];
         for p in self.profiles {
-            let rss = lsq_rss_nested(p, m, 3, |design, stride| {
-                harmonic_design(design, stride, n, f, h)
-            });
+            let fill = |design: &mut [f64], stride| harmonic_design(design, stride, n, f, h);
+            let rss = match &gram {
+                Some(g) => lsq_rss_nested_gram(p, g, m, 3, fill),
+                None => lsq_rss_nested(p, m, 3, fill),
+            };
             for (t, k) in total.iter_mut().zip(1..=h) {
                 *t += rss[3 + 2 * k];
             }

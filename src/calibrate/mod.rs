@@ -12,6 +12,7 @@
 pub mod bands;
 pub mod fit;
 pub mod frames;
+mod gram;
 mod linalg;
 pub mod profile;
 pub mod recovery;
