@@ -228,58 +228,6 @@ pub fn lsq_rss_nested(
     nested_rss(ata, &aty, yy, m, ridge_cols)
 }
 
-/// [`lsq_rss_nested`] with `A^T A` given (`gram`, row-major `m x m`, e.g.
-/// in closed form): only `A^T y` and `y^T y` are summed over the samples,
-/// bit for bit as [`normal_equations`] sums them.
-pub fn lsq_rss_nested_gram(
-    y: &[f64],
-    gram: &[f64],
-    m: usize,
-    ridge_cols: usize,
-    fill: impl FnOnce(&mut [f64], usize),
-) -> Vec<f64> {
-    let (aty, yy) = design_products(y, m, fill);
-    nested_rss(gram.to_vec(), &aty, yy, m, ridge_cols)
-}
-
-/// `A^T y` and `y^T y` of the design `fill` writes (as for
-/// [`normal_equations`], and compiled for AVX2 the same way).
-fn design_products(y: &[f64], m: usize, fill: impl FnOnce(&mut [f64], usize)) -> (Vec<f64>, f64) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has just been found to support AVX2, the only
-        // feature the function is compiled for.
-        return unsafe { design_products_avx2(y, m, fill) };
-    }
-    design_products_plain(y, m, fill)
-}
-
-/// [`design_products`] compiled for AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn design_products_avx2(
-    y: &[f64],
-    m: usize,
-    fill: impl FnOnce(&mut [f64], usize),
-) -> (Vec<f64>, f64) {
-    design_products_plain(y, m, fill)
-}
-
-/// The loop of [`design_products`]: the design rows padded as in
-/// [`normal_equations_plain`], then each product summed in sample order.
-#[inline(always)]
-fn design_products_plain(
-    y: &[f64],
-    m: usize,
-    fill: impl FnOnce(&mut [f64], usize),
-) -> (Vec<f64>, f64) {
-    let stride = m.div_ceil(LANES).max(1) * LANES;
-    let mut design = vec![0.0; y.len() * stride];
-    fill(&mut design, stride);
-    let (aty, yy) = aty_yy(&design, stride, y, m);
-    (aty, yy)
-}
-
 /// `A^T y` and `y^T y` over design rows `stride` apart, in sample order.
 #[inline(always)]
 fn aty_yy(design: &[f64], stride: usize, y: &[f64], m: usize) -> (Vec<f64>, f64) {
@@ -295,13 +243,26 @@ fn aty_yy(design: &[f64], stride: usize, y: &[f64], m: usize) -> (Vec<f64>, f64)
 }
 
 /// The nested residuals of [`lsq_rss_nested`] from its normal equations.
-fn nested_rss(mut ata: Vec<f64>, aty: &[f64], yy: f64, m: usize, ridge_cols: usize) -> Vec<f64> {
+fn nested_rss(ata: Vec<f64>, aty: &[f64], yy: f64, m: usize, ridge_cols: usize) -> Vec<f64> {
+    let (l, good) = ridged_cholesky(ata, m, ridge_cols);
+    nested_from_factor(&l, good, aty, yy, m)
+}
+
+/// The ridge of [`lsq_rss_nested`] added to `ata`, then the Cholesky
+/// factor of its largest positive-definite leading block, and that block's
+/// size: shared by every right-hand side of the same design.
+pub fn ridged_cholesky(mut ata: Vec<f64>, m: usize, ridge_cols: usize) -> (Vec<f64>, usize) {
     let cols = ridge_cols.clamp(1, m.max(1));
     let ridge = 1e-12 * (0..cols.min(m)).map(|p| ata[p * m + p]).sum::<f64>() / cols as f64;
     for p in 0..m {
         ata[p * m + p] += ridge;
     }
-    let (l, good) = cholesky_prefix(&ata, m);
+    cholesky_prefix(&ata, m)
+}
+
+/// The nested residuals of [`lsq_rss_nested`] from the factor
+/// [`ridged_cholesky`] gives, `A^T y` and `y^T y`.
+pub fn nested_from_factor(l: &[f64], good: usize, aty: &[f64], yy: f64, m: usize) -> Vec<f64> {
     let mut rss = Vec::with_capacity(m + 1);
     rss.push(yy.max(0.0));
     let (mut z, mut explained) = (vec![0.0; m], 0.0);
