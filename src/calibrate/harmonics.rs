@@ -52,13 +52,23 @@ fn products_plain(
     f: f64,
     h: usize,
 ) -> Vec<Vec<f64>> {
-    cols.clear();
-    cols.resize(2 * h * n, 0.0);
+    // Every value is written below: grow, never clear.
+    if cols.len() < 2 * h * n {
+        cols.resize(2 * h * n, 0.0);
+    }
+    let cols = &mut cols[..2 * h * n];
     fill_columns(cols, n, f, h);
-    profiles
-        .iter()
-        .map(|y| cols.chunks_exact(n).map(|col| dot(col, y)).collect())
-        .collect()
+    // Plain loops, not iterator adaptors: a generic `fold` would be
+    // compiled apart from this function, without AVX2.
+    let mut out = Vec::with_capacity(profiles.len());
+    for y in profiles {
+        let mut products = Vec::with_capacity(2 * h);
+        for col in cols.chunks_exact(n) {
+            products.push(dot(col, y));
+        }
+        out.push(products);
+    }
+    out
 }
 
 /// Fills `cols` (column-major, `n` rows a column) with `cos, sin` of
