@@ -44,6 +44,9 @@ fn products_avx2(
 }
 
 /// The body of [`harmonic_products`], inlined into each compiled copy.
+/// Only the first harmonic and the last two are held (six columns of `n`
+/// rows, in the first level of cache for a few thousand rows): each
+/// harmonic is turned from the one before and its products taken at once.
 #[inline(always)]
 fn products_plain(
     cols: &mut Vec<f64>,
@@ -52,37 +55,50 @@ fn products_plain(
     f: f64,
     h: usize,
 ) -> Vec<Vec<f64>> {
-    // Every value is written below: grow, never clear.
-    if cols.len() < 2 * h * n {
-        cols.resize(2 * h * n, 0.0);
+    // Every value is written before it is read: grow, never clear.
+    if cols.len() < 6 * n {
+        cols.resize(6 * n, 0.0);
     }
-    let cols = &mut cols[..2 * h * n];
-    fill_columns(cols, n, f, h);
+    let (first, work) = cols[..6 * n].split_at_mut(2 * n);
+    let (c1, s1) = first.split_at_mut(n);
+    first_harmonic(c1, s1, f);
+    let (c1, s1) = (&*c1, &*s1);
+    let mut out: Vec<Vec<f64>> = Vec::with_capacity(profiles.len());
     // Plain loops, not iterator adaptors: a generic `fold` would be
     // compiled apart from this function, without AVX2.
-    let mut out = Vec::with_capacity(profiles.len());
     for y in profiles {
         let mut products = Vec::with_capacity(2 * h);
-        for col in cols.chunks_exact(n) {
-            products.push(dot(col, y));
-        }
+        products.push(dot(c1, y));
+        products.push(dot(s1, y));
         out.push(products);
+    }
+    let (slot_a, slot_b) = work.split_at_mut(2 * n);
+    for k in 2..=h {
+        // Harmonic k goes to slot a for even k, b for odd, from k - 1.
+        let (prev, next): ((&[f64], &[f64]), &mut [f64]) = if k == 2 {
+            ((c1, s1), slot_a)
+        } else if k % 2 == 0 {
+            (slot_b.split_at(n), slot_a)
+        } else {
+            (slot_a.split_at(n), slot_b)
+        };
+        let (next_c, next_s) = next.split_at_mut(n);
+        next_harmonic(prev, (c1, s1), (next_c, next_s));
+        for (products, y) in out.iter_mut().zip(profiles) {
+            products.push(dot(next_c, y));
+            products.push(dot(next_s, y));
+        }
     }
     out
 }
 
-/// Fills `cols` (column-major, `n` rows a column) with `cos, sin` of
-/// `k w i` for `k` in `1..=h`. The row's phase is computed exactly every
-/// [`EXACT_PHASE_ROWS`] rows and turned by `w` from the row before in
-/// between; harmonic `k + 1` is harmonic `k` turned by the row's phase
-/// (angle addition), a column at a time, so the rows go four to an
-/// instruction.
+/// `cos, sin` of `w i` (`w = 2 pi f`) for every row `i`. The row's phase
+/// is computed exactly every [`EXACT_PHASE_ROWS`] rows and turned by `w`
+/// from the row before in between.
 #[inline(always)]
-pub fn fill_columns(cols: &mut [f64], n: usize, f: f64, h: usize) {
+pub fn first_harmonic(c1: &mut [f64], s1: &mut [f64], f: f64) {
     let w = 2.0 * std::f64::consts::PI * f;
     let (sw, cw) = w.sin_cos();
-    let (first, mut rest) = cols[..2 * h * n].split_at_mut(2 * n);
-    let (c1, s1) = first.split_at_mut(n);
     let (mut s, mut c) = (0.0f64, 1.0f64);
     for (i, (ci, si)) in c1.iter_mut().zip(s1.iter_mut()).enumerate() {
         (s, c) = if i % EXACT_PHASE_ROWS == 0 {
@@ -93,18 +109,23 @@ pub fn fill_columns(cols: &mut [f64], n: usize, f: f64, h: usize) {
         *ci = c;
         *si = s;
     }
-    let (c1, s1) = (&*c1, &*s1);
-    let (mut prev_c, mut prev_s) = (c1, s1);
-    while !rest.is_empty() {
-        let (next, tail) = std::mem::take(&mut rest).split_at_mut(2 * n);
-        let (nc, ns) = next.split_at_mut(n);
-        for i in 0..n {
-            let (c, s) = (prev_c[i], prev_s[i]);
-            nc[i] = c * c1[i] - s * s1[i];
-            ns[i] = s * c1[i] + c * s1[i];
-        }
-        (prev_c, prev_s) = (nc, ns);
-        rest = tail;
+}
+
+/// Harmonic `k + 1` from harmonic `k` turned by the row's phase (angle
+/// addition), a column at a time, so the rows go four to an instruction.
+#[inline(always)]
+pub fn next_harmonic(
+    (prev_c, prev_s): (&[f64], &[f64]),
+    (c1, s1): (&[f64], &[f64]),
+    (next_c, next_s): (&mut [f64], &mut [f64]),
+) {
+    let n = next_c.len();
+    let (prev_c, prev_s, c1, s1) = (&prev_c[..n], &prev_s[..n], &c1[..n], &s1[..n]);
+    let next_s = &mut next_s[..n];
+    for i in 0..n {
+        let (c, s) = (prev_c[i], prev_s[i]);
+        next_c[i] = c * c1[i] - s * s1[i];
+        next_s[i] = s * c1[i] + c * s1[i];
     }
 }
 
@@ -139,15 +160,20 @@ mod tests {
     #[test]
     fn columns_are_the_exact_harmonics_to_rounding() {
         let (n, h) = (4000, 10);
-        let mut cols = vec![0.0; 2 * h * n];
         for f in [1.0 / 68.66, 0.2499, 1.0 / 1373.0, 0.013_579] {
-            fill_columns(&mut cols, n, f, h);
+            let (mut c1, mut s1) = (vec![0.0; n], vec![0.0; n]);
+            first_harmonic(&mut c1, &mut s1, f);
+            let (mut c, mut s) = (c1.clone(), s1.clone());
             for k in 1..=h {
+                if k > 1 {
+                    let (mut nc, mut ns) = (vec![0.0; n], vec![0.0; n]);
+                    next_harmonic((&c, &s), (&c1, &s1), (&mut nc, &mut ns));
+                    (c, s) = (nc, ns);
+                }
                 for i in 0..n {
                     let angle = 2.0 * std::f64::consts::PI * f * (k * i) as f64;
-                    let (s, c) = angle.sin_cos();
-                    let (gc, gs) = (cols[(2 * k - 2) * n + i], cols[(2 * k - 1) * n + i]);
-                    let err = (gc - c).abs().max((gs - s).abs());
+                    let (es, ec) = angle.sin_cos();
+                    let err = (c[i] - ec).abs().max((s[i] - es).abs());
                     // The exact phase's own argument is rounded to about
                     // eps * angle.
                     let bound = 1e-14 + 4.0 * f64::EPSILON * angle;
