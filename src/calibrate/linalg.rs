@@ -34,10 +34,7 @@ fn cholesky_prefix(a: &[f64], m: usize) -> (Vec<f64>, usize) {
     let mut l = vec![0.0; m * m];
     for i in 0..m {
         for j in 0..=i {
-            // Row prefixes as slices (no index checks in the loop); the
-            // same products summed in the same order.
-            let (row_i, row_j) = (&l[i * m..i * m + j], &l[j * m..j * m + j]);
-            let s: f64 = row_i.iter().zip(row_j).map(|(a, b)| a * b).sum();
+            let s: f64 = (0..j).map(|k| l[i * m + k] * l[j * m + k]).sum();
             if i == j {
                 let d = a[i * m + i] - s;
                 if d.is_nan() || d <= 0.0 || !d.is_finite() {
@@ -274,7 +271,7 @@ pub fn nested_from_factor(l: &[f64], good: usize, aty: &[f64], yy: f64, m: usize
             rss.push(f64::INFINITY);
             continue;
         }
-        let s: f64 = l[i * m..i * m + i].iter().zip(&z).map(|(a, b)| a * b).sum();
+        let s: f64 = (0..i).map(|k| l[i * m + k] * z[k]).sum();
         z[i] = (aty[i] - s) / l[i * m + i];
         explained += z[i] * z[i];
         rss.push((yy - explained).max(0.0));
