@@ -15,15 +15,15 @@
 //!
 //! then shifted back by `cos, sin(phi c)`, and products of harmonics by
 //! `cos a cos b = (cos(a - b) + cos(a + b)) / 2` and its kin. Where
-//! `n |sin x|` is small (a harmonic `k w` within a few cycles per frame of
-//! a multiple of `2 pi`) the quotients cancel, and the three sums of that
-//! `phi` are summed row by row instead.
+//! `n |sin x|` is small for some `k` in `1..=2h` (`k f` within about 0.6
+//! cycles per frame of a whole number) the closed form cancels:
+//! [`harmonic_gram`] returns `None`, and the caller sums the rows.
 
 /// Smallest `n |sin x|` (`x = k w / 2`, `k` in `1..=2h`) of the closed
-/// form. Below it `sum_i cos(k w i)` is within `n / 2` of `+-n`: a harmonic
-/// or a product of two is nearly constant over the rows (a whole number of
-/// half cycles per row), so `(n - C) / 2` and the quotients of `D0` cancel,
-/// and [`harmonic_gram`] leaves the matrix to the row sums.
+/// form. Below it `sum_i cos(k w i)` can come close to `+-n` (a harmonic or
+/// a product of two nearly constant over the rows, `k f` within about 0.6
+/// cycles per frame of a whole number), so `(n - C) / 2` and the quotients
+/// of `D0` cancel, and [`harmonic_gram`] leaves the matrix to the row sums.
 const CLOSED_FORM_FROM: f64 = 2.0;
 
 /// `sin, cos` of the exact product `a b` (not of its rounding): the
