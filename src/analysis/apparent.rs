@@ -193,13 +193,23 @@ pub fn dominant_frequency_hz(x: &[f64], fps: f64) -> Result<f64, SpectrumError> 
         .chain(std::iter::repeat(Complex::new(0.0, 0.0)))
         .take(len)
         .collect();
-    FftPlanner::new().plan_fft_forward(len).process(&mut buf);
+    FFT_PLANNER
+        .with(|p| p.borrow_mut().plan_fft_forward(len))
+        .process(&mut buf);
     let mag: Vec<f64> = buf[..=len / 2].iter().map(|c| c.norm()).collect();
     let bin_hz = fps / len as f64;
     // Skip the main lobe around DC: below 1.5 resolution bins of the data.
     let min_hz = 1.5 * fps / n as f64;
     let first = ((min_hz / bin_hz).ceil() as usize).max(1);
     spectrum_peak_hz(&mag, first, bin_hz, min_hz, fps)
+}
+
+thread_local! {
+    /// The spectrum's FFT planner: it keeps the plan of each length, so
+    /// that each trace does not plan its FFT again (the same plan, so the
+    /// same numbers).
+    static FFT_PLANNER: std::cell::RefCell<FftPlanner<f64>> =
+        std::cell::RefCell::new(FftPlanner::new());
 }
 
 /// The frequency of the largest magnitude at or above bin `first` of a

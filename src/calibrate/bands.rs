@@ -30,7 +30,9 @@ use rustfft::FftPlanner;
 use rustfft::num_complex::Complex;
 use serde::Serialize;
 
-use super::linalg::{lsq_rss, lsq_rss_nested};
+use super::gram::{harmonic_gram, trend_sums};
+use super::harmonics::harmonic_products;
+use super::linalg::{lsq_rss, lsq_rss_nested, nested_from_factor, ridged_cholesky};
 
 /// Fewest band periods in the analysed rows for a confident estimate.
 pub const MIN_BANDS: f64 = 3.0;
@@ -313,6 +315,13 @@ fn group_estimates(
         .collect()
 }
 
+thread_local! {
+    /// The periodogram's FFT planner: it keeps the plan of each length, so
+    /// that each estimate does not plan its FFT again.
+    static FFT_PLANNER: std::cell::RefCell<FftPlanner<f64>> =
+        std::cell::RefCell::new(FftPlanner::new());
+}
+
 /// Least-squares periodic models of a set of equally long row profiles.
 struct PeriodicFit<'a> {
     profiles: &'a [Vec<f64>],
@@ -324,6 +333,13 @@ struct PeriodicFit<'a> {
     padded: usize,
     /// Sum of the squares of every profile value.
     sum_squares: f64,
+    /// `sum_i t^p`, `p` in `0..=4`: the trend block of every Gram matrix.
+    trend_sums: [f64; 5],
+    /// Each profile's `sum_i t^p y_i` (`p` in `0..3`) and `sum_i y_i^2`,
+    /// in row order: the trend part of every `A^T y`.
+    trend_products: Vec<([f64; 3], f64)>,
+    /// Scratch space for the harmonic columns of a trial frequency.
+    columns: std::cell::RefCell<Vec<f64>>,
 }
 
 impl<'a> PeriodicFit<'a> {
@@ -339,6 +355,9 @@ impl<'a> PeriodicFit<'a> {
             trend_rss,
             padded: (8 * n).next_power_of_two(),
             sum_squares: profiles.iter().flatten().map(|v| v * v).sum(),
+            trend_sums: trend_sums(n),
+            trend_products: profiles.iter().map(|p| trend_products(p)).collect(),
+            columns: std::cell::RefCell::new(Vec::new()),
         }
     }
 
@@ -351,18 +370,36 @@ impl<'a> PeriodicFit<'a> {
     /// Residuals of `quadratic + k harmonics of f` for every `k` in
     /// `1..=h` (entry `k - 1`), summed over profiles: the models are nested
     /// (harmonic `k` adds two columns), so one accumulation and one
-    /// factorisation give them all ([`lsq_rss_nested`]).
+    /// factorisation give them all ([`lsq_rss_nested`]). The Gram matrix
+    /// is the same for every profile and is in closed form
+    /// ([`harmonic_gram`]) where that is accurate; only `A^T y` is summed
+    /// over the rows.
     fn rss_upto(&self, f: f64, h: usize) -> Vec<f64> {
         let n = self.n;
         let m = 3 + 2 * h;
         let mut total = vec![0.0; h];
-        for p in self.profiles {
-            let rss = lsq_rss_nested(p, m, 3, |design, stride| {
-                harmonic_design(design, stride, n, f, h)
-            });
+        let mut add = |rss: &[f64]| {
             for (t, k) in total.iter_mut().zip(1..=h) {
                 *t += rss[3 + 2 * k];
             }
+        };
+        let w = 2.0 * std::f64::consts::PI * f;
+        let Some(gram) = harmonic_gram(n, w, h, &self.trend_sums) else {
+            for p in self.profiles {
+                add(&lsq_rss_nested(p, m, 3, |design, stride| {
+                    harmonic_design(design, stride, n, f, h)
+                }));
+            }
+            return total;
+        };
+        let (l, good) = ridged_cholesky(gram, m, 3);
+        let products = harmonic_products(&mut self.columns.borrow_mut(), self.profiles, n, f, h);
+        let mut aty = Vec::with_capacity(m);
+        for ((trend, yy), harmonics) in self.trend_products.iter().zip(products) {
+            aty.clear();
+            aty.extend_from_slice(trend);
+            aty.extend(harmonics);
+            add(&nested_from_factor(&l, good, &aty, *yy, m));
         }
         total
     }
@@ -378,7 +415,7 @@ impl<'a> PeriodicFit<'a> {
         let (n, big_n) = (self.n, self.padded);
         let frames = self.profiles.len();
         let mut power = vec![0.0; big_n / 2 + 1];
-        let fft = FftPlanner::<f64>::new().plan_fft_forward(big_n);
+        let fft = FFT_PLANNER.with(|p| p.borrow_mut().plan_fft_forward(big_n));
         let mut buf = vec![Complex::new(0.0, 0.0); big_n];
         for p in self.profiles {
             let d = detrend(p);
@@ -392,28 +429,7 @@ impl<'a> PeriodicFit<'a> {
                 *pw += 2.0 * buf[k].norm_sqr() / n as f64;
             }
         }
-        let total = self.trend_rss.max(1e-300);
-        let n_tot = (n * frames) as f64;
-        let penalty = 2.0 * frames as f64 * n_tot.ln();
-        let k_lo = ((1.5 * big_n as f64 / n as f64).ceil() as usize).max(1);
-        let k_hi = (big_n as f64 / MIN_PERIOD_ROWS) as usize;
-        let mut best = (f64::INFINITY, k_lo, 1);
-        for k0 in k_lo..=k_hi {
-            let h_max = MAX_HARMONICS.min(big_n / 2 / k0).max(1);
-            let mut explained = 0.0;
-            for h in 1..=h_max {
-                let (c, w) = (h * k0, h / 2);
-                let lo = c.saturating_sub(w);
-                let hi = (c + w).min(big_n / 2);
-                explained += power[lo..=hi].iter().fold(0.0f64, |a, &b| a.max(b));
-                let rss = (total - explained).max(1e-12 * total);
-                let bic = n_tot * (rss / n_tot).ln() + penalty * h as f64;
-                if bic < best.0 {
-                    best = (bic, k0, h);
-                }
-            }
-        }
-        let (_, k0, h) = best;
+        let (k0, h) = grid_choice(&power, n, frames, self.trend_rss);
         let peak = |m: usize| {
             let (c, w) = (m * k0, m / 2);
             let hi = (c + w).min(big_n / 2);
@@ -512,6 +528,48 @@ impl<'a> PeriodicFit<'a> {
             f64::INFINITY
         }
     }
+}
+
+/// The fundamental bin `k0` and harmonic count `h` of least BIC on the
+/// periodogram grid (`power`, `big_n / 2 + 1` bins of a `big_n`-point FFT
+/// of `frames` profiles of `n` rows; `trend_rss` their trend residual):
+/// the step of [`PeriodicFit::coarse`] that scores every bin.
+fn grid_choice(power: &[f64], n: usize, frames: usize, trend_rss: f64) -> (usize, usize) {
+    let big_n = 2 * (power.len() - 1);
+    let total = trend_rss.max(1e-300);
+    let n_tot = (n * frames) as f64;
+    let penalty = 2.0 * frames as f64 * n_tot.ln();
+    let k_lo = ((1.5 * big_n as f64 / n as f64).ceil() as usize).max(1);
+    let k_hi = (big_n as f64 / MIN_PERIOD_ROWS) as usize;
+    let mut best = (f64::INFINITY, k_lo, 1);
+    // `limits[h]`: a residual at or above it cannot beat the best with
+    // `h` harmonics (the criterion's inverse, with a margin of 1e-9
+    // that dwarfs the rounding of `ln` and `exp`), so most candidates
+    // skip the logarithm; the choice is the same.
+    let mut limits = [f64::INFINITY; MAX_HARMONICS + 1];
+    for k0 in k_lo..=k_hi {
+        let h_max = MAX_HARMONICS.min(big_n / 2 / k0).max(1);
+        let mut explained = 0.0;
+        for h in 1..=h_max {
+            let (c, w) = (h * k0, h / 2);
+            let lo = c.saturating_sub(w);
+            let hi = (c + w).min(big_n / 2);
+            explained += power[lo..=hi].iter().fold(0.0f64, |a, &b| a.max(b));
+            let rss = (total - explained).max(1e-12 * total);
+            if rss >= limits[h] {
+                continue;
+            }
+            let bic = n_tot * (rss / n_tot).ln() + penalty * h as f64;
+            if bic < best.0 {
+                best = (bic, k0, h);
+                for (j, limit) in limits.iter_mut().enumerate() {
+                    let ln_rss = (bic - penalty * j as f64) / n_tot;
+                    *limit = n_tot * ln_rss.exp() * (1.0 + 1e-9);
+                }
+            }
+        }
+    }
+    (best.1, best.2)
 }
 
 /// Brent's method's tolerance on the refined frequency, as a share of the
@@ -642,6 +700,19 @@ fn harmonic_design(design: &mut [f64], stride: usize, n: usize, f: f64, h: usize
             r[4 + 2 * k] = s * c1 + c * s1;
         }
     }
+}
+
+/// `sum_i t^p y_i` for `p` in `0..3` and `sum_i y_i^2`, in row order.
+fn trend_products(y: &[f64]) -> ([f64; 3], f64) {
+    let (mut sums, mut yy, mut r) = ([0.0; 3], 0.0, [0.0; 3]);
+    for (i, &v) in y.iter().enumerate() {
+        trend_basis(i, y.len(), &mut r);
+        for (s, x) in sums.iter_mut().zip(r) {
+            *s += x * v;
+        }
+        yy += v * v;
+    }
+    (sums, yy)
 }
 
 /// `1, t, t^2` with `t` in [-1, 1] over `n` rows.

@@ -135,14 +135,7 @@ fn normal_equations_plain(
     let stride = m.div_ceil(LANES).max(1) * LANES;
     let mut design = vec![0.0; y.len() * stride];
     fill(&mut design, stride);
-    let mut aty = vec![0.0; m];
-    let mut yy = 0.0;
-    for (row, &v) in design.chunks_exact(stride).zip(y) {
-        for (a, &r) in aty.iter_mut().zip(&row[..m]) {
-            *a += r * v;
-        }
-        yy += v * v;
-    }
+    let (aty, yy) = aty_yy(&design, stride, y, m);
     let mut ata = vec![0.0; m * m];
     // Rows `p` and `p + 1` of the triangle together: each design value
     // loaded serves both.
@@ -231,13 +224,45 @@ pub fn lsq_rss_nested(
     ridge_cols: usize,
     fill: impl FnOnce(&mut [f64], usize),
 ) -> Vec<f64> {
-    let (mut ata, aty, yy) = normal_equations(y, m, fill);
+    let (ata, aty, yy) = normal_equations(y, m, fill);
+    nested_rss(ata, &aty, yy, m, ridge_cols)
+}
+
+/// `A^T y` and `y^T y` over design rows `stride` apart, in sample order.
+#[inline(always)]
+fn aty_yy(design: &[f64], stride: usize, y: &[f64], m: usize) -> (Vec<f64>, f64) {
+    let mut aty = vec![0.0; m];
+    let mut yy = 0.0;
+    for (row, &v) in design.chunks_exact(stride).zip(y) {
+        for (a, &r) in aty.iter_mut().zip(&row[..m]) {
+            *a += r * v;
+        }
+        yy += v * v;
+    }
+    (aty, yy)
+}
+
+/// The nested residuals of [`lsq_rss_nested`] from its normal equations.
+fn nested_rss(ata: Vec<f64>, aty: &[f64], yy: f64, m: usize, ridge_cols: usize) -> Vec<f64> {
+    let (l, good) = ridged_cholesky(ata, m, ridge_cols);
+    nested_from_factor(&l, good, aty, yy, m)
+}
+
+/// The ridge of [`lsq_rss_nested`] added to `ata`, then the Cholesky
+/// factor of its largest positive-definite leading block, and that block's
+/// size: shared by every right-hand side of the same design.
+pub fn ridged_cholesky(mut ata: Vec<f64>, m: usize, ridge_cols: usize) -> (Vec<f64>, usize) {
     let cols = ridge_cols.clamp(1, m.max(1));
     let ridge = 1e-12 * (0..cols.min(m)).map(|p| ata[p * m + p]).sum::<f64>() / cols as f64;
     for p in 0..m {
         ata[p * m + p] += ridge;
     }
-    let (l, good) = cholesky_prefix(&ata, m);
+    cholesky_prefix(&ata, m)
+}
+
+/// The nested residuals of [`lsq_rss_nested`] from the factor
+/// [`ridged_cholesky`] gives, `A^T y` and `y^T y`.
+pub fn nested_from_factor(l: &[f64], good: usize, aty: &[f64], yy: f64, m: usize) -> Vec<f64> {
     let mut rss = Vec::with_capacity(m + 1);
     rss.push(yy.max(0.0));
     let (mut z, mut explained) = (vec![0.0; m], 0.0);

@@ -12,6 +12,8 @@
 pub mod bands;
 pub mod fit;
 pub mod frames;
+mod gram;
+mod harmonics;
 mod linalg;
 pub mod profile;
 pub mod recovery;

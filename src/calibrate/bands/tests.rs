@@ -172,3 +172,118 @@ fn median_over_strips_ignores_an_overlay_in_one_strip() {
     }
     assert_eq!(combine_strips(&strips), clean);
 }
+
+/// [`grid_choice`] as first written: the criterion of every bin and
+/// harmonic count, each with its logarithm.
+fn grid_choice_every_log(power: &[f64], n: usize, frames: usize, trend_rss: f64) -> (usize, usize) {
+    let big_n = 2 * (power.len() - 1);
+    let total = trend_rss.max(1e-300);
+    let n_tot = (n * frames) as f64;
+    let penalty = 2.0 * frames as f64 * n_tot.ln();
+    let k_lo = ((1.5 * big_n as f64 / n as f64).ceil() as usize).max(1);
+    let k_hi = (big_n as f64 / MIN_PERIOD_ROWS) as usize;
+    let mut best = (f64::INFINITY, k_lo, 1);
+    for k0 in k_lo..=k_hi {
+        let h_max = MAX_HARMONICS.min(big_n / 2 / k0).max(1);
+        let mut explained = 0.0;
+        for h in 1..=h_max {
+            let (c, w) = (h * k0, h / 2);
+            let (lo, hi) = (c.saturating_sub(w), (c + w).min(big_n / 2));
+            explained += power[lo..=hi].iter().fold(0.0f64, |a, &b| a.max(b));
+            let rss = (total - explained).max(1e-12 * total);
+            let bic = n_tot * (rss / n_tot).ln() + penalty * h as f64;
+            if bic < best.0 {
+                best = (bic, k0, h);
+            }
+        }
+    }
+    (best.1, best.2)
+}
+
+#[test]
+fn the_grid_choice_skipping_logarithms_is_the_choice_of_every_logarithm() {
+    let mut cases = 0;
+    for (n, p, d, e, amp) in [
+        (800, 68.66, 0.05, 1.0, 0.0),
+        (800, 137.3, 0.2, 4.0, 8.0),
+        (240, 41.7, 0.5, 0.7, 20.0),
+        (1080, 250.0, 0.1, 30.0, 2.0),
+        (500, 4.3, 0.5, 0.2, 0.5),
+        (800, 763.0, 0.5, 500.0, 0.0),
+    ] {
+        for frames in [1, 3] {
+            let profiles: Vec<Vec<f64>> = (0..frames)
+                .map(|f| {
+                    bands(n, p, d, e, 0.17 * f as f64)
+                        .iter()
+                        .enumerate()
+                        .map(|(i, v)| v + amp * noise(i + 7 * f))
+                        .collect()
+                })
+                .collect();
+            let fit = PeriodicFit::new(&profiles);
+            let big_n = fit.padded;
+            // The periodogram of the profiles, as `coarse` forms it, and
+            // a flat one where every bin ties.
+            let mut power = vec![0.0; big_n / 2 + 1];
+            for prof in &profiles {
+                let d = detrend(prof);
+                for (k, pw) in power.iter_mut().enumerate() {
+                    let (mut re, mut im) = (0.0, 0.0);
+                    for (i, v) in d.iter().enumerate() {
+                        let a = 2.0 * std::f64::consts::PI * (k * i) as f64 / big_n as f64;
+                        re += v * a.cos();
+                        im -= v * a.sin();
+                    }
+                    *pw += 2.0 * (re * re + im * im) / n as f64;
+                }
+            }
+            let flat = vec![1e-3 * fit.trend_rss / power.len() as f64; power.len()];
+            for pw in [&power, &flat] {
+                let fast = grid_choice(pw, n, frames, fit.trend_rss);
+                let slow = grid_choice_every_log(pw, n, frames, fit.trend_rss);
+                assert_eq!(fast, slow, "n={n} p={p} frames={frames}");
+                cases += 1;
+            }
+        }
+    }
+    assert_eq!(cases, 24);
+}
+
+#[test]
+fn closed_form_residuals_are_the_row_sum_residuals() {
+    // The fits with the Gram matrix in closed form against the same fits
+    // summed row by row (the path taken where the closed form declines),
+    // on a noisy banded profile: ordinary frequencies, the lowest searched,
+    // near the closed form's limit (4 f within 0.7 cycles per frame of 1),
+    // and where it declines (4 f within 0.3 cycles per frame of 1).
+    let n = 800;
+    let y: Vec<f64> = bands(n, 68.66, 0.2, 3.0, 0.1)
+        .iter()
+        .enumerate()
+        .map(|(i, v)| v + 4.0 * noise(i))
+        .collect();
+    let fit = PeriodicFit::new(std::slice::from_ref(&y));
+    let near = (1.0 - 0.7 / n as f64) / 4.0;
+    let declined = (1.0 - 0.3 / n as f64) / 4.0;
+    for (f, h) in [
+        (1.0 / 68.66, 10),
+        (1.0 / 68.7, 3),
+        (1.5 / n as f64, 10),
+        (near, 2),
+        (declined, 2),
+    ] {
+        let w = 2.0 * std::f64::consts::PI * f;
+        let closed = harmonic_gram(n, w, h, &fit.trend_sums).is_some();
+        assert_eq!(closed, f != declined, "f={f}");
+        let fast = fit.rss_upto(f, h);
+        let rows = lsq_rss_nested(&y, 3 + 2 * h, 3, |d, s| harmonic_design(d, s, n, f, h));
+        for k in 1..=h {
+            let (a, b) = (fast[k - 1], rows[3 + 2 * k]);
+            assert!(
+                (a - b).abs() <= 1e-9 * b + 1e-12 * fit.trend_rss,
+                "f={f} k={k}: {a} vs {b}"
+            );
+        }
+    }
+}
