@@ -236,12 +236,61 @@ fn probe_and_read_with(
     probe_with: impl FnOnce(&Path) -> Result<Probe, CaptureError>,
     stall: Duration,
 ) -> Result<CaptureTrace, CaptureError> {
+    let ready = prepare_with(path, rois, opts, probe_with)?;
+    ready.decoder.read(path, ready.probe, opts, stall)
+}
+
+/// A video probed, its ROIs checked, and its ffmpeg started on the layout
+/// of its frame. ffmpeg decodes until its pipe is full and then waits,
+/// using no CPU, until [`Prepared::read`]; dropped unread, its process
+/// group is killed and reaped.
+pub(super) struct Prepared {
+    decoder: Decoder,
+    probe: Probe,
+}
+
+impl Prepared {
+    /// The pixels of every frame (packets times frame size): what decoding
+    /// costs, to read the longest first.
+    pub(super) fn work(&self) -> u64 {
+        let frame = u64::from(self.probe.width) * u64::from(self.probe.height);
+        (self.probe.packet_times.len() as u64).saturating_mul(frame)
+    }
+
+    /// Reads every frame, as [`probe_and_read`] does after the probe. The
+    /// watchdog starts now: the time ffmpeg waited is not a stall.
+    pub(super) fn read(
+        self,
+        path: &Path,
+        opts: &ReadOptions,
+    ) -> Result<CaptureTrace, CaptureError> {
+        self.decoder.read(path, self.probe, opts, STALL)
+    }
+}
+
+/// The first half of [`probe_and_read`]: probes `path` and starts its
+/// ffmpeg, without reading a frame.
+pub(super) fn prepare(
+    path: &Path,
+    rois: &[RoiRect],
+    opts: &ReadOptions,
+) -> Result<Prepared, CaptureError> {
+    prepare_with(path, rois, opts, probe)
+}
+
+/// [`prepare`] through `probe_with`.
+fn prepare_with(
+    path: &Path,
+    rois: &[RoiRect],
+    opts: &ReadOptions,
+    probe_with: impl FnOnce(&Path) -> Result<Probe, CaptureError>,
+) -> Result<Prepared, CaptureError> {
     // Not started (e.g. no `ffmpeg`): the start after the probe reports why.
     let early = Layout::speculative(rois).and_then(|l| Decoder::start(path, l, opts).ok());
     // On an error here `early` is dropped: its group killed and reaped.
-    let p = probe_with(path)?;
-    check_rois(path, 0, rois, p.width, p.height)?;
-    let layout = Layout::for_rois(rois, (p.width, p.height));
+    let probe = probe_with(path)?;
+    check_rois(path, 0, rois, probe.width, probe.height)?;
+    let layout = Layout::for_rois(rois, (probe.width, probe.height));
     let decoder = match early {
         Some(d) if d.layout == layout => d,
         early => {
@@ -249,9 +298,7 @@ fn probe_and_read_with(
             Decoder::start(path, layout, opts)?
         }
     };
-    // The watchdog starts now: the time ffmpeg waited for the probe is not
-    // a stall.
-    decoder.read(path, p, opts, stall)
+    Ok(Prepared { decoder, probe })
 }
 
 /// Reads the ROI means of every frame of the video at `path`, which `p`
