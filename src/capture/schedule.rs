@@ -3,17 +3,24 @@
 //! [`read_captures`] reads every capture at once, each on a thread of its
 //! own (at most [`AT_ONCE`] at a time), rather than on the rayon pool: a
 //! video's work is done in its FFmpeg process (ffprobe, then ffmpeg), so
-//! these threads mostly wait on pipes, and every decoder starts at once
-//! instead of waiting for a pool thread. The largest files start first
-//! (this only matters beyond [`AT_ONCE`] captures). A plan with image,
-//! Y4M or CSV captures, which are decoded in this process, reads as many
-//! at once as the rayon pool has threads, so its memory stays bounded.
+//! these threads mostly wait on pipes. A plan with image, Y4M or CSV
+//! captures, which are decoded in this process, reads as many at once as
+//! the rayon pool has threads, the largest files first, so its memory
+//! stays bounded.
+//!
+//! Several videos are probed and their decoders started all at once, then
+//! read at most one per core at a time, the most work first
+//! ([`read_videos`]): the cores each decode one video, and the longest
+//! video does not run alone at the end while a core idles (three videos
+//! decoded all at once on two cores left one core idle for the last third
+//! of the P2020 sample plan's longest video).
 //!
 //! When several videos are read, each FFmpeg decoder gets one thread and
 //! a one-thread filter graph: the decoders share the cores among
 //! themselves, without the CPU that frame threading and a filter thread
 //! pool add. Neither changes a pixel (tests in `video`), so the numbers do
-//! not depend on this choice.
+//! not depend on this choice, nor on the order or the number of videos
+//! read at a time.
 
 use std::path::Path;
 use std::sync::Mutex;
@@ -28,10 +35,12 @@ use super::{
 pub const AT_ONCE: usize = 8;
 
 /// Reads every capture of `paths` (as [`read_capture`] does) with the same
-/// ROIs and options: all at once (up to [`AT_ONCE`]) when they are all
-/// videos, else as many at once as the rayon pool has threads. The traces come back in the order of `paths`. On
-/// failure, no further capture is started, and the error is that of the
-/// first failing capture in the order of `paths` among those started.
+/// ROIs and options: several videos through [`read_videos`], as many at a
+/// time as the rayon pool has threads; other captures as many at once as
+/// the rayon pool has threads. The traces come back in the order of
+/// `paths`. On failure, no further capture is started, and the error is
+/// that of the first failing capture in the order of `paths` among those
+/// started.
 pub fn read_captures(
     paths: &[&Path],
     rois: &[RoiRect],
