@@ -334,6 +334,9 @@ impl Decoder {
     fn start(path: &Path, layout: Layout, opts: &ReadOptions) -> Result<Decoder, CaptureError> {
         let (pix_fmt, _, planes) = pixel_format(opts.video_decode);
         let mut child = spawn_ffmpeg(path, &layout.filter(planes), pix_fmt, opts.decoder_threads)?;
+        if let Some(out) = &child.stdout {
+            grow_pipe(out);
+        }
         let err_thread = Some(drain_stderr(child.stderr.take()));
         Ok(Decoder {
             child,
@@ -401,6 +404,21 @@ impl Drop for Decoder {
             let _ = t.join();
         }
     }
+}
+
+/// Most bytes ffmpeg's stdout pipe holds: frames it may decode ahead of
+/// the reader (about 50 of the P2020 samples' tiles), e.g. while it waits
+/// for the probe or for a core (`schedule`).
+const PIPE_BYTES: libc::c_int = 1 << 20;
+
+/// Lets the pipe `out` hold [`PIPE_BYTES`] (Linux's default largest size
+/// for a user), rather than 64 KB. Where the system refuses, the pipe
+/// keeps its size: this changes when ffmpeg waits, never what it writes.
+fn grow_pipe(out: &std::process::ChildStdout) {
+    use std::os::fd::AsRawFd;
+    // SAFETY: F_SETPIPE_SZ on a pipe descriptor this process owns; it only
+    // resizes the pipe's buffer, and its failure is harmless.
+    unsafe { libc::fcntl(out.as_raw_fd(), libc::F_SETPIPE_SZ, PIPE_BYTES) };
 }
 
 /// ffmpeg's output pixel format, its bytes per pixel, and the filter that
@@ -700,6 +718,24 @@ mod tests {
         };
         let got = probe_and_read_with(&path, &rois, &opts, slow, stall).unwrap();
         assert_eq!(got, probe_and_read(&path, &rois, &opts).unwrap());
+    }
+
+    /// ffmpeg's stdout pipe holds 1 MB, where the system allows that much.
+    #[test]
+    fn ffmpeg_pipe_holds_a_megabyte() {
+        assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
+        let rois = [rect(457, 247, 20, 2)];
+        let layout = Layout::speculative(&rois).unwrap();
+        let d = Decoder::start(&sample_video(), layout, &rgb_opts()).unwrap();
+        let fd = std::os::fd::AsRawFd::as_raw_fd(d.child.stdout.as_ref().unwrap());
+        // SAFETY: F_GETPIPE_SZ reads the size of a pipe this process owns.
+        let size = unsafe { libc::fcntl(fd, libc::F_GETPIPE_SZ) };
+        let max: libc::c_int = std::fs::read_to_string("/proc/sys/fs/pipe-max-size")
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap();
+        assert_eq!(size, PIPE_BYTES.min(max).max(64 << 10));
     }
 
     /// True while any process of group `pgid` exists.
