@@ -11,9 +11,9 @@
 //! Several videos are probed and their decoders started all at once, then
 //! read at most one per core at a time, the most work first
 //! ([`read_videos`]): the cores each decode one video, and the longest
-//! video does not run alone at the end while a core idles (three videos
-//! decoded all at once on two cores left one core idle for the last third
-//! of the P2020 sample plan's longest video).
+//! video does not run alone at the end while a core idles (the P2020
+//! sample plan's three videos decoded all at once on two cores left one
+//! core idle for the last quarter of the stage, docs/speed.md).
 //!
 //! When several videos are read, each FFmpeg decoder gets one thread and
 //! a one-thread filter graph: the decoders share the cores among
@@ -38,8 +38,9 @@ pub const AT_ONCE: usize = 8;
 /// ROIs and options: several videos through [`read_videos`], as many at a
 /// time as the rayon pool has threads; other captures as many at once as
 /// the rayon pool has threads. The traces come back in the order of
-/// `paths`. On failure, no further capture is started, and the error is
-/// that of the first failing capture in the order of `paths` among those
+/// `paths`. On failure, no further capture is started (for videos: none
+/// after the failing one in the order of `paths`), and the error is that
+/// of the first failing capture in the order of `paths` among those
 /// started.
 pub fn read_captures(
     paths: &[&Path],
