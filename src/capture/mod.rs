@@ -184,19 +184,31 @@ pub fn read_capture(
     roi_names: &[String],
     opts: &ReadOptions,
 ) -> Result<CaptureTrace, CaptureError> {
-    if !path.exists() {
-        return Err(CaptureError::Read {
-            path: path.to_path_buf(),
-            message: "no such file or directory".to_string(),
-        });
-    }
-    let mut trace = match source_kind(path) {
+    check_exists(path)?;
+    let trace = match source_kind(path) {
         SourceKind::ImageDir => images::read_dir(path, rois, opts)?,
         SourceKind::Image => images::read_files(path, &[path.to_path_buf()], rois, opts)?,
         SourceKind::Y4m => y4m::read(path, rois, opts)?,
         SourceKind::Video => video::probe_and_read(path, rois, opts)?,
         SourceKind::Csv => csv_trace::read(path, roi_names, opts)?,
     };
+    finish_trace(path, trace)
+}
+
+/// The error of a capture `path` that does not exist.
+fn check_exists(path: &Path) -> Result<(), CaptureError> {
+    if path.exists() {
+        return Ok(());
+    }
+    Err(CaptureError::Read {
+        path: path.to_path_buf(),
+        message: "no such file or directory".to_string(),
+    })
+}
+
+/// The checks and the timestamp sidecar that every capture's trace gets
+/// after its frames are read.
+fn finish_trace(path: &Path, mut trace: CaptureTrace) -> Result<CaptureTrace, CaptureError> {
     if trace.time_s.is_empty() {
         return Err(CaptureError::Invalid {
             path: path.to_path_buf(),

@@ -236,12 +236,61 @@ fn probe_and_read_with(
     probe_with: impl FnOnce(&Path) -> Result<Probe, CaptureError>,
     stall: Duration,
 ) -> Result<CaptureTrace, CaptureError> {
+    let ready = prepare_with(path, rois, opts, probe_with)?;
+    ready.decoder.read(path, ready.probe, opts, stall)
+}
+
+/// A video probed, its ROIs checked, and its ffmpeg started on the layout
+/// of its frame. ffmpeg decodes until its pipe is full and then waits,
+/// using no CPU, until [`Prepared::read`]; dropped unread, its process
+/// group is killed and reaped.
+pub(super) struct Prepared {
+    decoder: Decoder,
+    probe: Probe,
+}
+
+impl Prepared {
+    /// The pixels of every frame (packets times frame size): what decoding
+    /// costs, to read the longest first.
+    pub(super) fn work(&self) -> u64 {
+        let frame = u64::from(self.probe.width) * u64::from(self.probe.height);
+        (self.probe.packet_times.len() as u64).saturating_mul(frame)
+    }
+
+    /// Reads every frame, as [`probe_and_read`] does after the probe. The
+    /// watchdog starts now: the time ffmpeg waited is not a stall.
+    pub(super) fn read(
+        self,
+        path: &Path,
+        opts: &ReadOptions,
+    ) -> Result<CaptureTrace, CaptureError> {
+        self.decoder.read(path, self.probe, opts, STALL)
+    }
+}
+
+/// The first half of [`probe_and_read`]: probes `path` and starts its
+/// ffmpeg, without reading a frame.
+pub(super) fn prepare(
+    path: &Path,
+    rois: &[RoiRect],
+    opts: &ReadOptions,
+) -> Result<Prepared, CaptureError> {
+    prepare_with(path, rois, opts, probe)
+}
+
+/// [`prepare`] through `probe_with`.
+fn prepare_with(
+    path: &Path,
+    rois: &[RoiRect],
+    opts: &ReadOptions,
+    probe_with: impl FnOnce(&Path) -> Result<Probe, CaptureError>,
+) -> Result<Prepared, CaptureError> {
     // Not started (e.g. no `ffmpeg`): the start after the probe reports why.
     let early = Layout::speculative(rois).and_then(|l| Decoder::start(path, l, opts).ok());
     // On an error here `early` is dropped: its group killed and reaped.
-    let p = probe_with(path)?;
-    check_rois(path, 0, rois, p.width, p.height)?;
-    let layout = Layout::for_rois(rois, (p.width, p.height));
+    let probe = probe_with(path)?;
+    check_rois(path, 0, rois, probe.width, probe.height)?;
+    let layout = Layout::for_rois(rois, (probe.width, probe.height));
     let decoder = match early {
         Some(d) if d.layout == layout => d,
         early => {
@@ -249,9 +298,7 @@ fn probe_and_read_with(
             Decoder::start(path, layout, opts)?
         }
     };
-    // The watchdog starts now: the time ffmpeg waited for the probe is not
-    // a stall.
-    decoder.read(path, p, opts, stall)
+    Ok(Prepared { decoder, probe })
 }
 
 /// Reads the ROI means of every frame of the video at `path`, which `p`
@@ -287,6 +334,9 @@ impl Decoder {
     fn start(path: &Path, layout: Layout, opts: &ReadOptions) -> Result<Decoder, CaptureError> {
         let (pix_fmt, _, planes) = pixel_format(opts.video_decode);
         let mut child = spawn_ffmpeg(path, &layout.filter(planes), pix_fmt, opts.decoder_threads)?;
+        if let Some(out) = &child.stdout {
+            grow_pipe(out);
+        }
         let err_thread = Some(drain_stderr(child.stderr.take()));
         Ok(Decoder {
             child,
@@ -354,6 +404,21 @@ impl Drop for Decoder {
             let _ = t.join();
         }
     }
+}
+
+/// Most bytes ffmpeg's stdout pipe holds: frames it may decode ahead of
+/// the reader (about 50 of the P2020 samples' tiles), e.g. while it waits
+/// for the probe or for a core (`schedule`).
+const PIPE_BYTES: libc::c_int = 1 << 20;
+
+/// Lets the pipe `out` hold [`PIPE_BYTES`] (Linux's default largest size
+/// for a user), rather than 64 KB. Where the system refuses, the pipe
+/// keeps its size: this changes when ffmpeg waits, never what it writes.
+fn grow_pipe(out: &std::process::ChildStdout) {
+    use std::os::fd::AsRawFd;
+    // SAFETY: F_SETPIPE_SZ on a pipe descriptor this process owns; it only
+    // resizes the pipe's buffer, and its failure is harmless.
+    unsafe { libc::fcntl(out.as_raw_fd(), libc::F_SETPIPE_SZ, PIPE_BYTES) };
 }
 
 /// ffmpeg's output pixel format, its bytes per pixel, and the filter that
@@ -653,6 +718,24 @@ mod tests {
         };
         let got = probe_and_read_with(&path, &rois, &opts, slow, stall).unwrap();
         assert_eq!(got, probe_and_read(&path, &rois, &opts).unwrap());
+    }
+
+    /// ffmpeg's stdout pipe holds 1 MB, where the system allows that much.
+    #[test]
+    fn ffmpeg_pipe_holds_a_megabyte() {
+        assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
+        let rois = [rect(457, 247, 20, 2)];
+        let layout = Layout::speculative(&rois).unwrap();
+        let d = Decoder::start(&sample_video(), layout, &rgb_opts()).unwrap();
+        let fd = std::os::fd::AsRawFd::as_raw_fd(d.child.stdout.as_ref().unwrap());
+        // SAFETY: F_GETPIPE_SZ reads the size of a pipe this process owns.
+        let size = unsafe { libc::fcntl(fd, libc::F_GETPIPE_SZ) };
+        let max: libc::c_int = std::fs::read_to_string("/proc/sys/fs/pipe-max-size")
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap();
+        assert_eq!(size, PIPE_BYTES.min(max).max(64 << 10));
     }
 
     /// True while any process of group `pgid` exists.

@@ -876,23 +876,91 @@ fn an_interrupted_video_capture_leaves_no_ffmpeg_running() {
     let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
     assert!(made.success());
     let plan = one_case_plan(&dir, "slow.mp4", (600, 400, 20, 2), "");
+    let why = [
+        "slow.mp4",
+        "interrupted (signal 2) while `ffprobe` was reading it",
+    ];
+    interrupt_while_probing(&dir, &plan, &fifo, 2, &why);
+}
+
+/// Several videos are probed and their decoders started together, then
+/// read one per core: interrupted while one probe waits on a FIFO, and the
+/// other video's ffmpeg waits to be read, the run stops with exit 3 naming
+/// ffprobe, and no FFmpeg process of either video is left.
+#[test]
+fn an_interrupted_capture_of_several_videos_leaves_no_ffmpeg_running() {
+    need_ffmpeg();
+    let dir = scratch("interrupted-videos");
+    let fifo = dir.join("slow.mp4");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    std::fs::copy(data("test_vid3.mp4"), dir.join("v.mp4")).unwrap();
+    let plan = cases_plan(&dir, &["v.mp4", "slow.mp4"], (600, 400, 20, 2));
+    // The first case may be read, or stopped too, after the interrupt.
+    interrupt_while_probing(&dir, &plan, &fifo, 3, &["interrupted (signal 2) while "]);
+}
+
+/// Among several videos, a file that is not a video is the same error as
+/// alone (exit 2), whichever case it is, and no FFmpeg process is left.
+#[test]
+fn a_capture_that_is_not_a_video_among_videos_exits_2() {
+    need_ffmpeg();
+    let dir = scratch("not-a-video-among");
+    std::fs::write(dir.join("notes.mp4"), b"this is not a video\n").unwrap();
+    std::fs::copy(data("test_vid3.mp4"), dir.join("v.mp4")).unwrap();
+    std::fs::copy(data("test_vid1.mp4"), dir.join("w.mp4")).unwrap();
+    let needles = [
+        "notes.mp4",
+        "ffprobe cannot read it",
+        "hint: check that the file is a complete video",
+    ];
+    for cases in [
+        ["notes.mp4", "v.mp4", "w.mp4"],
+        ["w.mp4", "notes.mp4", "v.mp4"],
+    ] {
+        let plan = cases_plan(&dir, &cases, (600, 400, 20, 2));
+        expect_invalid(&dir, &plan, &needles);
+    }
+    let dir_text = dir.to_string_lossy().into_owned();
+    assert_eq!(processes_naming(&dir_text), Vec::<String>::new());
+}
+
+/// A captured plan with one case per source and one ROI.
+fn cases_plan(dir: &Path, sources: &[&str], roi: (u32, u32, u32, u32)) -> PathBuf {
+    let mut text = "[plan]\nid = \"t\"\ntitle = \"t\"\n[dut]\nbackend = \"captured\"\n[capture]\nframe-rate-fps = 30.0\n".to_string();
+    for (i, s) in sources.iter().enumerate() {
+        text += &format!("[[case]]\nid = \"c{i}\"\nsource = \"{s}\"\n");
+    }
+    text += &format!(
+        "[[roi]]\nname = \"a\"\nx-px = {}\ny-px = {}\nwidth-px = {}\nheight-px = {}\n",
+        roi.0, roi.1, roi.2, roi.3
+    );
+    let path = dir.join("plan.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Runs `plan`, whose capture `fifo` nobody writes, until at least `tools`
+/// FFmpeg processes name the scratch directory `dir`, interrupts it, and
+/// checks that it stops with exit 3 saying so (`why`) and leaves none.
+fn interrupt_while_probing(dir: &Path, plan: &Path, fifo: &Path, tools: usize, why: &[&str]) {
     let mut run = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
         .args(["plan", plan.to_str().unwrap(), "--out"])
         .arg(dir.join("o"))
         .arg("-q")
-        .current_dir(&dir)
+        .current_dir(dir)
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    let needle = fifo.to_string_lossy().into_owned();
+    let needle = dir.to_string_lossy().into_owned();
     let start = std::time::Instant::now();
-    let tools = || {
+    let running = || {
         processes_naming(&needle)
             .iter()
             .filter(|p| p.ends_with("ffmpeg") || p.ends_with("ffprobe"))
             .count()
     };
-    while tools() < 2 {
+    while running() < tools {
         assert!(
             start.elapsed().as_secs() < 60,
             "ffmpeg and ffprobe never started"
@@ -915,7 +983,7 @@ fn an_interrupted_video_capture_leaves_no_ffmpeg_running() {
             let _ = std::fs::OpenOptions::new()
                 .write(true)
                 .custom_flags(libc::O_NONBLOCK)
-                .open(&fifo);
+                .open(fifo);
             panic!("ledflicker did not stop within 60 s of SIGINT");
         }
         std::thread::sleep(std::time::Duration::from_millis(50));
@@ -923,10 +991,8 @@ fn an_interrupted_video_capture_leaves_no_ffmpeg_running() {
     let mut err = String::new();
     std::io::Read::read_to_string(&mut run.stderr.take().unwrap(), &mut err).unwrap();
     assert_eq!(status.code(), Some(3), "{err}");
-    assert!(err.contains("slow.mp4"), "{err}");
-    assert!(
-        err.contains("interrupted (signal 2) while `ffprobe` was reading it"),
-        "{err}"
-    );
+    for w in why {
+        assert!(err.contains(w), "`{w}` not in: {err}");
+    }
     assert_eq!(processes_naming(&needle), Vec::<String>::new());
 }
