@@ -13,6 +13,8 @@ use serde::Serialize;
 
 mod jobs;
 
+#[cfg(test)]
+pub(crate) use jobs::small_run;
 pub use jobs::{ChartJobs, Jobs, ViewJobs};
 
 use super::ReportError;

@@ -489,14 +489,7 @@ mod tests {
 
     #[test]
     fn appendix_rows_get_their_heights_only_where_every_row_is_one_line() {
-        use crate::backend::sim::Simulator;
-        let path =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/plans/base.toml");
-        let plan = crate::plan::load(&path).unwrap();
-        let cases = crate::plan::expand_cases(&plan);
-        let results =
-            crate::runner::run(&plan, &cases, &Simulator::new(&plan), Some(2), &|_| {}).unwrap();
-        let model = crate::model::build(&plan, "sim-ideal", &results);
+        let (results, model) = super::super::document::small_run();
         let mut doc = Document::build(&model, &results, "2026-01-01", Vec::new()).unwrap();
         let rows = |doc: &Document| {
             let markup = render_markup(doc).unwrap();
