@@ -14,7 +14,7 @@ use serde::Serialize;
 mod jobs;
 
 #[cfg(test)]
-pub(crate) use jobs::small_run;
+pub(crate) use jobs::tests::small_run;
 pub use jobs::{ChartJobs, Jobs, ViewJobs};
 
 use super::ReportError;

@@ -166,24 +166,22 @@ impl<'a, T: Clone + Send + Sync> Jobs<'a, T> {
     }
 }
 
-/// The small fixture plan (tests/fixtures/plans/base.toml) run on the
-/// simulator, and its model: the report's unit tests start from it.
 #[cfg(test)]
-pub(crate) fn small_run() -> (Vec<CaseResult>, Results) {
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/plans/base.toml");
-    let plan = crate::plan::load(&path).unwrap();
-    let cases = crate::plan::expand_cases(&plan);
-    let simulator = crate::backend::sim::Simulator::new(&plan);
-    let results = crate::runner::run(&plan, &cases, &simulator, Some(2), &|_| {}).unwrap();
-    let model = crate::model::build(&plan, "sim-ideal", &results);
-    (results, model)
-}
-
-#[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
-    use crate::report::document::small_run;
+
+    /// The small fixture plan (tests/fixtures/plans/base.toml) run on the
+    /// simulator, and its model: the report's unit tests start from it.
+    pub(crate) fn small_run() -> (Vec<CaseResult>, Results) {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/plans/base.toml");
+        let plan = crate::plan::load(&path).unwrap();
+        let cases = crate::plan::expand_cases(&plan);
+        let simulator = crate::backend::sim::Simulator::new(&plan);
+        let results = crate::runner::run(&plan, &cases, &simulator, Some(2), &|_| {}).unwrap();
+        let model = crate::model::build(&plan, "sim-ideal", &results);
+        (results, model)
+    }
 
     #[test]
     fn charts_drawn_on_demand_beside_draw_all_are_the_charts_drawn_alone() {
