@@ -24,7 +24,7 @@
 
 use std::path::Path;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::{
     CaptureError, CaptureTrace, ReadOptions, RoiRect, SourceKind, check_exists, finish_trace,
@@ -146,41 +146,7 @@ fn run_in_order<I: Send, O: Send, E: Send>(
     threads: usize,
     f: impl Fn(usize, I) -> Result<O, E> + Sync,
 ) -> Result<Vec<O>, E> {
-    let n = items.len();
-    let inputs: Vec<Mutex<Option<I>>> = items.into_iter().map(|x| Mutex::new(Some(x))).collect();
-    let outputs: Vec<Mutex<Option<Result<O, E>>>> = (0..n).map(|_| Mutex::new(None)).collect();
-    let next = AtomicUsize::new(0);
-    let first_failed = AtomicUsize::new(n);
-    let worker = || {
-        while let Some(&i) = order.get(next.fetch_add(1, Ordering::AcqRel)) {
-            let Some(item) = take(&inputs[i]) else {
-                continue;
-            };
-            if i > first_failed.load(Ordering::Acquire) {
-                continue;
-            }
-            let out = f(i, item);
-            if out.is_err() {
-                first_failed.fetch_min(i, Ordering::AcqRel);
-            }
-            *outputs[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(out);
-        }
-    };
-    std::thread::scope(|s| {
-        for _ in 0..n.min(threads.max(1)) {
-            s.spawn(worker);
-        }
-    });
-    let mut done = Vec::with_capacity(n);
-    for out in outputs.into_iter().map(into_inner) {
-        match out {
-            Some(Ok(o)) => done.push(o),
-            Some(Err(e)) => return Err(e),
-            // Skipped after an earlier error in item order.
-            None => {}
-        }
-    }
-    Ok(done)
+    run_scheduled(items, order, threads, AfterError::FinishEarlier, f)
 }
 
 /// Decoder threads of each of `videos` videos read together: the caller's
@@ -202,22 +168,53 @@ fn run_bounded<I: Send, O: Send, E: Send>(
     threads: usize,
     f: impl Fn(usize, I) -> Result<O, E> + Sync,
 ) -> Result<Vec<O>, E> {
+    run_scheduled(items, order, threads, AfterError::StartNothing, f)
+}
+
+/// What [`run_scheduled`] still starts after an item failed.
+#[derive(Clone, Copy, PartialEq)]
+enum AfterError {
+    /// Nothing.
+    StartNothing,
+    /// The items before the failed one in item order.
+    FinishEarlier,
+}
+
+/// Runs `f(i, items[i])` for every item, in `order`, on at most `threads`
+/// threads, starting after an error only what `after_error` says. Returns
+/// the first error in item order among the items run, or every output in
+/// item order.
+fn run_scheduled<I: Send, O: Send, E: Send>(
+    items: Vec<I>,
+    order: &[usize],
+    threads: usize,
+    after_error: AfterError,
+    f: impl Fn(usize, I) -> Result<O, E> + Sync,
+) -> Result<Vec<O>, E> {
     let n = items.len();
     let inputs: Vec<Mutex<Option<I>>> = items.into_iter().map(|x| Mutex::new(Some(x))).collect();
     let outputs: Vec<Mutex<Option<Result<O, E>>>> = (0..n).map(|_| Mutex::new(None)).collect();
     let next = AtomicUsize::new(0);
-    let failed = AtomicBool::new(false);
+    // The lowest failed item so far; `n` while none failed.
+    let first_failed = AtomicUsize::new(n);
     let worker = || {
-        while !failed.load(Ordering::Acquire) {
-            let Some(&i) = order.get(next.fetch_add(1, Ordering::AcqRel)) else {
-                return;
-            };
+        while let Some(&i) = order.get(next.fetch_add(1, Ordering::AcqRel)) {
             let Some(item) = take(&inputs[i]) else {
                 continue;
             };
+            // An item not started is dropped here (a video's decoder is
+            // killed at once).
+            let failed = first_failed.load(Ordering::Acquire);
+            let skip = match after_error {
+                AfterError::StartNothing => failed < n,
+                AfterError::FinishEarlier => i > failed,
+            };
+            if skip {
+                continue;
+            }
             let out = f(i, item);
             if out.is_err() {
-                failed.store(true, Ordering::Release);
+                first_failed.fetch_min(i, Ordering::AcqRel);
             }
             *outputs[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(out);
         }
@@ -227,15 +224,16 @@ fn run_bounded<I: Send, O: Send, E: Send>(
             s.spawn(worker);
         }
     });
-    let outputs: Vec<Option<Result<O, E>>> = outputs.into_iter().map(into_inner).collect();
-    if let Some(e) = outputs.iter().position(|o| matches!(o, Some(Err(_)))) {
-        let Some(Some(Err(e))) = outputs.into_iter().nth(e) else {
-            unreachable!("position() found an error here")
-        };
-        return Err(e);
+    let mut done = Vec::with_capacity(n);
+    for out in outputs.into_iter().map(into_inner) {
+        match out {
+            Some(Ok(o)) => done.push(o),
+            Some(Err(e)) => return Err(e),
+            // Not started after an error.
+            None => {}
+        }
     }
-    // Without an error every item ran.
-    Ok(outputs.into_iter().flatten().flatten().collect())
+    Ok(done)
 }
 
 fn take<T>(slot: &Mutex<Option<T>>) -> Option<T> {
@@ -471,7 +469,7 @@ mod tests {
         // failure is recorded), so no thread may take another item.
         let n = 2 * AT_ONCE;
         let started = AtomicUsize::new(0);
-        let first_done = AtomicBool::new(false);
+        let first_done = std::sync::atomic::AtomicBool::new(false);
         let order: Vec<usize> = (0..n).collect();
         let err = run_bounded(vec![(); n], &order, AT_ONCE, |i, ()| {
             if i == 0 {
