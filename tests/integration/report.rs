@@ -25,7 +25,18 @@ fn run_plan(plan: &str, dir: &Path, extra: &[&str]) -> Output {
 
 /// `pdftotext -layout` (poppler-utils; scripts/test.sh installs it).
 fn pdf_text(pdf: &Path) -> String {
+    pdftotext(pdf, &[])
+}
+
+/// `pdftotext -layout` of one page.
+fn pdf_page_text(pdf: &Path, page: usize) -> String {
+    let p = page.to_string();
+    pdftotext(pdf, &["-f", &p, "-l", &p])
+}
+
+fn pdftotext(pdf: &Path, pages: &[&str]) -> String {
     let o = Command::new("pdftotext")
+        .args(pages)
         .args(["-layout", pdf.to_str().unwrap(), "-"])
         .output()
         .expect("pdftotext not found: install poppler-utils (scripts/test.sh does)");
@@ -290,17 +301,6 @@ fn results_json_reads_back_typed_field_for_field() {
     assert!(e.contains("not a readable"), "{e}");
     let e = ledflicker::model::read_results(r#"{"schema": "other/1"}"#).unwrap_err();
     assert!(e.contains("`other/1`"), "{e}");
-}
-
-/// `pdftotext -layout` of one page.
-fn pdf_page_text(pdf: &Path, page: usize) -> String {
-    let p = page.to_string();
-    let o = Command::new("pdftotext")
-        .args(["-f", &p, "-l", &p, "-layout", pdf.to_str().unwrap(), "-"])
-        .output()
-        .expect("pdftotext not found: install poppler-utils (scripts/test.sh does)");
-    assert!(o.status.success(), "{}", text(&o));
-    String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
 #[test]
