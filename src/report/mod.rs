@@ -97,14 +97,51 @@ pub fn trace_csv(result: &CaseResult) -> String {
         out.push_str(&roi.name);
     }
     out.push('\n');
+    // A ROI's luma takes few distinct values (a steady segment repeats
+    // one, a locked PWM phase cycles a few), so each column remembers the
+    // text of its recent values: the output is the same as `{}` of each.
+    let mut recent: Vec<RecentValues> = acq.rois.iter().map(|_| RecentValues::default()).collect();
+    out.reserve(acq.frames.len() * (24 + 20 * acq.rois.len()));
     for (i, f) in acq.frames.iter().enumerate() {
         let _ = write!(out, "{},{},{}", f.index, f.time_s, f.segment.as_str());
-        for roi in &acq.rois {
-            let _ = write!(out, ",{}", roi.luma[i]);
+        for (roi, recent) in acq.rois.iter().zip(&mut recent) {
+            out.push(',');
+            out.push_str(recent.text(roi.luma[i]));
         }
         out.push('\n');
     }
     out
+}
+
+/// The `{}` text of the last few distinct values seen, most recent first.
+#[derive(Default)]
+struct RecentValues {
+    entries: Vec<(u64, String)>,
+}
+
+impl RecentValues {
+    /// How many distinct values a column keeps: enough for a PWM phase
+    /// cycle of a few frames, small enough to search linearly.
+    const CAPACITY: usize = 8;
+
+    /// `value` formatted with `{}`; formatted again only when it is not
+    /// one of the recent values (compared bit for bit).
+    fn text(&mut self, value: f64) -> &str {
+        let bits = value.to_bits();
+        let at = match self.entries.iter().position(|(b, _)| *b == bits) {
+            Some(at) => at,
+            None => {
+                if self.entries.len() == Self::CAPACITY {
+                    self.entries.pop();
+                }
+                self.entries.push((bits, value.to_string()));
+                self.entries.len() - 1
+            }
+        };
+        // Keep the most recent value first, so a steady column finds it at once.
+        self.entries[..=at].rotate_right(1);
+        &self.entries[0].1
+    }
 }
 
 /// Replaces `dir/name` by a directory holding `files` (name -> bytes),
@@ -306,4 +343,52 @@ pub fn write_report(
         file.commit().map_err(io_err(&path))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The trace CSV as `{}` of every value, written plainly.
+    fn plain_csv(result: &CaseResult) -> String {
+        let acq = &result.acquisition;
+        let mut out = String::from("frame,time_s,segment");
+        for roi in &acq.rois {
+            out.push_str(&format!(",{}", roi.name));
+        }
+        out.push('\n');
+        for (i, f) in acq.frames.iter().enumerate() {
+            out.push_str(&format!("{},{},{}", f.index, f.time_s, f.segment.as_str()));
+            for roi in &acq.rois {
+                out.push_str(&format!(",{}", roi.luma[i]));
+            }
+            out.push('\n');
+        }
+        out
+    }
+
+    #[test]
+    fn trace_csv_is_every_value_formatted_with_display() {
+        let (mut results, _) = document::small_run();
+        // As simulated: steady segments and short PWM cycles.
+        for r in &results {
+            assert_eq!(trace_csv(r), plain_csv(r));
+        }
+        // Cycles longer than the remembered values, values that differ in
+        // the last bit, signed zeros and a value too small for plain digits.
+        let r = &mut results[0];
+        let n = r.acquisition.frames.len();
+        assert!(n > 40, "the fixture has {n} frames");
+        let edge = [0.0, -0.0, 1e-300, f64::MAX, 44.1, 44.1f64.next_up()];
+        for (k, roi) in r.acquisition.rois.iter_mut().enumerate() {
+            for (i, v) in roi.luma.iter_mut().enumerate() {
+                *v = match (i + k) % 3 {
+                    0 => (i % (RecentValues::CAPACITY + 3)) as f64 * 0.1,
+                    1 => edge[i % edge.len()],
+                    _ => (i as f64).sqrt(),
+                };
+            }
+        }
+        assert_eq!(trace_csv(r), plain_csv(r));
+    }
 }
