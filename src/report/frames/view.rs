@@ -30,10 +30,18 @@ fn colour(roi: &RoiBox) -> Rgb<u8> {
 fn outline(img: &mut RgbImage, [x, y, w, h]: [u32; 4], thick: u32, colour: Rgb<u8>) {
     let (iw, ih) = img.dimensions();
     let (x1, y1) = (x + w.max(1), y + h.max(1));
+    let (left, right) = (x.saturating_sub(thick), (x1 + thick).min(iw));
     for py in y.saturating_sub(thick)..(y1 + thick).min(ih) {
-        for px in x.saturating_sub(thick)..(x1 + thick).min(iw) {
-            let inside = px >= x && px < x1 && py >= y && py < y1;
-            if !inside {
+        // Rows beside the box are drawn across; rows through it only left
+        // and right of it: the interior is never visited.
+        let through = py >= y && py < y1;
+        let spans = if through {
+            [(left, x.min(right)), (x1.max(left), right)]
+        } else {
+            [(left, right), (right, right)]
+        };
+        for (from, to) in spans {
+            for px in from..to {
                 img.put_pixel(px, py, colour);
             }
         }
@@ -351,6 +359,41 @@ mod tests {
             name: "led".into(),
             kind: RoiKind::Led,
             rect_px,
+        }
+    }
+
+    #[test]
+    fn outline_draws_exactly_the_band_around_the_box() {
+        // Every pixel within `thick` of the box and outside it, clipped to
+        // the image, as first written: the whole area visited.
+        let by_area = |img: &mut RgbImage, [x, y, w, h]: [u32; 4], thick: u32, c: Rgb<u8>| {
+            let (iw, ih) = img.dimensions();
+            let (x1, y1) = (x + w.max(1), y + h.max(1));
+            for py in y.saturating_sub(thick)..(y1 + thick).min(ih) {
+                for px in x.saturating_sub(thick)..(x1 + thick).min(iw) {
+                    if !(px >= x && px < x1 && py >= y && py < y1) {
+                        img.put_pixel(px, py, c);
+                    }
+                }
+            }
+        };
+        let red = Rgb([200, 0, 0]);
+        for rect in [
+            [5, 6, 10, 4],
+            [0, 0, 3, 3],
+            [1, 1, 0, 0],
+            [30, 15, 10, 10],
+            [38, 18, 9, 9],
+            [0, 10, 40, 2],
+            [45, 25, 5, 5],
+        ] {
+            for thick in [1, 2, 3] {
+                let mut fast = RgbImage::from_pixel(40, 20, Rgb([255, 255, 255]));
+                let mut slow = fast.clone();
+                outline(&mut fast, rect, thick, red);
+                by_area(&mut slow, rect, thick, red);
+                assert_eq!(fast, slow, "rect {rect:?}, thick {thick}");
+            }
         }
     }
 
