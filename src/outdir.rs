@@ -131,6 +131,8 @@ pub struct Generation {
     staging: PathBuf,
     /// Entries carried over from the old report (not ours).
     carried: BTreeSet<String>,
+    /// Whether `out` holds an earlier report (see [`Generation::previous`]).
+    has_previous: bool,
     committed: bool,
 }
 
@@ -312,10 +314,12 @@ impl Generation {
             out: out.to_path_buf(),
             staging,
             carried: BTreeSet::new(),
+            has_previous: false,
             committed: false,
         };
         if let DirKind::Report { owned } = kind {
             generation.carry_foreign(&owned)?;
+            generation.has_previous = true;
         }
         Ok(generation)
     }
@@ -328,6 +332,13 @@ impl Generation {
     /// The `--out` directory.
     pub fn out(&self) -> &Path {
         &self.out
+    }
+
+    /// The earlier report this generation replaces, when `--out` holds one:
+    /// the writers may hard-link its unchanged files instead of writing
+    /// them again ([`crate::report::WriteOptions::reuse_from`]).
+    pub fn previous(&self) -> Option<&Path> {
+        self.has_previous.then_some(self.out.as_path())
     }
 
     /// Links every entry of the old report that ledflicker did not write

@@ -64,6 +64,7 @@ pub(super) fn merge(a: MergeArgs) -> anyhow::Result<i32> {
             signatories: Vec::new(),
             inputs: m.manifest.inputs.iter().map(Into::into).collect(),
             detail: a.detail.into(),
+            reuse_from: generation.previous().map(std::path::Path::to_path_buf),
         },
     )
     .with_context(|| format!("cannot write the report to `{}`", out.display()))?;

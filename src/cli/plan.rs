@@ -200,6 +200,7 @@ fn write_report(
             signatories: Vec::new(),
             inputs,
             detail: run.args.detail.into(),
+            reuse_from: run.generation.previous().map(Path::to_path_buf),
         },
     )
     .with_context(|| format!("cannot write the report to `{}`", run.out.display()))?;

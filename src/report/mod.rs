@@ -86,6 +86,10 @@ pub struct WriteOptions {
     pub inputs: Vec<InputFile>,
     /// How much of each case the report shows.
     pub detail: Detail,
+    /// The earlier report in the same `--out` ([`crate::outdir::Generation::previous`]):
+    /// a file of traces/, charts/ or frames/ whose bytes are the same as
+    /// its file there is hard-linked from it instead of written.
+    pub reuse_from: Option<PathBuf>,
 }
 
 /// One case's trace as CSV: `frame,time_s,segment,<one luma column per ROI>`.
@@ -146,14 +150,27 @@ impl RecentValues {
 
 /// Replaces `dir/name` by a directory holding `files` (name -> bytes),
 /// built aside and renamed into place, so readers never see half of it.
-fn replace_dir(dir: &Path, name: &str, files: &[(String, Vec<u8>)]) -> Result<(), ReportError> {
+/// A file whose bytes are those of the same file in `reuse`'s `name/` is
+/// hard-linked from there ([`link_if_same`]) instead of written.
+fn replace_dir(
+    dir: &Path,
+    name: &str,
+    files: &[(String, Vec<u8>)],
+    reuse: Option<&Path>,
+) -> Result<(), ReportError> {
     let staging = dir.join(format!(".{name}.tmp-{}", std::process::id()));
     if staging.exists() {
         std::fs::remove_dir_all(&staging).map_err(io_err(&staging))?;
     }
     std::fs::create_dir_all(&staging).map_err(io_err(&staging))?;
+    let old = reuse.map(|r| r.join(name));
     for (file, bytes) in files {
         let path = staging.join(file);
+        if let Some(old) = &old
+            && link_if_same(&old.join(file), bytes, &path)
+        {
+            continue;
+        }
         std::fs::write(&path, bytes).map_err(io_err(&path))?;
     }
     let target = dir.join(name);
@@ -161,6 +178,35 @@ fn replace_dir(dir: &Path, name: &str, files: &[(String, Vec<u8>)]) -> Result<()
         std::fs::remove_dir_all(&target).map_err(io_err(&target))?;
     }
     std::fs::rename(&staging, &target).map_err(io_err(&target))
+}
+
+/// Hard-links `old` to `path` when `old` is a regular file of the earlier
+/// report holding exactly `bytes`, and gives it this run's modification
+/// time; false (nothing done) otherwise, and the caller writes the file.
+///
+/// Rewriting an unchanged file costs a new inode and, when the old report
+/// is removed, a freed one; on ext4 without a journal each new inode is
+/// searched for past the inodes freed in the last minutes, so a report
+/// re-run in place got slower run after run (docs/speed.md, "Unchanged
+/// files linked, not rewritten"). A file with other links (a user's
+/// hard-linked copy of the report, say) is never shared: only files that
+/// the earlier report alone holds are linked.
+fn link_if_same(old: &Path, bytes: &[u8], path: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    let same = std::fs::symlink_metadata(old)
+        .is_ok_and(|m| m.file_type().is_file() && m.nlink() == 1 && m.len() == bytes.len() as u64)
+        && std::fs::read(old).is_ok_and(|held| held == bytes);
+    if !same || std::fs::hard_link(old, path).is_err() {
+        return false;
+    }
+    let now = std::time::SystemTime::now();
+    let touched = std::fs::File::open(path).and_then(|f| f.set_modified(now));
+    if touched.is_err() {
+        // Not ours to change after all: write a file of our own instead.
+        let _ = std::fs::remove_file(path);
+        return false;
+    }
+    true
 }
 
 /// Replaces frames/ by each case's full-size frame and, beside it, the
@@ -171,6 +217,7 @@ fn write_frames(
     results: &[CaseResult],
     full_frames: Vec<(String, Vec<u8>)>,
     doc: &document::Document,
+    reuse: Option<&Path>,
 ) -> Result<(), ReportError> {
     let _t = crate::timings::span("report: write frames");
     if full_frames.is_empty() {
@@ -188,7 +235,7 @@ fn write_frames(
             files.push((format!("{}-view.png", r.case.id), view.clone()));
         }
     }
-    replace_dir(dir, document::FRAMES_DIR, &files)
+    replace_dir(dir, document::FRAMES_DIR, &files, reuse)
 }
 
 /// What [`write_report`] makes while Typst lays out the PDF: traces/,
@@ -214,7 +261,8 @@ fn write_beside_pdf(
             (name, svg.clone().into_bytes())
         })
         .collect();
-    replace_dir(dir, document::CHARTS_DIR, &files)?;
+    let reuse = options.reuse_from.as_deref();
+    replace_dir(dir, document::CHARTS_DIR, &files, reuse)?;
     drop(t);
     let t = crate::timings::span("report: traces and frames");
     let traces: Vec<(String, Vec<u8>)> = {
@@ -224,7 +272,7 @@ fn write_beside_pdf(
             .map(|r| (format!("{}.csv", r.case.id), trace_csv(r).into_bytes()))
             .collect()
     };
-    replace_dir(dir, "traces", &traces)?;
+    replace_dir(dir, "traces", &traces, reuse)?;
 
     // PNG encoding is independent per frame: in parallel, in case order.
     let full_frames: Vec<(String, Vec<u8>)> = {
@@ -241,7 +289,7 @@ fn write_beside_pdf(
         images,
         ..layout_doc.clone()
     };
-    write_frames(dir, results, full_frames, &doc)?;
+    write_frames(dir, results, full_frames, &doc, reuse)?;
     let html = {
         let _t = crate::timings::span("report: html");
         html::render_document(&doc)?
@@ -365,6 +413,60 @@ mod tests {
             out.push('\n');
         }
         out
+    }
+
+    #[test]
+    fn an_unchanged_file_alone_in_the_earlier_report_is_linked_not_written() {
+        use std::os::unix::fs::MetadataExt;
+        let dir = std::env::temp_dir().join(format!("ledflicker-link-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let (old, new) = (dir.join("old"), dir.join("new"));
+        std::fs::create_dir_all(&old).unwrap();
+        std::fs::create_dir_all(&new).unwrap();
+        let write = |name: &str, bytes: &[u8]| std::fs::write(old.join(name), bytes).unwrap();
+        write("same.csv", b"1,2\n");
+        write("changed.csv", b"1,2\n");
+        write("longer.csv", b"1,2\n");
+        write("shared.csv", b"1,2\n");
+        std::fs::hard_link(old.join("shared.csv"), dir.join("users-copy.csv")).unwrap();
+        std::os::unix::fs::symlink(old.join("same.csv"), old.join("link.csv")).unwrap();
+        let stamp = std::time::SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1_000_000);
+        std::fs::File::open(old.join("same.csv"))
+            .unwrap()
+            .set_modified(stamp)
+            .unwrap();
+
+        let link = |name: &str, bytes: &[u8]| link_if_same(&old.join(name), bytes, &new.join(name));
+        assert!(link("same.csv", b"1,2\n"));
+        assert!(!link("changed.csv", b"1,3\n"), "same length, other bytes");
+        assert!(!link("longer.csv", b"1,2,3\n"));
+        assert!(
+            !link("shared.csv", b"1,2\n"),
+            "a file with another link stays apart"
+        );
+        assert!(
+            !link("link.csv", b"1,2\n"),
+            "a symbolic link is not a file of ours"
+        );
+        assert!(!link("missing.csv", b"1,2\n"));
+        // The linked file is the earlier file, with this run's time.
+        let (a, b) = (
+            std::fs::metadata(old.join("same.csv")).unwrap(),
+            std::fs::metadata(new.join("same.csv")).unwrap(),
+        );
+        assert_eq!((a.ino(), a.nlink()), (b.ino(), 2));
+        assert!(b.modified().unwrap() > stamp + std::time::Duration::from_secs(1_000_000));
+        // Nothing was made where the caller must write.
+        for name in [
+            "changed.csv",
+            "longer.csv",
+            "shared.csv",
+            "link.csv",
+            "missing.csv",
+        ] {
+            assert!(!new.join(name).exists(), "{name}");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

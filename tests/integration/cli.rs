@@ -415,3 +415,48 @@ fn bands_estimates_the_frequency_of_a_rendered_frame() {
     let f = v["estimated_frequency_hz"].as_f64().unwrap();
     assert!((f - 700.0).abs() < 1.0, "{f}");
 }
+
+#[test]
+fn a_report_rerun_in_place_links_its_unchanged_files_and_never_a_users_copy() {
+    use std::os::unix::fs::MetadataExt;
+    let root_dir = scratch("rerun-in-place");
+    let out = root_dir.join("report");
+    let args = [
+        "plan",
+        "tests/fixtures/plans/base.toml",
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+        "--force",
+    ];
+    let o = ledflicker(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let traces: Vec<std::path::PathBuf> = std::fs::read_dir(out.join("traces"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert!(traces.len() >= 2, "{traces:?}");
+    let inode = |p: &std::path::Path| std::fs::metadata(p).unwrap().ino();
+    let before: Vec<u64> = traces.iter().map(|p| inode(p)).collect();
+    // A user keeps a hard-linked copy of one trace.
+    let copy = root_dir.join("kept.csv");
+    std::fs::hard_link(&traces[0], &copy).unwrap();
+    let kept = std::fs::read(&copy).unwrap();
+    let started = std::time::SystemTime::now();
+    std::thread::sleep(std::time::Duration::from_millis(20));
+
+    let o = ledflicker(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // Unchanged traces are the same files, with this run's time; the one
+    // the user also holds was written anew, and the user's copy is intact.
+    assert_ne!(inode(&traces[0]), before[0]);
+    assert_eq!(inode(&copy), before[0]);
+    assert_eq!(std::fs::read(&copy).unwrap(), kept);
+    assert_eq!(std::fs::read(&traces[0]).unwrap(), kept);
+    for (path, ino) in traces.iter().zip(&before).skip(1) {
+        assert_eq!(inode(path), *ino, "{}", path.display());
+        let meta = std::fs::metadata(path).unwrap();
+        assert_eq!(meta.nlink(), 1, "{}", path.display());
+        assert!(meta.modified().unwrap() > started, "{}", path.display());
+    }
+}
