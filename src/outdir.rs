@@ -12,7 +12,10 @@
 //!    `.<name>.ledflicker-new-<pid>` next to `--out`. Files of the old
 //!    report that ledflicker did not write are hard-linked (or copied) into
 //!    the staging directory, so they survive the swap.
-//! 2. The report is written into [`Generation::path`].
+//! 2. The report is written into [`Generation::path`]. Unchanged files of
+//!    the earlier report ([`Generation::previous`]) may be hard-linked
+//!    into it instead of written (`report::link_if_same`: only files that
+//!    report alone holds; nothing is written through a link).
 //! 3. [`Generation::commit`] writes [`MARKER`] (the list of what this run
 //!    wrote) and exchanges the staging directory with `--out` in one
 //!    `renameat2(RENAME_EXCHANGE)`; where the file system cannot, two

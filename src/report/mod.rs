@@ -151,7 +151,8 @@ impl RecentValues {
 /// Replaces `dir/name` by a directory holding `files` (name -> bytes),
 /// built aside and renamed into place, so readers never see half of it.
 /// A file whose bytes are those of the same file in `reuse`'s `name/` is
-/// hard-linked from there ([`link_if_same`]) instead of written.
+/// hard-linked from there ([`link_if_same`]) instead of written; every
+/// other file is created anew, never written through an existing name.
 fn replace_dir(
     dir: &Path,
     name: &str,
@@ -163,15 +164,26 @@ fn replace_dir(
         std::fs::remove_dir_all(&staging).map_err(io_err(&staging))?;
     }
     std::fs::create_dir_all(&staging).map_err(io_err(&staging))?;
-    let old = reuse.map(|r| r.join(name));
+    // The earlier report's folder, when it is a real folder (a symbolic
+    // link may lead to a user's files), and what a file written now
+    // would be: our owner, and the mode the umask leaves (read off the
+    // folder just made, 0o777 less the umask).
+    let earlier = reuse
+        .map(|r| r.join(name))
+        .filter(|d| std::fs::symlink_metadata(d).is_ok_and(|m| m.file_type().is_dir()));
+    let fresh = std::fs::metadata(&staging).map_err(io_err(&staging))?;
+    let fresh = FileIdentity {
+        uid: std::os::unix::fs::MetadataExt::uid(&fresh),
+        mode: std::os::unix::fs::MetadataExt::mode(&fresh) & 0o666,
+    };
     for (file, bytes) in files {
         let path = staging.join(file);
-        if let Some(old) = &old
-            && link_if_same(&old.join(file), bytes, &path)
+        if let Some(earlier) = &earlier
+            && link_if_same(&earlier.join(file), bytes, &path, fresh)
         {
             continue;
         }
-        std::fs::write(&path, bytes).map_err(io_err(&path))?;
+        write_new(&path, bytes).map_err(io_err(&path))?;
     }
     let target = dir.join(name);
     if target.exists() {
@@ -180,33 +192,88 @@ fn replace_dir(
     std::fs::rename(&staging, &target).map_err(io_err(&target))
 }
 
-/// Hard-links `old` to `path` when `old` is a regular file of the earlier
-/// report holding exactly `bytes`, and gives it this run's modification
-/// time; false (nothing done) otherwise, and the caller writes the file.
+/// Creates `path` holding `bytes`; a file already there (a name given
+/// twice, or a link) is unlinked first, never written through: the last
+/// bytes win, and a linked earlier file is left as it was.
+fn write_new(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write as _;
+    let create = || {
+        std::fs::File::options()
+            .write(true)
+            .create_new(true)
+            .open(path)
+    };
+    let mut file = match create() {
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+            std::fs::remove_file(path)?;
+            create()?
+        }
+        other => other?,
+    };
+    file.write_all(bytes)
+}
+
+/// Owner and permission bits a file created now gets.
+#[derive(Debug, Clone, Copy)]
+struct FileIdentity {
+    uid: u32,
+    mode: u32,
+}
+
+/// Hard-links `old` to `path` when `old` is a file of the earlier report
+/// that a write now would make again: a regular file (not a symbolic
+/// link), linked nowhere else, of this run's owner and permission bits
+/// (`fresh`), holding exactly `bytes`. Returns false, with nothing made,
+/// otherwise; the caller then writes the file.
 ///
 /// Rewriting an unchanged file costs a new inode and, when the old report
 /// is removed, a freed one; on ext4 without a journal each new inode is
 /// searched for past the inodes freed in the last minutes, so a report
-/// re-run in place got slower run after run (docs/speed.md, "Unchanged
-/// files linked, not rewritten"). A file with other links (a user's
-/// hard-linked copy of the report, say) is never shared: only files that
-/// the earlier report alone holds are linked.
-fn link_if_same(old: &Path, bytes: &[u8], path: &Path) -> bool {
-    use std::os::unix::fs::MetadataExt;
-    let same = std::fs::symlink_metadata(old)
-        .is_ok_and(|m| m.file_type().is_file() && m.nlink() == 1 && m.len() == bytes.len() as u64)
-        && std::fs::read(old).is_ok_and(|held| held == bytes);
-    if !same || std::fs::hard_link(old, path).is_err() {
+/// re-run in place got slower run after run (docs/speed.md, "Re-runs in
+/// place link their unchanged files"). A file with other links (a user's
+/// hard-linked copy of the report, say) is never shared. The file is read
+/// and checked through one handle, and the link is kept only if it names
+/// that same file, unchanged, with the one new link: a file replaced or
+/// written between the check and the link is not taken. The linked file
+/// keeps its modification time (it is the file of the earlier run).
+fn link_if_same(old: &Path, bytes: &[u8], path: &Path, fresh: FileIdentity) -> bool {
+    use std::io::Read as _;
+    use std::os::unix::fs::{MetadataExt, OpenOptionsExt};
+    let Ok(mut file) = std::fs::File::options()
+        .read(true)
+        .custom_flags(libc::O_NOFOLLOW)
+        .open(old)
+    else {
+        return false;
+    };
+    let Ok(before) = file.metadata() else {
+        return false;
+    };
+    let ours = before.file_type().is_file()
+        && before.nlink() == 1
+        && before.uid() == fresh.uid
+        && before.mode() & 0o7777 == fresh.mode
+        && before.len() == bytes.len() as u64;
+    let mut held = Vec::with_capacity(bytes.len());
+    if !ours || file.read_to_end(&mut held).is_err() || held != bytes {
         return false;
     }
-    let now = std::time::SystemTime::now();
-    let touched = std::fs::File::open(path).and_then(|f| f.set_modified(now));
-    if touched.is_err() {
-        // Not ours to change after all: write a file of our own instead.
+    if std::fs::hard_link(old, path).is_err() {
+        return false;
+    }
+    let unchanged = |m: &std::fs::Metadata| {
+        m.dev() == before.dev()
+            && m.ino() == before.ino()
+            && m.nlink() == 2
+            && m.len() == before.len()
+            && (m.mtime(), m.mtime_nsec()) == (before.mtime(), before.mtime_nsec())
+    };
+    let kept = std::fs::symlink_metadata(path).is_ok_and(|m| unchanged(&m))
+        && file.metadata().is_ok_and(|m| unchanged(&m));
+    if !kept {
         let _ = std::fs::remove_file(path);
-        return false;
     }
-    true
+    kept
 }
 
 /// Replaces frames/ by each case's full-size frame and, beside it, the
@@ -415,57 +482,121 @@ mod tests {
         out
     }
 
-    #[test]
-    fn an_unchanged_file_alone_in_the_earlier_report_is_linked_not_written() {
-        use std::os::unix::fs::MetadataExt;
-        let dir = std::env::temp_dir().join(format!("ledflicker-link-{}", std::process::id()));
+    /// A fresh scratch folder for one test.
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("ledflicker-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        let (old, new) = (dir.join("old"), dir.join("new"));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn replace_dir_links_only_unchanged_files_the_earlier_report_alone_holds() {
+        use std::os::unix::fs::{MetadataExt, PermissionsExt};
+        let dir = scratch("link");
+        let (earlier, new) = (dir.join("earlier"), dir.join("new"));
+        let old = earlier.join("traces");
         std::fs::create_dir_all(&old).unwrap();
         std::fs::create_dir_all(&new).unwrap();
-        let write = |name: &str, bytes: &[u8]| std::fs::write(old.join(name), bytes).unwrap();
-        write("same.csv", b"1,2\n");
-        write("changed.csv", b"1,2\n");
-        write("longer.csv", b"1,2\n");
-        write("shared.csv", b"1,2\n");
-        std::fs::hard_link(old.join("shared.csv"), dir.join("users-copy.csv")).unwrap();
-        std::os::unix::fs::symlink(old.join("same.csv"), old.join("link.csv")).unwrap();
-        let stamp = std::time::SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1_000_000);
-        std::fs::File::open(old.join("same.csv"))
-            .unwrap()
-            .set_modified(stamp)
-            .unwrap();
-
-        let link = |name: &str, bytes: &[u8]| link_if_same(&old.join(name), bytes, &new.join(name));
-        assert!(link("same.csv", b"1,2\n"));
-        assert!(!link("changed.csv", b"1,3\n"), "same length, other bytes");
-        assert!(!link("longer.csv", b"1,2,3\n"));
-        assert!(
-            !link("shared.csv", b"1,2\n"),
-            "a file with another link stays apart"
-        );
-        assert!(
-            !link("link.csv", b"1,2\n"),
-            "a symbolic link is not a file of ours"
-        );
-        assert!(!link("missing.csv", b"1,2\n"));
-        // The linked file is the earlier file, with this run's time.
-        let (a, b) = (
-            std::fs::metadata(old.join("same.csv")).unwrap(),
-            std::fs::metadata(new.join("same.csv")).unwrap(),
-        );
-        assert_eq!((a.ino(), a.nlink()), (b.ino(), 2));
-        assert!(b.modified().unwrap() > stamp + std::time::Duration::from_secs(1_000_000));
-        // Nothing was made where the caller must write.
+        let put = |path: &Path, bytes: &[u8]| write_new(path, bytes).unwrap();
         for name in [
+            "same.csv",
+            "changed.csv",
+            "longer.csv",
+            "shared.csv",
+            "private.csv",
+        ] {
+            put(&old.join(name), b"1,2\n");
+        }
+        put(&old.join("dup.csv"), b"A\n");
+        // A user's hard-linked copy, a symbolic link to a user's file of
+        // the same bytes, and a file of other permission bits.
+        std::fs::hard_link(old.join("shared.csv"), dir.join("users-copy.csv")).unwrap();
+        put(&dir.join("users.csv"), b"1,2\n");
+        std::os::unix::fs::symlink(dir.join("users.csv"), old.join("link.csv")).unwrap();
+        let mode = std::fs::metadata(old.join("private.csv")).unwrap().mode() & 0o7777;
+        let other = std::fs::Permissions::from_mode(mode ^ 0o020);
+        std::fs::set_permissions(old.join("private.csv"), other).unwrap();
+        let ino = |p: &Path| std::fs::symlink_metadata(p).unwrap().ino();
+        let before: Vec<(String, u64)> = std::fs::read_dir(&old)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .map(|p| {
+                (
+                    p.file_name().unwrap().to_string_lossy().into_owned(),
+                    ino(&p),
+                )
+            })
+            .collect();
+        let files: Vec<(String, Vec<u8>)> = [
+            ("same.csv", &b"1,2\n"[..]),
+            ("changed.csv", b"1,3\n"),
+            ("longer.csv", b"1,2,3\n"),
+            ("shared.csv", b"1,2\n"),
+            ("link.csv", b"1,2\n"),
+            ("private.csv", b"1,2\n"),
+            ("missing.csv", b"1,2\n"),
+            // A name given twice: the second must not write through the
+            // link the first made.
+            ("dup.csv", b"A\n"),
+            ("dup.csv", b"B\n"),
+        ]
+        .iter()
+        .map(|(n, b)| (n.to_string(), b.to_vec()))
+        .collect();
+        replace_dir(&new, "traces", &files, Some(&earlier)).unwrap();
+
+        let got = new.join("traces");
+        let linked: Vec<&str> = [
+            "same.csv",
             "changed.csv",
             "longer.csv",
             "shared.csv",
             "link.csv",
-            "missing.csv",
-        ] {
-            assert!(!new.join(name).exists(), "{name}");
+            "private.csv",
+            "dup.csv",
+        ]
+        .into_iter()
+        .filter(|n| ino(&got.join(n)) == ino(&old.join(n)))
+        .collect();
+        assert_eq!(linked, ["same.csv"]);
+        // Every file holds its bytes (the last of a name given twice) ...
+        for (name, bytes) in &files[..7] {
+            assert_eq!(&std::fs::read(got.join(name)).unwrap(), bytes, "{name}");
         }
+        assert_eq!(std::fs::read(got.join("dup.csv")).unwrap(), b"B\n");
+        assert!(
+            !std::fs::symlink_metadata(got.join("link.csv"))
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
+        // ... and the earlier report and the user's files are as they were.
+        for (name, ino_before) in &before {
+            assert_eq!(ino(&old.join(name)), *ino_before, "{name}");
+        }
+        assert_eq!(std::fs::read(old.join("dup.csv")).unwrap(), b"A\n");
+        assert_eq!(std::fs::read(old.join("changed.csv")).unwrap(), b"1,2\n");
+        assert_eq!(std::fs::metadata(dir.join("users.csv")).unwrap().nlink(), 1);
+        assert_eq!(
+            std::fs::metadata(dir.join("users-copy.csv"))
+                .unwrap()
+                .nlink(),
+            2
+        );
+
+        // An earlier traces/ that is a symbolic link (to a user's folder of
+        // the same files) is not looked into.
+        let (earlier2, new2) = (dir.join("earlier2"), dir.join("new2"));
+        std::fs::create_dir_all(&earlier2).unwrap();
+        std::fs::create_dir_all(&new2).unwrap();
+        std::os::unix::fs::symlink(&old, earlier2.join("traces")).unwrap();
+        replace_dir(&new2, "traces", &files[..1], Some(&earlier2)).unwrap();
+        assert_ne!(
+            ino(&new2.join("traces/same.csv")),
+            ino(&old.join("same.csv"))
+        );
+        assert_eq!(std::fs::metadata(old.join("same.csv")).unwrap().nlink(), 2);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
