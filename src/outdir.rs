@@ -51,6 +51,20 @@ const KNOWN_ENTRIES: &[&str] = &[
     MARKER,
 ];
 
+/// Top-level names every report run writes (`crate::report::write_report`):
+/// an entry of one of these names that the earlier report did not write is
+/// a user's, and is never replaced (see [`Generation::begin`]).
+pub const REPORT_ENTRIES: &[&str] = &[
+    "results.json",
+    "traces",
+    "charts",
+    "frames",
+    "report.html",
+    "report.pdf",
+    "junit.xml",
+    "summary.csv",
+];
+
 /// A file in a report directory that marks it as signed (the CMS signature
 /// of its manifest); such a directory is never overwritten without `--force`.
 pub const SIGNOFF_FILE: &str = "signoff.p7s";
@@ -355,6 +369,22 @@ impl Generation {
             if owned.contains(&name) {
                 continue;
             }
+            if REPORT_ENTRIES.contains(&name.as_str()) {
+                // A user's file or folder under a name the report writes
+                // (say a `frames/` made where the last run wrote none):
+                // carried over, it would be replaced, and lost with the
+                // old generation.
+                return Err(OutDirError::Refused {
+                    dir: self.out.clone(),
+                    message: format!(
+                        "holds `{name}`, which ledflicker did not write there (its {MARKER} marker does not list it), but a report writes `{name}`; refusing to replace it"
+                    ),
+                    hint: format!(
+                        "move or rename `{}` out of the way, then run again",
+                        e.path().display()
+                    ),
+                });
+            }
             let to = self.staging.join(&name);
             link_tree(&e.path(), &to).map_err(|err| io_err(&self.out, "keep", &e.path(), err))?;
             self.carried.insert(name);
@@ -521,6 +551,39 @@ mod tests {
             std::fs::read_dir(&root).unwrap().count(),
             1,
             "no staging left behind"
+        );
+    }
+
+    #[test]
+    fn a_users_entry_under_a_name_the_report_writes_is_refused_and_kept() {
+        let root = scratch("user-frames");
+        let out = root.join("report");
+        // The last run wrote no frames/; the user then made one.
+        write_generation(&out, &[("results.json", "1"), ("traces/a.csv", "a")]);
+        std::fs::create_dir_all(out.join("frames")).unwrap();
+        std::fs::write(out.join("frames/bench-photo.jpg"), "mine").unwrap();
+        let err = Generation::begin(&out).unwrap_err();
+        assert!(err.is_usage_error(), "{err}");
+        let text = err.to_string();
+        assert!(
+            text.contains("`frames`") && text.contains("refusing"),
+            "{text}"
+        );
+        assert_eq!(
+            std::fs::read_to_string(out.join("frames/bench-photo.jpg")).unwrap(),
+            "mine"
+        );
+        assert_eq!(
+            std::fs::read_dir(&root).unwrap().count(),
+            1,
+            "no staging left behind"
+        );
+        // Moved out of the way, the run goes ahead.
+        std::fs::rename(out.join("frames"), root.join("photos")).unwrap();
+        write_generation(&out, &[("results.json", "2")]);
+        assert_eq!(
+            std::fs::read_to_string(out.join("results.json")).unwrap(),
+            "2"
         );
     }
 
