@@ -33,24 +33,6 @@ pub const MARKER: &str = ".ledflicker";
 
 const MARKER_HEADER: &str = "ledflicker report directory; entries written by `ledflicker plan`:";
 
-/// Top-level names a ledflicker report has held, for reports written
-/// before [`MARKER`] existed (recognised by results.json alone).
-const KNOWN_ENTRIES: &[&str] = &[
-    "results.json",
-    "traces",
-    "charts",
-    "frames",
-    "report.html",
-    "report.pdf",
-    "junit.xml",
-    "summary.csv",
-    "signoff.json",
-    "signoff.p7s",
-    "manifest.txt",
-    "signatures",
-    MARKER,
-];
-
 /// Top-level names every report run writes (`crate::report::write_report`):
 /// an entry of one of these names that the earlier report did not write is
 /// a user's, and is never replaced (see [`Generation::begin`]).
@@ -206,7 +188,13 @@ pub fn classify(dir: &Path) -> Result<DirKind, OutDirError> {
         return Ok(DirKind::Report { owned });
     }
     if results_schema_is_ours(&dir.join("results.json")) {
-        let owned = KNOWN_ENTRIES.iter().map(|s| s.to_string()).collect();
+        // Written before the marker existed: what a report has held.
+        let owned = REPORT_ENTRIES
+            .iter()
+            .chain(&SIGNOFF_FILES)
+            .chain(&[MARKER])
+            .map(|s| s.to_string())
+            .collect();
         return Ok(DirKind::Report { owned });
     }
     Ok(DirKind::Foreign)
@@ -537,18 +525,19 @@ mod tests {
         let out = root.join("captures");
         std::fs::create_dir_all(out.join("frames")).unwrap();
         std::fs::write(out.join("frames/0001.png"), "mine").unwrap();
-        let err = Generation::begin(&out).unwrap_err();
+        assert_refused_and_kept(&root, &out, "frames/0001.png", "holds no ledflicker report");
+    }
+
+    /// `begin` on `out` is refused with a usage error saying `says`; the
+    /// user's file `kept` (holding "mine") is as it was, and nothing is
+    /// left beside `out` in `root`.
+    fn assert_refused_and_kept(root: &Path, out: &Path, kept: &str, says: &str) {
+        let err = Generation::begin(out).unwrap_err();
         assert!(err.is_usage_error(), "{err}");
-        assert!(
-            err.to_string().contains("holds no ledflicker report"),
-            "{err}"
-        );
+        assert!(err.to_string().contains(says), "{err}");
+        assert_eq!(std::fs::read_to_string(out.join(kept)).unwrap(), "mine");
         assert_eq!(
-            std::fs::read_to_string(out.join("frames/0001.png")).unwrap(),
-            "mine"
-        );
-        assert_eq!(
-            std::fs::read_dir(&root).unwrap().count(),
+            std::fs::read_dir(root).unwrap().count(),
             1,
             "no staging left behind"
         );
@@ -562,21 +551,11 @@ mod tests {
         write_generation(&out, &[("results.json", "1"), ("traces/a.csv", "a")]);
         std::fs::create_dir_all(out.join("frames")).unwrap();
         std::fs::write(out.join("frames/bench-photo.jpg"), "mine").unwrap();
-        let err = Generation::begin(&out).unwrap_err();
-        assert!(err.is_usage_error(), "{err}");
-        let text = err.to_string();
-        assert!(
-            text.contains("`frames`") && text.contains("refusing"),
-            "{text}"
-        );
-        assert_eq!(
-            std::fs::read_to_string(out.join("frames/bench-photo.jpg")).unwrap(),
-            "mine"
-        );
-        assert_eq!(
-            std::fs::read_dir(&root).unwrap().count(),
-            1,
-            "no staging left behind"
+        assert_refused_and_kept(
+            &root,
+            &out,
+            "frames/bench-photo.jpg",
+            "holds `frames`, which ledflicker did not write there",
         );
         // Moved out of the way, the run goes ahead.
         std::fs::rename(out.join("frames"), root.join("photos")).unwrap();
