@@ -271,20 +271,7 @@ mod tests {
             .map(|f| dir.join(f))
             .collect();
         let refs: Vec<&Path> = paths.iter().map(|p| p.as_path()).collect();
-        let rois = [
-            RoiRect {
-                x: 457,
-                y: 247,
-                width: 20,
-                height: 2,
-            },
-            RoiRect {
-                x: 640,
-                y: 500,
-                width: 13,
-                height: 9,
-            },
-        ];
+        let rois = two_rois();
         let opts = ReadOptions {
             luma: super::super::LumaWeights::Bt601,
             video_decode: super::super::VideoDecode::Rgb,
