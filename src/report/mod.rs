@@ -239,9 +239,11 @@ struct FileIdentity {
 fn link_if_same(old: &Path, bytes: &[u8], path: &Path, fresh: FileIdentity) -> bool {
     use std::io::Read as _;
     use std::os::unix::fs::{MetadataExt, OpenOptionsExt};
+    // Not through a symbolic link, and never waiting on a FIFO or device
+    // someone put there (the type check below turns it down).
     let Ok(mut file) = std::fs::File::options()
         .read(true)
-        .custom_flags(libc::O_NOFOLLOW)
+        .custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK)
         .open(old)
     else {
         return false;
@@ -509,6 +511,12 @@ mod tests {
             put(&old.join(name), b"1,2\n");
         }
         put(&old.join("dup.csv"), b"A\n");
+        // A FIFO where a file was: opening it must not wait for a writer.
+        let fifo =
+            std::ffi::CString::new(old.join("fifo.csv").into_os_string().into_encoded_bytes())
+                .unwrap();
+        // SAFETY: a NUL-terminated path that lives across the call.
+        assert_eq!(unsafe { libc::mkfifo(fifo.as_ptr(), 0o644) }, 0);
         // A user's hard-linked copy, a symbolic link to a user's file of
         // the same bytes, and a file of other permission bits.
         std::fs::hard_link(old.join("shared.csv"), dir.join("users-copy.csv")).unwrap();
@@ -536,6 +544,7 @@ mod tests {
             ("link.csv", b"1,2\n"),
             ("private.csv", b"1,2\n"),
             ("missing.csv", b"1,2\n"),
+            ("fifo.csv", b""),
             // A name given twice: the second must not write through the
             // link the first made.
             ("dup.csv", b"A\n"),
@@ -561,7 +570,7 @@ mod tests {
         .collect();
         assert_eq!(linked, ["same.csv"]);
         // Every file holds its bytes (the last of a name given twice) ...
-        for (name, bytes) in &files[..7] {
+        for (name, bytes) in &files[..8] {
             assert_eq!(&std::fs::read(got.join(name)).unwrap(), bytes, "{name}");
         }
         assert_eq!(std::fs::read(got.join("dup.csv")).unwrap(), b"B\n");
