@@ -436,6 +436,17 @@ fn a_report_rerun_in_place_links_its_unchanged_files_and_never_a_users_copy() {
     };
     let base = "tests/fixtures/plans/base.toml";
     run(base, &out);
+    // What a run writes at the top is what the output folder rules call
+    // the report's own names (a user's entry of such a name is refused).
+    let mut written: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n != ledflicker::outdir::MARKER)
+        .collect();
+    written.sort();
+    let mut names = ledflicker::outdir::REPORT_ENTRIES.to_vec();
+    names.sort();
+    assert_eq!(written, names);
     let traces: Vec<std::path::PathBuf> = std::fs::read_dir(out.join("traces"))
         .unwrap()
         .map(|e| e.unwrap().path())
