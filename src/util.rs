@@ -63,6 +63,74 @@ pub fn is_calendar_date(d: &str) -> bool {
     y >= 1 && (1..=days).contains(&day)
 }
 
+/// Opens a file the user named as input, for reading, without ever
+/// waiting on it: non-blocking, so that a FIFO or a device in its place
+/// does not hang the tool, then refused unless it is a regular file
+/// (symbolic links are followed; the target must be a regular file). The
+/// returned handle reads normally (blocking mode is restored).
+///
+/// The error is `InvalidInput` with "is a FIFO, not a regular file" (or a
+/// directory, device, socket) for anything but a regular file.
+pub fn open_input(path: &Path) -> std::io::Result<std::fs::File> {
+    use std::os::unix::fs::{FileTypeExt, OpenOptionsExt};
+    use std::os::unix::io::AsRawFd;
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK | libc::O_CLOEXEC)
+        .open(path)?;
+    let kind = file.metadata()?.file_type();
+    if !kind.is_file() {
+        let what = if kind.is_fifo() {
+            "a FIFO (named pipe)"
+        } else if kind.is_dir() {
+            "a directory"
+        } else if kind.is_char_device() || kind.is_block_device() {
+            "a device"
+        } else if kind.is_socket() {
+            "a socket"
+        } else {
+            "not a file"
+        };
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("is {what}, not a regular file; give a regular file"),
+        ));
+    }
+    // SAFETY: fcntl on a descriptor this function owns; clearing
+    // O_NONBLOCK has no effect on a regular file's reads but keeps the
+    // handle ordinary for the code that reads it.
+    unsafe {
+        let fd = file.as_raw_fd();
+        let flags = libc::fcntl(fd, libc::F_GETFL);
+        if flags >= 0 {
+            libc::fcntl(fd, libc::F_SETFL, flags & !libc::O_NONBLOCK);
+        }
+    }
+    Ok(file)
+}
+
+/// [`std::fs::read`] through [`open_input`]: the whole of a regular file.
+pub fn read_input(path: &Path) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let mut file = open_input(path)?;
+    let mut bytes = Vec::new();
+    file.read_to_end(&mut bytes)?;
+    Ok(bytes)
+}
+
+/// [`std::fs::read_to_string`] through [`open_input`].
+pub fn read_input_to_string(path: &Path) -> std::io::Result<String> {
+    String::from_utf8(read_input(path)?)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e.utf8_error()))
+}
+
+/// True when `path` names something other than a regular file (a FIFO, a
+/// device, a socket or a directory), without opening it. Use before
+/// handing a path to another program (ffmpeg) that would block on it.
+pub fn is_special_file(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| !m.file_type().is_file())
+}
+
 /// Writes `bytes` to `path` atomically: a temporary file in the same
 /// directory, flushed to disk, then renamed over `path`. A reader sees the
 /// old file or the new one, never half of one.
@@ -190,6 +258,25 @@ pub fn kill_group(pgid: u32) {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn an_input_that_is_a_fifo_is_refused_at_once_not_waited_on() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("frames.y4m");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: mkfifo on a path in a fresh temporary directory.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let err = super::read_input(&fifo).unwrap_err();
+        assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
+        assert!(err.to_string().contains("FIFO"), "{err}");
+        let err = super::read_input(dir.path()).unwrap_err();
+        assert!(err.to_string().contains("directory"), "{err}");
+        let err = super::read_input(std::path::Path::new("/dev/null")).unwrap_err();
+        assert!(err.to_string().contains("device"), "{err}");
+        let file = dir.path().join("plan.toml");
+        std::fs::write(&file, "x = 1").unwrap();
+        assert_eq!(super::read_input_to_string(&file).unwrap(), "x = 1");
+    }
 
     #[test]
     fn a_staged_file_is_renamed_on_commit_and_removed_if_dropped() {
