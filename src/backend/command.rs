@@ -25,13 +25,45 @@ use crate::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Sequence, Span, TestCas
 /// directory: `ledflicker-rig-<pid>-<case id>-<random>`.
 const SCRATCH_PREFIX: &str = "ledflicker-rig-";
 
+/// What [`clean_stale_scratch`] found of runs killed with SIGKILL.
+#[derive(Debug, Default)]
+pub struct StaleRigs {
+    /// Scratch directories removed.
+    pub removed: usize,
+    /// Rig processes of those runs that were still running, and were
+    /// stopped (SIGKILL): pid and command line.
+    pub stopped: Vec<(u32, String)>,
+}
+
+impl StaleRigs {
+    /// A line for the user about the stopped rig processes, if any.
+    pub fn warning(&self) -> Option<String> {
+        if self.stopped.is_empty() {
+            return None;
+        }
+        let list: Vec<String> = self
+            .stopped
+            .iter()
+            .map(|(pid, cmd)| format!("{pid} `{cmd}`"))
+            .collect();
+        Some(format!(
+            "warning: stopped {} rig process(es) left running by an earlier run that was killed: {}",
+            list.len(),
+            list.join(", ")
+        ))
+    }
+}
+
 /// Removes the scratch directories that runs killed with SIGKILL left in
-/// the temporary directory (their process is gone); returns how many.
-pub fn clean_stale_scratch() -> usize {
+/// the temporary directory (their process is gone). A killed run cannot
+/// kill its rig's process group, which then runs on and writes into that
+/// directory: every process still working for it (its environment names
+/// the directory, as each rig process inherits it) is stopped first.
+pub fn clean_stale_scratch() -> StaleRigs {
+    let mut stale = StaleRigs::default();
     let Ok(entries) = std::fs::read_dir(std::env::temp_dir()) else {
-        return 0;
+        return stale;
     };
-    let mut removed = 0;
     for e in entries.flatten() {
         let name = e.file_name().to_string_lossy().into_owned();
         let Some(pid) = name
@@ -41,11 +73,61 @@ pub fn clean_stale_scratch() -> usize {
         else {
             continue;
         };
-        if !crate::util::alive(pid) && std::fs::remove_dir_all(e.path()).is_ok() {
-            removed += 1;
+        if crate::util::alive(pid) {
+            continue;
+        }
+        stale.stopped.extend(stop_processes_of(&e.path()));
+        if std::fs::remove_dir_all(e.path()).is_ok() {
+            stale.removed += 1;
         }
     }
-    removed
+    stale
+}
+
+/// Stops (SIGKILL) every process of this user whose environment gives
+/// `LEDFLICKER_OUT_DIR` inside `scratch`; returns their pids and command
+/// lines. Read from /proc; elsewhere nothing is found.
+fn stop_processes_of(scratch: &Path) -> Vec<(u32, String)> {
+    let Ok(procs) = std::fs::read_dir("/proc") else {
+        return Vec::new();
+    };
+    let mut want = b"LEDFLICKER_OUT_DIR=".to_vec();
+    want.extend_from_slice(scratch.as_os_str().as_encoded_bytes());
+    let mut stopped = Vec::new();
+    for p in procs.flatten() {
+        let Some(pid) = p.file_name().to_str().and_then(|n| n.parse::<u32>().ok()) else {
+            continue;
+        };
+        if pid == std::process::id() {
+            continue;
+        }
+        // Another user's processes are unreadable here, and never ours.
+        let Ok(environ) = std::fs::read(p.path().join("environ")) else {
+            continue;
+        };
+        let ours = environ
+            .split(|&b| b == 0)
+            .any(|var| var.starts_with(&want) && matches!(var.get(want.len()), None | Some(b'/')));
+        if !ours {
+            continue;
+        }
+        let cmdline = std::fs::read(p.path().join("cmdline")).unwrap_or_default();
+        let cmdline: Vec<String> = cmdline
+            .split(|&b| b == 0)
+            .filter(|a| !a.is_empty())
+            .map(|a| String::from_utf8_lossy(a).into_owned())
+            .collect();
+        if let Ok(raw) = libc::pid_t::try_from(pid) {
+            // SAFETY: kill(2) on one process that this user owns (its
+            // environ was readable) and that works for a dead run's rig.
+            unsafe {
+                libc::kill(raw, libc::SIGKILL);
+            }
+            stopped.push((pid, super::rig::escape_controls(&cmdline.join(" "))));
+        }
+    }
+    stopped.sort();
+    stopped
 }
 
 /// Runs a lab-rig command per case.
@@ -65,7 +147,9 @@ impl CommandRig {
     pub fn new(plan: &Plan) -> Option<Self> {
         let cap = plan.capture.clone()?;
         let cmd = cap.command.clone()?;
-        clean_stale_scratch();
+        if let Some(warning) = clean_stale_scratch().warning() {
+            eprintln!("{warning}");
+        }
         Some(Self {
             argv: cmd.argv,
             timeout: Duration::from_secs_f64(cmd.timeout_s),
@@ -299,5 +383,51 @@ impl Backend for CommandRig {
         })();
         drop(scratch);
         result
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_killed_runs_rig_still_running_is_stopped_before_its_scratch_goes() {
+        // The scratch directory of a run that no longer exists (no pid is
+        // that large), and its rig, still writing into it.
+        let dead = u32::MAX - 1;
+        let scratch = std::env::temp_dir().join(format!("{SCRATCH_PREFIX}{dead}-case-x1"));
+        std::fs::create_dir_all(scratch.join("frames")).unwrap();
+        let mut rig = Command::new("sleep")
+            .arg("30")
+            .env("LEDFLICKER_OUT_DIR", scratch.join("frames"))
+            .spawn()
+            .unwrap();
+        // Not one of its processes: another directory's name as a prefix.
+        let mut other = Command::new("sleep")
+            .arg("30")
+            .env(
+                "LEDFLICKER_OUT_DIR",
+                format!("{}9/frames", scratch.display()),
+            )
+            .spawn()
+            .unwrap();
+        // /proc shows the environment once the child has exec'd.
+        std::thread::sleep(Duration::from_millis(200));
+        let stale = clean_stale_scratch();
+        assert!(!scratch.exists());
+        let pids: Vec<u32> = stale.stopped.iter().map(|(p, _)| *p).collect();
+        assert_eq!(pids, [rig.id()]);
+        assert!(stale.warning().unwrap().contains("sleep 30"));
+        let status = rig.wait().unwrap();
+        assert_eq!(
+            std::os::unix::process::ExitStatusExt::signal(&status),
+            Some(9)
+        );
+        assert!(
+            other.try_wait().unwrap().is_none(),
+            "a stranger was stopped"
+        );
+        other.kill().unwrap();
+        other.wait().unwrap();
     }
 }

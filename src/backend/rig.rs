@@ -69,10 +69,35 @@ impl Tail {
         }
     }
 
+    /// The kept bytes as text, with control characters escaped: the text
+    /// goes into ledflicker's own messages and reports, where a rig's
+    /// terminal escape codes (colours, cursor moves, a title change) or
+    /// bidirectional overrides must not act on the user's terminal or hide
+    /// what the message says.
     fn text(&self) -> String {
         let start = self.0.len().saturating_sub(STDERR_TAIL);
-        String::from_utf8_lossy(&self.0[start..]).into_owned()
+        escape_controls(&String::from_utf8_lossy(&self.0[start..]))
     }
+}
+
+/// `text` with every control character but newline and tab, and every
+/// bidirectional embedding, override or isolate, written as `\x1b` or
+/// `\u{202e}`.
+pub fn escape_controls(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        let bidi = matches!(c, '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}');
+        if (c.is_control() && c != '\n' && c != '\t') || bidi {
+            if (c as u32) < 0x80 {
+                out.push_str(&format!("\\x{:02x}", c as u32));
+            } else {
+                out.push_str(&format!("\\u{{{:x}}}", c as u32));
+            }
+        } else {
+            out.push(c);
+        }
+    }
+    out
 }
 
 /// Runs `command` in its own process group with `stdin` on its standard
@@ -200,6 +225,23 @@ mod tests {
         let s = t.text();
         assert_eq!(s.len(), STDERR_TAIL);
         assert!(s.ends_with(&"v".repeat(4096)), "{}", &s[s.len() - 10..]);
+    }
+
+    #[test]
+    fn a_rigs_terminal_escape_codes_are_shown_not_sent_to_the_terminal() {
+        let r = run(
+            &mut sh(
+                "printf 'ok \\033[31mred\\033]0;title\\007 \\342\\200\\256x\\r\\n' >&2; exit 3",
+            ),
+            String::new(),
+            Duration::from_secs(10),
+        )
+        .unwrap();
+        assert!(!r.status.success());
+        assert_eq!(
+            r.stderr,
+            "ok \\x1b[31mred\\x1b]0;title\\x07 \\u{202e}x\\x0d\n"
+        );
     }
 
     #[test]
