@@ -79,3 +79,55 @@ pub fn check() -> Result<(), Interrupted> {
         None => Ok(()),
     }
 }
+
+/// How often [`Prompt`] looks at the stop flag.
+const PROMPT_POLL: std::time::Duration = std::time::Duration::from_millis(50);
+
+/// While it lives, a stop request ends the process within a twentieth of
+/// a second: for a stage that cannot look at the flag itself, such as the
+/// PDF layout (one Typst call of several seconds on a large report). The
+/// directory `discard` (the new generation being written) is removed
+/// first, so the stop leaves the old report exactly as a stop between
+/// cases does; a run killed outright would leave it for the next run to
+/// remove.
+#[derive(Debug)]
+pub struct Prompt {
+    done: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    watcher: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Prompt {
+    /// Starts watching; see [`Prompt`].
+    pub fn start(discard: std::path::PathBuf) -> Prompt {
+        let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let watching = std::sync::Arc::clone(&done);
+        let watcher = std::thread::spawn(move || {
+            while !watching.load(Ordering::SeqCst) {
+                if let Some(signal) = requested() {
+                    // The writer may still add files: try a few times.
+                    for _ in 0..5 {
+                        if std::fs::remove_dir_all(&discard).is_ok() || !discard.exists() {
+                            break;
+                        }
+                    }
+                    eprintln!("error: {}", Interrupted { signal });
+                    std::process::exit(Interrupted { signal }.exit_code());
+                }
+                std::thread::sleep(PROMPT_POLL);
+            }
+        });
+        Prompt {
+            done,
+            watcher: Some(watcher),
+        }
+    }
+}
+
+impl Drop for Prompt {
+    fn drop(&mut self) {
+        self.done.store(true, Ordering::SeqCst);
+        if let Some(w) = self.watcher.take() {
+            let _ = w.join();
+        }
+    }
+}

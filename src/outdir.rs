@@ -118,6 +118,7 @@ impl OutDirError {
                     | std::io::ErrorKind::ReadOnlyFilesystem
                     | std::io::ErrorKind::NotADirectory
                     | std::io::ErrorKind::AlreadyExists
+                    | std::io::ErrorKind::InvalidFilename
             ),
         }
     }
@@ -130,6 +131,9 @@ pub struct Generation {
     staging: PathBuf,
     /// Entries carried over from the old report (not ours).
     carried: BTreeSet<String>,
+    /// Top-level entries the earlier report wrote (empty when there was
+    /// none): everything else in `out` is a user's.
+    owned: BTreeSet<String>,
     /// Whether `out` holds an earlier report (see [`Generation::previous`]).
     has_previous: bool,
     committed: bool,
@@ -173,7 +177,23 @@ pub fn classify(dir: &Path) -> Result<DirKind, OutDirError> {
     if entries.next().is_none() {
         return Ok(DirKind::Empty);
     }
-    if let Ok(text) = std::fs::read_to_string(dir.join(MARKER))
+    for name in [MARKER, "results.json"] {
+        let path = dir.join(name);
+        if let Err(e) = crate::util::open_input(&path)
+            && e.kind() == std::io::ErrorKind::InvalidInput
+        {
+            // Never read (a FIFO would block the run on it), never replaced.
+            return Err(OutDirError::Refused {
+                dir: dir.to_path_buf(),
+                message: format!("`{name}` {e}"),
+                hint: format!(
+                    "remove `{}` or give --out another directory",
+                    path.display()
+                ),
+            });
+        }
+    }
+    if let Ok(text) = crate::util::read_input_to_string(&dir.join(MARKER))
         && let Some(rest) = text.strip_prefix(MARKER_HEADER)
     {
         let mut owned: BTreeSet<String> = rest
@@ -202,7 +222,7 @@ pub fn classify(dir: &Path) -> Result<DirKind, OutDirError> {
 
 /// results.json of a `ledflicker.results/N` schema (any N).
 fn results_schema_is_ours(path: &Path) -> bool {
-    let Ok(text) = std::fs::read_to_string(path) else {
+    let Ok(text) = crate::util::read_input_to_string(path) else {
         return false;
     };
     /// The one field that says whose file it is (any schema version).
@@ -240,6 +260,19 @@ fn split(out: &Path) -> Result<(PathBuf, String), OutDirError> {
         .into_owned();
     if name == "." || name == ".." {
         return Err(refused("has no directory name"));
+    }
+    // The generations beside it are named `.<name>.ledflicker-new-<pid>`,
+    // and a file name has at most 255 bytes (NAME_MAX on Linux).
+    if name.len() + temp_prefix("").len() + "new-4294967295".len() > 255 {
+        return Err(OutDirError::Refused {
+            dir: out.to_path_buf(),
+            message: format!(
+                "its name is {} bytes long; a report directory's name may have at most {} (its generations are written beside it under longer names)",
+                name.len(),
+                255 - temp_prefix("").len() - "new-4294967295".len()
+            ),
+            hint: "give --out a shorter directory name".to_string(),
+        });
     }
     let parent = abs
         .parent()
@@ -319,11 +352,13 @@ impl Generation {
             out: out.to_path_buf(),
             staging,
             carried: BTreeSet::new(),
+            owned: BTreeSet::new(),
             has_previous: false,
             committed: false,
         };
         if let DirKind::Report { owned } = kind {
-            generation.carry_foreign(&owned)?;
+            generation.owned = owned;
+            generation.carry_foreign()?;
             generation.has_previous = true;
         }
         Ok(generation)
@@ -348,15 +383,8 @@ impl Generation {
 
     /// Links every entry of the old report that ledflicker did not write
     /// into the staging directory.
-    fn carry_foreign(&mut self, owned: &BTreeSet<String>) -> Result<(), OutDirError> {
-        let entries =
-            std::fs::read_dir(&self.out).map_err(|e| io_err(&self.out, "list", &self.out, e))?;
-        for e in entries {
-            let e = e.map_err(|err| io_err(&self.out, "list", &self.out, err))?;
-            let name = e.file_name().to_string_lossy().into_owned();
-            if owned.contains(&name) {
-                continue;
-            }
+    fn carry_foreign(&mut self) -> Result<(), OutDirError> {
+        for (name, from) in self.foreign_entries()? {
             if REPORT_ENTRIES.contains(&name.as_str()) {
                 // A user's file or folder under a name the report writes
                 // (say a `frames/` made where the last run wrote none):
@@ -369,19 +397,107 @@ impl Generation {
                     ),
                     hint: format!(
                         "move or rename `{}` out of the way, then run again",
-                        e.path().display()
+                        from.display()
                     ),
                 });
             }
             let to = self.staging.join(&name);
-            link_tree(&e.path(), &to).map_err(|err| io_err(&self.out, "keep", &e.path(), err))?;
+            link_tree(&from, &to).map_err(|err| io_err(&self.out, "keep", &from, err))?;
             self.carried.insert(name);
         }
         Ok(())
     }
 
+    /// The entries of `out` now that ledflicker did not write, by name.
+    fn foreign_entries(&self) -> Result<Vec<(String, PathBuf)>, OutDirError> {
+        let entries = match std::fs::read_dir(&self.out) {
+            Ok(entries) => entries,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+            Err(e) => return Err(io_err(&self.out, "list", &self.out, e)),
+        };
+        let mut foreign = Vec::new();
+        for e in entries {
+            let e = e.map_err(|err| io_err(&self.out, "list", &self.out, err))?;
+            let name = e.file_name().to_string_lossy().into_owned();
+            if !self.owned.contains(&name) {
+                foreign.push((name, e.path()));
+            }
+        }
+        foreign.sort();
+        Ok(foreign)
+    }
+
+    /// Carries the user's entries over again as they are now, just before
+    /// the swap: a run can take hours, and in that time a user may save a
+    /// new file into the directory, save an edit the usual editor way (a
+    /// temporary file renamed over the original: a new file under the old
+    /// name), or delete one. A user's entry under a name this run wrote is
+    /// the one thing that cannot be carried: the swap is then refused.
+    fn carry_foreign_again(&mut self) -> Result<(), OutDirError> {
+        for name in std::mem::take(&mut self.carried) {
+            let path = self.staging.join(&name);
+            // Only links and copies this generation made: the user's own
+            // files stay in `out`.
+            remove_tree(&path).map_err(|e| io_err(&self.out, "refresh", &path, e))?;
+        }
+        for (name, from) in self.foreign_entries()? {
+            let to = self.staging.join(&name);
+            if std::fs::symlink_metadata(&to).is_ok() {
+                return Err(self.keep_aside(&name, &from));
+            }
+            link_tree(&from, &to).map_err(|err| io_err(&self.out, "keep", &from, err))?;
+            self.carried.insert(name);
+        }
+        Ok(())
+    }
+
+    /// Refuses the swap because the user's `name` (at `from`) sits where
+    /// this run wrote an entry of that name: the new report is kept beside
+    /// `out` under a visible name, and `out` is left as it is.
+    fn keep_aside(&mut self, name: &str, from: &Path) -> OutDirError {
+        let kept = aside_name(&self.out, "new");
+        let error = |message: String, hint: String| OutDirError::Refused {
+            dir: self.out.clone(),
+            message,
+            hint,
+        };
+        match std::fs::rename(&self.staging, &kept) {
+            Ok(()) => {
+                self.committed = true;
+                error(
+                    format!(
+                        "`{name}` was put there during the run, and this run writes `{name}` too; the report was not swapped in, so nothing of yours is replaced. The new report is kept at `{}`",
+                        kept.display()
+                    ),
+                    format!(
+                        "move `{}` out of the way, then run again (or use the kept report as it is)",
+                        from.display()
+                    ),
+                )
+            }
+            Err(e) => error(
+                format!(
+                    "`{name}` was put there during the run, and this run writes `{name}` too; the report was not swapped in (nor could it be kept aside: {e})"
+                ),
+                format!("move `{}` out of the way, then run again", from.display()),
+            ),
+        }
+    }
+
     /// Writes the marker and swaps the new generation in; removes the old.
-    pub fn commit(mut self) -> Result<(), OutDirError> {
+    ///
+    /// The user's entries are carried over again first, as they are now.
+    /// Should one change in the instant between that and the swap, the old
+    /// generation is not removed but kept beside `out` under a visible
+    /// name, returned in [`Committed::kept`]: nothing ledflicker did not
+    /// write is ever deleted.
+    pub fn commit(mut self) -> Result<Committed, OutDirError> {
+        self.carry_foreign_again()?;
+        self.swap_in()
+    }
+
+    /// [`Generation::commit`] after the user's entries were carried again.
+    fn swap_in(mut self) -> Result<Committed, OutDirError> {
         let mut text = format!("{MARKER_HEADER}\n");
         let mut names: Vec<String> = std::fs::read_dir(&self.staging)
             .map_err(|e| io_err(&self.out, "list", &self.staging, e))?
@@ -403,7 +519,7 @@ impl Generation {
                 .map_err(|e| io_err(&self.out, "rename", &self.staging, e))?;
             self.committed = true;
             sync_parent(&self.out);
-            return Ok(());
+            return Ok(Committed::default());
         }
         let old = match exchange(&self.staging, &self.out) {
             Ok(()) => self.staging.clone(),
@@ -422,7 +538,120 @@ impl Generation {
         };
         self.committed = true;
         sync_parent(&self.out);
-        std::fs::remove_dir_all(&old).map_err(|e| io_err(&self.out, "remove", &old, e))
+        let changed = self.changed_since_carried(&old);
+        if !changed.is_empty() {
+            let kept = aside_name(&self.out, "earlier");
+            std::fs::rename(&old, &kept).map_err(|e| io_err(&self.out, "keep", &old, e))?;
+            return Ok(Committed {
+                kept: Some((kept, changed)),
+            });
+        }
+        std::fs::remove_dir_all(&old).map_err(|e| io_err(&self.out, "remove", &old, e))?;
+        Ok(Committed::default())
+    }
+
+    /// The user's entries of the old generation (now at `old`) that the
+    /// new one does not hold as they are: changed after they were carried.
+    fn changed_since_carried(&self, old: &Path) -> Vec<String> {
+        let Ok(entries) = std::fs::read_dir(old) else {
+            return Vec::new();
+        };
+        let mut changed: Vec<String> = entries
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|name| !self.owned.contains(name))
+            .filter(|name| !same_tree(&old.join(name), &self.out.join(name)))
+            .collect();
+        changed.sort();
+        changed
+    }
+}
+
+/// What [`Generation::commit`] did beyond the swap.
+#[derive(Debug, Default)]
+pub struct Committed {
+    /// The old generation, kept beside `--out` (and not removed) because
+    /// these entries of the user's changed between their last carrying
+    /// over and the swap.
+    pub kept: Option<(PathBuf, Vec<String>)>,
+}
+
+impl Committed {
+    /// A warning for the user, when the old generation was kept.
+    pub fn warning(&self) -> Option<String> {
+        let (dir, names) = self.kept.as_ref()?;
+        Some(format!(
+            "warning: {} changed while the report was swapped in; the earlier generation, with your version, is kept at `{}`: copy what you need from it, then remove it",
+            names
+                .iter()
+                .map(|n| format!("`{n}`"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            dir.display()
+        ))
+    }
+}
+
+/// A visible name beside `out` that does not exist yet:
+/// `<out>.<what>-<pid>`, then `-2`, `-3` ...
+fn aside_name(out: &Path, what: &str) -> PathBuf {
+    let base = format!("{}.{what}-{}", out.display(), std::process::id());
+    let mut path = PathBuf::from(&base);
+    let mut n = 2;
+    while std::fs::symlink_metadata(&path).is_ok() {
+        path = PathBuf::from(format!("{base}-{n}"));
+        n += 1;
+    }
+    path
+}
+
+/// Whether `a` and `b` are the same tree: the same files (by inode: the
+/// carried copies are hard links), symbolic links to the same target, and
+/// folders of the same names, recursively. A copy (where a link failed)
+/// compares by its bytes.
+fn same_tree(a: &Path, b: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    let (Ok(ma), Ok(mb)) = (std::fs::symlink_metadata(a), std::fs::symlink_metadata(b)) else {
+        return false;
+    };
+    let (ta, tb) = (ma.file_type(), mb.file_type());
+    if ta.is_symlink() || tb.is_symlink() {
+        return ta.is_symlink()
+            && tb.is_symlink()
+            && std::fs::read_link(a).ok() == std::fs::read_link(b).ok();
+    }
+    if ta.is_dir() || tb.is_dir() {
+        if !(ta.is_dir() && tb.is_dir()) {
+            return false;
+        }
+        let names = |d: &Path| -> Option<BTreeSet<std::ffi::OsString>> {
+            std::fs::read_dir(d)
+                .ok()
+                .map(|it| it.flatten().map(|e| e.file_name()).collect())
+        };
+        let (Some(na), Some(nb)) = (names(a), names(b)) else {
+            return false;
+        };
+        return na == nb && na.iter().all(|n| same_tree(&a.join(n), &b.join(n)));
+    }
+    if (ma.dev(), ma.ino()) == (mb.dev(), mb.ino()) {
+        return true;
+    }
+    ma.len() == mb.len()
+        && ta.is_file()
+        && tb.is_file()
+        && std::fs::read(a)
+            .ok()
+            .is_some_and(|x| std::fs::read(b).ok() == Some(x))
+}
+
+/// Removes a file, a symbolic link or a whole folder.
+fn remove_tree(path: &Path) -> std::io::Result<()> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.is_dir() => std::fs::remove_dir_all(path),
+        Ok(_) => std::fs::remove_file(path),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(e),
     }
 }
 
@@ -605,6 +834,114 @@ mod tests {
         assert_eq!(left.len(), 1, "only the report is left: {left:?}");
     }
 
+    /// Writes `files` into a generation begun on `out`, calls `during`
+    /// (what a user does while the run goes on), then commits.
+    fn run_with(
+        out: &Path,
+        files: &[(&str, &str)],
+        during: impl FnOnce(),
+    ) -> Result<Committed, OutDirError> {
+        let g = Generation::begin(out).unwrap();
+        for (name, text) in files {
+            let p = g.path().join(name);
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(p, text).unwrap();
+        }
+        during();
+        g.commit()
+    }
+
+    fn read(path: &Path) -> String {
+        std::fs::read_to_string(path).unwrap()
+    }
+
+    #[test]
+    fn what_a_user_saves_edits_or_deletes_during_a_run_is_as_they_left_it() {
+        let root = scratch("during");
+        let out = root.join("report");
+        write_generation(&out, &[("results.json", "1")]);
+        std::fs::write(out.join("notes.txt"), "first draft").unwrap();
+        std::fs::write(out.join("scratch.txt"), "to delete").unwrap();
+        std::fs::create_dir_all(out.join("lab")).unwrap();
+        std::fs::write(out.join("lab/setup.txt"), "bench 3").unwrap();
+        run_with(&out, &[("results.json", "2")], || {
+            // A new file, an editor's save (a temporary file renamed over
+            // the original), a file added to a folder, and a deletion.
+            std::fs::write(out.join("photo.txt"), "new").unwrap();
+            std::fs::write(out.join(".notes.txt.swp"), "second draft").unwrap();
+            std::fs::rename(out.join(".notes.txt.swp"), out.join("notes.txt")).unwrap();
+            std::fs::write(out.join("lab/wiring.txt"), "cable B").unwrap();
+            std::fs::remove_file(out.join("scratch.txt")).unwrap();
+        })
+        .unwrap();
+        assert_eq!(read(&out.join("results.json")), "2");
+        assert_eq!(read(&out.join("photo.txt")), "new");
+        assert_eq!(read(&out.join("notes.txt")), "second draft");
+        assert_eq!(read(&out.join("lab/setup.txt")), "bench 3");
+        assert_eq!(read(&out.join("lab/wiring.txt")), "cable B");
+        assert!(!out.join("scratch.txt").exists());
+        assert!(!read(&out.join(MARKER)).contains("photo.txt"));
+        // An empty directory given as --out, filled by the user meanwhile.
+        let fresh = root.join("fresh");
+        std::fs::create_dir_all(&fresh).unwrap();
+        run_with(&fresh, &[("results.json", "1")], || {
+            std::fs::write(fresh.join("readme.txt"), "mine").unwrap();
+        })
+        .unwrap();
+        assert_eq!(read(&fresh.join("readme.txt")), "mine");
+        let left: Vec<_> = std::fs::read_dir(&root).unwrap().flatten().collect();
+        assert_eq!(left.len(), 2, "only the reports are left: {left:?}");
+    }
+
+    #[test]
+    fn a_users_entry_made_during_the_run_under_a_name_the_run_writes_stops_the_swap() {
+        let root = scratch("during-clash");
+        let out = root.join("report");
+        write_generation(&out, &[("results.json", "1")]);
+        let err = run_with(
+            &out,
+            &[("results.json", "2"), ("frames/a.png", "x")],
+            || {
+                std::fs::create_dir_all(out.join("frames")).unwrap();
+                std::fs::write(out.join("frames/holiday.png"), "mine").unwrap();
+            },
+        )
+        .unwrap_err();
+        assert!(err.is_usage_error(), "{err}");
+        let text = err.to_string();
+        assert!(
+            text.contains("`frames`") && text.contains("kept at"),
+            "{text}"
+        );
+        // Nothing of the user's or of the old report changed, and the new
+        // report waits beside it.
+        assert_eq!(read(&out.join("frames/holiday.png")), "mine");
+        assert_eq!(read(&out.join("results.json")), "1");
+        let kept = root.join(format!("report.new-{}", std::process::id()));
+        assert_eq!(read(&kept.join("results.json")), "2");
+        assert!(text.contains(&kept.display().to_string()), "{text}");
+    }
+
+    #[test]
+    fn an_edit_between_the_last_carry_and_the_swap_keeps_the_earlier_generation() {
+        let root = scratch("during-race");
+        let out = root.join("report");
+        write_generation(&out, &[("results.json", "1")]);
+        std::fs::write(out.join("notes.txt"), "v1").unwrap();
+        let mut g = Generation::begin(&out).unwrap();
+        std::fs::write(g.path().join("results.json"), "2").unwrap();
+        g.carry_foreign_again().unwrap();
+        // Saved in the instant before the swap.
+        std::fs::write(out.join(".n.tmp"), "v2").unwrap();
+        std::fs::rename(out.join(".n.tmp"), out.join("notes.txt")).unwrap();
+        let done = g.swap_in().unwrap();
+        let (kept, names) = done.kept.clone().unwrap();
+        assert_eq!(names, ["notes.txt"]);
+        assert_eq!(read(&kept.join("notes.txt")), "v2");
+        assert_eq!(read(&out.join("results.json")), "2");
+        assert!(done.warning().unwrap().contains("`notes.txt`"));
+    }
+
     #[test]
     fn a_staging_directory_of_a_dead_process_is_removed_and_an_old_report_restored() {
         let root = scratch("stale");
@@ -637,6 +974,35 @@ mod tests {
             "old"
         );
         assert_eq!(std::fs::read_dir(&root).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_fifo_at_the_marker_or_results_is_refused_not_waited_on() {
+        for name in [MARKER, "results.json"] {
+            let root = scratch(&format!("fifo{}", name.len()));
+            let out = root.join("report");
+            std::fs::create_dir_all(&out).unwrap();
+            let c = std::ffi::CString::new(out.join(name).into_os_string().into_encoded_bytes())
+                .unwrap();
+            // SAFETY: a NUL-terminated path that lives across the call.
+            assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+            let err = Generation::begin(&out).unwrap_err();
+            let text = err.to_string();
+            assert!(err.is_usage_error() && text.contains("FIFO"), "{text}");
+            assert!(text.contains(name), "{text}");
+        }
+    }
+
+    #[test]
+    fn a_name_too_long_for_the_generations_beside_it_is_a_usage_error() {
+        let root = scratch("long");
+        let out = root.join("r".repeat(300));
+        let err = Generation::begin(&out).unwrap_err();
+        assert!(err.is_usage_error(), "{err}");
+        assert!(err.to_string().contains("300 bytes"), "{err}");
+        let fits = root.join("r".repeat(200));
+        write_generation(&fits, &[("results.json", "1")]);
+        assert_eq!(read(&fits.join("results.json")), "1");
     }
 
     #[test]

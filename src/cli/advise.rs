@@ -2,6 +2,7 @@
 //! over a frequency and a duty range, the flicker it leaves and its
 //! motion-blur cost.
 
+use super::output::{out, outln};
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -77,9 +78,9 @@ pub(super) fn advise(a: AdviseArgs) -> anyhow::Result<i32> {
     };
     let advice = advise(&req).map_err(|e| UsageError(e.to_string()))?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&advice)?);
+        outln!("{}", serde_json::to_string_pretty(&advice)?)?;
     } else {
-        print!("{}", table(&advice));
+        out!("{}", table(&advice))?;
     }
     if let Some(path) = &a.svg {
         let points = curve(&req, 49).map_err(|e| UsageError(e.to_string()))?;

@@ -2,6 +2,7 @@
 //! whole-plan times, and the time of the analytic fine map for a plan's
 //! camera (the measuring is in `crate::bench`; this prints it).
 
+use super::output::outln;
 use clap::Args;
 
 use super::EXIT_PASS;
@@ -32,20 +33,20 @@ pub(super) struct BenchArgs {
 
 /// The numpy peer's figure on the exact-core grid, measured now, and the
 /// batched core's ratio to it; a missing Python or numpy is said, not fatal.
-fn print_peer_ratio(rows: &[crate::bench::BenchRow]) {
+fn print_peer_ratio(rows: &[crate::bench::BenchRow]) -> std::io::Result<()> {
     let script =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/peer_closedform.py");
     let Some(ours) = rows.iter().find(|r| r.method == "exact core, batched") else {
-        return;
+        return Ok(());
     };
     let ours = 1.0 / ours.time_s;
     match crate::bench::numpy_peer(&script, std::time::Duration::from_secs(120)) {
-        Ok(peer) => println!(
+        Ok(peer) => outln!(
             "numpy peer (scripts/peer_closedform.py, same grid): {peer:.2e} integrals/s; \
              exact core, batched: {ours:.2e} integrals/s = {:.1}x numpy",
             ours / peer
         ),
-        Err(e) => println!("numpy peer not measured: {e} (pip install numpy to compare)"),
+        Err(e) => outln!("numpy peer not measured: {e} (pip install numpy to compare)"),
     }
 }
 
@@ -54,7 +55,7 @@ pub(super) fn bench(a: BenchArgs) -> anyhow::Result<i32> {
     if a.repeat == 0 {
         return Err(UsageError("--repeat must be at least 1".into()).into());
     }
-    println!("{:<44} {:>14} {:>12}  note", "method", "time", "max error");
+    outln!("{:<44} {:>14} {:>12}  note", "method", "time", "max error")?;
     let mut print_row = |r: &crate::bench::BenchRow| {
         let time = if r.time_s < 1e-6 {
             format!("{:.2} ns/{}", r.time_s * 1e9, r.per)
@@ -64,11 +65,13 @@ pub(super) fn bench(a: BenchArgs) -> anyhow::Result<i32> {
             format!("{:.3} s/{}", r.time_s, r.per)
         };
         let err = r.max_error.map_or("-".to_string(), |e| format!("{e:.2e}"));
-        println!("{:<44} {:>14} {:>12}  {}", r.method, time, err, r.note);
+        // A write error other than a closed pipe (a full disk under a
+        // redirect) shows again, and is returned, at the next line.
+        let _ = outln!("{:<44} {:>14} {:>12}  {}", r.method, time, err, r.note);
     };
     let rows = crate::bench::run(a.quick, &mut print_row)
         .map_err(|e| anyhow::anyhow!("bench failed: {e}"))?;
-    print_peer_ratio(&rows);
+    print_peer_ratio(&rows)?;
     let repeat = if a.quick { a.repeat.min(3) } else { a.repeat };
     let path = plan::resolve_plan_path(&a.plan)?;
     let plan = plan::load(&path)?;
@@ -90,7 +93,7 @@ pub(super) fn bench(a: BenchArgs) -> anyhow::Result<i32> {
         .collect();
     times.sort_by(f64::total_cmp);
     let cells = FINE_FREQUENCY.count * FINE_DUTY.count;
-    println!(
+    outln!(
         "fine map `{}` ({} rows of ROI `{}`): {} x {} = {cells} cells, {} threads; median {:.1} ms (min {:.1}, max {:.1}) over {} runs",
         plan.id,
         roi.rows().len(),
@@ -102,18 +105,18 @@ pub(super) fn bench(a: BenchArgs) -> anyhow::Result<i32> {
         1e3 * times[0],
         1e3 * times[times.len() - 1],
         repeat
-    );
+    )?;
     if a.calibrate_8k {
         let (t, rms) = crate::bench::calibrate_8k(5)
             .map_err(|e| anyhow::anyhow!("bench of calibrate on an 8K frame failed: {e}"))?;
-        println!(
+        outln!(
             "calibrate, one 8K frame (7680 x 4320, 16-bit PNG), {} threads: median {:.2} s (min {:.2}, max {:.2}) over {} runs; closed-loop profile_rms {rms:.4}",
             rayon::current_num_threads(),
             t[t.len() / 2],
             t[0],
             t[t.len() - 1],
             t.len()
-        );
+        )?;
     }
     if a.end_to_end {
         super::endtoend::bench_end_to_end(a.quick)?;

@@ -1,6 +1,7 @@
 //! `ledflicker linetime`, `bands` and `calibrate`: their arguments and
 //! output. The estimators and the camera fit are in `crate::calibrate`.
 
+use super::output::outln;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -141,7 +142,7 @@ pub fn linetime(a: LinetimeArgs) -> anyhow::Result<i32> {
     let set = load(&a.input)?;
     let (e, divided) = estimate_bands(&set).map_err(|r| refuse(&a.input, r))?;
     let (t, sigma) = e.line_time_s(f);
-    let mut w = std::io::stdout().lock();
+    let mut w = super::output::Stdout;
     writeln!(w, "{:.3}", t * 1e6)?;
     writeln!(w, "line_time_us: {:.4} +- {:.4}", t * 1e6, sigma * 1e6)?;
     writeln!(
@@ -187,7 +188,7 @@ pub fn bands(a: BandsArgs) -> anyhow::Result<i32> {
         "estimated_frequency_hz": f,
         "estimated_frequency_hz_sigma": sigma,
     });
-    println!("{}", serde_json::to_string_pretty(&out)?);
+    outln!("{}", serde_json::to_string_pretty(&out)?)?;
     Ok(EXIT_PASS)
 }
 
@@ -227,7 +228,7 @@ pub fn calibrate(a: CalibrateArgs) -> anyhow::Result<i32> {
     let opts = ProfileOptions { name, fps };
     crate::calibrate::write_profile(&mut cal, &opts, a.out.as_deref())?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&cal)?);
+        outln!("{}", serde_json::to_string_pretty(&cal)?)?;
     } else {
         print_text(&cal, a.out.as_deref())?;
     }
@@ -235,7 +236,7 @@ pub fn calibrate(a: CalibrateArgs) -> anyhow::Result<i32> {
 }
 
 fn print_text(cal: &Calibration, out: Option<&std::path::Path>) -> std::io::Result<()> {
-    let mut w = std::io::stdout().lock();
+    let mut w = super::output::Stdout;
     let pm = |v: f64, s: f64, d: usize| format!("{v:.d$} +- {s:.d$}");
     writeln!(
         w,

@@ -5,6 +5,7 @@
 //! same minute; it prints medians of wall time and peak memory and the
 //! ratio to OpenCV.
 
+use super::output::outln;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -160,12 +161,12 @@ pub(super) fn bench_end_to_end(quick: bool) -> anyhow::Result<()> {
     let exe = std::env::current_exe()?;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let reps = if quick { 3 } else { 7 };
-    println!(
+    outln!(
         "end to end (this binary as a separate process, all outputs, default detail, {} threads):",
         rayon::current_num_threads()
-    );
+    )?;
     let daylight = time_plan(&exe, root, "daylight.toml", reps).map_err(anyhow::Error::msg)?;
-    println!("  {}", describe("daylight plan (35 cases)", &daylight));
+    outln!("  {}", describe("daylight plan (35 cases)", &daylight))?;
     let reps = if quick { 1 } else { 3 };
     // Interleaved, so that both see the same load.
     let mut ours = Vec::new();
@@ -180,22 +181,22 @@ pub(super) fn bench_end_to_end(quick: bool) -> anyhow::Result<()> {
             }
         }
     }
-    println!(
+    outln!(
         "  {}",
         describe("P2020 sample plan (3 videos, 1,697 frames)", &ours)
-    );
+    )?;
     match peer_missing {
-        Some(e) => println!("  OpenCV reference not measured: {e}"),
+        Some(e) => outln!("  OpenCV reference not measured: {e}")?,
         None => {
-            println!(
+            outln!(
                 "  {}",
                 describe("OpenCV reference (scripts/opencv_bench.py)", &peer)
-            );
+            )?;
             let ratio = median(peer.iter().map(|r| r.wall_s).collect())
                 / median(ours.iter().map(|r| r.wall_s).collect());
-            println!(
+            outln!(
                 "  P2020 sample plan against the OpenCV reference: {ratio:.2}x (ratio of median walls)"
-            );
+            )?;
         }
     }
     Ok(())

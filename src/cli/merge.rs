@@ -2,6 +2,7 @@
 //! directories of a sharded run (crate::shard::merge) and writes the whole
 //! plan's report through the same report stage as `plan`.
 
+use super::output::{out, outln};
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -69,15 +70,17 @@ pub(super) fn merge(a: MergeArgs) -> anyhow::Result<i32> {
     )
     .with_context(|| format!("cannot write the report to `{}`", out.display()))?;
     crate::interrupt::check()?;
-    generation.commit()?;
+    if let Some(warning) = generation.commit()?.warning() {
+        eprintln!("{warning}");
+    }
     if !a.quiet {
-        println!(
+        outln!(
             "merged {} shards ({} cases) of plan `{}`",
             m.shards,
             m.results.len(),
             plan.id
-        );
-        print!("{}", report::terminal::summary(&model, &out));
+        )?;
+        out!("{}", report::terminal::summary(&model, &out))?;
     }
     Ok(match model.verdict {
         Verdict::Fail => EXIT_FAIL,

@@ -18,6 +18,8 @@
 //! | 4 | per command: `plan`, `merge`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked; `linetime`, `bands`, `calibrate`: no confident estimate, the reason (flat rows, no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
 //! | 130, 143 | `plan` stopped by SIGINT (Ctrl-C) or SIGTERM (128 + signal); the old report is left as it was |
 
+#![deny(clippy::print_stdout)]
+
 use clap::{Parser, Subcommand};
 
 use crate::backend::SetupError;
@@ -31,6 +33,7 @@ mod bench;
 mod calibrate;
 mod endtoend;
 mod merge;
+pub(crate) mod output;
 mod plan;
 mod render;
 mod shard;

@@ -7,6 +7,7 @@
 //! output (refusals before any work), build the backend, run the cases,
 //! write the report, sign it, print the summary.
 
+use super::output::{out, outln};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
@@ -115,7 +116,9 @@ pub(super) fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
     let model = write_report(&run, &backend, &results, inputs, signing)?;
     // The new generation replaces the old report in one step, or not at all.
     crate::interrupt::check()?;
-    generation.commit()?;
+    if let Some(warning) = generation.commit()?.warning() {
+        eprintln!("{warning}");
+    }
     finish(
         &args,
         &model,
@@ -137,7 +140,10 @@ fn finish(
     if !args.quiet {
         print_summary(model, out)?;
     }
-    let drift = golden.is_some_and(|check| check(model));
+    let drift = match golden {
+        Some(check) => check(model)?,
+        None => false,
+    };
     drop(total);
     if args.timings {
         eprint!("{}", crate::timings::table(&crate::timings::take()));
@@ -183,16 +189,56 @@ fn write_report(
     signing: Option<Signing<'_>>,
 ) -> anyhow::Result<crate::model::Results> {
     let stage = report_spinner(run.args.quiet);
+    // Ctrl-C acts within a fraction of a second here too, where no loop
+    // of ours runs to look at it (the PDF layout).
+    let prompt = crate::interrupt::Prompt::start(run.generation.path().to_path_buf());
     stage.set_message(format!("analysing {} cases", results.len()));
     let t = crate::timings::span("report model (analyses)");
     let model = report_model(run.plan, backend, results);
     drop(t);
     crate::interrupt::check()?;
-    stage.set_message("drawing charts, writing report.html and report.pdf".to_string());
     let t = crate::timings::span("write report");
+    report::progress::reset();
+    stage.set_message("drawing charts, writing report.html and report.pdf".to_string());
+    let (written, waiting) = std::sync::mpsc::channel::<()>();
+    std::thread::scope(|scope| {
+        // The PDF layout is most of this stage: say what it waits on.
+        let stage = &stage;
+        scope.spawn(move || {
+            let tick = std::time::Duration::from_millis(100);
+            while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) = waiting.recv_timeout(tick)
+            {
+                let (drawn, planned) = report::progress::pictures();
+                stage.set_message(if drawn < planned {
+                    format!("laying out report.pdf, writing report.html; pictures {drawn}/{planned} drawn")
+                } else {
+                    format!("laying out report.pdf ({planned} pictures drawn)")
+                });
+            }
+        });
+        let done = write_report_files(run, &model, results, inputs);
+        drop(written);
+        done
+    })?;
+    drop(t);
+    drop(prompt);
+    if let Some(s) = signing {
+        sign_report(run, s)?;
+    }
+    stage.finish_and_clear();
+    Ok(model)
+}
+
+/// The report's files, into the new generation.
+fn write_report_files(
+    run: &Run<'_>,
+    model: &crate::model::Results,
+    results: &[CaseResult],
+    inputs: Vec<crate::inputs::InputFile>,
+) -> anyhow::Result<()> {
     report::write_report(
         run.generation.path(),
-        &model,
+        model,
         results,
         &WriteOptions {
             date: run.date.to_string(),
@@ -204,12 +250,7 @@ fn write_report(
         },
     )
     .with_context(|| format!("cannot write the report to `{}`", run.out.display()))?;
-    drop(t);
-    if let Some(s) = signing {
-        sign_report(run, s)?;
-    }
-    stage.finish_and_clear();
-    Ok(model)
+    Ok(())
 }
 
 /// Refuses before spending time on the run (a signed report without
@@ -224,7 +265,7 @@ fn prepare_output(out: &Path, force: bool) -> anyhow::Result<Generation> {
 
 /// Prints the drift of a model from the golden results; true when it is
 /// beyond tolerance.
-type GoldenCheck = Box<dyn FnOnce(&crate::model::Results) -> bool>;
+type GoldenCheck = Box<dyn FnOnce(&crate::model::Results) -> std::io::Result<bool>>;
 
 /// `--golden`: reads the tolerances and the stored results now (a bad file
 /// fails before the run); the check returned prints the drift of a model
@@ -241,8 +282,8 @@ fn golden_check(args: &PlanArgs) -> anyhow::Result<Option<GoldenCheck>> {
         .with_context(|| format!("cannot read the golden results `{}`", p.display()))?;
     Ok(Some(Box::new(move |model: &crate::model::Results| {
         let cmp = report::golden::compare(&golden, model, &tolerances);
-        print!("{}", cmp.to_text());
-        !cmp.ok()
+        out!("{}", cmp.to_text())?;
+        Ok(!cmp.ok())
     })))
 }
 
@@ -337,17 +378,17 @@ fn sign_report(run: &Run<'_>, s: Signing<'_>) -> anyhow::Result<()> {
     )
     .with_context(|| format!("cannot sign `{}`", run.out.display()))?;
     if !run.args.quiet {
-        println!(
+        outln!(
             "signed by {} (certificate SHA-256 {})",
             s.signer.trim(),
             done.fingerprint
-        );
+        )?;
     }
     Ok(())
 }
 
 fn print_summary(model: &crate::model::Results, out: &Path) -> anyhow::Result<()> {
-    let mut w = std::io::stdout().lock();
+    let mut w = super::output::Stdout;
     w.write_all(report::terminal::summary(model, out).as_bytes())?;
     Ok(())
 }

@@ -1,6 +1,7 @@
 //! `ledflicker plan PLAN --shard K/N --out DIR`: runs one share of the
 //! cases and writes a shard directory for `merge` (crate::shard::write).
 
+use super::output::outln;
 use std::path::Path;
 
 use anyhow::Context;
@@ -61,16 +62,18 @@ pub(super) fn run_shard(r: &ShardRun<'_>) -> anyhow::Result<i32> {
         },
     )?;
     crate::interrupt::check()?;
-    generation.commit()?;
+    if let Some(warning) = generation.commit()?.warning() {
+        eprintln!("{warning}");
+    }
     if !r.quiet {
-        println!(
+        outln!(
             "shard {} of plan `{}`: {} of {} cases written to {}; merge with `ledflicker merge --out DIR SHARD_DIR...`",
             r.spec,
             plan.id,
             manifest.cases.len(),
             manifest.case_count,
             r.out.display()
-        );
+        )?;
     }
     Ok(EXIT_PASS)
 }

@@ -2,6 +2,7 @@
 //! certificate, the signatures of a report directory, and their check.
 //! `plan --sign-key` signs through [`load_signer`] and [`signing_time`] too.
 
+use super::output::outln;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -65,12 +66,12 @@ pub(super) struct VerifyArgs {
 
 pub(super) fn keygen(a: KeygenArgs) -> anyhow::Result<i32> {
     let files = crate::signoff::keygen(&a.out, &a.signer, &a.org, now_unix_s())?;
-    println!(
+    outln!(
         "private key: {} (PKCS#8 PEM, mode 0600; keep it secret, outside report directories)\ncertificate: {} (self-signed X.509 PEM; give it to whoever verifies your reports)\nSHA-256:     {}",
         files.key.display(),
         files.cert.display(),
         files.fingerprint
-    );
+    )?;
     Ok(EXIT_PASS)
 }
 
@@ -141,14 +142,14 @@ pub(super) fn sign(args: SignArgs) -> anyhow::Result<i32> {
         },
     )
     .with_context(|| format!("cannot sign `{}`", args.dir.display()))?;
-    println!(
+    outln!(
         "signed `{}` as {} (signature {}, certificate SHA-256 {}), {} files in manifest.txt",
         args.dir.display(),
         args.signer.trim(),
         done.index,
         done.fingerprint,
         done.files
-    );
+    )?;
     Ok(EXIT_PASS)
 }
 
@@ -165,19 +166,23 @@ pub(super) fn verify(a: VerifyArgs) -> anyhow::Result<i32> {
             Some(false) => "NOT a trusted certificate",
             None => "identity not checked",
         };
-        println!(
+        outln!(
             "signature {} of {n}: \"{}\" on {}, certificate \"{}\" SHA-256 {} ({trust})",
-            s.index, s.signer, s.date, s.subject, s.fingerprint
-        );
+            s.index,
+            s.signer,
+            s.date,
+            s.subject,
+            s.fingerprint
+        )?;
     }
     for p in &v.problems {
-        println!("FAIL: {p}");
+        outln!("FAIL: {p}")?;
     }
     if !v.ok() {
-        println!("NOT VERIFIED: {} problem(s)", v.problems.len());
+        outln!("NOT VERIFIED: {} problem(s)", v.problems.len())?;
         return Ok(EXIT_FAIL);
     }
-    println!(
+    outln!(
         "intact: {} files, {n} manifest signature(s), {} PDF signature(s){}",
         v.files,
         v.pdf_signatures,
@@ -186,14 +191,14 @@ pub(super) fn verify(a: VerifyArgs) -> anyhow::Result<i32> {
         } else {
             String::new()
         }
-    );
+    )?;
     if v.identity_checked {
-        println!("verified: every signer holds a trusted certificate");
+        outln!("verified: every signer holds a trusted certificate")?;
         Ok(EXIT_PASS)
     } else {
-        println!(
+        outln!(
             "IDENTITY NOT CHECKED: anyone can sign under any name; pass --trust CERT (the signers' certificates, obtained from them directly) to check who signed (exit {EXIT_IDENTITY_UNCHECKED})"
-        );
+        )?;
         Ok(EXIT_IDENTITY_UNCHECKED)
     }
 }

@@ -1,6 +1,7 @@
 //! `ledflicker simulate`: probes the ideal camera for one condition; a CSV
 //! trace of ON fractions, or with `--summary` one JSON object of metrics.
 
+use super::output::outln;
 use std::io::Write;
 
 use clap::Args;
@@ -131,7 +132,7 @@ pub(super) fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
     if a.summary {
         return summary(&a, &pwm, &shutter, rows);
     }
-    let mut w = std::io::BufWriter::new(std::io::stdout().lock());
+    let mut w = std::io::BufWriter::new(super::output::Stdout);
     writeln!(w, "frame,time_s,on_fraction")?;
     for k in 0..a.frames {
         let s = shutter.frame_on_fraction(&pwm, k, rows.clone());
@@ -216,6 +217,6 @@ fn summary(
         scene.as_ref(),
     );
     // serde_json writes a non-finite number as null, never NaN.
-    println!("{}", serde_json::to_string_pretty(&summary)?);
+    outln!("{}", serde_json::to_string_pretty(&summary)?)?;
     Ok(EXIT_PASS)
 }

@@ -2,6 +2,7 @@
 //! a run would do.
 
 use super::EXIT_PASS;
+use super::output::outln;
 use crate::plan;
 
 pub(super) fn validate(arg: &str) -> anyhow::Result<i32> {
@@ -9,18 +10,18 @@ pub(super) fn validate(arg: &str) -> anyhow::Result<i32> {
     let plan = plan::load(&path)?;
     let cases = plan::expand_cases(&plan);
     if plan.dut.backend == plan::BackendKind::Captured {
-        println!(
+        outln!(
             "plan `{}` ({}) is valid: {} captured cases, {} ROIs",
             plan.id,
             path.display(),
             cases.len(),
             plan.rois.len()
-        );
-        println!("{}", plan::WorkEstimate::of(&plan).summary());
+        )?;
+        outln!("{}", plan::WorkEstimate::of(&plan).summary())?;
         return Ok(EXIT_PASS);
     }
     let frames = crate::backend::sim::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps);
-    println!(
+    outln!(
         "plan `{}` ({}) is valid: {} cases ({} light levels x {} frequencies x {} duty cycles), {} ROIs, {} frames per case",
         plan.id,
         path.display(),
@@ -30,7 +31,7 @@ pub(super) fn validate(arg: &str) -> anyhow::Result<i32> {
         plan.duty_cycles.len(),
         plan.rois.len(),
         frames.total()
-    );
-    println!("{}", plan::WorkEstimate::of(&plan).summary());
+    )?;
+    outln!("{}", plan::WorkEstimate::of(&plan).summary())?;
     Ok(EXIT_PASS)
 }

@@ -13,6 +13,7 @@ pub mod golden;
 pub mod html;
 pub mod matrix;
 pub mod pdf;
+pub mod progress;
 pub mod terminal;
 
 use std::fmt::Write as _;
@@ -164,13 +165,11 @@ fn replace_dir(
         std::fs::remove_dir_all(&staging).map_err(io_err(&staging))?;
     }
     std::fs::create_dir_all(&staging).map_err(io_err(&staging))?;
-    // The earlier report's folder, when it is a real folder (a symbolic
-    // link may lead to a user's files), and what a file written now
-    // would be: our owner, and the mode the umask leaves (read off the
-    // folder just made, 0o777 less the umask).
-    let earlier = reuse
-        .map(|r| r.join(name))
-        .filter(|d| std::fs::symlink_metadata(d).is_ok_and(|m| m.file_type().is_dir()));
+    // The earlier report's folder, opened once, when it is a real folder
+    // (a symbolic link may lead to a user's files), and what a file
+    // written now would be: our owner, and the mode the umask leaves (read
+    // off the folder just made, 0o777 less the umask).
+    let earlier = reuse.and_then(|r| EarlierDir::open(r, name));
     let fresh = std::fs::metadata(&staging).map_err(io_err(&staging))?;
     let fresh = FileIdentity {
         uid: std::os::unix::fs::MetadataExt::uid(&fresh),
@@ -179,7 +178,7 @@ fn replace_dir(
     for (file, bytes) in files {
         let path = staging.join(file);
         if let Some(earlier) = &earlier
-            && link_if_same(&earlier.join(file), bytes, &path, fresh)
+            && link_if_same(earlier, file, bytes, &path, fresh)
         {
             continue;
         }
@@ -220,11 +219,82 @@ struct FileIdentity {
     mode: u32,
 }
 
-/// Hard-links `old` to `path` when `old` is a file of the earlier report
-/// that a write now would make again: a regular file (not a symbolic
-/// link), linked nowhere else, of this run's owner and permission bits
-/// (`fresh`), holding exactly `bytes`. Returns false, with nothing made,
-/// otherwise; the caller then writes the file.
+/// A folder of the earlier report (`traces/`, `charts/`, `frames/`),
+/// opened once as a directory handle: every file is then opened and
+/// linked relative to it, never by a path, so a folder swapped for a
+/// symbolic link (to a user's own folder, say) while the run goes on
+/// cannot make the new report share a user's file.
+#[derive(Debug)]
+struct EarlierDir(std::os::fd::OwnedFd);
+
+impl EarlierDir {
+    /// `report/name` when both are real directories (neither a symbolic
+    /// link); `None` otherwise, and then nothing is reused.
+    fn open(report: &Path, name: &str) -> Option<EarlierDir> {
+        use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
+        use std::os::unix::ffi::OsStrExt;
+        let flags = libc::O_RDONLY | libc::O_DIRECTORY | libc::O_NOFOLLOW | libc::O_CLOEXEC;
+        let open_at = |at: libc::c_int, p: &[u8]| -> Option<OwnedFd> {
+            let c = std::ffi::CString::new(p).ok()?;
+            // SAFETY: a NUL-terminated path and a descriptor that outlives
+            // the call; a non-negative result is a new descriptor we own.
+            let fd = unsafe { libc::openat(at, c.as_ptr(), flags) };
+            (fd >= 0).then(|| unsafe { OwnedFd::from_raw_fd(fd) })
+        };
+        if name.contains('/') {
+            return None;
+        }
+        let report = open_at(libc::AT_FDCWD, report.as_os_str().as_bytes())?;
+        open_at(report.as_raw_fd(), name.as_bytes()).map(EarlierDir)
+    }
+
+    /// `file` of this folder, opened for reading without following a
+    /// symbolic link and without waiting on a FIFO or device.
+    fn open_file(&self, file: &str) -> Option<std::fs::File> {
+        use std::os::fd::{AsRawFd, FromRawFd};
+        if file.contains('/') {
+            return None;
+        }
+        let c = std::ffi::CString::new(file).ok()?;
+        let flags = libc::O_RDONLY | libc::O_NOFOLLOW | libc::O_NONBLOCK | libc::O_CLOEXEC;
+        // SAFETY: as in `open`.
+        let fd = unsafe { libc::openat(self.0.as_raw_fd(), c.as_ptr(), flags) };
+        (fd >= 0).then(|| unsafe { std::fs::File::from_raw_fd(fd) })
+    }
+
+    /// Hard-links `file` of this folder to `to` (`linkat` without
+    /// following a symbolic link).
+    fn link(&self, file: &str, to: &Path) -> std::io::Result<()> {
+        use std::os::fd::AsRawFd;
+        use std::os::unix::ffi::OsStrExt;
+        let c = |b: &[u8]| {
+            std::ffi::CString::new(b)
+                .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidInput, e))
+        };
+        let (from, to) = (c(file.as_bytes())?, c(to.as_os_str().as_bytes())?);
+        // SAFETY: two NUL-terminated paths that live across the call.
+        let r = unsafe {
+            libc::linkat(
+                self.0.as_raw_fd(),
+                from.as_ptr(),
+                libc::AT_FDCWD,
+                to.as_ptr(),
+                0,
+            )
+        };
+        if r == 0 {
+            Ok(())
+        } else {
+            Err(std::io::Error::last_os_error())
+        }
+    }
+}
+
+/// Hard-links `file` of the earlier report's folder to `path` when it is
+/// a file that a write now would make again: a regular file (not a
+/// symbolic link), linked nowhere else, of this run's owner and permission
+/// bits (`fresh`), holding exactly `bytes`. Returns false, with nothing
+/// made, otherwise; the caller then writes the file.
 ///
 /// Rewriting an unchanged file costs a new inode and, when the old report
 /// is removed, a freed one; on ext4 without a journal each new inode is
@@ -236,19 +306,19 @@ struct FileIdentity {
 /// that same file, unchanged, with the one new link: a file replaced or
 /// written between the check and the link is not taken. The linked file
 /// keeps its modification time (it is the file of the earlier run).
-fn link_if_same(old: &Path, bytes: &[u8], path: &Path, fresh: FileIdentity) -> bool {
+fn link_if_same(
+    earlier: &EarlierDir,
+    file: &str,
+    bytes: &[u8],
+    path: &Path,
+    fresh: FileIdentity,
+) -> bool {
     use std::io::Read as _;
-    use std::os::unix::fs::{MetadataExt, OpenOptionsExt};
-    // Not through a symbolic link, and never waiting on a FIFO or device
-    // someone put there (the type check below turns it down).
-    let Ok(mut file) = std::fs::File::options()
-        .read(true)
-        .custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK)
-        .open(old)
-    else {
+    use std::os::unix::fs::MetadataExt;
+    let Some(mut handle) = earlier.open_file(file) else {
         return false;
     };
-    let Ok(before) = file.metadata() else {
+    let Ok(before) = handle.metadata() else {
         return false;
     };
     let ours = before.file_type().is_file()
@@ -257,10 +327,10 @@ fn link_if_same(old: &Path, bytes: &[u8], path: &Path, fresh: FileIdentity) -> b
         && before.mode() & 0o7777 == fresh.mode
         && before.len() == bytes.len() as u64;
     let mut held = Vec::with_capacity(bytes.len());
-    if !ours || file.read_to_end(&mut held).is_err() || held != bytes {
+    if !ours || handle.read_to_end(&mut held).is_err() || held != bytes {
         return false;
     }
-    if std::fs::hard_link(old, path).is_err() {
+    if earlier.link(file, path).is_err() {
         return false;
     }
     let unchanged = |m: &std::fs::Metadata| {
@@ -271,7 +341,7 @@ fn link_if_same(old: &Path, bytes: &[u8], path: &Path, fresh: FileIdentity) -> b
             && (m.mtime(), m.mtime_nsec()) == (before.mtime(), before.mtime_nsec())
     };
     let kept = std::fs::symlink_metadata(path).is_ok_and(|m| unchanged(&m))
-        && file.metadata().is_ok_and(|m| unchanged(&m));
+        && handle.metadata().is_ok_and(|m| unchanged(&m));
     if !kept {
         let _ = std::fs::remove_file(path);
     }
@@ -606,6 +676,40 @@ mod tests {
             ino(&old.join("same.csv"))
         );
         assert_eq!(std::fs::metadata(old.join("same.csv")).unwrap().nlink(), 2);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_folder_swapped_for_a_link_to_a_users_folder_mid_run_shares_none_of_its_files() {
+        use std::os::unix::fs::MetadataExt;
+        let dir = scratch("swap");
+        let (earlier, users, new) = (dir.join("earlier"), dir.join("users"), dir.join("new"));
+        for d in [&earlier.join("traces"), &users, &new] {
+            std::fs::create_dir_all(d).unwrap();
+        }
+        write_new(&earlier.join("traces/case.csv"), b"1,2\n").unwrap();
+        write_new(&users.join("case.csv"), b"1,2\n").unwrap();
+        let fresh = std::fs::metadata(earlier.join("traces/case.csv")).unwrap();
+        let fresh = FileIdentity {
+            uid: fresh.uid(),
+            mode: fresh.mode() & 0o7777,
+        };
+        // The folder is opened when the report starts writing it; then,
+        // while the run goes on, someone puts a link to the user's folder
+        // in its place.
+        let handle = EarlierDir::open(&earlier, "traces").unwrap();
+        std::fs::rename(earlier.join("traces"), earlier.join("moved")).unwrap();
+        std::os::unix::fs::symlink(&users, earlier.join("traces")).unwrap();
+        let path = new.join("case.csv");
+        link_if_same(&handle, "case.csv", b"1,2\n", &path, fresh);
+        let ino = |p: &Path| std::fs::metadata(p).unwrap().ino();
+        assert_ne!(ino(&path), ino(&users.join("case.csv")));
+        assert_eq!(
+            std::fs::metadata(users.join("case.csv")).unwrap().nlink(),
+            1
+        );
+        // A folder that is a link when the report starts is not opened.
+        assert!(EarlierDir::open(&earlier, "traces").is_none());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

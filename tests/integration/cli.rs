@@ -514,3 +514,112 @@ fn a_report_rerun_in_place_links_its_unchanged_files_and_never_a_users_copy() {
         over.len()
     );
 }
+
+/// Runs the binary with its standard output a pipe whose reader is gone
+/// before the first line is written (`ledflicker ... | head -c 0`).
+fn with_closed_stdout(args: &[&str]) -> std::process::Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(args)
+        .current_dir(root())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn a_reader_that_closes_the_pipe_ends_the_output_not_the_command() {
+    let dir = scratch("epipe");
+    let out = dir.join("report");
+    let report = out.to_str().unwrap();
+    let o = ledflicker(&["plan", "daylight", "--out", report, "--quiet"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let many_frames = [
+        "simulate",
+        "--frequency-hz",
+        "90",
+        "--duty",
+        "0.5",
+        "--exposure-ms",
+        "5",
+        "--fps",
+        "30",
+        "--frames",
+        "100000",
+    ];
+    for args in [
+        &["validate", "daylight"][..],
+        &["verify", report][..],
+        &many_frames[..],
+        &["plan", "daylight", "--out", report, "--force"][..],
+    ] {
+        let closed = with_closed_stdout(args);
+        let open = ledflicker(args);
+        // The exit code is the command's own, never a panic's (101) nor a
+        // write error's (3): `verify | head` must still say "not verified".
+        assert_eq!(closed.status.code(), open.status.code(), "{args:?}");
+        assert!(
+            matches!(open.status.code(), Some(0 | 1 | 4)),
+            "{args:?}: {}",
+            stderr(&open)
+        );
+        let err = stderr(&closed);
+        assert!(
+            !err.contains("panicked") && !err.contains("Broken pipe"),
+            "{args:?}: {err}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn ctrl_c_while_the_pdf_is_laid_out_stops_within_a_second_and_keeps_the_old_report() {
+    let dir = scratch("pdf-sigint");
+    let out = dir.join("o");
+    let o = ledflicker(&["plan", "daylight", "--out", out.to_str().unwrap(), "-q"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let before = std::fs::read(out.join("results.json")).unwrap();
+    // grid-192: the longest report (63 pages), seconds of Typst layout.
+    let mut run = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(["plan", "grid-192", "-q", "--out"])
+        .arg(&out)
+        .current_dir(root())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // charts/ is written beside the PDF while Typst lays it out.
+    let staging = dir.join(format!(".o.ledflicker-new-{}", run.id()));
+    let start = std::time::Instant::now();
+    while !staging.join("charts").exists() {
+        assert!(
+            start.elapsed().as_secs() < 120,
+            "the report stage never began"
+        );
+        assert!(run.try_wait().unwrap().is_none(), "the run ended early");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    // SAFETY: kill(2) on the child this test started.
+    assert_eq!(
+        unsafe { libc::kill(run.id() as libc::pid_t, libc::SIGINT) },
+        0
+    );
+    let signalled = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = run.try_wait().unwrap() {
+            break status;
+        }
+        assert!(
+            signalled.elapsed().as_secs() < 30,
+            "no stop within 30 s of SIGINT"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    };
+    let took = signalled.elapsed();
+    assert_eq!(status.code(), Some(130));
+    assert!(took.as_secs_f64() < 1.0, "stopped {took:?} after SIGINT");
+    assert_eq!(std::fs::read(out.join("results.json")).unwrap(), before);
+    assert!(!staging.exists(), "the new generation was left behind");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

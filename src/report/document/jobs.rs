@@ -130,8 +130,13 @@ impl<'a> ChartJobs<'a> {
 
 impl<'a, T: Clone + Send + Sync> Jobs<'a, T> {
     fn add(&mut self, path: String, draw: impl Fn() -> Result<T, ChartError> + Send + Sync + 'a) {
+        super::super::progress::planned();
         let job = Job {
-            draw: Box::new(draw),
+            draw: Box::new(move || {
+                let picture = draw();
+                super::super::progress::drawn();
+                picture
+            }),
             drawn: OnceLock::new(),
         };
         self.jobs.insert(path, job);
