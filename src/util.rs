@@ -93,7 +93,7 @@ pub fn open_input(path: &Path) -> std::io::Result<std::fs::File> {
         };
         return Err(std::io::Error::new(
             std::io::ErrorKind::InvalidInput,
-            format!("is {what}, not a regular file; give a regular file"),
+            NotRegularFile(what),
         ));
     }
     // SAFETY: fcntl on a descriptor this function owns; clearing
@@ -107,6 +107,19 @@ pub fn open_input(path: &Path) -> std::io::Result<std::fs::File> {
         }
     }
     Ok(file)
+}
+
+/// What [`open_input`] refuses: an input that is not a regular file (the
+/// payload of its `io::Error`; see [`is_not_regular`]).
+#[derive(Debug, thiserror::Error)]
+#[error("is {0}, not a regular file; give a regular file")]
+pub struct NotRegularFile(pub &'static str);
+
+/// True when `e` is [`open_input`]'s refusal of a FIFO, device, socket or
+/// directory: the user's input, not the tool, is at fault (exit code 2).
+pub fn is_not_regular(e: &std::io::Error) -> bool {
+    e.get_ref()
+        .is_some_and(|inner| inner.is::<NotRegularFile>())
 }
 
 /// [`std::fs::read`] through [`open_input`]: the whole of a regular file.
@@ -268,6 +281,7 @@ mod tests {
         assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
         let err = super::read_input(&fifo).unwrap_err();
         assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
+        assert!(super::is_not_regular(&err));
         assert!(err.to_string().contains("FIFO"), "{err}");
         let err = super::read_input(dir.path()).unwrap_err();
         assert!(err.to_string().contains("directory"), "{err}");

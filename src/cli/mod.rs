@@ -123,6 +123,11 @@ enum Command {
 /// Maps an error to its exit code.
 pub fn exit_code(err: &anyhow::Error) -> i32 {
     for cause in err.chain() {
+        if let Some(e) = cause.downcast_ref::<std::io::Error>()
+            && crate::util::is_not_regular(e)
+        {
+            return EXIT_INVALID;
+        }
         if let Some(i) = cause.downcast_ref::<crate::interrupt::Interrupted>() {
             return i.exit_code();
         }

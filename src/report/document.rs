@@ -276,7 +276,7 @@ impl Document {
     /// Signatories are left empty (the caller reads signoff.json).
     pub fn load(dir: &Path) -> Result<Document, ReportError> {
         let path = dir.join("results.json");
-        let text = std::fs::read_to_string(&path).map_err(|source| ReportError::Io {
+        let text = crate::util::read_input_to_string(&path).map_err(|source| ReportError::Io {
             path: path.clone(),
             source,
         })?;
@@ -309,9 +309,11 @@ impl Document {
             if !name.ends_with(".svg") {
                 continue;
             }
-            let svg = std::fs::read_to_string(entry.path()).map_err(|source| ReportError::Io {
-                path: entry.path(),
-                source,
+            let svg = crate::util::read_input_to_string(&entry.path()).map_err(|source| {
+                ReportError::Io {
+                    path: entry.path(),
+                    source,
+                }
             })?;
             charts.insert(format!("{CHARTS_DIR}/{name}"), svg);
         }
@@ -321,7 +323,7 @@ impl Document {
             let rel = frame_image_path(id);
             // The annotated view as written, else (older reports) the frame.
             let view = dir.join(super::frames::view_path(id));
-            if let Ok(bytes) = std::fs::read(&view) {
+            if let Ok(bytes) = crate::util::read_input(&view) {
                 images.insert(rel, bytes);
                 continue;
             }
@@ -329,7 +331,11 @@ impl Document {
             if !path.exists() {
                 continue;
             }
-            let img = image::open(&path)
+            let bytes = crate::util::read_input(&path).map_err(|source| ReportError::Io {
+                path: path.clone(),
+                source,
+            })?;
+            let img = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
                 .map_err(|e| ReportError::Invalid {
                     path: path.clone(),
                     message: format!("not a readable PNG: {e}"),

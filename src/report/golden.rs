@@ -163,7 +163,7 @@ fn invalid(path: &Path, message: String) -> ReportError {
 
 /// Reads a golden results.json, typed.
 pub fn load(path: &Path) -> Result<Results, ReportError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ReportError::Io {
+    let text = crate::util::read_input_to_string(path).map_err(|source| ReportError::Io {
         path: path.to_path_buf(),
         source,
     })?;

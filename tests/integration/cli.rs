@@ -623,3 +623,52 @@ fn ctrl_c_while_the_pdf_is_laid_out_stops_within_a_second_and_keeps_the_old_repo
     assert!(!staging.exists(), "the new generation was left behind");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Makes a FIFO at `path`, which nobody will ever write.
+pub fn mkfifo(path: &std::path::Path) {
+    let c = std::ffi::CString::new(path.as_os_str().as_encoded_bytes()).unwrap();
+    // SAFETY: a NUL-terminated path that lives across the call.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+}
+
+/// Runs the binary and gives its output, or fails the test when it is
+/// still running after 20 s (it then waits on something) and kills it.
+pub fn ledflicker_within_20s(args: &[&str]) -> std::process::Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(args)
+        .current_dir(root())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed().as_secs() >= 20 {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{args:?} still waiting after 20 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn a_fifo_given_as_golden_results_is_refused_at_once() {
+    let dir = scratch("fifo-golden");
+    let fifo = dir.join("golden.json");
+    mkfifo(&fifo);
+    let out = dir.join("o");
+    let o = ledflicker_within_20s(&[
+        "plan",
+        "daylight",
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+        "--golden",
+        fifo.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("FIFO"), "{}", stderr(&o));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
