@@ -1004,6 +1004,51 @@ fn bad_certificates_are_refused_by_sign_and_verify_agrees_with_openssl() {
         );
         assert!(!dir.join("manifest.txt").exists());
     }
+    // plan --sign-key refuses before the run.
+    let out = base.join("never");
+    let o = ledflicker(&[
+        "plan",
+        "tests/fixtures/plans/base.toml",
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+        "--sign-key",
+        key.to_str().unwrap(),
+        "--sign-cert",
+        bad[0].0.to_str().unwrap(),
+        "--signer",
+        "Bad Cert, Tested by",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("notAfter") && !out.exists(),
+        "{}",
+        text(&o)
+    );
+    // A signing time set before the certificate's validity is refused.
+    let o = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args([
+            "sign",
+            dir.to_str().unwrap(),
+            "--key",
+            key.to_str().unwrap(),
+        ])
+        .args([
+            "--cert",
+            good.to_str().unwrap(),
+            "--signer",
+            "Gus Good, Tested by",
+        ])
+        .current_dir(root())
+        .env("SOURCE_DATE_EPOCH", "1577836800")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("notBefore") && text(&o).contains("2020-01-01T00:00:00Z"),
+        "{}",
+        text(&o)
+    );
     // Good certificates sign; verify and OpenSSL accept both signatures.
     for (crt, signer) in [
         (&good, "Gus Good, Tested by"),
