@@ -258,10 +258,10 @@ fn look_at_file(
 }
 
 /// Files larger than this are not parsed as DER keys. The largest DER key
-/// in use is a PKCS#8 RSA-16384 key at about 9.4 KiB (a P-256 key is 138
-/// bytes), and a PKCS#12 file holding a key and a chain of a few
-/// certificates is a few KiB (`openssl pkcs12 -export` of a P-256 key and
-/// certificate: about 1.1 KiB; an RSA-4096 certificate adds about 2 KiB),
+/// in use is a PKCS#8 RSA-16384 key at about 9.3 KiB (RSA-4096: 2348
+/// bytes; P-256: 138 bytes), and a PKCS#12 file holding a key and a chain
+/// of a few certificates is a few KiB (`openssl pkcs12 -export` of a P-256
+/// key and certificate: 1072 bytes; an RSA-4096 certificate adds about 2 KiB),
 /// so 64 KiB leaves a wide margin while the report's large files (the PDF,
 /// frames, traces) are never held in memory whole. PEM keys are found in
 /// files of any size, while they are hashed.
