@@ -344,15 +344,15 @@ struct Signing<'a> {
 /// `--sign-key`: the key is loaded now, so that a bad key fails before the
 /// run, not after it. The signing time is checked even without a key.
 fn signing<'a>(args: &'a PlanArgs, out: &Path) -> anyhow::Result<Option<Signing<'a>>> {
+    let time_unix_s = signing_time()?;
     let loaded = match &args.sign_key {
         Some(key) => {
-            let loaded = load_signer(Some(key), args.sign_cert.as_deref(), None)?;
+            let loaded = load_signer(Some(key), args.sign_cert.as_deref(), None, time_unix_s)?;
             crate::signoff::check_key_outside(out, key)?;
             Some(loaded)
         }
         None => None,
     };
-    let time_unix_s = signing_time(args.date.as_deref())?;
     Ok(match (loaded, &args.signer) {
         (Some((key, key_files)), Some(signer)) => Some(Signing {
             signer,

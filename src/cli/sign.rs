@@ -42,7 +42,9 @@ pub(super) struct SignArgs {
     /// Who signs, "Name, Role" (e.g. "Jane Doe, Approved by").
     #[arg(long)]
     signer: String,
-    /// Signing date, YYYY-MM-DD [default: $SOURCE_DATE_EPOCH, else today].
+    /// Date the report shows for this signature, YYYY-MM-DD [default:
+    /// $SOURCE_DATE_EPOCH, else today]; the signatures carry the time of
+    /// signing.
     #[arg(long)]
     date: Option<String>,
 }
@@ -81,8 +83,11 @@ fn now_unix_s() -> u64 {
         .map_or(0, |d| d.as_secs())
 }
 
-/// Signing time: $SOURCE_DATE_EPOCH, else midnight UTC of --date, else now.
-pub(super) fn signing_time(date_arg: Option<&str>) -> anyhow::Result<u64> {
+/// Signing time, the time the signatures carry: $SOURCE_DATE_EPOCH (for
+/// reproducible output), else now. `--date` sets only the date the report
+/// shows: the signing time is when the signature was made, which is what
+/// `verify` checks the certificate's validity at.
+pub(super) fn signing_time() -> anyhow::Result<u64> {
     if let Ok(s) = std::env::var("SOURCE_DATE_EPOCH") {
         return s.trim().parse().map_err(|_| {
             UsageError(format!(
@@ -91,45 +96,49 @@ pub(super) fn signing_time(date_arg: Option<&str>) -> anyhow::Result<u64> {
             .into()
         });
     }
-    Ok(match date_arg {
-        Some(d) => crate::signoff::unix_of_date(d)
-            .ok_or_else(|| UsageError(format!("--date `{d}` is not a valid date")))?,
-        None => now_unix_s(),
-    })
+    Ok(now_unix_s())
 }
 
-/// Loads the signing key and certificate (PEM pair or PKCS#12).
+/// Loads the signing key and certificate (PEM pair or PKCS#12), and
+/// refuses a certificate that may not sign at `time_unix_s` (the signing
+/// time) or now (when the customer's OpenSSL checks it).
 pub(super) fn load_signer(
     key: Option<&Path>,
     cert: Option<&Path>,
     p12: Option<&Path>,
+    time_unix_s: u64,
 ) -> anyhow::Result<(crate::signoff::SignerKey, Vec<PathBuf>)> {
-    if let Some(p12) = p12 {
+    let (signer, cert_file, key_files) = if let Some(p12) = p12 {
         let pass = match std::env::var("LEDFLICKER_P12_PASSPHRASE") {
             Ok(p) => p,
             Err(_) => crate::signoff::prompt_passphrase(p12)?,
         };
-        return Ok((
-            crate::signoff::pkcs12::load(p12, &pass)?,
-            vec![p12.to_path_buf()],
-        ));
+        let signer = crate::signoff::pkcs12::load(p12, &pass)?;
+        (signer, p12.to_path_buf(), vec![p12.to_path_buf()])
+    } else {
+        let key = key.ok_or_else(|| UsageError("give --key or --p12".into()))?;
+        let cert = cert.map_or_else(
+            || crate::signoff::keys::certificate_path(key),
+            PathBuf::from,
+        );
+        let signer = crate::signoff::keys::load_signer(key, &cert)?;
+        (signer, cert, vec![key.to_path_buf()])
+    };
+    let now = now_unix_s();
+    for at in [time_unix_s, now] {
+        crate::signoff::check_certificate(&signer.cert, Some(cert_file.as_path()), at)?;
     }
-    let key = key.ok_or_else(|| UsageError("give --key or --p12".into()))?;
-    let cert = cert.map_or_else(
-        || crate::signoff::keys::certificate_path(key),
-        PathBuf::from,
-    );
-    let signer = crate::signoff::keys::load_signer(key, &cert)?;
-    Ok((signer, vec![key.to_path_buf()]))
+    Ok((signer, key_files))
 }
 
 pub(super) fn sign(args: SignArgs) -> anyhow::Result<i32> {
     let date = report_date(args.date.as_deref())?;
-    let time = signing_time(args.date.as_deref())?;
+    let time = signing_time()?;
     let (key, key_files) = load_signer(
         args.key.as_deref(),
         args.cert.as_deref(),
         args.p12.as_deref(),
+        time,
     )?;
     let done = crate::signoff::sign(
         &args.dir,
@@ -167,10 +176,12 @@ pub(super) fn verify(a: VerifyArgs) -> anyhow::Result<i32> {
             None => "identity not checked",
         };
         outln!(
-            "signature {} of {n}: \"{}\" on {}, certificate \"{}\" SHA-256 {} ({trust})",
+            "signature {} of {n}: \"{}\" on {} (signed {}, Unix {}), certificate \"{}\" SHA-256 {} ({trust})",
             s.index,
             s.signer,
             s.date,
+            crate::signoff::policy::utc_time(s.signed_at),
+            s.signed_at,
             s.subject,
             s.fingerprint
         )?;

@@ -152,8 +152,10 @@ pub fn certificate_path(key: &Path) -> PathBuf {
     PathBuf::from(s)
 }
 
-fn read(path: &Path) -> Result<Vec<u8>, SignoffError> {
-    std::fs::read(path).map_err(|source| SignoffError::Io {
+/// Reads a key or certificate file the user named; a FIFO or device in
+/// its place is refused at once instead of waited on.
+pub(super) fn read(path: &Path) -> Result<Vec<u8>, SignoffError> {
+    crate::util::read_input(path).map_err(|source| SignoffError::Io {
         path: path.to_path_buf(),
         source,
     })
@@ -244,29 +246,4 @@ pub fn subject_cn(cert: &Certificate) -> String {
 pub fn fingerprint(cert: &Certificate) -> String {
     let der = cert.to_der().unwrap_or_default();
     crate::util::sha256_hex(&der)
-}
-
-/// Whether `cert` is one of `trusted`, or was issued (signed) by one of them.
-pub fn is_trusted(cert: &Certificate, trusted: &[Certificate]) -> bool {
-    trusted.iter().any(|t| t == cert || issued_by(cert, t))
-}
-
-fn issued_by(cert: &Certificate, issuer: &Certificate) -> bool {
-    use p256::ecdsa::signature::Verifier;
-    if cert.tbs_certificate().issuer() != issuer.tbs_certificate().subject() {
-        return false;
-    }
-    let Some(key) = p256_key_of(issuer) else {
-        return false;
-    };
-    let Ok(tbs) = cert.tbs_certificate().to_der() else {
-        return false;
-    };
-    let Some(sig) = cert.signature().as_bytes() else {
-        return false;
-    };
-    let Ok(sig) = p256::ecdsa::DerSignature::from_bytes(sig) else {
-        return false;
-    };
-    key.verify(&tbs, &sig).is_ok()
 }

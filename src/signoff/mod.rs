@@ -23,6 +23,7 @@ pub mod manifest;
 pub mod pdf;
 pub mod pdf_syntax;
 pub mod pkcs12;
+pub mod policy;
 pub mod verify;
 
 use std::path::{Path, PathBuf};
@@ -234,6 +235,12 @@ pub fn sign(dir: &Path, req: &SignRequest<'_>) -> Result<Signed, SignoffError> {
     for k in &req.key_files {
         check_key_outside(dir, k)?;
     }
+    check_certificate(&req.key.cert, None, req.time_unix_s)?;
+    let known = req
+        .key_files
+        .iter()
+        .map(|k| manifest::KnownKey::of(k).map_err(io(k)))
+        .collect::<Result<Vec<_>, _>>()?;
     if !dir.join("results.json").is_file() {
         return Err(SignoffError::Refused(format!(
             "`{}` is not a report directory (no results.json)\n    hint: pass the --out directory of `ledflicker plan`",
@@ -243,6 +250,9 @@ pub fn sign(dir: &Path, req: &SignRequest<'_>) -> Result<Signed, SignoffError> {
     if dir.join(LEGACY_FILE).exists() {
         return Err(SignoffError::Refused(verify::legacy_message(dir)));
     }
+    // Before the earlier signatures are checked: a key in the directory
+    // is named as such, not as a file added after them.
+    scan_signable(dir, &known)?;
     let earlier = verify::signatories(dir);
     if dir.join(SIGNATURE_FILE).exists() || dir.join(MANIFEST_FILE).exists() {
         let outcome = verify(dir, &[], None)?;
@@ -254,7 +264,6 @@ pub fn sign(dir: &Path, req: &SignRequest<'_>) -> Result<Signed, SignoffError> {
             )));
         }
     }
-    scan_signable(dir)?;
     let index = earlier.len() + 1;
     let fingerprint = keys::fingerprint(&req.key.cert);
     let me = Signatory {
@@ -288,7 +297,7 @@ pub fn sign(dir: &Path, req: &SignRequest<'_>) -> Result<Signed, SignoffError> {
     let html_path = dir.join("report.html");
     write_atomic(&html_path, html.as_bytes()).map_err(io(&html_path))?;
     write_atomic(&pdf_path, &signed_pdf).map_err(io(&pdf_path))?;
-    let scan = scan_signable(dir)?;
+    let scan = scan_signable(dir, &known)?;
     let m = manifest::Manifest {
         signer: signer.to_string(),
         date: req.date.to_string(),
@@ -310,17 +319,59 @@ pub fn sign(dir: &Path, req: &SignRequest<'_>) -> Result<Signed, SignoffError> {
     })
 }
 
-/// Scans `dir` for the manifest; refuses entries it cannot cover.
-fn scan_signable(dir: &Path) -> Result<manifest::Scan, SignoffError> {
-    let scan = manifest::scan(dir, &manifest::UNSIGNED).map_err(io(dir))?;
-    if !scan.refused.is_empty() {
+/// Scans `dir` for the manifest; refuses private keys (`known`: the
+/// signing key files) and entries a manifest cannot cover.
+fn scan_signable(dir: &Path, known: &[manifest::KnownKey]) -> Result<manifest::Scan, SignoffError> {
+    let scan = manifest::scan(dir, &manifest::UNSIGNED, known).map_err(io(dir))?;
+    if !scan.keys.is_empty() {
+        return Err(SignoffError::Refused(format!(
+            "`{}` holds private keys, which must never travel with a report:\n  - {}\n    hint: move them out of the report directory (and if a report with one was ever handed out, treat the key as known to others)",
+            dir.display(),
+            scan.keys.join("\n  - ")
+        )));
+    }
+    let mut refused = scan.refused.clone();
+    refused.extend(
+        scan.empty_dirs
+            .iter()
+            .map(|d| format!("`{d}`: a folder without files (a manifest lists files only)")),
+    );
+    if !refused.is_empty() {
         return Err(SignoffError::Refused(format!(
             "`{}` holds entries a manifest cannot cover:\n  - {}\n    hint: remove them",
             dir.display(),
-            scan.refused.join("\n  - ")
+            refused.join("\n  - ")
         )));
     }
     Ok(scan)
+}
+
+/// Refuses a certificate that may not sign at `at_unix_s` (Unix seconds):
+/// not valid then, or without the key usages a signature needs
+/// ([`policy::signer_problems`]). `file` is where it came from, for the
+/// message.
+pub fn check_certificate(
+    cert: &x509_cert::Certificate,
+    file: Option<&Path>,
+    at_unix_s: u64,
+) -> Result<(), SignoffError> {
+    let problems = policy::signer_problems(cert, at_unix_s);
+    if problems.is_empty() {
+        return Ok(());
+    }
+    let message = format!(
+        "the certificate `{}` cannot sign at {}:\n  - {}\n    hint: the customer's `openssl cms -verify` would reject the signature; use a certificate valid now with keyUsage digitalSignature or nonRepudiation and, if it has an extendedKeyUsage, emailProtection (`ledflicker keygen` makes one)",
+        cert.tbs_certificate().subject(),
+        policy::utc_time(at_unix_s),
+        problems.join("\n  - ")
+    );
+    Err(match file {
+        Some(path) => SignoffError::Key {
+            path: path.to_path_buf(),
+            message,
+        },
+        None => SignoffError::Refused(message),
+    })
 }
 
 /// Moves the current manifest and signature to `signatures/N.*`.
@@ -335,28 +386,6 @@ fn archive_previous(dir: &Path, n: usize) -> Result<(), SignoffError> {
         std::fs::rename(dir.join(from), &target).map_err(io(&target))?;
     }
     Ok(())
-}
-
-/// Unix time of midnight UTC at the start of `YYYY-MM-DD`.
-pub fn unix_of_date(date: &str) -> Option<u64> {
-    let mut parts = date.split('-');
-    let y: i64 = parts.next()?.parse().ok()?;
-    let m: i64 = parts.next()?.parse().ok()?;
-    let d: i64 = parts.next()?.parse().ok()?;
-    if parts.next().is_some() || !(1..=12).contains(&m) || !(1..=31).contains(&d) {
-        return None;
-    }
-    // Days from the civil date (H. Hinnant's algorithm), inverse of
-    // `util::utc_date`.
-    let y = if m <= 2 { y - 1 } else { y };
-    let era = y.div_euclid(400);
-    let yoe = y - era * 400;
-    let mp = (m + 9) % 12;
-    let doy = (153 * mp + 2) / 5 + d - 1;
-    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    let days = era * 146_097 + doe - 719_468;
-    let secs = u64::try_from(days * 86_400).ok()?;
-    (crate::util::utc_date(secs as i64) == date).then_some(secs)
 }
 
 /// Asks for the passphrase of `file` on the terminal, without echo.
@@ -383,18 +412,4 @@ pub fn prompt_passphrase(file: &Path) -> Result<String, SignoffError> {
     eprintln!();
     read.map_err(io(file))?;
     Ok(line.trim_end_matches(['\n', '\r']).to_string())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn dates_map_to_midnight_utc() {
-        assert_eq!(unix_of_date("1970-01-01"), Some(0));
-        assert_eq!(unix_of_date("2000-02-29"), Some(951_782_400));
-        assert_eq!(unix_of_date("2026-11-22"), Some(1_795_305_600));
-        assert_eq!(unix_of_date("2026-02-30"), None);
-        assert_eq!(unix_of_date("2026-1-1x"), None);
-    }
 }

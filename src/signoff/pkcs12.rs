@@ -129,10 +129,7 @@ fn parse(bytes: &[u8], password: &str) -> Result<SignerKey, String> {
 
 /// Reads the key and its certificate from the PKCS#12 file at `path`.
 pub fn load(path: &Path, password: &str) -> Result<SignerKey, SignoffError> {
-    let bytes = std::fs::read(path).map_err(|source| SignoffError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = super::keys::read(path)?;
     parse(&bytes, password).map_err(|message| SignoffError::Key {
         path: path.to_path_buf(),
         message,

@@ -8,7 +8,7 @@ use x509_cert::Certificate;
 
 use super::manifest::{Manifest, scan};
 use super::{
-    HISTORY_DIR, LEGACY_FILE, MANIFEST_FILE, SIGNATURE_FILE, SignoffError, cms, keys, pdf,
+    HISTORY_DIR, LEGACY_FILE, MANIFEST_FILE, SIGNATURE_FILE, SignoffError, cms, keys, pdf, policy,
 };
 use crate::model::InputFile;
 use crate::report::document::{Document, Signatory};
@@ -25,9 +25,13 @@ pub struct SignatureInfo {
     pub subject: String,
     /// SHA-256 of the certificate (DER), hex.
     pub fingerprint: String,
-    /// Signing date, `YYYY-MM-DD`.
+    /// Date the report shows for the signature, `YYYY-MM-DD`.
     pub date: String,
-    /// Whether the certificate is one of `--trust` (None: not asked).
+    /// Signing time the signature carries, Unix seconds (now when it
+    /// carries none): the time its certificate is checked at.
+    pub signed_at: u64,
+    /// Whether the certificate chains to one of `--trust` at the signing
+    /// time (None: not asked).
     pub trusted: Option<bool>,
 }
 
@@ -111,6 +115,35 @@ pub fn recorded_inputs(doc: &Document) -> Vec<InputFile> {
 struct Checked {
     manifest: Manifest,
     cert: Certificate,
+    /// When it was signed, Unix seconds: the signing time it carries, or
+    /// now for a signature without one.
+    signed_at: u64,
+}
+
+fn now_unix_s() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+/// Every reason why `cert` could not make a signature at `at` that
+/// `openssl cms -verify -CAfile` accepts: its own fields, and with
+/// `trusted` the chain to one of them ([`policy`]). Also whether it
+/// chains to `trusted` (None: no `trusted`).
+fn certificate_problems(
+    cert: &Certificate,
+    trusted: &[Certificate],
+    at: u64,
+) -> (Vec<String>, Option<bool>) {
+    let mut out: Vec<String> = policy::signer_problems(cert, at)
+        .into_iter()
+        .map(|p| format!("but its {p}"))
+        .collect();
+    let chain = (!trusted.is_empty()).then(|| policy::check_chain(cert, trusted, at));
+    if let Some(Err(e)) = &chain {
+        out.push(format!("which is not a trusted certificate (--trust): {e}"));
+    }
+    (out, chain.map(|c| c.is_ok()))
 }
 
 fn rel(dir: &Path, p: &Path) -> String {
@@ -139,6 +172,7 @@ fn check_pair(dir: &Path, manifest: &Path, signature: &Path) -> Result<Checked, 
     Ok(Checked {
         manifest: m,
         cert: v.cert,
+        signed_at: v.signing_time_unix_s.unwrap_or_else(now_unix_s),
     })
 }
 
@@ -184,13 +218,14 @@ pub fn verify(
     for (i, (m, s)) in pairs.iter().enumerate() {
         match check_pair(dir, m, s) {
             Ok(c) => {
-                let trusted_now = (!trusted.is_empty()).then(|| keys::is_trusted(&c.cert, trusted));
-                if trusted_now == Some(false) {
+                let (problems, trusted_now) = certificate_problems(&c.cert, trusted, c.signed_at);
+                for p in problems {
                     out.problems.push(format!(
-                        "signature {} of {n} claims to be by \"{}\" ({}), which is not a trusted certificate (--trust)",
+                        "signature {} of {n} claims to be by \"{}\" ({}, signed {}), {p}",
                         i + 1,
                         c.manifest.signer,
-                        describe(&c.cert)
+                        describe(&c.cert),
+                        policy::utc_time(c.signed_at)
                     ));
                 }
                 out.signatures.push(SignatureInfo {
@@ -199,6 +234,7 @@ pub fn verify(
                     subject: keys::subject_cn(&c.cert),
                     fingerprint: keys::fingerprint(&c.cert),
                     date: c.manifest.date.clone(),
+                    signed_at: c.signed_at,
                     trusted: trusted_now,
                 });
                 checked.push(Some(c));
@@ -243,13 +279,23 @@ fn check_files(
     checked: &[Option<Checked>],
     out: &mut Verification,
 ) -> Result<(), SignoffError> {
-    let now = scan(dir, &super::manifest::UNSIGNED).map_err(|source| SignoffError::Io {
+    let now = scan(dir, &super::manifest::UNSIGNED, &[]).map_err(|source| SignoffError::Io {
         path: dir.to_path_buf(),
         source,
     })?;
     out.files = now.files.len();
     for r in &now.refused {
         out.problems.push(format!("refused {r}"));
+    }
+    for k in &now.keys {
+        out.problems.push(format!(
+            "{k}; a private key must never travel with a report (tell the signer: the key is no longer secret)"
+        ));
+    }
+    for d in &now.empty_dirs {
+        out.problems.push(format!(
+            "folder `{d}` holds no file, so no manifest lists it: it was added after the last signature"
+        ));
     }
     let n = checked.len();
     let Some(Some(last)) = checked.last() else {
@@ -323,6 +369,19 @@ fn check_pdf(
             Err(e) => out.problems.push(format!("{who}: {e}")),
             Ok(v) => {
                 out.pdf_signatures += 1;
+                let manifest_cert = checked.get(i).and_then(Option::as_ref).map(|c| &c.cert);
+                // The certificate of a manifest signature is checked above;
+                // only another one is checked here.
+                if manifest_cert != Some(&v.cert) {
+                    let at = v.signing_time_unix_s.unwrap_or_else(now_unix_s);
+                    for p in certificate_problems(&v.cert, trusted, at).0 {
+                        out.problems.push(format!(
+                            "{who} is by {} (signed {}), {p}",
+                            describe(&v.cert),
+                            policy::utc_time(at)
+                        ));
+                    }
+                }
                 if let Some(Some(c)) = checked.get(i) {
                     if keys::fingerprint(&v.cert) != c.manifest.certificate_sha256 {
                         out.problems.push(format!(
@@ -339,12 +398,6 @@ fn check_pdf(
                             c.manifest.pdf_bytes
                         ));
                     }
-                }
-                if !trusted.is_empty() && !keys::is_trusted(&v.cert, trusted) {
-                    out.problems.push(format!(
-                        "{who} is by {}, which is not a trusted certificate (--trust)",
-                        describe(&v.cert)
-                    ));
                 }
             }
         }
