@@ -14,18 +14,110 @@ use serde::{Deserialize, Serialize};
 /// Apparent frequency in Hz (`0..=fps/2`) of a PWM at `frequency_hz` seen at
 /// `fps` frames per second: `|f - fps * round(f / fps)|`.
 ///
-/// The reduction uses the exact IEEE remainder, so `f = k * fps` gives 0
-/// exactly (e.g. 59.94 Hz at 29.97 fps).
+/// Plans state frequencies and frame rates as decimals (90.8 Hz, 29.97
+/// fps), and the hazard bands have decimal edges (0.8 Hz), so the
+/// reduction is done on those decimals exactly ([`decimal_remainder`]):
+/// 90.8 Hz at 30 fps gives the `f64` nearest 0.8, as 30.8 and 150.8 Hz do,
+/// not 0.79999999999999716. `f = k * fps` gives 0 exactly (59.94 Hz at
+/// 29.97 fps). Values with more digits than an exact integer form holds
+/// (a frame rate measured from timestamps, say) use the IEEE remainder.
 pub fn apparent_frequency_hz(frequency_hz: f64, fps: f64) -> f64 {
+    if let Some(r) = decimal_remainder(frequency_hz, fps) {
+        return r.nearest_alias();
+    }
     let r = frequency_hz.rem_euclid(fps);
     r.min(fps - r).max(0.0)
 }
 
 /// Signed phase advance per frame in PWM cycles, `f / fps - round(f / fps)`,
-/// in `[-0.5, 0.5]`; exact for phase-locked drives.
+/// in `[-0.5, 0.5]`; exact for phase-locked drives (and computed on the
+/// decimals, as [`apparent_frequency_hz`] is).
 pub fn phase_step_cycles(frequency_hz: f64, fps: f64) -> f64 {
+    if let Some(r) = decimal_remainder(frequency_hz, fps) {
+        return r.signed_step();
+    }
     let r = frequency_hz.rem_euclid(fps) / fps;
     if r > 0.5 { r - 1.0 } else { r }
+}
+
+/// `f mod fps` on the shortest decimals that print as `f` and `fps`: both
+/// scaled by one power of ten to integers, reduced exactly.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct DecimalRemainder {
+    /// `f mod fps`, scaled: in `[0, fps_scaled)`.
+    rem: i128,
+    /// `fps`, scaled (> 0).
+    fps: i128,
+    /// The scale: the values are these integers times `10^exp`.
+    exp: i32,
+}
+
+/// Largest integer an `f64` holds exactly (2^53).
+const EXACT_INT: i128 = 1 << 53;
+
+impl DecimalRemainder {
+    /// `10^exp * n` as the `f64` nearest the exact decimal, when one
+    /// rounding gives it (`n` and `10^|exp|` exact in an `f64`).
+    fn scaled(&self, n: i128) -> Option<f64> {
+        if n.abs() > EXACT_INT || !(-22..=22).contains(&self.exp) {
+            return None;
+        }
+        let p = 10f64.powi(self.exp.abs());
+        Some(if self.exp < 0 {
+            n as f64 / p
+        } else {
+            n as f64 * p
+        })
+    }
+
+    fn nearest_alias(&self) -> f64 {
+        let d = self.rem.min(self.fps - self.rem);
+        self.scaled(d)
+            .unwrap_or_else(|| (d as f64) * 10f64.powi(self.exp))
+    }
+
+    fn signed_step(&self) -> f64 {
+        let r = if 2 * self.rem > self.fps {
+            self.rem - self.fps
+        } else {
+            self.rem
+        };
+        // One rounding when both are exact in an f64 (below 2^53).
+        r as f64 / self.fps as f64
+    }
+}
+
+/// The shortest decimal that prints as `x` (> 0, finite), as `(m, e)`
+/// with `x = m * 10^e`; `None` when `m` would not fit.
+fn decimal_of(x: f64) -> Option<(i128, i32)> {
+    if !(x.is_finite() && x > 0.0) {
+        return None;
+    }
+    // `{:e}` prints the shortest digits that read back as `x`.
+    let text = format!("{x:e}");
+    let (mantissa, exp) = text.split_once('e')?;
+    let exp: i32 = exp.parse().ok()?;
+    let (int, frac) = mantissa.split_once('.').unwrap_or((mantissa, ""));
+    let digits = format!("{int}{frac}");
+    let m: i128 = digits.parse().ok()?;
+    Some((m, exp - i32::try_from(frac.len()).ok()?))
+}
+
+/// `f mod fps` exactly on their decimals (see [`DecimalRemainder`]);
+/// `None` when either is not positive and finite or the scaled integers
+/// would overflow.
+fn decimal_remainder(f: f64, fps: f64) -> Option<DecimalRemainder> {
+    let ((mf, ef), (mr, er)) = (decimal_of(f)?, decimal_of(fps)?);
+    let exp = ef.min(er);
+    let scale = |m: i128, e: i32| -> Option<i128> {
+        m.checked_mul(10i128.checked_pow(u32::try_from(e - exp).ok()?)?)
+    };
+    let (f, fps) = (scale(mf, ef)?, scale(mr, er)?);
+    Some(DecimalRemainder {
+        rem: f.rem_euclid(fps),
+        fps,
+        exp,
+    })
 }
 
 /// Where an apparent frequency came from.
@@ -279,6 +371,27 @@ mod tests {
         assert!((apparent_frequency_hz(91.0, 30.0) - 1.0).abs() < 1e-12);
         assert!((apparent_frequency_hz(1001.0, 30.0) - 11.0).abs() < 1e-12);
         assert!((phase_step_cycles(89.0, 30.0) + 1.0 / 30.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn decimal_frequencies_alias_to_the_decimal_they_state() {
+        // 90.8, 30.8 and 150.8 Hz at 30 fps all beat at 0.8 Hz: the same
+        // f64, so the same hazard band (0.8 Hz is its lower edge).
+        for f in [30.8, 90.8, 150.8, 1500.8] {
+            assert_eq!(apparent_frequency_hz(f, 30.0), 0.8, "{f} Hz");
+        }
+        assert_eq!(apparent_frequency_hz(30.97, 29.97), 1.0);
+        assert_eq!(apparent_frequency_hz(119.88, 29.97), 0.0);
+        assert_eq!(apparent_frequency_hz(60.1, 60.0), 0.1);
+        assert_eq!(phase_step_cycles(90.8, 30.0), 0.8 / 30.0);
+        assert_eq!(phase_step_cycles(89.2, 30.0), -(0.8 / 30.0));
+        assert_eq!(decimal_of(1e-7), Some((1, -7)));
+        assert_eq!(decimal_of(29.97), Some((2997, -2)));
+        assert_eq!(decimal_of(1.5e300), Some((15, 299)));
+        // Too many digits for one integer form: the IEEE remainder.
+        let fps = 30000.0 / 1001.0;
+        assert!((apparent_frequency_hz(151.0, fps) - (151.0 - 5.0 * fps)).abs() < 1e-12);
+        assert!(apparent_frequency_hz(1e300, 30.0).is_finite());
     }
 
     /// Brute force: the alias of f nearest to 0 among f - k fps, all k.

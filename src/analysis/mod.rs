@@ -236,7 +236,19 @@ pub struct CaseAnalysis {
 /// spectrum of its LED trace.
 pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
     let cam: &CameraConfig = &plan.dut.camera;
-    let f = r.case.frequency_hz;
+    // The PWM the trace was made with: the simulator drives the LED off
+    // its own clock (`pwm-clock-offset-ppm`) with its first rising edge
+    // at `pwm-delay-ms`; a capture's PWM is the case's frequency, at a
+    // phase nobody knows.
+    let simulated = plan.dut.backend == BackendKind::Simulator;
+    let (f, delay_s) = if simulated {
+        (
+            r.case.frequency_hz * (1.0 + plan.scene.pwm_clock_offset_ppm * 1e-6),
+            cam.pwm_delay_s,
+        )
+    } else {
+        (r.case.frequency_hz, 0.0)
+    };
     let known = (f > 0.0).then_some(f);
     let shutter = cam.exposure_timing();
     let pwm_frames: Vec<usize> = r
@@ -251,7 +263,7 @@ pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
         .iter()
         .map(|&i| r.acquisition.frames[i].index)
         .collect();
-    let timing = (plan.dut.backend != BackendKind::Simulator)
+    let timing = (!simulated)
         .then(|| {
             let times: Vec<f64> = pwm_frames
                 .iter()
@@ -279,7 +291,7 @@ pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
                 &sampling,
                 &luma,
                 known,
-                shutter.row_offset_s(roi.y_px),
+                shutter.row_offset_s(roi.y_px) - delay_s,
                 trace.phase_envelope,
                 m.percent_flicker.value,
             )

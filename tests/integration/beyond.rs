@@ -84,3 +84,68 @@ fn results_name_the_beat_and_what_it_looks_like() {
         }
     }
 }
+
+/// One case of base.toml at `frequency_hz`, 50 % duty, a 2 ms exposure and
+/// the paper's 60 s PWM segment, with `extra` TOML appended.
+fn model_with(frequency_hz: f64, extra: &str) -> Value {
+    let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml"))
+        .unwrap()
+        .replace(
+            "frequencies-hz = [60.0, 150.0]",
+            &format!("frequencies-hz = [{frequency_hz:?}]"),
+        )
+        .replace("duty-cycles = [0.2, 0.5]", "duty-cycles = [0.5]")
+        .replace("pwm-s = 4.0", "pwm-s = 60.0")
+        .replace("exposure-ms = 11.111", "exposure-ms = 2.0")
+        + extra;
+    let p = plan::parse(&text, std::path::Path::new("ppm.toml"), String::new()).unwrap();
+    let cases = plan::expand_cases(&p);
+    let results = runner::run(&p, &cases, &Simulator::new(&p), Some(2), &|_| {}).unwrap();
+    serde_json::to_value(ledflicker::model::build(&p, "sim-ideal", &results)).unwrap()
+}
+
+#[test]
+fn a_pwm_clock_offset_moves_the_beat_hazard_and_coverage_with_the_trace() {
+    // 150 Hz at 30 fps is phase locked; 50 ppm fast, the LED runs at
+    // 150.0075 Hz and the video beats at 150 * 50e-6 = 0.0075 Hz.
+    let m = model_with(150.0, "\n[scene]\npwm-clock-offset-ppm = 50.0\n");
+    let c = &m["cases"][0];
+    let fa = c["beat"]["apparent_frequency_hz"].as_f64().unwrap();
+    assert!((fa - 0.0075).abs() < 1e-12, "{fa}");
+    assert!(!c["beat"]["note"].as_str().unwrap().contains("phase locked"));
+    let roi = &c["rois"][0];
+    let pf = roi["metrics"]["percent_flicker"].as_f64().unwrap();
+    assert!(pf > 2.0, "the trace flickers visibly: PF {pf}");
+    // 0.45 of a beat in 60 s: a slow pulsing, not a steady lamp.
+    assert_eq!(c["hazard_class"], "slow-drift");
+    let covered = roi["analysis"]["phase_coverage"]["covered_bins"]
+        .as_u64()
+        .unwrap();
+    // The phase advances 0.0075 / 30 cycles a frame: 1800 frames sweep
+    // 0.45 of the circle, 29 of 64 bins (28.8 rounded up, +-1 at the ends).
+    assert!((28..=31).contains(&covered), "{covered} bins");
+    // Without the offset the same drive is locked: one bin, steady.
+    let locked = model_with(150.0, "");
+    let c = &locked["cases"][0];
+    assert_eq!(c["beat"]["apparent_frequency_hz"].as_f64(), Some(0.0));
+    assert_eq!(
+        c["rois"][0]["analysis"]["phase_coverage"]["covered_bins"].as_u64(),
+        Some(1)
+    );
+}
+
+#[test]
+fn decimal_beats_on_a_band_edge_fall_in_the_same_band_at_any_harmonic() {
+    // 30.8, 90.8 and 150.8 Hz at 30 fps beat at 0.8 Hz, the lower edge of
+    // traffic-signal-like (0.8-1.0 Hz, both ends included).
+    for f in [30.8, 90.8, 150.8] {
+        let m = model_with(f, "");
+        let c = &m["cases"][0];
+        assert_eq!(
+            c["beat"]["apparent_frequency_hz"].as_f64(),
+            Some(0.8),
+            "{f}"
+        );
+        assert_eq!(c["hazard_class"], "traffic-signal-like", "{f} Hz");
+    }
+}
