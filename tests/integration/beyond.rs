@@ -122,7 +122,8 @@ fn a_pwm_clock_offset_moves_the_beat_hazard_and_coverage_with_the_trace() {
         .as_u64()
         .unwrap();
     // The phase advances 0.0075 / 30 cycles a frame: 1800 frames sweep
-    // 0.45 of the circle, 29 of 64 bins (28.8 rounded up, +-1 at the ends).
+    // 0.45 of the circle: 28.8 of 64 bins' width, so 29 to 30 bins hit
+    // as the sweep's ends fall (30 here), give or take one.
     assert!((28..=31).contains(&covered), "{covered} bins");
     // Without the offset the same drive is locked: one bin, steady.
     let locked = model_with(150.0, "");
