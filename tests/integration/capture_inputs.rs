@@ -197,13 +197,11 @@ fn a_fifo_as_timestamp_sidecar_is_refused_not_skipped() {
 fn a_fifo_left_by_a_rig_as_a_png_frame_is_refused() {
     let dir = scratch("fifo-rig");
     let plan = dir.join("plan.toml");
-    let text = "[plan]\nid = \"t\"\ntitle = \"t\"\n[sequence]\non-s = 0.5\noff-s = 0.5\npwm-s = 1.0\n\
-        [light]\nlevels-lux = [2000.0]\n[grid]\nfrequencies-hz = [90.0]\nduty-cycles = [0.5]\n\
-        [[roi]]\nname = \"led\"\nx-px = 0\ny-px = 0\nwidth-px = 1\nheight-px = 1\n\
-        [dut]\nbackend = \"command\"\n[dut.camera]\nshutter = \"global\"\nsensor-rows = 8\n\
-        sensor-columns = 8\nexposure-ms = 1.0\nframe-rate-fps = 30.0\nresponse-dn-per-cd-m2-s = 1.0\n\
-        [capture]\ncommand = [\"sh\", \"-c\", \"mkfifo \\\"$LEDFLICKER_OUT_DIR/f000.png\\\"\"]\ntimeout-s = 5.0\n";
-    std::fs::write(&plan, text).unwrap();
+    let text = RIG_PLAN.replace(
+        "RIG",
+        "[\"sh\", \"-c\", \"mkfifo \\\"$LEDFLICKER_OUT_DIR/f000.png\\\"\"]",
+    );
+    std::fs::write(&plan, &text).unwrap();
     let ran = plan_with_deadline(&dir, &plan, &[], DEADLINE);
     assert_refused(&ran, 3, &["f000.png", "FIFO"]);
     // A FIFO as the one capture file is refused too, not passed over.
@@ -236,12 +234,46 @@ fn ctrl_c_during_a_long_y4m_read_exits_130_within_a_second() {
         f.set_len(header.len() as u64 + frames * frame_len).unwrap();
     }
     let plan = one_case_plan(&dir, "long.y4m", (0, 0, 1, 1), "");
+    interrupt_after_a_second(&dir, &plan, &path);
+}
+
+/// Ctrl-C while the run's inputs are hashed (a rig command naming a
+/// sparse 64 GiB file, hashed as a rig script before any case runs) stops
+/// the run within a second, with exit 130.
+#[test]
+fn ctrl_c_while_inputs_are_hashed_exits_130_within_a_second() {
+    let dir = scratch("sigint-hash");
+    let path = dir.join("big.dat");
+    std::fs::File::create(&path)
+        .unwrap()
+        .set_len(64 << 30)
+        .unwrap();
+    let plan = dir.join("plan.toml");
+    let text = RIG_PLAN.replace("RIG", "[\"true\", \"./big.dat\"]");
+    std::fs::write(&plan, text).unwrap();
+    interrupt_after_a_second(&dir, &plan, &path);
+}
+
+/// A command plan (one case, 8 x 8 global-shutter camera) whose
+/// `[capture] command` is `RIG`.
+const RIG_PLAN: &str = "[plan]\nid = \"t\"\ntitle = \"t\"\n[sequence]\non-s = 0.5\noff-s = 0.5\npwm-s = 1.0\n\
+    [light]\nlevels-lux = [2000.0]\n[grid]\nfrequencies-hz = [90.0]\nduty-cycles = [0.5]\n\
+    [[roi]]\nname = \"led\"\nx-px = 0\ny-px = 0\nwidth-px = 1\nheight-px = 1\n\
+    [dut]\nbackend = \"command\"\n[dut.camera]\nshutter = \"global\"\nsensor-rows = 8\n\
+    sensor-columns = 8\nexposure-ms = 1.0\nframe-rate-fps = 30.0\nresponse-dn-per-cd-m2-s = 1.0\n\
+    [capture]\ncommand = RIG\ntimeout-s = 5.0\n";
+
+/// Runs `plan`, sends SIGINT after a second, and checks that the run
+/// stops within a second of it with exit 130, writing no report; then
+/// removes the sparse file `big` (no disk, but 64 GiB to tools that sum
+/// sizes).
+fn interrupt_after_a_second(dir: &Path, plan: &Path, big: &Path) {
     let err_path = dir.join("stderr.txt");
     let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
         .args(["plan", plan.to_str().unwrap(), "--out"])
         .arg(dir.join("o"))
         .arg("-q")
-        .current_dir(&dir)
+        .current_dir(dir)
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(std::fs::File::create(&err_path).unwrap())
@@ -271,8 +303,7 @@ fn ctrl_c_during_a_long_y4m_read_exits_130_within_a_second() {
         std::thread::sleep(Duration::from_millis(10));
     };
     let took = signalled.elapsed();
-    // The sparse file takes no disk, but 64 GiB to tools that sum sizes.
-    let _ = std::fs::remove_file(&path);
+    let _ = std::fs::remove_file(big);
     let err = std::fs::read_to_string(&err_path).unwrap_or_default();
     let status = status.unwrap_or_else(|| panic!("still reading 5 s after SIGINT: {err}"));
     assert!(
