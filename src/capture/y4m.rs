@@ -164,6 +164,27 @@ fn check_frame_size(path: &Path, hdr: &Header, body_len: u64) -> Result<(), Capt
     }
 }
 
+/// Reads and drops up to `n` bytes of `r`, in chunks of [`SKIP_CHUNK`]
+/// with a check for Ctrl-C between them, so that a huge frame is no
+/// exception; returns the bytes skipped (fewer at the end of the file).
+fn skip(
+    r: &mut impl Read,
+    n: u64,
+    path: &Path,
+    io_err: impl Fn(std::io::Error) -> CaptureError,
+) -> Result<u64, CaptureError> {
+    let mut skipped = 0;
+    while skipped < n {
+        check_interrupt(path)?;
+        let mut chunk = r.by_ref().take((n - skipped).min(SKIP_CHUNK));
+        match std::io::copy(&mut chunk, &mut std::io::sink()).map_err(&io_err)? {
+            0 => break,
+            k => skipped += k,
+        }
+    }
+    Ok(skipped)
+}
+
 pub(super) fn read(
     path: &Path,
     rois: &[RoiRect],
@@ -229,17 +250,8 @@ pub(super) fn read(
             .map_err(truncated)?;
         r.read_exact(&mut buf).map_err(truncated)?;
         let rest = luma_bytes - row_bytes * (bbox.y + bbox.height) as u64 + hdr.chroma_bytes;
-        // Skip by reading, so that a truncated last frame is detected; in
-        // chunks, so that Ctrl-C is seen within a huge frame too.
-        let mut skipped = 0;
-        while skipped < rest {
-            check_interrupt(path)?;
-            let mut chunk = (&mut r).take((rest - skipped).min(SKIP_CHUNK));
-            match std::io::copy(&mut chunk, &mut std::io::sink()).map_err(truncated)? {
-                0 => break,
-                n => skipped += n,
-            }
-        }
+        // Skip by reading, so that a truncated last frame is detected.
+        let skipped = skip(&mut r, rest, path, truncated)?;
         if skipped != rest {
             return Err(frame_err(format!(
                 "truncated frame: {} of {rest} bytes after the ROI rows are missing",
