@@ -487,3 +487,16 @@ fn mixed_bit_depths_given_to_linetime_are_refused() {
     let ran = run_with_deadline(&args, &dir, &[], DEADLINE);
     assert_refused(&ran, 2, &["b.png", "16-bit", "8-bit", "mixed bit depths"]);
 }
+
+/// A device where a capture is read (here /dev/null, through a symbolic
+/// link with the capture's name) is refused as one, naming the capture.
+#[test]
+fn a_device_as_capture_source_is_refused() {
+    let dir = scratch("device-source");
+    for name in ["t.csv", "c.y4m", "f.png", "v.mp4"] {
+        std::os::unix::fs::symlink("/dev/null", dir.join(name)).unwrap();
+        let plan = one_case_plan(&dir, name, (0, 0, 1, 1), "");
+        let ran = plan_with_deadline(&dir, &plan, &[], DEADLINE);
+        assert_refused(&ran, 2, &[name, "is a device, not a regular file"]);
+    }
+}
