@@ -39,12 +39,21 @@ pub struct InputError {
 }
 
 /// SHA-256 (lowercase hex) and size in bytes of a file, read in chunks.
+/// Anything but a regular file (a FIFO, a device) is refused at once
+/// ([`crate::util::open_input`]); Ctrl-C stops the hashing of a large file
+/// between chunks, with an `Interrupted` error.
 pub fn hash_file(path: &Path) -> std::io::Result<(String, u64)> {
-    let mut f = std::fs::File::open(path)?;
+    let mut f = crate::util::open_input(path)?;
     let mut hasher = Sha256::new();
     let mut buf = vec![0u8; 1 << 20];
     let mut size = 0u64;
     loop {
+        if let Err(stop) = crate::interrupt::check() {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::Interrupted,
+                stop.to_string(),
+            ));
+        }
         let n = f.read(&mut buf)?;
         if n == 0 {
             break;
@@ -111,10 +120,10 @@ fn capture_inputs(source: &Path, out: &mut Vec<InputFile>) -> Result<(), InputEr
     if let Some(role) = role {
         out.push(input(role, source)?);
     }
-    let mut sidecar = source.as_os_str().to_owned();
-    sidecar.push(".timestamps.csv");
-    let sidecar = PathBuf::from(sidecar);
-    if sidecar.is_file() {
+    // As the capture reader: whatever stands at the sidecar's name is an
+    // input (a FIFO there is refused when hashed).
+    let sidecar = crate::capture::sidecar_path(source);
+    if std::fs::symlink_metadata(&sidecar).is_ok() {
         out.push(input("timestamps", &sidecar)?);
     }
     Ok(())

@@ -272,12 +272,14 @@ impl CommandRig {
                 ),
             ));
         }
-        // One capture file, or a directory of frames.
+        // One capture file, or a directory of frames. Anything but a
+        // directory counts as a file: a FIFO the command left is then
+        // refused by the capture reader, naming it, not passed over.
         let files: Vec<PathBuf> = std::fs::read_dir(out)
             .map_err(|e| self.fail(case, format!("cannot list `{}`: {e}", out.display())))?
             .filter_map(|e| e.ok().map(|e| e.path()))
             .filter(|p| {
-                p.is_file()
+                !p.is_dir()
                     && !p.to_string_lossy().ends_with(".timestamps.csv")
                     && capture::source_kind(p) != SourceKind::Image
             })

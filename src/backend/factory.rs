@@ -32,6 +32,18 @@ pub enum SetupError {
         #[source]
         source: CaptureError,
     },
+    /// The user stopped the run (Ctrl-C, SIGTERM) while the captures were
+    /// read; the signal is the source, so that the exit code is its own.
+    #[error("reading the captures of plan `{plan}` was stopped (at `{}`)", capture.display())]
+    Interrupted {
+        /// Plan id.
+        plan: String,
+        /// The capture being read.
+        capture: std::path::PathBuf,
+        /// The signal.
+        #[source]
+        source: crate::interrupt::Interrupted,
+    },
     /// A command plan without a `[capture] command` (input error).
     #[error("the plan has no [capture] command")]
     NoCommand,
@@ -54,9 +66,16 @@ pub fn for_plan(plan: &Plan, only: Option<&[TestCase]>) -> Result<PlanBackend, S
                 }
                 None => Captured::load(plan),
             };
-            PlanBackend::Captured(loaded.map_err(|source| SetupError::Captures {
-                plan: plan.id.clone(),
-                source,
+            PlanBackend::Captured(loaded.map_err(|source| match source {
+                CaptureError::Interrupted { path, source } => SetupError::Interrupted {
+                    plan: plan.id.clone(),
+                    capture: path,
+                    source,
+                },
+                source => SetupError::Captures {
+                    plan: plan.id.clone(),
+                    source,
+                },
             })?)
         }
         BackendKind::Command => {

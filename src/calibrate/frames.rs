@@ -162,9 +162,10 @@ pub fn load(
     let mut raw: StripProfiles = Vec::new();
     let mut sources = Vec::new();
     let mut size: Option<(u32, u32)> = None;
-    let mut full_scale = 255.0;
+    let mut full_scale: Option<f64> = None;
     let mut area = None;
     for path in paths {
+        capture::check_interrupt(path)?;
         sources.push(Source {
             path: path.display().to_string(),
             sha256: file_sha256(path)?,
@@ -187,8 +188,23 @@ pub fn load(
                 hint: "give frames of one camera mode".to_string(),
             });
         }
+        // A DN means the same light only on one scale: 8-bit frames beside
+        // 16-bit ones would read as nearly black.
+        if let Some(f0) = full_scale
+            && f0 != fs
+        {
+            return Err(FrameError::Invalid {
+                message: format!(
+                    "frame `{}` is {}-bit, the frames before it are {}-bit (mixed bit depths)",
+                    path.display(),
+                    bits(fs),
+                    bits(f0)
+                ),
+                hint: "give frames of one bit depth".to_string(),
+            });
+        }
         size = Some((w, h));
-        full_scale = fs;
+        full_scale = Some(fs);
         area = Some(checked_roi(path, roi, w, h)?);
         raw.append(&mut got);
     }
@@ -215,10 +231,15 @@ pub fn load(
     Ok(FrameSet {
         sources,
         raw,
-        full_scale_dn: full_scale,
+        full_scale_dn: full_scale.unwrap_or(255.0),
         frame_size,
         roi,
     })
+}
+
+/// Bits per sample of a full scale (255 -> 8, 65535 -> 16).
+fn bits(full_scale: f64) -> u32 {
+    (full_scale + 1.0).log2().round() as u32
 }
 
 /// The ROI, or the whole frame; an ROI outside the frame is an error.
@@ -261,10 +282,11 @@ fn read_still(path: &Path, roi: Option<RoiRect>) -> Result<ReadOut, FrameError> 
         path: path.to_path_buf(),
         message,
     };
-    let img = image::ImageReader::open(path)
-        .map_err(|e| err(e.to_string()))?
-        .with_guessed_format()
-        .map_err(|e| err(e.to_string()))?
+    let img = capture::image_reader(path)
+        .map_err(|e| match e {
+            CaptureError::Read { message, .. } => err(message),
+            other => FrameError::Capture(other),
+        })?
         .decode()
         .map_err(|e| err(e.to_string()))?;
     let (w, h) = (img.width(), img.height());
@@ -362,16 +384,23 @@ fn read_sequence(path: &Path, roi: Option<RoiRect>) -> Result<ReadOut, FrameErro
     Ok((w, h, trace.full_scale_dn, out))
 }
 
-/// SHA-256 of a file, lowercase hex; "" for a directory.
+/// SHA-256 of a file, lowercase hex; "" for a directory. Read in chunks
+/// ([`crate::inputs::hash_file`]): a FIFO or a device is refused at once.
 fn file_sha256(path: &Path) -> Result<String, FrameError> {
     if path.is_dir() {
         return Ok(String::new());
     }
-    let bytes = std::fs::read(path).map_err(|e| FrameError::Read {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    })?;
-    Ok(crate::util::sha256_hex(&bytes))
+    match crate::inputs::hash_file(path) {
+        Ok((sha256, _)) => Ok(sha256),
+        // Stopped by Ctrl-C: the signal's error, not a read error.
+        Err(e) => match capture::check_interrupt(path) {
+            Err(stop) => Err(stop.into()),
+            Ok(()) => Err(FrameError::Read {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            }),
+        },
+    }
 }
 
 #[cfg(test)]

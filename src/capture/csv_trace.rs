@@ -6,7 +6,16 @@
 
 use std::path::Path;
 
-use super::{CaptureError, CaptureTrace, ReadOptions, times_from_fps};
+use super::{CaptureError, CaptureTrace, ReadOptions, check_interrupt, read_file, times_from_fps};
+
+/// Largest luma a CSV trace may hold, DN. Far above any sensor's scale
+/// (a 32-bit HDR sample is below 4.3e9), and low enough that the metrics'
+/// sums and squares over any trace stay finite and exact to well below a
+/// DN (values near 1e308 would overflow Percent Flicker to infinity).
+pub const MAX_CSV_LUMA_DN: f64 = 1e12;
+
+/// Rows parsed between checks for Ctrl-C.
+const ROWS_PER_CHECK: usize = 1 << 14;
 
 /// The file as text. Binary junk (bytes that are not UTF-8, or control
 /// characters) is an error naming its line, and is never echoed.
@@ -43,10 +52,7 @@ pub(super) fn read(
     roi_names: &[String],
     opts: &ReadOptions,
 ) -> Result<CaptureTrace, CaptureError> {
-    let bytes = std::fs::read(path).map_err(|e| CaptureError::Read {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    })?;
+    let bytes = read_file(path)?;
     let text = text_of(path, bytes)?;
     let mut lines = text
         .lines()
@@ -80,6 +86,9 @@ pub(super) fn read(
     let mut luma = vec![Vec::new(); roi_names.len()];
     let mut times = Vec::new();
     for (frame, (line_no, line)) in lines.enumerate() {
+        if frame % ROWS_PER_CHECK == 0 {
+            check_interrupt(path)?;
+        }
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
         let num = |i: usize| -> Result<f64, CaptureError> {
             let raw = fields.get(i).copied().unwrap_or("");
@@ -98,7 +107,20 @@ pub(super) fn read(
                 })
         };
         for (k, &i) in roi_cols.iter().enumerate() {
-            luma[k].push(num(i)?);
+            let v = num(i)?;
+            if !(0.0..=MAX_CSV_LUMA_DN).contains(&v) {
+                return Err(CaptureError::Frame {
+                    path: path.to_path_buf(),
+                    frame: frame as u64,
+                    message: format!(
+                        "line {}, column {}: luma {} DN is outside 0..={MAX_CSV_LUMA_DN:e}\n    hint: a CSV trace holds ROI mean luma in DN, from 0 to 1e12",
+                        line_no + 1,
+                        shown(cols[i]),
+                        shown(fields[i])
+                    ),
+                });
+            }
+            luma[k].push(v);
         }
         if let Some(i) = time_col {
             times.push(num(i)?);

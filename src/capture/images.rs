@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use image::DynamicImage;
 
 use super::{
-    Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, ReadOptions, RoiRect, check_rois,
-    times_from_fps,
+    Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, ReadOptions, RoiRect,
+    check_interrupt, check_rois, image_reader, times_from_fps,
 };
 
 /// Reads every `.png`, `.tif` and `.tiff` file of `dir`, sorted by name.
@@ -58,35 +58,40 @@ pub(super) fn read_files(
     opts: &ReadOptions,
 ) -> Result<CaptureTrace, CaptureError> {
     let mut acc = Accumulator::new(rois, opts.luma);
-    let mut size = None;
+    let mut first: Option<(u32, u32, image::ColorType)> = None;
     let mut full_scale = 255.0;
     for (k, file) in files.iter().enumerate() {
+        check_interrupt(capture)?;
         let frame = k as u64;
         let err = |message: String| CaptureError::Frame {
             path: file.clone(),
             frame,
             message,
         };
-        let mut reader = image::ImageReader::open(file)
-            .map_err(|e| err(format!("cannot open: {e}")))?
-            .with_guessed_format()
-            .map_err(|e| err(format!("cannot read: {e}")))?;
+        let mut reader = image_reader(file).map_err(|e| match e {
+            CaptureError::Read { message, .. } => err(format!("cannot open: {message}")),
+            other => other,
+        })?;
         reader.limits(frame_limits());
         let img = reader
             .decode()
             .map_err(|e| err(format!("corrupt or unsupported image: {e}")))?;
-        let (w, h) = (img.width(), img.height());
-        match size {
+        let (w, h, colour) = (img.width(), img.height(), img.color());
+        match first {
             None => {
                 check_rois(file, frame, rois, w, h)?;
-                size = Some((w, h));
+                first = Some((w, h, colour));
             }
-            Some((w0, h0)) if (w0, h0) != (w, h) => {
-                return Err(err(format!(
-                    "frame is {w}x{h} but frame 0 is {w0}x{h0} (mixed frame sizes)"
-                )));
+            Some((w0, h0, c0)) => {
+                if (w0, h0) != (w, h) {
+                    return Err(err(format!(
+                        "frame is {w}x{h} but frame 0 is {w0}x{h0} (mixed frame sizes)"
+                    )));
+                }
+                if let Some(why) = mixed_pixels(c0, colour) {
+                    return Err(err(why));
+                }
             }
-            Some(_) => {}
         }
         let view = |pixels| FrameView {
             pixels,
@@ -133,7 +138,7 @@ pub(super) fn read_files(
         luma,
         rgb,
         full_scale_dn: full_scale,
-        frame_size: size.unwrap_or((0, 0)),
+        frame_size: first.map_or((0, 0), |(w, h, _)| (w, h)),
         timestamps: if opts.fps.is_some() { "fps" } else { "none" },
         format: format!(
             "image sequence `{}` ({} files)",
@@ -141,4 +146,65 @@ pub(super) fn read_files(
             files.len()
         ),
     })
+}
+
+/// Why a frame of pixel type `c` cannot join frames of type `c0`, if it
+/// cannot: every frame of a capture must have the same bit depth (a DN
+/// means the same light only on one scale; 8-bit OFF frames read beside
+/// 16-bit PWM frames would give an FDI of 513, not 1) and the same
+/// channels (grey,
+/// grey + alpha, RGB, RGBA: luma and the R, G, B traces need every frame).
+fn mixed_pixels(c0: image::ColorType, c: image::ColorType) -> Option<String> {
+    let bits = |c: image::ColorType| u32::from(c.bits_per_pixel()) / u32::from(c.channel_count());
+    let (b0, b) = (bits(c0), bits(c));
+    if b0 != b {
+        return Some(format!(
+            "frame is {b}-bit ({}) but frame 0 is {b0}-bit ({}) (mixed bit depths)\n    hint: export every frame of a capture at one bit depth",
+            channel_names(c),
+            channel_names(c0)
+        ));
+    }
+    let (n0, n) = (c0.channel_count(), c.channel_count());
+    if n0 != n || c0.has_alpha() != c.has_alpha() {
+        return Some(format!(
+            "frame has {n} channels ({}) but frame 0 has {n0} ({}) (mixed channel counts)\n    hint: export every frame of a capture as grey, or every frame as RGB",
+            channel_names(c),
+            channel_names(c0)
+        ));
+    }
+    None
+}
+
+/// The channels of a pixel type, for messages.
+fn channel_names(c: image::ColorType) -> &'static str {
+    match (c.has_color(), c.has_alpha()) {
+        (false, false) => "grey",
+        (false, true) => "grey + alpha",
+        (true, false) => "RGB",
+        (true, true) => "RGBA",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use image::ColorType;
+
+    #[test]
+    fn frames_must_share_bit_depth_and_channels() {
+        assert_eq!(mixed_pixels(ColorType::L8, ColorType::L8), None);
+        assert_eq!(mixed_pixels(ColorType::Rgb16, ColorType::Rgb16), None);
+        let depth = mixed_pixels(ColorType::L8, ColorType::L16).unwrap();
+        assert!(
+            depth.contains("16-bit (grey) but frame 0 is 8-bit (grey)"),
+            "{depth}"
+        );
+        let channels = mixed_pixels(ColorType::L8, ColorType::Rgb8).unwrap();
+        assert!(
+            channels.contains("3 channels (RGB) but frame 0 has 1 (grey)"),
+            "{channels}"
+        );
+        let alpha = mixed_pixels(ColorType::Rgb8, ColorType::Rgba8).unwrap();
+        assert!(alpha.contains("4 channels (RGBA)"), "{alpha}");
+    }
 }

@@ -23,6 +23,7 @@ mod y4m;
 
 use std::path::{Path, PathBuf};
 
+pub use csv_trace::MAX_CSV_LUMA_DN;
 pub use progress::{decode_progress_text, frames_decoded};
 pub use schedule::read_captures;
 pub use video::ffmpeg_available;
@@ -134,14 +135,89 @@ pub enum CaptureError {
         /// What went wrong.
         message: String,
     },
+    /// The user stopped the read (Ctrl-C, SIGTERM); the signal is the
+    /// source, so that the exit code is the signal's.
+    #[error("reading capture `{path}` was stopped")]
+    Interrupted {
+        /// Path.
+        path: PathBuf,
+        /// The signal.
+        #[source]
+        source: crate::interrupt::Interrupted,
+    },
 }
 
 impl CaptureError {
     /// True for problems with the input (exit code 2), false for a missing
-    /// or failing tool (exit code 3).
+    /// or failing tool (exit code 3) and for a read the user stopped.
     pub fn is_input_error(&self) -> bool {
-        !matches!(self, CaptureError::Tool { .. })
+        !matches!(
+            self,
+            CaptureError::Tool { .. } | CaptureError::Interrupted { .. }
+        )
     }
+}
+
+/// `Err(Interrupted)` naming `path` once the user asked the run to stop
+/// (SIGINT, SIGTERM). Long reads poll it every frame (or chunk), so that
+/// Ctrl-C stops a read of a large capture within a frame's time.
+pub(crate) fn check_interrupt(path: &Path) -> Result<(), CaptureError> {
+    crate::interrupt::check().map_err(|source| CaptureError::Interrupted {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Opens a capture file for reading: a FIFO, a device, a socket or a
+/// directory in its place is refused at once (never waited on), naming it.
+pub(crate) fn open_file(path: &Path) -> Result<std::fs::File, CaptureError> {
+    crate::util::open_input(path).map_err(|e| CaptureError::Read {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })
+}
+
+/// Bytes read at a time by [`read_file`] between checks for Ctrl-C.
+const READ_CHUNK: usize = 8 << 20;
+
+/// The whole of a capture file ([`open_file`]), read in chunks with a
+/// check for Ctrl-C between them.
+pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>, CaptureError> {
+    use std::io::Read;
+    let mut file = open_file(path)?;
+    let len = file.metadata().map_or(0, |m| m.len());
+    let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0).min(1 << 30));
+    loop {
+        check_interrupt(path)?;
+        let n = (&mut file)
+            .take(READ_CHUNK as u64)
+            .read_to_end(&mut bytes)
+            .map_err(|e| CaptureError::Read {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            })?;
+        if n == 0 {
+            return Ok(bytes);
+        }
+    }
+}
+
+/// An image decoder on the frame file `path` ([`open_file`]): the format
+/// from the file name, corrected by the file's first bytes.
+pub(crate) fn image_reader(
+    path: &Path,
+) -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>, CaptureError> {
+    let file = open_file(path)?;
+    let mut reader = image::ImageReader::new(std::io::BufReader::new(file));
+    if let Ok(format) = image::ImageFormat::from_path(path) {
+        reader.set_format(format);
+    }
+    reader
+        .with_guessed_format()
+        .map_err(|e| CaptureError::Read {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
 }
 
 /// The kind of capture a path holds, from its name.
@@ -219,7 +295,9 @@ fn finish_trace(path: &Path, mut trace: CaptureTrace) -> Result<CaptureTrace, Ca
     // A sidecar `<capture>.timestamps.csv` (one time in seconds per line, or
     // `frame,time_s`) overrides other timestamps.
     let sidecar = sidecar_path(path);
-    if sidecar.is_file() {
+    // Whatever stands at the sidecar's name is read: a FIFO or a
+    // directory there is refused, not skipped.
+    if std::fs::symlink_metadata(&sidecar).is_ok() {
         trace.time_s = read_sidecar(&sidecar, trace.time_s.len())?;
         trace.timestamps = "sidecar";
     }
@@ -237,17 +315,15 @@ fn finish_trace(path: &Path, mut trace: CaptureTrace) -> Result<CaptureTrace, Ca
     Ok(trace)
 }
 
-fn sidecar_path(path: &Path) -> PathBuf {
+/// The timestamp sidecar of the capture `path`: `<path>.timestamps.csv`.
+pub fn sidecar_path(path: &Path) -> PathBuf {
     let mut s = path.as_os_str().to_owned();
     s.push(".timestamps.csv");
     PathBuf::from(s)
 }
 
 fn read_sidecar(path: &Path, frames: usize) -> Result<Vec<f64>, CaptureError> {
-    let bytes = std::fs::read(path).map_err(|e| CaptureError::Read {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    })?;
+    let bytes = read_file(path)?;
     let text = String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();
         let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;

@@ -33,7 +33,7 @@ use super::layout::Layout;
 use super::watch::{Fired, STALL, Watchdog};
 use super::{
     Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, ReadOptions, RoiRect, VideoDecode,
-    VideoRange, check_rois, limited_to_full_lut, times_from_fps,
+    VideoRange, check_rois, limited_to_full_lut, open_file, times_from_fps,
 };
 
 /// True when `ffmpeg` and `ffprobe` can be run.
@@ -285,6 +285,9 @@ fn prepare_with(
     opts: &ReadOptions,
     probe_with: impl FnOnce(&Path) -> Result<Probe, CaptureError>,
 ) -> Result<Prepared, CaptureError> {
+    // FFmpeg's tools would wait on a FIFO (or read a device for ever):
+    // anything but a regular file is refused before either starts.
+    drop(open_file(path)?);
     // Not started (e.g. no `ffmpeg`): the start after the probe reports why.
     let early = Layout::speculative(rois).and_then(|l| Decoder::start(path, l, opts).ok());
     // On an error here `early` is dropped: its group killed and reaped.
@@ -523,9 +526,15 @@ fn read_frames(
 
 /// The watchdog stopped `tool` on `path` ([`Fired`]).
 fn stopped(path: &Path, fired: Fired, tool: &str) -> CaptureError {
-    CaptureError::Tool {
-        path: path.to_path_buf(),
-        message: fired.message(tool),
+    match fired {
+        Fired::Interrupted(signal) => CaptureError::Interrupted {
+            path: path.to_path_buf(),
+            source: crate::interrupt::Interrupted { signal },
+        },
+        Fired::Stalled(_) => CaptureError::Tool {
+            path: path.to_path_buf(),
+            message: fired.message(tool),
+        },
     }
 }
 

@@ -2,13 +2,12 @@
 //! little-endian) mono, 4:2:0, 4:2:2 and 4:4:4. Only the Y' rows that hold
 //! ROIs are read; chroma and other rows are skipped with a seek.
 
-use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
 use super::{
     Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, ReadOptions, RoiRect, VideoRange,
-    bounding_box, check_rois, limited_to_full_lut, times_from_fps,
+    bounding_box, check_interrupt, check_rois, limited_to_full_lut, open_file, times_from_fps,
 };
 
 struct Header {
@@ -107,6 +106,10 @@ fn parse_header(line: &str, path: &Path) -> Result<Header, CaptureError> {
 /// dozen.
 const MAX_LINE: u64 = 4096;
 
+/// Bytes skipped at a time between checks for Ctrl-C (tens of
+/// milliseconds of reading).
+const SKIP_CHUNK: u64 = 64 << 20;
+
 /// Reads one line (up to and including `\n`) of at most [`MAX_LINE`]
 /// bytes into `line`; returns its length, 0 at the end of the file.
 fn read_line_bounded(r: &mut impl BufRead, line: &mut Vec<u8>) -> std::io::Result<usize> {
@@ -161,6 +164,27 @@ fn check_frame_size(path: &Path, hdr: &Header, body_len: u64) -> Result<(), Capt
     }
 }
 
+/// Reads and drops up to `n` bytes of `r`, in chunks of [`SKIP_CHUNK`]
+/// with a check for Ctrl-C between them, so that a huge frame is no
+/// exception; returns the bytes skipped (fewer at the end of the file).
+fn skip(
+    r: &mut impl Read,
+    n: u64,
+    path: &Path,
+    io_err: impl Fn(std::io::Error) -> CaptureError,
+) -> Result<u64, CaptureError> {
+    let mut skipped = 0;
+    while skipped < n {
+        check_interrupt(path)?;
+        let mut chunk = r.by_ref().take((n - skipped).min(SKIP_CHUNK));
+        match std::io::copy(&mut chunk, &mut std::io::sink()).map_err(&io_err)? {
+            0 => break,
+            k => skipped += k,
+        }
+    }
+    Ok(skipped)
+}
+
 pub(super) fn read(
     path: &Path,
     rois: &[RoiRect],
@@ -170,7 +194,7 @@ pub(super) fn read(
         path: path.to_path_buf(),
         message: e.to_string(),
     };
-    let file = File::open(path).map_err(read_err)?;
+    let file = open_file(path)?;
     let file_len = file.metadata().map_err(read_err)?.len();
     let mut r = BufReader::with_capacity(1 << 16, file);
     let mut line = Vec::new();
@@ -201,6 +225,7 @@ pub(super) fn read(
     let mut buf16: Vec<u16> = Vec::new();
     let mut frame: u64 = 0;
     loop {
+        check_interrupt(path)?;
         let frame_err = |message: String| CaptureError::Frame {
             path: path.to_path_buf(),
             frame,
@@ -226,8 +251,7 @@ pub(super) fn read(
         r.read_exact(&mut buf).map_err(truncated)?;
         let rest = luma_bytes - row_bytes * (bbox.y + bbox.height) as u64 + hdr.chroma_bytes;
         // Skip by reading, so that a truncated last frame is detected.
-        let skipped =
-            std::io::copy(&mut (&mut r).take(rest), &mut std::io::sink()).map_err(truncated)?;
+        let skipped = skip(&mut r, rest, path, truncated)?;
         if skipped != rest {
             return Err(frame_err(format!(
                 "truncated frame: {} of {rest} bytes after the ROI rows are missing",

@@ -104,7 +104,12 @@ pub(super) fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
 
     let backend = build_backend(&plan, args.quiet)?;
     // After the backend has checked that the captures exist.
-    let inputs = crate::inputs::collect(&plan).map_err(|e| UsageError(e.to_string()))?;
+    // Hashing stopped by Ctrl-C is the signal's exit, not an input error.
+    let inputs = crate::inputs::collect(&plan).map_err(|e| {
+        crate::interrupt::check().map_or_else(anyhow::Error::from, |()| {
+            anyhow::Error::from(UsageError(e.to_string()))
+        })
+    })?;
     let results = run_cases(&plan, &backend, &args)?;
     let run = Run {
         args: &args,

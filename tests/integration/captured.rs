@@ -865,39 +865,47 @@ fn a_capture_that_is_not_a_video_exits_2_and_leaves_no_ffmpeg_running() {
     assert_eq!(processes_naming(&dir_text), Vec::<String>::new());
 }
 
+/// A capture FFmpeg reads for ever: `slow.ffconcat`, a regular file (so
+/// ledflicker hands it to FFmpeg) whose only entry is a FIFO nobody
+/// writes, which ffprobe and ffmpeg then wait on. Returns the FIFO.
+fn stalling_video(dir: &Path) -> PathBuf {
+    let fifo = dir.join("slow.mp4");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    std::fs::write(
+        dir.join("slow.ffconcat"),
+        "ffconcat version 1.0\nfile slow.mp4\n",
+    )
+    .unwrap();
+    fifo
+}
+
 /// Interrupted while ffprobe (and ffmpeg, started with it) wait on a FIFO
-/// nobody writes: the run stops with exit 3 naming ffprobe, and both
+/// nobody writes: the run stops with exit 130 naming the capture, and both
 /// process groups are gone.
 #[test]
 fn an_interrupted_video_capture_leaves_no_ffmpeg_running() {
     need_ffmpeg();
     let dir = scratch("interrupted-video");
-    let fifo = dir.join("slow.mp4");
-    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
-    assert!(made.success());
-    let plan = one_case_plan(&dir, "slow.mp4", (600, 400, 20, 2), "");
-    let why = [
-        "slow.mp4",
-        "interrupted (signal 2) while `ffprobe` was reading it",
-    ];
+    let fifo = stalling_video(&dir);
+    let plan = one_case_plan(&dir, "slow.ffconcat", (600, 400, 20, 2), "");
+    let why = ["slow.ffconcat", "was stopped", "SIGINT"];
     interrupt_while_probing(&dir, &plan, &fifo, 2, &why);
 }
 
 /// Several videos are probed and their decoders started together, then
 /// read one per core: interrupted while one probe waits on a FIFO, and the
-/// other video's ffmpeg waits to be read, the run stops with exit 3 naming
-/// ffprobe, and no FFmpeg process of either video is left.
+/// other video's ffmpeg waits to be read, the run stops with exit 130, and
+/// no FFmpeg process of either video is left.
 #[test]
 fn an_interrupted_capture_of_several_videos_leaves_no_ffmpeg_running() {
     need_ffmpeg();
     let dir = scratch("interrupted-videos");
-    let fifo = dir.join("slow.mp4");
-    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
-    assert!(made.success());
+    let fifo = stalling_video(&dir);
     std::fs::copy(data("test_vid3.mp4"), dir.join("v.mp4")).unwrap();
-    let plan = cases_plan(&dir, &["v.mp4", "slow.mp4"], (600, 400, 20, 2));
+    let plan = cases_plan(&dir, &["v.mp4", "slow.ffconcat"], (600, 400, 20, 2));
     // The first case may be read, or stopped too, after the interrupt.
-    interrupt_while_probing(&dir, &plan, &fifo, 3, &["interrupted (signal 2) while "]);
+    interrupt_while_probing(&dir, &plan, &fifo, 3, &["was stopped", "SIGINT"]);
 }
 
 /// Among several videos, a file that is not a video is the same error as
@@ -942,7 +950,7 @@ fn cases_plan(dir: &Path, sources: &[&str], roi: (u32, u32, u32, u32)) -> PathBu
 
 /// Runs `plan`, whose capture `fifo` nobody writes, until at least `tools`
 /// FFmpeg processes name the scratch directory `dir`, interrupts it, and
-/// checks that it stops with exit 3 saying so (`why`) and leaves none.
+/// checks that it stops with exit 130 saying so (`why`) and leaves none.
 fn interrupt_while_probing(dir: &Path, plan: &Path, fifo: &Path, tools: usize, why: &[&str]) {
     let mut run = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
         .args(["plan", plan.to_str().unwrap(), "--out"])
@@ -990,7 +998,7 @@ fn interrupt_while_probing(dir: &Path, plan: &Path, fifo: &Path, tools: usize, w
     };
     let mut err = String::new();
     std::io::Read::read_to_string(&mut run.stderr.take().unwrap(), &mut err).unwrap();
-    assert_eq!(status.code(), Some(3), "{err}");
+    assert_eq!(status.code(), Some(130), "{err}");
     for w in why {
         assert!(err.contains(w), "`{w}` not in: {err}");
     }

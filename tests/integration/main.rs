@@ -5,6 +5,7 @@ mod banding;
 mod beyond;
 mod calibrate;
 mod camera_model;
+mod capture_inputs;
 mod captured;
 mod cli;
 mod detect;
