@@ -122,6 +122,13 @@ enum Command {
 
 /// Maps an error to its exit code.
 pub fn exit_code(err: &anyhow::Error) -> i32 {
+    // A stop asked for by the user wins, whatever stage it wrapped.
+    if let Some(i) = err
+        .chain()
+        .find_map(|c| c.downcast_ref::<crate::interrupt::Interrupted>())
+    {
+        return i.exit_code();
+    }
     for cause in err.chain() {
         if let Some(e) = cause.downcast_ref::<std::io::Error>()
             && crate::util::is_not_regular(e)
@@ -191,6 +198,18 @@ pub fn exit_code(err: &anyhow::Error) -> i32 {
         }
     }
     EXIT_INTERNAL
+}
+
+/// The run's inputs, hashed ([`crate::inputs::collect`]): a file that
+/// cannot be read is the user's input error (exit 2); hashing stopped by
+/// Ctrl-C is the signal's exit.
+pub(crate) fn collect_inputs(
+    plan: &crate::plan::Plan,
+) -> anyhow::Result<Vec<crate::inputs::InputFile>> {
+    crate::inputs::collect(plan).map_err(|e| match crate::interrupt::check() {
+        Err(stop) => anyhow::Error::from(stop),
+        Ok(()) => anyhow::Error::from(UsageError(e.to_string())),
+    })
 }
 
 /// Runs the CLI and returns the process exit code.

@@ -104,12 +104,7 @@ pub(super) fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
 
     let backend = build_backend(&plan, args.quiet)?;
     // After the backend has checked that the captures exist.
-    // Hashing stopped by Ctrl-C is the signal's exit, not an input error.
-    let inputs = crate::inputs::collect(&plan).map_err(|e| {
-        crate::interrupt::check().map_or_else(anyhow::Error::from, |()| {
-            anyhow::Error::from(UsageError(e.to_string()))
-        })
-    })?;
+    let inputs = super::collect_inputs(&plan)?;
     let results = run_cases(&plan, &backend, &args)?;
     let run = Run {
         args: &args,

@@ -44,7 +44,7 @@ pub(super) fn run_shard(r: &ShardRun<'_>) -> anyhow::Result<i32> {
     let mine = assign::cases_of(plan, &all, r.spec);
     // Read only this shard's captures.
     let backend = crate::backend::for_plan(plan, Some(&mine))?;
-    let inputs = crate::inputs::collect(plan).map_err(|e| UsageError(e.to_string()))?;
+    let inputs = super::collect_inputs(plan)?;
     let mut results = runner::run(plan, &mine, &backend, r.threads, &|_| {})
         .with_context(|| format!("run of shard {} of plan `{}` failed", r.spec, plan.id))?;
     runner::render_sample_frames(plan, &mut results, &backend)
