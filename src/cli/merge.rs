@@ -53,6 +53,9 @@ pub(super) fn merge(a: MergeArgs) -> anyhow::Result<i32> {
     crate::outdir::check_overwrite(&out, a.force)?;
     let generation = crate::outdir::Generation::begin(&out)?;
     crate::interrupt::install();
+    // Ctrl-C acts within a fraction of a second in the analyses and the
+    // PDF layout too, where no loop of ours looks at it.
+    let prompt = crate::interrupt::Prompt::start(generation.path().to_path_buf());
     let model = crate::model::assemble(plan, &m.manifest.backend, &m.results);
     crate::interrupt::check()?;
     report::write_report(
@@ -69,6 +72,7 @@ pub(super) fn merge(a: MergeArgs) -> anyhow::Result<i32> {
         },
     )
     .with_context(|| format!("cannot write the report to `{}`", out.display()))?;
+    drop(prompt);
     crate::interrupt::check()?;
     if let Some(warning) = generation.commit()?.warning() {
         eprintln!("{warning}");
