@@ -12,6 +12,7 @@ mod exact;
 mod mutate;
 mod physics;
 mod plans;
+mod ranges;
 mod recgen;
 mod render;
 mod report;
