@@ -208,3 +208,34 @@ fn a_syntax_error_shows_a_window_of_its_line() {
         "{err}"
     );
 }
+
+/// A captured case's conditions have the grid's ranges: a frequency needs
+/// one period in `[sequence] pwm-s`, and light levels and duty cycles
+/// their lower bounds (docs/plan-format.md, "Limits").
+#[test]
+fn captured_case_conditions_have_the_grid_ranges() {
+    let text = "[plan]\nid = \"c\"\ntitle = \"c\"\n[sequence]\npwm-s = 10.0\n\
+        [dut]\nbackend = \"captured\"\n[[roi]]\nname = \"led\"\nx-px = 0\ny-px = 0\n\
+        [[case]]\nsource = \"capture_led.csv\"\nlight-lux = 5e-324\nfrequency-hz = 0.05\nduty-cycle = 1e-9\n";
+    let path = root().join("tests/fixtures/plans/inline.toml");
+    let err = plan::parse(text, &path, String::new())
+        .unwrap_err()
+        .to_string();
+    for key in [
+        "case[0].light-lux",
+        "case[0].frequency-hz",
+        "case[0].duty-cycle",
+    ] {
+        assert!(err.contains(&format!("`{key}`: ")), "{key}: {err}");
+    }
+    assert!(
+        err.contains("0.05 Hz is outside 0.1 ..= 1000000 Hz"),
+        "{err}"
+    );
+    // At one period in the segment the case validates.
+    let ok = text
+        .replace("5e-324", "40.0")
+        .replace("0.05", "0.1")
+        .replace("1e-9", "0.2");
+    plan::parse(&ok, &path, String::new()).unwrap_or_else(|e| panic!("{e}"));
+}

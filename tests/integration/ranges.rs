@@ -268,6 +268,14 @@ fn keys() -> Vec<Key> {
         (IDEAL, "[thresholds]", "mitigation-max-hz", None),
         (IDEAL, "[p2020]", "contrast-threshold", None),
         (IDEAL, "[p2020]", "mmp-delta", None),
+        // An HDR camera with auto exposure wrote NaN and "inf s" for a
+        // subnormal frequency.
+        (
+            PHYSICAL,
+            "[grid]",
+            "frequencies-hz",
+            Some((1.0 / 0.4, MAX_FREQUENCY_HZ)),
+        ),
         (
             PHYSICAL,
             "[dut.camera]",
