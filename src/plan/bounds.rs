@@ -85,9 +85,11 @@ pub const LOG_A_RANGE: (f64, f64) = (1.0e-3, 1.0e9);
 /// `[capture] frame-rate-fps` of captures without timestamps: high-speed
 /// cameras record up to 1e5 fps.
 pub const CAPTURE_FPS_RANGE: (f64, f64) = (MIN_FPS, 1.0e5);
-/// `[capture] timeout-s` of a lab rig's command, seconds: at least a
-/// second for it to start, at most a day.
-pub const TIMEOUT_S_RANGE: (f64, f64) = (1.0, 86_400.0);
+/// `[capture] timeout-s` of a lab rig's command, seconds: waits are timed
+/// to the millisecond, and a day is the longest (a `Duration` of 1e300 s
+/// does not exist). A rig that overruns its timeout fails its run
+/// (exit code 3), as documented for the command backend.
+pub const TIMEOUT_S_RANGE: (f64, f64) = (1.0e-3, 86_400.0);
 
 /// Memory of the process before the first case: code, the PDF engine's
 /// fonts, the thread pool, bytes (measured: 85 MB).

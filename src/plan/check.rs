@@ -160,19 +160,24 @@ impl<'a> Checker<'a> {
         hint: &str,
     ) -> Option<f64> {
         let (lo, hi) = range;
-        if value.is_finite() && value >= lo && value <= hi {
-            return Some(value);
-        }
-        self.error(
-            key,
+        let message = if value.is_nan() {
+            "must be a number, got NaN".to_string()
+        } else if value < lo {
             format!(
-                "{}{unit} is outside {} ..= {}{unit}",
+                "{}{unit} is below the {}{unit} limit",
                 number(value),
-                number(lo),
+                number(lo)
+            )
+        } else if value > hi {
+            format!(
+                "{}{unit} is above the {}{unit} limit",
+                number(value),
                 number(hi)
-            ),
-            Some(hint),
-        );
+            )
+        } else {
+            return Some(value);
+        };
+        self.error(key, message, Some(hint));
         None
     }
 
