@@ -12,8 +12,8 @@ const DEFAULT_ROI_HEIGHT_PX: u32 = 2;
 
 /// Validates `[[roi]]`. With no ROI, one LED ROI of the default size in the
 /// middle of the sensor; a plan without a sensor (`has_sensor` false: a
-/// captured plan, or a command plan without `[dut.camera]`) must list its
-/// ROIs, as only the frames read at run time say where the middle is.
+/// captured or command plan without `[dut.camera]` or a profile) must list
+/// its ROIs, as only the frames read at run time say where the middle is.
 /// `camera` is `None` when it is invalid; the ROIs are then checked on
 /// their own and the result is `None`.
 pub(super) fn rois(
