@@ -7,6 +7,14 @@ use serde::{Deserialize, Serialize};
 
 use crate::util::{Word, static_str, static_str_opt};
 
+/// The columns a trace CSV (`traces/<case>.csv`) starts with, in order,
+/// before one luma column per ROI named after it. A ROI must not take one
+/// of these names: its column would repeat the name, and a reader of the
+/// trace (the CSV capture reader among them) takes the first column of a
+/// name, so the ROI would read frame numbers or times as its luma. Plan
+/// validation refuses them, and the trace writer writes this header.
+pub const TRACE_COLUMNS: [&str; 3] = ["frame", "time_s", "segment"];
+
 /// Which part of the light sequence a frame belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -85,14 +85,24 @@ pub fn fdi_2018(min: f64, l_off: Option<f64>) -> Metric {
         );
     };
     if l_off > 0.0 {
-        return Metric::value((min - l_off) / l_off);
+        let v = (min - l_off) / l_off;
+        if v.is_finite() {
+            return Metric::value(v);
+        }
     }
+    // A zero reference, or one so near zero (a subnormal L_OFF) that the
+    // ratio overflows: the limit L_OFF -> 0+.
     if min > 0.0 {
+        let off = if l_off > 0.0 {
+            format!("L_OFF = {l_off:e} DN (dark OFF reference, too near 0 for the ratio)")
+        } else {
+            "L_OFF = 0 (dark OFF reference)".to_string()
+        };
         Metric {
             value: None,
             unbounded: true,
             reason: Some(format!(
-                "L_OFF = 0 (dark OFF reference): the contrast is unbounded (+inf); min luma {min:.4} DN is above it, so the light never appears OFF"
+                "{off}: the contrast is unbounded (+inf); min luma {min:.4} DN is above it, so the light never appears OFF"
             )),
         }
     } else {
@@ -199,6 +209,21 @@ mod tests {
         assert_eq!(m.value, None);
         assert!(!m.unbounded);
         assert!(m.reason.unwrap().contains("0/0"));
+    }
+
+    #[test]
+    fn off_reference_too_near_zero_for_the_ratio_is_unbounded_not_infinite() {
+        // 1 / 5e-324 overflows: the value would be +inf, which no output
+        // may hold as a number.
+        let m = fdi_2018(1.0, Some(5e-324));
+        assert_eq!(m.value, None);
+        assert!(m.unbounded);
+        assert!(m.reason.unwrap().contains("5e-324"));
+        // A small but normal reference still gives a (large) value.
+        assert_eq!(
+            fdi_2018(1.0, Some(1e-300)).value,
+            Some((1.0 - 1e-300) / 1e-300)
+        );
     }
 
     #[test]

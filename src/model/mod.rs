@@ -36,6 +36,7 @@ pub use crate::plan::{RoiKind, Thresholds, VerdictBasis};
 pub use crate::runner::CaseResult;
 pub use crate::trace::{
     Acquisition, CaptureSummary, FrameInfo, RenderedFrame, Run, Segment, SegmentsFound,
+    TRACE_COLUMNS,
 };
 pub use build::{assemble, build};
 

@@ -23,6 +23,17 @@ pub(super) enum One {
     Below,
 }
 
+/// A number for a message: plain in the range people write by hand,
+/// else in exponent form (`5e-324`, not 324 digits).
+pub(super) fn number(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 || !x.is_finite() || (1e-4..1e7).contains(&a) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
 /// Stores an optional key's checked value in `slot`: `checked` is `None`
 /// when the key is absent (`slot` keeps its default), `Some(None)` when the
 /// value was invalid (reported already; clears `ok`).
@@ -86,6 +97,22 @@ impl<'a> Checker<'a> {
         });
     }
 
+    /// Reports `message` at `key`, located at `anchor` (or its nearest
+    /// enclosing table): for a missing table, the key that makes it needed.
+    pub(super) fn error_near(
+        &mut self,
+        key: &str,
+        anchor: &str,
+        message: impl Into<String>,
+        hint: Option<&str>,
+    ) {
+        let before = self.diags.len();
+        self.error(anchor, message, hint);
+        if let Some(d) = self.diags.get_mut(before) {
+            d.key = key.to_string();
+        }
+    }
+
     /// `value`, reporting a missing key when it is `None`.
     pub(super) fn required<T>(&mut self, value: Option<T>, key: &str, hint: &str) -> Option<T> {
         if value.is_none() {
@@ -99,7 +126,11 @@ impl<'a> Checker<'a> {
         if value.is_finite() && value > 0.0 {
             Some(value)
         } else {
-            self.error(key, format!("must be > 0, got {value}"), Some(hint));
+            self.error(
+                key,
+                format!("must be > 0, got {}", number(value)),
+                Some(hint),
+            );
             None
         }
     }
@@ -109,9 +140,45 @@ impl<'a> Checker<'a> {
         if value.is_finite() && value >= 0.0 {
             Some(value)
         } else {
-            self.error(key, format!("must be >= 0, got {value}"), Some(hint));
+            self.error(
+                key,
+                format!("must be >= 0, got {}", number(value)),
+                Some(hint),
+            );
             None
         }
+    }
+
+    /// `value` must be finite and in `range` (both ends included); `unit`
+    /// follows the numbers in the message, e.g. " Hz" or "".
+    pub(super) fn within(
+        &mut self,
+        value: f64,
+        key: &str,
+        range: (f64, f64),
+        unit: &str,
+        hint: &str,
+    ) -> Option<f64> {
+        let (lo, hi) = range;
+        let message = if value.is_nan() {
+            "must be a number, got NaN".to_string()
+        } else if value < lo {
+            format!(
+                "{}{unit} is below the {}{unit} limit",
+                number(value),
+                number(lo)
+            )
+        } else if value > hi {
+            format!(
+                "{}{unit} is above the {}{unit} limit",
+                number(value),
+                number(hi)
+            )
+        } else {
+            return Some(value);
+        };
+        self.error(key, message, Some(hint));
+        None
     }
 
     /// A duty cycle, in (0, 1].
@@ -121,7 +188,7 @@ impl<'a> Checker<'a> {
         } else {
             self.error(
                 key,
-                format!("duty cycle {value} is outside (0, 1]"),
+                format!("duty cycle {} is outside (0, 1]", number(value)),
                 Some("a duty cycle is a fraction: write 0.05 for 5% and 1.0 for steady ON"),
             );
             None

@@ -401,6 +401,7 @@ pub struct Diagnostic {
 
 impl fmt::Display for Diagnostic {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use spans::{MESSAGE_CHARS, clip};
         if let Some(file) = &self.file {
             write!(f, "{}: ", file.display())?;
         }
@@ -408,9 +409,16 @@ impl fmt::Display for Diagnostic {
             Some((line, col)) => write!(f, "line {line}, column {col}: ")?,
             None => write!(f, "(not in file): ")?,
         }
-        write!(f, "`{}`: {}", self.key, self.message)?;
+        // Keys and messages may quote the file (an unknown key, a ROI
+        // name), which may be megabytes long: each is cut.
+        write!(
+            f,
+            "`{}`: {}",
+            clip(&self.key, MESSAGE_CHARS),
+            clip(&self.message, MESSAGE_CHARS)
+        )?;
         if let Some(hint) = &self.hint {
-            write!(f, "\n    hint: {hint}")?;
+            write!(f, "\n    hint: {}", clip(hint, MESSAGE_CHARS))?;
         }
         Ok(())
     }
@@ -507,7 +515,7 @@ pub fn resolve_plan_path(arg: &str) -> Result<PathBuf, PlanError> {
 
 /// Reads and validates the plan at `path`.
 pub fn load(path: &Path) -> Result<Plan, PlanError> {
-    let bytes = std::fs::read(path).map_err(|source| PlanError::Read {
+    let bytes = crate::util::read_input(path).map_err(|source| PlanError::Read {
         path: path.to_path_buf(),
         source,
     })?;
@@ -538,7 +546,7 @@ pub fn parse_within(
 ) -> Result<Plan, PlanError> {
     let syntax = |e: toml::de::Error| PlanError::Syntax {
         path: path.to_path_buf(),
-        message: e.to_string().trim_end().to_string(),
+        message: spans::syntax_message(text, &e),
     };
     let index = spans::SpanIndex::build(text).map_err(syntax)?;
     let deserializer = toml::Deserializer::parse(text).map_err(syntax)?;

@@ -264,6 +264,82 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
     ),
 ];
 
+/// Most characters of a plan line that an error message quotes: a plan may
+/// be a single line of megabytes, and echoing it whole (with as many
+/// carets under it) would flood the terminal and any log.
+pub const ECHO_CHARS: usize = 120;
+
+/// Most characters of an error message, a key path or a hint: they may
+/// quote a value of the file (a string of megabytes where a number belongs).
+pub const MESSAGE_CHARS: usize = 400;
+
+/// `s` cut to its first `max` characters, with `...` where it was cut.
+pub fn clip(s: &str, max: usize) -> std::borrow::Cow<'_, str> {
+    match s.char_indices().nth(max) {
+        None => s.into(),
+        Some((end, _)) => format!("{}...", &s[..end]).into(),
+    }
+}
+
+/// A TOML syntax or type error of `text` as toml prints it (position, the
+/// line with carets under the error, the message), but with the line cut to
+/// [`ECHO_CHARS`] around the error column and each message line to
+/// [`MESSAGE_CHARS`].
+pub fn syntax_message(text: &str, e: &toml::de::Error) -> String {
+    let clip_lines = |m: &str| {
+        let lines: Vec<String> = m
+            .trim_end()
+            .lines()
+            .map(|l| clip(l, MESSAGE_CHARS).into_owned())
+            .collect();
+        lines.join("\n")
+    };
+    let Some(span) = e.span() else {
+        // No position: toml's text names the key instead.
+        return clip_lines(&e.to_string());
+    };
+    let message = clip_lines(e.message());
+    let mut start = span.start.min(text.len());
+    while !text.is_char_boundary(start) {
+        start -= 1;
+    }
+    let line_start = text[..start].rfind('\n').map_or(0, |i| i + 1);
+    let line_end = text[start..].find('\n').map_or(text.len(), |i| start + i);
+    let line = text[line_start..line_end].trim_end_matches('\r');
+    let line_no = text[..line_start].matches('\n').count() + 1;
+    let column = text[line_start..start].chars().count();
+    let width = line.chars().count();
+    // The window of the line shown: all of it when it is short, else
+    // ECHO_CHARS characters with the error column a third of the way in.
+    let from = if width <= ECHO_CHARS {
+        0
+    } else {
+        column
+            .saturating_sub(ECHO_CHARS / 3)
+            .min(width - ECHO_CHARS)
+    };
+    let to = (from + ECHO_CHARS).min(width);
+    let shown: String = line.chars().skip(from).take(to - from).collect();
+    let (before, after) = (
+        if from > 0 { "..." } else { "" },
+        if to < width { "..." } else { "" },
+    );
+    // Carets under the span, at least one (the span is empty at the end
+    // of the file), none past the window.
+    let span_chars = text
+        .get(start..span.end.clamp(start, line_end))
+        .map_or(1, |s| s.chars().count());
+    let carets = span_chars.min(to.saturating_sub(column)).max(1);
+    let pad = before.len() + column - from;
+    let gutter = " ".repeat(line_no.to_string().len() + 1);
+    format!(
+        "TOML parse error at line {line_no}, column {}\n{gutter}|\n{line_no} | {before}{shown}{after}\n{gutter}|{} {}\n{message}",
+        column + 1,
+        " ".repeat(pad),
+        "^".repeat(carets)
+    )
+}
+
 /// A hint for an unknown key: the closest known key of its table, or the list.
 pub fn unknown_key_hint(key: &str) -> String {
     let (table, leaf) = match key.rfind('.') {
@@ -278,8 +354,11 @@ pub fn unknown_key_hint(key: &str) -> String {
     let Some((_, known)) = KNOWN_KEYS.iter().find(|(t, _)| *t == table_name) else {
         return "remove it; see docs/plan-format.md for the plan format".to_string();
     };
+    // Known keys are at most 30 characters: a longer leaf is nothing like
+    // any of them, and its edit distance would take time in its length.
     let best = known
         .iter()
+        .filter(|_| leaf.len() <= 64)
         .map(|k| (edit_distance(leaf, k), *k))
         .min()
         .filter(|(d, k)| *d <= 3.max(k.len() / 3));

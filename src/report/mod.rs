@@ -19,7 +19,7 @@ pub mod terminal;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use crate::model::{CaseResult, Detail, InputFile, ReportMeta, Results};
+use crate::model::{CaseResult, Detail, InputFile, ReportMeta, Results, TRACE_COLUMNS};
 use crate::util::write_atomic;
 
 /// Why a report could not be written.
@@ -93,10 +93,11 @@ pub struct WriteOptions {
     pub reuse_from: Option<PathBuf>,
 }
 
-/// One case's trace as CSV: `frame,time_s,segment,<one luma column per ROI>`.
+/// One case's trace as CSV: `frame,time_s,segment,<one luma column per ROI>`
+/// ([`TRACE_COLUMNS`], then the ROIs).
 pub fn trace_csv(result: &CaseResult) -> String {
     let acq = &result.acquisition;
-    let mut out = String::from("frame,time_s,segment");
+    let mut out = TRACE_COLUMNS.join(",");
     for roi in &acq.rois {
         out.push(',');
         out.push_str(&roi.name);

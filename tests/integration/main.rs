@@ -13,6 +13,7 @@ mod exact;
 mod mutate;
 mod physics;
 mod plans;
+mod ranges;
 mod recgen;
 mod render;
 mod report;

@@ -131,3 +131,108 @@ fn ranges_expand_by_index_and_include_the_stop() {
     assert_eq!(*p.frequencies_hz.last().unwrap(), 50.0 + 349.0 * 0.1);
     assert!((p.frequencies_hz[349] - 84.9).abs() < 1e-9);
 }
+
+/// A plan of one line of megabytes: `validate` quotes a window of the line
+/// around the error (and cuts long messages), so its stderr stays a few
+/// lines, whatever the error.
+#[test]
+fn a_one_line_plan_of_megabytes_gets_a_short_error() {
+    let dir = crate::scratch("one-line-plan");
+    let pad = "x".repeat(4 << 20);
+    let plans = [
+        // A syntax error at the end of the line.
+        (
+            "syntax",
+            format!("plan = {{ id = \"a\", title = \"{pad}\", seed = }}"),
+        ),
+        // A type error whose span is the whole 4 MB string.
+        (
+            "type",
+            format!("plan = {{ id = \"a\", title = \"t\", seed = \"{pad}\" }}"),
+        ),
+        // An unknown key of 4 MB.
+        (
+            "unknown",
+            format!("plan = {{ id = \"a\", title = \"t\", {pad} = 1 }}"),
+        ),
+        // A ROI name of 4 MB.
+        (
+            "name",
+            format!("roi = [{{ name = \"{pad}-\", x-px = 0, y-px = 0 }}]"),
+        ),
+    ];
+    for (what, text) in plans {
+        let path = dir.join(format!("{what}.toml"));
+        std::fs::write(&path, &text).unwrap();
+        let o = crate::ledflicker(&["validate", path.to_str().unwrap()]);
+        let err = crate::stderr(&o);
+        assert_eq!(
+            o.status.code(),
+            Some(2),
+            "{what}: {}",
+            &err[..err.len().min(2000)]
+        );
+        assert!(
+            err.len() < 4096,
+            "{what}: {} bytes of stderr: {}",
+            err.len(),
+            &err[..err.len().min(2000)]
+        );
+    }
+}
+
+/// Under a short line the error shows the whole line and a caret under
+/// the error column; under a long one, 120 characters around it.
+#[test]
+fn a_syntax_error_shows_a_window_of_its_line() {
+    let long = format!(
+        "plan = {{ id = \"a\", title = \"{}\", seed = }}",
+        "y".repeat(500)
+    );
+    let err = plan::parse(&long, std::path::Path::new("long.toml"), String::new())
+        .unwrap_err()
+        .to_string();
+    let lines: Vec<&str> = err.lines().collect();
+    let shown = lines.iter().find(|l| l.starts_with("1 | ")).unwrap();
+    let carets = lines.iter().find(|l| l.contains('^')).unwrap();
+    assert!(
+        shown.starts_with("1 | ...y") && shown.ends_with("seed = }"),
+        "{err}"
+    );
+    assert!(shown.chars().count() <= 4 + 3 + 120, "{err}");
+    // The caret stands under the character at the error column.
+    let at = carets.find('^').unwrap();
+    assert_eq!(&shown[at..at + 1], "}", "{err}");
+    assert!(
+        err.contains(&format!("line 1, column {}\n", long.len())),
+        "{err}"
+    );
+}
+
+/// A captured case's conditions have the grid's ranges: a frequency needs
+/// one period in `[sequence] pwm-s`, and light levels and duty cycles
+/// their lower bounds (docs/plan-format.md, "Limits").
+#[test]
+fn captured_case_conditions_have_the_grid_ranges() {
+    let text = "[plan]\nid = \"c\"\ntitle = \"c\"\n[sequence]\npwm-s = 10.0\n\
+        [dut]\nbackend = \"captured\"\n[[roi]]\nname = \"led\"\nx-px = 0\ny-px = 0\n\
+        [[case]]\nsource = \"capture_led.csv\"\nlight-lux = 5e-324\nfrequency-hz = 0.05\nduty-cycle = 1e-9\n";
+    let path = root().join("tests/fixtures/plans/inline.toml");
+    let err = plan::parse(text, &path, String::new())
+        .unwrap_err()
+        .to_string();
+    for key in [
+        "case[0].light-lux",
+        "case[0].frequency-hz",
+        "case[0].duty-cycle",
+    ] {
+        assert!(err.contains(&format!("`{key}`: ")), "{key}: {err}");
+    }
+    assert!(err.contains("0.05 Hz is below the 0.1 Hz limit"), "{err}");
+    // At one period in the segment the case validates.
+    let ok = text
+        .replace("5e-324", "40.0")
+        .replace("0.05", "0.1")
+        .replace("1e-9", "0.2");
+    plan::parse(&ok, &path, String::new()).unwrap_or_else(|e| panic!("{e}"));
+}

@@ -3,6 +3,7 @@
 
 use crate::physics::ae::AutoExposure;
 use crate::physics::hdr::ToneCurve;
+use crate::plan::bounds::{ANALOG_GAIN_RANGE, DIGITAL_GAIN_RANGE, MIN_EXPOSURE_S, MIN_FPS};
 use crate::plan::check::Checker;
 use crate::plan::raw::RawAutoExposure;
 
@@ -64,34 +65,49 @@ fn fields(
         &kk("deadband"),
         "relative error, e.g. 0.05",
     );
+    let exposure_ms = (MIN_EXPOSURE_S * 1e3, 1e3 / MIN_FPS);
     let min_t = c
-        .positive(
+        .within(
             a.min_exposure_ms.unwrap_or(0.01),
             &kk("min-exposure-ms"),
-            "e.g. 11.111 for flicker mitigation above 90 Hz",
+            exposure_ms,
+            " ms",
+            "e.g. 11.111 for flicker mitigation above 90 Hz; at least 1 us",
         )
         .map(|v| v * 1e-3);
     let max_t = match (a.max_exposure_ms, frame_s) {
         (Some(v), _) => c
-            .positive(v, &kk("max-exposure-ms"), "at most the frame time")
+            .within(
+                v,
+                &kk("max-exposure-ms"),
+                exposure_ms,
+                " ms",
+                "at most the frame time",
+            )
             .map(|v| v * 1e-3),
         (None, Some(f)) => Some(f),
         (None, None) => None,
     };
-    let max_ga = c.positive(
+    let max_ga = c.within(
         a.max_analog_gain.unwrap_or(16.0),
         &kk("max-analog-gain"),
-        ">= 1",
+        ANALOG_GAIN_RANGE,
+        "",
+        "analogue gain amplifies: at least 1",
     );
-    let min_gd = c.positive(
+    let min_gd = c.within(
         a.min_digital_gain.unwrap_or(1.0),
         &kk("min-digital-gain"),
-        "> 0",
+        DIGITAL_GAIN_RANGE,
+        "",
+        "e.g. 0.01 to scale bright scenes down",
     );
-    let max_gd = c.positive(
+    let max_gd = c.within(
         a.max_digital_gain.unwrap_or(1.0),
         &kk("max-digital-gain"),
-        ">= min-digital-gain",
+        DIGITAL_GAIN_RANGE,
+        "",
+        "at least min-digital-gain",
     );
     Fields {
         target,
@@ -136,9 +152,6 @@ fn cross_check(c: &mut Checker<'_>, f: &Fields, frame_s: Option<f64>, kk: &dyn F
             ),
             None,
         );
-    }
-    if f.max_ga.is_some_and(|g| g < 1.0) {
-        c.error(&kk("max-analog-gain"), "must be >= 1", None);
     }
     if let (Some(lo), Some(hi)) = (f.min_gd, f.max_gd)
         && lo > hi

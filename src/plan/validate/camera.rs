@@ -3,6 +3,7 @@
 //! table makes it a physical camera (`sensor.rs`).
 
 use super::sensor;
+use crate::plan::bounds::{FULL_SCALE_DN_RANGE, MAX_FPS, MAX_PWM_DELAY_S, MIN_FPS, RESPONSE_RANGE};
 use crate::plan::check::Checker;
 use crate::plan::raw::RawCamera;
 use crate::plan::{CameraConfig, ShutterKind};
@@ -34,11 +35,15 @@ pub(super) fn camera_config(
     let (fps, exposure_s) = frame_timing(c, &cam, prefix);
     let line_time_s = line_time(c, &cam, prefix, shutter, rows, fps);
     let pwm_delay_s = match cam.pwm_delay_ms {
-        Some(v) if v.is_finite() => Some(v * 1e-3),
-        Some(v) => {
-            c.error(&k("pwm-delay-ms"), format!("must be finite, got {v}"), None);
-            None
-        }
+        Some(v) => c
+            .within(
+                v,
+                &k("pwm-delay-ms"),
+                (-MAX_PWM_DELAY_S * 1e3, MAX_PWM_DELAY_S * 1e3),
+                " ms",
+                "the first PWM rising edge after frame 0 starts; a delay of more than one PWM period is the same as its remainder",
+            )
+            .map(|ms| ms * 1e-3),
         None => Some(0.0),
     };
     let response = response(c, &cam, prefix);
@@ -101,7 +106,15 @@ fn frame_timing(c: &mut Checker<'_>, cam: &RawCamera, prefix: &str) -> (Option<f
             &k("frame-rate-fps"),
             "e.g. frame-rate-fps = 30.0",
         )
-        .and_then(|v| c.positive(v, &k("frame-rate-fps"), "frames per second, e.g. 30.0"));
+        .and_then(|v| {
+            c.within(
+                v,
+                &k("frame-rate-fps"),
+                (MIN_FPS, MAX_FPS),
+                " fps",
+                "frames per second: automotive cameras run at 10 to 120 fps",
+            )
+        });
     let exposure_s = c
         .required(
             cam.exposure_ms,
@@ -187,7 +200,15 @@ fn response(c: &mut Checker<'_>, cam: &RawCamera, prefix: &str) -> Option<f64> {
         &key,
         "output DN per cd/m^2 per second of exposure, e.g. 20.0",
     )
-    .and_then(|v| c.positive(v, &key, "a linear gain > 0"))
+    .and_then(|v| {
+        c.within(
+            v,
+            &key,
+            RESPONSE_RANGE,
+            "",
+            "a linear gain: the reference cameras use 1 to 300 DN per cd/m^2 per second",
+        )
+    })
 }
 
 /// Levels each checked: (`black-level-dn`, `full-scale-dn`,
@@ -208,10 +229,12 @@ fn output_levels(
         &k("black-level-dn"),
         "DN for no light",
     );
-    let full = c.positive(
+    let full = c.within(
         cam.full_scale_dn.unwrap_or(full_default),
         &k("full-scale-dn"),
-        "255 for 8-bit output",
+        FULL_SCALE_DN_RANGE,
+        " DN",
+        "255 for 8-bit output; at most 24 bits",
     );
     let sat_default = full.map(|f| f * 240.0 / 255.0).unwrap_or(240.0);
     let sat = c.positive(

@@ -3,6 +3,8 @@
 
 use std::path::Path;
 
+use super::grid;
+use crate::plan::bounds::{CAPTURE_FPS_RANGE, TIMEOUT_S_RANGE};
 use crate::plan::capture::{CaptureCase, CaptureConfig, CommandSpec, SegmentSpec, Span};
 use crate::plan::check::Checker;
 use crate::plan::grid::condition_id;
@@ -104,17 +106,22 @@ pub(super) fn capture_config(
     cases: Vec<RawCaseEntry>,
     captured: bool,
     plan_path: &Path,
+    pwm_s: Option<f64>,
 ) -> Option<CaptureConfig> {
     let mut raw = raw.unwrap_or_default();
     let (luma, video_decode, video_range) = decoding(c, &mut raw);
     let mut ok = true;
-    let fps = optional_positive(
-        c,
-        raw.frame_rate_fps,
-        "capture.frame-rate-fps",
-        "frames per second, e.g. 30.0",
-        &mut ok,
-    );
+    let fps = raw.frame_rate_fps.and_then(|v| {
+        let fps = c.within(
+            v,
+            "capture.frame-rate-fps",
+            CAPTURE_FPS_RANGE,
+            " fps",
+            "frames per second, e.g. 30.0",
+        );
+        ok &= fps.is_some();
+        fps
+    });
     let saturation_dn = optional_positive(
         c,
         raw.saturation_dn,
@@ -142,7 +149,7 @@ pub(super) fn capture_config(
         SegmentSpec::default(),
     );
     let command = command(c, raw.command, raw.timeout_s, captured);
-    let out_cases = case_entries(c, cases, captured, plan_path, base, &mut ok);
+    let out_cases = case_entries(c, cases, (captured, pwm_s), plan_path, base, &mut ok);
     let command_ok = captured || command.is_some();
     if !(ok && command_ok) {
         return None;
@@ -217,9 +224,11 @@ fn command(
 ) -> Option<CommandSpec> {
     match (argv, captured) {
         (Some(argv), false) if !argv.is_empty() => {
-            let timeout_s = c.positive(
+            let timeout_s = c.within(
                 timeout_s.unwrap_or(300.0),
                 "capture.timeout-s",
+                TIMEOUT_S_RANGE,
+                " s",
                 "seconds one case may take",
             );
             timeout_s.map(|timeout_s| CommandSpec { argv, timeout_s })
@@ -254,7 +263,7 @@ fn command(
 fn case_entries(
     c: &mut Checker<'_>,
     cases: Vec<RawCaseEntry>,
-    captured: bool,
+    (captured, pwm_s): (bool, Option<f64>),
     plan_path: &Path,
     base: Option<SegmentSpec>,
     ok: &mut bool,
@@ -278,7 +287,7 @@ fn case_entries(
         *ok = false;
     }
     for (i, raw_case) in cases.into_iter().enumerate() {
-        match case_entry(c, raw_case, i, dir, base, &out, ok) {
+        match case_entry(c, raw_case, (i, pwm_s), dir, base, &out, ok) {
             Some(case) => out.push(case),
             None => *ok = false,
         }
@@ -287,10 +296,11 @@ fn case_entries(
 }
 
 /// One `[[case]]`, `i` its index; `earlier` are the cases before it.
+/// `pwm_s`, the `[sequence]` PWM segment's length, bounds its frequency.
 fn case_entry(
     c: &mut Checker<'_>,
     raw_case: RawCaseEntry,
-    i: usize,
+    (i, pwm_s): (usize, Option<f64>),
     dir: &Path,
     base: Option<SegmentSpec>,
     earlier: &[CaptureCase],
@@ -313,13 +323,13 @@ fn case_entry(
     }
     let light_lux = raw_case
         .light_lux
-        .and_then(|v| c.positive(v, &k("light-lux"), "illuminance in lux"));
+        .and_then(|v| grid::light_lux(c, v, &k("light-lux")));
     let frequency_hz = raw_case
         .frequency_hz
-        .and_then(|v| c.positive(v, &k("frequency-hz"), "PWM frequency in Hz"));
+        .and_then(|v| grid::frequency_hz(c, v, &k("frequency-hz"), grid::frequency_range(pwm_s)));
     let duty = raw_case
         .duty_cycle
-        .and_then(|v| c.duty(v, &k("duty-cycle")));
+        .and_then(|v| grid::duty(c, v, &k("duty-cycle")));
     let given = [
         raw_case.light_lux.is_some(),
         raw_case.frequency_hz.is_some(),

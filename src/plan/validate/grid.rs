@@ -1,8 +1,53 @@
 //! `[light]` (ambient light levels) and `[grid]` (PWM frequencies and duty
 //! cycles): the axes a simulator or command plan expands into cases.
 
+use crate::plan::bounds::{MAX_FREQUENCY_HZ, MAX_LIGHT_LUX, MIN_DUTY, MIN_LIGHT_LUX};
 use crate::plan::check::Checker;
 use crate::plan::raw::{RawGrid, RawLight};
+
+/// A light level in lux, in `MIN_LIGHT_LUX ..= MAX_LIGHT_LUX`.
+pub(super) fn light_lux(c: &mut Checker<'_>, v: f64, key: &str) -> Option<f64> {
+    let v = c.positive(
+        v,
+        key,
+        "illuminance in lux: 40 for low light, 2000 for daylight",
+    )?;
+    let hint = "a moonless overcast night is about 0.0001 lux, direct sunlight about 100000";
+    c.within(v, key, (MIN_LIGHT_LUX, MAX_LIGHT_LUX), " lux", hint)
+}
+
+/// The range of a PWM frequency when the PWM segment lasts `pwm_s`
+/// seconds (`None`: invalid, and reported already; then only > 0 is
+/// checked below): at least one period in the segment, at most
+/// [`MAX_FREQUENCY_HZ`].
+pub(super) fn frequency_range(pwm_s: Option<f64>) -> (f64, f64) {
+    let lowest = pwm_s.map_or(0.0, |s| 1.0 / s);
+    (lowest, MAX_FREQUENCY_HZ)
+}
+
+/// A PWM frequency in Hz, within `range` ([`frequency_range`]).
+pub(super) fn frequency_hz(
+    c: &mut Checker<'_>,
+    v: f64,
+    key: &str,
+    range: (f64, f64),
+) -> Option<f64> {
+    let v = c.positive(v, key, "PWM frequency in Hz, e.g. 90.0")?;
+    let hint = "at least one PWM period in [sequence] pwm-s; lamps' PWM runs below 100 kHz";
+    c.within(v, key, range, " Hz", hint)
+}
+
+/// A duty cycle in `MIN_DUTY ..= 1`.
+pub(super) fn duty(c: &mut Checker<'_>, v: f64, key: &str) -> Option<f64> {
+    let d = c.duty(v, key)?;
+    c.within(
+        d,
+        key,
+        (MIN_DUTY, 1.0),
+        "",
+        "a duty cycle is a fraction: 0.05 for 5%; PWM counters do not resolve less than 1e-6",
+    )
+}
 
 /// Validates `[light]`, which is required: the light levels in lux.
 pub(super) fn light_table(c: &mut Checker<'_>, raw: Option<RawLight>) -> Option<Vec<f64>> {
@@ -17,21 +62,17 @@ pub(super) fn light_table(c: &mut Checker<'_>, raw: Option<RawLight>) -> Option<
         None,
         "light.levels-lux",
         "light.levels-lux",
-        &mut |c, v, k| {
-            c.positive(
-                v,
-                k,
-                "illuminance in lux: 40 for low light, 2000 for daylight",
-            )
-        },
+        &mut light_lux,
     )
 }
 
 /// Validates `[grid]`, which is required: PWM frequencies in Hz and duty
-/// cycles, each a list or a range.
+/// cycles, each a list or a range. `pwm_s` is the PWM segment's length,
+/// `None` when invalid.
 pub(super) fn grid_table(
     c: &mut Checker<'_>,
     raw: Option<RawGrid>,
+    pwm_s: Option<f64>,
 ) -> (Option<Vec<f64>>, Option<Vec<f64>>) {
     let Some(g) = c.required(
         raw,
@@ -45,14 +86,14 @@ pub(super) fn grid_table(
         g.frequency_range_hz,
         "grid.frequencies-hz",
         "grid.frequency-range-hz",
-        &mut |c, v, k| c.positive(v, k, "PWM frequency in Hz, e.g. 90.0"),
+        &mut |c, v, k| frequency_hz(c, v, k, frequency_range(pwm_s)),
     );
     let duties = c.grid(
         g.duty_cycles,
         g.duty_cycle_range,
         "grid.duty-cycles",
         "grid.duty-cycle-range",
-        &mut |c, v, k| c.duty(v, k),
+        &mut duty,
     );
     (freqs, duties)
 }

@@ -51,19 +51,27 @@ pub(super) fn validate(
     let meta = meta::plan_table(&mut c, raw.plan);
     let (on_s, off_s, pwm_s) = meta::sequence_table(&mut c, raw.sequence);
     let role = Role::of(raw.dut.as_ref());
+    // The default ROI sits in the middle of the camera's sensor; a plan
+    // whose frames come from files or a rig has a sensor only when it
+    // describes the camera.
+    let has_sensor = role.is_sim
+        || raw
+            .dut
+            .as_ref()
+            .is_some_and(|d| d.camera.is_some() || d.camera_profile.is_some());
     let (light, grid) = (raw.light, raw.grid);
     let (capture, capture_failed) = case_sources(
         &mut c,
         role,
         (light.is_some(), grid.is_some()),
-        raw.capture,
-        raw.case,
+        (raw.capture, raw.case),
         path,
+        pwm_s,
     );
     let p2020 = p2020::p2020_options(&mut c, raw.p2020);
-    let (levels, freqs, duties) = conditions(&mut c, light, grid, role.captured);
+    let (levels, freqs, duties) = conditions(&mut c, light, grid, role.captured, pwm_s);
     let dut = dut::dut_table(&mut c, raw.dut, role.is_sim, path);
-    let rois = roi::rois(&mut c, raw.roi, dut.as_ref().map(|d| &d.camera));
+    let rois = roi::rois(&mut c, raw.roi, dut.as_ref().map(|d| &d.camera), has_sensor);
     let scene = scene::scene_table(&mut c, raw.scene);
     let known_lux: Option<Vec<f64>> = if role.captured {
         capture
@@ -127,15 +135,16 @@ impl Role {
 
 /// The tables that say where the cases come from: refuses `[light]` and
 /// `[grid]` (`present`) in a captured plan and `[capture]` and `[[case]]`
-/// in a simulator plan, and validates the latter two otherwise. The flag is
+/// in a simulator plan, and validates the latter two otherwise (`pwm_s`,
+/// the PWM segment's length, bounds the cases' frequencies). The flag is
 /// true when they were given and are invalid.
 fn case_sources(
     c: &mut Checker<'_>,
     role: Role,
     present: (bool, bool),
-    raw_capture: Option<RawCaptureTable>,
-    cases: Vec<RawCaseEntry>,
+    (raw_capture, cases): (Option<RawCaptureTable>, Vec<RawCaseEntry>),
     path: &Path,
+    pwm_s: Option<f64>,
 ) -> (Option<CaptureConfig>, bool) {
     for (present, key) in [(present.0, "light"), (present.1, "grid")] {
         if role.captured && present {
@@ -147,7 +156,7 @@ fn case_sources(
         }
     }
     if !role.is_sim {
-        let cap = capture::capture_config(c, raw_capture, cases, role.captured, path);
+        let cap = capture::capture_config(c, raw_capture, cases, role.captured, path, pwm_s);
         let failed = cap.is_none();
         return (cap, failed);
     }
@@ -176,12 +185,13 @@ fn conditions(
     light: Option<RawLight>,
     grid: Option<RawGrid>,
     captured: bool,
+    pwm_s: Option<f64>,
 ) -> Conditions {
     if captured {
         return (Some(Vec::new()), Some(Vec::new()), Some(Vec::new()));
     }
     let levels = grid::light_table(c, light);
-    let (freqs, duties) = grid::grid_table(c, grid);
+    let (freqs, duties) = grid::grid_table(c, grid, pwm_s);
     if let (Some(l), Some(f), Some(d)) = (&levels, &freqs, &duties) {
         let n = l.len() * f.len() * d.len();
         if n > MAX_CASES {

@@ -3,6 +3,7 @@
 use crate::plan::check::Checker;
 use crate::plan::raw::RawRoi;
 use crate::plan::{CameraConfig, Roi, RoiKind};
+use crate::trace::TRACE_COLUMNS;
 
 /// Default ROI size from Deegan 2018: 100 px wide, 2 rows high (a taller ROI
 /// mixes ON and OFF rows of a rolling shutter).
@@ -10,13 +11,26 @@ const DEFAULT_ROI_WIDTH_PX: u32 = 100;
 const DEFAULT_ROI_HEIGHT_PX: u32 = 2;
 
 /// Validates `[[roi]]`. With no ROI, one LED ROI of the default size in the
-/// middle of the sensor. `camera` is `None` when it is invalid; the ROIs
-/// are then checked on their own and the result is `None`.
+/// middle of the sensor; a plan without a sensor (`has_sensor` false: a
+/// captured or command plan without `[dut.camera]` or a profile) must list
+/// its ROIs, as only the frames read at run time say where the middle is.
+/// `camera` is `None` when it is invalid; the ROIs are then checked on
+/// their own and the result is `None`.
 pub(super) fn rois(
     c: &mut Checker<'_>,
     raw: Vec<RawRoi>,
     camera: Option<&CameraConfig>,
+    has_sensor: bool,
 ) -> Option<Vec<Roi>> {
+    if raw.is_empty() && !has_sensor {
+        c.error_near(
+            "roi",
+            "dut.backend",
+            "a plan that reads its frames from captures or a rig needs at least one [[roi]]",
+            Some("add [[roi]] with name, x-px and y-px for each light to measure (the default ROI is centred on [dut.camera]'s sensor, which this plan does not have)"),
+        );
+        return None;
+    }
     if raw.is_empty() {
         return Some(vec![default_roi(camera?)]);
     }
@@ -64,6 +78,19 @@ fn roi(c: &mut Checker<'_>, r: RawRoi, i: usize, earlier: &[Roi], ok: &mut bool)
             &k("name"),
             format!("ROI name `{name}` must be letters, digits, `-` or `_`"),
             Some("the name is a CSV column header"),
+        );
+        *ok = false;
+    } else if let Some(column) = TRACE_COLUMNS
+        .iter()
+        .find(|col| col.eq_ignore_ascii_case(&name))
+    {
+        c.error(
+            &k("name"),
+            format!("ROI name `{name}` is taken by the trace CSV's `{column}` column"),
+            Some(&format!(
+                "a trace has the columns {}, then one per ROI; give the ROI another name, e.g. \"led\"",
+                TRACE_COLUMNS.join(", ")
+            )),
         );
         *ok = false;
     } else if earlier.iter().any(|o| o.name == name) {

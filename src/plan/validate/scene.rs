@@ -2,6 +2,7 @@
 //! fill, PWM clock offset).
 
 use crate::plan::Scene;
+use crate::plan::bounds::MAX_LUMINANCE_CD_M2;
 use crate::plan::check::{Checker, One, keep};
 use crate::plan::raw::RawScene;
 
@@ -32,9 +33,15 @@ pub(super) fn scene_table(c: &mut Checker<'_>, raw: Option<RawScene>) -> Option<
         )
     });
     keep(&mut sc.background_reflectance, reflectance, &mut ok);
-    let luminance = s
-        .led_luminance_cd_m2
-        .map(|v| c.non_negative(v, "scene.led-luminance-cd-m2", hint_scene));
+    let luminance = s.led_luminance_cd_m2.map(|v| {
+        c.within(
+            v,
+            "scene.led-luminance-cd-m2",
+            (0.0, MAX_LUMINANCE_CD_M2),
+            " cd/m^2",
+            "LED luminance while ON: lamps are 1e3 to 1e6 cd/m^2, the sun's disc 1.6e9",
+        )
+    });
     keep(&mut sc.led_luminance_cd_m2, luminance, &mut ok);
     let fill = s.led_fill.map(|v| {
         let (key, hint) = ("scene.led-fill", "a fraction of the ROI in (0, 1]");

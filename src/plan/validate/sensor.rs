@@ -7,7 +7,12 @@ use super::ae;
 use crate::physics::hdr::{Capture, CaptureExposure, HdrMode, MergeRule, Tone, ToneCurve};
 use crate::physics::sensor::Sensor;
 use crate::plan::PhysicalCamera;
-use crate::plan::check::{Checker, One};
+use crate::plan::bounds::{
+    ANALOG_GAIN_RANGE, DIGITAL_GAIN_RANGE, E_PER_DN_RANGE, FULL_WELL_E_RANGE, GAMMA_RANGE,
+    LOG_A_RANGE, MIN_EXPOSURE_RATIO, MIN_EXPOSURE_S, MIN_FPS, SENSITIVITY_RANGE,
+    SENSITIVITY_RATIO_RANGE, WHITE_DN_RANGE,
+};
+use crate::plan::check::Checker;
 use crate::plan::raw::{RawCamera, RawCapture, RawHdr, RawSensor, RawTone};
 
 /// Validates the physical camera of `cam`, which has a `[sensor]` table.
@@ -35,15 +40,20 @@ pub(super) fn physical_camera(
             ae
         }
     };
-    let analog_gain = c.positive(cam.analog_gain.unwrap_or(1.0), &k("analog-gain"), ">= 1");
-    if analog_gain.is_some_and(|g| g < 1.0) {
-        c.error(
-            &k("analog-gain"),
-            "must be >= 1",
-            Some("analogue gain amplifies; use digital-gain to scale down"),
-        );
-    }
-    let digital_gain = c.positive(cam.digital_gain.unwrap_or(1.0), &k("digital-gain"), "> 0");
+    let analog_gain = c.within(
+        cam.analog_gain.unwrap_or(1.0),
+        &k("analog-gain"),
+        ANALOG_GAIN_RANGE,
+        "",
+        "analogue gain amplifies; use digital-gain to scale down",
+    );
+    let digital_gain = c.within(
+        cam.digital_gain.unwrap_or(1.0),
+        &k("digital-gain"),
+        DIGITAL_GAIN_RANGE,
+        "",
+        "a factor applied after the merge, e.g. 1.0",
+    );
     // Sequential captures must fit in the frame at the longest exposure.
     let longest_t = ae.map(|a| a.max_exposure_s).or(exposure_s);
     if let (Some(HdrMode::Sequential), Some(t), Some(f)) = (hdr_mode, longest_t, frame_s) {
@@ -82,14 +92,30 @@ fn sensor(c: &mut Checker<'_>, raw: &RawSensor, prefix: &str) -> Option<Sensor> 
             &k("sensor.sensitivity-e-per-cd-m2-s"),
             hint,
         )
-        .and_then(|v| c.positive(v, &k("sensor.sensitivity-e-per-cd-m2-s"), hint));
+        .and_then(|v| {
+            c.within(
+                v,
+                &k("sensor.sensitivity-e-per-cd-m2-s"),
+                SENSITIVITY_RANGE,
+                "",
+                "electrons per cd/m^2 per second: a few thousand for a 3 um pixel; see docs/camera-model.md",
+            )
+        });
     let full_well = c
         .required(
             raw.full_well_e,
             &k("sensor.full-well-e"),
             "full-well capacity in electrons, e.g. 10000",
         )
-        .and_then(|v| c.positive(v, &k("sensor.full-well-e"), hint));
+        .and_then(|v| {
+            c.within(
+                v,
+                &k("sensor.full-well-e"),
+                FULL_WELL_E_RANGE,
+                " e-",
+                "automotive HDR pixels hold 10000 to 100000 electrons",
+            )
+        });
     let read_noise = c.non_negative(
         raw.read_noise_e.unwrap_or(0.0),
         &k("sensor.read-noise-e"),
@@ -107,7 +133,13 @@ fn sensor(c: &mut Checker<'_>, raw: &RawSensor, prefix: &str) -> Option<Sensor> 
         None
     };
     let e_per_dn = match (raw.e_per_dn, full_well, bits) {
-        (Some(v), _, _) => c.positive(v, &k("sensor.e-per-dn"), "electrons per DN at gain 1"),
+        (Some(v), _, _) => c.within(
+            v,
+            &k("sensor.e-per-dn"),
+            E_PER_DN_RANGE,
+            "",
+            "electrons per DN at gain 1, e.g. the full well over the ADC range",
+        ),
         (None, Some(fw), Some(b)) => Some(fw / ((2f64).powi(b as i32) - 1.0)),
         _ => None,
     };
@@ -170,19 +202,30 @@ fn capture(c: &mut Checker<'_>, cap: &RawCapture, key: &str) -> Option<(CaptureE
             );
             None
         }
-        (Some(r), None) => {
-            let r = c.positive(r, &kk("exposure-ratio"), "a fraction of the L exposure");
-            let hint = "ratios are relative to the first, longest capture";
-            c.up_to_one(r, One::AtMost, &kk("exposure-ratio"), "", hint)
-                .map(CaptureExposure::Ratio)
-        }
+        (Some(r), None) => c
+            .within(
+                r,
+                &kk("exposure-ratio"),
+                (MIN_EXPOSURE_RATIO, 1.0),
+                "",
+                "a fraction of the first, longest capture's exposure",
+            )
+            .map(CaptureExposure::Ratio),
         (None, Some(ms)) => c
-            .positive(ms, &kk("exposure-ms"), "milliseconds")
+            .within(
+                ms,
+                &kk("exposure-ms"),
+                (MIN_EXPOSURE_S * 1e3, 1e3 / MIN_FPS),
+                " ms",
+                "milliseconds, at least 1 us and within the frame time",
+            )
             .map(|ms| CaptureExposure::Fixed(ms * 1e-3)),
     };
-    let sensitivity = c.positive(
+    let sensitivity = c.within(
         cap.sensitivity_ratio.unwrap_or(1.0),
         &kk("sensitivity-ratio"),
+        SENSITIVITY_RATIO_RANGE,
+        "",
         "1 for a normal pixel, e.g. 0.0625 for a small split pixel",
     );
     Some((exposure?, sensitivity?))
@@ -231,16 +274,20 @@ fn tone_table(
     let curve = match tone_raw.and_then(|t| t.curve.as_deref()) {
         None | Some("linear") => Some(ToneCurve::Linear),
         Some("gamma") => c
-            .positive(
+            .within(
                 tone_raw.and_then(|t| t.gamma).unwrap_or(2.2),
                 &k("tone.gamma"),
+                GAMMA_RANGE,
+                "",
                 "e.g. 2.2",
             )
             .map(ToneCurve::Gamma),
         Some("log") => c
-            .positive(
+            .within(
                 tone_raw.and_then(|t| t.log_a).unwrap_or(1000.0),
                 &k("tone.log-a"),
+                LOG_A_RANGE,
+                "",
                 "compression, e.g. 1000",
             )
             .map(ToneCurve::Log),
@@ -311,9 +358,11 @@ fn white_dn(
         })
         .fold(f64::INFINITY, f64::min);
     match hdr.and_then(|h| h.white_dn) {
-        Some(w) => c.positive(
+        Some(w) => c.within(
             w,
             &format!("{prefix}.hdr.white-dn"),
+            WHITE_DN_RANGE,
+            " DN",
             "L-equivalent DN mapped to white",
         ),
         None => Some(sensor.dn_max() / min_scale.min(1.0)),
