@@ -173,6 +173,44 @@ fn empty_frames_or_rois_are_invalid_input_not_a_tool_failure() {
 }
 
 #[test]
+fn a_simulated_case_without_its_picture_or_with_a_broken_one_is_refused() {
+    let (dir, s, _) = two_shards("shard-in-picture", "base.toml");
+    let original = std::fs::read(s[1].join(record::CASES)).unwrap();
+    let restore = || {
+        std::fs::write(s[1].join(record::CASES), &original).unwrap();
+        edit_manifest(&s[1], |m| {
+            m["cases_sha256"] = record::sha256(&original).into();
+        });
+    };
+    tamper(&s[1], |cases| cases[0].result.sample_frame = None);
+    assert_refused(
+        &dir,
+        &merge(&dir, &s),
+        &["s1/cases.cbor", "sample frame is none"],
+    );
+    restore();
+    tamper(&s[1], |cases| {
+        let f = cases[0].result.sample_frame.as_mut().unwrap();
+        f.index += 1;
+    });
+    assert_refused(&dir, &merge(&dir, &s), &["s1/cases.cbor", "sample frame"]);
+    restore();
+    tamper(&s[1], |cases| {
+        let f = cases[0].result.sample_frame.as_ref().unwrap();
+        let mut pixels: Vec<f64> = (0..f.height).flat_map(|y| f.row(y)).collect();
+        pixels[f.width as usize * 7 + 3] = f64::NAN;
+        let broken =
+            RenderedFrame::from_pixels(f.index, f.width, f.height, &pixels, f.full_scale_dn);
+        cases[0].result.sample_frame = Some(broken);
+    });
+    assert_refused(
+        &dir,
+        &merge(&dir, &s),
+        &["s1/cases.cbor", "row 7", "not finite"],
+    );
+}
+
+#[test]
 fn a_pass_written_over_a_failed_case_is_judged_again_from_the_traces() {
     let (dir, s, single) = two_shards("shard-in-verdict", "small_failing.toml");
     assert_eq!(single, 1, "the fixture plan fails");
