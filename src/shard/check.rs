@@ -119,8 +119,19 @@ fn conditions(c: &TestCase) -> String {
     )
 }
 
+/// Largest luma magnitude a shard may hold, DN: the full scale of a
+/// 30-bit output, beyond any camera's. The metrics and analyses sum and
+/// square luma over up to 10^7 frames; within this bound that stays near
+/// 10^25, far from overflowing, where values near `f64::MAX` overflow to
+/// infinity and give NaN metrics.
+pub const MAX_LUMA_DN: f64 = 1.0e9;
+
+fn in_range(v: f64) -> bool {
+    v.is_finite() && v.abs() <= MAX_LUMA_DN
+}
+
 /// One trace per plan ROI, in plan order and by name, each as long as the
-/// frame list, all finite.
+/// frame list, every value finite and within [`MAX_LUMA_DN`].
 fn check_rois(plan: &Plan, acq: &Acquisition) -> Result<(), String> {
     let names: Vec<&str> = plan.rois.iter().map(|r| r.name.as_str()).collect();
     let got: Vec<&str> = acq.rois.iter().map(|r| r.name.as_str()).collect();
@@ -138,17 +149,23 @@ fn check_rois(plan: &Plan, acq: &Acquisition) -> Result<(), String> {
                 t.luma.len()
             ));
         }
-        if let Some(k) = t.luma.iter().position(|v| !v.is_finite()) {
+        if let Some(k) = t.luma.iter().position(|v| !in_range(*v)) {
+            let v = t.luma[k];
+            let what = if v.is_finite() {
+                format!("out of range (at most {MAX_LUMA_DN:e} DN either side of 0)")
+            } else {
+                "not a finite number".to_string()
+            };
             return Err(format!(
-                "ROI `{}` luma of frame {} is {}, not a finite number",
-                t.name, acq.frames[k].index, t.luma[k]
+                "ROI `{}` luma of frame {} is {v}, {what}",
+                t.name, acq.frames[k].index
             ));
         }
         if let Some((lo, hi)) = t.phase_envelope
-            && !(lo.is_finite() && hi.is_finite() && lo <= hi)
+            && !(in_range(lo) && in_range(hi) && lo <= hi)
         {
             return Err(format!(
-                "ROI `{}` luma envelope over phase ({lo}, {hi}) is not two finite numbers, lowest first",
+                "ROI `{}` luma envelope over phase ({lo}, {hi}) is not two finite numbers within {MAX_LUMA_DN:e} DN of 0, lowest first",
                 t.name
             ));
         }
@@ -409,14 +426,12 @@ fn evaluate_again(plan: &Plan, shard: CaseResult) -> Result<CaseResult, String> 
         runner::RunError::BadTrace { message, .. } => message,
         other => other.to_string(),
     })?;
-    // Finite traces of absurd size can still overflow a sum.
+    // Bounded traces keep every figure finite; should one still not be,
+    // it must not reach the report.
     let figures = ciborium::Value::serialized(&(&fresh.metrics, &fresh.p2020, &fresh.checks))
         .map_err(|e| format!("cannot evaluate the case: {e}"))?;
     if !all_finite(&figures) {
-        return Err(
-            "its traces give a metric that is not a finite number (luma values out of range)"
-                .to_string(),
-        );
+        return Err("its traces give a metric that is not a finite number".to_string());
     }
     fresh.sample_frame = shard.sample_frame;
     Ok(fresh)

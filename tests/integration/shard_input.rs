@@ -128,7 +128,7 @@ fn a_trace_shorter_than_its_frames_with_a_matching_hash_is_refused_naming_shard_
 }
 
 #[test]
-fn a_nan_or_infinite_luma_is_refused_not_reported() {
+fn a_nan_infinite_or_out_of_range_luma_is_refused_not_reported() {
     let (dir, s, _) = two_shards("shard-in-nan", "base.toml");
     for bad in [f64::NAN, f64::INFINITY] {
         tamper(&s[0], |cases| {
@@ -137,7 +137,13 @@ fn a_nan_or_infinite_luma_is_refused_not_reported() {
         let o = merge(&dir, &s);
         assert_refused(&dir, &o, &["s0/cases.cbor", "not a finite number"]);
     }
-    // A non-finite frame time or envelope too.
+    // Finite luma so large that its sums overflow.
+    tamper(&s[0], |cases| {
+        let luma = &mut cases[1].result.acquisition.rois[0].luma;
+        luma.iter_mut().for_each(|v| *v = f64::MAX);
+    });
+    assert_refused(&dir, &merge(&dir, &s), &["s0/cases.cbor", "out of range"]);
+    // A non-finite frame time too.
     tamper(&s[0], |cases| {
         cases[0].result.acquisition.frames[3].time_s = f64::NAN;
     });
