@@ -16,6 +16,7 @@ pub fn read_as(data: &[u8], name: &str) {
         video_decode: VideoDecode::Rgb,
         range: VideoRange::Auto,
         fps: Some(30.0),
+        decoder_threads: None,
     };
     if let Ok(t) = capture::read_capture(&path, &rois, &["a".to_string()], &opts) {
         assert!(t.time_s.iter().all(|x| x.is_finite()));

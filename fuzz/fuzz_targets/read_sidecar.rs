@@ -21,6 +21,7 @@ fuzz_target!(|data: &[u8]| {
         video_decode: ledflicker::capture::VideoDecode::Rgb,
         range: ledflicker::capture::VideoRange::Auto,
         fps: None,
+        decoder_threads: None,
     };
     let _ = common::read_as;
     if let Ok(t) = ledflicker::capture::read_capture(&dir.join("t.csv"), &rois, &["a".to_string()], &opts) {

@@ -107,7 +107,10 @@ impl Simulator {
         })
     }
 
-    fn frames(&self) -> Vec<FrameInfo> {
+    /// Every frame of a case, as [`Backend::acquire`] lists them: frame
+    /// `k` at `k / fps` seconds, labelled by the plan's sequence. The same
+    /// for every case of the plan.
+    pub fn frames(&self) -> Vec<FrameInfo> {
         let segments = SegmentFrames::new(&self.sequence, self.camera.fps);
         (0..segments.total())
             .map(|k| FrameInfo {

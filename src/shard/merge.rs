@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::record::{self, CASES, MANIFEST, Manifest, ShardCase};
+use super::record::{self, CASES, MANIFEST, Manifest};
 use super::write::tool;
 use crate::error::UsageError;
 use crate::plan::{self, Plan};
@@ -24,7 +24,9 @@ pub struct Merged {
 }
 
 /// Reads and checks the shard directories `args` (globs allowed) and the
-/// plan (`plan`, else where the shards read it).
+/// plan (`plan`, else where the shards read it). Every shard file is input:
+/// its manifest is checked against the plan, and its cases are checked and
+/// evaluated again from their traces ([`super::check`]).
 pub fn gather(args: &[String], plan: Option<&Path>) -> anyhow::Result<Merged> {
     let dirs = expand_globs(args)?;
     let shards = dirs
@@ -33,22 +35,83 @@ pub fn gather(args: &[String], plan: Option<&Path>) -> anyhow::Result<Merged> {
         .collect::<Result<Vec<_>, _>>()?;
     check_shards(&shards)?;
     let first = &shards[0].1;
-    let results = read_cases(&shards)?;
-    let plan = load_plan(plan, first)?;
-    let expected = plan::expand_cases(&plan);
-    if let Some((want, got)) = expected.iter().zip(&results).find(|(w, g)| **w != g.case) {
-        return Err(UsageError(format!(
-            "case {} of the plan is `{}` but the shards ran `{}` there\n    hint: run every shard and the merge with the same plan",
-            want.index, want.id, got.case.id
-        ))
-        .into());
+    let (plan, inputs) = load_plan(plan, first)?;
+    let all = plan::expand_cases(&plan);
+    // Every shard has the first one's count (checked above), so one
+    // assignment serves them all.
+    let owners = super::assign::assign(&super::assign::weights(&plan, &all), first.shard.count);
+    for (dir, m) in &shards {
+        check_manifest(&plan, &all, &owners, &inputs, dir, m)?;
     }
+    let results = read_cases(&plan, &all, &shards)?;
     Ok(Merged {
         manifest: first.clone(),
         plan,
         shards: shards.len(),
         results,
     })
+}
+
+/// What a manifest (of the shard directory `dir`) says that the report
+/// uses or that picks the cases, against the plan, its cases `all`, the
+/// shard of each case `owners` ([`super::assign::assign`] for the
+/// manifest's shard count) and the plan's `inputs`: the plan id, seed,
+/// backend and case count, the cases assigned to this shard, and the
+/// inputs (role, SHA-256 and size; the paths are as the shard saw them).
+pub fn check_manifest(
+    plan: &Plan,
+    all: &[crate::plan::TestCase],
+    owners: &[usize],
+    inputs: &[crate::inputs::InputFile],
+    dir: &Path,
+    m: &Manifest,
+) -> Result<(), UsageError> {
+    let mut problems = Vec::new();
+    let mut differ = |what: &str, shard: String, plan: String| {
+        if shard != plan {
+            problems.push(format!("{what} {shard}, the plan's is {plan}"));
+        }
+    };
+    differ("plan id", m.plan_id.clone(), plan.id.clone());
+    differ("seed", m.seed.to_string(), plan.seed.to_string());
+    differ("backend", m.backend.clone(), super::check::backend_id(plan));
+    differ(
+        "case count",
+        m.case_count.to_string(),
+        all.len().to_string(),
+    );
+    if m.case_count == all.len() {
+        let mine: Vec<usize> = all
+            .iter()
+            .zip(owners)
+            .filter(|&(_, &k)| k == m.shard.index)
+            .map(|(c, _)| c.index)
+            .collect();
+        differ("case list", format!("{:?}", m.cases), format!("{mine:?}"));
+    }
+    let recorded: Vec<(&str, &str, u64)> = m
+        .inputs
+        .iter()
+        .map(|i| (i.role.as_str(), i.sha256.as_str(), i.size))
+        .collect();
+    let now: Vec<(&str, &str, u64)> = inputs
+        .iter()
+        .map(|i| (i.role.as_str(), i.sha256.as_str(), i.size))
+        .collect();
+    if recorded != now {
+        problems.push("its list of inputs differs from the plan's (role, SHA-256 or size)".into());
+    }
+    if problems.is_empty() {
+        return Ok(());
+    }
+    Err(UsageError(format!(
+        "`{}` does not describe shard {} of this plan:\n  - {}\n    hint: the manifest is damaged or was edited; re-run shard {} with `ledflicker plan PLAN --shard {} --out DIR`",
+        dir.join(MANIFEST).display(),
+        m.shard,
+        problems.join("\n  - "),
+        m.shard,
+        m.shard
+    )))
 }
 
 /// Expands `*` and `?` in the last component of each argument; an argument
@@ -113,13 +176,27 @@ fn glob_match(pattern: &str, name: &str) -> bool {
 
 fn read_manifest(dir: &Path) -> Result<(PathBuf, Manifest), UsageError> {
     let path = dir.join(MANIFEST);
-    let text = std::fs::read_to_string(&path).map_err(|e| {
-        UsageError(format!(
-            "`{}` is not a shard directory: cannot read {MANIFEST}: {e}\n    hint: shard directories are written by `ledflicker plan PLAN --shard K/N --out DIR`",
-            dir.display()
-        ))
+    let text = crate::util::read_input_to_string(&path).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::InvalidInput {
+            UsageError(format!(
+                "`{}` {e}\n    hint: a shard's {MANIFEST} is a file written by `ledflicker plan PLAN --shard K/N --out DIR`",
+                path.display()
+            ))
+        } else {
+            UsageError(format!(
+                "`{}` is not a shard directory: cannot read {MANIFEST}: {e}\n    hint: shard directories are written by `ledflicker plan PLAN --shard K/N --out DIR`",
+                dir.display()
+            ))
+        }
     })?;
-    let manifest: Manifest = serde_json::from_str(&text)
+    Ok((dir.to_path_buf(), parse_manifest(&text, &path)?))
+}
+
+/// A shard's `shard.json` (`text`, read from `path`): parsed, its schema
+/// and shard K/N checked. What it says of the plan is checked by
+/// [`check_manifest`].
+pub fn parse_manifest(text: &str, path: &Path) -> Result<Manifest, UsageError> {
+    let manifest: Manifest = serde_json::from_str(text)
         .map_err(|e| UsageError(format!("`{}`: not a shard manifest: {e}", path.display())))?;
     if manifest.schema != record::SCHEMA {
         return Err(UsageError(format!(
@@ -129,7 +206,14 @@ fn read_manifest(dir: &Path) -> Result<(PathBuf, Manifest), UsageError> {
             record::SCHEMA
         )));
     }
-    Ok((dir.to_path_buf(), manifest))
+    if let Err(why) = super::ShardSpec::new(manifest.shard.index, manifest.shard.count) {
+        return Err(UsageError(format!(
+            "`{}`: shard {}: {why}",
+            path.display(),
+            manifest.shard
+        )));
+    }
+    Ok(manifest)
 }
 
 /// Same plan, tool, seed and shard count everywhere; every shard `0..N`
@@ -206,15 +290,26 @@ fn check_shards(shards: &[(PathBuf, Manifest)]) -> Result<(), UsageError> {
     )))
 }
 
-/// Every case of every shard, in case order; each `cases.cbor` checked
-/// against its manifest.
-fn read_cases(shards: &[(PathBuf, Manifest)]) -> anyhow::Result<Vec<CaseResult>> {
-    let total = shards[0].1.case_count;
-    let mut slots: Vec<Option<(ShardCase, &Path)>> = vec![None; total];
+/// Every case of every shard, in case order: each `cases.cbor` read as
+/// input, matched against its manifest's SHA-256 (which tells damage, not
+/// trust), then checked and evaluated again ([`super::check::shard_cases`]).
+fn read_cases(
+    plan: &Plan,
+    all: &[crate::plan::TestCase],
+    shards: &[(PathBuf, Manifest)],
+) -> anyhow::Result<Vec<CaseResult>> {
+    let total = all.len();
+    let mut slots: Vec<Option<(CaseResult, &Path)>> = vec![None; total];
     for (dir, m) in shards {
         let path = dir.join(CASES);
-        let bytes = std::fs::read(&path)
-            .map_err(|e| UsageError(format!("cannot read `{}`: {e}", path.display())))?;
+        let bytes = crate::util::read_input(&path).map_err(|e| {
+            UsageError(format!(
+                "cannot read `{}`: {e}\n    hint: re-run shard {} with `ledflicker plan PLAN --shard {} --out DIR`",
+                path.display(),
+                m.shard,
+                m.shard
+            ))
+        })?;
         if record::sha256(&bytes) != m.cases_sha256 {
             return Err(UsageError(format!(
                 "`{}` does not match the SHA-256 in its {MANIFEST}: the file is damaged or from another run\n    hint: re-run shard {}",
@@ -223,22 +318,13 @@ fn read_cases(shards: &[(PathBuf, Manifest)]) -> anyhow::Result<Vec<CaseResult>>
             ))
             .into());
         }
-        let cases = record::decode_cases(&bytes, &path).map_err(UsageError)?;
-        let indices: Vec<usize> = cases.iter().map(|c| c.result.case.index).collect();
-        if indices != m.cases || indices.iter().any(|&i| i >= total) {
-            return Err(UsageError(format!(
-                "`{}` holds cases {indices:?}, its {MANIFEST} lists {:?}",
-                path.display(),
-                m.cases
-            ))
-            .into());
-        }
+        let cases = super::check::shard_cases(plan, all, &m.cases, &bytes, &path, m.shard)?;
         for c in cases {
-            let i = c.result.case.index;
+            let i = c.case.index;
             if let Some((_, other)) = &slots[i] {
                 return Err(UsageError(format!(
                     "case {i} (`{}`) is in both `{}` and `{}`",
-                    c.result.case.id,
+                    c.case.id,
                     other.display(),
                     dir.display()
                 ))
@@ -259,12 +345,16 @@ fn read_cases(shards: &[(PathBuf, Manifest)]) -> anyhow::Result<Vec<CaseResult>>
         ))
         .into());
     }
-    Ok(slots.into_iter().flatten().map(|(c, _)| c.result).collect())
+    Ok(slots.into_iter().flatten().map(|(c, _)| c).collect())
 }
 
-/// The plan the shards ran, checked against their plan hash; its path
-/// reads as the shards recorded it, so results.json is the same.
-fn load_plan(given: Option<&Path>, m: &Manifest) -> anyhow::Result<Plan> {
+/// The plan the shards ran, checked against their plan hash, and its
+/// inputs; its path reads as the shards recorded it, so results.json is
+/// the same.
+fn load_plan(
+    given: Option<&Path>,
+    m: &Manifest,
+) -> anyhow::Result<(Plan, Vec<crate::inputs::InputFile>)> {
     let as_given = PathBuf::from(&m.plan_path);
     let path = match given {
         Some(p) => p.to_path_buf(),
@@ -292,7 +382,7 @@ fn load_plan(given: Option<&Path>, m: &Manifest) -> anyhow::Result<Plan> {
         .into());
     }
     plan.path = as_given;
-    Ok(plan)
+    Ok((plan, inputs))
 }
 
 #[cfg(test)]

@@ -10,9 +10,12 @@
 //! - [`record`]: the on-disk shard format, read back typed.
 //! - [`write`]: a shard run's directory, written from its case results.
 //! - [`merge`]: the shard directories read back and checked, for `merge`.
+//! - [`check`]: a shard's cases checked as input and evaluated again from
+//!   their traces: a shard carries data, never conclusions.
 //! - [`report_model`]: the report model `plan` and `merge` both write.
 
 pub mod assign;
+pub mod check;
 pub mod merge;
 pub mod record;
 pub mod write;

@@ -20,6 +20,7 @@ mod report;
 mod results;
 mod robust;
 mod shard;
+mod shard_input;
 mod signoff;
 mod timing;
 mod verdicts;

@@ -122,7 +122,7 @@ fn more_shards_than_cases_leaves_empty_shards_that_still_merge() {
 
 /// Three CSV recordings from the independent generator, with segments
 /// detected (so the trace charts draw the detection signal).
-fn captured_plan(dir: &Path) -> PathBuf {
+pub(crate) fn captured_plan(dir: &Path) -> PathBuf {
     let mut cases = String::new();
     for (i, (hz, phase)) in [(60.0, 0.57), (150.0, 0.2), (90.0, 0.4)]
         .into_iter()
