@@ -119,12 +119,13 @@ fn conditions(c: &TestCase) -> String {
     )
 }
 
-/// Largest luma magnitude a shard may hold, DN: the full scale of a
-/// 30-bit output, beyond any camera's. The metrics and analyses sum and
+/// Largest luma magnitude a shard may hold, DN: the bound a capture's
+/// luma is read within ([`crate::capture::MAX_CSV_LUMA_DN`]), so that every
+/// shard `plan --shard` writes merges. The metrics and analyses sum and
 /// square luma over up to 10^7 frames; within this bound that stays near
-/// 10^25, far from overflowing, where values near `f64::MAX` overflow to
+/// 10^31, far from overflowing, where values near `f64::MAX` overflow to
 /// infinity and give NaN metrics.
-pub const MAX_LUMA_DN: f64 = 1.0e9;
+pub const MAX_LUMA_DN: f64 = crate::capture::MAX_CSV_LUMA_DN;
 
 fn in_range(v: f64) -> bool {
     v.is_finite() && v.abs() <= MAX_LUMA_DN
