@@ -12,18 +12,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::scratch;
+use crate::{mkfifo, scratch};
 
 /// Longest a refusal may take. A FIFO that is waited on never ends, so
 /// anything past this is a hang.
 const DEADLINE: Duration = Duration::from_secs(20);
-
-/// Makes a FIFO at `path`.
-fn mkfifo(path: &Path) {
-    let c = std::ffi::CString::new(path.to_str().unwrap()).unwrap();
-    // SAFETY: mkfifo on a path in a fresh scratch directory.
-    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0, "{path:?}");
-}
 
 /// Opens and closes `fifo` for writing, so that whatever waits to read it
 /// (a process left behind by a run that hung) sees its end.

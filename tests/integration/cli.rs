@@ -2,7 +2,7 @@
 
 use std::process::Command;
 
-use crate::{ledflicker, root, scratch, stderr};
+use crate::{ledflicker, mkfifo, root, scratch, stderr};
 
 #[test]
 fn validate_accepts_shipped_plans_by_path_and_by_name() {
@@ -627,16 +627,9 @@ fn ctrl_c_while_the_pdf_is_laid_out_stops_within_a_second_and_keeps_the_old_repo
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// Makes a FIFO at `path`, which nobody will ever write.
-pub fn mkfifo(path: &std::path::Path) {
-    let c = std::ffi::CString::new(path.as_os_str().as_encoded_bytes()).unwrap();
-    // SAFETY: a NUL-terminated path that lives across the call.
-    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
-}
-
 /// Runs the binary and gives its output, or fails the test when it is
 /// still running after 20 s (it then waits on something) and kills it.
-pub fn ledflicker_within_20s(args: &[&str]) -> std::process::Output {
+fn ledflicker_within_20s(args: &[&str]) -> std::process::Output {
     let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
         .args(args)
         .current_dir(root())

@@ -15,7 +15,7 @@ use ledflicker::metrics::Verdict;
 use ledflicker::metrics::flicker::Segment;
 use ledflicker::shard::record::{self, ShardCase};
 
-use crate::{ledflicker_in, root, scratch, text};
+use crate::{ledflicker_in, mkfifo, root, scratch, text};
 
 const DATE: &str = "2026-11-23";
 
@@ -361,17 +361,12 @@ fn merge_within(dir: &Path, shards: &[PathBuf], limit: Duration) -> Output {
     child.wait_with_output().unwrap()
 }
 
-fn make_fifo(path: &Path) {
-    std::fs::remove_file(path).unwrap();
-    let made = Command::new("mkfifo").arg(path).status().unwrap();
-    assert!(made.success());
-}
-
 #[test]
 fn a_fifo_in_place_of_a_shard_file_is_refused_at_once() {
     for file in [record::MANIFEST, record::CASES] {
         let (dir, s, _) = two_shards(&format!("shard-in-fifo-{file}"), "base.toml");
-        make_fifo(&s[1].join(file));
+        std::fs::remove_file(s[1].join(file)).unwrap();
+        mkfifo(&s[1].join(file));
         let o = merge_within(&dir, &s, Duration::from_secs(20));
         assert_refused(&dir, &o, &[&format!("s1/{file}"), "FIFO"]);
     }
