@@ -476,7 +476,10 @@ fn render_diagnostics(diagnostics: &[Diagnostic]) -> String {
 /// tree.
 pub fn resolve_plan_path(arg: &str) -> Result<PathBuf, PlanError> {
     let direct = PathBuf::from(arg);
-    if direct.is_file() {
+    // A file of any kind there by that name is what the user meant: a
+    // FIFO or a device is refused when it is read, by name, not reported
+    // missing. A folder of that name (say reports' `daylight/`) is not.
+    if std::fs::metadata(&direct).is_ok_and(|m| !m.is_dir()) {
         return Ok(direct);
     }
     let bare = !arg.contains('/') && !arg.contains('\\');
