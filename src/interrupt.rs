@@ -92,17 +92,19 @@ const PROMPT_POLL: std::time::Duration = std::time::Duration::from_millis(50);
 /// remove.
 #[derive(Debug)]
 pub struct Prompt {
-    done: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    /// Dropped to tell the watcher the stage is over; it wakes at once.
+    done: Option<std::sync::mpsc::Sender<()>>,
     watcher: Option<std::thread::JoinHandle<()>>,
 }
 
 impl Prompt {
     /// Starts watching; see [`Prompt`].
     pub fn start(discard: std::path::PathBuf) -> Prompt {
-        let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-        let watching = std::sync::Arc::clone(&done);
+        let (done, over) = std::sync::mpsc::channel::<()>();
         let watcher = std::thread::spawn(move || {
-            while !watching.load(Ordering::SeqCst) {
+            while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+                over.recv_timeout(PROMPT_POLL)
+            {
                 if let Some(signal) = requested() {
                     // The writer may still add files: try a few times.
                     for _ in 0..5 {
@@ -113,11 +115,10 @@ impl Prompt {
                     eprintln!("error: {}", Interrupted { signal });
                     std::process::exit(Interrupted { signal }.exit_code());
                 }
-                std::thread::sleep(PROMPT_POLL);
             }
         });
         Prompt {
-            done,
+            done: Some(done),
             watcher: Some(watcher),
         }
     }
@@ -125,7 +126,7 @@ impl Prompt {
 
 impl Drop for Prompt {
     fn drop(&mut self) {
-        self.done.store(true, Ordering::SeqCst);
+        drop(self.done.take());
         if let Some(w) = self.watcher.take() {
             let _ = w.join();
         }
