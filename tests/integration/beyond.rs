@@ -150,3 +150,36 @@ fn decimal_beats_on_a_band_edge_fall_in_the_same_band_at_any_harmonic() {
         assert_eq!(c["hazard_class"], "traffic-signal-like", "{f} Hz");
     }
 }
+
+#[test]
+fn the_pwm_delay_moves_the_folded_phase_as_it_moves_the_drive() {
+    // Phase locked (150 Hz at 30 fps): every frame of the ROI sees one PWM
+    // phase, frac(f (row offset - delay)) at its first row, so one bin of
+    // 64 is hit, and which one follows the delay.
+    for delay_ms in [0.0, 1.0, 2.5, 4.0] {
+        let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml"))
+            .unwrap()
+            .replace("frequencies-hz = [60.0, 150.0]", "frequencies-hz = [150.0]")
+            .replace("duty-cycles = [0.2, 0.5]", "duty-cycles = [0.5]")
+            .replace("exposure-ms = 11.111", "exposure-ms = 2.0")
+            .replace(
+                "response-dn-per-cd-m2-s = 18.5",
+                &format!("response-dn-per-cd-m2-s = 18.5\npwm-delay-ms = {delay_ms:?}"),
+            );
+        let p = plan::parse(&text, std::path::Path::new("delay.toml"), String::new()).unwrap();
+        let cases = plan::expand_cases(&p);
+        let results = runner::run(&p, &cases, &Simulator::new(&p), Some(1), &|_| {}).unwrap();
+        let a = ledflicker::analysis::analyse_case(&p, &results[0]);
+        let hit: Vec<usize> = a.rois[0]
+            .folded_bins
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| b.is_some())
+            .map(|(i, _)| i)
+            .collect();
+        // 14.565 us a row (base.toml), from the ROI's first row.
+        let row_offset_s = f64::from(p.rois[0].y_px) * 14.565e-6;
+        let phase = (150.0 * (row_offset_s - delay_ms * 1e-3)).rem_euclid(1.0);
+        assert_eq!(hit, [(phase * 64.0) as usize], "delay {delay_ms} ms");
+    }
+}
