@@ -7,32 +7,15 @@
 //! instead of hanging CI.
 
 use std::io::Write;
-use std::os::unix::fs::OpenOptionsExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::{mkfifo, scratch};
+use crate::{Ran, mkfifo, run_with_deadline, scratch};
 
 /// Longest a refusal may take. A FIFO that is waited on never ends, so
 /// anything past this is a hang.
 const DEADLINE: Duration = Duration::from_secs(20);
-
-/// Opens and closes `fifo` for writing, so that whatever waits to read it
-/// (a process left behind by a run that hung) sees its end.
-fn release(fifo: &Path) {
-    let _ = std::fs::OpenOptions::new()
-        .write(true)
-        .custom_flags(libc::O_NONBLOCK)
-        .open(fifo);
-}
-
-/// What a run gave: its exit code (`None`: killed at the deadline) and
-/// its stderr.
-struct Ran {
-    code: Option<i32>,
-    stderr: String,
-}
 
 /// Runs `ledflicker plan PLAN --out DIR/o -q` in `dir`, killed at
 /// `deadline`; then releases `fifos`.
@@ -46,40 +29,6 @@ fn plan_with_deadline(dir: &Path, plan: &Path, fifos: &[PathBuf], deadline: Dura
         "-q",
     ];
     run_with_deadline(&args, dir, fifos, deadline)
-}
-
-/// Runs `ledflicker ARGS` in `dir`, killed at `deadline`; then releases
-/// `fifos`.
-fn run_with_deadline(args: &[&str], dir: &Path, fifos: &[PathBuf], deadline: Duration) -> Ran {
-    let err_path = dir.join("stderr.txt");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
-        .args(args)
-        .current_dir(dir)
-        .env_remove("SOURCE_DATE_EPOCH")
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(std::fs::File::create(&err_path).unwrap())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    let code = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break status.code();
-        }
-        if start.elapsed() >= deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            break None;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    for f in fifos {
-        release(f);
-    }
-    Ran {
-        code,
-        stderr: std::fs::read_to_string(&err_path).unwrap_or_default(),
-    }
 }
 
 /// A captured plan with one case and one ROI, as `dir/plan.toml`.

@@ -2,7 +2,11 @@
 
 use std::process::Command;
 
-use crate::{ledflicker, mkfifo, root, scratch, stderr};
+use crate::{ledflicker, mkfifo, root, run_with_deadline, scratch, stderr};
+
+/// Far longer than refusing an input takes; a run still going then waits
+/// on it.
+const WAIT_AT_MOST: std::time::Duration = std::time::Duration::from_secs(20);
 
 #[test]
 fn validate_accepts_shipped_plans_by_path_and_by_name() {
@@ -653,35 +657,13 @@ fn ctrl_c_in_the_report_stage_stops_at_once_and_keeps_the_old_report() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// Runs the binary and gives its output, or fails the test when it is
-/// still running after 20 s (it then waits on something) and kills it.
-fn ledflicker_within_20s(args: &[&str]) -> std::process::Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
-        .args(args)
-        .current_dir(root())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = std::time::Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed().as_secs() >= 20 {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("{args:?} still waiting after 20 s");
-        }
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
-}
-
 #[test]
 fn a_fifo_given_as_golden_results_is_refused_at_once() {
     let dir = scratch("fifo-golden");
     let fifo = dir.join("golden.json");
     mkfifo(&fifo);
     let out = dir.join("o");
-    let o = ledflicker_within_20s(&[
+    let args = [
         "plan",
         "daylight",
         "-q",
@@ -689,9 +671,10 @@ fn a_fifo_given_as_golden_results_is_refused_at_once() {
         out.to_str().unwrap(),
         "--golden",
         fifo.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("FIFO"), "{}", stderr(&o));
+    ];
+    let ran = run_with_deadline(&args, root(), &[fifo.clone()], WAIT_AT_MOST);
+    assert_eq!(ran.code, Some(2), "{}", ran.stderr);
+    assert!(ran.stderr.contains("FIFO"), "{}", ran.stderr);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -711,9 +694,9 @@ fn a_fifo_given_as_the_plan_is_refused_at_once() {
             out.to_str().unwrap(),
         ][..],
     ] {
-        let o = ledflicker_within_20s(args);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
-        assert!(stderr(&o).contains("FIFO"), "{}", stderr(&o));
+        let ran = run_with_deadline(args, &dir, &[fifo.clone()], WAIT_AT_MOST);
+        assert_eq!(ran.code, Some(2), "{args:?}: {}", ran.stderr);
+        assert!(ran.stderr.contains("FIFO"), "{}", ran.stderr);
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }

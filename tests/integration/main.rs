@@ -26,8 +26,10 @@ mod timing;
 mod verdicts;
 mod visual;
 
+use std::os::unix::fs::OpenOptionsExt;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 /// The repository root.
 pub fn root() -> &'static Path {
@@ -82,4 +84,54 @@ pub fn mkfifo(path: &Path) {
     let c = std::ffi::CString::new(path.as_os_str().as_encoded_bytes()).unwrap();
     // SAFETY: a NUL-terminated path that lives across the call.
     assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0, "{path:?}");
+}
+
+/// Opens and closes `fifo` for writing, so that whatever waits to read it
+/// (a process left behind by a run that hung) sees its end.
+pub fn release(fifo: &Path) {
+    let _ = std::fs::OpenOptions::new()
+        .write(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(fifo);
+}
+
+/// What a run gave: its exit code (`None`: killed at the deadline) and
+/// its stderr.
+pub struct Ran {
+    pub code: Option<i32>,
+    pub stderr: String,
+}
+
+/// Runs `ledflicker ARGS` in `dir`, killed at `deadline`; then releases
+/// `fifos`.
+pub fn run_with_deadline(args: &[&str], dir: &Path, fifos: &[PathBuf], deadline: Duration) -> Ran {
+    let err_path = dir.join("stderr.txt");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(args)
+        .current_dir(dir)
+        .env_remove("SOURCE_DATE_EPOCH")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&err_path).unwrap())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    let code = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status.code();
+        }
+        if start.elapsed() >= deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    for f in fifos {
+        release(f);
+    }
+    Ran {
+        code,
+        stderr: std::fs::read_to_string(&err_path).unwrap_or_default(),
+    }
 }

@@ -7,15 +7,15 @@
 //! refused at once.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Output;
+use std::time::Duration;
 
 use ledflicker::backend::RenderedFrame;
 use ledflicker::metrics::Verdict;
 use ledflicker::metrics::flicker::Segment;
 use ledflicker::shard::record::{self, ShardCase};
 
-use crate::{ledflicker_in, mkfifo, root, scratch, text};
+use crate::{Ran, ledflicker_in, mkfifo, root, run_with_deadline, scratch, text};
 
 const DATE: &str = "2026-11-23";
 
@@ -96,8 +96,17 @@ fn merge(dir: &Path, shards: &[PathBuf]) -> Output {
 
 /// Exit 2, no panic, no report, and the message names every `needles`.
 fn assert_refused(dir: &Path, o: &Output, needles: &[&str]) {
-    let t = text(o);
-    assert_eq!(code(o), 2, "{t}");
+    let ran = Ran {
+        code: o.status.code(),
+        stderr: text(o),
+    };
+    assert_ran_refused(dir, &ran, needles);
+}
+
+/// [`assert_refused`] of a run made with a deadline.
+fn assert_ran_refused(dir: &Path, ran: &Ran, needles: &[&str]) {
+    let t = &ran.stderr;
+    assert_eq!(ran.code, Some(2), "{t}");
     assert!(!t.contains("panicked"), "{t}");
     for n in needles {
         assert!(t.contains(n), "`{n}` not in: {t}");
@@ -324,8 +333,8 @@ fn a_captured_case_at_odds_with_its_own_segments_is_refused() {
         let c = cases[0].result.acquisition.capture.as_mut().unwrap();
         c.segments.capture_frames = u64::MAX;
     });
-    let o = merge_within(&dir, &s, Duration::from_secs(60));
-    assert_refused(&dir, &o, &["s0/cases.cbor", "detection signal"]);
+    let ran = merge_within(&dir, &s, &[], Duration::from_secs(60));
+    assert_ran_refused(&dir, &ran, &["s0/cases.cbor", "detection signal"]);
     // A picture the captured backend never renders.
     restore();
     let picture = RenderedFrame::from_pixels(0, 2, 2, &[1.0; 4], 255.0);
@@ -337,28 +346,10 @@ fn a_captured_case_at_odds_with_its_own_segments_is_refused() {
 }
 
 /// Runs `merge` with a deadline: a FIFO must be refused, not waited on.
-fn merge_within(dir: &Path, shards: &[PathBuf], limit: Duration) -> Output {
+fn merge_within(dir: &Path, shards: &[PathBuf], fifos: &[PathBuf], limit: Duration) -> Ran {
     let mut args = vec!["merge", "--date", DATE, "-q", "--out", "merged"];
     args.extend(shards.iter().map(|s| s.to_str().unwrap()));
-    let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
-        .args(&args)
-        .current_dir(dir)
-        .env_remove("SOURCE_DATE_EPOCH")
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > limit {
-            child.kill().unwrap();
-            child.wait().unwrap();
-            panic!("merge still waiting after {limit:?}: it blocked on a FIFO");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
+    run_with_deadline(&args, dir, fifos, limit)
 }
 
 #[test]
@@ -367,7 +358,8 @@ fn a_fifo_in_place_of_a_shard_file_is_refused_at_once() {
         let (dir, s, _) = two_shards(&format!("shard-in-fifo-{file}"), "base.toml");
         std::fs::remove_file(s[1].join(file)).unwrap();
         mkfifo(&s[1].join(file));
-        let o = merge_within(&dir, &s, Duration::from_secs(20));
-        assert_refused(&dir, &o, &[&format!("s1/{file}"), "FIFO"]);
+        let fifo = s[1].join(file);
+        let ran = merge_within(&dir, &s, &[fifo], Duration::from_secs(20));
+        assert_ran_refused(&dir, &ran, &[&format!("s1/{file}"), "FIFO"]);
     }
 }
