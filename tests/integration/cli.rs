@@ -672,7 +672,7 @@ fn a_fifo_given_as_golden_results_is_refused_at_once() {
         "--golden",
         fifo.to_str().unwrap(),
     ];
-    let ran = run_with_deadline(&args, root(), std::slice::from_ref(&fifo), WAIT_AT_MOST);
+    let ran = run_with_deadline(&args, &dir, std::slice::from_ref(&fifo), WAIT_AT_MOST);
     assert_eq!(ran.code, Some(2), "{}", ran.stderr);
     assert!(ran.stderr.contains("FIFO"), "{}", ran.stderr);
     std::fs::remove_dir_all(&dir).unwrap();
