@@ -7,7 +7,10 @@
 //! - the **ideal camera** (no `[sensor]` table): linear, noiseless, fixed
 //!   exposure,
 //!   `luma = black + k (L_bg + fill L_led s)` clipped at full scale, with
-//!   `k = response x exposure`;
+//!   `k = response x exposure` and `s` the ROI rows' mean ON fraction (the
+//!   mean is clipped, not each row, so that the worst case over phase, the
+//!   fine map and `advise` stay exact closed forms; docs/camera-model.md
+//!   bounds the difference);
 //! - the **physical camera**: photo-electrons per capture, shot and read
 //!   noise, analogue gain, ADC clipping, multi-capture HDR (sequential or
 //!   split pixel) with a merge rule, digital gain, a global tone curve, and

@@ -1,5 +1,6 @@
-//! `ledflicker simulate` against an exact rational computation of the PWM
-//! integral (DESIGN.md section 4), on the hard cases of issue 2.
+//! `ledflicker simulate` and the ideal camera's luma against an exact
+//! rational computation of the PWM integral (docs/camera-model.md), on
+//! hard cases.
 //!
 //! The reference works in i128 fractions from the decimal strings given on
 //! the command line, so it shares no floating point with the program.
@@ -99,6 +100,13 @@ struct Case {
 
 /// Exact ON fraction of frame `k`, averaged over the ROI rows.
 fn exact_on_fraction(c: &Case, k: i128) -> Q {
+    let rows = exact_row_on_fractions(c, k);
+    let n = Q::int(rows.len() as i128);
+    rows.into_iter().fold(Q::int(0), |a, b| a + b) / n
+}
+
+/// Exact ON fraction of frame `k` in each ROI row, in row order.
+fn exact_row_on_fractions(c: &Case, k: i128) -> Vec<Q> {
     let f = Q::dec(c.frequency_hz);
     let d = Q::dec(c.duty);
     let t = Q::dec(c.exposure_ms) / Q::int(1000);
@@ -107,13 +115,13 @@ fn exact_on_fraction(c: &Case, k: i128) -> Q {
     let line = Q::dec(c.line_time_us) / Q::int(1_000_000);
     // Integral of the unit square wave (ON on [n, n + D)) from 0 to u cycles.
     let g = |u: Q| u.floor() * d + (u - u.floor()).min(d);
-    let mut sum = Q::int(0);
-    for r in c.rows.0..c.rows.1 {
-        let start = (Q::int(k) / fps + Q::int(r) * line - delay) * f;
-        let width = t * f;
-        sum = sum + (g(start + width) - g(start)) / width;
-    }
-    sum / Q::int(c.rows.1 - c.rows.0)
+    (c.rows.0..c.rows.1)
+        .map(|r| {
+            let start = (Q::int(k) / fps + Q::int(r) * line - delay) * f;
+            let width = t * f;
+            (g(start + width) - g(start)) / width
+        })
+        .collect()
 }
 
 fn run_simulate(c: &Case) -> Vec<f64> {
@@ -287,5 +295,92 @@ fn hard_cases_hit_their_closed_form_values() {
     assert!(
         locked.iter().all(|v| (v - locked[0]).abs() <= 1e-12),
         "phase-locked frames differ"
+    );
+}
+
+/// The ideal camera clips the ROI's mean ON fraction, not each row
+/// (docs/camera-model.md, "Ideal camera"): on a 20-row rolling ROI whose
+/// LED peak (370 DN) is above full scale and 151 Hz sweeps the phase, every PWM frame reads
+/// `min(c0 + 370 mean_r s_r, 255)` with `s_r` each row's exact ON
+/// fraction. A camera that clips each row reads less, by exactly the
+/// smaller of the rows' mean excess over full scale and their mean
+/// shortfall below it, as the page states; the case is one where that
+/// difference is large, so the page's bound is exercised, not vacuous.
+#[test]
+fn the_ideal_camera_clips_the_roi_mean_not_each_row() {
+    let dir = super::scratch("ideal-clip");
+    let plan = std::fs::read_to_string(super::root().join("test-plans/daylight.toml"))
+        .unwrap()
+        .replace(
+            "frequencies-hz = [50.0, 90.0, 100.0, 150.0, 200.0, 500.0, 1000.0]",
+            "frequencies-hz = [151.0]",
+        )
+        .replace(
+            "duty-cycles = [0.05, 0.1, 0.2, 0.5, 1.0]",
+            "duty-cycles = [0.5]",
+        )
+        .replace("exposure-ms = 11.111", "exposure-ms = 1.0")
+        .replace(
+            "led-luminance-cd-m2 = 1000.0",
+            "led-luminance-cd-m2 = 20000.0",
+        )
+        .replace("pwm-s = 60.0", "pwm-s = 4.0")
+        .replace("height-px = 2", "height-px = 20");
+    std::fs::write(dir.join("clip.toml"), plan).unwrap();
+    // Exit 1: the case fails its FDI threshold, as expected of it.
+    let run = super::ledflicker_in(&["plan", "clip.toml", "--out", "out"], &dir);
+    assert_eq!(run.status.code(), Some(1), "{}", super::stderr(&run));
+    let traces = std::fs::read_dir(dir.join("out/traces")).unwrap();
+    let path = traces.map(|e| e.unwrap().path()).next().unwrap();
+    let text = std::fs::read_to_string(path).unwrap();
+    let case = Case {
+        name: "tall clipped ROI",
+        frequency_hz: "151",
+        duty: "0.5",
+        exposure_ms: "1.0",
+        fps: "30.0",
+        frames: 0,
+        pwm_delay_ms: "0",
+        line_time_us: "14.565",
+        rows: (399, 419),
+    };
+    let (peak, full) = (370.0, 255.0);
+    let (mut pwm_frames, mut largest_gap) = (0, 0.0f64);
+    for line in text.lines().skip(1) {
+        let cols: Vec<&str> = line.split(',').collect();
+        let (k, segment) = (cols[0].parse::<i128>().unwrap(), cols[2]);
+        let (led, c0) = (
+            cols[3].parse::<f64>().unwrap(),
+            cols[4].parse::<f64>().unwrap(),
+        );
+        if segment != "pwm" {
+            continue;
+        }
+        pwm_frames += 1;
+        let rows: Vec<f64> = exact_row_on_fractions(&case, k)
+            .into_iter()
+            .map(|s| c0 + peak * s.to_f64())
+            .collect();
+        let n = rows.len() as f64;
+        let mean = rows.iter().sum::<f64>() / n;
+        assert!(
+            (led - mean.min(full)).abs() <= 1e-9,
+            "frame {k}: {led} vs {}",
+            mean.min(full)
+        );
+        let per_row = rows.iter().map(|v| v.min(full)).sum::<f64>() / n;
+        let excess = rows.iter().map(|v| (v - full).max(0.0)).sum::<f64>() / n;
+        let shortfall = rows.iter().map(|v| (full - v).max(0.0)).sum::<f64>() / n;
+        let gap = led - per_row;
+        assert!(
+            (gap - excess.min(shortfall)).abs() <= 1e-9,
+            "frame {k}: {gap}"
+        );
+        largest_gap = largest_gap.max(gap);
+    }
+    assert_eq!(pwm_frames, 120);
+    assert!(
+        largest_gap > 10.0,
+        "the case should straddle full scale: {largest_gap}"
     );
 }
