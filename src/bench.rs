@@ -110,15 +110,11 @@ fn timed<T>(reps: usize, mut f: impl FnMut() -> T) -> (f64, T) {
 /// 100 cases (20 frequencies x 5 duty cycles) of 64 s at 30 fps, on the
 /// given camera profile (`None`: the plan's own camera).
 pub fn bench_plan(profile: Option<&str>) -> Result<Plan, plan::PlanError> {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    let text =
-        std::fs::read_to_string(root.join("test-plans/daylight.toml")).map_err(|source| {
-            plan::PlanError::Read {
-                path: root.join("test-plans/daylight.toml"),
-                source,
-            }
-        })?;
-    let mut text = text.replace(
+    let daylight = plan::shipped::plan("daylight").ok_or_else(|| plan::PlanError::NotFound {
+        name: "daylight".to_string(),
+        tried: "the built-in plans".to_string(),
+    })?;
+    let mut text = daylight.text.replace(
         "frequencies-hz = [50.0, 90.0, 100.0, 150.0, 200.0, 500.0, 1000.0]",
         "frequency-range-hz = { start = 50.0, stop = 1000.0, step = 50.0 }",
     );
@@ -130,17 +126,14 @@ pub fn bench_plan(profile: Option<&str>) -> Result<Plan, plan::PlanError> {
         text.replace_range(start..end, "");
         text = text.replace(
             "backend = \"simulator\"",
-            &format!(
-                "backend = \"simulator\"\ncamera-profile = \"{}\"",
-                root.join(profile).display()
-            ),
+            &format!("backend = \"simulator\"\ncamera-profile = \"{profile}\""),
         );
     }
     // Only the cases run, without a report: the report's memory limit does
     // not apply (docs/plan-format.md, "Limits").
     plan::parse_within(
         &text,
-        &root.join("test-plans/daylight.toml"),
+        std::path::Path::new(daylight.path),
         String::new(),
         false,
     )

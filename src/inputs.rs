@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use sha2::{Digest, Sha256};
 
 use crate::capture::{SourceKind, source_kind};
-use crate::plan::{BackendKind, Plan};
+use crate::plan::{BackendKind, Plan, shipped};
 
 /// One input file of the run, with its hash.
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -80,6 +80,17 @@ fn input(role: &str, path: &Path) -> Result<InputFile, InputError> {
         sha256,
         size,
     })
+}
+
+/// A file built into the binary, named by its path in the source tree and
+/// [`shipped::BUILT_IN`].
+fn built_in_input(role: &str, file: &shipped::Shipped) -> InputFile {
+    InputFile {
+        role: role.to_string(),
+        path: format!("{}{}", file.path, shipped::BUILT_IN),
+        sha256: crate::util::sha256_hex(file.text.as_bytes()),
+        size: file.text.len() as u64,
+    }
 }
 
 /// The frame files of a frame directory, as the capture reader takes
@@ -150,9 +161,22 @@ fn rig_files(argv: &[String], plan_dir: &Path) -> Vec<PathBuf> {
 
 /// Every input of `plan`, plan first. Fails when one cannot be read.
 pub fn collect(plan: &Plan) -> Result<Vec<InputFile>, InputError> {
-    let mut out = vec![input("plan", &plan.path)?];
-    let profile = Path::new(&plan.dut.camera.source);
-    if plan.dut.camera.source != "plan" && profile.is_file() {
+    let built_in_plan = plan
+        .built_in
+        .then(|| shipped::plan_at(&plan.path.display().to_string()))
+        .flatten();
+    let mut out = vec![match built_in_plan {
+        Some(p) => built_in_input("plan", p),
+        None => input("plan", &plan.path)?,
+    }];
+    let source = &plan.dut.camera.source;
+    let profile = Path::new(source);
+    let built_in_profile = source
+        .strip_suffix(shipped::BUILT_IN)
+        .and_then(shipped::profile);
+    if let Some(p) = built_in_profile {
+        out.push(built_in_input("camera-profile", p));
+    } else if source != "plan" && profile.is_file() {
         out.push(input("camera-profile", profile)?);
     }
     let plan_dir = plan

@@ -8,6 +8,7 @@
 //! - Within a top-level module, the submodules import each other without a
 //!   cycle.
 //! - No function over 120 lines, no file over 800 lines.
+//! - No build path (`CARGO_MANIFEST_DIR`) outside the tests.
 //!
 //! Test modules (`#[cfg(test)] mod tests`) and comments are not read: tests
 //! may reach anywhere.
@@ -354,6 +355,18 @@ fn functions_and_files_stay_short() {
         wrong.is_empty(),
         "files over {MAX_FILE_LINES} lines or functions over {MAX_FN_LINES}: {wrong:#?}"
     );
+}
+
+/// An installed or copied binary has no source tree: no code outside the
+/// tests may name a path of the machine that built it.
+#[test]
+fn no_build_path_reaches_the_binary() {
+    let reaching: Vec<String> = sources()
+        .iter()
+        .filter(|s| s.code.contains("CARGO_MANIFEST_DIR") || s.code.contains("file!()"))
+        .map(|s| s.path.display().to_string())
+        .collect();
+    assert!(reaching.is_empty(), "build paths in {reaching:?}");
 }
 
 #[test]

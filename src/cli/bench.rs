@@ -34,17 +34,21 @@ pub(super) struct BenchArgs {
 /// The numpy peer's figure on the exact-core grid, measured now, and the
 /// batched core's ratio to it; a missing Python or numpy is said, not fatal.
 fn print_peer_ratio(rows: &[crate::bench::BenchRow]) -> std::io::Result<()> {
-    let script =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/peer_closedform.py");
+    // The peer is a script of the source tree, not of an installed binary.
+    let script = std::path::Path::new("scripts/peer_closedform.py");
     let Some(ours) = rows.iter().find(|r| r.method == "exact core, batched") else {
         return Ok(());
     };
     let ours = 1.0 / ours.time_s;
-    match crate::bench::numpy_peer(&script, std::time::Duration::from_secs(120)) {
+    match crate::bench::numpy_peer(script, std::time::Duration::from_secs(120)) {
         Ok(peer) => outln!(
             "numpy peer (scripts/peer_closedform.py, same grid): {peer:.2e} integrals/s; \
              exact core, batched: {ours:.2e} integrals/s = {:.1}x numpy",
             ours / peer
+        ),
+        Err(_) if !script.is_file() => outln!(
+            "numpy peer not measured: no `{}` here (run `bench` from the ledflicker source tree to compare)",
+            script.display()
         ),
         Err(e) => outln!("numpy peer not measured: {e} (pip install numpy to compare)"),
     }
@@ -73,8 +77,7 @@ pub(super) fn bench(a: BenchArgs) -> anyhow::Result<i32> {
         .map_err(|e| anyhow::anyhow!("bench failed: {e}"))?;
     print_peer_ratio(&rows)?;
     let repeat = if a.quick { a.repeat.min(3) } else { a.repeat };
-    let path = plan::resolve_plan_path(&a.plan)?;
-    let plan = plan::load(&path)?;
+    let plan = plan::find_and_load(&a.plan)?;
     let roi = plan
         .rois
         .iter()

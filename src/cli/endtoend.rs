@@ -12,6 +12,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use crate::bench::median;
+use crate::error::UsageError;
 
 /// Longest any one timed run may take before its process group is killed.
 const RUN_TIMEOUT: Duration = Duration::from_secs(300);
@@ -159,7 +160,17 @@ fn describe(what: &str, runs: &[Finished]) -> String {
 /// ratio.
 pub(super) fn bench_end_to_end(quick: bool) -> anyhow::Result<()> {
     let exe = std::env::current_exe()?;
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    // The P2020 sample plan's videos and the OpenCV script are files of the
+    // source tree: the bench runs from there, not from where it was built.
+    let root = Path::new(".");
+    if !root.join("scripts/opencv_bench.py").is_file()
+        || !root.join("test-plans/p2020-samples.toml").is_file()
+    {
+        return Err(UsageError(
+            "`bench --end-to-end` runs the sample plans and scripts of the ledflicker source tree\n    hint: run it from the root of a ledflicker checkout".to_string(),
+        )
+        .into());
+    }
     let reps = if quick { 3 } else { 7 };
     outln!(
         "end to end (this binary as a separate process, all outputs, default detail, {} threads):",

@@ -160,8 +160,7 @@ fn finish(
 /// The plan and the report date, checked with `--threads`.
 fn load(args: &PlanArgs) -> anyhow::Result<(Plan, String)> {
     let t = crate::timings::span("load and validate plan");
-    let path = plan::resolve_plan_path(&args.plan)?;
-    let plan = plan::load(&path)?;
+    let plan = plan::find_and_load(&args.plan)?;
     drop(t);
     let date = report_date(args.date.as_deref())?;
     if args.threads == Some(0) {

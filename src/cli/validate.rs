@@ -6,14 +6,13 @@ use super::output::outln;
 use crate::plan;
 
 pub(super) fn validate(arg: &str) -> anyhow::Result<i32> {
-    let path = plan::resolve_plan_path(arg)?;
-    let plan = plan::load(&path)?;
+    let plan = plan::find_and_load(arg)?;
     let cases = plan::expand_cases(&plan);
     if plan.dut.backend == plan::BackendKind::Captured {
         outln!(
             "plan `{}` ({}) is valid: {} captured cases, {} ROIs",
             plan.id,
-            path.display(),
+            plan.source_label(),
             cases.len(),
             plan.rois.len()
         )?;
@@ -24,7 +23,7 @@ pub(super) fn validate(arg: &str) -> anyhow::Result<i32> {
     outln!(
         "plan `{}` ({}) is valid: {} cases ({} light levels x {} frequencies x {} duty cycles), {} ROIs, {} frames per case",
         plan.id,
-        path.display(),
+        plan.source_label(),
         cases.len(),
         plan.light_levels_lux.len(),
         plan.frequencies_hz.len(),

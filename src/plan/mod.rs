@@ -11,6 +11,7 @@ mod check;
 mod grid;
 mod p2020;
 mod raw;
+pub mod shipped;
 mod spans;
 mod validate;
 
@@ -46,8 +47,11 @@ pub struct Plan {
     pub lab: String,
     /// Random seed; each case derives its own from this and its id.
     pub seed: u64,
-    /// Path the plan was read from.
+    /// Path the plan was read from; for a built-in plan, its path in the
+    /// source tree (`test-plans/daylight.toml`).
     pub path: PathBuf,
+    /// Read from the copy built into the binary ([`shipped`]), not a file.
+    pub built_in: bool,
     /// SHA-256 of the plan file, lowercase hex.
     pub sha256: String,
     /// ON / OFF / PWM durations.
@@ -471,49 +475,82 @@ fn render_diagnostics(diagnostics: &[Diagnostic]) -> String {
         .join("\n")
 }
 
+impl Plan {
+    /// Where the plan was read from, for messages: its path, or its path in
+    /// the source tree and "(built in)".
+    pub fn source_label(&self) -> String {
+        if self.built_in {
+            format!("{}{}", self.path.display(), shipped::BUILT_IN)
+        } else {
+            self.path.display().to_string()
+        }
+    }
+}
+
+/// Where a plan comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PlanSource {
+    /// A file.
+    File(PathBuf),
+    /// A plan built into the binary.
+    BuiltIn(&'static shipped::Shipped),
+}
+
 /// Finds a plan: a path to a file, or a bare name (with or without `.toml`)
-/// looked up in `./test-plans/` and then in the test-plans/ of this source
-/// tree.
-pub fn resolve_plan_path(arg: &str) -> Result<PathBuf, PlanError> {
+/// looked up in `./test-plans/` and then among the plans built into the
+/// binary ([`shipped`]).
+pub fn resolve_plan(arg: &str) -> Result<PlanSource, PlanError> {
     let direct = PathBuf::from(arg);
     // A file of any kind there by that name is what the user meant: a
     // FIFO or a device is refused when it is read, by name, not reported
     // missing. A folder of that name (say reports' `daylight/`) is not.
     if std::fs::metadata(&direct).is_ok_and(|m| !m.is_dir()) {
-        return Ok(direct);
+        return Ok(PlanSource::File(direct));
     }
     let bare = !arg.contains('/') && !arg.contains('\\');
-    let mut tried = vec![direct.display().to_string()];
-    if bare {
-        let names = if arg.ends_with(".toml") {
-            vec![arg.to_string()]
-        } else {
-            vec![format!("{arg}.toml"), arg.to_string()]
-        };
-        let roots = [
-            PathBuf::from("test-plans"),
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("test-plans"),
-        ];
-        for root in &roots {
-            for name in &names {
-                let candidate = root.join(name);
-                if candidate.is_file() {
-                    return Ok(candidate);
-                }
-                tried.push(candidate.display().to_string());
-            }
-        }
-    }
     if !bare {
         return Err(PlanError::Read {
             path: direct,
             source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
         });
     }
+    let names = if arg.ends_with(".toml") {
+        vec![arg.to_string()]
+    } else {
+        vec![format!("{arg}.toml"), arg.to_string()]
+    };
+    let mut tried = vec![direct.display().to_string()];
+    for name in &names {
+        let candidate = Path::new("test-plans").join(name);
+        if candidate.is_file() {
+            return Ok(PlanSource::File(candidate));
+        }
+        tried.push(candidate.display().to_string());
+    }
+    if let Some(built_in) = shipped::plan(arg) {
+        return Ok(PlanSource::BuiltIn(built_in));
+    }
+    tried.push("the built-in plans".to_string());
     Err(PlanError::NotFound {
         name: arg.to_string(),
         tried: tried.join(", "),
     })
+}
+
+/// Finds ([`resolve_plan`]), reads and validates a plan.
+pub fn find_and_load(arg: &str) -> Result<Plan, PlanError> {
+    match resolve_plan(arg)? {
+        PlanSource::File(path) => load(&path),
+        PlanSource::BuiltIn(built_in) => load_built_in(built_in),
+    }
+}
+
+/// Validates a plan built into the binary.
+pub fn load_built_in(built_in: &shipped::Shipped) -> Result<Plan, PlanError> {
+    let sha256 = crate::util::sha256_hex(built_in.text.as_bytes());
+    let mut plan = parse(built_in.text, Path::new(built_in.path), sha256)?;
+    plan.built_in = true;
+    Ok(plan)
 }
 
 /// Reads and validates the plan at `path`.

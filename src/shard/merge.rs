@@ -356,12 +356,17 @@ fn load_plan(
     m: &Manifest,
 ) -> anyhow::Result<(Plan, Vec<crate::inputs::InputFile>)> {
     let as_given = PathBuf::from(&m.plan_path);
-    let path = match given {
-        Some(p) => p.to_path_buf(),
-        None if as_given.is_file() => as_given.clone(),
-        None => PathBuf::from(&m.plan_path_absolute),
+    let absolute = PathBuf::from(&m.plan_path_absolute);
+    // A built-in plan's shards name its path in the source tree; when no
+    // file is there, the built-in copy is the plan (its hash is checked
+    // below like a file's).
+    let built_in = plan::shipped::plan_at(&m.plan_path);
+    let mut plan = match (given, built_in) {
+        (Some(p), _) => plan::load(p)?,
+        (None, _) if as_given.is_file() => plan::load(&as_given)?,
+        (None, Some(b)) if !absolute.is_file() => plan::load_built_in(b)?,
+        (None, _) => plan::load(&absolute)?,
     };
-    let mut plan = plan::load(&path)?;
     let inputs = crate::inputs::collect(&plan).map_err(|e| UsageError(e.to_string()))?;
     if record::plan_hash(&inputs) != m.plan_hash {
         let now: Vec<record::InputRecord> = inputs.iter().map(Into::into).collect();
@@ -376,7 +381,7 @@ fn load_plan(
             .collect();
         return Err(UsageError(format!(
             "plan `{}` or its inputs changed since the shards ran (plan hash differs; changed or new: {})\n    hint: merge with the plan the shards ran (--plan), or re-run the shards",
-            path.display(),
+            plan.source_label(),
             if changed.is_empty() { "the list of inputs".to_string() } else { changed.join(", ") }
         ))
         .into());

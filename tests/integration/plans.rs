@@ -236,3 +236,62 @@ fn captured_case_conditions_have_the_grid_ranges() {
         .replace("1e-9", "0.2");
     plan::parse(&ok, &path, String::new()).unwrap_or_else(|e| panic!("{e}"));
 }
+
+/// A binary away from its source tree runs the shipped plans by name: the
+/// plan and the camera profile it names come from the copies built in, and
+/// the report lists them as such, with the hashes of the source tree's
+/// files.
+#[test]
+fn shipped_plans_run_by_name_from_an_empty_directory() {
+    let dir = super::scratch("built-in-plans");
+    let ran = super::ledflicker_in(&["validate", "deegan2018"], &dir);
+    assert!(ran.status.success(), "{}", super::stderr(&ran));
+    assert!(
+        super::text(&ran).contains("(test-plans/deegan2018.toml (built in))"),
+        "{}",
+        super::text(&ran)
+    );
+    let ran = super::ledflicker_in(&["plan", "deegan2018", "--out", "out", "-q"], &dir);
+    assert!(
+        matches!(ran.status.code(), Some(0 | 1)),
+        "{}",
+        super::stderr(&ran)
+    );
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("out/results.json")).unwrap())
+            .unwrap();
+    let inputs = results["report"]["inputs"].as_array().unwrap();
+    let sha = |path: &str| {
+        let bytes = std::fs::read(super::root().join(path)).unwrap();
+        ledflicker::util::sha256_hex(&bytes)
+    };
+    for (role, path) in [
+        ("plan", "test-plans/deegan2018.toml"),
+        (
+            "camera-profile",
+            "reference-data/cameras/deegan2018-hdr3.toml",
+        ),
+    ] {
+        let input = inputs
+            .iter()
+            .find(|i| i["role"] == role)
+            .unwrap_or_else(|| panic!("no {role} in {inputs:?}"));
+        assert_eq!(input["path"], format!("{path} (built in)"));
+        assert_eq!(input["sha256"], sha(path));
+    }
+    // A local file of that name is the plan, not the built-in copy.
+    std::fs::create_dir(dir.join("test-plans")).unwrap();
+    let mine = std::fs::read_to_string(super::root().join("test-plans/daylight.toml"))
+        .unwrap()
+        .replace("id = \"daylight\"", "id = \"my-daylight\"");
+    std::fs::write(dir.join("test-plans/daylight.toml"), mine).unwrap();
+    let ran = super::ledflicker_in(&["validate", "daylight"], &dir);
+    assert!(super::text(&ran).contains("plan `my-daylight` (test-plans/daylight.toml)"));
+    let ran = super::ledflicker_in(&["validate", "no-such-plan"], &dir);
+    assert_eq!(ran.status.code(), Some(2));
+    assert!(
+        super::stderr(&ran).contains("the built-in plans"),
+        "{}",
+        super::stderr(&ran)
+    );
+}

@@ -71,33 +71,46 @@ pub(super) fn dut_table(
 }
 
 /// Reads and checks a camera profile file, `[camera]` with the keys of
-/// `[dut.camera]`. Relative paths are tried from the plan's directory, the
-/// current directory and this source tree.
+/// `[dut.camera]`. Relative paths are tried from the plan's directory and
+/// the current directory, then among the profiles built into the binary
+/// (`plan::shipped`).
 fn load_profile(c: &mut Checker<'_>, name: &str, plan_path: &Path) -> Option<CameraConfig> {
     let candidates = [
         plan_path.parent().unwrap_or(Path::new(".")).join(name),
         PathBuf::from(name),
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(name),
     ];
-    let Some(path) = candidates.iter().find(|p| p.is_file()) else {
-        c.error(
-            "dut.camera-profile",
-            format!("camera profile `{name}` not found"),
-            Some("give a path relative to the plan, e.g. \"../reference-data/cameras/ideal-global.toml\""),
-        );
-        return None;
+    let (path, text) = match candidates.iter().find(|p| p.is_file()) {
+        Some(path) => match std::fs::read_to_string(path) {
+            Ok(t) => (path.clone(), t),
+            Err(e) => {
+                c.error(
+                    "dut.camera-profile",
+                    format!("cannot read `{}`: {e}", path.display()),
+                    None,
+                );
+                return None;
+            }
+        },
+        None => match crate::plan::shipped::profile(name) {
+            Some(built_in) => (
+                PathBuf::from(format!(
+                    "{}{}",
+                    built_in.path,
+                    crate::plan::shipped::BUILT_IN
+                )),
+                built_in.text.to_string(),
+            ),
+            None => {
+                c.error(
+                    "dut.camera-profile",
+                    format!("camera profile `{name}` not found"),
+                    Some("give a path relative to the plan, e.g. \"../reference-data/cameras/ideal-global.toml\""),
+                );
+                return None;
+            }
+        },
     };
-    let text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) => {
-            c.error(
-                "dut.camera-profile",
-                format!("cannot read `{}`: {e}", path.display()),
-                None,
-            );
-            return None;
-        }
-    };
+    let path = &path;
     let parsed = SpanIndex::build(&text).and_then(|index| {
         let de = toml::Deserializer::parse(&text)?;
         let mut unknown = Vec::new();

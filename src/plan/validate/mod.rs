@@ -100,6 +100,7 @@ pub(super) fn validate(
         seed: meta.seed,
         path: path.to_path_buf(),
         sha256,
+        built_in: false,
         sequence,
         light_levels_lux: levels?,
         frequencies_hz: freqs?,
