@@ -1,5 +1,6 @@
 //! `ledflicker simulate` against an exact rational computation of the PWM
-//! integral (DESIGN.md section 4), on the hard cases of issue 2.
+//! integral (docs/camera-model.md, "3. Light on the row"), on the hard cases
+//! of issue 2.
 //!
 //! The reference works in i128 fractions from the decimal strings given on
 //! the command line, so it shares no floating point with the program.
