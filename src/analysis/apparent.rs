@@ -1,7 +1,7 @@
 //! Apparent (beat) frequency of the flicker a video shows.
 //!
 //! A camera samples the PWM once per frame, so the video shows the PWM
-//! frequency aliased to the frame rate (DESIGN.md section 4):
+//! frequency aliased to the frame rate (docs/metrics.md, section 10):
 //! `f_a = |f - fps * round(f / fps)|`, in `[0, fps / 2]`. Phase-locked
 //! drives (`f = k * fps`) give 0: every frame sees the same phase. The
 //! spectrum of a trace gives the same number from the data alone, which is

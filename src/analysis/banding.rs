@@ -1,5 +1,5 @@
-//! Banding KPIs of a rolling shutter (Deegan 2018 section 2; DESIGN.md
-//! section 1): under a diffusely lit PWM scene each row integrates its own
+//! Banding KPIs of a rolling shutter (Deegan 2018 section 2; docs/metrics.md,
+//! section 10): under a diffusely lit PWM scene each row integrates its own
 //! slice of the waveform, so a frame shows bands `1 / (f * t_line)` rows
 //! apart that roll from frame to frame.
 //!
@@ -110,7 +110,8 @@ mod tests {
 
     #[test]
     fn frequency_is_recovered_from_the_band_spacing() {
-        // The gyroflow sample camera: 14.565 us per line (DESIGN.md 5).
+        // The gyroflow sample camera: 14.565 us per line
+        // (reference-data/gyroflow-rs-banding/SOURCE.md).
         // 250 Hz gives 3.9 bands in 1080 rows (the estimator needs 3).
         for (f, d) in [(1000.0, 0.5), (613.0, 0.2), (2400.0, 0.1), (250.0, 0.7)] {
             let s = rolling(14.565e-6, 30.0);

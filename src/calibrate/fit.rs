@@ -6,7 +6,7 @@
 //! exposure window is `[phi_j + r / P, phi_j + r / P + e)`, with `P` the
 //! band period in rows and `e = exposure x f` the exposure in cycles. It
 //! collects the ON fraction `s = on_fraction(phi_j + r / P, e, D)` of a
-//! square wave of duty `D` (the exact integral, DESIGN.md section 4), so a
+//! square wave of duty `D` (the exact integral, docs/camera-model.md), so a
 //! band edge is the square wave convolved with the exposure window: a ramp
 //! `e P` rows wide. Then
 //!

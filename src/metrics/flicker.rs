@@ -1,4 +1,4 @@
-//! Deegan 2018 metrics (DESIGN.md section 3):
+//! Deegan 2018 metrics (docs/metrics.md, section 2):
 //! - Flicker Detection Index, Eq. (3): `(min x - L_OFF) / L_OFF`; the light
 //!   "appears OFF" below 0.1;
 //! - Percent Flicker, Eq. (4) and IEEE 1789: `100 (max x - min x) / (max x + min x)`;

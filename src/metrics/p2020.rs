@@ -1,4 +1,4 @@
-//! IEEE P2020 flicker KPIs (DESIGN.md section 3), as defined by the P2020
+//! IEEE P2020 flicker KPIs (docs/metrics.md, section 3), as defined by the P2020
 //! reference implementation (CARpublic/P2020-flicker, `metrics/flicker.py`):
 //!
 //! - FMI, Flicker Modulation Index: `(max x - min x) / (max x + min x)`;

@@ -1,4 +1,5 @@
-//! The PWM drive of an LED and its exact integral (DESIGN.md section 4).
+//! The PWM drive of an LED and its exact integral (docs/camera-model.md,
+//! "3. Light on the row").
 //!
 //! Time is measured in PWM cycles from a rising edge, so the square wave is
 //! ON on `[n, n + D)` for every integer `n`. Its integral from 0 to `u` is

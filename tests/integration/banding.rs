@@ -1,5 +1,6 @@
 //! Band spacing of a real rolling-shutter frame (gyroflow/rollingshutter,
-//! a 1000 Hz, 50 % LED, 14.565 us per line: DESIGN.md section 5) gives back
+//! a 1000 Hz, 50 % LED, 14.565 us per line:
+//! reference-data/gyroflow-rs-banding/SOURCE.md) gives back
 //! the LED's frequency.
 
 use ledflicker::analysis::banding::band_period_from_profile;

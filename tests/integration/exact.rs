@@ -1,6 +1,6 @@
 //! `ledflicker simulate` and the ideal camera's luma against an exact
-//! rational computation of the PWM integral (docs/camera-model.md), on
-//! hard cases.
+//! rational computation of the PWM integral (docs/camera-model.md, "3.
+//! Light on the row"), on hard cases.
 //!
 //! The reference works in i128 fractions from the decimal strings given on
 //! the command line, so it shares no floating point with the program.

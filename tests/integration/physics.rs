@@ -337,7 +337,7 @@ fn rendered_rolling_shutter_frame_shows_bands_at_the_predicted_spacing() {
         .collect();
     assert!(rises.len() >= 5, "{rises:?}");
     let spacing = (rises[rises.len() - 1] - rises[0]) as f64 / (rises.len() - 1) as f64;
-    // DESIGN.md: band period 1 / (f * t_line) = 68.66 rows at 1 kHz, 14.565 us.
+    // docs/metrics.md: band period 1 / (f * t_line) = 68.66 rows at 1 kHz, 14.565 us.
     let expected = 1.0 / (1000.0 * 14.565e-6);
     assert!(
         (spacing - expected).abs() < 1.0,

@@ -2,8 +2,8 @@
 //! of the simulator: an ideal global-shutter camera at 29.97 fps records
 //! the paper's sequence (dark lead-in, ON, OFF, PWM, dark lead-out). Each
 //! frame collects the exact on-time integral of an ideal PWM over its
-//! exposure, `F(t) = floor(t/P) D P + min(t mod P, D P)` (DESIGN.md
-//! section 4), with an auto-exposure overshoot (30 % in the tests) after every
+//! exposure, `F(t) = floor(t/P) D P + min(t mod P, D P)`
+//! (docs/camera-model.md, "3. Light on the row"), with an auto-exposure overshoot (30 % in the tests) after every
 //! step that decays linearly to zero in 0.15 s. Writes CSV traces (noise-free) and
 //! H.264 video (limited-range Y', Gaussian noise) through `ffmpeg`.
 
