@@ -118,6 +118,24 @@ enum Command {
     Sign(sign::SignArgs),
     /// Check every hash and signature of a signed report directory.
     Verify(sign::VerifyArgs),
+    /// Print a shell completion script, e.g. `ledflicker completions bash >
+    /// ~/.local/share/bash-completion/completions/ledflicker`.
+    Completions {
+        /// The shell.
+        shell: clap_complete::Shell,
+    },
+    /// Print the manual page (roff), e.g. `ledflicker man | man -l -`, or
+    /// a subcommand's page (`ledflicker man plan`, the page `ledflicker-plan(1)`).
+    Man {
+        /// A subcommand; without it, the page of `ledflicker` itself.
+        subcommand: Option<String>,
+    },
+}
+
+/// The command line's definition, for completions and the manual page;
+/// `--version` prints `version`.
+fn command(version: &'static str) -> clap::Command {
+    <Cli as clap::CommandFactory>::command().version(version)
 }
 
 /// Maps an error to its exit code.
@@ -212,10 +230,15 @@ pub(crate) fn collect_inputs(
     })
 }
 
-/// Runs the CLI and returns the process exit code.
-pub fn main() -> i32 {
-    let cli = Cli::parse();
-    match run(cli) {
+/// Runs the CLI and returns the process exit code; `--version` prints
+/// `version`.
+pub fn main(version: &'static str) -> i32 {
+    let matches = command(version).get_matches();
+    let cli = match <Cli as clap::FromArgMatches>::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
+    match run(cli, version) {
         Ok(code) => code,
         Err(err) => {
             eprintln!("error: {err:#}");
@@ -224,7 +247,7 @@ pub fn main() -> i32 {
     }
 }
 
-fn run(cli: Cli) -> anyhow::Result<i32> {
+fn run(cli: Cli, version: &'static str) -> anyhow::Result<i32> {
     match cli.command {
         Command::Plan(args) => plan::run_plan(args),
         Command::Merge(args) => merge::merge(args),
@@ -239,5 +262,35 @@ fn run(cli: Cli) -> anyhow::Result<i32> {
         Command::Keygen(args) => sign::keygen(args),
         Command::Sign(args) => sign::sign(args),
         Command::Verify(args) => sign::verify(args),
+        Command::Completions { shell } => {
+            clap_complete::generate(
+                shell,
+                &mut command(version),
+                "ledflicker",
+                &mut output::Stdout,
+            );
+            Ok(EXIT_PASS)
+        }
+        Command::Man { subcommand } => {
+            let mut cmd = command(version);
+            cmd.build();
+            let page = match subcommand {
+                None => cmd,
+                Some(name) => {
+                    let Some(sub) = cmd.find_subcommand(&name) else {
+                        let names: Vec<&str> =
+                            cmd.get_subcommands().map(|c| c.get_name()).collect();
+                        return Err(UsageError(format!(
+                            "no subcommand `{name}`\n    hint: one of {}",
+                            names.join(", ")
+                        ))
+                        .into());
+                    };
+                    sub.clone().name(format!("ledflicker-{name}"))
+                }
+            };
+            clap_mangen::Man::new(page).render(&mut output::Stdout)?;
+            Ok(EXIT_PASS)
+        }
     }
 }

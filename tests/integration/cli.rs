@@ -700,3 +700,58 @@ fn a_fifo_given_as_the_plan_is_refused_at_once() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `--version` names the commit built; completions and the manual page
+/// cover every subcommand.
+#[test]
+fn version_completions_and_manual_page() {
+    let v = super::ledflicker(&["--version"]);
+    assert!(v.status.success());
+    let version = super::text(&v);
+    let head = std::process::Command::new("git")
+        .args(["rev-parse", "--short=12", "HEAD"])
+        .current_dir(super::root())
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
+    let built = version
+        .split("(git ")
+        .nth(1)
+        .and_then(|s| s.strip_suffix(")\n"))
+        .unwrap_or_else(|| panic!("no commit in {version:?}"));
+    // The binary may be older than HEAD only if it was built before the
+    // last commit and not rebuilt: cargo rebuilds it when HEAD moves.
+    if let Some(head) = head {
+        assert_eq!(built, head, "{version}");
+    }
+    for shell in ["bash", "zsh", "fish"] {
+        let c = super::ledflicker(&["completions", shell]);
+        assert!(c.status.success(), "{shell}");
+        let script = super::text(&c);
+        for sub in ["plan", "merge", "calibrate", "verify", "completions"] {
+            assert!(script.contains(sub), "{shell} completions lack `{sub}`");
+        }
+    }
+    let bad = super::ledflicker(&["completions", "cmd.exe"]);
+    assert_eq!(bad.status.code(), Some(2));
+    let man = super::ledflicker(&["man"]);
+    assert!(man.status.success());
+    let page = super::text(&man);
+    assert!(
+        page.starts_with(".ie") || page.starts_with(".TH"),
+        "{}",
+        &page[..80.min(page.len())]
+    );
+    for sub in ["plan", "merge", "calibrate", "verify"] {
+        assert!(page.contains(sub), "the manual page lacks `{sub}`");
+    }
+    let plan = super::text(&super::ledflicker(&["man", "plan"]));
+    assert!(
+        plan.contains("ledflicker\\-plan") && plan.contains("\\-\\-out"),
+        "{plan}"
+    );
+    let none = super::ledflicker(&["man", "nosuch"]);
+    assert_eq!(none.status.code(), Some(2));
+    assert!(super::stderr(&none).contains("calibrate"));
+}
