@@ -2,7 +2,10 @@
 # Cold release build of a fresh clone: what a new user pays on first build.
 #
 #   scripts/cold-build.sh [REV] [WORKDIR]
+#   COLD_BUILD_ARGS=--no-default-features scripts/cold-build.sh [REV] [WORKDIR]
 #
+# COLD_BUILD_ARGS (default empty) is added to the cargo command, e.g. to
+# measure the build without the PDF and the sign-off.
 # Clones this repository at REV (default HEAD) into WORKDIR/src, then builds it
 # with `cargo build --release --locked --timings` into an EMPTY target dir
 # WORKDIR/target, under /usr/bin/time -v. Writes WORKDIR/summary.txt with:
@@ -37,7 +40,7 @@ export CARGO_TARGET_DIR="$work/target"
 load_before="$(uptime)"
 start=$(date -u +%FT%TZ)
 (cd "$work/src" && /usr/bin/time -v -o "$work/time.txt" \
-    cargo build --release --locked --timings) 2>"$work/build.log"
+    cargo build --release --locked --timings ${COLD_BUILD_ARGS:-}) 2>"$work/build.log"
 load_after="$(uptime)"
 
 field() { sed -n "s/^[[:space:]]*$1: //p" "$work/time.txt"; }
@@ -56,7 +59,7 @@ cp "$timing_html" "$work/cargo-timing.html"
     echo "started:       $start"
     echo "rustc:         $(rustc --version)"
     echo "cores:         $(nproc)"
-    echo "command:       CARGO_TARGET_DIR=<empty> cargo build --release --locked --timings"
+    echo "command:       CARGO_TARGET_DIR=<empty> cargo build --release --locked --timings ${COLD_BUILD_ARGS:-}"
     echo "wall:          $wall"
     echo "cpu user+sys:  $(awk -v u="$user" -v s="$sys" 'BEGIN{printf "%.1f s (user %.1f, sys %.1f)", u+s, u, s}')"
     echo "peak rss:      $(awk -v k="$rss_kb" 'BEGIN{printf "%.0f MiB", k/1024}')"

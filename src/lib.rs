@@ -49,6 +49,7 @@ pub mod render;
 pub mod report;
 pub mod runner;
 pub mod shard;
+#[cfg(feature = "signoff")]
 pub mod signoff;
 pub mod timings;
 pub mod trace;

@@ -162,3 +162,36 @@ pub fn report_date(arg: Option<&str>) -> anyhow::Result<String> {
         .unwrap_or(0);
     Ok(crate::util::utc_date(now))
 }
+
+pub(super) fn now_unix_s() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+/// Signing time, the time the signatures carry: $SOURCE_DATE_EPOCH (for
+/// reproducible output), else now. `--date` sets only the date the report
+/// shows: the signing time is when the signature was made, which is what
+/// `verify` checks the certificate's validity at.
+pub(super) fn signing_time() -> anyhow::Result<u64> {
+    if let Ok(s) = std::env::var("SOURCE_DATE_EPOCH") {
+        return s.trim().parse().map_err(|_| {
+            UsageError(format!(
+                "SOURCE_DATE_EPOCH `{s}` is not an integer number of seconds"
+            ))
+            .into()
+        });
+    }
+    Ok(now_unix_s())
+}
+
+/// What `plan` asks of the sign-off: `--sign-key`, `--sign-cert` and
+/// `--signer`.
+pub struct SignOptions<'a> {
+    /// The private key.
+    pub key: Option<&'a std::path::Path>,
+    /// Its certificate.
+    pub cert: Option<&'a std::path::Path>,
+    /// Who signs, "Name, Role".
+    pub signer: Option<&'a str>,
+}

@@ -37,6 +37,10 @@ pub(crate) mod output;
 mod plan;
 mod render;
 mod shard;
+#[cfg(feature = "signoff")]
+mod sign;
+#[cfg(not(feature = "signoff"))]
+#[path = "sign_disabled.rs"]
 mod sign;
 mod simulate;
 mod validate;
@@ -200,6 +204,10 @@ pub fn exit_code(err: &anyhow::Error) -> i32 {
                 EXIT_INTERNAL
             };
         }
+        if cause.is::<crate::error::NotBuiltIn>() {
+            return EXIT_INVALID;
+        }
+        #[cfg(feature = "signoff")]
         if let Some(e) = cause.downcast_ref::<crate::signoff::SignoffError>() {
             return match e {
                 crate::signoff::SignoffError::Report(

@@ -7,7 +7,7 @@
 //! output (refusals before any work), build the backend, run the cases,
 //! write the report, sign it, print the summary.
 
-use super::output::{out, outln};
+use super::output::out;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
@@ -16,7 +16,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use super::args::{DetailArg, report_date};
-use super::sign::{load_signer, signing_time};
+use super::sign::{Signing, sign_report, signing};
 use super::{EXIT_FAIL, EXIT_NOT_JUDGED, EXIT_PASS};
 use crate::backend::{Backend, PlanBackend};
 use crate::error::UsageError;
@@ -25,7 +25,6 @@ use crate::outdir::Generation;
 use crate::plan::{self, Plan};
 use crate::report::{self, WriteOptions};
 use crate::runner::{self, CaseResult, RunEvent};
-use crate::signoff::SignerKey;
 
 #[derive(Args, Debug)]
 pub(super) struct PlanArgs {
@@ -100,7 +99,14 @@ pub(super) fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
     let generation = prepare_output(&out, args.force)?;
     let golden = golden_check(&args)?;
-    let signing = signing(&args, &out)?;
+    let signing = signing(
+        &super::args::SignOptions {
+            key: args.sign_key.as_deref(),
+            cert: args.sign_cert.as_deref(),
+            signer: args.signer.as_deref(),
+        },
+        &out,
+    )?;
 
     let backend = build_backend(&plan, args.quiet)?;
     // After the backend has checked that the captures exist.
@@ -222,7 +228,7 @@ fn write_report(
     drop(t);
     drop(prompt);
     if let Some(s) = signing {
-        sign_report(run, s)?;
+        sign_report(run.generation.path(), run.out, run.date, run.args.quiet, s)?;
     }
     stage.finish_and_clear();
     Ok(model)
@@ -330,60 +336,6 @@ fn report_model(
     results: &[CaseResult],
 ) -> crate::model::Results {
     crate::model::assemble(plan, backend.id(), results)
-}
-
-/// Who signs `plan --sign-key`'s report, with what key, and when.
-struct Signing<'a> {
-    signer: &'a str,
-    key: SignerKey,
-    key_files: Vec<PathBuf>,
-    time_unix_s: u64,
-}
-
-/// `--sign-key`: the key is loaded now, so that a bad key fails before the
-/// run, not after it. The signing time is checked even without a key.
-fn signing<'a>(args: &'a PlanArgs, out: &Path) -> anyhow::Result<Option<Signing<'a>>> {
-    let time_unix_s = signing_time()?;
-    let loaded = match &args.sign_key {
-        Some(key) => {
-            let loaded = load_signer(Some(key), args.sign_cert.as_deref(), None, time_unix_s)?;
-            crate::signoff::check_key_outside(out, key)?;
-            Some(loaded)
-        }
-        None => None,
-    };
-    Ok(match (loaded, &args.signer) {
-        (Some((key, key_files)), Some(signer)) => Some(Signing {
-            signer,
-            key,
-            key_files,
-            time_unix_s,
-        }),
-        _ => None,
-    })
-}
-
-/// Signs the new generation (report.pdf and manifest.txt).
-fn sign_report(run: &Run<'_>, s: Signing<'_>) -> anyhow::Result<()> {
-    let done = crate::signoff::sign(
-        run.generation.path(),
-        &crate::signoff::SignRequest {
-            signer: s.signer,
-            date: run.date,
-            time_unix_s: s.time_unix_s,
-            key: &s.key,
-            key_files: s.key_files,
-        },
-    )
-    .with_context(|| format!("cannot sign `{}`", run.out.display()))?;
-    if !run.args.quiet {
-        outln!(
-            "signed by {} (certificate SHA-256 {})",
-            s.signer.trim(),
-            done.fingerprint
-        )?;
-    }
-    Ok(())
 }
 
 fn print_summary(model: &crate::model::Results, out: &Path) -> anyhow::Result<()> {

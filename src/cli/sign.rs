@@ -1,6 +1,6 @@
 //! `ledflicker keygen`, `sign` and `verify`: a signing key and its
 //! certificate, the signatures of a report directory, and their check.
-//! `plan --sign-key` signs through [`load_signer`] and [`signing_time`] too.
+//! `plan --sign-key` signs through [`signing`] and [`sign_report`].
 
 use super::output::outln;
 use std::path::{Path, PathBuf};
@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 
-use super::args::report_date;
+use super::args::{SignOptions, now_unix_s, report_date, signing_time};
 use super::{EXIT_FAIL, EXIT_IDENTITY_UNCHECKED, EXIT_PASS};
 use crate::error::UsageError;
 
@@ -75,28 +75,6 @@ pub(super) fn keygen(a: KeygenArgs) -> anyhow::Result<i32> {
         files.fingerprint
     )?;
     Ok(EXIT_PASS)
-}
-
-fn now_unix_s() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs())
-}
-
-/// Signing time, the time the signatures carry: $SOURCE_DATE_EPOCH (for
-/// reproducible output), else now. `--date` sets only the date the report
-/// shows: the signing time is when the signature was made, which is what
-/// `verify` checks the certificate's validity at.
-pub(super) fn signing_time() -> anyhow::Result<u64> {
-    if let Ok(s) = std::env::var("SOURCE_DATE_EPOCH") {
-        return s.trim().parse().map_err(|_| {
-            UsageError(format!(
-                "SOURCE_DATE_EPOCH `{s}` is not an integer number of seconds"
-            ))
-            .into()
-        });
-    }
-    Ok(now_unix_s())
 }
 
 /// Loads the signing key and certificate (PEM pair or PKCS#12), and
@@ -212,4 +190,68 @@ pub(super) fn verify(a: VerifyArgs) -> anyhow::Result<i32> {
         )?;
         Ok(EXIT_IDENTITY_UNCHECKED)
     }
+}
+
+/// Who signs `plan --sign-key`'s report, with what key, and when.
+pub(super) struct Signing<'a> {
+    signer: &'a str,
+    key: crate::signoff::SignerKey,
+    key_files: Vec<PathBuf>,
+    time_unix_s: u64,
+}
+
+/// `plan --sign-key`: the key is loaded now, so that a bad key fails
+/// before the run, not after it. The signing time is checked even without
+/// a key.
+pub(super) fn signing<'a>(
+    asked: &SignOptions<'a>,
+    out: &Path,
+) -> anyhow::Result<Option<Signing<'a>>> {
+    let time_unix_s = signing_time()?;
+    let loaded = match asked.key {
+        Some(key) => {
+            let loaded = load_signer(Some(key), asked.cert, None, time_unix_s)?;
+            crate::signoff::check_key_outside(out, key)?;
+            Some(loaded)
+        }
+        None => None,
+    };
+    Ok(match (loaded, asked.signer) {
+        (Some((key, key_files)), Some(signer)) => Some(Signing {
+            signer,
+            key,
+            key_files,
+            time_unix_s,
+        }),
+        _ => None,
+    })
+}
+
+/// Signs the new generation `dir` of `out` (report.pdf and manifest.txt).
+pub(super) fn sign_report(
+    dir: &Path,
+    out: &Path,
+    date: &str,
+    quiet: bool,
+    s: Signing<'_>,
+) -> anyhow::Result<()> {
+    let done = crate::signoff::sign(
+        dir,
+        &crate::signoff::SignRequest {
+            signer: s.signer,
+            date,
+            time_unix_s: s.time_unix_s,
+            key: &s.key,
+            key_files: s.key_files,
+        },
+    )
+    .with_context(|| format!("cannot sign `{}`", out.display()))?;
+    if !quiet {
+        outln!(
+            "signed by {} (certificate SHA-256 {})",
+            s.signer.trim(),
+            done.fingerprint
+        )?;
+    }
+    Ok(())
 }

@@ -12,6 +12,7 @@ pub mod frames;
 pub mod golden;
 pub mod html;
 pub mod matrix;
+#[cfg(feature = "pdf")]
 pub mod pdf;
 pub mod progress;
 pub mod terminal;
@@ -378,6 +379,30 @@ fn write_frames(
     replace_dir(dir, document::FRAMES_DIR, &files, reuse)
 }
 
+/// Whether this build writes report.pdf (the `pdf` feature).
+pub const WRITES_PDF: bool = cfg!(feature = "pdf");
+
+/// report.pdf's bytes, laid out by Typst.
+#[cfg(feature = "pdf")]
+fn render_pdf(
+    doc: &document::Document,
+    (charts, views): (&document::ChartJobs<'_>, &document::ViewJobs<'_>),
+    depth: usize,
+) -> Result<Option<Vec<u8>>, ReportError> {
+    let _t = crate::timings::span_at("report: pdf (typst)", depth);
+    pdf::render_with(doc, pdf::Pictures::Jobs(charts, views)).map(|(bytes, _pages)| Some(bytes))
+}
+
+/// A build without the `pdf` feature writes no report.pdf.
+#[cfg(not(feature = "pdf"))]
+fn render_pdf(
+    _doc: &document::Document,
+    _pictures: (&document::ChartJobs<'_>, &document::ViewJobs<'_>),
+    _depth: usize,
+) -> Result<Option<Vec<u8>>, ReportError> {
+    Ok(None)
+}
+
 /// What [`write_report`] makes while Typst lays out the PDF: traces/,
 /// charts/ and frames/ (every picture, drawn now unless Typst drew it),
 /// report.html, and junit.xml, summary.csv and results.json written and
@@ -511,21 +536,19 @@ pub fn write_report(
                 write_beside_pdf(dir, model, results, options, (&charts, &views), &layout_doc)
             })
         });
-        let pdf = {
-            let _t = crate::timings::span_at("report: pdf (typst)", depth);
-            pdf::render_with(&layout_doc, pdf::Pictures::Jobs(&charts, &views))
-        };
+        let pdf = render_pdf(&layout_doc, (&charts, &views), depth);
         let others = beside
             .join()
             .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
         (pdf, others)
     });
     let staged = others?;
-    let (pdf, _pages) = pdf?;
     // report.pdf, then the exports, then results.json: its presence means
     // the report is complete. Their flushes to disk ran beside Typst.
-    let path = dir.join("report.pdf");
-    write_atomic(&path, &pdf).map_err(io_err(&path))?;
+    if let Some(pdf) = pdf? {
+        let path = dir.join("report.pdf");
+        write_atomic(&path, &pdf).map_err(io_err(&path))?;
+    }
     for file in staged {
         let path = file.path().to_path_buf();
         file.commit().map_err(io_err(&path))?;

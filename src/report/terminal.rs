@@ -196,7 +196,11 @@ pub fn summary(model: &Results, out: &Path) -> String {
         s,
         "report:  {}\n         {}",
         out.join("report.html").display(),
-        out.join("report.pdf").display()
+        if super::WRITES_PDF {
+            out.join("report.pdf").display().to_string()
+        } else {
+            "no report.pdf: this build has no PDF (build with the default features)".to_string()
+        }
     );
     s
 }

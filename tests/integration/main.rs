@@ -10,6 +10,7 @@ mod captured;
 mod cli;
 mod detect;
 mod exact;
+mod features;
 mod mutate;
 mod physics;
 mod plans;

@@ -1,0 +1,77 @@
+//! `keygen`, `sign`, `verify` and `plan --sign-key` in a build without the
+//! `signoff` feature: the commands and options are there, so that scripts
+//! and `--help` read the same, and each says that this build lacks them
+//! (exit 2).
+
+use std::ffi::OsString;
+use std::path::Path;
+
+use clap::Args;
+
+use super::args::{SignOptions, signing_time};
+use crate::error::NotBuiltIn;
+
+/// What the missing part is called in messages.
+const SIGNOFF: &str = "the sign-off (feature `signoff`)";
+
+/// Arguments of a command this build lacks: any are taken, none are read.
+#[derive(Args, Debug)]
+pub(super) struct Absent {
+    #[arg(trailing_var_arg = true, allow_hyphen_values = true, hide = true)]
+    _args: Vec<OsString>,
+}
+
+pub(super) type KeygenArgs = Absent;
+pub(super) type SignArgs = Absent;
+pub(super) type VerifyArgs = Absent;
+
+fn absent(what: &str) -> anyhow::Error {
+    NotBuiltIn {
+        what: what.to_string(),
+        part: SIGNOFF,
+    }
+    .into()
+}
+
+pub(super) fn keygen(_: KeygenArgs) -> anyhow::Result<i32> {
+    Err(absent("`keygen`"))
+}
+
+pub(super) fn sign(_: SignArgs) -> anyhow::Result<i32> {
+    Err(absent("`sign`"))
+}
+
+pub(super) fn verify(_: VerifyArgs) -> anyhow::Result<i32> {
+    Err(absent("`verify`"))
+}
+
+/// No signing is ever under way in this build.
+pub(super) enum Signing<'a> {
+    #[allow(dead_code)]
+    Never(std::convert::Infallible, std::marker::PhantomData<&'a ()>),
+}
+
+/// `plan --sign-key` is refused before the run; without it the signing
+/// time is still checked, as in a full build.
+pub(super) fn signing<'a>(
+    asked: &SignOptions<'a>,
+    _out: &Path,
+) -> anyhow::Result<Option<Signing<'a>>> {
+    signing_time()?;
+    if asked.key.is_some() || asked.cert.is_some() || asked.signer.is_some() {
+        return Err(absent("`plan --sign-key`"));
+    }
+    Ok(None)
+}
+
+pub(super) fn sign_report(
+    _dir: &Path,
+    _out: &Path,
+    _date: &str,
+    _quiet: bool,
+    s: Signing<'_>,
+) -> anyhow::Result<()> {
+    match s {
+        Signing::Never(never, _) => match never {},
+    }
+}
