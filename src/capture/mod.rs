@@ -15,6 +15,7 @@
 mod csv_trace;
 mod images;
 mod layout;
+mod probe;
 mod progress;
 mod schedule;
 mod video;
