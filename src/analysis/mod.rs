@@ -227,6 +227,10 @@ pub struct CaseAnalysis {
     pub banding: Option<Banding>,
     /// One per plan ROI, in plan order.
     pub rois: Vec<RoiAnalysis>,
+    /// The frame timing of a captured or rig case's PWM frames; `None` for
+    /// the simulator, whose frames run on the plan camera's clock.
+    #[serde(default)]
+    pub timing: Option<FrameTiming>,
 }
 
 /// Analyses a finished case. The simulator's frames run on the plan
@@ -269,7 +273,15 @@ pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
                 .iter()
                 .map(|&i| r.acquisition.frames[i].time_s)
                 .collect();
-            timing::from_times(&times)
+            let source =
+                r.acquisition
+                    .capture
+                    .as_ref()
+                    .map_or_else(timing::TimeSource::default, |c| timing::TimeSource {
+                        time_base_s: c.time_base_s,
+                        stated_fps: c.stated_frame_rate_fps,
+                    });
+            timing::from_times(&times, &source)
         })
         .flatten();
     let sampling = match &timing {
@@ -335,23 +347,64 @@ pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
         drive: drive::drive_flicker(f, r.case.duty),
         banding,
         rois,
+        timing,
     }
 }
 
-/// How a capture's frame times were used, for the beat's note.
+/// How a capture's frame times were used, for the beat's note: the rate
+/// with its uncertainty, the times' resolution, the stated rate, the
+/// times the analyses use and the dropped frames.
 fn timing_note(t: &FrameTiming) -> String {
-    let irregular = if t.regular {
-        String::new()
+    // Two significant digits of the uncertainty, and the rate to the same place.
+    let places = if t.fps_uncertainty > 0.0 {
+        ((-t.fps_uncertainty.log10()).ceil() as i64 + 1).clamp(4, 9) as usize
     } else {
-        format!(
-            "; the times are irregular ({} dropped frames), so the fold, the coverage and the spectrum use each frame's real time",
-            t.dropped_frames
-        )
+        4
     };
-    format!(
-        "; frame rate {:.4} fps from the frames' own times{irregular}",
-        t.fps
-    )
+    let resolution = t
+        .resolution_s
+        .map_or("finer than 1 us".to_string(), seconds_text);
+    let mut note = format!(
+        "; frame rate {:.places$} +/- {:.places$} fps (one sigma) fitted to the frames' own times, resolution {resolution}",
+        t.fps, t.fps_uncertainty
+    );
+    match (t.stated_fps, t.stated_rate_used) {
+        (Some(r), true) => {
+            note += &format!(
+                "; the container states {r} fps, which the fit agrees with, so that rate is used exactly"
+            )
+        }
+        (Some(r), false) => {
+            note += &format!(
+                "; the container states {r} fps, which the fit does not agree with, so the fitted rate is used"
+            )
+        }
+        (None, _) => {}
+    }
+    if t.slot_times {
+        note += "; the times are a constant rate rounded to their resolution, so the fold, the coverage and the spectrum use the fitted frame times";
+    }
+    if t.dropped_frames > 0 {
+        note += &format!(
+            "; {} dropped frames (empty slots of the fit)",
+            t.dropped_frames
+        );
+    }
+    if !t.regular {
+        note += "; the times are irregular, so the spectrum is a direct Fourier sum over each frame's time";
+    }
+    note
+}
+
+/// A duration in seconds as `1/N s` when it is the inverse of a whole
+/// number (time bases are), else in engineering notation.
+fn seconds_text(s: f64) -> String {
+    let inverse = 1.0 / s;
+    if (inverse - inverse.round()).abs() <= 1e-6 * inverse {
+        format!("1/{} s", inverse.round())
+    } else {
+        format!("{s:e} s")
+    }
 }
 
 /// The ideal linear camera of a plan at `lux`: the luma model the

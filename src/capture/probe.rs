@@ -10,6 +10,7 @@ use std::thread::JoinHandle;
 
 use super::CaptureError;
 use super::watch::{Fired, STALL, Watchdog};
+use crate::trace::Ratio;
 
 pub(super) fn tool_error(path: &Path, tool: &str, e: std::io::Error) -> CaptureError {
     CaptureError::Tool {
@@ -28,6 +29,10 @@ pub(super) struct Probe {
     pub pix_fmt: String,
     pub full_range: Option<bool>,
     pub fps: Option<f64>,
+    /// The stream's time base, seconds: the unit of its packets' times.
+    pub time_base_s: Option<Ratio>,
+    /// The frame rate the stream states: `r_frame_rate`, else `avg_frame_rate`.
+    pub stated_fps: Option<Ratio>,
     /// Presentation times of the video packets, sorted, seconds from the first.
     pub packet_times: Vec<f64>,
 }
@@ -68,7 +73,7 @@ fn run_ffprobe(path: &Path) -> Result<ProbeOutput, CaptureError> {
             "-select_streams",
             "v:0",
             "-show_entries",
-            "stream=width,height,codec_name,pix_fmt,color_range,avg_frame_rate:packet=pts_time",
+            "stream=width,height,codec_name,pix_fmt,color_range,avg_frame_rate,r_frame_rate,time_base:packet=pts",
             "-of",
             "default=noprint_wrappers=1",
         ])
@@ -142,24 +147,13 @@ pub(super) fn probe(path: &Path) -> Result<Probe, CaptureError> {
     ) else {
         return Err(invalid("no video stream".to_string()));
     };
-    let fps = get("avg_frame_rate").and_then(|v| {
-        let (n, d) = v.split_once('/')?;
-        let (n, d) = (n.parse::<f64>().ok()?, d.parse::<f64>().ok()?);
-        (n > 0.0 && d > 0.0).then_some(n / d)
-    });
-    let mut packet_times: Vec<f64> = text
-        .lines()
-        .filter_map(|l| l.strip_prefix("pts_time=")?.trim().parse::<f64>().ok())
-        .filter(|x| x.is_finite())
-        .collect();
-    packet_times.sort_by(f64::total_cmp);
-    if let Some(&t0) = packet_times.first() {
-        for x in &mut packet_times {
-            *x -= t0;
-        }
-    }
+    let avg = get("avg_frame_rate").and_then(Ratio::parse);
+    let time_base_s = get("time_base").and_then(Ratio::parse);
     Ok(Probe {
-        packet_times,
+        packet_times: time_base_s.map_or_else(Vec::new, |tb| packet_times(&text, tb)),
+        time_base_s,
+        stated_fps: get("r_frame_rate").and_then(Ratio::parse).or(avg),
+        fps: avg.map(Ratio::value),
         width: w,
         height: h,
         codec: get("codec_name").unwrap_or("?").to_string(),
@@ -169,8 +163,25 @@ pub(super) fn probe(path: &Path) -> Result<Probe, CaptureError> {
             Some("tv") => Some(false),
             _ => None,
         },
-        fps,
     })
+}
+
+/// The packets' presentation times in `text` (ffprobe's `pts=` lines, in
+/// units of `time_base`), sorted, seconds from the first. Each is the
+/// exact integer difference scaled once, so times keep the time base's
+/// grid (ffprobe's `pts_time` is rounded to the microsecond).
+fn packet_times(text: &str, time_base: Ratio) -> Vec<f64> {
+    let mut pts: Vec<i64> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("pts=")?.trim().parse().ok())
+        .collect();
+    pts.sort_unstable();
+    let first = pts.first().copied().unwrap_or(0);
+    pts.iter()
+        .map(|&p| {
+            (i128::from(p) - i128::from(first)) as f64 * time_base.num as f64 / time_base.den as f64
+        })
+        .collect()
 }
 
 /// The watchdog stopped `tool` on `path` ([`Fired`]).

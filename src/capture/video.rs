@@ -390,7 +390,8 @@ fn undecodable(path: &Path, frame: u64, stderr_text: &str) -> CaptureError {
 fn trace(acc: Accumulator<'_>, p: Probe, opts: &ReadOptions, full: bool) -> CaptureTrace {
     let n = acc.frames();
     let (luma, rgb) = acc.finish();
-    let (time_s, timestamps) = if p.packet_times.len() == n && n > 0 {
+    let container = p.packet_times.len() == n && n > 0;
+    let (time_s, timestamps) = if container {
         (p.packet_times, "container")
     } else {
         match p.fps.or(opts.fps) {
@@ -417,6 +418,8 @@ fn trace(acc: Accumulator<'_>, p: Probe, opts: &ReadOptions, full: bool) -> Capt
                     format!("Y' plane, {} range", if full { "full" } else { "limited" }),
             }
         ),
+        time_base_s: p.time_base_s.filter(|_| container),
+        stated_fps: p.stated_fps,
     }
 }
 

@@ -298,6 +298,8 @@ pub(super) fn read(
             hdr.bits,
             if full { "full" } else { "limited" }
         ),
+        time_base_s: None,
+        stated_fps: None,
     })
 }
 

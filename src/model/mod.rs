@@ -28,7 +28,9 @@ use serde::{Deserialize, Serialize};
 
 pub use crate::advise::{Advice, Candidate};
 pub use crate::analysis::finemap::FineMap;
-pub use crate::analysis::{Banding, Beat, DriveFlicker, FineMapInfo, HazardClass, RoiAnalysis};
+pub use crate::analysis::{
+    Banding, Beat, DriveFlicker, FineMapInfo, FrameTiming, HazardClass, RoiAnalysis,
+};
 pub use crate::inputs::InputFile;
 pub use crate::metrics::verdict::VERDICT_TOLERANCE;
 pub use crate::metrics::{Check, Levels, Metric, Verdict};
@@ -248,6 +250,11 @@ pub struct CaseInfo {
     pub drive: DriveFlicker,
     /// Banding KPIs of a rolling shutter; `null` for a global shutter.
     pub banding: Option<Banding>,
+    /// Frame rate, its uncertainty, resolution, stated rate and drops
+    /// fitted to a captured or rig case's PWM frame times (absent for the
+    /// simulator).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_timing: Option<FrameTiming>,
 }
 
 /// A rendered frame written next to the report.
