@@ -197,3 +197,23 @@ pub(super) fn stopped(path: &Path, fired: Fired, tool: &str) -> CaptureError {
         },
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Packet times are the integer PTS differences times the time base:
+    /// 1/90000 s ticks of 30000/1001 fps stay on the exact frame times,
+    /// where ffprobe's `pts_time` would round them to the microsecond.
+    #[test]
+    fn packet_times_are_whole_ticks_of_the_time_base() {
+        let text = "time_base=1/90000\npts=906006\npts=900000\npts=903003\npts=N/A\n";
+        let tb = Ratio::parse("1/90000").unwrap();
+        let t = packet_times(text, tb);
+        assert_eq!(t, vec![0.0, 3003.0 / 90000.0, 6006.0 / 90000.0]);
+        assert_eq!(Ratio::parse("30000/1001"), Ratio::new(30000, 1001));
+        for bad in ["0/0", "-1/25", "25", "x/1", "25/0"] {
+            assert_eq!(Ratio::parse(bad), None, "{bad}");
+        }
+    }
+}
