@@ -14,8 +14,10 @@
 //! - `luma-plane` decode: `extractplanes=y` (Y' as stored, no conversion),
 //!   then the limited-to-full range expansion in a lookup table.
 //!
-//! Timestamps are the container's presentation times (ffprobe, packet PTS
-//! sorted), with the frame rate as a fallback.
+//! Timestamps are the container's presentation times (ffprobe's integer
+//! packet PTS, sorted, times the stream's time base), with the frame rate
+//! as a fallback; the time base and the stated frame rate go with them
+//! (`analysis::timing` fits the rate to the times).
 //!
 //! ffmpeg starts at the same time as ffprobe, with the cut of a frame too
 //! large to clamp any tile (`layout`), and is kept when ffprobe's frame
