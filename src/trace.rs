@@ -380,7 +380,8 @@ pub struct CaptureSummary {
     #[serde(default)]
     pub time_base_s: Option<Ratio>,
     /// The frame rate the container states (FFmpeg's `r_frame_rate`, else
-    /// `avg_frame_rate`), frames/s; `null` when it states none.
+    /// `avg_frame_rate`; a Y4M header's `F<num>:<den>`), frames/s; `null`
+    /// when it states none.
     #[serde(default)]
     pub stated_frame_rate_fps: Option<Ratio>,
 }

@@ -364,9 +364,15 @@ fn timing_note(t: &FrameTiming) -> String {
     let resolution = t
         .resolution_s
         .map_or("finer than 1 us".to_string(), seconds_text);
+    // Below a billionth the spread is the doubles' rounding of exact times.
+    let spread = if t.fps_uncertainty < 0.5e-9 {
+        "0 (to 1e-9)".to_string()
+    } else {
+        format!("{:.places$}", t.fps_uncertainty)
+    };
     let mut note = format!(
-        "; frame rate {:.places$} +/- {:.places$} fps (one sigma) fitted to the frames' own times, resolution {resolution}",
-        t.fps, t.fps_uncertainty
+        "; frame rate {:.places$} +/- {spread} fps (one sigma) fitted to the frames' own times, resolution {resolution}",
+        t.fps
     );
     match (t.stated_fps, t.stated_rate_used) {
         (Some(r), true) => {
@@ -382,11 +388,12 @@ fn timing_note(t: &FrameTiming) -> String {
         (None, _) => {}
     }
     if t.slot_times {
-        note += "; the times are a constant rate rounded to their resolution, so the fold, the coverage and the spectrum use the fitted frame times";
+        note += "; the times fit a constant rate to within their resolution, so the fold, the coverage and the spectrum use the fitted frame times";
     }
     if t.dropped_frames > 0 {
+        let s = if t.dropped_frames == 1 { "" } else { "s" };
         note += &format!(
-            "; {} dropped frames (empty slots of the fit)",
+            "; {} dropped frame{s} (empty slots of the fit)",
             t.dropped_frames
         );
     }
@@ -494,4 +501,38 @@ pub fn fine_maps(plan: &Plan) -> Vec<FineMapInfo> {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trace::Ratio;
+
+    /// The beat's note states the fitted rate with its uncertainty, the
+    /// resolution, the stated rate and the drops.
+    #[test]
+    fn the_timing_note_states_rate_uncertainty_resolution_and_drops() {
+        let slots: Vec<u64> = (0..200).filter(|k| *k != 90).collect();
+        let times: Vec<f64> = slots
+            .iter()
+            .map(|&k| ((k * 1001) as f64 / 30.0).round() / 1000.0)
+            .collect();
+        let source = timing::TimeSource {
+            time_base_s: Ratio::new(1, 1000),
+            stated_fps: Ratio::new(30000, 1001),
+        };
+        let note = timing_note(&timing::from_times(&times, &source).unwrap());
+        for part in [
+            "frame rate 29.9700 +/- 0.00",
+            "fps (one sigma) fitted to the frames' own times, resolution 1/1000 s",
+            "the container states 30000/1001 fps, which the fit agrees with, so that rate is used exactly",
+            "use the fitted frame times",
+            "; 1 dropped frame (empty slots of the fit)",
+        ] {
+            assert!(note.contains(part), "{part:?} not in {note:?}");
+        }
+        let exact: Vec<f64> = (0..100).map(|k| k as f64 * 0.04).collect();
+        let note = timing_note(&timing::from_times(&exact, &Default::default()).unwrap());
+        assert!(note.contains("frame rate 25.0000 +/- "), "{note}");
+    }
 }
