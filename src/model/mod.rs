@@ -17,6 +17,11 @@
 //! `banding`; per ROI the metrics `apparent_frequency_spectrum_hz` and
 //! `phase_coverage` and an `analysis` object; at the top `fine_maps` and
 //! `advice`.
+//!
+//! A captured or rig case also has `frame_timing` (the rate fitted to its
+//! frame times, its uncertainty, the times' resolution, the stated rate
+//! and the drops), and its `capture` the container's `time_base_s` and
+//! `stated_frame_rate_fps`.
 
 pub mod build;
 pub mod frame;
