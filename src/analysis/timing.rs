@@ -172,7 +172,8 @@ pub fn from_times(times_s: &[f64], source: &TimeSource) -> Option<FrameTiming> {
     });
     if let Some(r) = stated {
         let period_s = r.den as f64 / r.num as f64;
-        let tbar = times_s.iter().sum::<f64>() / n as f64;
+        let t0 = times_s[0];
+        let tbar = t0 + times_s.iter().map(|t| t - t0).sum::<f64>() / n as f64;
         line = Line {
             intercept_s: tbar - period_s * kbar,
             period_s,
@@ -472,6 +473,26 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Millisecond times of a logger's clock (Unix time, 1.7e9 s) fit as
+    /// the same times from zero do.
+    #[test]
+    fn times_far_from_zero_fit_as_times_from_zero() {
+        let slots: Vec<u64> = (0..300).filter(|k| *k != 77).collect();
+        let ms = rounded_ticks(&slots, (30000, 1001), 1000);
+        let from_zero: Vec<f64> = ms.iter().map(|&t| t as f64 / 1000.0).collect();
+        let unix: Vec<f64> = ms
+            .iter()
+            .map(|&t| (1_700_000_000_000 + t) as f64 / 1000.0)
+            .collect();
+        let (a, b) = (
+            from_times(&from_zero, &TimeSource::default()).unwrap(),
+            from_times(&unix, &TimeSource::default()).unwrap(),
+        );
+        assert_eq!((b.resolution_s, b.dropped_frames), (Some(1e-3), 1));
+        assert!((a.fps - b.fps).abs() < 1e-6 && b.slot_times, "{a:?} {b:?}");
+        assert!((b.fps - 30000.0 / 1001.0).abs() <= b.fps_uncertainty);
     }
 
     /// A stated rate the times do not agree with is not used; times with
