@@ -374,4 +374,49 @@ pub struct CaptureSummary {
     pub timestamps: Word,
     /// Segments and how they were found.
     pub segments: SegmentsFound,
+    /// The container's time base (the unit its timestamps count in),
+    /// seconds, e.g. 1/1000 for Matroska; `null` when the frame times do
+    /// not come from a container's timestamps.
+    #[serde(default)]
+    pub time_base_s: Option<Ratio>,
+    /// The frame rate the container states (FFmpeg's `r_frame_rate`, else
+    /// `avg_frame_rate`; a Y4M header's `F<num>:<den>`), frames/s; `null`
+    /// when it states none.
+    #[serde(default)]
+    pub stated_frame_rate_fps: Option<Ratio>,
+}
+
+/// An exact ratio `num / den` as a container states it: a time base in
+/// seconds (1/1000), a frame rate in frames/s (30000/1001).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Ratio {
+    /// Numerator, > 0.
+    pub num: u64,
+    /// Denominator, > 0.
+    pub den: u64,
+}
+
+impl Ratio {
+    /// `num / den`; `None` unless both are positive.
+    pub fn new(num: u64, den: u64) -> Option<Self> {
+        (num > 0 && den > 0).then_some(Self { num, den })
+    }
+
+    /// Parses `num/den` (FFmpeg's form, e.g. `30000/1001`); `None` for
+    /// `0/0`, signs, or anything else.
+    pub fn parse(text: &str) -> Option<Self> {
+        let (n, d) = text.trim().split_once('/')?;
+        Self::new(n.parse().ok()?, d.parse().ok()?)
+    }
+
+    /// The value, rounded once to the nearest double.
+    pub fn value(self) -> f64 {
+        self.num as f64 / self.den as f64
+    }
+}
+
+impl std::fmt::Display for Ratio {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.num, self.den)
+    }
 }

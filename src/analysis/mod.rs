@@ -227,6 +227,10 @@ pub struct CaseAnalysis {
     pub banding: Option<Banding>,
     /// One per plan ROI, in plan order.
     pub rois: Vec<RoiAnalysis>,
+    /// The frame timing of a captured or rig case's PWM frames; `None` for
+    /// the simulator, whose frames run on the plan camera's clock.
+    #[serde(default)]
+    pub timing: Option<FrameTiming>,
 }
 
 /// Analyses a finished case. The simulator's frames run on the plan
@@ -269,7 +273,15 @@ pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
                 .iter()
                 .map(|&i| r.acquisition.frames[i].time_s)
                 .collect();
-            timing::from_times(&times)
+            let source =
+                r.acquisition
+                    .capture
+                    .as_ref()
+                    .map_or_else(timing::TimeSource::default, |c| timing::TimeSource {
+                        time_base_s: c.time_base_s,
+                        stated_fps: c.stated_frame_rate_fps,
+                    });
+            timing::from_times(&times, &source)
         })
         .flatten();
     let sampling = match &timing {
@@ -335,23 +347,71 @@ pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
         drive: drive::drive_flicker(f, r.case.duty),
         banding,
         rois,
+        timing,
     }
 }
 
-/// How a capture's frame times were used, for the beat's note.
+/// How a capture's frame times were used, for the beat's note: the rate
+/// with its uncertainty, the times' resolution, the stated rate, the
+/// times the analyses use and the dropped frames.
 fn timing_note(t: &FrameTiming) -> String {
-    let irregular = if t.regular {
-        String::new()
+    // Two significant digits of the uncertainty, and the rate to the same place.
+    let places = if t.fps_uncertainty > 0.0 {
+        ((-t.fps_uncertainty.log10()).ceil() as i64 + 1).clamp(4, 9) as usize
     } else {
-        format!(
-            "; the times are irregular ({} dropped frames), so the fold, the coverage and the spectrum use each frame's real time",
-            t.dropped_frames
-        )
+        4
     };
-    format!(
-        "; frame rate {:.4} fps from the frames' own times{irregular}",
+    let resolution = t
+        .resolution_s
+        .map_or("finer than 1 us".to_string(), seconds_text);
+    // Below a billionth the spread is the doubles' rounding of exact times.
+    let spread = if t.fps_uncertainty < 0.5e-9 {
+        "0 (to 1e-9)".to_string()
+    } else {
+        format!("{:.places$}", t.fps_uncertainty)
+    };
+    let mut note = format!(
+        "; frame rate {:.places$} +/- {spread} fps (one sigma) fitted to the frames' own times, resolution {resolution}",
         t.fps
-    )
+    );
+    match (t.stated_fps, t.stated_rate_used) {
+        (Some(r), true) => {
+            note += &format!(
+                "; the container states {r} fps, which the fit agrees with, so that rate is used exactly"
+            )
+        }
+        (Some(r), false) => {
+            note += &format!(
+                "; the container states {r} fps, which the fit does not agree with, so the fitted rate is used"
+            )
+        }
+        (None, _) => {}
+    }
+    if t.slot_times {
+        note += "; the times fit a constant rate to within their resolution, so the fold, the coverage and the spectrum use the fitted frame times";
+    }
+    if t.dropped_frames > 0 {
+        let s = if t.dropped_frames == 1 { "" } else { "s" };
+        note += &format!(
+            "; {} dropped frame{s} (empty slots of the fit)",
+            t.dropped_frames
+        );
+    }
+    if !t.regular {
+        note += "; the times are irregular, so the spectrum is a direct Fourier sum over each frame's time";
+    }
+    note
+}
+
+/// A duration in seconds as `1/N s` when it is the inverse of a whole
+/// number (time bases are), else in engineering notation.
+fn seconds_text(s: f64) -> String {
+    let inverse = 1.0 / s;
+    if (inverse - inverse.round()).abs() <= 1e-6 * inverse {
+        format!("1/{} s", inverse.round())
+    } else {
+        format!("{s:e} s")
+    }
 }
 
 /// The ideal linear camera of a plan at `lux`: the luma model the
@@ -441,4 +501,38 @@ pub fn fine_maps(plan: &Plan) -> Vec<FineMapInfo> {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trace::Ratio;
+
+    /// The beat's note states the fitted rate with its uncertainty, the
+    /// resolution, the stated rate and the drops.
+    #[test]
+    fn the_timing_note_states_rate_uncertainty_resolution_and_drops() {
+        let slots: Vec<u64> = (0..200).filter(|k| *k != 90).collect();
+        let times: Vec<f64> = slots
+            .iter()
+            .map(|&k| ((k * 1001) as f64 / 30.0).round() / 1000.0)
+            .collect();
+        let source = timing::TimeSource {
+            time_base_s: Ratio::new(1, 1000),
+            stated_fps: Ratio::new(30000, 1001),
+        };
+        let note = timing_note(&timing::from_times(&times, &source).unwrap());
+        for part in [
+            "frame rate 29.9700 +/- 0.00",
+            "fps (one sigma) fitted to the frames' own times, resolution 1/1000 s",
+            "the container states 30000/1001 fps, which the fit agrees with, so that rate is used exactly",
+            "use the fitted frame times",
+            "; 1 dropped frame (empty slots of the fit)",
+        ] {
+            assert!(note.contains(part), "{part:?} not in {note:?}");
+        }
+        let exact: Vec<f64> = (0..100).map(|k| k as f64 * 0.04).collect();
+        let note = timing_note(&timing::from_times(&exact, &Default::default()).unwrap());
+        assert!(note.contains("frame rate 25.0000 +/- "), "{note}");
+    }
 }

@@ -1,24 +1,56 @@
 //! A case's frame timing, from the frames' own start times.
 //!
 //! A capture (video container timestamps, a sidecar, `[capture]
-//! frame-rate-fps`) or a rig gives each frame a start time `t_i`. The frame
-//! rate is the slope of those times over frame slots: with `m` the median
-//! interval, frame `i` sits in slot `k_i = round((t_i - t_0) / m)`, and the
-//! frame period is the least-squares slope of `t_i` over `k_i`. A dropped
-//! frame leaves a slot empty and does not bias the rate. The phase fold and
-//! the phase coverage use the times themselves (`frac(t_i f)`), so drops and
-//! a variable frame rate are folded where they really fell.
+//! frame-rate-fps`) or a rig gives each frame a start time `t_i`, often
+//! rounded to a time base: Matroska's default is 1 ms, and a 29.97 fps
+//! capture then has intervals of 33 and 34 ms. The frame period `P` is
+//! fitted so that this rounding never accumulates:
 //!
-//! The spectrum of a trace is an FFT when the frames sit in consecutive
-//! slots (a regular capture), and otherwise a direct Fourier sum over the
-//! real times ([`dominant_frequency_at_times_hz`]), with the same window,
-//! padding and refinement.
+//! 1. Slots: frame 0 sits in slot `k_0 = 0`, and each interval `g_i =
+//!    t_{i+1} - t_i` spans `max(1, round(g_i / P))` slots, so `k_{i+1} =
+//!    k_i + max(1, round(g_i / P))`. Each interval is judged on its own
+//!    (never `round((t_i - t_0) / P)`, where a period off by 1 % drifts a
+//!    slot in 100 frames); a dropped frame is an interval of about `2 P`,
+//!    two of about `3 P`, and so on.
+//! 2. Fit: `P` is the least-squares slope of `t_i` over `k_i`, with
+//!    intercept `a`. It starts from the median interval and is refitted
+//!    with the slots it gives, until the slots no longer change (at most
+//!    [`MAX_REFITS`] times).
+//! 3. Resolution `q`: the coarsest of 1 ms, 0.1 ms, 1/90000 s, 10 us, 1 us
+//!    and the container's time base that every `t_i - t_0` is a whole
+//!    multiple of (within [`QUANTUM_TOLERANCE`] of `q`); none when no
+//!    candidate fits (then `q = 0` below).
+//! 4. Uncertainty: with residuals `r_i = t_i - a - P k_i`, `N` frames and
+//!    `S = sum (k_i - mean k)^2`, the standard error of the slope is `s =
+//!    sqrt(sum r_i^2 / (N - 2) / S)` (0 for 2 frames). Rounding each end
+//!    of the span to `q` errs by up to `q / 2` (uniform: `q / sqrt 12`)
+//!    independently, which alone moves a slope by `q / (sqrt 6 K)` over
+//!    `K = k_{N-1}` slots; the period's one-sigma uncertainty is
+//!    `sigma_P = sqrt(s^2 + (q / (sqrt 6 K))^2)`, and the rate's is
+//!    `sigma_P / P^2`.
+//! 5. Stated rate: when the container states a rate `num / den` and
+//!    `|P - den / num| <= 3 sigma_P + q / K`, the period is `den / num`
+//!    exactly, and the intercept is refitted with it (`a = mean t - P mean k`).
+//! 6. Slot times: when `q > 0` and every residual of the final line is
+//!    within `q` (`|r_i| <= q`), the times are a constant rate rounded to
+//!    the time base, and the analyses use the slot times `a + P k_i`
+//!    instead of the rounded times (a 0.5 ms rounding is 0.075 cycles of a
+//!    151 Hz LED). Otherwise they use the times as measured, so that drops
+//!    and a variable frame rate are folded where they really fell.
+//!
+//! Dropped frames are the empty slots, `K + 1 - N`. The timing is regular
+//! when `k_i = i` for every frame and every interval is within
+//! [`IRREGULAR_INTERVAL`] of `P`. The spectrum of a trace is an FFT when the
+//! timing is regular, and otherwise a direct Fourier sum over the times
+//! the analyses use ([`dominant_frequency_at_times_hz`]), with the same
+//! window, padding and refinement.
 
 use serde::{Deserialize, Serialize};
 
 use super::apparent::SpectrumError;
+use crate::trace::Ratio;
 
-/// An interval further than this fraction from the median interval makes
+/// An interval further than this fraction from the frame period makes
 /// the timing irregular (a drop, a doubled frame, a variable frame rate).
 pub const IRREGULAR_INTERVAL: f64 = 0.25;
 
@@ -26,20 +58,59 @@ pub const IRREGULAR_INTERVAL: f64 = 0.25;
 /// takes; longer irregular traces use their first this many frames.
 pub const MAX_DIRECT_FRAMES: usize = 20_000;
 
+/// Most refits of the period with the slots the previous fit gave.
+pub const MAX_REFITS: usize = 10;
+
+/// Candidate resolutions of frame times, seconds, besides a container's
+/// time base: a millisecond (Matroska, many loggers), a tenth of one,
+/// MPEG's 90 kHz clock, 10 us and a microsecond (ffprobe's `pts_time`).
+pub const QUANTA_S: [f64; 5] = [1e-3, 1e-4, 1.0 / 90_000.0, 1e-5, 1e-6];
+
+/// How far from a whole multiple of a quantum `q` a time may be, as a
+/// fraction of `q`, and still be on its grid: above the rounding of a
+/// decimal written time (`0.033` is not exactly 33 ms in binary), far below
+/// any real offset.
+pub const QUANTUM_TOLERANCE: f64 = 1e-6;
+
 /// Bins of the direct Fourier sum between exactly computed phasors; the
 /// phasors in between are rotated from them.
 const ANCHOR_BINS: usize = 32;
 
-/// Frame timing of a trace.
+/// What a source says about its frame times besides the times.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TimeSource {
+    /// The container's time base, seconds, when the times are its timestamps.
+    pub time_base_s: Option<Ratio>,
+    /// The frame rate the container states, frames/s.
+    pub stated_fps: Option<Ratio>,
+}
+
+/// Frame timing of a trace (module docs give the rule).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FrameTiming {
-    /// Start of each frame, seconds.
+    /// Start of each frame as the analyses use it, seconds: the slot times
+    /// `a + P k_i` when `slot_times`, else the times as measured.
     #[serde(skip)]
     pub times_s: Vec<f64>,
-    /// Frame rate from the times (least-squares slope over frame slots), /s.
+    /// Frame rate `1 / P`, frames/s: the stated rate when
+    /// `stated_rate_used`, else the fit's.
     pub fps: f64,
+    /// One-sigma uncertainty of the fitted rate, frames/s (>= 0).
+    pub fps_uncertainty: f64,
+    /// Resolution of the frame times (the quantum `q` they are whole
+    /// multiples of), seconds; `None` when finer than every candidate.
+    pub resolution_s: Option<f64>,
+    /// The rate the container states, frames/s, if any.
+    pub stated_fps: Option<Ratio>,
+    /// The stated rate agrees with the fit and is the rate used.
+    pub stated_rate_used: bool,
+    /// The times are a constant rate rounded to `resolution_s`, and the
+    /// analyses use the slot times.
+    pub slot_times: bool,
+    /// Largest `|t_i - a - P k_i|` of the final line, seconds.
+    pub max_residual_s: f64,
     /// Every frame in its own consecutive slot, every interval within
-    /// [`IRREGULAR_INTERVAL`] of the median.
+    /// [`IRREGULAR_INTERVAL`] of the period.
     pub regular: bool,
     /// Empty slots between the first and last frame (dropped frames).
     pub dropped_frames: u64,
@@ -47,9 +118,17 @@ pub struct FrameTiming {
     pub capture_s: f64,
 }
 
-/// The timing of frames starting at `times_s` (strictly rising), or `None`
-/// for fewer than 2 frames or times that do not rise.
-pub fn from_times(times_s: &[f64]) -> Option<FrameTiming> {
+/// A line `t = a + P k` through (slot, time).
+#[derive(Debug, Clone, Copy)]
+struct Line {
+    intercept_s: f64,
+    period_s: f64,
+}
+
+/// The timing of frames starting at `times_s` (strictly rising), from
+/// `source`'s time base and stated rate, or `None` for fewer than 2 frames
+/// or times that do not rise.
+pub fn from_times(times_s: &[f64], source: &TimeSource) -> Option<FrameTiming> {
     let n = times_s.len();
     if n < 2 {
         return None;
@@ -58,31 +137,129 @@ pub fn from_times(times_s: &[f64]) -> Option<FrameTiming> {
     if gaps.iter().any(|g| !(g.is_finite() && *g > 0.0)) {
         return None;
     }
-    let t0 = times_s[0];
-    let m = median(&mut gaps.clone());
+    let mut slots = slots_of(&gaps, median(&mut gaps.clone()));
+    let mut line = fit(&slots, times_s);
+    for _ in 0..MAX_REFITS {
+        let next = slots_of(&gaps, line.period_s);
+        if next == slots {
+            break;
+        }
+        slots = next;
+        line = fit(&slots, times_s);
+    }
+    let k_last = slots[n - 1] as f64;
+    let q = resolution_s(times_s, source.time_base_s);
+    let q0 = q.unwrap_or(0.0);
+    let residuals = |l: Line| -> Vec<f64> {
+        slots
+            .iter()
+            .zip(times_s)
+            .map(|(&k, &t)| t - l.intercept_s - l.period_s * k as f64)
+            .collect()
+    };
+    let sum_sq: f64 = residuals(line).iter().map(|r| r * r).sum();
+    let kbar = slots.iter().map(|&k| k as f64).sum::<f64>() / n as f64;
+    let sxx: f64 = slots.iter().map(|&k| (k as f64 - kbar).powi(2)).sum();
+    let standard_error = if n > 2 {
+        (sum_sq / (n - 2) as f64 / sxx).sqrt()
+    } else {
+        0.0
+    };
+    let sigma_p = standard_error.hypot(q0 / (6f64.sqrt() * k_last));
+    let stated = source.stated_fps.filter(|r| {
+        let p = r.den as f64 / r.num as f64;
+        (line.period_s - p).abs() <= 3.0 * sigma_p + q0 / k_last
+    });
+    if let Some(r) = stated {
+        let period_s = r.den as f64 / r.num as f64;
+        let t0 = times_s[0];
+        let tbar = t0 + times_s.iter().map(|t| t - t0).sum::<f64>() / n as f64;
+        line = Line {
+            intercept_s: tbar - period_s * kbar,
+            period_s,
+        };
+    }
+    let max_residual_s = residuals(line).iter().fold(0.0f64, |m, r| m.max(r.abs()));
+    let slot_times = q.is_some_and(|q| max_residual_s <= q);
+    let used: Vec<f64> = if slot_times {
+        slots
+            .iter()
+            .map(|&k| line.intercept_s + line.period_s * k as f64)
+            .collect()
+    } else {
+        times_s.to_vec()
+    };
+    let p = line.period_s;
+    let consecutive = slots.iter().enumerate().all(|(i, &k)| k == i as u64);
     let within = gaps
         .iter()
-        .all(|g| (g / m - 1.0).abs() <= IRREGULAR_INTERVAL);
-    let slots: Vec<f64> = times_s.iter().map(|t| ((t - t0) / m).round()).collect();
-    let consecutive = slots.iter().enumerate().all(|(i, &k)| k == i as f64);
-    let (kbar, tbar) = (
-        slots.iter().sum::<f64>() / n as f64,
-        times_s.iter().sum::<f64>() / n as f64,
-    );
+        .all(|g| (g / p - 1.0).abs() <= IRREGULAR_INTERVAL);
+    Some(FrameTiming {
+        fps: stated.map_or(1.0 / p, Ratio::value),
+        fps_uncertainty: sigma_p / (p * p),
+        resolution_s: q,
+        stated_fps: source.stated_fps,
+        stated_rate_used: stated.is_some(),
+        slot_times,
+        max_residual_s,
+        regular: consecutive && within,
+        dropped_frames: slots[n - 1] + 1 - n as u64,
+        capture_s: used[n - 1] - used[0] + p,
+        times_s: used,
+    })
+}
+
+/// The slot of each frame: 0 for the first, then each interval of `gaps`
+/// spans `max(1, round(g / period_s))` slots.
+fn slots_of(gaps: &[f64], period_s: f64) -> Vec<u64> {
+    let mut k = 0u64;
+    let mut slots = Vec::with_capacity(gaps.len() + 1);
+    slots.push(0);
+    for g in gaps {
+        k += ((g / period_s).round() as u64).max(1);
+        slots.push(k);
+    }
+    slots
+}
+
+/// The least-squares line of `times_s` over `slots` (slots strictly rising).
+fn fit(slots: &[u64], times_s: &[f64]) -> Line {
+    let n = times_s.len() as f64;
+    let t0 = times_s[0];
+    let kbar = slots.iter().map(|&k| k as f64).sum::<f64>() / n;
+    let tbar = times_s.iter().map(|t| t - t0).sum::<f64>() / n;
     let (sxy, sxx) = slots
         .iter()
         .zip(times_s)
         .fold((0.0, 0.0), |(a, b), (&k, &t)| {
-            (a + (k - kbar) * (t - tbar), b + (k - kbar) * (k - kbar))
+            let dk = k as f64 - kbar;
+            (a + dk * (t - t0 - tbar), b + dk * dk)
         });
-    let period = if sxx > 0.0 { sxy / sxx } else { m };
-    let last_slot = slots[n - 1];
-    Some(FrameTiming {
-        times_s: times_s.to_vec(),
-        fps: 1.0 / period,
-        regular: consecutive && within,
-        dropped_frames: (last_slot + 1.0 - n as f64).max(0.0) as u64,
-        capture_s: times_s[n - 1] - t0 + period,
+    let period_s = sxy / sxx;
+    Line {
+        intercept_s: t0 + tbar - period_s * kbar,
+        period_s,
+    }
+}
+
+/// The coarsest of [`QUANTA_S`] and `time_base_s` that every `t_i - t_0`
+/// is a whole multiple of, within [`QUANTUM_TOLERANCE`] of it plus the
+/// doubles' own rounding of the times.
+fn resolution_s(times_s: &[f64], time_base_s: Option<Ratio>) -> Option<f64> {
+    let mut candidates: Vec<f64> = QUANTA_S
+        .iter()
+        .copied()
+        .chain(time_base_s.map(Ratio::value))
+        .collect();
+    candidates.sort_by(|a, b| b.total_cmp(a));
+    let t0 = times_s[0];
+    let largest = times_s.iter().fold(0.0f64, |m, t| m.max(t.abs()));
+    candidates.into_iter().find(|&q| {
+        let tolerance = QUANTUM_TOLERANCE + 8.0 * f64::EPSILON * largest / q;
+        times_s.iter().all(|&t| {
+            let x = (t - t0) / q;
+            (x - x.round()).abs() <= tolerance
+        })
     })
 }
 
@@ -199,7 +376,7 @@ mod tests {
     fn rate_and_drops_come_from_the_times() {
         let p = 1001.0 / 30000.0;
         let t: Vec<f64> = (0..300).map(|i| i as f64 * p).collect();
-        let ft = from_times(&t).unwrap();
+        let ft = from_times(&t, &TimeSource::default()).unwrap();
         assert!((ft.fps - 30000.0 / 1001.0).abs() < 1e-9, "{}", ft.fps);
         assert!(ft.regular && ft.dropped_frames == 0);
         assert!((ft.capture_s - 300.0 * p).abs() < 1e-9);
@@ -210,12 +387,131 @@ mod tests {
             .filter(|(i, _)| *i != 100 && !(200..203).contains(i))
             .map(|(_, &x)| x)
             .collect();
-        let ft = from_times(&dropped).unwrap();
+        let ft = from_times(&dropped, &TimeSource::default()).unwrap();
         assert!((ft.fps - 30000.0 / 1001.0).abs() < 1e-9);
         assert!(!ft.regular);
         assert_eq!(ft.dropped_frames, 4);
-        assert!(from_times(&[0.0]).is_none());
-        assert!(from_times(&[0.0, 0.0, 1.0]).is_none());
+        assert!(from_times(&[0.0], &TimeSource::default()).is_none());
+        assert!(from_times(&[0.0, 0.0, 1.0], &TimeSource::default()).is_none());
+    }
+
+    /// The times of the frames in `slots` of a constant `num / den` fps
+    /// capture, rounded to the nearest tick of a `1 / ticks_per_s` time
+    /// base in integers, as a muxer rounds them: `round(k den ticks / num)`.
+    fn rounded_ticks(slots: &[u64], (num, den): (u64, u64), ticks_per_s: u64) -> Vec<u64> {
+        slots
+            .iter()
+            .map(|&k| (2 * k * den * ticks_per_s + num) / (2 * num))
+            .collect()
+    }
+
+    /// 29.97, 59.94 and 25 fps with 1 ms and 1/90000 s time bases, with
+    /// and without drops, with and without the container's time base and
+    /// stated rate: the true rate within its stated one-sigma uncertainty
+    /// (the stated rate exactly when given), the drops counted exactly,
+    /// the resolution found, and the analyses on the true frame times.
+    #[test]
+    fn rounded_times_give_the_true_rate_drops_and_resolution() {
+        let drops: [&[u64]; 2] = [&[], &[50, 120, 121, 122, 250]];
+        for (num, den) in [(30000u64, 1001u64), (60000, 1001), (25, 1)] {
+            for ticks_per_s in [1000u64, 90_000] {
+                for dropped in drops {
+                    let slots: Vec<u64> = (0..300).filter(|k| !dropped.contains(k)).collect();
+                    let ticks = rounded_ticks(&slots, (num, den), ticks_per_s);
+                    let times: Vec<f64> = ticks
+                        .iter()
+                        .map(|&t| t as f64 / ticks_per_s as f64)
+                        .collect();
+                    // The coarsest grid the ticks lie on: whole milliseconds
+                    // (25 fps at 90 kHz is 3600 ticks a frame), else the tick.
+                    let per_ms = ticks_per_s / 1000;
+                    let q = if ticks.iter().all(|t| t % per_ms == 0) {
+                        1e-3
+                    } else {
+                        1.0 / ticks_per_s as f64
+                    };
+                    let truth = num as f64 / den as f64;
+                    for (time_base_s, stated_fps) in [
+                        (None, None),
+                        (Ratio::new(1, ticks_per_s), None),
+                        (Ratio::new(1, ticks_per_s), Ratio::new(num, den)),
+                    ] {
+                        let case = format!(
+                            "{num}/{den} fps, 1/{ticks_per_s} s, drops {dropped:?}, time base {time_base_s:?}, stated {stated_fps:?}"
+                        );
+                        let source = TimeSource {
+                            time_base_s,
+                            stated_fps,
+                        };
+                        let ft = from_times(&times, &source).unwrap();
+                        assert!(
+                            (ft.fps - truth).abs() <= ft.fps_uncertainty,
+                            "{case}: {} +/- {} fps",
+                            ft.fps,
+                            ft.fps_uncertainty
+                        );
+                        // One sigma is a few thousandths of a frame per second.
+                        assert!(ft.fps_uncertainty < 0.01 * truth / 30.0, "{case}");
+                        assert_eq!(ft.dropped_frames, dropped.len() as u64, "{case}");
+                        assert_eq!(ft.regular, dropped.is_empty(), "{case}");
+                        assert_eq!(ft.resolution_s, Some(q), "{case}");
+                        assert_eq!(ft.stated_rate_used, stated_fps.is_some(), "{case}");
+                        if stated_fps.is_some() {
+                            assert_eq!(ft.fps, truth, "{case}");
+                        }
+                        // The analyses use the slot times: the true times up
+                        // to one offset, far below the rounding.
+                        assert!(ft.slot_times, "{case}");
+                        let offset = ft.times_s[0];
+                        for (&k, &t) in slots.iter().zip(&ft.times_s) {
+                            let exact = k as f64 * den as f64 / num as f64;
+                            assert!((t - offset - exact).abs() < q / 20.0, "{case}: slot {k}");
+                        }
+                        let span = 300.0 * den as f64 / num as f64;
+                        assert!((ft.capture_s - span).abs() < q, "{case}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// Millisecond times of a logger's clock (Unix time, 1.7e9 s) fit as
+    /// the same times from zero do.
+    #[test]
+    fn times_far_from_zero_fit_as_times_from_zero() {
+        let slots: Vec<u64> = (0..300).filter(|k| *k != 77).collect();
+        let ms = rounded_ticks(&slots, (30000, 1001), 1000);
+        let from_zero: Vec<f64> = ms.iter().map(|&t| t as f64 / 1000.0).collect();
+        let unix: Vec<f64> = ms
+            .iter()
+            .map(|&t| (1_700_000_000_000 + t) as f64 / 1000.0)
+            .collect();
+        let (a, b) = (
+            from_times(&from_zero, &TimeSource::default()).unwrap(),
+            from_times(&unix, &TimeSource::default()).unwrap(),
+        );
+        assert_eq!((b.resolution_s, b.dropped_frames), (Some(1e-3), 1));
+        assert!((a.fps - b.fps).abs() < 1e-6 && b.slot_times, "{a:?} {b:?}");
+        assert!((b.fps - 30000.0 / 1001.0).abs() <= b.fps_uncertainty);
+    }
+
+    /// A stated rate the times do not agree with is not used; times with
+    /// real jitter are used as measured.
+    #[test]
+    fn a_stated_rate_must_agree_with_the_times() {
+        let t: Vec<f64> = (0..200)
+            .map(|i| i as f64 * 0.04 + 1e-6 * ((i * 37 % 101) as f64 - 50.0))
+            .collect();
+        let source = TimeSource {
+            time_base_s: Ratio::new(1, 1_000_000),
+            stated_fps: Ratio::new(30000, 1001),
+        };
+        let ft = from_times(&t, &source).unwrap();
+        assert!(!ft.stated_rate_used);
+        assert!((ft.fps - 25.0).abs() < 3.0 * ft.fps_uncertainty, "{ft:?}");
+        assert_eq!(ft.resolution_s, Some(1e-6));
+        assert!(!ft.slot_times);
+        assert_eq!(ft.times_s, t);
     }
 
     /// A sine at irregular times: the direct sum finds it within a tenth of

@@ -214,6 +214,8 @@ impl Captured {
                     format: trace.format.clone(),
                     timestamps: trace.timestamps,
                     segments: found,
+                    time_base_s: trace.time_base_s,
+                    stated_frame_rate_fps: trace.stated_fps,
                 });
                 Ok((c.id.clone(), acq))
             })

@@ -380,6 +380,8 @@ impl Backend for CommandRig {
                 format: trace.format.clone(),
                 timestamps: trace.timestamps,
                 segments: found,
+                time_base_s: trace.time_base_s,
+                stated_frame_rate_fps: trace.stated_fps,
             });
             Ok(acq)
         })();

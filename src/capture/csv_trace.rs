@@ -140,5 +140,7 @@ pub(super) fn read(
         frame_size: (0, 0),
         timestamps,
         format: "csv luma trace".to_string(),
+        time_base_s: None,
+        stated_fps: None,
     })
 }

@@ -145,6 +145,8 @@ pub(super) fn read_files(
             capture.display(),
             files.len()
         ),
+        time_base_s: None,
+        stated_fps: None,
     })
 }
 

@@ -15,6 +15,7 @@
 mod csv_trace;
 mod images;
 mod layout;
+mod probe;
 mod progress;
 mod schedule;
 mod video;
@@ -30,6 +31,7 @@ pub use video::ffmpeg_available;
 
 // The plan's `[capture]` choices; defined with the plan, read here.
 pub use crate::plan::{LumaWeights, VideoDecode, VideoRange};
+pub use crate::trace::Ratio;
 
 /// A rectangle of pixels, 0-based from the top-left corner.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -94,6 +96,10 @@ pub struct CaptureTrace {
     pub timestamps: &'static str,
     /// What was read, e.g. "video h264 (ffmpeg, rgb24)".
     pub format: String,
+    /// The container's time base, seconds, when `time_s` are its timestamps.
+    pub time_base_s: Option<Ratio>,
+    /// The frame rate the source states, frames/s, when it states one.
+    pub stated_fps: Option<Ratio>,
 }
 
 /// Why a capture could not be read. Every variant names the file.
@@ -300,6 +306,8 @@ fn finish_trace(path: &Path, mut trace: CaptureTrace) -> Result<CaptureTrace, Ca
     if std::fs::symlink_metadata(&sidecar).is_ok() {
         trace.time_s = read_sidecar(&sidecar, trace.time_s.len())?;
         trace.timestamps = "sidecar";
+        // The sidecar's times are not in the container's unit.
+        trace.time_base_s = None;
     }
     check_times(path, &trace.time_s)?;
     if trace.timestamps == "none" {

@@ -14,8 +14,10 @@
 //! - `luma-plane` decode: `extractplanes=y` (Y' as stored, no conversion),
 //!   then the limited-to-full range expansion in a lookup table.
 //!
-//! Timestamps are the container's presentation times (ffprobe, packet PTS
-//! sorted), with the frame rate as a fallback.
+//! Timestamps are the container's presentation times (ffprobe's integer
+//! packet PTS, sorted, times the stream's time base), with the frame rate
+//! as a fallback; the time base and the stated frame rate go with them
+//! (`analysis::timing` fits the rate to the times).
 //!
 //! ffmpeg starts at the same time as ffprobe, with the cut of a frame too
 //! large to clamp any tile (`layout`), and is kept when ffprobe's frame
@@ -25,12 +27,13 @@
 use std::io::Read;
 use std::os::unix::process::CommandExt;
 use std::path::Path;
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
 use super::layout::Layout;
-use super::watch::{Fired, STALL, Watchdog};
+use super::probe::{Probe, drain_stderr, probe, stopped, tool_error};
+use super::watch::{STALL, Watchdog};
 use super::{
     Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, ReadOptions, RoiRect, VideoDecode,
     VideoRange, check_rois, limited_to_full_lut, open_file, times_from_fps,
@@ -45,168 +48,6 @@ pub fn ffmpeg_available() -> bool {
             .stderr(Stdio::null())
             .status()
             .is_ok_and(|s| s.success())
-    })
-}
-
-fn tool_error(path: &Path, tool: &str, e: std::io::Error) -> CaptureError {
-    CaptureError::Tool {
-        path: path.to_path_buf(),
-        message: format!(
-            "cannot run `{tool}`: {e}\n    hint: video is decoded by FFmpeg; install it, e.g. `apt-get install ffmpeg`"
-        ),
-    }
-}
-
-/// What ffprobe says about a video.
-pub(super) struct Probe {
-    width: u32,
-    height: u32,
-    codec: String,
-    pix_fmt: String,
-    full_range: Option<bool>,
-    fps: Option<f64>,
-    /// Presentation times of the video packets, sorted, seconds from the first.
-    packet_times: Vec<f64>,
-}
-
-/// Most bytes of ffprobe's stdout read (about 10 million packet times);
-/// more is an error rather than unbounded memory.
-const PROBE_STDOUT_MAX: u64 = 256 << 20;
-
-/// Most bytes of an FFmpeg tool's stderr kept (the start of it).
-const STDERR_MAX: u64 = 64 << 10;
-
-/// Reads at most [`STDERR_MAX`] bytes of `pipe` on a thread, and discards
-/// the rest, so that a chatty tool can neither block nor fill memory.
-fn drain_stderr(pipe: Option<impl Read + Send + 'static>) -> JoinHandle<String> {
-    std::thread::spawn(move || {
-        let mut kept = Vec::new();
-        if let Some(mut p) = pipe {
-            let _ = p.by_ref().take(STDERR_MAX).read_to_end(&mut kept);
-            let _ = std::io::copy(&mut p, &mut std::io::sink());
-        }
-        String::from_utf8_lossy(&kept).into_owned()
-    })
-}
-
-/// The output of one ffprobe run: exit status, stdout, stderr.
-struct ProbeOutput {
-    status: ExitStatus,
-    stdout: Vec<u8>,
-    stderr: String,
-}
-
-/// Runs ffprobe on `path` with bounded output.
-fn run_ffprobe(path: &Path) -> Result<ProbeOutput, CaptureError> {
-    let mut child = Command::new("ffprobe")
-        .args([
-            "-v",
-            "error",
-            "-select_streams",
-            "v:0",
-            "-show_entries",
-            "stream=width,height,codec_name,pix_fmt,color_range,avg_frame_rate:packet=pts_time",
-            "-of",
-            "default=noprint_wrappers=1",
-        ])
-        .arg(path)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .process_group(0)
-        .spawn()
-        .map_err(|e| tool_error(path, "ffprobe", e))?;
-    let dog = Watchdog::start(child.id(), STALL);
-    let err_thread = drain_stderr(child.stderr.take());
-    let mut stdout = Vec::new();
-    let read = match child.stdout.take() {
-        Some(out) => out.take(PROBE_STDOUT_MAX + 1).read_to_end(&mut stdout),
-        None => Ok(0),
-    };
-    let too_long = stdout.len() as u64 > PROBE_STDOUT_MAX;
-    if too_long || read.is_err() {
-        let _ = child.kill();
-    }
-    let status = child.wait().map_err(|e| tool_error(path, "ffprobe", e))?;
-    let stderr = err_thread.join().unwrap_or_default();
-    if let Some(fired) = dog.finish() {
-        return Err(stopped(path, fired, "ffprobe"));
-    }
-    if let Err(e) = read {
-        return Err(tool_error(path, "ffprobe", e));
-    }
-    if too_long {
-        return Err(CaptureError::Invalid {
-            path: path.to_path_buf(),
-            message: format!(
-                "ffprobe lists more than {} MB of stream facts and packet times",
-                PROBE_STDOUT_MAX >> 20
-            ),
-            hint: "split the recording into shorter files".to_string(),
-        });
-    }
-    Ok(ProbeOutput {
-        status,
-        stdout,
-        stderr,
-    })
-}
-
-/// Probes the first video stream of `path`: size, format, packet times.
-pub(super) fn probe(path: &Path) -> Result<Probe, CaptureError> {
-    let out = run_ffprobe(path)?;
-    let text = String::from_utf8_lossy(&out.stdout);
-    let get = |k: &str| {
-        text.lines()
-            .find_map(|l| l.strip_prefix(k).and_then(|v| v.strip_prefix('=')))
-            .map(str::trim)
-    };
-    let invalid = |message: String| CaptureError::Invalid {
-        path: path.to_path_buf(),
-        message,
-        hint: "check that the file is a complete video (MP4, MOV, MKV) with a video stream"
-            .to_string(),
-    };
-    if !out.status.success() {
-        return Err(invalid(format!(
-            "ffprobe cannot read it: {}",
-            out.stderr.trim()
-        )));
-    }
-    let (Some(w), Some(h)) = (
-        get("width").and_then(|v| v.parse::<u32>().ok()),
-        get("height").and_then(|v| v.parse::<u32>().ok()),
-    ) else {
-        return Err(invalid("no video stream".to_string()));
-    };
-    let fps = get("avg_frame_rate").and_then(|v| {
-        let (n, d) = v.split_once('/')?;
-        let (n, d) = (n.parse::<f64>().ok()?, d.parse::<f64>().ok()?);
-        (n > 0.0 && d > 0.0).then_some(n / d)
-    });
-    let mut packet_times: Vec<f64> = text
-        .lines()
-        .filter_map(|l| l.strip_prefix("pts_time=")?.trim().parse::<f64>().ok())
-        .filter(|x| x.is_finite())
-        .collect();
-    packet_times.sort_by(f64::total_cmp);
-    if let Some(&t0) = packet_times.first() {
-        for x in &mut packet_times {
-            *x -= t0;
-        }
-    }
-    Ok(Probe {
-        packet_times,
-        width: w,
-        height: h,
-        codec: get("codec_name").unwrap_or("?").to_string(),
-        pix_fmt: get("pix_fmt").unwrap_or("?").to_string(),
-        full_range: match get("color_range") {
-            Some("pc") => Some(true),
-            Some("tv") => Some(false),
-            _ => None,
-        },
-        fps,
     })
 }
 
@@ -524,20 +365,6 @@ fn read_frames(
     }
 }
 
-/// The watchdog stopped `tool` on `path` ([`Fired`]).
-fn stopped(path: &Path, fired: Fired, tool: &str) -> CaptureError {
-    match fired {
-        Fired::Interrupted(signal) => CaptureError::Interrupted {
-            path: path.to_path_buf(),
-            source: crate::interrupt::Interrupted { signal },
-        },
-        Fired::Stalled(_) => CaptureError::Tool {
-            path: path.to_path_buf(),
-            message: fired.message(tool),
-        },
-    }
-}
-
 /// ffmpeg failed, or stopped inside a frame, at `frame`; its first lines
 /// of stderr say why.
 fn undecodable(path: &Path, frame: u64, stderr_text: &str) -> CaptureError {
@@ -565,7 +392,8 @@ fn undecodable(path: &Path, frame: u64, stderr_text: &str) -> CaptureError {
 fn trace(acc: Accumulator<'_>, p: Probe, opts: &ReadOptions, full: bool) -> CaptureTrace {
     let n = acc.frames();
     let (luma, rgb) = acc.finish();
-    let (time_s, timestamps) = if p.packet_times.len() == n && n > 0 {
+    let container = p.packet_times.len() == n && n > 0;
+    let (time_s, timestamps) = if container {
         (p.packet_times, "container")
     } else {
         match p.fps.or(opts.fps) {
@@ -592,6 +420,8 @@ fn trace(acc: Accumulator<'_>, p: Probe, opts: &ReadOptions, full: bool) -> Capt
                     format!("Y' plane, {} range", if full { "full" } else { "limited" }),
             }
         ),
+        time_base_s: p.time_base_s.filter(|_| container),
+        stated_fps: p.stated_fps,
     }
 }
 

@@ -6,14 +6,17 @@ use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
 use super::{
-    Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, ReadOptions, RoiRect, VideoRange,
-    bounding_box, check_interrupt, check_rois, limited_to_full_lut, open_file, times_from_fps,
+    Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, Ratio, ReadOptions, RoiRect,
+    VideoRange, bounding_box, check_interrupt, check_rois, limited_to_full_lut, open_file,
+    times_from_fps,
 };
 
 struct Header {
     width: u32,
     height: u32,
     fps: Option<f64>,
+    /// The header's frame rate `F<num>:<den>`, exactly.
+    stated_fps: Option<Ratio>,
     /// Bytes per sample (1 or 2).
     bytes: usize,
     bits: u32,
@@ -35,6 +38,7 @@ fn parse_header(line: &str, path: &Path) -> Result<Header, CaptureError> {
     }
     let (mut width, mut height, mut fps, mut cs, mut full_range) =
         (None, None, None, "420jpeg".to_string(), None);
+    let mut stated_fps = None;
     for t in tokens {
         // The tag is the first character, which need not be ASCII in a
         // damaged header (found by the read_y4m fuzz target).
@@ -52,6 +56,7 @@ fn parse_header(line: &str, path: &Path) -> Result<Header, CaptureError> {
                 {
                     fps = Some(n / d);
                 }
+                stated_fps = Ratio::parse(&val.replacen(':', "/", 1));
             }
             Some('C') => cs = val.to_string(),
             Some('X') => {
@@ -95,6 +100,7 @@ fn parse_header(line: &str, path: &Path) -> Result<Header, CaptureError> {
         width,
         height,
         fps,
+        stated_fps,
         bytes,
         bits: depth,
         chroma_bytes: chroma_samples.saturating_mul(bytes as u64),
@@ -298,6 +304,8 @@ pub(super) fn read(
             hdr.bits,
             if full { "full" } else { "limited" }
         ),
+        time_base_s: None,
+        stated_fps: hdr.stated_fps,
     })
 }
 

@@ -251,6 +251,7 @@ fn case_info(
         beat: a.beat,
         drive: a.drive,
         banding: a.banding,
+        frame_timing: a.timing,
     }
 }
 

@@ -164,8 +164,14 @@ pub fn case_acquisition(plan: &Plan, case: &CaseInfo) -> String {
         };
         // The segment sentence comes from the capture stage (issue 19): how
         // they were found, their frames, seconds and levels, and the settle time.
+        let time_base = cap
+            .time_base_s
+            .map_or(String::new(), |tb| format!(", time base {tb} s"));
+        let stated = cap
+            .stated_frame_rate_fps
+            .map_or(String::new(), |r| format!(", stated rate {r} fps"));
         return format!(
-            "{origin} ({}; frame times from {}); segments {}; {used} of {} frames used, {} left out (outside every segment or settling).",
+            "{origin} ({}; frame times from {}{time_base}{stated}); segments {}; {used} of {} frames used, {} left out (outside every segment or settling).",
             cap.format,
             cap.timestamps,
             seg.text,

@@ -17,6 +17,11 @@
 //! `banding`; per ROI the metrics `apparent_frequency_spectrum_hz` and
 //! `phase_coverage` and an `analysis` object; at the top `fine_maps` and
 //! `advice`.
+//!
+//! A captured or rig case also has `frame_timing` (the rate fitted to its
+//! frame times, its uncertainty, the times' resolution, the stated rate
+//! and the drops), and its `capture` the container's `time_base_s` and
+//! `stated_frame_rate_fps`.
 
 pub mod build;
 pub mod frame;
@@ -28,7 +33,9 @@ use serde::{Deserialize, Serialize};
 
 pub use crate::advise::{Advice, Candidate};
 pub use crate::analysis::finemap::FineMap;
-pub use crate::analysis::{Banding, Beat, DriveFlicker, FineMapInfo, HazardClass, RoiAnalysis};
+pub use crate::analysis::{
+    Banding, Beat, DriveFlicker, FineMapInfo, FrameTiming, HazardClass, RoiAnalysis,
+};
 pub use crate::inputs::InputFile;
 pub use crate::metrics::verdict::VERDICT_TOLERANCE;
 pub use crate::metrics::{Check, Levels, Metric, Verdict};
@@ -248,6 +255,11 @@ pub struct CaseInfo {
     pub drive: DriveFlicker,
     /// Banding KPIs of a rolling shutter; `null` for a global shutter.
     pub banding: Option<Banding>,
+    /// Frame rate, its uncertainty, resolution, stated rate and drops
+    /// fitted to a captured or rig case's PWM frame times (absent for the
+    /// simulator).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_timing: Option<FrameTiming>,
 }
 
 /// A rendered frame written next to the report.

@@ -23,6 +23,7 @@ mod robust;
 mod shard;
 mod shard_input;
 mod signoff;
+mod time_base;
 mod timing;
 mod verdicts;
 mod visual;

@@ -16,6 +16,8 @@ fn trace(seconds: f64, led: impl Fn(f64) -> f64) -> CaptureTrace {
         frame_size: (0, 0),
         timestamps: "fps",
         format: "test".to_string(),
+        time_base_s: None,
+        stated_fps: None,
     }
 }
 
