@@ -120,6 +120,8 @@ pub struct Calibration {
     pub saturation_dn_sigma: Option<f64>,
     /// Lower bound when no row clipped: the brightest row, DN.
     pub saturation_dn_min: Option<f64>,
+    /// What the bands' flat tops are, `None` when they have none.
+    pub flat_top: Option<FlatTop>,
     /// Linear level of the light at full ON, fraction of white (scene).
     pub led_level: f64,
     /// Its sigma.
@@ -154,7 +156,11 @@ pub fn calibrate(set: &FrameSet, light: Light) -> Result<Calibration, NoConfiden
     let (band, texture_divided) = estimate_bands(set)?;
     let data = set.profiles();
     let a = set.full_scale_dn;
-    let (clip, saturated) = clipping(&data, a);
+    let top = flat_top(&data, a);
+    let clip = match top {
+        Some((FlatTop::Clipped, level)) => level,
+        _ => a,
+    };
     let mut fixed = vec![false; idx::PHASE0 + data.len()];
     fixed[idx::DUTY] = light.duty.is_some();
     let mut best: Option<ModelFit> = None;
@@ -190,7 +196,7 @@ pub fn calibrate(set: &FrameSet, light: Light) -> Result<Calibration, NoConfiden
         texture_divided,
         &fit,
         black,
-        saturated,
+        top,
         &data,
     ))
 }
@@ -241,13 +247,34 @@ pub fn write_profile(
     Ok(())
 }
 
-/// The clipping level and whether the rows reach it: at least 3 % of the
-/// samples within 0.3 % of full scale of the brightest, in the top tenth of
-/// the output range. A flat top lower down is the light's ON level: a
-/// brighter light clipped there would fit exactly as well (with a wider
-/// exposure and a smaller duty, docs/calibration.md), so clipping is only
-/// assumed where cameras clip, at the top of their output.
-fn clipping(data: &[Vec<f64>], a: f64) -> (f64, bool) {
+/// Share of the brightest samples' level within which samples count as
+/// the flat top, of full scale.
+const FLAT_TOP_WIDTH: f64 = 0.003;
+/// Share of all samples that must lie on the flat top.
+const FLAT_TOP_SHARE: f64 = 0.03;
+/// A flat top within this share of a full scale sits at it.
+const FULL_SCALE_MARGIN: f64 = 0.01;
+
+/// What the flat tops of the bands are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FlatTop {
+    /// The rows clip: the tops sit at the file's or the sensor's full scale.
+    Clipped,
+    /// The exposure window fits inside the ON time: every window inside an
+    /// ON interval collects the same light, below full scale.
+    Plateau,
+}
+
+/// The bands' flat top and its level (DN), `None` when they have none: at
+/// least [`FLAT_TOP_SHARE`] of the samples within [`FLAT_TOP_WIDTH`] of
+/// full scale of the brightest. It is clipping only at a full scale
+/// ([`at_full_scale`]). A flat top lower down is the exposure's plateau:
+/// a brighter light clipped there would fit exactly as well (with a wider
+/// exposure and a smaller duty, docs/calibration.md), but cameras clip at
+/// the top of their output, so the model's own plateau, which gives
+/// values, is the explanation taken.
+fn flat_top(data: &[Vec<f64>], a: f64) -> Option<(FlatTop, f64)> {
     let vmax = data
         .iter()
         .flatten()
@@ -256,13 +283,30 @@ fn clipping(data: &[Vec<f64>], a: f64) -> (f64, bool) {
     let near = data
         .iter()
         .flatten()
-        .filter(|&&v| v >= vmax - 0.003 * a)
+        .filter(|&&v| v >= vmax - FLAT_TOP_WIDTH * a)
         .count();
-    if near as f64 >= 0.03 * total as f64 && vmax >= 0.9 * a {
-        (vmax, true)
-    } else {
-        (a, false)
+    if (near as f64) < FLAT_TOP_SHARE * total as f64 {
+        return None;
     }
+    let kind = if at_full_scale(vmax, a) {
+        FlatTop::Clipped
+    } else {
+        FlatTop::Plateau
+    };
+    Some((kind, vmax))
+}
+
+/// Whether `level` (DN) sits at a full scale: the file's (`a`), or, in a
+/// 16-bit file, a sensor's of 8 to 15 bits stored unshifted (`2^k - 1`),
+/// within [`FULL_SCALE_MARGIN`] of it. A sensor's full scale shifted to the
+/// top of the 16 bits is within the margin of the file's.
+fn at_full_scale(level: f64, a: f64) -> bool {
+    let near = |full: f64| level >= full * (1.0 - FULL_SCALE_MARGIN) && level <= full;
+    near(a)
+        || (a > 255.0
+            && (8..16)
+                .map(|k| f64::from((1u32 << k) - 1))
+                .any(|full| near(full)))
 }
 
 /// Start values: levels from percentiles, duty from the share of bright
@@ -324,9 +368,10 @@ fn summarise(
     texture_divided: bool,
     fit: &ModelFit,
     black: uncertainty::BlackLevel,
-    saturated: bool,
+    top: Option<(FlatTop, f64)>,
     data: &[Vec<f64>],
 ) -> Calibration {
+    let saturated = matches!(top, Some((FlatTop::Clipped, _)));
     let v = &fit.params.values;
     let s = &fit.sigma;
     let f = light.frequency_hz;
@@ -379,6 +424,7 @@ fn summarise(
         saturation_dn: saturated.then_some(fit.params.clip),
         saturation_dn_sigma: saturated.then_some(0.003 * a),
         saturation_dn_min: (!saturated).then_some(vmax),
+        flat_top: top.map(|(kind, _)| kind),
         led_level: v[idx::C1],
         led_level_sigma: s[idx::C1],
         ambient_level: v[idx::C0].max(0.0),
