@@ -392,6 +392,7 @@ fn summarise(
         .iter()
         .flatten()
         .fold(f64::NEG_INFINITY, |m, &x| m.max(x));
+    let (member, c1_scale) = written_member(v, traded);
     Calibration {
         frequency_hz: f,
         frames: data.len(),
@@ -414,7 +415,7 @@ fn summarise(
         duty_sigma: traded.is_none().then_some(s[idx::DUTY]),
         duty_min: traded.map(|(lo, _)| lo),
         duty_max: traded.map(|(_, hi)| hi.min(1.0)),
-        model_duty: v[idx::DUTY],
+        model_duty: member[idx::DUTY],
         gamma: v[idx::GAMMA],
         gamma_sigma: s[idx::GAMMA],
         black_level_dn: black.value,
@@ -425,12 +426,12 @@ fn summarise(
         saturation_dn_sigma: saturated.then_some(0.003 * a),
         saturation_dn_min: (!saturated).then_some(vmax),
         flat_top: top.map(|(kind, _)| kind),
-        led_level: v[idx::C1],
-        led_level_sigma: s[idx::C1],
+        led_level: member[idx::C1],
+        led_level_sigma: s[idx::C1] * c1_scale,
         ambient_level: v[idx::C0].max(0.0),
         ambient_level_sigma: s[idx::C0],
         shading: [v[idx::V1], v[idx::V2]],
-        phase_cycles: v[idx::PHASE0],
+        phase_cycles: member[idx::PHASE0],
         full_scale_dn: a,
         fit_rms: fit.rms / a,
         profile_rms: None,
@@ -438,6 +439,29 @@ fn summarise(
         frame_size: set.frame_size,
         measured: data.first().cloned().unwrap_or_default(),
     }
+}
+
+/// The member of the fit's family that the profile holds, and the factor
+/// its LED level has over the fit's. Without `traded` bounds it is the fit.
+/// With them it is the member at the exposure's upper bound `e' = hi`
+/// (the profile's exposure): duty `lo = D + e - e'`, the same rising slope
+/// `c1' / e' = c1 / e`, and each phase moved by `e - e'`, so that the rising
+/// ramp starts on the same row (its window's end enters the pulse there)
+/// and the falling one ends on the same row (its start leaves it there).
+fn written_member(v: &[f64], traded: Option<(f64, f64)>) -> (Vec<f64>, f64) {
+    let mut m = v.to_vec();
+    let Some((lo, hi)) = traded else {
+        return (m, 1.0);
+    };
+    let e = v[idx::EXPOSURE];
+    let scale = hi / e;
+    m[idx::EXPOSURE] = hi;
+    m[idx::DUTY] = lo;
+    m[idx::C1] *= scale;
+    for phase in &mut m[idx::PHASE0..] {
+        *phase = crate::physics::pwm::wrap_unit(*phase + e - hi);
+    }
+    (m, scale)
 }
 
 /// Bounds, in PWM cycles, on the duty `D` and the exposure `e` when rows
