@@ -302,11 +302,7 @@ fn flat_top(data: &[Vec<f64>], a: f64) -> Option<(FlatTop, f64)> {
 /// top of the 16 bits is within the margin of the file's.
 fn at_full_scale(level: f64, a: f64) -> bool {
     let near = |full: f64| level >= full * (1.0 - FULL_SCALE_MARGIN) && level <= full;
-    near(a)
-        || (a > 255.0
-            && (8..16)
-                .map(|k| f64::from((1u32 << k) - 1))
-                .any(|full| near(full)))
+    near(a) || (a > 255.0 && (8..16).map(|k| f64::from((1u32 << k) - 1)).any(near))
 }
 
 /// Start values: levels from percentiles, duty from the share of bright
@@ -502,6 +498,38 @@ fn vertex_shading(v: &[f64]) -> Option<f64> {
 mod tests {
     use super::*;
     use crate::calibrate::synth::SynthFrame;
+
+    /// A trapezoid of 40-row periods from 10 DN up to `top` DN, flat on
+    /// a quarter of its rows.
+    fn trapezoid(top: f64) -> Vec<Vec<f64>> {
+        let ramp = |x: f64| 10.0 + (top - 10.0) * x;
+        let row = |r: usize| match r % 40 {
+            k @ 0..10 => ramp(k as f64 / 10.0),
+            10..20 => top,
+            k @ 20..30 => ramp(1.0 - (k - 20) as f64 / 10.0),
+            _ => 10.0,
+        };
+        vec![(0..400).map(row).collect()]
+    }
+
+    #[test]
+    fn a_flat_top_is_clipping_only_at_a_full_scale() {
+        let kind = |a: f64, top: f64| flat_top(&trapezoid(top), a).map(|(k, _)| k);
+        let (clipped, plateau) = (Some(FlatTop::Clipped), Some(FlatTop::Plateau));
+        // The file's full scale, and 1 % below it.
+        assert_eq!(kind(255.0, 255.0), clipped);
+        assert_eq!(kind(255.0, 253.0), clipped);
+        assert_eq!(kind(65535.0, 65520.0), clipped);
+        // A 12-bit sensor's codes stored as they are in a 16-bit file.
+        assert_eq!(kind(65535.0, 4095.0), clipped);
+        // Lower down: the exposure's plateau, even in the top tenth.
+        assert_eq!(kind(255.0, 235.0), plateau);
+        assert_eq!(kind(65535.0, 4000.0), plateau);
+        assert_eq!(kind(65535.0, 60000.0), plateau);
+        // A triangle has no flat top.
+        let triangle = vec![(0..400).map(|r| (r % 40).min(40 - r % 40) as f64).collect()];
+        assert_eq!(flat_top(&triangle, 255.0), None);
+    }
 
     #[test]
     fn a_frequency_uncertainty_carries_into_line_time_and_exposure() {
