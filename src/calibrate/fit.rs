@@ -61,14 +61,20 @@ pub struct ModelParams {
 }
 
 impl ModelParams {
-    /// Modelled value of row `r` (of `n`) in frame `j`.
-    pub fn row(&self, j: usize, r: usize, n: usize) -> f64 {
+    /// ON fraction `s` of row `r`'s exposure window in frame `j`, 0..1.
+    pub fn on_fraction(&self, j: usize, r: usize) -> f64 {
         let v = &self.values;
-        let s = on_fraction(
+        on_fraction(
             wrap_unit(v[idx::PHASE0 + j] + r as f64 / v[idx::PERIOD]),
             v[idx::EXPOSURE],
             v[idx::DUTY].clamp(1e-6, 1.0),
-        );
+        )
+    }
+
+    /// Modelled value of row `r` (of `n`) in frame `j`.
+    pub fn row(&self, j: usize, r: usize, n: usize) -> f64 {
+        let v = &self.values;
+        let s = self.on_fraction(j, r);
         let u = v[idx::C0].max(0.0) + v[idx::C1] * shading(v, r, n) * s;
         let black = v[idx::BLACK].max(0.0);
         let y = black + self.full_scale * u.clamp(0.0, 1.0).powf(1.0 / v[idx::GAMMA]);

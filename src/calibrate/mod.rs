@@ -120,6 +120,8 @@ pub struct Calibration {
     pub saturation_dn_sigma: Option<f64>,
     /// Lower bound when no row clipped: the brightest row, DN.
     pub saturation_dn_min: Option<f64>,
+    /// What the bands' flat tops are, `None` when they have none.
+    pub flat_top: Option<FlatTop>,
     /// Linear level of the light at full ON, fraction of white (scene).
     pub led_level: f64,
     /// Its sigma.
@@ -154,7 +156,11 @@ pub fn calibrate(set: &FrameSet, light: Light) -> Result<Calibration, NoConfiden
     let (band, texture_divided) = estimate_bands(set)?;
     let data = set.profiles();
     let a = set.full_scale_dn;
-    let (clip, saturated) = clipping(&data, a);
+    let top = flat_top(&data, a);
+    let clip = match top {
+        Some((FlatTop::Clipped, level)) => level,
+        _ => a,
+    };
     let mut fixed = vec![false; idx::PHASE0 + data.len()];
     fixed[idx::DUTY] = light.duty.is_some();
     let mut best: Option<ModelFit> = None;
@@ -190,7 +196,7 @@ pub fn calibrate(set: &FrameSet, light: Light) -> Result<Calibration, NoConfiden
         texture_divided,
         &fit,
         black,
-        saturated,
+        top,
         &data,
     ))
 }
@@ -241,13 +247,34 @@ pub fn write_profile(
     Ok(())
 }
 
-/// The clipping level and whether the rows reach it: at least 3 % of the
-/// samples within 0.3 % of full scale of the brightest, in the top tenth of
-/// the output range. A flat top lower down is the light's ON level: a
-/// brighter light clipped there would fit exactly as well (with a wider
-/// exposure and a smaller duty, docs/calibration.md), so clipping is only
-/// assumed where cameras clip, at the top of their output.
-fn clipping(data: &[Vec<f64>], a: f64) -> (f64, bool) {
+/// Share of the brightest samples' level within which samples count as
+/// the flat top, of full scale.
+const FLAT_TOP_WIDTH: f64 = 0.003;
+/// Share of all samples that must lie on the flat top.
+const FLAT_TOP_SHARE: f64 = 0.03;
+/// A flat top within this share of a full scale sits at it.
+const FULL_SCALE_MARGIN: f64 = 0.01;
+
+/// What the flat tops of the bands are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FlatTop {
+    /// The rows clip: the tops sit at the file's or the sensor's full scale.
+    Clipped,
+    /// The exposure window fits inside the ON time: every window inside an
+    /// ON interval collects the same light, below full scale.
+    Plateau,
+}
+
+/// The bands' flat top and its level (DN), `None` when they have none: at
+/// least [`FLAT_TOP_SHARE`] of the samples within [`FLAT_TOP_WIDTH`] of
+/// full scale of the brightest. It is clipping only at a full scale
+/// ([`at_full_scale`]). A flat top lower down is the exposure's plateau:
+/// a brighter light clipped there would fit exactly as well (with a wider
+/// exposure and a smaller duty, docs/calibration.md), but cameras clip at
+/// the top of their output, so the model's own plateau, which gives
+/// values, is the explanation taken.
+fn flat_top(data: &[Vec<f64>], a: f64) -> Option<(FlatTop, f64)> {
     let vmax = data
         .iter()
         .flatten()
@@ -256,13 +283,26 @@ fn clipping(data: &[Vec<f64>], a: f64) -> (f64, bool) {
     let near = data
         .iter()
         .flatten()
-        .filter(|&&v| v >= vmax - 0.003 * a)
+        .filter(|&&v| v >= vmax - FLAT_TOP_WIDTH * a)
         .count();
-    if near as f64 >= 0.03 * total as f64 && vmax >= 0.9 * a {
-        (vmax, true)
-    } else {
-        (a, false)
+    if (near as f64) < FLAT_TOP_SHARE * total as f64 {
+        return None;
     }
+    let kind = if at_full_scale(vmax, a) {
+        FlatTop::Clipped
+    } else {
+        FlatTop::Plateau
+    };
+    Some((kind, vmax))
+}
+
+/// Whether `level` (DN) sits at a full scale: the file's (`a`), or, in a
+/// 16-bit file, a sensor's of 8 to 15 bits stored unshifted (`2^k - 1`),
+/// within [`FULL_SCALE_MARGIN`] of it. A sensor's full scale shifted to the
+/// top of the 16 bits is within the margin of the file's.
+fn at_full_scale(level: f64, a: f64) -> bool {
+    let near = |full: f64| level >= full * (1.0 - FULL_SCALE_MARGIN) && level <= full;
+    near(a) || (a > 255.0 && (8..16).map(|k| f64::from((1u32 << k) - 1)).any(near))
 }
 
 /// Start values: levels from percentiles, duty from the share of bright
@@ -324,9 +364,10 @@ fn summarise(
     texture_divided: bool,
     fit: &ModelFit,
     black: uncertainty::BlackLevel,
-    saturated: bool,
+    top: Option<(FlatTop, f64)>,
     data: &[Vec<f64>],
 ) -> Calibration {
+    let saturated = matches!(top, Some((FlatTop::Clipped, _)));
     let v = &fit.params.values;
     let s = &fit.sigma;
     let f = light.frequency_hz;
@@ -347,6 +388,7 @@ fn summarise(
         .iter()
         .flatten()
         .fold(f64::NEG_INFINITY, |m, &x| m.max(x));
+    let (member, c1_scale) = written_member(v, traded);
     Calibration {
         frequency_hz: f,
         frames: data.len(),
@@ -369,7 +411,7 @@ fn summarise(
         duty_sigma: traded.is_none().then_some(s[idx::DUTY]),
         duty_min: traded.map(|(lo, _)| lo),
         duty_max: traded.map(|(_, hi)| hi.min(1.0)),
-        model_duty: v[idx::DUTY],
+        model_duty: member[idx::DUTY],
         gamma: v[idx::GAMMA],
         gamma_sigma: s[idx::GAMMA],
         black_level_dn: black.value,
@@ -379,12 +421,13 @@ fn summarise(
         saturation_dn: saturated.then_some(fit.params.clip),
         saturation_dn_sigma: saturated.then_some(0.003 * a),
         saturation_dn_min: (!saturated).then_some(vmax),
-        led_level: v[idx::C1],
-        led_level_sigma: s[idx::C1],
+        flat_top: top.map(|(kind, _)| kind),
+        led_level: member[idx::C1],
+        led_level_sigma: s[idx::C1] * c1_scale,
         ambient_level: v[idx::C0].max(0.0),
         ambient_level_sigma: s[idx::C0],
         shading: [v[idx::V1], v[idx::V2]],
-        phase_cycles: v[idx::PHASE0],
+        phase_cycles: member[idx::PHASE0],
         full_scale_dn: a,
         fit_rms: fit.rms / a,
         profile_rms: None,
@@ -392,6 +435,29 @@ fn summarise(
         frame_size: set.frame_size,
         measured: data.first().cloned().unwrap_or_default(),
     }
+}
+
+/// The member of the fit's family that the profile holds, and the factor
+/// its LED level has over the fit's. Without `traded` bounds it is the fit.
+/// With them it is the member at the exposure's upper bound `e' = hi`
+/// (the profile's exposure): duty `lo = D + e - e'`, the same rising slope
+/// `c1' / e' = c1 / e`, and each phase moved by `e - e'`, so that the rising
+/// ramp starts on the same row (its window's end enters the pulse there)
+/// and the falling one ends on the same row (its start leaves it there).
+fn written_member(v: &[f64], traded: Option<(f64, f64)>) -> (Vec<f64>, f64) {
+    let mut m = v.to_vec();
+    let Some((lo, hi)) = traded else {
+        return (m, 1.0);
+    };
+    let e = v[idx::EXPOSURE];
+    let scale = hi / e;
+    m[idx::EXPOSURE] = hi;
+    m[idx::DUTY] = lo;
+    m[idx::C1] *= scale;
+    for phase in &mut m[idx::PHASE0..] {
+        *phase = crate::physics::pwm::wrap_unit(*phase + e - hi);
+    }
+    (m, scale)
 }
 
 /// Bounds, in PWM cycles, on the duty `D` and the exposure `e` when rows
@@ -432,6 +498,38 @@ fn vertex_shading(v: &[f64]) -> Option<f64> {
 mod tests {
     use super::*;
     use crate::calibrate::synth::SynthFrame;
+
+    /// A trapezoid of 40-row periods from 10 DN up to `top` DN, flat on
+    /// a quarter of its rows.
+    fn trapezoid(top: f64) -> Vec<Vec<f64>> {
+        let ramp = |x: f64| 10.0 + (top - 10.0) * x;
+        let row = |r: usize| match r % 40 {
+            k @ 0..10 => ramp(k as f64 / 10.0),
+            10..20 => top,
+            k @ 20..30 => ramp(1.0 - (k - 20) as f64 / 10.0),
+            _ => 10.0,
+        };
+        vec![(0..400).map(row).collect()]
+    }
+
+    #[test]
+    fn a_flat_top_is_clipping_only_at_a_full_scale() {
+        let kind = |a: f64, top: f64| flat_top(&trapezoid(top), a).map(|(k, _)| k);
+        let (clipped, plateau) = (Some(FlatTop::Clipped), Some(FlatTop::Plateau));
+        // The file's full scale, and 1 % below it.
+        assert_eq!(kind(255.0, 255.0), clipped);
+        assert_eq!(kind(255.0, 253.0), clipped);
+        assert_eq!(kind(65535.0, 65520.0), clipped);
+        // A 12-bit sensor's codes stored as they are in a 16-bit file.
+        assert_eq!(kind(65535.0, 4095.0), clipped);
+        // Lower down: the exposure's plateau, even in the top tenth.
+        assert_eq!(kind(255.0, 235.0), plateau);
+        assert_eq!(kind(65535.0, 4000.0), plateau);
+        assert_eq!(kind(65535.0, 60000.0), plateau);
+        // A triangle has no flat top.
+        let triangle = vec![(0..400).map(|r| (r % 40).min(40 - r % 40) as f64).collect()];
+        assert_eq!(flat_top(&triangle, 255.0), None);
+    }
 
     #[test]
     fn a_frequency_uncertainty_carries_into_line_time_and_exposure() {

@@ -10,6 +10,7 @@ use std::path::Path;
 use super::Calibration;
 use crate::backend::Backend;
 use crate::backend::sim::Simulator;
+use crate::plan::bounds::MIN_LIGHT_LUX;
 
 /// Full well of the written sensor, electrons: any value works, the
 /// sensitivity is scaled to it.
@@ -226,10 +227,11 @@ fn toml_str(s: &str) -> String {
 /// frequency and duty, ambient light matching the fitted level.
 pub fn closed_loop_plan(cal: &Calibration, profile: &Path, fps: f64) -> String {
     // Ambient: c0 = sens T L_bg / full well, with the LED scaled to c1.
-    // A plan needs light > 0: no ambient light is 1e-9 lux.
+    // A plan's light starts at its lowest valid level: no ambient light is
+    // that level, whose signal (about 3e-8 of the LED's) no output resolves.
     let lux = (std::f64::consts::PI * REFERENCE_LED_CD_M2 * cal.ambient_level.max(0.0)
         / cal.led_level.max(1e-12))
-    .max(1e-9);
+    .max(MIN_LIGHT_LUX);
     let mut t = format!(
         "format-version = 2\n\n[plan]\nid = \"calibration-check\"\ntitle = \"Closed loop of ledflicker calibrate\"\n\n[sequence]\non-s = 0.0\noff-s = 0.0\npwm-s = {}\n\n[light]\nlevels-lux = [{lux:?}]\n\n[grid]\nfrequencies-hz = [{:?}]\nduty-cycles = [{:?}]\n\n[dut]\nbackend = \"simulator\"\ncamera-profile = {}\n\n[scene]\nbackground-reflectance = 1.0\nled-luminance-cd-m2 = {REFERENCE_LED_CD_M2:?}\nled-fill = 1.0\n\n[thresholds]\nfdi-2018-min = 0.1\n",
         2.0 / fps,

@@ -282,7 +282,8 @@ fn band_cases(base: &SynthFrame) -> Vec<RecoveryCase> {
     ]
 }
 
-/// The output range: 16-bit TIFF with ambient light, and clipping.
+/// The output range: 16-bit TIFF with ambient light, flat tops below full
+/// scale, and clipping.
 fn output_cases(base: &SynthFrame) -> Vec<RecoveryCase> {
     vec![
         case(
@@ -294,6 +295,17 @@ fn output_cases(base: &SynthFrame) -> Vec<RecoveryCase> {
                 ..base.clone()
             },
             "tif",
+        ),
+        // An exposure shorter than the ON time flattens the band tops at
+        // 234 of 255 DN: a plateau of the exposure window, not clipping.
+        case(
+            "flat-topped unclipped profile (tops at 92 % of full scale)",
+            SynthFrame {
+                led_level: 0.8,
+                exposure_s: 250e-6,
+                ..base.clone()
+            },
+            "png",
         ),
         // The LED at 3x what the output can hold: rows clip at full scale,
         // so only duty + exposure is fixed and both come out as bounds.

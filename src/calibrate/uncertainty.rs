@@ -187,8 +187,51 @@ pub fn jackknife(data: &[Vec<f64>], best: &ModelFit, fixed: &[bool]) -> Vec<f64>
         .collect()
 }
 
+/// One code of the frames' output, DN: the step a row value is rounded to.
+const QUANTUM_DN: f64 = 1.0;
+/// An ON fraction within this of 0 or 1 is flat: the window lies wholly
+/// outside or inside an ON interval.
+const FLAT_ON_FRACTION: f64 = 1e-9;
+
+/// Shift of each parameter when a flat level moves by its rounding error.
+/// The rows of a flat level (ON fraction 0: the floor, 1: the plateau of an
+/// exposure shorter than the ON time) all show the same value, rounded
+/// once: one error, uniform with sigma `q / sqrt(12)` (`q` one code),
+/// repeated over every such row of every frame. The covariance counts it
+/// as many independent errors and the jackknife's row blocks all share it,
+/// so neither sees it: a plateau rounded 0.4 DN down moves exposure and
+/// duty by some 12 of their other sigmas. Each level is moved by `q / sqrt(12)` in
+/// turn and the fit repeated from `best`; the shifts of the levels add in
+/// quadrature.
+pub fn flat_level_quantisation(data: &[Vec<f64>], best: &ModelFit, fixed: &[bool]) -> Vec<f64> {
+    let m = best.params.values.len();
+    let delta = QUANTUM_DN / 12f64.sqrt();
+    let mut sum2 = vec![0.0; m];
+    for level in [0.0, 1.0] {
+        let mut moved = data.to_vec();
+        let mut any = false;
+        for (j, frame) in moved.iter_mut().enumerate() {
+            for (r, y) in frame.iter_mut().enumerate() {
+                if (best.params.on_fraction(j, r) - level).abs() <= FLAT_ON_FRACTION {
+                    *y += delta;
+                    any = true;
+                }
+            }
+        }
+        if !any {
+            continue;
+        }
+        let refit = fit::fit(&moved, &best.params, fixed, 60).params.values;
+        for (s2, (a, b)) in sum2.iter_mut().zip(refit.iter().zip(&best.params.values)) {
+            *s2 += (a - b) * (a - b);
+        }
+    }
+    sum2.into_iter().map(f64::sqrt).collect()
+}
+
 /// The reported sigmas: the larger of the inflated covariance sigma and
-/// the jackknife sigma, for each parameter.
+/// the jackknife sigma, with the flat levels' rounding
+/// ([`flat_level_quantisation`]) added in quadrature, for each parameter.
 pub fn honest_sigmas(
     data: &[Vec<f64>],
     best: &ModelFit,
@@ -196,10 +239,18 @@ pub fn honest_sigmas(
     inflation: f64,
 ) -> Vec<f64> {
     let jk = jackknife(data, best, fixed);
+    let flat = flat_level_quantisation(data, best, fixed);
     best.sigma
         .iter()
         .zip(&jk)
+        .zip(&flat)
         .zip(fixed)
-        .map(|((s, j), &f)| if f { 0.0 } else { (inflation * s).max(*j) })
+        .map(|(((s, j), q), &f)| {
+            if f {
+                0.0
+            } else {
+                (inflation * s).max(*j).hypot(*q)
+            }
+        })
         .collect()
 }

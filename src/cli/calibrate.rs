@@ -11,7 +11,7 @@ use super::EXIT_PASS;
 use crate::calibrate::bands::NoConfidence;
 use crate::calibrate::frames::{self, FrameSet};
 use crate::calibrate::profile::ProfileOptions;
-use crate::calibrate::{Calibration, Light, estimate_bands};
+use crate::calibrate::{Calibration, FlatTop, Light, estimate_bands};
 use crate::error::UsageError;
 
 /// No confident estimate: the input shows no usable banding. Exit code 4.
@@ -281,9 +281,16 @@ fn print_text(cal: &Calibration, out: Option<&std::path::Path>) -> std::io::Resu
         )?,
         _ => {}
     }
-    match (cal.saturation_dn, cal.saturation_dn_min) {
-        (Some(s), _) => writeln!(w, "saturation_dn:  {s:.2}")?,
-        (None, Some(m)) => writeln!(w, "saturation_dn:  >= {m:.2} (no row clipped)")?,
+    match (cal.saturation_dn, cal.saturation_dn_min, cal.flat_top) {
+        (Some(s), _, _) => writeln!(
+            w,
+            "saturation_dn:  {s:.2} (clipped at {s:.0} DN: the flat tops sit at full scale)"
+        )?,
+        (None, Some(m), Some(FlatTop::Plateau)) => writeln!(
+            w,
+            "saturation_dn:  >= {m:.2} (plateau below full scale: the exposure is shorter than the ON time)"
+        )?,
+        (None, Some(m), _) => writeln!(w, "saturation_dn:  >= {m:.2} (no row clipped)")?,
         _ => {}
     }
     writeln!(w, "fit_rms:        {:.4} of full scale", cal.fit_rms)?;

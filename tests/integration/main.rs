@@ -20,6 +20,7 @@ mod render;
 mod report;
 mod results;
 mod robust;
+mod saturation;
 mod shard;
 mod shard_input;
 mod signoff;
