@@ -203,3 +203,36 @@ fn a_group_over_an_overlay_is_dropped_and_named() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("dropped: columns 640..800: period"), "{out}");
 }
+
+#[test]
+fn the_real_frame_with_an_overlay_over_one_group_keeps_its_line_time() {
+    // The gyroflow frame (1000 Hz, 68.6-row bands) with ruled bright lines,
+    // 34 rows thick every 69.1 rows, over its right quarter: that group's
+    // own period is pulled off; the other three give the frame's answer.
+    let dir = scratch("bands-real-overlay");
+    let frame = crate::root().join("reference-data/gyroflow-rs-banding/frame_example.png");
+    let mut img = image::open(&frame).unwrap().to_rgb8();
+    for i in 0.. {
+        let top = (i as f64 * 69.1).round() as u32;
+        if top >= img.height() {
+            break;
+        }
+        for y in top..(top + 34).min(img.height()) {
+            for x in 1440..1920 {
+                img.put_pixel(x, y, image::Rgb([235, 235, 235]));
+            }
+        }
+    }
+    let path = dir.join("overlaid.png");
+    img.save(&path).unwrap();
+    let clean = run_linetime(&frame, 1000.0, None);
+    let over = run_linetime(&path, 1000.0, None);
+    assert_eq!(over.status.code(), Some(0), "{}", stderr(&over));
+    let ((tc, sc), (to, so)) = (line_time(&clean.stdout), line_time(&over.stdout));
+    assert!(
+        (to - tc).abs() < 3.5 * sc.hypot(so),
+        "{to} +- {so} vs {tc} +- {sc}"
+    );
+    let out = String::from_utf8_lossy(&over.stdout);
+    assert!(out.contains("dropped: columns 1440..1920: period"), "{out}");
+}
