@@ -187,9 +187,11 @@ pub enum NoConfidence {
         /// without banding.
         regions: Vec<ColumnGroup>,
     },
-    /// The only periodic banding is the codec's block grid.
+    /// The banding found lies at the codec's block grid: the only banding
+    /// there was, or a period too near it to be told from it.
     #[error(
-        "the only banding found, a period of {period_rows:.3} rows, is the block grid of the JPEG or video coding (8 or 16 rows, or a harmonic): it carries no information"
+        "the banding found, a period of {period_rows:.3} rows, lies at the block grid of the JPEG or video coding (16 / k rows: 16, 8, 5.33, 4, within {near} cycles per frame): it cannot be told from the grid",
+        near = grid::NEAR_CYCLES
     )]
     BlockGrid {
         /// The period found, rows.
