@@ -236,3 +236,34 @@ fn the_real_frame_with_an_overlay_over_one_group_keeps_its_line_time() {
     let out = String::from_utf8_lossy(&over.stdout);
     assert!(out.contains("dropped: columns 1440..1920: period"), "{out}");
 }
+
+#[test]
+fn a_video_is_read_with_its_block_grid_suppressed() {
+    assert!(
+        ledflicker::capture::ffmpeg_available(),
+        "ffmpeg/ffprobe not found: run scripts/test.sh, which installs them"
+    );
+    let dir = scratch("bands-video");
+    // Bands of 37.3 rows that roll by 11 rows a frame, coded as MPEG-4
+    // (8 x 8 DCT, 16 x 16 macroblocks).
+    for k in 0..8 {
+        let mut f = Frame::lit(320, 240, 37.3);
+        f.lights[0].first_rise_rows = 11.0 * k as f64;
+        f.save(&dir.join(format!("frame-{k}.png")), 90);
+    }
+    let clip = dir.join("clip.mp4");
+    let o = std::process::Command::new("ffmpeg")
+        .args(["-y", "-loglevel", "error", "-framerate", "30", "-i"])
+        .arg(dir.join("frame-%d.png"))
+        .args(["-c:v", "mpeg4", "-q:v", "4", "-pix_fmt", "yuv420p"])
+        .arg(&clip)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run_linetime(&clip, frequency_hz(37.3), None);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (t, s) = line_time(&o.stdout);
+    assert!((t / LINE_TIME_US - 1.0).abs() < 1e-3, "{t} +- {s}");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("block_grid: "), "{out}");
+}
