@@ -23,9 +23,10 @@
 //! 5. **Confidence.** The estimate is refused, with the reason, when the
 //!    periodic model explains less than [`MIN_QUALITY`] of the detrended
 //!    variance, when the frame holds fewer than [`MIN_BANDS`] periods, when
-//!    no majority of the column groups agrees ([`strips`]), when the only
-//!    banding is a codec's block grid ([`grid`]), or when the relative
-//!    uncertainty exceeds [`MAX_RELATIVE_SIGMA`].
+//!    no majority of the column groups agrees (docs/calibration.md,
+//!    "Column groups"), when the only banding is a codec's block grid
+//!    ("JPEG and video sources"), or when the relative uncertainty exceeds
+//!    [`MAX_RELATIVE_SIGMA`].
 
 use rustfft::FftPlanner;
 use rustfft::num_complex::Complex;
@@ -284,8 +285,8 @@ pub fn estimate_profile(profile: &[f64]) -> Result<BandEstimate, NoConfidence> {
 }
 
 /// Estimates the band period common to all frames of `input`: the codec's
-/// block grid suppressed ([`grid`]) when `layout` says there is one, the
-/// column groups compared and combined ([`strips`]).
+/// block grid suppressed (module `grid`) when `layout` says there is one,
+/// the column groups compared and combined (module `strips`).
 pub fn estimate(input: &StripProfiles, layout: &Layout) -> Result<BandEstimate, NoConfidence> {
     if layout.block_grid {
         grid::estimate(input, &layout.columns)
