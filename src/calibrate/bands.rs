@@ -23,7 +23,9 @@
 //! 5. **Confidence.** The estimate is refused, with the reason, when the
 //!    periodic model explains less than [`MIN_QUALITY`] of the detrended
 //!    variance, when the frame holds fewer than [`MIN_BANDS`] periods, when
-//!    column groups disagree, or when the relative uncertainty exceeds
+//!    no majority of the column groups agrees (docs/calibration.md,
+//!    "Column groups"), when the only banding is a codec's block grid
+//!    ("JPEG and video sources"), or when the relative uncertainty exceeds
 //!    [`MAX_RELATIVE_SIGMA`].
 
 use rustfft::FftPlanner;
@@ -50,8 +52,6 @@ pub const MIN_PERIOD_ROWS: f64 = 4.0;
 /// Rows whose peak-to-peak is at most this share of their level are flat
 /// (rounding of a constant profile, not banding).
 const FLAT_RELATIVE_PTP: f64 = 1e-9;
-/// Column groups whose separate estimates are compared.
-const GROUPS: usize = 4;
 
 /// A confident band-period estimate.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -71,9 +71,55 @@ pub struct BandEstimate {
     pub rows: usize,
     /// Frames combined.
     pub frames: usize,
-    /// Period estimated from each column group alone, rows (empty with one
-    /// column strip).
+    /// Period estimated from each column group kept, alone, rows, left to
+    /// right (empty with one column strip or when fewer than two groups
+    /// show banding).
     pub group_periods_rows: Vec<f64>,
+    /// Column groups left out, left to right: their banding disagrees with
+    /// the majority's, or they show none.
+    pub dropped: Vec<ColumnGroup>,
+    /// Periods of the codec's block grid (16 / k rows) were suppressed
+    /// before the search ([`Layout::block_grid`]).
+    pub block_grid_suppressed: bool,
+}
+
+/// Columns of the frame and the band period they give alone.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ColumnGroup {
+    /// Pixel columns `[first, end)` of the frame (end exclusive); several
+    /// ranges when a region is not contiguous.
+    pub columns: Vec<[u32; 2]>,
+    /// Their band period, rows; `None` when they show no confident banding.
+    pub period_rows: Option<f64>,
+    /// Its one-sigma uncertainty, rows.
+    pub period_rows_sigma: Option<f64>,
+}
+
+impl std::fmt::Display for ColumnGroup {
+    /// `columns 0..320, 480..640: period 40.00 +- 0.01 rows`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let cols: Vec<String> = self
+            .columns
+            .iter()
+            .map(|[a, b]| format!("{a}..{b}"))
+            .collect();
+        write!(f, "columns {}: ", cols.join(", "))?;
+        match (self.period_rows, self.period_rows_sigma) {
+            (Some(p), Some(s)) => write!(f, "period {p:.3} +- {s:.3} rows"),
+            _ => write!(f, "no banding"),
+        }
+    }
+}
+
+/// Where the strip profiles come from.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Layout {
+    /// Pixel columns `[first, end)` of each strip, left to right; empty
+    /// when not known (each strip then stands for one column).
+    pub columns: Vec<[u32; 2]>,
+    /// The source went through a block-transform codec (JPEG, a video):
+    /// its 8- and 16-row block grid is not banding.
+    pub block_grid: bool,
 }
 
 impl BandEstimate {
@@ -131,15 +177,39 @@ pub enum NoConfidence {
         /// Rows analysed.
         rows: usize,
     },
-    /// Column groups give different periods.
+    /// No majority of the column groups agrees on one period: regions of
+    /// the frame band differently (two lights, or a light and an overlay).
     #[error(
-        "column strips disagree: periods of the column groups (left to right) are {periods:?} rows, the whole frame gives {period_rows:.2}"
+        "column strips disagree, no majority agrees on one period: {}",
+        regions.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")
     )]
     StripsDisagree {
-        /// Per-group periods, rows, rounded to 0.01.
-        periods: Vec<f64>,
-        /// Whole-frame period, rows.
+        /// Regions of consistent banding, largest first, then the columns
+        /// without banding.
+        regions: Vec<ColumnGroup>,
+    },
+    /// The banding found lies at the codec's block grid: the only banding
+    /// there was, or a period too near it to be told from it.
+    #[error(
+        "the banding found, a period of {period_rows:.3} rows, lies at the block grid of the JPEG or video coding (16 / k rows: 16, 8, 5.33, 4, within {near} cycles per frame): it cannot be told from the grid",
+        near = grid::NEAR_CYCLES
+    )]
+    BlockGrid {
+        /// The period found, rows.
         period_rows: f64,
+    },
+    /// The banding found changes mostly on the codec's block boundaries:
+    /// contours of a quantised gradient, not a light's bands.
+    #[error(
+        "the banding found, a period of {period_rows:.3} rows, changes mostly on the 8-row block boundaries of the JPEG or video coding ({share:.2} of its row-to-row change, above {max}): contours of a quantised gradient, not bands",
+        share = boundary_share,
+        max = grid::MAX_BOUNDARY_SHARE
+    )]
+    BlockContours {
+        /// The period found, rows.
+        period_rows: f64,
+        /// Share of the squared row-to-row differences on block boundaries.
+        boundary_share: f64,
     },
     /// The fit leaves the period too uncertain.
     #[error(
@@ -166,7 +236,10 @@ impl NoConfidence {
                 "raise the PWM frequency or use more rows, so that at least 3 bands show"
             }
             NoConfidence::StripsDisagree { .. } => {
-                "the bands are not straight across the frame: restrict the analysis with --roi"
+                "analyse one region at a time: --roi X,Y,W,H over its columns"
+            }
+            NoConfidence::BlockGrid { .. } | NoConfidence::BlockContours { .. } => {
+                "use a lossless frame (PNG, TIFF) of a diffusely lit PWM scene, or --roi around a directly imaged LED; a true band period within 2 cycles per frame of 16 / k rows cannot be told from the block grid"
             }
             NoConfidence::Uncertain { .. } => "use more frames, more rows or a cleaner frame",
         }
@@ -208,13 +281,24 @@ pub fn median(v: &mut [f64]) -> f64 {
 
 /// Estimates the band period of a single row profile (one frame, one strip).
 pub fn estimate_profile(profile: &[f64]) -> Result<BandEstimate, NoConfidence> {
-    estimate(&vec![vec![profile.to_vec()]])
+    estimate_profiles(&[profile.to_vec()])
 }
 
-/// Estimates the band period common to all frames of `input`.
-pub fn estimate(input: &StripProfiles) -> Result<BandEstimate, NoConfidence> {
-    let strips = input.first().map_or(0, Vec::len);
-    let profiles: Vec<Vec<f64>> = input.iter().map(|f| combine_strips(f)).collect();
+/// Estimates the band period common to all frames of `input`: the codec's
+/// block grid suppressed (module `grid`) when `layout` says there is one,
+/// the column groups compared and combined (module `strips`).
+pub fn estimate(input: &StripProfiles, layout: &Layout) -> Result<BandEstimate, NoConfidence> {
+    if layout.block_grid {
+        grid::estimate(input, &layout.columns)
+    } else {
+        strips::estimate(input, &layout.columns)
+    }
+}
+
+/// Estimates the band period common to a set of row profiles (one per
+/// frame): every check but the column groups', whose scatter is not added
+/// to the sigma.
+fn estimate_profiles(profiles: &[Vec<f64>]) -> Result<BandEstimate, NoConfidence> {
     let n = profiles.first().map_or(0, Vec::len);
     if n < MIN_ROWS || profiles.iter().any(|p| p.len() != n) {
         return Err(NoConfidence::TooFewRows { rows: n });
@@ -229,7 +313,7 @@ pub fn estimate(input: &StripProfiles) -> Result<BandEstimate, NoConfidence> {
     if relative_ptp.is_nan() || relative_ptp <= FLAT_RELATIVE_PTP {
         return Err(NoConfidence::Flat { relative_ptp });
     }
-    let fit = PeriodicFit::new(&profiles);
+    let fit = PeriodicFit::new(profiles);
     let (f0, ratios) = fit.coarse();
     let bin = 1.0 / fit.padded as f64;
     let (f, h, rss) = fit.verify(f0, &ratios, 1.5 * bin);
@@ -249,29 +333,7 @@ pub fn estimate(input: &StripProfiles) -> Result<BandEstimate, NoConfidence> {
             rows: n,
         });
     }
-    let sigma_fit = fit.sigma(f, h, rss);
-    let group_f = group_estimates(input, strips, f, h, 1.5 * bin);
-    let mut sigma_f = sigma_fit;
-    if group_f.len() >= 2 {
-        let disagree = group_f.iter().any(|(fg, sg)| {
-            let d = (fg - f).abs();
-            d > 4.0 * (sg * sg + sigma_fit * sigma_fit).sqrt() && d > 0.003 * f
-        });
-        if disagree {
-            return Err(NoConfidence::StripsDisagree {
-                periods: group_f
-                    .iter()
-                    .map(|(fg, _)| (100.0 / fg).round() / 100.0)
-                    .collect(),
-                period_rows: period,
-            });
-        }
-        let g = group_f.len() as f64;
-        let mean = group_f.iter().map(|x| x.0).sum::<f64>() / g;
-        let var = group_f.iter().map(|x| (x.0 - mean).powi(2)).sum::<f64>() / (g - 1.0);
-        sigma_f = sigma_f.max((var / g).sqrt());
-    }
-    let relative_sigma = sigma_f / f;
+    let relative_sigma = fit.sigma(f, h, rss) / f;
     if relative_sigma.is_nan() || relative_sigma > MAX_RELATIVE_SIGMA {
         return Err(NoConfidence::Uncertain {
             period_rows: period,
@@ -286,33 +348,10 @@ pub fn estimate(input: &StripProfiles) -> Result<BandEstimate, NoConfidence> {
         harmonics: h,
         rows: n,
         frames: profiles.len(),
-        group_periods_rows: group_f.iter().map(|(fg, _)| 1.0 / fg).collect(),
+        group_periods_rows: Vec::new(),
+        dropped: Vec::new(),
+        block_grid_suppressed: false,
     })
-}
-
-/// Refined frequency and its sigma for each of up to GROUPS column groups.
-fn group_estimates(
-    input: &StripProfiles,
-    strips: usize,
-    f: f64,
-    h: usize,
-    half_width: f64,
-) -> Vec<(f64, f64)> {
-    let groups = GROUPS.min(strips);
-    if groups < 2 {
-        return Vec::new();
-    }
-    (0..groups)
-        .map(|g| {
-            let (a, b) = (g * strips / groups, (g + 1) * strips / groups);
-            let profiles: Vec<Vec<f64>> =
-                input.iter().map(|fr| combine_strips(&fr[a..b])).collect();
-            let fit = PeriodicFit::new(&profiles);
-            let fg = fit.refine(f, h, half_width);
-            let rss = fit.rss(fg, h);
-            (fg, fit.sigma(fg, h, rss))
-        })
-        .collect()
 }
 
 thread_local! {
@@ -747,5 +786,7 @@ fn detrend(y: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+mod grid;
+mod strips;
 #[cfg(test)]
 mod tests;

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use image::DynamicImage;
 
-use super::bands::StripProfiles;
+use super::bands::{Layout, StripProfiles};
 use crate::capture::{
     self, CaptureError, LumaWeights, ReadOptions, RoiRect, VideoDecode, VideoRange,
 };
@@ -70,6 +70,9 @@ pub struct FrameSet {
     pub frame_size: (u32, u32),
     /// The analysed rectangle.
     pub roi: RoiRect,
+    /// Some input went through a block-transform codec (a JPEG still, or a
+    /// video read through FFmpeg): its block grid is not banding.
+    pub block_grid: bool,
 }
 
 impl FrameSet {
@@ -97,6 +100,18 @@ impl FrameSet {
             }
         }
         Some(out)
+    }
+
+    /// What the band estimator needs to know of the strips: their pixel
+    /// columns and whether the source is block-coded.
+    pub fn layout(&self) -> Layout {
+        Layout {
+            columns: strip_columns(&self.roi)
+                .iter()
+                .map(|c| [c.start, c.end])
+                .collect(),
+            block_grid: self.block_grid,
+        }
     }
 
     /// Per-frame row profile: the median over strips of each row, DN.
@@ -164,6 +179,7 @@ pub fn load(
     let mut size: Option<(u32, u32)> = None;
     let mut full_scale: Option<f64> = None;
     let mut area = None;
+    let mut block_grid = false;
     for path in paths {
         capture::check_interrupt(path)?;
         sources.push(Source {
@@ -171,8 +187,11 @@ pub fn load(
             sha256: file_sha256(path)?,
         });
         let (w, h, fs, mut got) = if is_still(path) {
-            read_still(path, roi)?
+            let (read, jpeg) = read_still(path, roi)?;
+            block_grid |= jpeg;
+            read
         } else {
+            block_grid |= capture::source_kind(path) == capture::SourceKind::Video;
             read_sequence(path, roi)?
         };
         if let Some(s) = size
@@ -234,6 +253,7 @@ pub fn load(
         full_scale_dn: full_scale.unwrap_or(255.0),
         frame_size,
         roi,
+        block_grid,
     })
 }
 
@@ -277,18 +297,18 @@ fn strip_columns(roi: &RoiRect) -> Vec<Range<u32>> {
 /// Width, height, full scale and strip profiles of what was read.
 type ReadOut = (u32, u32, f64, StripProfiles);
 
-fn read_still(path: &Path, roi: Option<RoiRect>) -> Result<ReadOut, FrameError> {
+/// A still frame, and whether it is a JPEG.
+fn read_still(path: &Path, roi: Option<RoiRect>) -> Result<(ReadOut, bool), FrameError> {
     let err = |message: String| FrameError::Read {
         path: path.to_path_buf(),
         message,
     };
-    let img = capture::image_reader(path)
-        .map_err(|e| match e {
-            CaptureError::Read { message, .. } => err(message),
-            other => FrameError::Capture(other),
-        })?
-        .decode()
-        .map_err(|e| err(e.to_string()))?;
+    let reader = capture::image_reader(path).map_err(|e| match e {
+        CaptureError::Read { message, .. } => err(message),
+        other => FrameError::Capture(other),
+    })?;
+    let jpeg = reader.format() == Some(image::ImageFormat::Jpeg);
+    let img = reader.decode().map_err(|e| err(e.to_string()))?;
     let (w, h) = (img.width(), img.height());
     let roi = checked_roi(path, roi, w, h)?;
     let cols = strip_columns(&roi);
@@ -334,7 +354,7 @@ fn read_still(path: &Path, roi: Option<RoiRect>) -> Result<ReadOut, FrameError> 
                 .collect()
         })
         .collect();
-    Ok((w, h, full_scale, vec![strips]))
+    Ok(((w, h, full_scale, vec![strips]), jpeg))
 }
 
 fn bt601(p: [f64; 3]) -> f64 {
@@ -447,6 +467,7 @@ mod tests {
                 width: 2,
                 height: 3,
             },
+            block_grid: false,
         };
         let flat = set.flattened().unwrap();
         for (k, frame) in flat.iter().enumerate() {

@@ -30,14 +30,15 @@ use frames::FrameSet;
 /// there are several frames and they still show bands (bands locked to the
 /// frame rate divide out), else on the raw ones. The flag says which.
 pub fn estimate_bands(set: &FrameSet) -> Result<(BandEstimate, bool), NoConfidence> {
+    let layout = set.layout();
     if let Some(flat) = set.flattened() {
-        match bands::estimate(&flat) {
+        match bands::estimate(&flat, &layout) {
             Ok(e) => return Ok((e, true)),
             Err(NoConfidence::NoBanding { .. } | NoConfidence::Flat { .. }) => {}
             Err(e) => return Err(e),
         }
     }
-    bands::estimate(&set.raw).map(|e| (e, false))
+    bands::estimate(&set.raw, &layout).map(|e| (e, false))
 }
 
 /// What `calibrate` knows about the light.
@@ -72,6 +73,12 @@ pub struct Calibration {
     pub band_quality: f64,
     /// Texture was divided out (several frames).
     pub texture_divided: bool,
+    /// Column groups the band estimate left out, with their own period
+    /// (`null`: no banding), left to right.
+    pub dropped_columns: Vec<bands::ColumnGroup>,
+    /// Periods of the codec's 8- and 16-row block grid were suppressed
+    /// (JPEG or video input).
+    pub block_grid_suppressed: bool,
     /// Line time, microseconds.
     pub line_time_us: f64,
     /// Its sigma, microseconds.
@@ -398,6 +405,8 @@ fn summarise(
         band_period_rows_sigma: band.period_sigma_rows,
         band_quality: band.quality,
         texture_divided,
+        dropped_columns: band.dropped.clone(),
+        block_grid_suppressed: band.block_grid_suppressed,
         line_time_us: line_time * 1e6,
         line_time_us_sigma: line_time * rel_t * 1e6,
         exposure_us: determined.then_some(exposure_s * 1e6),

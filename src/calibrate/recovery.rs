@@ -37,6 +37,30 @@ pub struct RecoveryCase {
     /// Parameters the frame cannot determine, which must come out as a
     /// bound that holds the truth (`"black"`, `"exposure"`).
     pub bounds: &'static [&'static str],
+    /// What the scene adds to the rendered frame.
+    pub scene: Scene,
+    /// JPEG quality when `ext` is `jpg`.
+    pub jpeg_quality: u8,
+}
+
+/// What a case's scene adds to the rendered frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Scene {
+    /// The frame as rendered.
+    Plain,
+    /// The right half of the columns lit by a second light instead, of this
+    /// frequency (Hz) and duty: no majority of the column groups agrees, so
+    /// `calibrate` must refuse, naming both regions.
+    SecondLight {
+        /// Its PWM frequency, Hz.
+        frequency_hz: f64,
+        /// Its duty cycle.
+        duty: f64,
+    },
+    /// Bright ruled lines over the right quarter of the columns, half a band
+    /// period thick, every 1.0075 band periods: that column group's own
+    /// period is pulled 0.75 % off, and it must be dropped.
+    RuledOverlay,
 }
 
 /// How a parameter came back.
@@ -182,6 +206,8 @@ fn case(name: &'static str, frame: SynthFrame, ext: &'static str) -> RecoveryCas
         ext,
         tol: TOLERANCE,
         bounds: &[],
+        scene: Scene::Plain,
+        jpeg_quality: 80,
     }
 }
 
@@ -251,6 +277,31 @@ fn scene_cases(base: &SynthFrame) -> Vec<RecoveryCase> {
         RecoveryCase {
             bounds: &["black"],
             ..case("JPEG quality 80", base.clone(), "jpg")
+        },
+        RecoveryCase {
+            bounds: &["black"],
+            jpeg_quality: 50,
+            ..case("JPEG quality 50", base.clone(), "jpg")
+        },
+        // At quality 95 the foot of the ramps survives: a value.
+        RecoveryCase {
+            jpeg_quality: 95,
+            ..case("JPEG quality 95", base.clone(), "jpg")
+        },
+        RecoveryCase {
+            scene: Scene::RuledOverlay,
+            ..case("overlay on one column group", base.clone(), "png")
+        },
+        RecoveryCase {
+            scene: Scene::SecondLight {
+                frequency_hz: 1130.0,
+                duty: 0.3,
+            },
+            ..case(
+                "two lights (1130 Hz on the right half)",
+                base.clone(),
+                "png",
+            )
         },
     ]
 }
@@ -342,21 +393,118 @@ fn combined_case(base: SynthFrame) -> RecoveryCase {
     }
 }
 
-/// Writes the case's frame into `dir`, calibrates it and returns the errors.
-pub fn recover(case: &RecoveryCase, dir: &Path, index: usize) -> Result<RecoveryErrors, String> {
-    let path = dir.join(format!("recovery-{index}.{}", case.ext));
-    case.frame.save(&path, 80)?;
-    let set = frames::load(&[path], None, None).map_err(|e| e.to_string())?;
+/// Writes the case's frame, with its scene, to `path`.
+pub fn write_case(case: &RecoveryCase, path: &Path) -> Result<(), String> {
     let fr = &case.frame;
-    let cal = super::calibrate(
+    let (w, h) = (fr.width as usize, fr.height as usize);
+    let mut px = match case.scene {
+        Scene::Plain => return fr.save(path, case.jpeg_quality),
+        Scene::SecondLight { frequency_hz, duty } => {
+            let right = SynthFrame {
+                frequency_hz,
+                duty,
+                ..fr.clone()
+            }
+            .render()?;
+            let mut px = fr.render()?;
+            for (i, p) in px.iter_mut().enumerate() {
+                if i % w >= w / 2 {
+                    *p = right[i];
+                }
+            }
+            px
+        }
+        Scene::RuledOverlay => {
+            let period = 1.0 / (fr.frequency_hz * fr.line_time_s);
+            let mut px = fr.render()?;
+            for (i, p) in px.iter_mut().enumerate() {
+                let phase = ((i / w) as f64 / (1.0075 * period)).fract();
+                if i % w >= 3 * w / 4 && phase < 0.5 {
+                    *p = 0.92 * fr.full_scale();
+                }
+            }
+            px
+        }
+    };
+    px.truncate(w * h);
+    let data: Vec<u8> = px
+        .iter()
+        .map(|v| v.round().clamp(0.0, 255.0) as u8)
+        .collect();
+    image::ImageBuffer::<image::Luma<u8>, _>::from_raw(fr.width, fr.height, data)
+        .ok_or("frame size mismatch")?
+        .save(path)
+        .map_err(|e| format!("cannot write `{}`: {e}", path.display()))
+}
+
+/// Writes the case's frame into `dir` and calibrates it.
+fn calibrate_case(
+    case: &RecoveryCase,
+    dir: &Path,
+    index: usize,
+) -> Result<Result<super::Calibration, super::bands::NoConfidence>, String> {
+    let path = dir.join(format!("recovery-{index}.{}", case.ext));
+    write_case(case, &path)?;
+    let set = frames::load(&[path], None, None).map_err(|e| e.to_string())?;
+    Ok(super::calibrate(
         &set,
         Light {
-            frequency_hz: fr.frequency_hz,
+            frequency_hz: case.frame.frequency_hz,
             frequency_sigma_hz: 0.0,
             duty: None,
         },
-    )
-    .map_err(|e| format!("{}: {e}", case.name))?;
+    ))
+}
+
+/// A case of two lights: the refusal's regions, each with its relative
+/// period error against its own light, left to right; an error when
+/// `calibrate` does not refuse with two regions, each within the line-time
+/// tolerance of its light.
+pub fn refusal(case: &RecoveryCase, dir: &Path, index: usize) -> Result<Vec<String>, String> {
+    let Scene::SecondLight { frequency_hz, .. } = case.scene else {
+        return Err(format!("{}: not a case of two lights", case.name));
+    };
+    let fr = &case.frame;
+    let period = |f: f64| 1.0 / (f * fr.line_time_s);
+    let regions = match calibrate_case(case, dir, index)? {
+        Err(super::bands::NoConfidence::StripsDisagree { regions }) => regions,
+        other => {
+            return Err(format!(
+                "{}: not refused as two regions: {other:?}",
+                case.name
+            ));
+        }
+    };
+    let half = fr.width / 2;
+    let mut out = Vec::new();
+    for r in &regions {
+        let ([a, b], Some(p)) = (r.columns[0], r.period_rows) else {
+            return Err(format!("{}: a region without banding: {r}", case.name));
+        };
+        let truth = if b <= half {
+            period(fr.frequency_hz)
+        } else if a >= half {
+            period(frequency_hz)
+        } else {
+            return Err(format!("{}: a region across both lights: {r}", case.name));
+        };
+        let error = p / truth - 1.0;
+        if error.abs() > case.tol.line_time {
+            return Err(format!(
+                "{}: region {r}: period error {error:+.5}",
+                case.name
+            ));
+        }
+        out.push((a, format!("columns {a}..{b}: {:+.4} %", 100.0 * error)));
+    }
+    out.sort();
+    Ok(out.into_iter().map(|(_, s)| s).collect())
+}
+
+/// Writes the case's frame into `dir`, calibrates it and returns the errors.
+pub fn recover(case: &RecoveryCase, dir: &Path, index: usize) -> Result<RecoveryErrors, String> {
+    let fr = &case.frame;
+    let cal = calibrate_case(case, dir, index)?.map_err(|e| format!("{}: {e}", case.name))?;
     let true_exposure_us = fr.exposure_s * 1e6;
     let exposure = match (cal.exposure_us, cal.exposure_us_sigma) {
         (Some(e), Some(s)) => Recovered::value(e / true_exposure_us - 1.0, s / true_exposure_us),
@@ -401,6 +549,15 @@ pub fn table(dir: &Path) -> Result<String, String> {
         "| case | line time | exposure | duty | gamma | black level | fit RMS |\n|---|---|---|---|---|---|---|\n",
     );
     for (i, case) in cases().iter().enumerate() {
+        if matches!(case.scene, Scene::SecondLight { .. }) {
+            let regions = refusal(case, dir, i)?;
+            t.push_str(&format!(
+                "| {} | refused (exit 4), two regions: {} | | | | | |\n",
+                case.name,
+                regions.join(", ")
+            ));
+            continue;
+        }
         let e = recover(case, dir, i)?;
         let tol = case.tol;
         t.push_str(&format!(

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::EXIT_PASS;
-use crate::calibrate::bands::NoConfidence;
+use crate::calibrate::bands::{ColumnGroup, NoConfidence};
 use crate::calibrate::frames::{self, FrameSet};
 use crate::calibrate::profile::ProfileOptions;
 use crate::calibrate::{Calibration, FlatTop, Light, estimate_bands};
@@ -165,6 +165,7 @@ pub fn linetime(a: LinetimeArgs) -> anyhow::Result<i32> {
         if divided { ", texture divided out" } else { "" }
     )?;
     writeln!(w, "fit_quality: {:.3}", e.quality)?;
+    write_caveats(&mut w, &e.dropped, e.block_grid_suppressed)?;
     Ok(EXIT_PASS)
 }
 
@@ -185,6 +186,8 @@ pub fn bands(a: BandsArgs) -> anyhow::Result<i32> {
         "bands": e.bands,
         "quality": e.quality,
         "texture_divided": divided,
+        "dropped_columns": e.dropped,
+        "block_grid_suppressed": e.block_grid_suppressed,
         "estimated_frequency_hz": f,
         "estimated_frequency_hz_sigma": sigma,
     });
@@ -233,6 +236,29 @@ pub fn calibrate(a: CalibrateArgs) -> anyhow::Result<i32> {
         print_text(&cal, a.out.as_deref())?;
     }
     Ok(EXIT_PASS)
+}
+
+/// The columns the band estimate left out, and the suppressed block grid,
+/// one line each.
+fn write_caveats(
+    w: &mut impl Write,
+    dropped: &[ColumnGroup],
+    block_grid: bool,
+) -> std::io::Result<()> {
+    for d in dropped {
+        let why = match d.period_rows {
+            Some(_) => " (disagrees with the majority)",
+            None => "",
+        };
+        writeln!(w, "dropped: {d}{why}")?;
+    }
+    if block_grid {
+        writeln!(
+            w,
+            "block_grid: periods of 16 / k rows suppressed (JPEG or video input)"
+        )?;
+    }
+    Ok(())
 }
 
 fn print_text(cal: &Calibration, out: Option<&std::path::Path>) -> std::io::Result<()> {
@@ -303,5 +329,5 @@ fn print_text(cal: &Calibration, out: Option<&std::path::Path>) -> std::io::Resu
     if let Some(p) = out {
         writeln!(w, "profile:        {}", p.display())?;
     }
-    Ok(())
+    write_caveats(&mut w, &cal.dropped_columns, cal.block_grid_suppressed)
 }

@@ -1,7 +1,9 @@
 //! Integration tests: one binary (ripgrep style) with a module per area.
 
 mod advice;
+mod band_frames;
 mod banding;
+mod bands_robust;
 mod beyond;
 mod calibrate;
 mod camera_model;

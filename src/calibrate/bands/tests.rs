@@ -287,3 +287,89 @@ fn closed_form_residuals_are_the_row_sum_residuals() {
         }
     }
 }
+
+/// `frames` frames of `strips` strips of the same profile `y`.
+fn strips_of(y: &[f64], strips: usize) -> StripProfiles {
+    vec![vec![y.to_vec(); strips]]
+}
+
+#[test]
+fn the_grid_suppression_takes_period_16_and_leaves_other_bands() {
+    // A staircase of 8-row blocks over a gradient: all period 8 after its
+    // trend; plus bands of 37.3 rows.
+    let n = 480;
+    let grid: Vec<f64> = (0..n).map(|r| 0.5 * (r / 8 * 8) as f64 / 8.0).collect();
+    // The trend and the phase means are fitted in turn, not jointly: a
+    // trace of the grid is left, far below anything the search sees.
+    let rms = |y: &[f64]| (detrend(y).iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+    let left = rms(&grid::suppress(&grid)) / rms(&grid);
+    assert!(left < 1e-3, "{left} of the grid is left");
+    let banded: Vec<f64> = bands(n, 37.3, 0.4, 2.0, 0.2)
+        .iter()
+        .zip(&grid)
+        .map(|(b, g)| b + 40.0 * g)
+        .collect();
+    let layout = Layout {
+        columns: Vec::new(),
+        block_grid: true,
+    };
+    let est = estimate(&strips_of(&banded, 4), &layout).unwrap();
+    assert!((est.period_rows / 37.3 - 1.0).abs() < 5e-4, "{est:?}");
+    assert!(est.block_grid_suppressed);
+    // The grid alone is refused, naming it.
+    let e = estimate(&strips_of(&grid, 4), &layout).unwrap_err();
+    assert!(matches!(e, NoConfidence::BlockGrid { .. }), "{e}");
+}
+
+#[test]
+fn near_the_grid_is_within_two_cycles_per_frame_of_16_over_k_rows() {
+    for (p, rows, near) in [
+        (8.0, 480, true),
+        (16.0, 480, true),
+        (16.3, 480, true),
+        (17.5, 480, false),
+        (16.3, 1080, true),
+        (17.0, 1080, false),
+        (5.3333, 1080, true),
+        (37.3, 480, false),
+        (400.0, 480, false),
+    ] {
+        assert_eq!(grid::near_grid(p, rows), near, "{p} rows over {rows}");
+    }
+}
+
+#[test]
+fn a_disagreeing_group_is_dropped_and_two_halves_are_two_regions() {
+    let n = 1080;
+    let a = bands(n, 40.0, 0.4, 2.0, 0.1);
+    let b = bands(n, 43.0, 0.3, 2.0, 0.6);
+    let columns: Vec<[u32; 2]> = (0..16).map(|s| [40 * s, 40 * s + 40]).collect();
+    let layout = Layout {
+        columns,
+        block_grid: false,
+    };
+    // The last group (strips 12..16, columns 480..640) sees the other light.
+    let mut one: Vec<Vec<f64>> = vec![a.clone(); 16];
+    one[12..].fill(b.clone());
+    let est = estimate(&vec![one], &layout).unwrap();
+    assert!((est.period_rows / 40.0 - 1.0).abs() < 1e-4, "{est:?}");
+    assert_eq!(est.dropped.len(), 1, "{est:?}");
+    assert_eq!(est.dropped[0].columns, [[480, 640]]);
+    let p = est.dropped[0].period_rows.unwrap();
+    assert!((p / 43.0 - 1.0).abs() < 1e-3, "{est:?}");
+    // Half and half: no majority.
+    let mut halves: Vec<Vec<f64>> = vec![a.clone(); 16];
+    halves[8..].fill(b.clone());
+    let e = estimate(&vec![halves], &layout).unwrap_err();
+    let NoConfidence::StripsDisagree { regions } = &e else {
+        panic!("{e}");
+    };
+    assert_eq!(regions.len(), 2, "{e}");
+    let mut got: Vec<([u32; 2], f64)> = regions
+        .iter()
+        .map(|r| (r.columns[0], r.period_rows.unwrap()))
+        .collect();
+    got.sort_by_key(|g| g.0[0]);
+    assert_eq!((got[0].0, got[1].0), ([0, 320], [320, 640]), "{e}");
+    assert!((got[0].1 / 40.0 - 1.0).abs() < 1e-3 && (got[1].1 / 43.0 - 1.0).abs() < 1e-3);
+}
