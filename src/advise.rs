@@ -15,7 +15,7 @@
 //! uses for the LED's pixels is at least `T*` long. In daylight the merge
 //! takes the short capture, so the set is judged by its shorter captures
 //! `T* / ratio`: the table gives the share of the range where each can lose
-//! the LED. (Per-pixel merge rules belong to the camera model, issue 3.)
+//! the LED. (Per-pixel merge rules belong to the camera model, docs/camera-model.md.)
 //!
 //! Frame time: a camera at `fps` frames per second cannot expose longer
 //! than its frame time `1 / fps`; an HDR camera whose captures run one

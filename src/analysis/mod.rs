@@ -1,4 +1,4 @@
-//! Beyond the paper (issue 6): what a case's flicker looks like to a driver
+//! Beyond the paper (docs/beyond-the-paper.md): what a case's flicker looks like to a driver
 //! and to the light source's own standards.
 //!
 //! Sits after the runner and beside `metrics`: it reads a finished

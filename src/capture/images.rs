@@ -40,7 +40,7 @@ pub(super) fn read_dir(
 }
 
 /// Decoder limits: the header's size is checked before any pixel buffer
-/// is allocated (issue 10), at the sensor bound of docs/plan-format.md.
+/// is allocated, so that a forged header cannot ask for gigabytes, at the sensor bound of docs/plan-format.md.
 fn frame_limits() -> image::Limits {
     let mut l = image::Limits::default();
     l.max_image_width = Some(crate::plan::bounds::MAX_SENSOR_SIDE);

@@ -131,8 +131,8 @@ pub fn method(plan: &Plan) -> Method {
     }
 }
 
-/// How a physical camera's worst case over phase is found (issue 20;
-/// docs/camera-model.md, "Worst case over phase"); empty for the ideal
+/// How a physical camera's worst case over phase is found
+/// (docs/camera-model.md, "Worst case over phase"); empty for the ideal
 /// camera, whose worst case is exact from its corners.
 fn physical_worst_case_words(plan: &Plan) -> &'static str {
     use crate::physics::hdr::{MergeRule, ToneCurve};
@@ -162,7 +162,7 @@ pub fn case_acquisition(plan: &Plan, case: &CaseInfo) -> String {
         } else {
             format!("Capture `{}`", cap.source)
         };
-        // The segment sentence comes from the capture stage (issue 19): how
+        // The segment sentence comes from the capture stage: how
         // they were found, their frames, seconds and levels, and the settle time.
         let time_base = cap
             .time_base_s

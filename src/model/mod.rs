@@ -12,7 +12,7 @@
 //! cannot be defined is `null` in `metrics`, with its reason under the same
 //! name in `reasons`.
 //!
-//! Added by issue 6 (beyond the paper): per case `apparent_frequency_hz`,
+//! Beyond the paper (docs/beyond-the-paper.md): per case `apparent_frequency_hz`,
 //! `hazard_class`, `beat`, `drive` (IEEE 1789, IES Flicker Index) and
 //! `banding`; per ROI the metrics `apparent_frequency_spectrum_hz` and
 //! `phase_coverage` and an `analysis` object; at the top `fine_maps` and

@@ -323,7 +323,7 @@ fn physical(plan: &Plan, index: &SpanIndex, diags: &mut Vec<Diagnostic>) {
 }
 
 /// Two grid points whose ids coincide would share one trace file and one
-/// row of the report (issue 10: 90.0 and 90.0000001 Hz).
+/// row of the report (e.g. 90.0 and 90.0000001 Hz).
 fn unique_ids(cases: &[TestCase], index: &SpanIndex, diags: &mut Vec<Diagnostic>) {
     let mut seen: std::collections::HashMap<&str, &TestCase> = std::collections::HashMap::new();
     let mut reported = 0;

@@ -28,7 +28,7 @@ pub use p2020::{MmpReference, P2020Options};
 
 /// Upper bound on cases in one plan. A report holds every case, at about
 /// 2 MB of memory each (charts, HTML, PDF layout): at this maximum a run
-/// peaks below 1 GB (issue 10; it was 20000, which needed about 40 GB).
+/// peaks below 1 GB (20000 cases would need about 40 GB).
 pub const MAX_CASES: usize = 350;
 
 /// A validated test plan. All values are in range and in SI-prefixed units

@@ -1,4 +1,4 @@
-//! Advice a camera can use (issue 20): no exposure beyond the frame time,
+//! Advice a camera can use: no exposure beyond the frame time,
 //! from `advise --fps` or from a plan's report.
 
 use serde_json::Value;

@@ -1,7 +1,7 @@
 //! `linetime`, `bands` and `calibrate` on real and synthetic frames: the
 //! gyroflow frame's published figures, parameter recovery under
 //! degradations, agreement of the commands, the no-confidence exit, ROIs
-//! and video input (issue 18).
+//! and video input.
 
 use std::path::{Path, PathBuf};
 use std::process::Output;

@@ -1,4 +1,4 @@
-//! docs/camera-model.md re-implemented from its equations alone (issue 20):
+//! docs/camera-model.md re-implemented from its equations alone:
 //! timing, ON time, electrons, clipping, ADC, saturation tests, merge, white
 //! point, tone curve and auto exposure, written here without calling the
 //! simulator's physics, and compared frame by frame with the simulator on

@@ -132,7 +132,7 @@ fn plan_run_writes_results_traces_and_report() {
         "frames/2000lux-60hz-20pct.png"
     );
     // No temporary files are left behind; `.ledflicker` marks the report
-    // as ledflicker's (issue 10).
+    // as ledflicker's.
     for e in std::fs::read_dir(&out).unwrap() {
         let name = e.unwrap().file_name();
         let name = name.to_string_lossy();
@@ -164,8 +164,8 @@ fn failing_case_exits_1() {
 #[test]
 fn signed_report_is_not_overwritten_without_force() {
     let out = scratch("signed");
-    // A signed earlier report: `plan` replaces only reports it wrote
-    // (issue 10), recognised here by results.json's schema.
+    // A signed earlier report: `plan` replaces only reports it wrote,
+    // recognised here by results.json's schema.
     let earlier = r#"{"schema": "ledflicker.results/2"}"#;
     std::fs::write(out.join("results.json"), earlier).unwrap();
     std::fs::write(out.join("signoff.json"), "{}").unwrap();

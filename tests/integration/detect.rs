@@ -1,4 +1,4 @@
-//! Segment detection that follows the plan's sequence (issue 19), on
+//! Segment detection that follows the plan's sequence, on
 //! recordings from an independent generator (recgen.rs), not the simulator:
 //! dark lead-ins of 0, 1 and 5 s, lead-outs, a 30 % AE overshoot after every
 //! step, a dropped frame, 60 Hz at 5 ms (the light appears OFF) and 150 Hz
@@ -444,9 +444,9 @@ fn a_dropped_frame_given_by_a_sidecar_is_a_gap_in_time() {
     assert!((judged.fdi - t.fdi).abs() <= 0.02 && (judged.pf - t.pf).abs() <= 0.5);
 }
 
-// Regression for issue 19: on this recording without AE overshoot the
-// dark-baseline rule took OFF = frames 0..148 and PWM = 165.. (swallowing
-// the ON and OFF segments) and reported FDI 0.000 and PF 54.57 %, a false
+// On this recording without AE overshoot, a rule that takes the dark
+// baseline as OFF finds OFF = frames 0..148 and PWM = 165.. (swallowing
+// the ON and OFF segments) and reports FDI 0.000 and PF 54.57 %, a false
 // FAIL; the light never appears OFF (FDI 1.201).
 #[test]
 fn a_150_hz_recording_of_the_paper_sequence_is_not_judged_off() {

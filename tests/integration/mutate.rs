@@ -1,25 +1,28 @@
-//! Seeded mutation tests (issue 10): the shipped plans and small capture
-//! files, mutated thousands of times within a fixed time budget. Asserted
+//! Seeded mutation tests: the shipped plans and small capture
+//! files, mutated a fixed number of times from fixed seeds, so that what
+//! they cover does not depend on the machine's speed. Asserted
 //! for every mutant: no panic; an error maps to exit code 2 (bad input) or
 //! 3 (tool), never anything else; a plan that validates has a work estimate
 //! within the documented limits, and, when small, runs with exactly the
 //! estimated cases and frames and no NaN in its traces and exports.
 //!
 //! The mutator is our own (xorshift64*, seeded), so a failure reproduces:
-//! the message prints the seed and the mutant. Budgets are wall-clock, so
-//! the counts vary with the machine; each test prints its counts.
+//! the message prints the seed and the mutant, and every run tries the
+//! same mutants; each test prints its counts.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
 
 use ledflicker::capture::{self, LumaWeights, ReadOptions, RoiRect, VideoDecode, VideoRange};
 use ledflicker::plan::{self, WorkEstimate, bounds};
 
 use crate::{root, scratch};
 
-/// Time budget of each mutation test (debug build, shared 2 cores).
-const BUDGET: Duration = Duration::from_secs(8);
+/// Plan mutants of each run.
+const PLAN_MUTANTS: usize = 300;
+
+/// Capture mutants of each run.
+const CAPTURE_MUTANTS: usize = 800;
 
 /// xorshift64*: small, seeded, good enough to pick mutations.
 struct Rng(u64);
@@ -181,8 +184,7 @@ fn mutated_plans_never_panic_and_validated_plans_stay_within_their_estimate() {
         .collect();
     let mut rng = Rng(0x1ed_f11c_2026);
     let mut counts = Counts::default();
-    let start = Instant::now();
-    while start.elapsed() < BUDGET {
+    for _ in 0..PLAN_MUTANTS {
         let (path, text) = &plans[rng.below(plans.len())];
         let mut mutant = text.clone();
         for _ in 0..=rng.below(3) {
@@ -226,10 +228,9 @@ fn mutated_plans_never_panic_and_validated_plans_stay_within_their_estimate() {
     }
     eprintln!("plan mutations: {counts:?}");
     assert!(
-        counts.mutants >= 200,
-        "too few mutants in the budget: {counts:?}"
+        counts.valid > 0 && counts.invalid > 0 && counts.ran > 0,
+        "{counts:?}"
     );
-    assert!(counts.valid > 0 && counts.invalid > 0, "{counts:?}");
 }
 
 fn rois() -> Vec<RoiRect> {
@@ -282,8 +283,7 @@ fn mutated_captures_never_panic_and_give_finite_traces_or_input_errors() {
     let names = vec!["a".to_string()];
     let mut rng = Rng(0xca97_0e5d);
     let (mut mutants, mut ok, mut input, mut tool) = (0usize, 0usize, 0usize, 0usize);
-    let start = Instant::now();
-    while start.elapsed() < BUDGET {
+    for _ in 0..CAPTURE_MUTANTS {
         let (ext, seed) = &seeds[rng.below(seeds.len())];
         let mut bytes = seed.clone();
         mutate_bytes(&mut bytes, &mut rng);
@@ -309,6 +309,5 @@ fn mutated_captures_never_panic_and_give_finite_traces_or_input_errors() {
     eprintln!(
         "capture mutations: {mutants} mutants, {ok} read, {input} input errors (exit 2), {tool} tool errors (exit 3)"
     );
-    assert!(mutants >= 500, "too few mutants in the budget: {mutants}");
-    assert!(ok > 0 && input > 0);
+    assert!(ok > 0 && input > 0, "{ok} read, {input} input errors");
 }

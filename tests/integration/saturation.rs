@@ -1,7 +1,6 @@
 //! `calibrate` on flat-topped band profiles: a plateau below full scale
 //! (the exposure window fits inside the ON time) is not clipping, and a
-//! profile that does clip at full scale is still reported as clipped
-//! (issue 32, item 7).
+//! profile that does clip at full scale is still reported as clipped.
 //!
 //! The frames come from a closed form written here, independent of the
 //! simulator and of `calibrate::synth`: row `r` exposes over

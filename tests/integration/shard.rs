@@ -1,4 +1,4 @@
-//! Sharded runs (issue 15): a plan run as N shards and merged gives the
+//! Sharded runs: a plan run as N shards and merged gives the
 //! same results.json, report.html and report.pdf, byte for byte, as one
 //! run with the same --date; broken shard sets are refused with exit 2,
 //! naming the shards; a merged report signs and verifies like any other.

@@ -1,4 +1,4 @@
-//! Frame times rounded to a time base (issue 32, item 1): a 29.97 fps
+//! Frame times rounded to a time base: a 29.97 fps
 //! capture of a 151 Hz PWM LED in Matroska (1 ms time base), in MP4 with
 //! a 1/90000 s time base, and as a CSV trace with times in whole
 //! milliseconds, with and without dropped frames. The frames are made

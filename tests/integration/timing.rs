@@ -1,4 +1,4 @@
-//! Captures' own timing (issue 20): a 29.97 fps capture of a 151 Hz PWM
+//! Captures' own timing: a 29.97 fps capture of a 151 Hz PWM
 //! LED, made here by a generator independent of the simulator, shows its
 //! true beat `|151 - 5 x 30000/1001| = 1.14985 Hz`, with and without the
 //! light's conditions in the plan; coverage is counted from the real frame

@@ -160,7 +160,7 @@ fn load_profile(c: &mut Checker<'_>, name: &str, plan_path: &Path) -> Option<Cam
 
 /// A TOML error in a camera profile, located by line and column, with
 /// every quoted fragment of the file left out: the file named may be any
-/// file (issue 10), and its contents must never reach the terminal or a log.
+/// file (say a private key), and its contents must never reach the terminal or a log.
 fn profile_error(path: &Path, text: &str, e: &toml::de::Error) -> String {
     let mut message = String::new();
     let mut quoted = None;
