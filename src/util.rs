@@ -26,41 +26,33 @@ pub fn fixed(x: f64, digits: usize) -> String {
     }
 }
 
-/// Civil date `YYYY-MM-DD` (UTC) of a Unix time in seconds.
+/// Civil date `YYYY-MM-DD` (UTC) of a Unix time in seconds, from 0 to
+/// [`MAX_UNIX_S`] (clamped to that range).
 pub fn utc_date(unix_s: i64) -> String {
-    // Howard Hinnant's days-from-civil inverse.
-    let z = unix_s.div_euclid(86_400) + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1_460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(m <= 2);
-    format!("{y:04}-{m:02}-{d:02}")
+    // Whole days from the epoch: jiff's timestamps stop a day short of
+    // 9999-12-31 (they leave room for any UTC offset); civil dates do not.
+    let days = unix_s.clamp(0, MAX_UNIX_S).div_euclid(86_400);
+    jiff::civil::date(1970, 1, 1)
+        .checked_add(jiff::Span::new().days(days))
+        .map_or_else(|_| "9999-12-31".to_string(), |d| d.to_string())
 }
 
 /// Last second of 9999-12-31, UTC: the largest Unix time a `YYYY-MM-DD`
 /// date can show.
 pub const MAX_UNIX_S: i64 = 253_402_300_799;
 
-/// True when `d` (`YYYY-MM-DD`, ASCII digits) is a real Gregorian date,
-/// years 0001 to 9999.
+/// True when `d` is `YYYY-MM-DD` in ASCII digits and a real Gregorian
+/// date, years 0001 to 9999.
 pub fn is_calendar_date(d: &str) -> bool {
-    let num = |r: std::ops::Range<usize>| d.get(r).and_then(|s| s.parse::<u32>().ok());
-    let (Some(y), Some(m), Some(day)) = (num(0..4), num(5..7), num(8..10)) else {
-        return false;
-    };
-    let leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
-    let days = match m {
-        1 | 3 | 5 | 7 | 8 | 10 | 12 => 31,
-        4 | 6 | 9 | 11 => 30,
-        2 if leap => 29,
-        2 => 28,
-        _ => return false,
-    };
-    y >= 1 && (1..=days).contains(&day)
+    let shape = d.len() == 10
+        && d.bytes().enumerate().all(|(i, c)| {
+            if i == 4 || i == 7 {
+                c == b'-'
+            } else {
+                c.is_ascii_digit()
+            }
+        });
+    shape && jiff::civil::Date::strptime("%Y-%m-%d", d).is_ok_and(|date| date.year() >= 1)
 }
 
 /// Opens a file the user named as input, for reading, without ever

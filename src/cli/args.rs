@@ -126,15 +126,7 @@ impl CameraArgs {
 /// The report date: `--date`, else $SOURCE_DATE_EPOCH, else today.
 pub fn report_date(arg: Option<&str>) -> anyhow::Result<String> {
     if let Some(d) = arg {
-        let ok = d.len() == 10
-            && d.chars().enumerate().all(|(i, c)| {
-                if i == 4 || i == 7 {
-                    c == '-'
-                } else {
-                    c.is_ascii_digit()
-                }
-            });
-        if !ok || !crate::util::is_calendar_date(d) {
+        if !crate::util::is_calendar_date(d) {
             return Err(UsageError(format!(
                 "--date `{d}` is not a date YYYY-MM-DD (e.g. 2026-11-23)"
             ))
