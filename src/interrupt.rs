@@ -4,46 +4,51 @@
 //!
 //! Sits beside the pipeline: `cli` installs the handler for `plan`; the
 //! runner ([`crate::runner`]) and the command backend read [`requested`].
-//! The handler only stores the signal number (async-signal-safe) and
-//! restores the default action, so a second Ctrl-C ends the process at once.
+//! The handlers only store the signal number (async-signal-safe), and a
+//! second Ctrl-C takes the default action, so it ends the process at once.
 
-use std::sync::atomic::{AtomicI32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, LazyLock};
 
 /// The signal that asked the run to stop, or 0.
-static SIGNAL: AtomicI32 = AtomicI32::new(0);
+static SIGNAL: LazyLock<Arc<AtomicUsize>> = LazyLock::new(|| Arc::new(AtomicUsize::new(0)));
 
-extern "C" fn on_signal(sig: libc::c_int) {
-    SIGNAL.store(sig, Ordering::SeqCst);
-}
+/// Set by the first SIGINT or SIGTERM: a second one takes the default
+/// action (the process ends at once).
+static ASKED: LazyLock<Arc<AtomicBool>> = LazyLock::new(|| Arc::new(AtomicBool::new(false)));
 
-/// Installs the SIGINT and SIGTERM handlers. Idempotent.
+/// Installs the SIGINT and SIGTERM handlers (signal-hook's, which only
+/// store to atomics). Idempotent: a second call changes nothing.
 pub fn install() {
-    for sig in [libc::SIGINT, libc::SIGTERM] {
-        // SAFETY: `sigaction` with a zeroed struct, an empty mask and a
-        // handler that only stores to an atomic (async-signal-safe).
-        // SA_RESETHAND restores the default action after the first signal.
-        unsafe {
-            let mut action: libc::sigaction = std::mem::zeroed();
-            action.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
-            action.sa_flags = libc::SA_RESETHAND | libc::SA_RESTART;
-            libc::sigemptyset(&mut action.sa_mask);
-            libc::sigaction(sig, &action, std::ptr::null_mut());
+    static INSTALLED: std::sync::Once = std::sync::Once::new();
+    INSTALLED.call_once(|| {
+        for sig in [libc::SIGINT, libc::SIGTERM] {
+            // The condition is read before this signal's own flag is set,
+            // so the first signal only sets the flags and the second ends
+            // the process. Registration fails only for a forbidden signal.
+            let registered =
+                signal_hook::flag::register_conditional_default(sig, Arc::clone(&ASKED))
+                    .and_then(|_| signal_hook::flag::register(sig, Arc::clone(&ASKED)))
+                    .and_then(|_| {
+                        signal_hook::flag::register_usize(sig, Arc::clone(&SIGNAL), sig as usize)
+                    });
+            debug_assert!(registered.is_ok(), "{registered:?}");
         }
-    }
+    });
 }
 
 /// The signal number that asked the run to stop, if any.
 pub fn requested() -> Option<i32> {
     match SIGNAL.load(Ordering::SeqCst) {
         0 => None,
-        s => Some(s),
+        s => Some(s as i32),
     }
 }
 
 /// Asks the run to stop as if `signal` had arrived (tests, and a fatal
 /// error in one worker that should stop the others).
 pub fn request(signal: i32) {
-    SIGNAL.store(signal, Ordering::SeqCst);
+    SIGNAL.store(signal.max(0) as usize, Ordering::SeqCst);
 }
 
 /// Name of a signal for messages: "SIGINT", "SIGTERM" or "signal N".

@@ -148,11 +148,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 /// the slow part (the flush) can run early or beside other work and the
 /// renames come in the order the caller needs. Dropped without
 /// [`Staged::commit`], it removes its temporary file.
+///
+/// The temporary file is `tempfile`'s: a new random name (`.NAME.XXXXXX.tmp`)
+/// created exclusively, so a file or link already there under that name is
+/// never written through.
 #[derive(Debug)]
 pub struct Staged {
-    tmp: PathBuf,
+    tmp: tempfile::NamedTempFile,
     path: PathBuf,
-    committed: bool,
 }
 
 impl Staged {
@@ -166,19 +169,19 @@ impl Staged {
         let name = path.file_name().ok_or_else(|| {
             std::io::Error::new(std::io::ErrorKind::InvalidInput, "path has no file name")
         })?;
-        let staged = Staged {
-            tmp: dir.join(format!(
-                ".{}.tmp-{}",
-                name.to_string_lossy(),
-                std::process::id()
-            )),
+        // Mode 0666 less the umask, as `File::create` gives: a report's
+        // files are for its readers, not the 0600 of a private scratch file.
+        let mut tmp = tempfile::Builder::new()
+            .prefix(&format!(".{}.", name.to_string_lossy()))
+            .suffix(".tmp")
+            .permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666))
+            .tempfile_in(dir)?;
+        tmp.write_all(bytes)?;
+        tmp.as_file().sync_all()?;
+        Ok(Staged {
+            tmp,
             path: path.to_path_buf(),
-            committed: false,
-        };
-        let mut f = std::fs::File::create(&staged.tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        Ok(staged)
+        })
     }
 
     /// The path the file is renamed to.
@@ -187,18 +190,8 @@ impl Staged {
     }
 
     /// Renames the file over its path.
-    pub fn commit(mut self) -> std::io::Result<()> {
-        std::fs::rename(&self.tmp, &self.path)?;
-        self.committed = true;
-        Ok(())
-    }
-}
-
-impl Drop for Staged {
-    fn drop(&mut self) {
-        if !self.committed {
-            let _ = std::fs::remove_file(&self.tmp);
-        }
+    pub fn commit(self) -> std::io::Result<()> {
+        self.tmp.persist(&self.path).map(drop).map_err(|e| e.error)
     }
 }
 
@@ -344,5 +337,27 @@ mod tests {
         assert_eq!(utc_date(0), "1970-01-01");
         assert_eq!(utc_date(951_782_400), "2000-02-29");
         assert_eq!(utc_date(1_795_305_600), "2026-11-22");
+    }
+
+    /// A staged file lands with the mode `File::create` gives, holds the
+    /// bytes, and leaves nothing behind when dropped uncommitted.
+    #[test]
+    fn staged_files_commit_with_the_usual_mode_and_vanish_when_dropped() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let plain = dir.path().join("plain");
+        std::fs::File::create(&plain).unwrap();
+        let path = dir.path().join("results.json");
+        write_atomic(&path, b"{}").unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"{}");
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&path), mode(&plain));
+        drop(Staged::write(&dir.path().join("other"), b"x").unwrap());
+        let mut names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["plain", "results.json"]);
     }
 }
