@@ -22,8 +22,8 @@ pub(super) struct SimulateArgs {
     #[arg(long, default_value_t = 30)]
     frames: u64,
     /// ROI rows `A:B`, A inclusive, B exclusive.
-    #[arg(long, default_value = "0:1")]
-    rows: String,
+    #[arg(long, default_value = "0:1", value_parser = parse_rows)]
+    rows: std::ops::Range<u32>,
     /// Print one JSON object with this condition's metrics (results.json
     /// names) instead of the CSV trace.
     #[arg(long)]
@@ -37,42 +37,38 @@ pub(super) struct SimulateArgs {
     sensor_rows: u32,
     /// With --summary: an RGB LED whose red, green and blue dies run at these
     /// duties (`R,G,B`, each in (0, 1]) on common rising edges; adds colour KPIs.
-    #[arg(long)]
-    rgb_duty: Option<String>,
+    #[arg(long, value_parser = parse_rgb)]
+    rgb_duty: Option<[f64; 3]>,
     /// With --summary: a white LED of this linear camera RGB (`R,G,B`) at
     /// --duty; adds colour KPIs.
-    #[arg(long)]
-    led_rgb: Option<String>,
+    #[arg(long, value_parser = parse_rgb)]
+    led_rgb: Option<[f64; 3]>,
     /// With --summary: background linear RGB (`R,G,B`) [default: --background
     /// in every channel].
-    #[arg(long)]
-    background_rgb: Option<String>,
+    #[arg(long, value_parser = parse_rgb)]
+    background_rgb: Option<[f64; 3]>,
 }
 
 fn usage(m: String) -> anyhow::Error {
     anyhow::Error::from(UsageError(m))
 }
 
-fn parse_rgb(flag: &str, s: &str) -> Result<[f64; 3], UsageError> {
+/// clap's value parser of an `R,G,B` flag: three finite numbers, each >= 0.
+fn parse_rgb(s: &str) -> Result<[f64; 3], String> {
     let v: Vec<f64> = s
         .split(',')
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|_| UsageError(format!("{flag} `{s}` is not three numbers R,G,B")))?;
+        .map_err(|_| "not three numbers R,G,B".to_string())?;
     match v.as_slice() {
         [r, g, b] if v.iter().all(|x| x.is_finite() && *x >= 0.0) => Ok([*r, *g, *b]),
-        _ => Err(UsageError(format!(
-            "{flag} `{s}` is not three numbers R,G,B, each >= 0"
-        ))),
+        _ => Err("not three numbers R,G,B, each >= 0".to_string()),
     }
 }
 
-fn parse_rows(s: &str) -> Result<std::ops::Range<u32>, UsageError> {
-    let bad = || {
-        UsageError(format!(
-            "--rows `{s}` is not A:B with A < B (A inclusive, B exclusive), e.g. 399:401"
-        ))
-    };
+/// clap's value parser of `--rows A:B`: A inclusive, B exclusive, A < B.
+fn parse_rows(s: &str) -> Result<std::ops::Range<u32>, String> {
+    let bad = || "not A:B with A < B (A inclusive, B exclusive), e.g. 399:401".to_string();
     let (a, b) = s.split_once(':').ok_or_else(bad)?;
     let a: u32 = a.trim().parse().map_err(|_| bad())?;
     let b: u32 = b.trim().parse().map_err(|_| bad())?;
@@ -123,8 +119,7 @@ fn condition(a: &SimulateArgs) -> anyhow::Result<(PwmDrive, Shutter, std::ops::R
             c.line_time_us
         )));
     }
-    let rows = parse_rows(&a.rows)?;
-    Ok((pwm, c.shutter(), rows))
+    Ok((pwm, c.shutter(), a.rows.clone()))
 }
 
 pub(super) fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
@@ -156,7 +151,7 @@ fn dies(a: &SimulateArgs) -> anyhow::Result<Option<Vec<Die>>> {
             return Err(usage("give --rgb-duty or --led-rgb, not both".into()));
         }
         (Some(d), None) => {
-            let d = parse_rgb("--rgb-duty", d)?;
+            let d = *d;
             if d.iter().any(|x| !(*x > 0.0 && *x <= 1.0)) {
                 return Err(usage(format!(
                     "--rgb-duty duties must be in (0, 1], got {d:?}"
@@ -174,7 +169,7 @@ fn dies(a: &SimulateArgs) -> anyhow::Result<Option<Vec<Die>>> {
             Some(vec![primary(0), primary(1), primary(2)])
         }
         (None, Some(c)) => Some(vec![Die {
-            rgb: parse_rgb("--led-rgb", c)?,
+            rgb: *c,
             duty: a.pwm.duty,
             offset_cycles: 0.0,
         }]),
@@ -200,7 +195,7 @@ fn summary(
     }
     let dies = dies(a)?;
     let background_rgb = match &a.background_rgb {
-        Some(b) => parse_rgb("--background-rgb", b)?,
+        Some(b) => *b,
         None => [a.background; 3],
     };
     let scene = dies.map(|dies| crate::analysis::summary::ColourScene {

@@ -755,3 +755,36 @@ fn version_completions_and_manual_page() {
     assert_eq!(none.status.code(), Some(2));
     assert!(super::stderr(&none).contains("calibrate"));
 }
+
+/// `A:B` and `R,G,B` flags are parsed by clap: a bad value is a usage
+/// error (exit 2) naming the flag, the value and the form it must take.
+#[test]
+fn malformed_rows_and_colours_are_usage_errors_naming_the_flag() {
+    let base = [
+        "simulate",
+        "--frequency-hz",
+        "90",
+        "--duty",
+        "0.2",
+        "--exposure-ms",
+        "5",
+        "--fps",
+        "30",
+    ];
+    for (flag, value, want) in [
+        ("--rows", "5:3", "not A:B with A < B"),
+        ("--rows", "5", "not A:B with A < B"),
+        ("--led-rgb", "1,2", "not three numbers R,G,B"),
+        ("--rgb-duty", "0.5,-1,0.5", "each >= 0"),
+    ] {
+        let mut args = base.to_vec();
+        args.extend(["--summary", flag, value]);
+        let ran = super::ledflicker(&args);
+        assert_eq!(ran.status.code(), Some(2), "{flag} {value}");
+        let err = super::stderr(&ran);
+        assert!(
+            err.contains(flag) && err.contains(value) && err.contains(want),
+            "{flag} {value}: {err}"
+        );
+    }
+}
