@@ -163,7 +163,9 @@ impl CommandRig {
                         d
                     }
                 })
-                .and_then(|d| d.canonicalize().ok())
+                // A folder that does not exist keeps its name, for the
+                // message when the rig cannot start there.
+                .map(|d| d.canonicalize().unwrap_or_else(|_| d.to_path_buf()))
                 .unwrap_or_default(),
             capture: cap,
             sequence: plan.sequence,
@@ -300,6 +302,14 @@ impl CommandRig {
     /// The message of a command that did not run to its end.
     fn describe(&self, program: &Path, e: RigError) -> String {
         match e {
+            // The rig runs in the plan's folder: when that is missing (a
+            // built-in plan run away from the source tree), spawning fails
+            // with "not found", which is not the program's fault.
+            RigError::Spawn(_) if !self.plan_dir.is_dir() => format!(
+                "cannot run `{}`: the rig runs in the plan's folder `{}`, which does not exist\n    hint: run the plan from the folder that holds it (a built-in plan's rig script is in the ledflicker source tree)",
+                program.display(),
+                self.plan_dir.display()
+            ),
             RigError::Spawn(e) => format!("cannot run `{}`: {e}", program.display()),
             RigError::TimedOut { after, stderr } => {
                 let last = stderr

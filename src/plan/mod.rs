@@ -548,7 +548,20 @@ pub fn find_and_load(arg: &str) -> Result<Plan, PlanError> {
 /// Validates a plan built into the binary.
 pub fn load_built_in(built_in: &shipped::Shipped) -> Result<Plan, PlanError> {
     let sha256 = crate::util::sha256_hex(built_in.text.as_bytes());
-    let mut plan = parse(built_in.text, Path::new(built_in.path), sha256)?;
+    // Its errors name it as built in: a capture it names "does not exist"
+    // because the plan is not read from a folder that holds its files.
+    let labelled = || PathBuf::from(format!("{}{}", built_in.path, shipped::BUILT_IN));
+    let mut plan = parse(built_in.text, Path::new(built_in.path), sha256).map_err(|e| match e {
+        PlanError::Invalid { diagnostics, .. } => PlanError::Invalid {
+            path: labelled(),
+            diagnostics,
+        },
+        PlanError::Syntax { message, .. } => PlanError::Syntax {
+            path: labelled(),
+            message,
+        },
+        other => other,
+    })?;
     plan.built_in = true;
     Ok(plan)
 }

@@ -279,6 +279,21 @@ fn shipped_plans_run_by_name_from_an_empty_directory() {
         assert_eq!(input["path"], format!("{path} (built in)"));
         assert_eq!(input["sha256"], sha(path));
     }
+    // Shipped plans that name files of the source tree say so away from it.
+    let ran = super::ledflicker_in(&["validate", "p2020-samples"], &dir);
+    assert_eq!(ran.status.code(), Some(2));
+    let err = super::stderr(&ran);
+    assert!(
+        err.contains("test-plans/p2020-samples.toml (built in)") && err.contains("does not exist"),
+        "{err}"
+    );
+    let ran = super::ledflicker_in(&["plan", "command-sim-rig", "--out", "rig", "-q"], &dir);
+    assert_eq!(ran.status.code(), Some(3));
+    let err = super::stderr(&ran);
+    assert!(
+        err.contains("the rig runs in the plan's folder `test-plans`"),
+        "{err}"
+    );
     // A local file of that name is the plan, not the built-in copy.
     std::fs::create_dir(dir.join("test-plans")).unwrap();
     let mine = std::fs::read_to_string(super::root().join("test-plans/daylight.toml"))
