@@ -5,8 +5,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::util::{Word, static_str, static_str_opt};
-
 /// The columns a trace CSV (`traces/<case>.csv`) starts with, in order,
 /// before one luma column per ROI named after it. A ROI must not take one
 /// of these names: its column would repeat the name, and a reader of the
@@ -248,11 +246,9 @@ impl RenderedFrame {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SegmentsFound {
     /// "plan" or "detected".
-    #[serde(deserialize_with = "static_str")]
-    pub method: Word,
+    pub method: SegmentMethod,
     /// Detection rule: "sequence" or "off-then-pwm"; `None` for "plan".
-    #[serde(deserialize_with = "static_str_opt")]
-    pub rule: Option<Word>,
+    pub rule: Option<DetectionRule>,
     /// OFF reference frames.
     pub off: Option<(u64, u64)>,
     /// Steady-ON frames.
@@ -350,16 +346,14 @@ pub struct LevelsFound {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct StepFound {
     /// "on", "off", "pwm" or "end" (end of the PWM segment).
-    #[serde(deserialize_with = "static_str")]
-    pub kind: Word,
+    pub kind: StepKind,
     /// First frame after the step.
     pub frame: u64,
     /// Its time, seconds from the first frame.
     pub time_s: f64,
     /// "luma" (seen in the trace), "timing" (from the sequence's durations)
     /// or "capture" (the capture starts or ends there).
-    #[serde(deserialize_with = "static_str")]
-    pub from: Word,
+    pub from: StepSource,
 }
 
 /// What was read for one case, for the report.
@@ -370,8 +364,7 @@ pub struct CaptureSummary {
     /// What was read, e.g. "video h264 yuv420p 1280x800 (ffmpeg, rgb24)".
     pub format: String,
     /// Where frame times came from.
-    #[serde(deserialize_with = "static_str")]
-    pub timestamps: Word,
+    pub timestamps: TimestampSource,
     /// Segments and how they were found.
     pub segments: SegmentsFound,
     /// The container's time base (the unit its timestamps count in),
@@ -418,5 +411,103 @@ impl Ratio {
 impl std::fmt::Display for Ratio {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}/{}", self.num, self.den)
+    }
+}
+
+/// Declares a closed set of words that results.json holds as strings: the
+/// enum, its serde names (the words), `as_str` / `Display` giving them,
+/// and comparison with a word.
+macro_rules! words {
+    ($(#[$doc:meta])* $name:ident { $($(#[$vdoc:meta])* $variant:ident = $word:literal,)* }) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, ::serde::Serialize, ::serde::Deserialize)]
+        pub enum $name {
+            $($(#[$vdoc])* #[serde(rename = $word)] $variant,)*
+        }
+
+        impl $name {
+            /// The word results.json holds.
+            pub fn as_str(self) -> &'static str {
+                match self {
+                    $($name::$variant => $word,)*
+                }
+            }
+        }
+
+        impl PartialEq<&str> for $name {
+            fn eq(&self, word: &&str) -> bool {
+                self.as_str() == *word
+            }
+        }
+
+        impl std::fmt::Display for $name {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(self.as_str())
+            }
+        }
+    };
+}
+
+pub(crate) use words;
+
+words! {
+    /// How a case's segments were found.
+    SegmentMethod {
+        /// Given by the plan (frame ranges or `[capture]` keys).
+        Plan = "plan",
+        /// Detected from the luma.
+        Detected = "detected",
+    }
+}
+
+words! {
+    /// The rule segment detection followed.
+    DetectionRule {
+        /// The plan's ON, OFF, PWM sequence.
+        Sequence = "sequence",
+        /// No ON segment: OFF, then PWM.
+        OffThenPwm = "off-then-pwm",
+    }
+}
+
+words! {
+    /// A step of the sequence.
+    StepKind {
+        /// The light turns steadily ON.
+        On = "on",
+        /// The light turns OFF.
+        Off = "off",
+        /// The PWM starts.
+        Pwm = "pwm",
+        /// The PWM segment ends.
+        End = "end",
+    }
+}
+
+words! {
+    /// How a step was placed.
+    StepSource {
+        /// Seen in the trace.
+        Luma = "luma",
+        /// From the sequence's durations.
+        Timing = "timing",
+        /// The capture starts or ends there.
+        Capture = "capture",
+    }
+}
+
+words! {
+    /// Where a capture's frame times came from.
+    TimestampSource {
+        /// The container's timestamps.
+        Container = "container",
+        /// A `<capture>.timestamps.csv` sidecar.
+        Sidecar = "sidecar",
+        /// `[capture] frame-rate-fps`, or a Y4M header's rate.
+        Fps = "fps",
+        /// The CSV trace's time column.
+        Csv = "csv",
+        /// None: the capture cannot be timed.
+        None = "none",
     }
 }

@@ -1,11 +1,7 @@
 //! Small helpers shared across the pipeline: hashing, dates, atomic writes.
 
-use std::collections::BTreeSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-
-use serde::{Deserialize, Deserializer};
 
 use sha2::{Digest, Sha256};
 
@@ -195,35 +191,6 @@ impl Staged {
     }
 }
 
-/// A word from a small fixed set (`>=`, `detected`, ...), as the result
-/// types hold it. The alias keeps serde's derive from treating the field as
-/// borrowed from the input (which would tie the whole result to `'static`
-/// input); [`static_str`] reads it.
-pub type Word = &'static str;
-
-/// Deserialises a `&'static str` field (a word from a small fixed set such
-/// as `>=` or `detected`) by interning it: each distinct word is allocated
-/// once per process.
-pub fn static_str<'de, D: Deserializer<'de>>(d: D) -> Result<&'static str, D::Error> {
-    String::deserialize(d).map(intern)
-}
-
-/// [`static_str`] of an optional field.
-pub fn static_str_opt<'de, D: Deserializer<'de>>(d: D) -> Result<Option<&'static str>, D::Error> {
-    Option::<String>::deserialize(d).map(|s| s.map(intern))
-}
-
-fn intern(s: String) -> &'static str {
-    static WORDS: Mutex<BTreeSet<&'static str>> = Mutex::new(BTreeSet::new());
-    let mut words = WORDS.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(w) = words.get(s.as_str()) {
-        return w;
-    }
-    let w: &'static str = Box::leak(s.into_boxed_str());
-    words.insert(w);
-    w
-}
-
 /// True while process `pid` exists (it may belong to another user).
 pub fn alive(pid: u32) -> bool {
     if pid == std::process::id() {
@@ -303,14 +270,6 @@ mod tests {
     }
 
     use super::*;
-
-    #[test]
-    fn interned_words_are_shared() {
-        let a = intern(">=".to_string());
-        let b = intern(">=".to_string());
-        assert!(std::ptr::eq(a, b));
-        assert_eq!(a, ">=");
-    }
 
     #[test]
     fn sha256_of_abc_is_the_fips_vector() {

@@ -110,7 +110,7 @@ pub fn find_segments_with(
         (at(a), at(b))
     };
     let found = SegmentsFound {
-        method: "plan",
+        method: crate::trace::SegmentMethod::Plan,
         rule: None,
         off,
         on,

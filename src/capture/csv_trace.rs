@@ -128,9 +128,12 @@ pub(super) fn read(
     }
     let n = luma.first().map_or(0, Vec::len);
     let (time_s, timestamps) = match (time_col, opts.fps) {
-        (Some(_), _) => (times, "csv"),
-        (None, Some(fps)) => (times_from_fps(n, fps), "fps"),
-        (None, None) => (times_from_fps(n, f64::NAN), "none"),
+        (Some(_), _) => (times, crate::trace::TimestampSource::Csv),
+        (None, Some(fps)) => (times_from_fps(n, fps), crate::trace::TimestampSource::Fps),
+        (None, None) => (
+            times_from_fps(n, f64::NAN),
+            crate::trace::TimestampSource::None,
+        ),
     };
     Ok(CaptureTrace {
         time_s,

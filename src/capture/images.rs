@@ -1,6 +1,7 @@
 //! PNG and TIFF frames (8 or 16 bit, grey or RGB, TIFF with LZW) through the
 //! `image` crate, one file per frame, in file-name order.
 
+use crate::trace::TimestampSource;
 use std::path::{Path, PathBuf};
 
 use image::DynamicImage;
@@ -139,7 +140,9 @@ pub(super) fn read_files(
         rgb,
         full_scale_dn: full_scale,
         frame_size: first.map_or((0, 0), |(w, h, _)| (w, h)),
-        timestamps: if opts.fps.is_some() { "fps" } else { "none" },
+        timestamps: opts
+            .fps
+            .map_or(TimestampSource::None, |_| TimestampSource::Fps),
         format: format!(
             "image sequence `{}` ({} files)",
             capture.display(),

@@ -93,7 +93,7 @@ pub struct CaptureTrace {
     /// Frame width and height, pixels (0 for CSV traces).
     pub frame_size: (u32, u32),
     /// Where the timestamps came from: "container", "sidecar", "fps", "csv".
-    pub timestamps: &'static str,
+    pub timestamps: crate::trace::TimestampSource,
     /// What was read, e.g. "video h264 (ffmpeg, rgb24)".
     pub format: String,
     /// The container's time base, seconds, when `time_s` are its timestamps.
@@ -305,12 +305,12 @@ fn finish_trace(path: &Path, mut trace: CaptureTrace) -> Result<CaptureTrace, Ca
     // directory there is refused, not skipped.
     if std::fs::symlink_metadata(&sidecar).is_ok() {
         trace.time_s = read_sidecar(&sidecar, trace.time_s.len())?;
-        trace.timestamps = "sidecar";
+        trace.timestamps = crate::trace::TimestampSource::Sidecar;
         // The sidecar's times are not in the container's unit.
         trace.time_base_s = None;
     }
     check_times(path, &trace.time_s)?;
-    if trace.timestamps == "none" {
+    if trace.timestamps == crate::trace::TimestampSource::None {
         return Err(CaptureError::Invalid {
             path: path.to_path_buf(),
             message: "the capture has no timestamps".to_string(),

@@ -394,11 +394,14 @@ fn trace(acc: Accumulator<'_>, p: Probe, opts: &ReadOptions, full: bool) -> Capt
     let (luma, rgb) = acc.finish();
     let container = p.packet_times.len() == n && n > 0;
     let (time_s, timestamps) = if container {
-        (p.packet_times, "container")
+        (p.packet_times, crate::trace::TimestampSource::Container)
     } else {
         match p.fps.or(opts.fps) {
-            Some(fps) => (times_from_fps(n, fps), "fps"),
-            None => (times_from_fps(n, f64::NAN), "none"),
+            Some(fps) => (times_from_fps(n, fps), crate::trace::TimestampSource::Fps),
+            None => (
+                times_from_fps(n, f64::NAN),
+                crate::trace::TimestampSource::None,
+            ),
         }
     };
     CaptureTrace {

@@ -2,6 +2,7 @@
 //! little-endian) mono, 4:2:0, 4:2:2 and 4:4:4. Only the Y' rows that hold
 //! ROIs are read; chroma and other rows are skipped with a seek.
 
+use crate::trace::TimestampSource;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
@@ -296,7 +297,7 @@ pub(super) fn read(
         rgb: None,
         full_scale_dn: max_dn,
         frame_size: (hdr.width, hdr.height),
-        timestamps: if fps.is_some() { "fps" } else { "none" },
+        timestamps: fps.map_or(TimestampSource::None, |_| TimestampSource::Fps),
         format: format!(
             "y4m {}x{} {}-bit, {} range",
             hdr.width,

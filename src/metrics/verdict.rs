@@ -55,8 +55,7 @@ pub struct Check {
     /// The value is +infinity (a contrast over a zero reference).
     pub unbounded: bool,
     /// `>=` or `<=`.
-    #[serde(deserialize_with = "crate::util::static_str")]
-    pub comparison: crate::util::Word,
+    pub comparison: Comparison,
     /// Threshold.
     pub threshold: f64,
     /// Whether the check is met.
@@ -65,13 +64,23 @@ pub struct Check {
     pub reason: Option<String>,
 }
 
+crate::trace::words! {
+    /// How a check compares its value with its threshold.
+    Comparison {
+        /// The value must be at least the threshold.
+        AtLeast = ">=",
+        /// The value must be at most the threshold.
+        AtMost = "<=",
+    }
+}
+
 impl Check {
     /// Margin to the threshold, relative to the threshold's size: > 0 met
     /// with room, < 0 missed; -inf for an undefined value, +inf for an
     /// unbounded value that meets a minimum. Orders ROIs from worst to best.
     pub fn margin(&self) -> f64 {
         let scale = self.threshold.abs().max(1e-3);
-        let min = self.comparison == ">=";
+        let min = self.comparison == Comparison::AtLeast;
         match (self.value, self.unbounded) {
             (_, true) if min => f64::INFINITY,
             (_, true) => f64::NEG_INFINITY,
@@ -89,12 +98,13 @@ impl Check {
             (Some(v), false) => crate::util::fixed(v, 3),
             (None, false) => "undefined".to_string(),
         };
+        let undefined = self.value.is_none() && !self.unbounded;
         let op = match (self.pass, self.comparison) {
-            (true, c) => c,
-            (false, ">=") if self.value.is_none() && !self.unbounded => "is not >=",
-            (false, ">=") => "<",
-            (false, _) if self.value.is_none() && !self.unbounded => "is not <=",
-            (false, _) => ">",
+            (true, c) => c.as_str(),
+            (false, Comparison::AtLeast) if undefined => "is not >=",
+            (false, Comparison::AtLeast) => "<",
+            (false, Comparison::AtMost) if undefined => "is not <=",
+            (false, Comparison::AtMost) => ">",
         };
         format!(
             "{} {value} {op} {} on {}",
@@ -114,7 +124,11 @@ fn check(roi: &str, name: &str, m: &Metric, threshold: f64, min: bool) -> Check 
         metric: name.to_string(),
         value: m.value,
         unbounded: m.unbounded,
-        comparison: if min { ">=" } else { "<=" },
+        comparison: if min {
+            Comparison::AtLeast
+        } else {
+            Comparison::AtMost
+        },
         threshold,
         pass,
         reason: m.reason.clone(),

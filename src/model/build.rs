@@ -119,10 +119,10 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
     let mut thresholds = plan.thresholds.clone();
     thresholds.basis = effective_basis(plan.dut.backend, &plan.thresholds);
     let mut model = Results {
-        schema: RESULTS_SCHEMA,
+        schema: RESULTS_SCHEMA.to_string(),
         tool: Tool {
-            name: "ledflicker",
-            version: env!("CARGO_PKG_VERSION"),
+            name: "ledflicker".to_string(),
+            version: env!("CARGO_PKG_VERSION").to_string(),
         },
         plan: PlanInfo {
             id: plan.id.clone(),
@@ -266,8 +266,8 @@ fn dut_info(plan: &Plan, backend_id: &str) -> DutInfo {
         firmware: plan.dut.firmware.clone(),
         camera: (plan.dut.backend == BackendKind::Simulator).then_some(CameraInfo {
             shutter: match cam.shutter {
-                ShutterKind::Global => "global",
-                ShutterKind::Rolling => "rolling",
+                ShutterKind::Global => super::ShutterName::Global,
+                ShutterKind::Rolling => super::ShutterName::Rolling,
             },
             sensor_rows: cam.sensor_rows,
             sensor_columns: cam.sensor_columns,

@@ -15,8 +15,7 @@ use crate::plan::{BackendKind, Limits, Plan, ShutterKind, Thresholds, VerdictBas
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Method {
     /// "simulator", "captured" or "command".
-    #[serde(deserialize_with = "crate::util::static_str")]
-    pub backend: crate::util::Word,
+    pub backend: super::BackendName,
     /// Where the frames came from, one paragraph.
     pub acquisition: String,
     /// The verdict basis actually used, one sentence.
@@ -57,11 +56,11 @@ fn limits_lines(t: &Thresholds) -> Vec<String> {
     out
 }
 
-fn kind_name(kind: BackendKind) -> &'static str {
+fn kind_name(kind: BackendKind) -> super::BackendName {
     match kind {
-        BackendKind::Simulator => "simulator",
-        BackendKind::Captured => "captured",
-        BackendKind::Command => "command",
+        BackendKind::Simulator => super::BackendName::Simulator,
+        BackendKind::Captured => super::BackendName::Captured,
+        BackendKind::Command => super::BackendName::Command,
     }
 }
 

@@ -42,8 +42,8 @@ pub use crate::metrics::{Check, Levels, Metric, Verdict};
 pub use crate::plan::{RoiKind, Thresholds, VerdictBasis};
 pub use crate::runner::CaseResult;
 pub use crate::trace::{
-    Acquisition, CaptureSummary, FrameInfo, RenderedFrame, Run, Segment, SegmentsFound,
-    TRACE_COLUMNS,
+    Acquisition, CaptureSummary, DetectionRule, FrameInfo, RenderedFrame, Run, Segment,
+    SegmentMethod, SegmentsFound, StepKind, StepSource, TRACE_COLUMNS, TimestampSource,
 };
 pub use build::{assemble, build};
 
@@ -54,8 +54,7 @@ pub const RESULTS_SCHEMA: &str = "ledflicker.results/2";
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Results {
     /// Always [`RESULTS_SCHEMA`].
-    #[serde(deserialize_with = "crate::util::static_str")]
-    pub schema: crate::util::Word,
+    pub schema: String,
     /// Tool that made it.
     pub tool: Tool,
     /// The plan.
@@ -110,11 +109,9 @@ pub struct PlanAdvice {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Tool {
     /// "ledflicker".
-    #[serde(deserialize_with = "crate::util::static_str")]
-    pub name: crate::util::Word,
+    pub name: String,
     /// Crate version.
-    #[serde(deserialize_with = "crate::util::static_str")]
-    pub version: crate::util::Word,
+    pub version: String,
 }
 
 /// Plan identity.
@@ -155,12 +152,33 @@ pub struct DutInfo {
     pub camera: Option<CameraInfo>,
 }
 
+crate::trace::words! {
+    /// A simulated camera's shutter.
+    ShutterName {
+        /// Every row exposed at once.
+        Global = "global",
+        /// Row `r` starts `r` line times after row 0.
+        Rolling = "rolling",
+    }
+}
+
+crate::trace::words! {
+    /// Where a run's frames came from.
+    BackendName {
+        /// The built-in simulator.
+        Simulator = "simulator",
+        /// Captured files.
+        Captured = "captured",
+        /// A lab rig's command.
+        Command = "command",
+    }
+}
+
 /// The simulated camera, in the plan's units.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct CameraInfo {
     /// "global" or "rolling".
-    #[serde(deserialize_with = "crate::util::static_str")]
-    pub shutter: crate::util::Word,
+    pub shutter: ShutterName,
     /// Sensor rows.
     pub sensor_rows: u32,
     /// Sensor columns.

@@ -7,7 +7,7 @@ use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use crate::model::Segment;
-use crate::model::SegmentsFound;
+use crate::model::{SegmentsFound, StepKind};
 
 pub mod envelope;
 mod trace;
@@ -73,10 +73,10 @@ fn shade_detected<DB: DrawingBackend>(
         .iter()
         .filter_map(|step| {
             let span = match step.kind {
-                "on" => found.on_time_s,
-                "off" => found.off_time_s,
-                "pwm" => Some(found.pwm_time_s),
-                _ => None,
+                StepKind::On => found.on_time_s,
+                StepKind::Off => found.off_time_s,
+                StepKind::Pwm => Some(found.pwm_time_s),
+                StepKind::End => None,
             };
             Some((step.time_s, span?.0))
         })

@@ -200,7 +200,7 @@ pub fn junit_xml(model: &Results) -> String {
         ("plan.sha256", model.plan.sha256.as_str()),
         ("standard", model.plan.standard.as_str()),
         ("dut.backend", model.dut.backend.as_str()),
-        ("tool.version", model.tool.version),
+        ("tool.version", model.tool.version.as_str()),
     ] {
         let _ = writeln!(
             out,

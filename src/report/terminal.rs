@@ -10,7 +10,7 @@ use std::path::Path;
 
 use crate::model::RoiKind;
 use crate::model::Verdict;
-use crate::model::{CaseInfo, Results, RoiInfo};
+use crate::model::{CaseInfo, Results, RoiInfo, SegmentMethod};
 
 /// Metric columns: header, results.json name, decimals.
 const COLUMNS: [(&str, &str, usize); 7] = [
@@ -159,7 +159,7 @@ pub fn summary(model: &Results, out: &Path) -> String {
     let detected = |c: &crate::model::CaseInfo| {
         c.capture
             .as_ref()
-            .is_some_and(|s| s.segments.method == "detected")
+            .is_some_and(|s| s.segments.method == SegmentMethod::Detected)
     };
     let id_w = id_w + usize::from(model.cases.iter().any(&detected));
     let mut s = String::new();

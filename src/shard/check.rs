@@ -20,6 +20,7 @@ use crate::error::UsageError;
 use crate::metrics::flicker::Segment;
 use crate::plan::{BackendKind, Plan, TestCase};
 use crate::runner::{self, CaseResult};
+use crate::trace::SegmentMethod;
 use crate::trace::SegmentsFound;
 
 /// Decodes the `cases.cbor` of shard `shard` (`bytes`, read from `path`),
@@ -374,13 +375,8 @@ fn check_segments(s: &SegmentsFound) -> Result<(), String> {
     // Detection reads every frame of the capture and keeps its signal for
     // the trace chart; segments given in the plan have none.
     let signal_frames = match s.method {
-        "detected" => n,
-        "plan" => 0,
-        other => {
-            return Err(format!(
-                "segments found by `{other}`, not `plan` or `detected`"
-            ));
-        }
+        SegmentMethod::Detected => n,
+        SegmentMethod::Plan => 0,
     };
     if s.signal.len() as u64 != signal_frames {
         return Err(format!(

@@ -679,10 +679,8 @@ fn sidecar_timestamps_override_the_frame_rate() {
     )
     .unwrap();
     let t = read_capture(&frames, &rois, &[], &o).unwrap();
-    assert_eq!(
-        (t.time_s.clone(), t.timestamps),
-        (vec![0.0, 0.1, 0.25], "sidecar")
-    );
+    assert_eq!(t.time_s, vec![0.0, 0.1, 0.25]);
+    assert_eq!(t.timestamps, "sidecar");
     std::fs::write(dir.join("frames.timestamps.csv"), "0.0\n0.1\n").unwrap();
     let e = read_capture(&frames, &rois, &[], &o)
         .unwrap_err()

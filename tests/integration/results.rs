@@ -226,3 +226,31 @@ fn full_html(
     });
     report::html::render(&model, results, "2026-01-01").unwrap()
 }
+
+/// results.json reads back as written, every double exact; its fixed words
+/// (a check's comparison, how segments were found, the shutter) read back
+/// as what they are, and a word outside the set is refused, naming it, not
+/// carried into a report.
+#[test]
+fn results_json_reads_back_exactly_and_refuses_words_outside_their_set() {
+    let (_, _, model) = run("test-plans/daylight.toml", 2);
+    let text = serde_json::to_string(&model).unwrap();
+    let back = ledflicker::model::read_results(&text).unwrap();
+    assert_eq!(back.cases[0].checks[0].comparison, ">=");
+    assert_eq!(back.method.backend, "simulator");
+    // Read back, it is the same file: every double exactly as written.
+    assert!(
+        serde_json::to_string(&back).unwrap() == text,
+        "results.json does not read back as written"
+    );
+    for (word, forged) in [
+        ("\"comparison\":\">=\"", "\"comparison\":\"==\""),
+        ("\"shutter\":\"rolling\"", "\"shutter\":\"sideways\""),
+        ("\"backend\":\"simulator\"", "\"backend\":\"oracle\""),
+    ] {
+        assert!(text.contains(word), "{word}");
+        let e = ledflicker::model::read_results(&text.replacen(word, forged, 1)).unwrap_err();
+        let bad = forged.split(':').nth(1).unwrap().trim_matches('"');
+        assert!(e.contains(bad), "{forged}: {e}");
+    }
+}

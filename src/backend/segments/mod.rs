@@ -21,6 +21,7 @@ use std::path::Path;
 
 use crate::capture::{CaptureError, CaptureTrace};
 use crate::plan::{Plan, RoiKind, Sequence};
+use crate::trace::{DetectionRule, SegmentMethod, StepKind, StepSource};
 
 pub use crate::plan::DEFAULT_SETTLE_S;
 /// Frames left out before each detected step (the frame that straddles it).
@@ -323,15 +324,23 @@ fn detect_sequence(
         from,
     };
     let steps = vec![
-        step("on", rise, if rise == 0 { "capture" } else { "luma" }),
-        step("off", fall, "luma"),
-        step("pwm", pwm_step, pwm_from),
-        step("end", end, end_from),
+        step(
+            StepKind::On,
+            rise,
+            if rise == 0 {
+                StepSource::Capture
+            } else {
+                StepSource::Luma
+            },
+        ),
+        step(StepKind::Off, fall, StepSource::Luma),
+        step(StepKind::Pwm, pwm_step, pwm_from),
+        step(StepKind::End, end, end_from),
     ];
     let frames = |(a, b): (usize, usize)| (a as u64, b as u64);
     let found = SegmentsFound {
-        method: "detected",
-        rule: Some("sequence"),
+        method: SegmentMethod::Detected,
+        rule: Some(DetectionRule::Sequence),
         off: Some(frames(off)),
         on: Some(frames(on)),
         pwm: frames(pwm),
@@ -441,7 +450,7 @@ impl SequenceSteps<'_> {
     /// after the OFF segment when it is near the sequence's time, else from
     /// the timing (a PWM segment may start looking dark: the light "appears
     /// OFF"). A bright frame well before that time is refused.
-    fn pwm_step(&self) -> Result<(usize, &'static str), CaptureError> {
+    fn pwm_step(&self) -> Result<(usize, StepSource), CaptureError> {
         let (sig, seq) = (self.sig, self.seq);
         let OnOff { fall, mid, .. } = self.step;
         let t_fall = sig.t[fall];
@@ -463,15 +472,15 @@ impl SequenceSteps<'_> {
             ));
         }
         Ok(match seen.filter(|&k| sig.t[k] <= t_pwm + 1.5 * sig.dt) {
-            Some(k) => (k, "luma"),
-            None => (sig.at(t_pwm - 0.5 * sig.dt), "timing"),
+            Some(k) => (k, StepSource::Luma),
+            None => (sig.at(t_pwm - 0.5 * sig.dt), StepSource::Timing),
         })
     }
 
     /// The end of the PWM segment and where it came from: the sequence's
     /// PWM time after `pwm_step`, or the end of the capture. A capture
     /// shorter than that (beyond the tolerance) is refused.
-    fn pwm_end(&self, pwm_step: usize) -> Result<(usize, &'static str), CaptureError> {
+    fn pwm_end(&self, pwm_step: usize) -> Result<(usize, StepSource), CaptureError> {
         let (sig, seq) = (self.sig, self.seq);
         let n = sig.n();
         let t_end = sig.time(pwm_step) - 0.5 * sig.dt + seq.pwm_s;
@@ -491,9 +500,9 @@ impl SequenceSteps<'_> {
             ));
         }
         Ok(if t_end < sig.time(n) {
-            (sig.at(t_end), "timing")
+            (sig.at(t_end), StepSource::Timing)
         } else {
-            (n, "capture")
+            (n, StepSource::Capture)
         })
     }
 
@@ -583,8 +592,8 @@ fn detect_off_then_pwm(
     let off = (0, (rise - OFF_THEN_PWM_GUARD_FRAMES) as u64);
     let pwm = (pwm_start as u64, n as u64);
     let found = SegmentsFound {
-        method: "detected",
-        rule: Some("off-then-pwm"),
+        method: SegmentMethod::Detected,
+        rule: Some(DetectionRule::OffThenPwm),
         off: Some(off),
         on: None,
         pwm,
@@ -601,16 +610,16 @@ fn detect_off_then_pwm(
         }),
         steps: vec![
             StepFound {
-                kind: "pwm",
+                kind: StepKind::Pwm,
                 frame: step as u64,
                 time_s: sig.time(step),
-                from: "luma",
+                from: StepSource::Luma,
             },
             StepFound {
-                kind: "end",
+                kind: StepKind::End,
                 frame: n as u64,
                 time_s: sig.time(n),
-                from: "capture",
+                from: StepSource::Capture,
             },
         ],
         text: String::new(),
