@@ -6,7 +6,7 @@
 //! ```text
 //! TOML plan --plan::load--> Plan --expand_cases--> Vec<TestCase>
 //!   --runner::run (rayon) + dyn Backend--> Vec<CaseResult>
-//!   --crate::model::build--> Results (results.json) --report::{html,pdf,export}-->
+//!   --crate::model::assemble--> Results (results.json) --report::{html,pdf,export}-->
 //!   report.html, report.pdf, junit.xml, summary.csv --signoff--> signed report.pdf,
 //!   manifest.txt, signoff.p7s
 //! ```

@@ -63,8 +63,9 @@ fn insert(roi: &mut RoiInfo, name: &str, m: &Metric) {
     roi.contrast_unbounded |= m.unbounded;
 }
 
-/// Builds results.json's model. `plan_path` is the path as the user gave it.
-pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
+/// The model of the run's cases, analyses, fine maps and advice: the part
+/// of [`assemble`] that does not depend on where the frames came from.
+fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
     let mut counts = Counts {
         total: results.len(),
         ..Counts::default()
@@ -152,8 +153,9 @@ pub fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
 }
 
 /// The results model of a finished run, as `plan` writes it and `merge`
-/// rebuilds it: [`build`], the capture summaries of captured and rig runs
-/// (from each case's acquisition), then the method section.
+/// rebuilds it, and the only way to build one: `build` (the cases), the capture
+/// summaries of captured and rig runs (from each case's acquisition), then
+/// the method section.
 pub fn assemble(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
     let mut model = build(plan, backend_id, results);
     for (case, r) in model.cases.iter_mut().zip(results) {

@@ -1,6 +1,6 @@
 //! The results model: every struct of results.json, typed both ways
 //! (written with serde, read back with serde), and the analysis stage that
-//! fills it from the run's case results ([`build`]). The report renders
+//! fills it from the run's case results ([`assemble`]). The report renders
 //! this model and imports nothing else of the pipeline; the types it shows
 //! from lower modules are re-exported here (docs/architecture.md).
 //!
@@ -45,7 +45,7 @@ pub use crate::trace::{
     Acquisition, CaptureSummary, DetectionRule, FrameInfo, RenderedFrame, Run, Segment,
     SegmentMethod, SegmentsFound, StepKind, StepSource, TRACE_COLUMNS, TimestampSource,
 };
-pub use build::{assemble, build};
+pub use build::assemble;
 
 /// Schema id of results.json.
 pub const RESULTS_SCHEMA: &str = "ledflicker.results/2";

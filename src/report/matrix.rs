@@ -583,7 +583,7 @@ pub(crate) mod tests {
         let cases = crate::plan::expand_cases(&plan);
         let backend = crate::backend::sim::Simulator::new(&plan);
         let results = crate::runner::run(&plan, &cases, &backend, Some(1), &|_| {}).unwrap();
-        crate::model::build(&plan, "sim-ideal", &results)
+        crate::model::assemble(&plan, "sim-ideal", &results)
     }
 
     /// (x, y, font size, anchor, text) of every `<text>` of an SVG.

@@ -22,7 +22,7 @@ fn model(frequencies: &str, duties: &str) -> Value {
     let p = plan::parse(&text, std::path::Path::new("beyond.toml"), String::new()).unwrap();
     let cases = plan::expand_cases(&p);
     let results = runner::run(&p, &cases, &Simulator::new(&p), Some(2), &|_| {}).unwrap();
-    serde_json::to_value(ledflicker::model::build(&p, "sim-ideal", &results)).unwrap()
+    serde_json::to_value(ledflicker::model::assemble(&p, "sim-ideal", &results)).unwrap()
 }
 
 fn case<'a>(m: &'a Value, id: &str) -> &'a Value {
@@ -101,7 +101,7 @@ fn model_with(frequency_hz: f64, extra: &str) -> Value {
     let p = plan::parse(&text, std::path::Path::new("ppm.toml"), String::new()).unwrap();
     let cases = plan::expand_cases(&p);
     let results = runner::run(&p, &cases, &Simulator::new(&p), Some(2), &|_| {}).unwrap();
-    serde_json::to_value(ledflicker::model::build(&p, "sim-ideal", &results)).unwrap()
+    serde_json::to_value(ledflicker::model::assemble(&p, "sim-ideal", &results)).unwrap()
 }
 
 #[test]

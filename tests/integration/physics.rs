@@ -350,7 +350,7 @@ fn physical_camera_gets_no_ideal_fine_map_but_says_why() {
     let p = plan::load(&root().join("test-plans/deegan2018.toml")).unwrap();
     let cases = plan::expand_cases(&p);
     let results = runner::run(&p, &cases, &Simulator::new(&p), Some(2), &|_| {}).unwrap();
-    let model = ledflicker::model::build(&p, "sim-physical", &results);
+    let model = ledflicker::model::assemble(&p, "sim-physical", &results);
     assert!(model.fine_maps.is_empty());
     assert!(
         model

@@ -21,7 +21,7 @@ fn run(
     let cases = plan::expand_cases(&p);
     let backend = Simulator::new(&p);
     let results = runner::run(&p, &cases, &backend, Some(threads), &|_| {}).unwrap();
-    let model = ledflicker::model::build(&p, "sim-ideal", &results);
+    let model = ledflicker::model::assemble(&p, "sim-ideal", &results);
     (p, results, model)
 }
 
@@ -191,7 +191,7 @@ fn dark_off_reference_is_reported_as_unbounded() {
     let p = plan::parse(&text, std::path::Path::new("dark.toml"), String::new()).unwrap();
     let cases = plan::expand_cases(&p);
     let results = runner::run(&p, &cases, &Simulator::new(&p), Some(1), &|_| {}).unwrap();
-    let model = ledflicker::model::build(&p, "sim-ideal", &results);
+    let model = ledflicker::model::assemble(&p, "sim-ideal", &results);
     let json = serde_json::to_value(&model).unwrap();
     let case = json["cases"]
         .as_array()

@@ -324,7 +324,7 @@ fn simulated_report_names_its_camera_and_the_worst_phase_basis() {
     let p = plan::load(&root().join("test-plans/deegan2018.toml")).unwrap();
     let cases = plan::expand_cases(&p);
     let results = runner::run(&p, &cases, &Simulator::new(&p), Some(2), &|_| {}).unwrap();
-    let model = ledflicker::model::build(&p, "sim-physical", &results);
+    let model = ledflicker::model::assemble(&p, "sim-physical", &results);
     assert!(
         model
             .method

@@ -184,7 +184,7 @@ pub(crate) mod tests {
         let cases = crate::plan::expand_cases(&plan);
         let simulator = crate::backend::sim::Simulator::new(&plan);
         let results = crate::runner::run(&plan, &cases, &simulator, Some(2), &|_| {}).unwrap();
-        let model = crate::model::build(&plan, "sim-ideal", &results);
+        let model = crate::model::assemble(&plan, "sim-ideal", &results);
         (results, model)
     }
 
