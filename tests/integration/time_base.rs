@@ -12,7 +12,7 @@ use std::process::Command;
 
 use serde_json::Value;
 
-use crate::{ledflicker_in, scratch, stderr};
+use crate::{scratch, stderr};
 
 const F_HZ: f64 = 151.0;
 const DUTY: f64 = 0.3;
@@ -108,24 +108,7 @@ fn write_csv(dir: &Path, name: &str, drops: bool) {
 /// Runs a one-case captured plan on `source` (the PWM conditions given
 /// when `conditions`) and returns the case in results.json.
 fn run(dir: &Path, source: &str, conditions: bool) -> Value {
-    let cond = if conditions {
-        format!("light-lux = 1000\nfrequency-hz = {F_HZ}\nduty-cycle = {DUTY}\n")
-    } else {
-        String::new()
-    };
-    let plan = format!(
-        "[plan]\nid = \"t\"\ntitle = \"t\"\n[dut]\nbackend = \"captured\"\n[capture]\noff-frames = [0, {OFF_FRAMES}]\npwm-frames = [{OFF_FRAMES}]\n[[case]]\nid = \"c\"\nsource = \"{source}\"\n{cond}[[roi]]\nname = \"led\"\nx-px = 4\ny-px = 4\nwidth-px = 8\nheight-px = 8\n"
-    );
-    std::fs::write(dir.join("plan.toml"), plan).unwrap();
-    let out = dir.join("out");
-    let o = ledflicker_in(
-        &["plan", "plan.toml", "--out", out.to_str().unwrap(), "-q"],
-        dir,
-    );
-    assert!(matches!(o.status.code(), Some(0 | 1)), "{}", stderr(&o));
-    let json: Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
-    json["cases"][0].clone()
+    super::timing::run_case(dir, source, conditions, "", (4, 4))
 }
 
 /// The case reads the true rate (the stated one exactly when `stated`),

@@ -57,13 +57,27 @@ fn run(dir: &Path, conditions: bool) -> Value {
 /// Runs a one-case captured plan on `source` and returns its case in
 /// results.json.
 fn run_source(dir: &Path, source: &str, conditions: bool) -> Value {
+    run_case(dir, source, conditions, "frame-rate-fps = 29.97\n", (0, 0))
+}
+
+/// Runs a one-case captured plan on `source` (151 Hz at duty 0.3 given
+/// when `conditions`; OFF for the first 30 frames, then PWM), with
+/// `capture_keys` added to its `[capture]` table and an 8 x 8 LED ROI at
+/// `roi_xy`, and returns the case in results.json.
+pub(crate) fn run_case(
+    dir: &Path,
+    source: &str,
+    conditions: bool,
+    capture_keys: &str,
+    (x, y): (u32, u32),
+) -> Value {
     let cond = if conditions {
         format!("light-lux = 1000\nfrequency-hz = {F_HZ}\nduty-cycle = {DUTY}\n")
     } else {
         String::new()
     };
     let plan = format!(
-        "[plan]\nid = \"t\"\ntitle = \"t\"\n[dut]\nbackend = \"captured\"\n[capture]\nframe-rate-fps = 29.97\noff-frames = [0, {OFF_FRAMES}]\npwm-frames = [{OFF_FRAMES}]\n[[case]]\nid = \"c\"\nsource = \"{source}\"\n{cond}[[roi]]\nname = \"led\"\nx-px = 0\ny-px = 0\nwidth-px = 8\nheight-px = 8\n"
+        "[plan]\nid = \"t\"\ntitle = \"t\"\n[dut]\nbackend = \"captured\"\n[capture]\n{capture_keys}off-frames = [0, {OFF_FRAMES}]\npwm-frames = [{OFF_FRAMES}]\n[[case]]\nid = \"c\"\nsource = \"{source}\"\n{cond}[[roi]]\nname = \"led\"\nx-px = {x}\ny-px = {y}\nwidth-px = 8\nheight-px = 8\n"
     );
     std::fs::write(dir.join("plan.toml"), plan).unwrap();
     let out = dir.join("out");
