@@ -87,7 +87,7 @@ fn input(role: &str, path: &Path) -> Result<InputFile, InputError> {
 fn built_in_input(role: &str, file: &shipped::Shipped) -> InputFile {
     InputFile {
         role: role.to_string(),
-        path: format!("{}{}", file.path, shipped::BUILT_IN),
+        path: shipped::label(file.path),
         sha256: crate::util::sha256_hex(file.text.as_bytes()),
         size: file.text.len() as u64,
     }

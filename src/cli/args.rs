@@ -148,11 +148,7 @@ pub fn report_date(arg: Option<&str>) -> anyhow::Result<String> {
             })?;
         return Ok(crate::util::utc_date(secs));
     }
-    let now = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_secs() as i64)
-        .unwrap_or(0);
-    Ok(crate::util::utc_date(now))
+    Ok(crate::util::utc_date(now_unix_s() as i64))
 }
 
 pub(super) fn now_unix_s() -> u64 {

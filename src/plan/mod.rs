@@ -480,7 +480,7 @@ impl Plan {
     /// the source tree and "(built in)".
     pub fn source_label(&self) -> String {
         if self.built_in {
-            format!("{}{}", self.path.display(), shipped::BUILT_IN)
+            shipped::label(&self.path.display().to_string())
         } else {
             self.path.display().to_string()
         }
@@ -550,7 +550,7 @@ pub fn load_built_in(built_in: &shipped::Shipped) -> Result<Plan, PlanError> {
     let sha256 = crate::util::sha256_hex(built_in.text.as_bytes());
     // Its errors name it as built in: a capture it names "does not exist"
     // because the plan is not read from a folder that holds its files.
-    let labelled = || PathBuf::from(format!("{}{}", built_in.path, shipped::BUILT_IN));
+    let labelled = || PathBuf::from(shipped::label(built_in.path));
     let mut plan = parse(built_in.text, Path::new(built_in.path), sha256).map_err(|e| match e {
         PlanError::Invalid { diagnostics, .. } => PlanError::Invalid {
             path: labelled(),

@@ -13,6 +13,11 @@
 /// profile's source, a report's list of inputs).
 pub const BUILT_IN: &str = " (built in)";
 
+/// `path` as a built-in file is shown: `test-plans/daylight.toml (built in)`.
+pub fn label(path: &str) -> String {
+    format!("{path}{BUILT_IN}")
+}
+
 /// A file compiled into the binary.
 #[derive(Debug, PartialEq, Eq)]
 pub struct Shipped {

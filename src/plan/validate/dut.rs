@@ -93,11 +93,7 @@ fn load_profile(c: &mut Checker<'_>, name: &str, plan_path: &Path) -> Option<Cam
         },
         None => match crate::plan::shipped::profile(name) {
             Some(built_in) => (
-                PathBuf::from(format!(
-                    "{}{}",
-                    built_in.path,
-                    crate::plan::shipped::BUILT_IN
-                )),
+                PathBuf::from(crate::plan::shipped::label(built_in.path)),
                 built_in.text.to_string(),
             ),
             None => {
