@@ -51,6 +51,6 @@ fi
 # Snapshots never update silently in a test run; see README "Golden files".
 export INSTA_UPDATE="${INSTA_UPDATE:-no}"
 
-cargo test --all-targets "$@"
+cargo test --workspace --all-targets "$@"
 # Doc tests are not covered by --all-targets.
-cargo test --doc "$@"
+cargo test --workspace --doc "$@"

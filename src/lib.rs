@@ -28,29 +28,22 @@
 //!   the sign-off;
 //! - [`signoff`]: X.509 certificates, PDF and CMS signatures of a report
 //!   directory, and their verification.
+//!
+//! The stages are crates of this workspace, re-exported here under their
+//! module names: `ledflicker-physics` ([`physics`]), `ledflicker-core`
+//! (plan up to the results model), `ledflicker-report` ([`report`]) and
+//! `ledflicker-signoff` ([`signoff`]). This crate adds sharding, the
+//! benchmarks and the command line on top.
 #![warn(missing_docs)]
 
-pub mod advise;
-pub mod analysis;
-pub mod backend;
-pub mod bench;
-pub mod calibrate;
-pub mod capture;
-pub mod cli;
-pub mod error;
-pub mod inputs;
-pub mod interrupt;
-pub mod metrics;
-pub mod model;
-pub mod outdir;
-pub mod physics;
-pub mod plan;
-pub mod render;
-pub mod report;
-pub mod runner;
-pub mod shard;
+pub use ledflicker_core::{
+    advise, analysis, backend, calibrate, capture, error, inputs, interrupt, metrics, model,
+    outdir, physics, plan, render, runner, timings, trace, util,
+};
+pub use ledflicker_report as report;
 #[cfg(feature = "signoff")]
-pub mod signoff;
-pub mod timings;
-pub mod trace;
-pub mod util;
+pub use ledflicker_signoff as signoff;
+
+pub mod bench;
+pub mod cli;
+pub mod shard;

@@ -1,0 +1,615 @@
+//! Video (MP4, MOV, MKV, ... with H.264 and anything else FFmpeg decodes)
+//! through the `ffmpeg` and `ffprobe` binaries as subprocesses.
+//!
+//! FFmpeg cuts each ROI out of each frame with a 2-pixel margin, aligned to
+//! even pixels so 4:2:0 chroma sites stay where they were, stacks these
+//! tiles into one narrow picture, converts it and pipes the raw frames; this
+//! process reads one frame at a time, so memory stays bounded. When the
+//! tiles would not be much smaller than the ROIs' bounding box (one ROI, or
+//! ROIs close together), the bounding box (with the same margin) is the one
+//! tile. Only the tiles cross the pipe and the pixel-format conversion:
+//! for the 36 small ROIs of the P2020 samples, 5 % of the bounding box.
+//! - `rgb` decode: `-pix_fmt rgb24`, the same swscale conversion OpenCV uses in
+//!   the P2020 reference pipeline, then per-pixel luma;
+//! - `luma-plane` decode: `extractplanes=y` (Y' as stored, no conversion),
+//!   then the limited-to-full range expansion in a lookup table.
+//!
+//! Timestamps are the container's presentation times (ffprobe's integer
+//! packet PTS, sorted, times the stream's time base), with the frame rate
+//! as a fallback; the time base and the stated frame rate go with them
+//! (`analysis::timing` fits the rate to the times).
+//!
+//! ffmpeg starts at the same time as ffprobe, with the cut of a frame too
+//! large to clamp any tile (`layout`), and is kept when ffprobe's frame
+//! gives the same cut ([`probe_and_read`]), so ffprobe's start-up is not
+//! paid before ffmpeg's.
+
+use std::io::Read;
+use std::os::unix::process::CommandExt;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use super::layout::Layout;
+use super::probe::{Probe, drain_stderr, probe, stopped, tool_error};
+use super::watch::{STALL, Watchdog};
+use super::{
+    Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, ReadOptions, RoiRect, VideoDecode,
+    VideoRange, check_rois, limited_to_full_lut, open_file, times_from_fps,
+};
+
+/// True when `ffmpeg` and `ffprobe` can be run.
+pub fn ffmpeg_available() -> bool {
+    ["ffmpeg", "ffprobe"].iter().all(|tool| {
+        Command::new(tool)
+            .arg("-version")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    })
+}
+
+/// Probes the video at `path` and reads the ROI means of every frame.
+///
+/// ffmpeg starts at the same time as ffprobe, with the layout the ROIs get
+/// in a frame large enough that nothing is clamped to its edges
+/// ([`Layout::speculative`]); until the probe answers, ffmpeg blocks on its
+/// full pipe. When the probe's frame gives the same layout, that ffmpeg is
+/// read (the same command line as a start after the probe). Otherwise (ROIs
+/// near an edge or outside the frame, a failed probe) its process group is
+/// killed and reaped, and the capture goes on exactly as when ffprobe runs
+/// first: the same errors, and a second ffmpeg with the frame's layout.
+pub(super) fn probe_and_read(
+    path: &Path,
+    rois: &[RoiRect],
+    opts: &ReadOptions,
+) -> Result<CaptureTrace, CaptureError> {
+    probe_and_read_with(path, rois, opts, probe, STALL)
+}
+
+/// [`probe_and_read`] through `probe_with`, with ffmpeg's watchdog at `stall`.
+fn probe_and_read_with(
+    path: &Path,
+    rois: &[RoiRect],
+    opts: &ReadOptions,
+    probe_with: impl FnOnce(&Path) -> Result<Probe, CaptureError>,
+    stall: Duration,
+) -> Result<CaptureTrace, CaptureError> {
+    let ready = prepare_with(path, rois, opts, probe_with)?;
+    ready.decoder.read(path, ready.probe, opts, stall)
+}
+
+/// A video probed, its ROIs checked, and its ffmpeg started on the layout
+/// of its frame. ffmpeg decodes until its pipe is full and then waits,
+/// using no CPU, until [`Prepared::read`]; dropped unread, its process
+/// group is killed and reaped.
+pub(super) struct Prepared {
+    decoder: Decoder,
+    probe: Probe,
+}
+
+impl Prepared {
+    /// The pixels of every frame (packets times frame size): what decoding
+    /// costs, to read the longest first.
+    pub(super) fn work(&self) -> u64 {
+        let frame = u64::from(self.probe.width) * u64::from(self.probe.height);
+        (self.probe.packet_times.len() as u64).saturating_mul(frame)
+    }
+
+    /// Reads every frame, as [`probe_and_read`] does after the probe. The
+    /// watchdog starts now: the time ffmpeg waited is not a stall.
+    pub(super) fn read(
+        self,
+        path: &Path,
+        opts: &ReadOptions,
+    ) -> Result<CaptureTrace, CaptureError> {
+        self.decoder.read(path, self.probe, opts, STALL)
+    }
+}
+
+/// The first half of [`probe_and_read`]: probes `path` and starts its
+/// ffmpeg, without reading a frame.
+pub(super) fn prepare(
+    path: &Path,
+    rois: &[RoiRect],
+    opts: &ReadOptions,
+) -> Result<Prepared, CaptureError> {
+    prepare_with(path, rois, opts, probe)
+}
+
+/// [`prepare`] through `probe_with`.
+fn prepare_with(
+    path: &Path,
+    rois: &[RoiRect],
+    opts: &ReadOptions,
+    probe_with: impl FnOnce(&Path) -> Result<Probe, CaptureError>,
+) -> Result<Prepared, CaptureError> {
+    // FFmpeg's tools would wait on a FIFO (or read a device for ever):
+    // anything but a regular file is refused before either starts.
+    drop(open_file(path)?);
+    // Not started (e.g. no `ffmpeg`): the start after the probe reports why.
+    let early = Layout::speculative(rois).and_then(|l| Decoder::start(path, l, opts).ok());
+    // On an error here `early` is dropped: its group killed and reaped.
+    let probe = probe_with(path)?;
+    check_rois(path, 0, rois, probe.width, probe.height)?;
+    let layout = Layout::for_rois(rois, (probe.width, probe.height));
+    let decoder = match early {
+        Some(d) if d.layout == layout => d,
+        early => {
+            drop(early);
+            Decoder::start(path, layout, opts)?
+        }
+    };
+    Ok(Prepared { decoder, probe })
+}
+
+/// Reads the ROI means of every frame of the video at `path`, which `p`
+/// describes, through the layout that `layout_for` chooses for the frame
+/// size (tests compare layouts with it).
+#[cfg(test)]
+fn read_with(
+    path: &Path,
+    p: Probe,
+    rois: &[RoiRect],
+    opts: &ReadOptions,
+    layout_for: fn(&[RoiRect], (u32, u32)) -> Layout,
+) -> Result<CaptureTrace, CaptureError> {
+    check_rois(path, 0, rois, p.width, p.height)?;
+    let layout = layout_for(rois, (p.width, p.height));
+    Decoder::start(path, layout, opts)?.read(path, p, opts, STALL)
+}
+
+/// An ffmpeg process decoding a video through `layout`, its stderr drained
+/// on a thread. Dropped before [`Decoder::read`] has reaped it, its process
+/// group is killed and reaped (a speculative start not needed, an error, a
+/// panic).
+struct Decoder {
+    child: Child,
+    err_thread: Option<JoinHandle<String>>,
+    layout: Layout,
+    reaped: bool,
+}
+
+impl Decoder {
+    /// Starts ffmpeg on `path` through `layout`, in the pixel format of
+    /// `opts.video_decode`.
+    fn start(path: &Path, layout: Layout, opts: &ReadOptions) -> Result<Decoder, CaptureError> {
+        let (pix_fmt, _, planes) = pixel_format(opts.video_decode);
+        let mut child = spawn_ffmpeg(path, &layout.filter(planes), pix_fmt, opts.decoder_threads)?;
+        if let Some(out) = &child.stdout {
+            grow_pipe(out);
+        }
+        let err_thread = Some(drain_stderr(child.stderr.take()));
+        Ok(Decoder {
+            child,
+            err_thread,
+            layout,
+            reaped: false,
+        })
+    }
+
+    /// Reads every frame under a watchdog that fires after `stall` without
+    /// a frame; `p` is the probe of `path`.
+    fn read(
+        mut self,
+        path: &Path,
+        p: Probe,
+        opts: &ReadOptions,
+        stall: Duration,
+    ) -> Result<CaptureTrace, CaptureError> {
+        let (_, bpp, _) = pixel_format(opts.video_decode);
+        let mut acc = Accumulator::new(&self.layout.rois, opts.luma);
+        let full = match opts.range {
+            VideoRange::Full => true,
+            VideoRange::Limited => false,
+            VideoRange::Auto => p.full_range.unwrap_or(false),
+        };
+        if opts.video_decode == VideoDecode::LumaPlane && !full {
+            acc.expand = Some(limited_to_full_lut(8));
+        }
+        let layout = &self.layout;
+        let frame_bytes = layout.width as usize * layout.height as usize * bpp;
+        let dog = Watchdog::start(self.child.id(), stall);
+        let read = read_frames(
+            path,
+            &mut self.child,
+            &mut acc,
+            layout,
+            frame_bytes,
+            opts,
+            &dog,
+        );
+        let status = self.child.wait().map_err(|e| tool_error(path, "ffmpeg", e));
+        self.reaped = status.is_ok();
+        let stderr_text = self
+            .err_thread
+            .take()
+            .map_or_else(String::new, |t| t.join().unwrap_or_default());
+        if let Some(fired) = dog.finish() {
+            return Err(stopped(path, fired, "ffmpeg"));
+        }
+        let ((frame, partial), status) = (read?, status?);
+        if !status.success() || partial {
+            return Err(undecodable(path, frame, &stderr_text));
+        }
+        Ok(trace(acc, p, opts, full))
+    }
+}
+
+impl Drop for Decoder {
+    fn drop(&mut self) {
+        if !self.reaped {
+            crate::util::kill_group(self.child.id());
+            let _ = self.child.wait();
+        }
+        if let Some(t) = self.err_thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Most bytes ffmpeg's stdout pipe holds: frames it may decode ahead of
+/// the reader (about 50 of the P2020 samples' tiles), e.g. while it waits
+/// for the probe or for a core (`schedule`).
+const PIPE_BYTES: libc::c_int = 1 << 20;
+
+/// Lets the pipe `out` hold [`PIPE_BYTES`] (Linux's default largest size
+/// for a user), rather than 64 KB. Where the system refuses, the pipe
+/// keeps its size: this changes when ffmpeg waits, never what it writes.
+fn grow_pipe(out: &std::process::ChildStdout) {
+    use std::os::fd::AsRawFd;
+    // SAFETY: F_SETPIPE_SZ on a pipe descriptor this process owns; it only
+    // resizes the pipe's buffer, and its failure is harmless.
+    unsafe { libc::fcntl(out.as_raw_fd(), libc::F_SETPIPE_SZ, PIPE_BYTES) };
+}
+
+/// ffmpeg's output pixel format, its bytes per pixel, and the filter that
+/// ends the graph, for `decode`.
+fn pixel_format(decode: VideoDecode) -> (&'static str, usize, &'static str) {
+    match decode {
+        VideoDecode::Rgb => ("rgb24", 3, ""),
+        // Crop first (no copy), so extractplanes copies only the tiles.
+        VideoDecode::LumaPlane => ("gray", 1, ",extractplanes=y"),
+    }
+}
+
+/// Starts ffmpeg decoding the first video stream of `path` through the
+/// filter graph `filter` (ending in `[out]`) to raw `pix_fmt` frames on its
+/// stdout, with `threads` decoder threads and a one-thread filter graph
+/// (FFmpeg's choice for both when `None`).
+fn spawn_ffmpeg(
+    path: &Path,
+    filter: &str,
+    pix_fmt: &str,
+    threads: Option<usize>,
+) -> Result<Child, CaptureError> {
+    let mut cmd = Command::new("ffmpeg");
+    cmd.args(["-nostdin", "-v", "error", "-xerror"]);
+    if let Some(n) = threads {
+        // Decoders that share the cores: the filter graph (crops, stack,
+        // conversion of a small picture) runs on one thread, which costs
+        // less CPU than handing slices to a pool (about 7 % less for the
+        // P2020 samples).
+        cmd.arg("-threads").arg(n.to_string());
+        cmd.args(["-filter_complex_threads", "1"]);
+    }
+    cmd.arg("-i")
+        .arg(path)
+        .args([
+            "-filter_complex",
+            filter,
+            "-map",
+            "[out]",
+            "-fps_mode",
+            "passthrough",
+            "-f",
+            "rawvideo",
+            "-pix_fmt",
+            pix_fmt,
+            "-",
+        ])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .process_group(0)
+        .spawn()
+        .map_err(|e| tool_error(path, "ffmpeg", e))
+}
+
+/// Feeds every whole frame of ffmpeg's stdout to `acc`. Returns the frames
+/// read and whether the stream ended inside a frame; a read error kills
+/// ffmpeg and names the frame.
+fn read_frames(
+    path: &Path,
+    child: &mut Child,
+    acc: &mut Accumulator<'_>,
+    layout: &Layout,
+    frame_bytes: usize,
+    opts: &ReadOptions,
+    dog: &Watchdog,
+) -> Result<(u64, bool), CaptureError> {
+    let mut buf = vec![0u8; frame_bytes];
+    let mut frame: u64 = 0;
+    let Some(mut out) = child.stdout.take() else {
+        return Ok((frame, false));
+    };
+    loop {
+        match read_full(&mut out, &mut buf) {
+            Ok(0) => return Ok((frame, false)),
+            Ok(n) if n == frame_bytes => {
+                let pixels = match opts.video_decode {
+                    VideoDecode::Rgb => Pixels::Rgb8(&buf, 3),
+                    VideoDecode::LumaPlane => Pixels::Grey8(&buf),
+                };
+                acc.push(&FrameView {
+                    pixels,
+                    origin: (0, 0),
+                    width: layout.width,
+                });
+                frame += 1;
+                dog.tick();
+            }
+            Ok(_) => return Ok((frame, true)),
+            Err(e) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err(CaptureError::Frame {
+                    path: path.to_path_buf(),
+                    frame,
+                    message: format!("reading decoded frames failed: {e}"),
+                });
+            }
+        }
+    }
+}
+
+/// ffmpeg failed, or stopped inside a frame, at `frame`; its first lines
+/// of stderr say why.
+fn undecodable(path: &Path, frame: u64, stderr_text: &str) -> CaptureError {
+    let detail = stderr_text.trim();
+    CaptureError::Frame {
+        path: path.to_path_buf(),
+        frame,
+        message: format!(
+            "the video cannot be decoded from this frame on (corrupt or truncated){}",
+            if detail.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    ": {}",
+                    detail.lines().take(3).collect::<Vec<_>>().join("; ")
+                )
+            }
+        ),
+    }
+}
+
+/// The trace of the frames in `acc`: timestamps from the container when
+/// every frame has one, else from the frame rate. `full` is the Y' range
+/// used.
+fn trace(acc: Accumulator<'_>, p: Probe, opts: &ReadOptions, full: bool) -> CaptureTrace {
+    let n = acc.frames();
+    let (luma, rgb) = acc.finish();
+    let container = p.packet_times.len() == n && n > 0;
+    let (time_s, timestamps) = if container {
+        (p.packet_times, crate::trace::TimestampSource::Container)
+    } else {
+        match p.fps.or(opts.fps) {
+            Some(fps) => (times_from_fps(n, fps), crate::trace::TimestampSource::Fps),
+            None => (
+                times_from_fps(n, f64::NAN),
+                crate::trace::TimestampSource::None,
+            ),
+        }
+    };
+    CaptureTrace {
+        time_s,
+        luma,
+        rgb,
+        full_scale_dn: 255.0,
+        frame_size: (p.width, p.height),
+        timestamps,
+        format: format!(
+            "video {} {} {}x{} (ffmpeg, {})",
+            p.codec,
+            p.pix_fmt,
+            p.width,
+            p.height,
+            match opts.video_decode {
+                VideoDecode::Rgb => "rgb24".to_string(),
+                VideoDecode::LumaPlane =>
+                    format!("Y' plane, {} range", if full { "full" } else { "limited" }),
+            }
+        ),
+        time_base_s: p.time_base_s.filter(|_| container),
+        stated_fps: p.stated_fps,
+    }
+}
+
+/// Reads until `buf` is full or the stream ends; returns the bytes read.
+fn read_full(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::capture::LumaWeights;
+    use crate::capture::bounding_box;
+    use crate::capture::layout::tests::{rect, spread_rois};
+    use crate::capture::layout::with_margin;
+
+    /// Cutting tiles changes no pixel: the same means, bit for bit, as the
+    /// bounding box, on a real H.264 capture, in both decode paths.
+    #[test]
+    fn tiles_read_the_same_means_as_the_bounding_box() {
+        // Like the integration tests: fail, never skip, without ffmpeg.
+        assert!(
+            ffmpeg_available(),
+            "this test needs `ffmpeg` and `ffprobe` (scripts/test.sh installs them)"
+        );
+        let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+            .join("reference-data/p2020-flicker-videos/test_vid3.mp4");
+        let rois = spread_rois();
+        for video_decode in [VideoDecode::Rgb, VideoDecode::LumaPlane] {
+            let opts = ReadOptions {
+                luma: LumaWeights::Bt601,
+                video_decode,
+                range: VideoRange::Auto,
+                fps: None,
+                decoder_threads: None,
+            };
+            let tiled =
+                read_with(&path, probe(&path).unwrap(), &rois, &opts, Layout::for_rois).unwrap();
+            let boxed = read_with(&path, probe(&path).unwrap(), &rois, &opts, |rois, frame| {
+                Layout::single(with_margin(&bounding_box(rois).unwrap(), frame), rois)
+            })
+            .unwrap();
+            assert_eq!(tiled.luma[0].len(), 369);
+            assert_eq!(tiled, boxed, "{video_decode:?}");
+            // One decoder thread and a one-thread filter graph (captures
+            // read together), and two decoder threads, decode the same
+            // pixels as FFmpeg's own choice.
+            let one = ReadOptions {
+                decoder_threads: Some(1),
+                ..opts
+            };
+            let single =
+                read_with(&path, probe(&path).unwrap(), &rois, &one, Layout::for_rois).unwrap();
+            assert_eq!(single, tiled, "{video_decode:?}, one decoder thread");
+            let two = ReadOptions {
+                decoder_threads: Some(2),
+                ..opts
+            };
+            let pair =
+                read_with(&path, probe(&path).unwrap(), &rois, &two, Layout::for_rois).unwrap();
+            assert_eq!(pair, tiled, "{video_decode:?}, two decoder threads");
+        }
+    }
+
+    fn sample_video() -> std::path::PathBuf {
+        Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+            .join("reference-data/p2020-flicker-videos/test_vid3.mp4")
+    }
+
+    fn rgb_opts() -> ReadOptions {
+        ReadOptions {
+            luma: LumaWeights::Bt601,
+            video_decode: VideoDecode::Rgb,
+            range: VideoRange::Auto,
+            fps: None,
+            decoder_threads: Some(1),
+        }
+    }
+
+    /// ffmpeg started before the probe reads the same trace as ffmpeg
+    /// started after it, whether its layout is kept (inner ROIs) or not (a
+    /// ROI at the frame's corner); an ROI outside the frame is the same
+    /// error as before.
+    #[test]
+    fn starting_ffmpeg_with_the_probe_reads_what_starting_after_it_reads() {
+        assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
+        let path = sample_video();
+        let opts = rgb_opts();
+        let inner = vec![rect(457, 247, 20, 2), rect(640, 500, 13, 9)];
+        for (rois, kept) in [(inner, true), (spread_rois(), false)] {
+            let spec = Layout::speculative(&rois).unwrap();
+            assert_eq!(spec == Layout::for_rois(&rois, (1280, 800)), kept);
+            let after = read_with(&path, probe(&path).unwrap(), &rois, &opts, Layout::for_rois);
+            let with = probe_and_read(&path, &rois, &opts).unwrap();
+            assert_eq!(with, after.unwrap());
+            assert_eq!(with.luma[0].len(), 369);
+        }
+        let outside = [rect(457, 247, 20, 2), rect(1270, 0, 20, 2)];
+        let e = probe_and_read(&path, &outside, &opts).unwrap_err();
+        let before = read_with(
+            &path,
+            probe(&path).unwrap(),
+            &outside,
+            &opts,
+            Layout::for_rois,
+        );
+        assert_eq!(e.to_string(), before.unwrap_err().to_string());
+        assert!(e.to_string().contains("outside the 1280x800 frame"), "{e}");
+    }
+
+    /// A probe slower than the stall limit does not make ffmpeg's watchdog
+    /// fire: ffmpeg waits for it on a full pipe, and its watchdog starts
+    /// when the probe has answered.
+    #[test]
+    fn a_slow_probe_is_not_a_stall_of_ffmpeg() {
+        assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
+        let path = sample_video();
+        let rois = [rect(457, 247, 20, 2), rect(640, 500, 13, 9)];
+        let opts = rgb_opts();
+        let stall = Duration::from_millis(400);
+        let slow = |p: &Path| {
+            std::thread::sleep(3 * stall);
+            probe(p)
+        };
+        let got = probe_and_read_with(&path, &rois, &opts, slow, stall).unwrap();
+        assert_eq!(got, probe_and_read(&path, &rois, &opts).unwrap());
+    }
+
+    /// ffmpeg's stdout pipe holds 1 MB, where the system allows that much.
+    #[test]
+    fn ffmpeg_pipe_holds_a_megabyte() {
+        assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
+        let rois = [rect(457, 247, 20, 2)];
+        let layout = Layout::speculative(&rois).unwrap();
+        let d = Decoder::start(&sample_video(), layout, &rgb_opts()).unwrap();
+        let fd = std::os::fd::AsRawFd::as_raw_fd(d.child.stdout.as_ref().unwrap());
+        // SAFETY: F_GETPIPE_SZ reads the size of a pipe this process owns.
+        let size = unsafe { libc::fcntl(fd, libc::F_GETPIPE_SZ) };
+        let max: libc::c_int = std::fs::read_to_string("/proc/sys/fs/pipe-max-size")
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap();
+        assert_eq!(size, PIPE_BYTES.min(max).max(64 << 10));
+    }
+
+    /// True while any process of group `pgid` exists.
+    fn group_exists(pgid: u32) -> bool {
+        // SAFETY: signal 0 only checks that the group exists.
+        unsafe { libc::kill(-(pgid as libc::pid_t), 0) == 0 }
+    }
+
+    /// A speculative ffmpeg that is not read is killed with its group and
+    /// reaped when dropped, as on a failed probe; one that is read is
+    /// reaped too.
+    #[test]
+    fn an_unused_ffmpeg_is_killed_and_reaped() {
+        assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
+        let path = sample_video();
+        let rois = [rect(457, 247, 20, 2), rect(640, 500, 13, 9)];
+        let layout = Layout::speculative(&rois).unwrap();
+        let d = Decoder::start(&path, layout, &rgb_opts()).unwrap();
+        let pgid = d.child.id();
+        // It blocks on its full pipe: alive until dropped.
+        std::thread::sleep(Duration::from_millis(300));
+        assert!(group_exists(pgid));
+        drop(d);
+        assert!(!group_exists(pgid));
+        // A probe error drops it the same way; the probe's error is returned.
+        let failed = |p: &Path| {
+            Err(CaptureError::Read {
+                path: p.to_path_buf(),
+                message: "probe failed".to_string(),
+            })
+        };
+        let e = probe_and_read_with(&path, &rois, &rgb_opts(), failed, STALL).unwrap_err();
+        assert!(e.to_string().contains("probe failed"), "{e}");
+    }
+}

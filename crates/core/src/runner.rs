@@ -1,0 +1,397 @@
+//! The runner: test cases -> backend -> metrics -> verdicts, in parallel.
+//!
+//! Cases run on rayon's pool; results come back in plan order and depend
+//! only on the plan and its seed, never on the thread count or scheduling.
+//! Progress is reported through a callback; the runner never prints.
+
+use rayon::prelude::*;
+
+use crate::backend::{Acquisition, Backend, BackendError, RenderedFrame};
+use crate::metrics::flicker::Segment;
+use crate::metrics::p2020::{self, P2020Metrics};
+use crate::metrics::verdict::{CaseConditions, RoiFigures, effective_basis};
+use crate::metrics::{Check, RoiMetrics, Verdict, evaluate_case, evaluate_roi};
+use crate::plan::RoiKind;
+use crate::plan::{Plan, TestCase};
+
+/// Everything known about one finished case. Serialisable so that a
+/// shard can hand it to `ledflicker merge` unchanged ([`crate::shard`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CaseResult {
+    /// The condition tested.
+    pub case: TestCase,
+    /// Frames and traces from the backend.
+    pub acquisition: Acquisition,
+    /// Metrics per plan ROI, in plan order.
+    pub metrics: Vec<RoiMetrics>,
+    /// Verdict of the case.
+    pub verdict: Verdict,
+    /// Every threshold check made.
+    pub checks: Vec<Check>,
+    /// Why the case is informational, when it is.
+    pub not_judged: Option<String>,
+    /// Limits that could not apply to this case, and why.
+    pub not_checked: Vec<String>,
+    /// A picture of the frame with the lowest LED-ROI luma in the PWM
+    /// segment, when one was asked for and the backend can render it.
+    pub sample_frame: Option<RenderedFrame>,
+    /// IEEE P2020 KPIs per plan ROI, in plan order.
+    pub p2020: Vec<P2020Metrics>,
+}
+
+/// What the runner tells its caller while it works.
+#[derive(Debug, Clone, Copy)]
+pub enum RunEvent<'a> {
+    /// The run starts with this many cases.
+    Started {
+        /// Number of cases.
+        total: usize,
+    },
+    /// A case finished (cases finish in any order).
+    CaseFinished {
+        /// The case.
+        case: &'a TestCase,
+        /// Its verdict.
+        verdict: Verdict,
+    },
+}
+
+/// Why a run stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// A backend could not acquire a case.
+    #[error(transparent)]
+    Backend(#[from] BackendError),
+    /// A trace came back without PWM frames or with the wrong shape.
+    #[error("case `{case}`: {message}")]
+    BadTrace {
+        /// Case id.
+        case: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// SIGINT or SIGTERM asked the run to stop.
+    #[error(transparent)]
+    Interrupted(#[from] crate::interrupt::Interrupted),
+    /// The thread pool could not be built.
+    #[error("cannot start {threads} worker threads: {message}")]
+    Threads {
+        /// Threads asked for.
+        threads: usize,
+        /// Cause.
+        message: String,
+    },
+}
+
+/// Runs `cases` of `plan` on `backend`, with `threads` workers (default:
+/// rayon's, one per core). `on_event` is called from worker threads.
+pub fn run(
+    plan: &Plan,
+    cases: &[TestCase],
+    backend: &dyn Backend,
+    threads: Option<usize>,
+    on_event: &(dyn Fn(RunEvent<'_>) + Sync),
+) -> Result<Vec<CaseResult>, RunError> {
+    on_event(RunEvent::Started { total: cases.len() });
+    let work = || -> Result<Vec<CaseResult>, RunError> {
+        cases
+            .par_iter()
+            .map(|case| {
+                // Stop between cases once Ctrl-C or SIGTERM arrived; a
+                // case that fails because its rig was killed for the same
+                // reason is reported as the interruption.
+                crate::interrupt::check()?;
+                let result = run_case(plan, case, backend).map_err(|e| {
+                    crate::interrupt::check().map_or_else(RunError::Interrupted, |()| e)
+                })?;
+                on_event(RunEvent::CaseFinished {
+                    case,
+                    verdict: result.verdict,
+                });
+                Ok(result)
+            })
+            .collect()
+    };
+    match threads {
+        None => work(),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| RunError::Threads {
+                threads: n,
+                message: e.to_string(),
+            })?
+            .install(work),
+    }
+}
+
+/// Acquires and evaluates one case.
+pub fn run_case(
+    plan: &Plan,
+    case: &TestCase,
+    backend: &dyn Backend,
+) -> Result<CaseResult, RunError> {
+    let acquisition = backend.acquire(case)?;
+    let bad = |message: String| RunError::BadTrace {
+        case: case.id.clone(),
+        message,
+    };
+    if acquisition.rois.len() != plan.rois.len() {
+        return Err(bad(format!(
+            "backend returned {} ROI traces for {} ROIs",
+            acquisition.rois.len(),
+            plan.rois.len()
+        )));
+    }
+    let segments: Vec<_> = acquisition.frames.iter().map(|f| f.segment).collect();
+    let mut metrics = Vec::with_capacity(plan.rois.len());
+    let mut p2020s = Vec::with_capacity(plan.rois.len());
+    for trace in &acquisition.rois {
+        if trace.luma.len() != segments.len() {
+            return Err(bad(format!(
+                "ROI `{}` has {} luma values for {} frames",
+                trace.name,
+                trace.luma.len(),
+                segments.len()
+            )));
+        }
+        if let Some((lo, hi)) = trace.phase_envelope
+            && !(lo.is_finite() && hi.is_finite())
+        {
+            return Err(bad(format!(
+                "ROI `{}` worst case over phase is not finite",
+                trace.name
+            )));
+        }
+        if let Some(i) = trace.luma.iter().position(|x| !x.is_finite()) {
+            return Err(bad(format!(
+                "ROI `{}` luma of frame {i} is not a finite number",
+                trace.name
+            )));
+        }
+        let m = evaluate_roi(
+            &trace.luma,
+            &segments,
+            trace.phase_envelope,
+            acquisition.saturation_dn,
+        )
+        .ok_or_else(|| bad("the trace has no PWM frames".to_string()))?;
+        metrics.push(m);
+        p2020s.extend(p2020::evaluate(&trace.luma, &segments, &plan.p2020));
+    }
+    let figures: Vec<RoiFigures<'_>> = plan
+        .rois
+        .iter()
+        .zip(&metrics)
+        .enumerate()
+        .map(|(i, (roi, m))| RoiFigures {
+            roi,
+            metrics: m,
+            p2020: p2020s.get(i),
+        })
+        .collect();
+    let eval = evaluate_case(
+        &case_conditions(plan, case),
+        &figures,
+        &plan.thresholds,
+        effective_basis(plan.dut.backend, &plan.thresholds),
+    );
+    Ok(CaseResult {
+        case: case.clone(),
+        acquisition,
+        metrics,
+        verdict: eval.verdict,
+        checks: eval.checks,
+        not_judged: eval.not_judged,
+        not_checked: eval.not_checked,
+        sample_frame: None,
+        p2020: p2020s,
+    })
+}
+
+/// The conditions a verdict needs: a captured case's unknown conditions are
+/// 0 in its [`TestCase`], and its `informative` flag is in the plan.
+fn case_conditions(plan: &Plan, case: &TestCase) -> CaseConditions {
+    let known = |v: f64| (v > 0.0).then_some(v);
+    let informative = plan
+        .capture
+        .as_ref()
+        .and_then(|c| c.cases.iter().find(|k| k.id == case.id))
+        .is_some_and(|k| k.informative);
+    CaseConditions {
+        frequency_hz: known(case.frequency_hz),
+        light_lux: known(case.light_lux),
+        informative,
+    }
+}
+
+/// The PWM-segment frame with the lowest luma in the first LED ROI: the
+/// frame where the light looks most OFF (Deegan 2018, Figure 11).
+pub fn darkest_pwm_frame(plan: &Plan, result: &CaseResult) -> Option<u64> {
+    let i = plan.rois.iter().position(|r| r.kind == RoiKind::Led)?;
+    let acq = &result.acquisition;
+    acq.frames
+        .iter()
+        .zip(&acq.rois.get(i)?.luma)
+        .filter(|(f, _)| f.segment == Segment::Pwm)
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(f, _)| f.index)
+}
+
+/// Renders each case's darkest PWM frame, in parallel, where the backend
+/// can; full frames are made only here, never for the metrics.
+pub fn render_sample_frames(
+    plan: &Plan,
+    results: &mut [CaseResult],
+    backend: &dyn Backend,
+) -> Result<(), RunError> {
+    results.par_iter_mut().try_for_each(|r| {
+        crate::interrupt::check()?;
+        if let Some(frame) = darkest_pwm_frame(plan, r)
+            && let Some(rendered) = backend.render_frame(&r.case, frame)
+        {
+            r.sample_frame = Some(rendered?);
+        }
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trace::{FrameInfo, RoiTrace, Segment};
+
+    /// What the fake backend does for every case.
+    #[derive(Clone, Copy)]
+    enum Fault {
+        None,
+        Fails,
+        MissingRoi,
+        ShortTrace,
+        NanLuma,
+        NoPwmFrames,
+        InfiniteEnvelope,
+    }
+
+    /// A backend that returns a fixed, well-formed trace (OFF, ON, then a
+    /// PWM segment alternating between two levels), broken as `fault` says.
+    struct Fake {
+        rois: usize,
+        fault: Fault,
+    }
+
+    impl Backend for Fake {
+        fn id(&self) -> &str {
+            "fake"
+        }
+
+        fn acquire(&self, case: &TestCase) -> Result<Acquisition, BackendError> {
+            if let Fault::Fails = self.fault {
+                return Err(BackendError {
+                    backend: "fake".into(),
+                    case: case.id.clone(),
+                    message: "the rig is unplugged".into(),
+                });
+            }
+            let pwm = if let Fault::NoPwmFrames = self.fault {
+                Segment::On
+            } else {
+                Segment::Pwm
+            };
+            let segment = |i: u64| match i {
+                0..10 => Segment::Off,
+                10..20 => Segment::On,
+                _ => pwm,
+            };
+            let frames: Vec<FrameInfo> = (0..60)
+                .map(|i| FrameInfo {
+                    index: i,
+                    time_s: i as f64 / 30.0,
+                    segment: segment(i),
+                })
+                .collect();
+            let level = |i: u64| match segment(i) {
+                Segment::Off => 10.0,
+                Segment::On => 100.0,
+                Segment::Pwm => [60.0, 140.0][(i % 2) as usize],
+            };
+            let mut luma: Vec<f64> = (0..60).map(level).collect();
+            let mut envelope = None;
+            match self.fault {
+                Fault::ShortTrace => luma.truncate(59),
+                Fault::NanLuma => luma[30] = f64::NAN,
+                Fault::InfiniteEnvelope => envelope = Some((0.0, f64::INFINITY)),
+                _ => {}
+            }
+            let rois = if let Fault::MissingRoi = self.fault {
+                self.rois - 1
+            } else {
+                self.rois
+            };
+            Ok(Acquisition {
+                frames,
+                rois: (0..rois)
+                    .map(|k| RoiTrace {
+                        name: format!("roi{k}"),
+                        luma: luma.clone(),
+                        phase_envelope: envelope,
+                    })
+                    .collect(),
+                saturation_dn: 250.0,
+                capture: None,
+            })
+        }
+    }
+
+    fn plan() -> Plan {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+            .join("test-plans/daylight.toml");
+        crate::plan::load(&path).unwrap()
+    }
+
+    fn run_with(fault: Fault) -> Result<Vec<CaseResult>, RunError> {
+        let plan = plan();
+        let cases = crate::plan::expand_cases(&plan);
+        let fake = Fake {
+            rois: plan.rois.len(),
+            fault,
+        };
+        run(&plan, &cases[..3], &fake, Some(1), &|_| {})
+    }
+
+    #[test]
+    fn a_well_formed_trace_is_evaluated() {
+        let results = run_with(Fault::None).unwrap();
+        assert_eq!(results.len(), 3);
+        // PWM alternates 60/140 DN over a 10 DN OFF: PF = 80/200 = 40 %.
+        let pf = results[0].metrics[0].percent_flicker.value.unwrap();
+        assert!((pf - 40.0).abs() < 1e-9, "{pf}");
+    }
+
+    #[test]
+    fn every_broken_acquisition_is_a_named_error() {
+        let cases = [
+            (Fault::Fails, "the rig is unplugged"),
+            (Fault::MissingRoi, "ROI traces for"),
+            (Fault::ShortTrace, "59 luma values for 60 frames"),
+            (Fault::NanLuma, "luma of frame 30 is not a finite number"),
+            (Fault::NoPwmFrames, "no PWM frames"),
+            (
+                Fault::InfiniteEnvelope,
+                "worst case over phase is not finite",
+            ),
+        ];
+        for (fault, words) in cases {
+            let e = run_with(fault).unwrap_err();
+            let text = e.to_string();
+            assert!(text.contains(words), "{text}");
+            assert!(text.contains("2000lux-"), "names the case: {text}");
+            match (fault, &e) {
+                (Fault::Fails, RunError::Backend(_)) => {}
+                (Fault::Fails, _) => panic!("a backend failure is RunError::Backend: {e:?}"),
+                (_, RunError::BadTrace { .. }) => {}
+                _ => panic!("a malformed trace is RunError::BadTrace: {e:?}"),
+            }
+        }
+    }
+}

@@ -1,0 +1,468 @@
+//! The renderers' input: results.json plus the charts and the signatories.
+//!
+//! Sits between the report model ([`crate::model::Results`]) and the
+//! renderers (HTML, PDF). Everything in a [`Document`] is stored in the report
+//! directory (results.json, `charts/*.svg`, signoff.json), so a report can be
+//! rendered again from its directory alone; `ledflicker sign` does that to
+//! put a new signatory on the cover without rerunning the plan.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::Serialize;
+
+mod jobs;
+
+#[cfg(test)]
+pub(crate) use jobs::tests::small_run;
+pub use jobs::{ChartJobs, Jobs, ViewJobs};
+
+use super::ReportError;
+use crate::model::{CaseResult, Detail, InputFile, ReportMeta, Results, RoiKind};
+
+/// Folder of the chart SVGs, relative to the report directory.
+pub const CHARTS_DIR: &str = "charts";
+
+/// A person who signed the report, as shown in the sign-off block.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Signatory {
+    /// "Name, Role" as given to `--signer`.
+    pub signer: String,
+    /// Date of signing, `YYYY-MM-DD`.
+    pub date: String,
+    /// First 16 hex digits of the SHA-256 of the signer's certificate.
+    pub key_id: String,
+}
+
+/// Chart file name of one case's luma trace, relative to the report dir.
+pub fn trace_chart_path(case_id: &str) -> String {
+    format!("{CHARTS_DIR}/trace-{case_id}.svg")
+}
+
+/// Chart file name of one case's zoomed trace panels (the segment steps
+/// and two beat periods at full resolution).
+pub fn zoom_chart_path(case_id: &str) -> String {
+    format!("{CHARTS_DIR}/zoom-{case_id}.svg")
+}
+
+/// Chart file name of the matrix of the `index`-th light level.
+pub fn matrix_chart_path(index: usize) -> String {
+    format!("{CHARTS_DIR}/matrix-{index}.svg")
+}
+
+/// Chart of the `k`-th LED ROI's phase fold of one case.
+pub fn fold_chart_path(case_id: &str, k: usize) -> String {
+    format!("{}{k:02}.svg", fold_chart_prefix(case_id))
+}
+
+/// Common prefix of a case's phase-fold charts.
+pub fn fold_chart_prefix(case_id: &str) -> String {
+    format!("{CHARTS_DIR}/fold-{case_id}-")
+}
+
+/// Fine-map chart of the `index`-th light level; `kind` is "fdi" or "pf".
+pub fn finemap_chart_path(index: usize, kind: &str) -> String {
+    format!("{CHARTS_DIR}/finemap-{index}-{kind}.svg")
+}
+
+/// Chart of the exposure advice.
+pub const ADVICE_CHART: &str = "charts/advice.svg";
+
+/// Folder of the sample frames, relative to the report directory.
+pub const FRAMES_DIR: &str = "frames";
+
+/// A case's sample frame, relative to the report directory.
+pub fn frame_image_path(case_id: &str) -> String {
+    format!("{FRAMES_DIR}/{case_id}.png")
+}
+
+/// Everything a renderer needs.
+#[derive(Debug, Clone)]
+pub struct Document {
+    /// results.json, typed (the results model, with `report` metadata).
+    pub results: Results,
+    /// Chart path relative to the report dir (see [`trace_chart_path`]) ->
+    /// SVG text.
+    pub charts: BTreeMap<String, String>,
+    /// Signatories so far; empty for a draft.
+    pub signatories: Vec<Signatory>,
+    /// Image path (see [`frame_image_path`]) -> small PNG for the renderers;
+    /// the full-size frames are in the report directory.
+    pub images: BTreeMap<String, Vec<u8>>,
+}
+
+/// Reasons of an LED ROI that both reports print in the case table (the
+/// spectrum's reason and the phase-coverage warning), so not as caveats.
+const SHOWN_IN_CASE_TABLE: [&str; 2] = ["apparent_frequency_spectrum_hz", "phase_coverage"];
+
+impl Document {
+    /// Builds the document of a finished run: draws every chart and frame
+    /// view and adds the `report` metadata (date, inputs, notes) to the
+    /// model.
+    pub fn build(
+        model: &Results,
+        results: &[CaseResult],
+        date: &str,
+        signatories: Vec<Signatory>,
+    ) -> Result<Document, ReportError> {
+        let (charts, images) = rayon::join(
+            || ChartJobs::plan(model, results).draw_all(),
+            || ViewJobs::plan(model, results).draw_all(),
+        );
+        Ok(Self::with_pictures(
+            model,
+            date,
+            signatories,
+            charts?,
+            images?,
+        ))
+    }
+
+    /// [`Self::build`] with the charts and frame views given (path ->
+    /// picture): adds the `report` metadata to the model.
+    pub fn with_pictures(
+        model: &Results,
+        date: &str,
+        signatories: Vec<Signatory>,
+        charts: BTreeMap<String, String>,
+        images: BTreeMap<String, Vec<u8>>,
+    ) -> Document {
+        let mut model = model.clone();
+        let detail = model
+            .report
+            .as_ref()
+            .and_then(|r| Detail::parse(&r.detail))
+            .unwrap_or_default();
+        model.report = Some(report_meta(&model, date, detail));
+        Document {
+            results: model,
+            charts,
+            signatories,
+            images,
+        }
+    }
+
+    /// The report is a draft: nobody has signed it.
+    pub fn is_draft(&self) -> bool {
+        self.signatories.is_empty()
+    }
+
+    /// results.json as the renderers read it: the JSON value of the
+    /// model, so HTML and PDF show exactly what results.json says.
+    pub fn json(&self) -> Result<serde_json::Value, ReportError> {
+        Ok(serde_json::to_value(&self.results)?)
+    }
+
+    /// Case ids in plan order.
+    pub fn case_ids(&self) -> Vec<String> {
+        self.results.cases.iter().map(|c| c.id.clone()).collect()
+    }
+
+    /// Light levels (lux) in order of first appearance; the matrix of the
+    /// `i`-th is [`matrix_chart_path`]`(i)`.
+    pub fn light_levels(&self) -> Vec<f64> {
+        let mut out: Vec<f64> = Vec::new();
+        for c in &self.results.cases {
+            // As `matrix::light_levels`: cases with known conditions only.
+            let known = c.frequency_hz > 0.0 && c.duty > 0.0;
+            if known && c.light_lux > 0.0 && !out.contains(&c.light_lux) {
+                out.push(c.light_lux);
+            }
+        }
+        out
+    }
+
+    /// The `--detail` the report was written with (results.json
+    /// `report.detail`; reports written before it existed are `full`).
+    pub fn detail(&self) -> Detail {
+        match self.results.report.as_ref().map(|r| r.detail.as_str()) {
+            Some("") | None => Detail::Full,
+            Some(s) => Detail::parse(s).unwrap_or_default(),
+        }
+    }
+
+    /// Ids of the cases that get their own page at this report's detail.
+    pub fn case_pages(&self) -> std::collections::BTreeSet<String> {
+        let detail = self.detail();
+        self.results
+            .cases
+            .iter()
+            .filter(|c| detail.shows_case(c.verdict.as_str()))
+            .map(|c| c.id.clone())
+            .collect()
+    }
+
+    /// Per case, the sentences that stand for its phase folds that are not
+    /// drawn ([`super::charts::degenerate_fold_sentence`]); ROIs with the
+    /// same reason share one sentence ("Phase fold of roi0, roi1 not drawn").
+    pub fn fold_notes(&self) -> BTreeMap<String, Vec<String>> {
+        const NAME: &str = "\u{0}";
+        let mut out = BTreeMap::new();
+        for c in &self.results.cases {
+            let frequency_known = c.frequency_hz > 0.0;
+            // Sentence with a placeholder name -> the ROIs it stands for.
+            let mut notes: Vec<(String, Vec<&str>)> = Vec::new();
+            for roi in c.rois.iter().filter(|r| r.kind == RoiKind::Led) {
+                let cov = &roi.analysis.phase_coverage;
+                let sentence = super::charts::degenerate_fold_sentence(
+                    NAME,
+                    cov.covered_bins,
+                    cov.bins,
+                    frequency_known,
+                );
+                let Some(sentence) = sentence else { continue };
+                match notes.iter_mut().find(|(s, _)| *s == sentence) {
+                    Some((_, names)) => names.push(&roi.name),
+                    None => notes.push((sentence, vec![&roi.name])),
+                }
+            }
+            let notes = notes
+                .into_iter()
+                .map(|(s, names)| s.replace(NAME, &names.join(", ")))
+                .collect();
+            out.insert(c.id.clone(), notes);
+        }
+        out
+    }
+
+    /// Per case, its caveats (metric values undefined or qualified), each
+    /// text once: `"led, background / fdi_2018: <why>"`. An LED ROI's
+    /// reasons in [`SHOWN_IN_CASE_TABLE`] are left out: the case table's
+    /// "Apparent flicker" and "Phase coverage" rows print them.
+    pub fn caveats(&self) -> BTreeMap<String, Vec<String>> {
+        let mut out = BTreeMap::new();
+        for c in &self.results.cases {
+            // Reason text -> (ROIs, metrics), in order of first appearance.
+            let mut seen: Vec<(&str, Vec<&str>, Vec<&str>)> = Vec::new();
+            for roi in &c.rois {
+                let led = roi.kind == RoiKind::Led;
+                for (metric, why) in &roi.reasons {
+                    if led && SHOWN_IN_CASE_TABLE.contains(&metric.as_str()) {
+                        continue;
+                    }
+                    let at = match seen.iter().position(|(w, _, _)| *w == why) {
+                        Some(i) => i,
+                        None => {
+                            seen.push((why, Vec::new(), Vec::new()));
+                            seen.len() - 1
+                        }
+                    };
+                    let (_, rois, metrics) = &mut seen[at];
+                    if !rois.contains(&roi.name.as_str()) {
+                        rois.push(&roi.name);
+                    }
+                    if !metrics.contains(&metric.as_str()) {
+                        metrics.push(metric);
+                    }
+                }
+            }
+            let lines = seen
+                .into_iter()
+                .map(|(why, rois, metrics)| {
+                    format!("{} / {}: {why}", rois.join(", "), metrics.join(", "))
+                })
+                .collect();
+            out.insert(c.id.clone(), lines);
+        }
+        out
+    }
+
+    /// Report date from results.json, or "" when missing.
+    pub fn date(&self) -> &str {
+        self.results.report.as_ref().map_or("", |r| r.date.as_str())
+    }
+
+    /// Reads results.json and `charts/*.svg` from a report directory.
+    /// Signatories are left empty (the caller reads signoff.json).
+    pub fn load(dir: &Path) -> Result<Document, ReportError> {
+        let path = dir.join("results.json");
+        let text = crate::util::read_input_to_string(&path).map_err(|source| ReportError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        let results =
+            crate::model::read_results(&text).map_err(|message| ReportError::Invalid {
+                path: path.clone(),
+                message,
+            })?;
+        if results.report.is_none() {
+            return Err(ReportError::Invalid {
+                path,
+                message: format!(
+                    "not a `{}` file written by `ledflicker plan` (no `report` section)",
+                    crate::model::RESULTS_SCHEMA
+                ),
+            });
+        }
+        let mut charts = BTreeMap::new();
+        let charts_dir = dir.join(CHARTS_DIR);
+        let entries = std::fs::read_dir(&charts_dir).map_err(|source| ReportError::Io {
+            path: charts_dir.clone(),
+            source,
+        })?;
+        for entry in entries {
+            let entry = entry.map_err(|source| ReportError::Io {
+                path: charts_dir.clone(),
+                source,
+            })?;
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if !name.ends_with(".svg") {
+                continue;
+            }
+            let svg = crate::util::read_input_to_string(&entry.path()).map_err(|source| {
+                ReportError::Io {
+                    path: entry.path(),
+                    source,
+                }
+            })?;
+            charts.insert(format!("{CHARTS_DIR}/{name}"), svg);
+        }
+        let mut images = BTreeMap::new();
+        for case in &results.cases {
+            let id = case.id.as_str();
+            let rel = frame_image_path(id);
+            // The annotated view as written, else (older reports) the frame.
+            let view = dir.join(super::frames::view_path(id));
+            if let Ok(bytes) = crate::util::read_input(&view) {
+                images.insert(rel, bytes);
+                continue;
+            }
+            let path = dir.join(&rel);
+            if !path.exists() {
+                continue;
+            }
+            let bytes = crate::util::read_input(&path).map_err(|source| ReportError::Io {
+                path: path.clone(),
+                source,
+            })?;
+            let img = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
+                .map_err(|e| ReportError::Invalid {
+                    path: path.clone(),
+                    message: format!("not a readable PNG: {e}"),
+                })?
+                .to_luma16();
+            let luma: Vec<f64> = img.pixels().map(|p| f64::from(p.0[0])).collect();
+            let frame = crate::model::RenderedFrame::from_pixels(
+                case.sample_frame.as_ref().map_or(0, |f| f.frame),
+                img.width(),
+                img.height(),
+                &luma,
+                65535.0,
+            );
+            let small = super::frames::thumbnail(&frame, super::frames::THUMBNAIL_WIDTH);
+            images.insert(rel, super::frames::png_bytes(&small)?);
+        }
+        Ok(Document {
+            results,
+            charts,
+            signatories: Vec::new(),
+            images,
+        })
+    }
+}
+
+/// The `report` section of results.json for a run reported on `date`. The
+/// inputs are those already in `model.report` (set by
+/// [`super::write_report`] from [`ledflicker_core::inputs::collect`]), else the plan.
+pub fn report_meta(model: &Results, date: &str, detail: Detail) -> ReportMeta {
+    let inputs = model
+        .report
+        .as_ref()
+        .map(|r| r.inputs.clone())
+        .filter(|i| !i.is_empty())
+        .unwrap_or_else(|| {
+            vec![InputFile {
+                role: "plan".to_string(),
+                path: model.plan.path.clone(),
+                sha256: model.plan.sha256.clone(),
+                size: std::fs::metadata(&model.plan.path).map_or(0, |m| m.len()),
+            }]
+        });
+    ReportMeta {
+        date: date.to_string(),
+        detail: detail.as_str().to_string(),
+        inputs,
+        notes: notes(model),
+    }
+}
+
+/// Deviations from the method of Deegan 2018 (IS&T EI AVM-146) and notes a
+/// reader of the report must see, one sentence each.
+pub fn notes(model: &Results) -> Vec<String> {
+    let mut out = Vec::new();
+    let s = &model.sequence;
+    if (s.on_s, s.off_s, s.pwm_s) != (2.0, 2.0, 60.0) {
+        out.push(format!(
+            "Sequence: {} s ON, {} s OFF, {} s PWM; Deegan 2018 uses 2 s, 2 s and 60 s.",
+            s.on_s, s.off_s, s.pwm_s
+        ));
+    }
+    let odd: Vec<String> = super::matrix::light_levels(model)
+        .into_iter()
+        .filter(|lux| *lux != 40.0 && *lux != 2000.0)
+        .map(|lux| format!("{lux} lux"))
+        .collect();
+    if !odd.is_empty() {
+        out.push(format!(
+            "Light levels {} differ from the 40 lux and 2000 lux of Deegan 2018.",
+            odd.join(", ")
+        ));
+    }
+    if model.method.backend == "simulator" {
+        let which = if model.dut.backend == "sim-physical" {
+            "physical"
+        } else {
+            "ideal"
+        };
+        out.push(format!(
+            "Frames come from the {which} camera simulator (backend {}), not from a captured device; \
+             the DUT fields name the camera being modelled.",
+            model.dut.backend
+        ));
+    }
+    let saturated: Vec<&str> = model
+        .cases
+        .iter()
+        .filter(|c| c.rois.iter().any(|r| r.saturated))
+        .map(|c| c.id.as_str())
+        .collect();
+    if !saturated.is_empty() {
+        out.push(format!(
+            "{} case(s) have a saturated ROI (e.g. {}): their metrics understate the modulation.",
+            saturated.len(),
+            saturated[0]
+        ));
+    }
+    let mut undefined = 0;
+    let mut example = None;
+    for c in &model.cases {
+        for r in &c.rois {
+            for (metric, reason) in &r.reasons {
+                undefined += 1;
+                example
+                    .get_or_insert_with(|| format!("{} / {} / {metric}: {reason}", c.id, r.name));
+            }
+        }
+    }
+    if let Some(example) = example {
+        out.push(format!(
+            "{undefined} metric value(s) are undefined or carry a caveat, e.g. {example}."
+        ));
+    }
+    if model.counts.info > 0 {
+        out.push(format!(
+            "{} case(s) were not judged (outside the claimed mitigation range, marked informative, or no limit applies): measured and reported, never failing.",
+            model.counts.info
+        ));
+    }
+    if model.verdict == crate::model::Verdict::Info {
+        out.push("No case was judged: the run shows no pass.".to_string());
+    }
+    if !model.plan.description.trim().is_empty() {
+        out.push(format!(
+            "Plan description: {}",
+            model.plan.description.trim()
+        ));
+    }
+    out
+}

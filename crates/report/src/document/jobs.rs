@@ -1,0 +1,225 @@
+//! The pictures of a report as jobs: each chart's or frame view's path and
+//! how to draw it, drawn once, on first use, by whichever renderer asks
+//! first.
+//!
+//! `plan` hands the PDF its pictures while they are drawn: Typst starts
+//! laying out the document at once and draws a picture when a page shows it
+//! (a page run blocks only on the pictures it shows), while the other
+//! renderers draw the rest beside it. [`Jobs::draw_all`] gives the same
+//! pictures, byte for byte, as drawing them one after the other.
+//!
+//! A drawing function must not use rayon: a thread that asks for a
+//! picture another thread is drawing waits for it while holding its rayon
+//! worker, so a drawing that waited on rayon work could wait for itself.
+
+use std::collections::BTreeMap;
+use std::sync::OnceLock;
+
+use super::super::charts::{self, ChartError};
+use super::super::matrix;
+use super::{
+    ADVICE_CHART, finemap_chart_path, fold_chart_path, frame_image_path, matrix_chart_path,
+    trace_chart_path, zoom_chart_path,
+};
+use crate::model::{CaseResult, Results, RoiKind};
+
+/// Draws one picture.
+type Draw<'a, T> = Box<dyn Fn() -> Result<T, ChartError> + Send + Sync + 'a>;
+
+/// One picture: how to draw it, and the picture once drawn.
+struct Job<'a, T> {
+    draw: Draw<'a, T>,
+    drawn: OnceLock<Result<T, ChartError>>,
+}
+
+/// Pictures of a report by path relative to the report directory: charts
+/// (SVG text, [`ChartJobs`]) or frame views (PNG bytes, [`ViewJobs`]).
+pub struct Jobs<'a, T> {
+    jobs: BTreeMap<String, Job<'a, T>>,
+}
+
+/// Every chart of a report.
+pub type ChartJobs<'a> = Jobs<'a, String>;
+
+/// The annotated view of each case's sample frame.
+pub type ViewJobs<'a> = Jobs<'a, Vec<u8>>;
+
+impl<'a> ViewJobs<'a> {
+    /// The view of each case's sample frame, with the model's display
+    /// stretch and ROIs. Nothing is drawn yet.
+    pub fn plan(model: &'a Results, results: &'a [CaseResult]) -> Self {
+        let mut jobs = Jobs {
+            jobs: BTreeMap::new(),
+        };
+        for r in results {
+            let info = model.cases.iter().find(|c| c.id == r.case.id);
+            let Some(frame) = r.sample_frame.as_ref() else {
+                continue;
+            };
+            let Some(info) = info.and_then(|c| c.sample_frame.as_ref()) else {
+                continue;
+            };
+            jobs.add(frame_image_path(&r.case.id), move || {
+                super::super::frames::view_png(frame, &info.rois, &info.stretch).map_err(|e| {
+                    ChartError {
+                        chart: format!("frame view {}", r.case.id),
+                        message: e.to_string(),
+                    }
+                })
+            });
+        }
+        jobs
+    }
+}
+
+impl<'a> ChartJobs<'a> {
+    /// The charts of a finished run: per case its luma trace and zoom, one
+    /// matrix per light level, a phase fold per LED ROI with enough phases,
+    /// the fine maps and the exposure advice. Nothing is drawn yet.
+    pub fn plan(model: &'a Results, results: &'a [CaseResult]) -> Self {
+        let mut jobs = Jobs {
+            jobs: BTreeMap::new(),
+        };
+        for r in results {
+            let case = model.cases.iter().find(|c| c.id == r.case.id);
+            let segments = case.and_then(|c| c.capture.as_ref()).map(|c| &c.segments);
+            let apparent_hz = case.map_or(0.0, |c| c.apparent_frequency_hz);
+            jobs.add(trace_chart_path(&r.case.id), move || {
+                charts::luma_trace_svg(r, segments)
+            });
+            jobs.add(zoom_chart_path(&r.case.id), move || {
+                charts::trace_zoom_svg(r, apparent_hz)
+            });
+        }
+        for (i, lux) in matrix::light_levels(model).into_iter().enumerate() {
+            jobs.add(matrix_chart_path(i), move || matrix::matrix_svg(model, lux));
+        }
+        for c in &model.cases {
+            let drawn = c.rois.iter().filter(|roi| {
+                roi.kind == RoiKind::Led
+                    && roi.analysis.phase_coverage.covered_bins >= charts::MIN_FOLD_PHASES
+            });
+            for (k, roi) in drawn.enumerate() {
+                jobs.add(fold_chart_path(&c.id, k), move || {
+                    charts::phase_fold_svg(
+                        &format!("{}: {}", c.id, roi.name),
+                        &roi.analysis.folded_bins,
+                        roi.analysis.envelope,
+                    )
+                });
+            }
+        }
+        let threshold = model.thresholds.fdi_2018_min;
+        for (i, m) in model.fine_maps.iter().enumerate() {
+            use charts::{FineMapKind, finemap_svg};
+            jobs.add(finemap_chart_path(i, "fdi"), move || {
+                finemap_svg(&m.map, FineMapKind::Fdi, threshold)
+            });
+            jobs.add(finemap_chart_path(i, "pf"), move || {
+                finemap_svg(&m.map, FineMapKind::PercentFlicker, threshold)
+            });
+        }
+        if let Some(a) = &model.advice {
+            jobs.add(ADVICE_CHART.to_string(), move || {
+                charts::advise_svg(&a.curve, a.advice.min_exposure_s)
+            });
+        }
+        jobs
+    }
+}
+
+impl<'a, T: Clone + Send + Sync> Jobs<'a, T> {
+    fn add(&mut self, path: String, draw: impl Fn() -> Result<T, ChartError> + Send + Sync + 'a) {
+        super::super::progress::planned();
+        let job = Job {
+            draw: Box::new(move || {
+                let picture = draw();
+                super::super::progress::drawn();
+                picture
+            }),
+            drawn: OnceLock::new(),
+        };
+        self.jobs.insert(path, job);
+    }
+
+    /// The picture paths, in order.
+    pub fn paths(&self) -> impl Iterator<Item = &str> {
+        self.jobs.keys().map(String::as_str)
+    }
+
+    /// The picture at `path`, drawn now unless it was before (or is being
+    /// drawn by another thread: then when that one is done). `None` when
+    /// the report has no such picture.
+    pub fn get(&self, path: &str) -> Option<Result<&T, &ChartError>> {
+        let job = self.jobs.get(path)?;
+        Some(job.drawn.get_or_init(&job.draw).as_ref())
+    }
+
+    /// Draws every picture not drawn yet, in parallel; returns them by
+    /// path, or the first error in path order.
+    pub fn draw_all(&self) -> Result<BTreeMap<String, T>, ChartError> {
+        use rayon::prelude::*;
+        let drawn: Vec<_> = self
+            .jobs
+            .par_iter()
+            .map(|(path, job)| (path, job.drawn.get_or_init(&job.draw)))
+            .collect();
+        drawn
+            .into_iter()
+            .map(|(path, picture)| Ok((path.clone(), picture.clone()?)))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// The small fixture plan (tests/fixtures/plans/base.toml) run on the
+    /// simulator, and its model: the report's unit tests start from it.
+    pub(crate) fn small_run() -> (Vec<CaseResult>, Results) {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+            .join("tests/fixtures/plans/base.toml");
+        let plan = ledflicker_core::plan::load(&path).unwrap();
+        let cases = ledflicker_core::plan::expand_cases(&plan);
+        let simulator = ledflicker_core::backend::sim::Simulator::new(&plan);
+        let results =
+            ledflicker_core::runner::run(&plan, &cases, &simulator, Some(2), &|_| {}).unwrap();
+        let model = crate::model::assemble(&plan, "sim-ideal", &results);
+        (results, model)
+    }
+
+    #[test]
+    fn charts_drawn_on_demand_beside_draw_all_are_the_charts_drawn_alone() {
+        let (results, model) = small_run();
+        let alone = ChartJobs::plan(&model, &results).draw_all().unwrap();
+        let first = &results[0].case.id;
+        assert!(alone.contains_key(&trace_chart_path(first)));
+        assert!(alone.contains_key(&zoom_chart_path(first)));
+        assert!(alone.contains_key(&matrix_chart_path(0)));
+        // Each chart is what its drawing function gives.
+        assert_eq!(
+            alone[&trace_chart_path(first)],
+            charts::luma_trace_svg(&results[0], None).unwrap()
+        );
+        // A reader (the PDF) asks for charts while draw_all runs: each is
+        // drawn once, and both see the same bytes.
+        let jobs = ChartJobs::plan(&model, &results);
+        let mut paths: Vec<&str> = jobs.paths().collect();
+        paths.reverse();
+        let (read, all) = rayon::join(
+            || {
+                paths
+                    .iter()
+                    .map(|p| jobs.get(p).unwrap().unwrap().clone())
+                    .collect::<Vec<_>>()
+            },
+            || jobs.draw_all().unwrap(),
+        );
+        assert_eq!(all, alone);
+        for (p, svg) in paths.iter().zip(&read) {
+            assert_eq!(&alone[*p], svg, "{p}");
+        }
+        assert!(jobs.get("charts/no-such-chart.svg").is_none());
+    }
+}

@@ -1,0 +1,151 @@
+//! HTML report: a [`Document`] -> minijinja templates in templates/.
+//!
+//! The templates are compiled into the binary, so a report needs nothing at
+//! run time. The page is self-contained: CSS inline, charts as inline SVG.
+
+use std::collections::BTreeMap;
+
+use minijinja::value::{Serde, Value};
+use minijinja::{Environment, UndefinedBehavior};
+
+use super::ReportError;
+use super::document::{
+    ADVICE_CHART, Document, finemap_chart_path, fold_chart_prefix, frame_image_path,
+    matrix_chart_path, trace_chart_path,
+};
+
+const BASE: &str = include_str!("../../../templates/base.html.j2");
+const REPORT: &str = include_str!("../../../templates/report.html.j2");
+
+/// Formats an optional number with `digits` decimals; `None` -> "n/a".
+pub(crate) fn num(value: Option<f64>, digits: Option<usize>) -> String {
+    match value {
+        Some(v) if v.is_finite() => crate::util::fixed(v, digits.unwrap_or(3)),
+        Some(_) | None => "n/a".to_string(),
+    }
+}
+
+fn environment() -> Result<Environment<'static>, ReportError> {
+    let mut env = Environment::new();
+    env.set_undefined_behavior(UndefinedBehavior::Strict);
+    let add = |env: &mut Environment<'static>, name: &'static str, src: &'static str| {
+        env.add_template(name, src)
+            .map_err(|e| ReportError::Template {
+                template: name.to_string(),
+                message: format!("{e:#}"),
+            })
+    };
+    add(&mut env, "base.html.j2", BASE)?;
+    add(&mut env, "report.html.j2", REPORT)?;
+    env.add_filter("num", |v: Serde<Option<f64>>, digits: Option<usize>| {
+        num(v.0, digits)
+    });
+    Ok(env)
+}
+
+/// Per light level: `{lux, chart}`, where `chart` is what `chart_for` makes
+/// of the matrix's chart path (missing charts are skipped).
+pub(crate) fn matrices(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec<Value> {
+    doc.light_levels()
+        .into_iter()
+        .enumerate()
+        .filter_map(|(i, lux)| {
+            let path = matrix_chart_path(i);
+            doc.charts.contains_key(&path).then(|| {
+                minijinja::context! { lux => lux, chart => chart_for(&path) }
+            })
+        })
+        .collect()
+}
+
+/// Renders report.html for a run in memory (a draft: no signatories).
+pub fn render(
+    model: &crate::model::Results,
+    results: &[crate::model::CaseResult],
+    date: &str,
+) -> Result<String, ReportError> {
+    render_document(&Document::build(model, results, date, Vec::new())?)
+}
+
+/// Renders report.html from a [`Document`].
+pub fn render_document(doc: &Document) -> Result<String, ReportError> {
+    let env = environment()?;
+    let inline = |path: &str| {
+        doc.charts
+            .get(path)
+            .map(|svg| Value::from_safe_string(svg.clone()))
+            .unwrap_or_else(|| Value::from(()))
+    };
+    let mut traces = BTreeMap::new();
+    let mut zooms = BTreeMap::new();
+    for case in doc.case_ids() {
+        let path = trace_chart_path(&case);
+        if doc.charts.contains_key(&path) {
+            traces.insert(case.clone(), inline(&path));
+        }
+        let path = super::document::zoom_chart_path(&case);
+        if doc.charts.contains_key(&path) {
+            zooms.insert(case, inline(&path));
+        }
+    }
+    // Sample frames inline as PNG data URIs.
+    let mut frames = BTreeMap::new();
+    for case in doc.case_ids() {
+        if let Some(png) = doc.images.get(&frame_image_path(&case)) {
+            let uri = format!("data:image/png;base64,{}", super::frames::base64(png));
+            frames.insert(case, Value::from_safe_string(uri));
+        }
+    }
+    // The flicker signal folded by phase, one chart per LED ROI.
+    let mut folds: BTreeMap<String, Vec<Value>> = BTreeMap::new();
+    for case in doc.case_ids() {
+        let prefix = fold_chart_prefix(&case);
+        let svgs = doc
+            .charts
+            .range(prefix.clone()..)
+            .take_while(|(path, _)| path.starts_with(&prefix))
+            .map(|(_, svg)| Value::from_safe_string(svg.clone()))
+            .collect();
+        folds.insert(case, svgs);
+    }
+    let finemaps: Vec<Value> = (0..)
+        .map_while(|i| {
+            let fdi = doc.charts.get(&finemap_chart_path(i, "fdi"))?;
+            let pf = doc.charts.get(&finemap_chart_path(i, "pf"))?;
+            Some(minijinja::context! {
+                fdi => Value::from_safe_string(fdi.clone()),
+                pf => Value::from_safe_string(pf.clone()),
+            })
+        })
+        .collect();
+    let advice_chart = inline(ADVICE_CHART);
+    let results = doc.json()?;
+    let template = env
+        .get_template("report.html.j2")
+        .map_err(|e| ReportError::Template {
+            template: "report.html.j2".to_string(),
+            message: format!("{e:#}"),
+        })?;
+    template
+        .render(minijinja::context! {
+            r => Serde(&results),
+            charts => traces,
+            frames => frames,
+            folds => folds,
+            finemaps => finemaps,
+            advice_chart => advice_chart,
+            matrices => matrices(doc, inline),
+            signatories => Serde(&doc.signatories),
+            zooms => zooms,
+            pages => doc.case_pages(),
+            caveats => doc.caveats(),
+            fold_notes => doc.fold_notes(),
+            detail => doc.detail().as_str(),
+            draft => doc.is_draft(),
+            date => doc.date(),
+        })
+        .map_err(|e| ReportError::Template {
+            template: "report.html.j2".to_string(),
+            message: format!("{e:#}"),
+        })
+}

@@ -1,0 +1,733 @@
+//! The frequency x duty matrix of one light level, as SVG (plotters).
+//!
+//! Part of the report stage, next to [`super::charts`]. Each cell is one
+//! case, coloured by the metric its verdict uses (worst over phase or as
+//! captured, per the plan), with the verdict marked. Deegan 2018 Eq. (1),
+//! `T_exp = (1 - D) / f`, is drawn over it for the camera's exposure: below
+//! the line an exposure can fall entirely in the OFF part of a period, so
+//! the light can appear OFF.
+
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use super::charts::{ChartError, FONT};
+use crate::model::Verdict;
+use crate::model::{CaseInfo, Results};
+use crate::model::{RoiKind, VerdictBasis};
+
+/// Which metric a matrix shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Shown {
+    /// FDI (2018): higher is better, `threshold` is a minimum.
+    Fdi,
+    /// Percent Flicker: lower is better, `threshold` is a maximum.
+    PercentFlicker,
+}
+
+/// The metric, its results.json name, title and threshold.
+fn shown(model: &Results) -> (Shown, String, &'static str, Option<f64>) {
+    let worst = model.thresholds.basis == VerdictBasis::WorstPhase;
+    let suffix = if worst { "_worst_phase" } else { "" };
+    if model.thresholds.fdi_2018_min.is_none() && model.thresholds.percent_flicker_max.is_some() {
+        (
+            Shown::PercentFlicker,
+            format!("percent_flicker{suffix}"),
+            "Percent Flicker",
+            model.thresholds.percent_flicker_max,
+        )
+    } else {
+        (
+            Shown::Fdi,
+            format!("fdi_2018{suffix}"),
+            "FDI (2018)",
+            model.thresholds.fdi_2018_min,
+        )
+    }
+}
+
+/// Position 0..1 on the colour scale: 0 worst, 0.5 at the threshold, 1 best.
+fn scale(kind: Shown, value: f64, threshold: f64) -> f64 {
+    match kind {
+        Shown::Fdi => {
+            // FDI <= 0: some frame is no brighter than the OFF reference,
+            // the worst there is (the light appears OFF); unbounded above.
+            if value < threshold {
+                0.5 * (value / threshold.max(1e-9)).clamp(0.0, 1.0)
+            } else {
+                0.5 + 0.5 * ((1.0 + value - threshold).ln() / 11f64.ln()).clamp(0.0, 1.0)
+            }
+        }
+        Shown::PercentFlicker => {
+            if value <= threshold {
+                0.5 + 0.5 * (1.0 - value / threshold.max(1e-9)).clamp(0.0, 1.0)
+            } else {
+                0.5 * (1.0 - (value - threshold) / (100.0 - threshold).max(1e-9)).clamp(0.0, 1.0)
+            }
+        }
+    }
+}
+
+/// Red (worst) - yellow (threshold) - green (best).
+fn colour(t: f64) -> RGBColor {
+    let lerp = |a: (f64, f64, f64), b: (f64, f64, f64), u: f64| {
+        RGBColor(
+            (a.0 + (b.0 - a.0) * u).round() as u8,
+            (a.1 + (b.1 - a.1) * u).round() as u8,
+            (a.2 + (b.2 - a.2) * u).round() as u8,
+        )
+    };
+    let red = (215.0, 48.0, 39.0);
+    let yellow = (254.0, 224.0, 139.0);
+    let green = (26.0, 152.0, 80.0);
+    if t < 0.5 {
+        lerp(red, yellow, t * 2.0)
+    } else {
+        lerp(yellow, green, (t - 0.5) * 2.0)
+    }
+}
+
+/// Sorted distinct values.
+fn distinct(mut v: Vec<f64>) -> Vec<f64> {
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    v
+}
+
+/// The value shown for a case (first LED ROI, else first ROI), and whether
+/// it is +infinity.
+fn case_value(case: &CaseInfo, metric: &str) -> (Option<f64>, bool) {
+    let Some(roi) = case
+        .rois
+        .iter()
+        .find(|r| r.kind == RoiKind::Led)
+        .or(case.rois.first())
+    else {
+        return (None, false);
+    };
+    let unbounded = roi.contrast_unbounded && metric.starts_with("fdi");
+    (roi.metrics.get(metric).copied().flatten(), unbounded)
+}
+
+/// Whether a case's conditions are known (a capture may carry only a
+/// source file; its light level, frequency and duty are then 0 in the model
+/// and `null` in results.json). Only known cases go into a matrix.
+fn known(c: &CaseInfo) -> bool {
+    c.light_lux > 0.0 && c.frequency_hz > 0.0 && c.duty > 0.0
+}
+
+/// Light levels of the model's cases with known conditions, in plan order
+/// of first appearance.
+pub fn light_levels(model: &Results) -> Vec<f64> {
+    let mut out: Vec<f64> = Vec::new();
+    for c in model.cases.iter().filter(|c| known(c)) {
+        if !out.contains(&c.light_lux) {
+            out.push(c.light_lux);
+        }
+    }
+    out
+}
+
+/// Canvas width of a matrix, pixels.
+const WIDTH: i32 = 760;
+/// Left of the cells (room for the duty labels and title), pixels.
+const LEFT: i32 = 64;
+/// Right of the cells; the colour bar is right of it, pixels.
+const RIGHT: i32 = WIDTH - 140;
+/// Top of the cells (below the title), pixels.
+const TOP: i32 = 32;
+/// Below the cells: frequency labels, axis title, Eq. (1) legend, pixels.
+const BOTTOM: i32 = 78;
+/// Space kept between neighbouring axis labels, pixels.
+const LABEL_GAP: f64 = 6.0;
+/// Font size of the axis labels, pixels.
+const LABEL_SIZE: f64 = 11.0;
+
+/// Estimated width of `text` set at `size` px in DejaVu Sans: 0.64 em per
+/// character, a little over its digit advance (0.636 em), so estimates err
+/// wide.
+pub fn text_width(text: &str, size: f64) -> f64 {
+    text.chars().count() as f64 * 0.64 * size
+}
+
+/// An axis label at the centre of its cell.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisLabel {
+    /// Cell index.
+    pub index: usize,
+    /// Text.
+    pub text: String,
+    /// Centre along the axis, pixels from the axis start.
+    pub centre: f64,
+    /// Half the label's extent along the axis, pixels.
+    pub half: f64,
+}
+
+/// Labels for cells `cell` px wide, one every `k`-th cell, `k` the smallest
+/// step that keeps [`LABEL_GAP`] px between neighbours; `extent` is a
+/// label's size along the axis. The first cell is always labelled.
+pub fn thin_labels(texts: &[String], cell: f64, extent: impl Fn(&str) -> f64) -> Vec<AxisLabel> {
+    let widest = texts.iter().map(|t| extent(t)).fold(0.0, f64::max);
+    let step = ((widest + LABEL_GAP) / cell.max(1e-9)).ceil().max(1.0) as usize;
+    texts
+        .iter()
+        .enumerate()
+        .step_by(step)
+        .map(|(i, t)| AxisLabel {
+            index: i,
+            text: t.clone(),
+            centre: (i as f64 + 0.5) * cell,
+            half: extent(t) / 2.0,
+        })
+        .collect()
+}
+
+/// The text of a cell `w` x `h` px that fits, with its font size: the
+/// verdict mark and the value at 11 px, else at 9 px, else the value alone
+/// at 9 px, else the mark alone, else nothing.
+pub fn cell_text(mark: &str, value: &str, w: f64, h: f64) -> Option<(String, f64)> {
+    let both = format!("{mark} {value}");
+    [
+        (both.clone(), 11.0),
+        (both, 9.0),
+        (value.to_string(), 9.0),
+        (mark.to_string(), 9.0),
+    ]
+    .into_iter()
+    .find(|(t, size)| text_width(t, *size) <= w - 4.0 && size + 3.0 <= h)
+}
+
+/// Inverse of [`scale`]: the value at position `t` of the colour scale.
+fn unscale(kind: Shown, t: f64, threshold: f64) -> f64 {
+    match kind {
+        Shown::Fdi if t < 0.5 => 2.0 * t * threshold,
+        Shown::Fdi => threshold + 11f64.powf(2.0 * t - 1.0) - 1.0,
+        Shown::PercentFlicker if t >= 0.5 => threshold * (2.0 - 2.0 * t),
+        Shown::PercentFlicker => threshold + (1.0 - 2.0 * t) * (100.0 - threshold),
+    }
+}
+
+/// Per frequency column, the number of duty rows (from the lowest) where
+/// Deegan 2018 Eq. (1) says the LED can appear OFF: `D < 1 - f T_exp`.
+pub fn eq1_rows(freqs: &[f64], duties_percent: &[f64], exposure_s: f64) -> Vec<usize> {
+    freqs
+        .iter()
+        .map(|f| {
+            let limit = 100.0 * (1.0 - f * exposure_s);
+            duties_percent.iter().filter(|&&d| d < limit - 1e-9).count()
+        })
+        .collect()
+}
+
+/// Geometry of a matrix drawing, pixels.
+struct Grid {
+    rows: usize,
+    cell_w: f64,
+    cell_h: f64,
+}
+
+impl Grid {
+    fn new(cols: usize, rows: usize) -> Grid {
+        // Cells 18 to 46 px high, and the block at least 150 px high so the
+        // colour bar has room for its ticks.
+        let cell_h = (360.0 / rows as f64)
+            .clamp(18.0, 46.0)
+            .max(150.0 / rows as f64);
+        Grid {
+            rows,
+            cell_w: f64::from(RIGHT - LEFT) / cols as f64,
+            cell_h,
+        }
+    }
+    fn height(&self) -> i32 {
+        (self.cell_h * self.rows as f64).round() as i32
+    }
+    /// Pixel x of the left edge of column `i` (i may be `cols`).
+    fn x(&self, i: usize) -> i32 {
+        LEFT + (i as f64 * self.cell_w).round() as i32
+    }
+    /// Pixel y of the bottom edge of row `j` (row 0 at the bottom).
+    fn y(&self, j: usize) -> i32 {
+        TOP + self.height() - (j as f64 * self.cell_h).round() as i32
+    }
+}
+
+type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+
+fn text_style(size: f64, pos: Pos) -> TextStyle<'static> {
+    TextStyle::from((FONT, size).into_font())
+        .color(&BLACK)
+        .pos(pos)
+}
+
+/// Axis labels and titles of both axes.
+fn draw_axes(area: &Area<'_>, grid: &Grid, freqs: &[f64], duties: &[f64]) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
+    let label = |v: f64| crate::util::fixed(v, if v.fract() == 0.0 { 0 } else { 1 });
+    let fx: Vec<String> = freqs.iter().map(|&v| label(v)).collect();
+    for l in thin_labels(&fx, grid.cell_w, |t| text_width(t, LABEL_SIZE)) {
+        let x = LEFT + l.centre.round() as i32;
+        let y = TOP + grid.height();
+        area.draw(&PathElement::new(
+            [(x, y), (x, y + 4)],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(e)?;
+        area.draw(&Text::new(
+            l.text,
+            (x, y + 6),
+            text_style(LABEL_SIZE, Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .map_err(e)?;
+    }
+    let dy: Vec<String> = duties.iter().map(|&v| label(v)).collect();
+    for l in thin_labels(&dy, grid.cell_h, |_| LABEL_SIZE) {
+        let y = TOP + grid.height() - l.centre.round() as i32;
+        area.draw(&PathElement::new(
+            [(LEFT - 4, y), (LEFT, y)],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(e)?;
+        area.draw(&Text::new(
+            l.text,
+            (LEFT - 6, y),
+            text_style(LABEL_SIZE, Pos::new(HPos::Right, VPos::Center)),
+        ))
+        .map_err(e)?;
+    }
+    area.draw(&Text::new(
+        "PWM frequency (Hz)",
+        ((LEFT + RIGHT) / 2, TOP + grid.height() + 24),
+        text_style(12.0, Pos::new(HPos::Center, VPos::Top)),
+    ))
+    .map_err(e)?;
+    area.draw(&Text::new(
+        "duty (%)",
+        (14, TOP + grid.height() / 2),
+        TextStyle::from((FONT, 12).into_font().transform(FontTransform::Rotate270))
+            .color(&BLACK)
+            .pos(Pos::new(HPos::Center, VPos::Center)),
+    ))
+    .map_err(e)?;
+    Ok(())
+}
+
+/// The colour bar right of the cells, with ticks at the worst end, half
+/// way to the threshold, the threshold, and two values above it.
+fn draw_colour_bar(
+    area: &Area<'_>,
+    grid: &Grid,
+    kind: Shown,
+    title: &str,
+    threshold: f64,
+) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
+    let (x0, x1) = (RIGHT + 24, RIGHT + 38);
+    let (top, h) = (TOP + 18, grid.height() - 18);
+    area.draw(&Text::new(
+        title.to_string(),
+        (x0 - 4, TOP - 6),
+        text_style(11.0, Pos::new(HPos::Left, VPos::Top)),
+    ))
+    .map_err(e)?;
+    let steps = 24;
+    for k in 0..steps {
+        let (a, b) = (top + h * k / steps, top + h * (k + 1) / steps);
+        let t = 1.0 - (k as f64 + 0.5) / steps as f64;
+        area.draw(&Rectangle::new([(x0, a), (x1, b)], colour(t).filled()))
+            .map_err(e)?;
+    }
+    area.draw(&Rectangle::new(
+        [(x0, top), (x1, top + h)],
+        BLACK.stroke_width(1),
+    ))
+    .map_err(e)?;
+    for t in [0.0, 0.25, 0.5, 0.75, 1.0] {
+        let y = top + (f64::from(h) * (1.0 - t)).round() as i32;
+        let v = crate::util::fixed(unscale(kind, t, threshold), 2);
+        let text = match (kind, t) {
+            (_, 0.5) => format!("{v} limit"),
+            (Shown::Fdi, 1.0) | (Shown::PercentFlicker, 0.0) => format!("\u{2265} {v}"),
+            (Shown::Fdi, 0.0) => format!("\u{2264} {v}"),
+            _ => v,
+        };
+        area.draw(&PathElement::new(
+            [(x1, y), (x1 + 4, y)],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(e)?;
+        area.draw(&Text::new(
+            text,
+            (x1 + 6, y),
+            text_style(11.0, Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(e)?;
+    }
+    Ok(())
+}
+
+/// Deegan 2018 Eq. (1) as a staircase along the cell edges: below and
+/// left of it `T_exp < (1 - D) / f`; the legend goes under the axis title.
+fn draw_eq1(
+    area: &Area<'_>,
+    grid: &Grid,
+    freqs: &[f64],
+    duties: &[f64],
+    exposure_ms: f64,
+) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
+    let rows = eq1_rows(freqs, duties, exposure_ms * 1e-3);
+    let style = BLACK.stroke_width(3);
+    for (i, &b) in rows.iter().enumerate() {
+        if b > 0 {
+            area.draw(&PathElement::new(
+                [(grid.x(i), grid.y(b)), (grid.x(i + 1), grid.y(b))],
+                style,
+            ))
+            .map_err(e)?;
+        }
+        let next = rows.get(i + 1).copied().unwrap_or(0);
+        if b != next {
+            let x = grid.x(i + 1);
+            area.draw(&PathElement::new(
+                [(x, grid.y(b)), (x, grid.y(next))],
+                style,
+            ))
+            .map_err(e)?;
+        }
+    }
+    let y = TOP + grid.height() + 50;
+    area.draw(&PathElement::new([(LEFT, y), (LEFT + 24, y)], style))
+        .map_err(e)?;
+    let text = if rows.iter().any(|&b| b > 0) {
+        format!(
+            "Eq. (1), T_exp = {} ms: below and left of the line T_exp < (1 \u{2212} D) / f, the LED can appear OFF",
+            crate::util::fixed(exposure_ms, 3)
+        )
+    } else {
+        format!(
+            "Eq. (1), T_exp = {} ms: no cell has T_exp < (1 \u{2212} D) / f",
+            crate::util::fixed(exposure_ms, 3)
+        )
+    };
+    area.draw(&Text::new(
+        text,
+        (LEFT + 30, y),
+        text_style(11.0, Pos::new(HPos::Left, VPos::Center)),
+    ))
+    .map_err(e)?;
+    Ok(())
+}
+
+/// One cell: fill by value, failing cells outlined, text when it fits.
+fn draw_cell(
+    area: &Area<'_>,
+    grid: &Grid,
+    (i, j): (usize, usize),
+    case: &CaseInfo,
+    (kind, metric, threshold): (Shown, &str, f64),
+) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
+    let (value, unbounded) = case_value(case, metric);
+    let fill = match (value, unbounded) {
+        (_, true) => colour(1.0),
+        (Some(v), false) => colour(scale(kind, v, threshold)),
+        (None, false) => RGBColor(200, 200, 200),
+    };
+    let fill = if case.verdict == Verdict::Info {
+        fill.mix(0.45)
+    } else {
+        fill.mix(1.0)
+    };
+    let (x0, x1, y0, y1) = (grid.x(i), grid.x(i + 1), grid.y(j + 1), grid.y(j));
+    area.draw(&Rectangle::new([(x0, y0), (x1, y1)], fill.filled()))
+        .map_err(e)?;
+    let gap = if grid.cell_w >= 8.0 { 1 } else { 0 };
+    area.draw(&Rectangle::new(
+        [(x0, y0), (x1, y1)],
+        WHITE.stroke_width(gap + 1),
+    ))
+    .map_err(e)?;
+    if case.verdict == Verdict::Fail {
+        area.draw(&Rectangle::new(
+            [(x0 + 2, y0 + 2), (x1 - 2, y1 - 2)],
+            RGBColor(120, 0, 0).stroke_width(2),
+        ))
+        .map_err(e)?;
+    }
+    let mark = match case.verdict {
+        Verdict::Pass => "\u{2714}",
+        Verdict::Fail => "\u{2718}",
+        Verdict::Info => "info",
+    };
+    let text = match (value, unbounded) {
+        (_, true) => "+\u{221e}".to_string(),
+        (Some(v), false) => crate::util::fixed(v, 2),
+        (None, false) => "n/a".to_string(),
+    };
+    if let Some((text, size)) = cell_text(mark, &text, f64::from(x1 - x0), f64::from(y1 - y0)) {
+        area.draw(&Text::new(
+            text,
+            ((x0 + x1) / 2, (y0 + y1) / 2),
+            text_style(size, Pos::new(HPos::Center, VPos::Center)),
+        ))
+        .map_err(e)?;
+    }
+    Ok(())
+}
+
+/// The matrix of cases at `light_lux`, as SVG: one cell per case, coloured
+/// on the scale of the colour bar (right), failing cells outlined dark
+/// red, the verdict mark and value written where they fit, axis labels
+/// thinned so they never overlap (1 to 64 and more frequencies), and
+/// Deegan 2018 Eq. (1) drawn along the cell edges with its legend below
+/// the axis.
+pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError> {
+    let err = |e: &dyn std::fmt::Display| ChartError {
+        chart: format!("matrix {light_lux} lux"),
+        message: e.to_string(),
+    };
+    let cases: Vec<&CaseInfo> = model
+        .cases
+        .iter()
+        .filter(|c| known(c) && c.light_lux == light_lux)
+        .collect();
+    if cases.is_empty() {
+        return Err(err(&"no case at this light level"));
+    }
+    let freqs = distinct(cases.iter().map(|c| c.frequency_hz).collect());
+    let duties = distinct(cases.iter().map(|c| c.duty * 100.0).collect());
+    let (kind, metric, title, threshold) = shown(model);
+    let th = threshold.unwrap_or(match kind {
+        Shown::Fdi => 0.1,
+        Shown::PercentFlicker => 10.0,
+    });
+    let grid = Grid::new(freqs.len(), duties.len());
+    let mut svg = String::new();
+    {
+        let height = (TOP + grid.height() + BOTTOM) as u32;
+        let root = SVGBackend::with_string(&mut svg, (WIDTH as u32, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let caption = format!(
+            "{light_lux} lux: {title}{} by PWM frequency and duty",
+            if metric.ends_with("worst_phase") {
+                ", worst phase,"
+            } else {
+                ""
+            }
+        );
+        root.draw(&Text::new(
+            caption,
+            ((LEFT + RIGHT) / 2, 8),
+            text_style(14.0, Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .map_err(|e| err(&e))?;
+        for c in &cases {
+            let (Some(i), Some(j)) = (
+                freqs.iter().position(|&f| f == c.frequency_hz),
+                duties.iter().position(|&d| d == c.duty * 100.0),
+            ) else {
+                continue;
+            };
+            draw_cell(&root, &grid, (i, j), c, (kind, &metric, th)).map_err(|e| err(&e))?;
+        }
+        draw_axes(&root, &grid, &freqs, &duties).map_err(|e| err(&e))?;
+        draw_colour_bar(&root, &grid, kind, title, th).map_err(|e| err(&e))?;
+        if let Some(cam) = &model.dut.camera
+            && cam.exposure_ms > 0.0
+        {
+            draw_eq1(&root, &grid, &freqs, &duties, cam.exposure_ms).map_err(|e| err(&e))?;
+        }
+        root.present().map_err(|e| err(&e))?;
+    }
+    Ok(svg)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    #[test]
+    fn colour_scale_puts_the_threshold_in_the_middle() {
+        assert!((scale(Shown::Fdi, 0.1, 0.1) - 0.5).abs() < 1e-12);
+        assert_eq!(scale(Shown::Fdi, -1.0, 0.1), 0.0);
+        assert_eq!(scale(Shown::Fdi, 0.0, 0.1), 0.0);
+        assert!(scale(Shown::Fdi, 0.05, 0.1) < 0.5);
+        assert!(scale(Shown::Fdi, 3.0, 0.1) > 0.5);
+        assert!((scale(Shown::PercentFlicker, 10.0, 10.0) - 0.5).abs() < 1e-12);
+        assert!(scale(Shown::PercentFlicker, 50.0, 10.0) < 0.5);
+        assert_eq!(scale(Shown::PercentFlicker, 0.0, 10.0), 1.0);
+    }
+
+    /// The daylight plan with `n` frequencies from 50 Hz in 37 Hz steps,
+    /// a 1 s PWM segment, run on the simulator, as a report model.
+    pub(crate) fn model_with(n: usize) -> Results {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+            .join("test-plans/daylight.toml");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let freqs: Vec<String> = (0..n).map(|i| format!("{}.0", 50 + 37 * i)).collect();
+        let text = text
+            .replace(
+                "frequencies-hz = [50.0, 90.0, 100.0, 150.0, 200.0, 500.0, 1000.0]",
+                &format!("frequencies-hz = [{}]", freqs.join(", ")),
+            )
+            .replace("pwm-s = 60.0", "pwm-s = 1.0")
+            // A small sensor keeps the plan inside the memory limit.
+            .replace("sensor-rows = 800", "sensor-rows = 80")
+            .replace("sensor-columns = 1280", "sensor-columns = 128")
+            .replace("x-px = 590", "x-px = 59")
+            .replace("y-px = 399", "y-px = 39")
+            .replace("x-px = 100", "x-px = 10")
+            .replace("y-px = 100", "y-px = 10")
+            .replace("width-px = 100", "width-px = 10");
+        let plan = ledflicker_core::plan::parse(&text, &path, String::new()).unwrap();
+        let cases = ledflicker_core::plan::expand_cases(&plan);
+        let backend = ledflicker_core::backend::sim::Simulator::new(&plan);
+        let results =
+            ledflicker_core::runner::run(&plan, &cases, &backend, Some(1), &|_| {}).unwrap();
+        crate::model::assemble(&plan, "sim-ideal", &results)
+    }
+
+    /// (x, y, font size, anchor, text) of every `<text>` of an SVG.
+    fn texts(svg: &str) -> Vec<(f64, f64, f64, String, String)> {
+        let attr = |tag: &str, name: &str| -> String {
+            tag.split(&format!(" {name}=\""))
+                .nth(1)
+                .and_then(|s| s.split('"').next())
+                .unwrap_or("")
+                .to_string()
+        };
+        svg.split("<text")
+            .skip(1)
+            .map(|part| {
+                let (tag, rest) = part.split_once('>').unwrap();
+                let content = rest.split("</text>").next().unwrap().trim().to_string();
+                (
+                    attr(tag, "x").parse().unwrap(),
+                    attr(tag, "y").parse().unwrap(),
+                    attr(tag, "font-size").parse().unwrap_or(0.0),
+                    attr(tag, "text-anchor"),
+                    content,
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn axis_labels_never_overlap_from_1_to_64_frequencies() {
+        for n in [1, 8, 32, 64, 200] {
+            let grid = Grid::new(n, 5);
+            let texts: Vec<String> = (0..n).map(|i| format!("{}", 50 + 37 * i)).collect();
+            let labels = thin_labels(&texts, grid.cell_w, |t| text_width(t, LABEL_SIZE));
+            assert_eq!(labels[0].index, 0);
+            assert!(
+                labels.len() >= n.min(8),
+                "{n} frequencies: {} labels",
+                labels.len()
+            );
+            for w in labels.windows(2) {
+                let gap = (w[1].centre - w[1].half) - (w[0].centre + w[0].half);
+                assert!(
+                    gap >= LABEL_GAP,
+                    "{n} frequencies: labels {} and {} {gap} px apart",
+                    w[0].text,
+                    w[1].text
+                );
+            }
+            // Inside the cells' span.
+            let last = labels.last().unwrap();
+            assert!(last.centre < f64::from(RIGHT - LEFT));
+        }
+        // Without thinning 64 labels of 4 digits would overlap.
+        let grid = Grid::new(64, 5);
+        assert!(text_width("2381", LABEL_SIZE) > grid.cell_w);
+    }
+
+    #[test]
+    fn cell_text_is_written_only_where_it_fits() {
+        assert_eq!(
+            cell_text("\u{2714}", "8.73", 80.0, 46.0),
+            Some(("\u{2714} 8.73".to_string(), 11.0))
+        );
+        assert_eq!(
+            cell_text("\u{2714}", "8.73", 30.0, 46.0),
+            Some(("8.73".to_string(), 9.0))
+        );
+        assert_eq!(
+            cell_text("\u{2714}", "8.73", 12.0, 46.0),
+            Some(("\u{2714}".to_string(), 9.0))
+        );
+        assert_eq!(cell_text("\u{2714}", "8.73", 8.0, 46.0), None);
+        assert_eq!(cell_text("\u{2714}", "8.73", 80.0, 10.0), None);
+    }
+
+    #[test]
+    fn colour_bar_ticks_invert_the_scale() {
+        for kind in [Shown::Fdi, Shown::PercentFlicker] {
+            let th = if kind == Shown::Fdi { 0.1 } else { 10.0 };
+            for t in [0.0, 0.1, 0.25, 0.5, 0.75, 0.9, 1.0] {
+                let v = unscale(kind, t, th);
+                assert!(
+                    (scale(kind, v, th) - t).abs() < 1e-9,
+                    "{kind:?} t {t}: v {v}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn eq1_rows_follow_the_closed_form() {
+        // T_exp = 11.111 ms: (1 - D) / f > T_exp below D = 1 - f T_exp:
+        // 44.4 % at 50 Hz, 0 % from 90 Hz.
+        let rows = eq1_rows(
+            &[50.0, 90.0, 1000.0],
+            &[5.0, 10.0, 20.0, 50.0, 100.0],
+            11.111e-3,
+        );
+        assert_eq!(rows, vec![3, 0, 0]);
+        assert_eq!(eq1_rows(&[10.0], &[5.0, 50.0, 100.0], 1e-3), vec![2]);
+    }
+
+    #[test]
+    fn rendered_matrices_keep_labels_apart_and_text_inside_cells() {
+        for n in [1, 8, 32, 64] {
+            let model = model_with(n);
+            let svg = matrix_svg(&model, 2000.0).unwrap();
+            let grid = Grid::new(n, 5);
+            let bottom = f64::from(TOP + grid.height());
+            // Frequency labels: the texts just under the cells.
+            let mut labels: Vec<(f64, f64)> = texts(&svg)
+                .into_iter()
+                .filter(|t| t.1 > bottom && t.1 < bottom + 12.0 && t.3 == "middle")
+                .map(|t| {
+                    (
+                        t.0 - text_width(&t.4, t.2) / 2.0,
+                        t.0 + text_width(&t.4, t.2) / 2.0,
+                    )
+                })
+                .collect();
+            labels.sort_by(|a, b| a.0.total_cmp(&b.0));
+            assert!(!labels.is_empty(), "{n}: no frequency labels");
+            for w in labels.windows(2) {
+                assert!(
+                    w[1].0 - w[0].1 >= LABEL_GAP - 1.0,
+                    "{n} frequencies: labels overlap {w:?}"
+                );
+            }
+            // Cell texts: centred in the cells, no wider than a cell.
+            for t in texts(&svg).iter().filter(|t| {
+                t.1 > f64::from(TOP)
+                    && t.1 < bottom
+                    && f64::from(RIGHT) > t.0
+                    && t.0 > f64::from(LEFT)
+            }) {
+                assert!(
+                    text_width(&t.4, t.2) <= grid.cell_w - 4.0 + 1e-9,
+                    "{n}: `{}` too wide",
+                    t.4
+                );
+            }
+            assert!(svg.contains("limit"), "colour bar marks the limit");
+            assert!(svg.contains("Eq. (1)"));
+        }
+    }
+}
