@@ -26,6 +26,7 @@
 pub mod build;
 pub mod frame;
 pub mod method;
+pub mod plane;
 
 use std::collections::BTreeMap;
 
@@ -89,6 +90,13 @@ pub struct Results {
     /// models built in memory.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub report: Option<ReportMeta>,
+    /// Deviations from the method of Deegan 2018 and notes a reader of the
+    /// report must see, one sentence each ([`method::notes`], filled by
+    /// [`assemble`]). results.json holds them as `report.notes`, written
+    /// with the report, so they are not serialised here: a model read back
+    /// is empty here and has them in `report.notes`.
+    #[serde(skip)]
+    pub notes: Vec<String>,
 }
 
 /// Exposure advice for a plan's range.
