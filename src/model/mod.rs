@@ -35,7 +35,7 @@ use serde::{Deserialize, Serialize};
 pub use crate::advise::{Advice, Candidate};
 pub use crate::analysis::finemap::FineMap;
 pub use crate::analysis::{
-    Banding, Beat, DriveFlicker, FineMapInfo, FrameTiming, HazardClass, RoiAnalysis,
+    Banding, Beat, DriveFlicker, FineMapInfo, FrameBanding, FrameTiming, HazardClass, RoiAnalysis,
 };
 pub use crate::inputs::InputFile;
 pub use crate::metrics::verdict::VERDICT_TOLERANCE;
@@ -306,7 +306,7 @@ pub struct SampleFrameInfo {
     pub crop_px: Option<[u32; 4]>,
     /// Row analysis of this frame in the LED ROI's columns; `null` without
     /// an LED ROI or for an even frame.
-    pub banding: Option<frame::FrameBanding>,
+    pub banding: Option<FrameBanding>,
     /// Caption of the view: stretch, ROI key, crop, banding of this frame.
     pub caption: String,
 }

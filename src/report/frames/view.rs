@@ -343,6 +343,7 @@ pub fn stretched_view(frame: &RenderedFrame, rois: &[RoiBox], stretch: &Stretch)
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::analysis::banding::NO_BANDS_CONTRAST_PERCENT;
     use crate::model::frame::*;
 
     fn frame(width: u32, height: u32, f: impl Fn(u32, u32) -> f64) -> RenderedFrame {
