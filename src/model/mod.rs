@@ -288,6 +288,52 @@ pub struct CaseInfo {
     pub frame_timing: Option<FrameTiming>,
 }
 
+impl CaseInfo {
+    /// The LED ROI that stands for the case (the terminal summary's `roi`): the one whose checks come closest
+    /// to failing, or fail worst (margins compared smallest first, so a tie on
+    /// one limit is broken by the next); without checks, the one with the
+    /// highest Percent Flicker; without LED ROIs, the first ROI. Ties go to the
+    /// first in plan order.
+    pub fn worst_roi(&self) -> Option<&RoiInfo> {
+        let leds = || self.rois.iter().filter(|r| r.kind == RoiKind::Led);
+        let margins = |r: &RoiInfo| {
+            let mut m: Vec<f64> = self
+                .checks
+                .iter()
+                .filter(|k| k.roi == r.name)
+                .map(|k| k.margin())
+                .collect();
+            m.sort_by(f64::total_cmp);
+            m
+        };
+        let by_margins = |a: &Vec<f64>, b: &Vec<f64>| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| x.total_cmp(y))
+                .find(|o| o.is_ne())
+                .unwrap_or_else(|| b.len().cmp(&a.len()))
+        };
+        if !self.checks.is_empty() {
+            // min_by keeps the first of equals: plan order breaks ties.
+            return leds()
+                .map(|r| (r, margins(r)))
+                .min_by(|a, b| by_margins(&a.1, &b.1))
+                .map(|(r, _)| r);
+        }
+        let pf = |r: &RoiInfo| {
+            r.metrics
+                .get("percent_flicker")
+                .copied()
+                .flatten()
+                .unwrap_or(f64::NEG_INFINITY)
+        };
+        leds()
+            .rev()
+            .max_by(|a, b| pf(a).total_cmp(&pf(b)))
+            .or(self.rois.first())
+    }
+}
+
 /// A rendered frame written next to the report.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SampleFrameInfo {
