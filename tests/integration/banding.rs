@@ -3,7 +3,7 @@
 //! reference-data/gyroflow-rs-banding/SOURCE.md) gives back
 //! the LED's frequency.
 
-use ledflicker::analysis::banding::band_period_from_profile;
+use ledflicker::calibrate::bands::estimate_profile;
 
 #[test]
 fn real_frame_band_spacing_gives_the_led_frequency() {
@@ -15,9 +15,9 @@ fn real_frame_band_spacing_gives_the_led_frequency() {
     let profile: Vec<f64> = (0..h)
         .map(|y| (0..w).map(|x| img.get_pixel(x, y)[0] as f64).sum::<f64>() / w as f64)
         .collect();
-    let rows = band_period_from_profile(&profile).unwrap();
-    let f = 1.0 / (rows * 14.565e-6);
-    eprintln!("period {rows} rows -> {f} Hz");
+    let estimate = estimate_profile(&profile).unwrap();
+    let (f, _) = estimate.frequency_hz(14.565e-6);
+    eprintln!("period {} rows -> {f} Hz", estimate.period_rows);
     // Upstream gives the readout to 0.03 % (15.730 +- 0.004 ms); allow 0.5 %.
     assert!((f - 1000.0).abs() < 5.0, "{f} Hz");
 }

@@ -336,7 +336,7 @@ fn simulated_report_names_its_camera_and_the_worst_phase_basis() {
     assert!(!model.method.acquisition.contains("ideal"));
     // deegan2018.toml asks for basis = "as-captured".
     assert!(model.method.verdict_basis.contains("as simulated"));
-    let notes = ledflicker::report::document::notes(&model);
+    let notes = &model.notes;
     assert!(
         notes
             .iter()

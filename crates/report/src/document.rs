@@ -158,20 +158,6 @@ impl Document {
         self.results.cases.iter().map(|c| c.id.clone()).collect()
     }
 
-    /// Light levels (lux) in order of first appearance; the matrix of the
-    /// `i`-th is [`matrix_chart_path`]`(i)`.
-    pub fn light_levels(&self) -> Vec<f64> {
-        let mut out: Vec<f64> = Vec::new();
-        for c in &self.results.cases {
-            // As `matrix::light_levels`: cases with known conditions only.
-            let known = c.frequency_hz > 0.0 && c.duty > 0.0;
-            if known && c.light_lux > 0.0 && !out.contains(&c.light_lux) {
-                out.push(c.light_lux);
-            }
-        }
-        out
-    }
-
     /// The `--detail` the report was written with (results.json
     /// `report.detail`; reports written before it existed are `full`).
     pub fn detail(&self) -> Detail {
@@ -363,7 +349,8 @@ impl Document {
 
 /// The `report` section of results.json for a run reported on `date`. The
 /// inputs are those already in `model.report` (set by
-/// [`super::write_report`] from [`ledflicker_core::inputs::collect`]), else the plan.
+/// [`super::write_report`] from [`ledflicker_core::inputs::collect`]), else the plan;
+/// the notes are the model's ([`Results::notes`]).
 pub fn report_meta(model: &Results, date: &str, detail: Detail) -> ReportMeta {
     let inputs = model
         .report
@@ -382,87 +369,6 @@ pub fn report_meta(model: &Results, date: &str, detail: Detail) -> ReportMeta {
         date: date.to_string(),
         detail: detail.as_str().to_string(),
         inputs,
-        notes: notes(model),
+        notes: model.notes.clone(),
     }
-}
-
-/// Deviations from the method of Deegan 2018 (IS&T EI AVM-146) and notes a
-/// reader of the report must see, one sentence each.
-pub fn notes(model: &Results) -> Vec<String> {
-    let mut out = Vec::new();
-    let s = &model.sequence;
-    if (s.on_s, s.off_s, s.pwm_s) != (2.0, 2.0, 60.0) {
-        out.push(format!(
-            "Sequence: {} s ON, {} s OFF, {} s PWM; Deegan 2018 uses 2 s, 2 s and 60 s.",
-            s.on_s, s.off_s, s.pwm_s
-        ));
-    }
-    let odd: Vec<String> = super::matrix::light_levels(model)
-        .into_iter()
-        .filter(|lux| *lux != 40.0 && *lux != 2000.0)
-        .map(|lux| format!("{lux} lux"))
-        .collect();
-    if !odd.is_empty() {
-        out.push(format!(
-            "Light levels {} differ from the 40 lux and 2000 lux of Deegan 2018.",
-            odd.join(", ")
-        ));
-    }
-    if model.method.backend == "simulator" {
-        let which = if model.dut.backend == "sim-physical" {
-            "physical"
-        } else {
-            "ideal"
-        };
-        out.push(format!(
-            "Frames come from the {which} camera simulator (backend {}), not from a captured device; \
-             the DUT fields name the camera being modelled.",
-            model.dut.backend
-        ));
-    }
-    let saturated: Vec<&str> = model
-        .cases
-        .iter()
-        .filter(|c| c.rois.iter().any(|r| r.saturated))
-        .map(|c| c.id.as_str())
-        .collect();
-    if !saturated.is_empty() {
-        out.push(format!(
-            "{} case(s) have a saturated ROI (e.g. {}): their metrics understate the modulation.",
-            saturated.len(),
-            saturated[0]
-        ));
-    }
-    let mut undefined = 0;
-    let mut example = None;
-    for c in &model.cases {
-        for r in &c.rois {
-            for (metric, reason) in &r.reasons {
-                undefined += 1;
-                example
-                    .get_or_insert_with(|| format!("{} / {} / {metric}: {reason}", c.id, r.name));
-            }
-        }
-    }
-    if let Some(example) = example {
-        out.push(format!(
-            "{undefined} metric value(s) are undefined or carry a caveat, e.g. {example}."
-        ));
-    }
-    if model.counts.info > 0 {
-        out.push(format!(
-            "{} case(s) were not judged (outside the claimed mitigation range, marked informative, or no limit applies): measured and reported, never failing.",
-            model.counts.info
-        ));
-    }
-    if model.verdict == crate::model::Verdict::Info {
-        out.push("No case was judged: the run shows no pass.".to_string());
-    }
-    if !model.plan.description.trim().is_empty() {
-        out.push(format!(
-            "Plan description: {}",
-            model.plan.description.trim()
-        ));
-    }
-    out
 }

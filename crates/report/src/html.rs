@@ -43,10 +43,13 @@ fn environment() -> Result<Environment<'static>, ReportError> {
     Ok(env)
 }
 
-/// Per light level: `{lux, chart}`, where `chart` is what `chart_for` makes
-/// of the matrix's chart path (missing charts are skipped).
+/// Per light level ([`crate::model::Results::light_levels`]; the matrix of
+/// the `i`-th is [`matrix_chart_path`]`(i)`): `{lux, chart}`, where `chart`
+/// is what `chart_for` makes of the matrix's chart path (missing charts are
+/// skipped).
 pub(crate) fn matrices(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec<Value> {
-    doc.light_levels()
+    doc.results
+        .light_levels()
         .into_iter()
         .enumerate()
         .filter_map(|(i, lux)| {

@@ -1,17 +1,19 @@
 //! The frequency x duty matrix of one light level, as SVG (plotters).
 //!
-//! Part of the report stage, next to [`super::charts`]. Each cell is one
+//! Part of the report stage, next to [`super::charts`]. It draws the
+//! model's plane of a light level ([`crate::model::plane`]): each cell is one
 //! case, coloured by the metric its verdict uses (worst over phase or as
 //! captured, per the plan), with the verdict marked. Deegan 2018 Eq. (1),
-//! `T_exp = (1 - D) / f`, is drawn over it for the camera's exposure: below
-//! the line an exposure can fall entirely in the OFF part of a period, so
-//! the light can appear OFF.
+//! `T_exp = (1 - D) / f`, as the model gives it for the camera's exposure,
+//! is drawn over it: below the line an exposure can fall entirely in the
+//! OFF part of a period, so the light can appear OFF.
 
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::charts::{ChartError, FONT};
 use crate::model::Verdict;
+use crate::model::plane::{Eq1, LevelPlane};
 use crate::model::{CaseInfo, Results};
 use crate::model::{RoiKind, VerdictBasis};
 
@@ -86,13 +88,6 @@ fn colour(t: f64) -> RGBColor {
     }
 }
 
-/// Sorted distinct values.
-fn distinct(mut v: Vec<f64>) -> Vec<f64> {
-    v.sort_by(f64::total_cmp);
-    v.dedup();
-    v
-}
-
 /// The value shown for a case (first LED ROI, else first ROI), and whether
 /// it is +infinity.
 fn case_value(case: &CaseInfo, metric: &str) -> (Option<f64>, bool) {
@@ -106,25 +101,6 @@ fn case_value(case: &CaseInfo, metric: &str) -> (Option<f64>, bool) {
     };
     let unbounded = roi.contrast_unbounded && metric.starts_with("fdi");
     (roi.metrics.get(metric).copied().flatten(), unbounded)
-}
-
-/// Whether a case's conditions are known (a capture may carry only a
-/// source file; its light level, frequency and duty are then 0 in the model
-/// and `null` in results.json). Only known cases go into a matrix.
-fn known(c: &CaseInfo) -> bool {
-    c.light_lux > 0.0 && c.frequency_hz > 0.0 && c.duty > 0.0
-}
-
-/// Light levels of the model's cases with known conditions, in plan order
-/// of first appearance.
-pub fn light_levels(model: &Results) -> Vec<f64> {
-    let mut out: Vec<f64> = Vec::new();
-    for c in model.cases.iter().filter(|c| known(c)) {
-        if !out.contains(&c.light_lux) {
-            out.push(c.light_lux);
-        }
-    }
-    out
 }
 
 /// Canvas width of a matrix, pixels.
@@ -204,18 +180,6 @@ fn unscale(kind: Shown, t: f64, threshold: f64) -> f64 {
         Shown::PercentFlicker if t >= 0.5 => threshold * (2.0 - 2.0 * t),
         Shown::PercentFlicker => threshold + (1.0 - 2.0 * t) * (100.0 - threshold),
     }
-}
-
-/// Per frequency column, the number of duty rows (from the lowest) where
-/// Deegan 2018 Eq. (1) says the LED can appear OFF: `D < 1 - f T_exp`.
-pub fn eq1_rows(freqs: &[f64], duties_percent: &[f64], exposure_s: f64) -> Vec<usize> {
-    freqs
-        .iter()
-        .map(|f| {
-            let limit = 100.0 * (1.0 - f * exposure_s);
-            duties_percent.iter().filter(|&&d| d < limit - 1e-9).count()
-        })
-        .collect()
 }
 
 /// Geometry of a matrix drawing, pixels.
@@ -367,15 +331,9 @@ fn draw_colour_bar(
 
 /// Deegan 2018 Eq. (1) as a staircase along the cell edges: below and
 /// left of it `T_exp < (1 - D) / f`; the legend goes under the axis title.
-fn draw_eq1(
-    area: &Area<'_>,
-    grid: &Grid,
-    freqs: &[f64],
-    duties: &[f64],
-    exposure_ms: f64,
-) -> Result<(), String> {
+fn draw_eq1(area: &Area<'_>, grid: &Grid, eq1: &Eq1) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
-    let rows = eq1_rows(freqs, duties, exposure_ms * 1e-3);
+    let rows = &eq1.off_rows;
     let style = BLACK.stroke_width(3);
     for (i, &b) in rows.iter().enumerate() {
         if b > 0 {
@@ -398,7 +356,8 @@ fn draw_eq1(
     let y = TOP + grid.height() + 50;
     area.draw(&PathElement::new([(LEFT, y), (LEFT + 24, y)], style))
         .map_err(e)?;
-    let text = if rows.iter().any(|&b| b > 0) {
+    let exposure_ms = eq1.exposure_ms;
+    let text = if eq1.any_off() {
         format!(
             "Eq. (1), T_exp = {} ms: below and left of the line T_exp < (1 \u{2212} D) / f, the LED can appear OFF",
             crate::util::fixed(exposure_ms, 3)
@@ -486,16 +445,14 @@ pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError>
         chart: format!("matrix {light_lux} lux"),
         message: e.to_string(),
     };
-    let cases: Vec<&CaseInfo> = model
-        .cases
-        .iter()
-        .filter(|c| known(c) && c.light_lux == light_lux)
-        .collect();
-    if cases.is_empty() {
+    let Some(plane) = model.plane(light_lux) else {
         return Err(err(&"no case at this light level"));
-    }
-    let freqs = distinct(cases.iter().map(|c| c.frequency_hz).collect());
-    let duties = distinct(cases.iter().map(|c| c.duty * 100.0).collect());
+    };
+    let LevelPlane {
+        frequencies_hz: freqs,
+        duties_percent: duties,
+        ..
+    } = &plane;
     let (kind, metric, title, threshold) = shown(model);
     let th = threshold.unwrap_or(match kind {
         Shown::Fdi => 0.1,
@@ -521,21 +478,20 @@ pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError>
             text_style(14.0, Pos::new(HPos::Center, VPos::Top)),
         ))
         .map_err(|e| err(&e))?;
-        for c in &cases {
-            let (Some(i), Some(j)) = (
-                freqs.iter().position(|&f| f == c.frequency_hz),
-                duties.iter().position(|&d| d == c.duty * 100.0),
-            ) else {
-                continue;
-            };
-            draw_cell(&root, &grid, (i, j), c, (kind, &metric, th)).map_err(|e| err(&e))?;
+        for cell in &plane.cells {
+            draw_cell(
+                &root,
+                &grid,
+                (cell.column, cell.row),
+                cell.case,
+                (kind, &metric, th),
+            )
+            .map_err(|e| err(&e))?;
         }
-        draw_axes(&root, &grid, &freqs, &duties).map_err(|e| err(&e))?;
+        draw_axes(&root, &grid, freqs, duties).map_err(|e| err(&e))?;
         draw_colour_bar(&root, &grid, kind, title, th).map_err(|e| err(&e))?;
-        if let Some(cam) = &model.dut.camera
-            && cam.exposure_ms > 0.0
-        {
-            draw_eq1(&root, &grid, &freqs, &duties, cam.exposure_ms).map_err(|e| err(&e))?;
+        if let Some(eq1) = &plane.eq1 {
+            draw_eq1(&root, &grid, eq1).map_err(|e| err(&e))?;
         }
         root.present().map_err(|e| err(&e))?;
     }
@@ -672,19 +628,6 @@ pub(crate) mod tests {
                 );
             }
         }
-    }
-
-    #[test]
-    fn eq1_rows_follow_the_closed_form() {
-        // T_exp = 11.111 ms: (1 - D) / f > T_exp below D = 1 - f T_exp:
-        // 44.4 % at 50 Hz, 0 % from 90 Hz.
-        let rows = eq1_rows(
-            &[50.0, 90.0, 1000.0],
-            &[5.0, 10.0, 20.0, 50.0, 100.0],
-            11.111e-3,
-        );
-        assert_eq!(rows, vec![3, 0, 0]);
-        assert_eq!(eq1_rows(&[10.0], &[5.0, 50.0, 100.0], 1e-3), vec![2]);
     }
 
     #[test]

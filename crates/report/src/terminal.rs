@@ -8,7 +8,6 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::model::RoiKind;
 use crate::model::Verdict;
 use crate::model::{CaseInfo, Results, RoiInfo, SegmentMethod};
 
@@ -28,50 +27,6 @@ pub const LEGEND: &str = "legend: roi = the case's worst LED ROI (least margin t
 highest Percent Flicker when nothing was checked); worst = worst case over PWM phase (simulator only); \
 +inf = unbounded FDI (OFF reference 0 DN, light present); n/a = undefined (reason in results.json) \
 or not computed by this backend; FDI = Deegan 2018; FDI P2020, FMI, MMP = IEEE P2020";
-
-/// The LED ROI that stands for a case: the one whose checks come closest
-/// to failing, or fail worst (margins compared smallest first, so a tie on
-/// one limit is broken by the next); without checks, the one with the
-/// highest Percent Flicker; without LED ROIs, the first ROI. Ties go to the
-/// first in plan order.
-pub fn worst_roi(case: &CaseInfo) -> Option<&RoiInfo> {
-    let leds = || case.rois.iter().filter(|r| r.kind == RoiKind::Led);
-    let margins = |r: &RoiInfo| {
-        let mut m: Vec<f64> = case
-            .checks
-            .iter()
-            .filter(|k| k.roi == r.name)
-            .map(|k| k.margin())
-            .collect();
-        m.sort_by(f64::total_cmp);
-        m
-    };
-    let by_margins = |a: &Vec<f64>, b: &Vec<f64>| {
-        a.iter()
-            .zip(b)
-            .map(|(x, y)| x.total_cmp(y))
-            .find(|o| o.is_ne())
-            .unwrap_or_else(|| b.len().cmp(&a.len()))
-    };
-    if !case.checks.is_empty() {
-        // min_by keeps the first of equals: plan order breaks ties.
-        return leds()
-            .map(|r| (r, margins(r)))
-            .min_by(|a, b| by_margins(&a.1, &b.1))
-            .map(|(r, _)| r);
-    }
-    let pf = |r: &RoiInfo| {
-        r.metrics
-            .get("percent_flicker")
-            .copied()
-            .flatten()
-            .unwrap_or(f64::NEG_INFINITY)
-    };
-    leds()
-        .rev()
-        .max_by(|a, b| pf(a).total_cmp(&pf(b)))
-        .or(case.rois.first())
-}
 
 fn cell(roi: &RoiInfo, name: &str, digits: usize) -> String {
     if roi.is_unbounded(name) {
@@ -169,7 +124,7 @@ pub fn summary(model: &Results, out: &Path) -> String {
     }
     s.push_str("  criterion\n");
     for c in &model.cases {
-        let roi = worst_roi(c);
+        let roi = c.worst_roi();
         let _ = write!(
             s,
             "{:<id_w$}  {:<7}  {:<roi_w$}",

@@ -1,15 +1,24 @@
-//! Banding KPIs of a rolling shutter (Deegan 2018 section 2; docs/metrics.md,
+//! Banding of a rolling shutter (Deegan 2018 section 2; docs/metrics.md,
 //! section 10): under a diffusely lit PWM scene each row integrates its own
 //! slice of the waveform, so a frame shows bands `1 / (f * t_line)` rows
 //! apart that roll from frame to frame.
 //!
-//! Rows are rendered with the exact closed-form integral, LED light only
-//! (no background): the largest contrast the bands can have.
+//! The one banding analysis of a row profile: its row contrast and its band
+//! period, by the band estimator of `linetime`, `bands` and `calibrate`
+//! ([`crate::calibrate::bands`]). It serves the case KPIs ([`banding`]: rows
+//! rendered with the exact closed-form integral, LED light only, no
+//! background, so the largest contrast the bands can have) and the row
+//! analysis of a case's sample frame ([`frame_banding`]).
 
 use serde::{Deserialize, Serialize};
 
 use super::apparent::phase_step_cycles;
+use crate::calibrate::bands::{band_period_rows, estimate_profile};
 use crate::physics::{PwmDrive, Shutter, ShutterModel};
+use crate::trace::RenderedFrame;
+
+/// Row contrast below which a frame's LED rows count as even (no bands), %.
+pub const NO_BANDS_CONTRAST_PERCENT: f64 = 1.0;
 
 /// Banding of one PWM condition on a rolling shutter.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -38,14 +47,20 @@ pub fn row_profile(shutter: &Shutter, pwm: &PwmDrive, frame: u64, rows: u32) -> 
         .collect()
 }
 
-/// Band period in rows of a row profile, by the band estimator shared with
-/// `linetime`, `bands` and `calibrate` ([`crate::calibrate::bands`]): the
-/// fundamental of the periodic fit, refined below a row. An error says why
-/// there is no confident estimate (e.g. fewer than 3 bands).
-pub fn band_period_from_profile(profile: &[f64]) -> Result<f64, String> {
-    crate::calibrate::bands::estimate_profile(profile)
-        .map(|e| e.period_rows)
-        .map_err(|e| e.to_string())
+/// Lowest and highest value of a row profile, NaN rows left out
+/// (`(+inf, -inf)` when no row is left).
+fn extremes(profile: &[f64]) -> (f64, f64) {
+    profile
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        })
+}
+
+/// Michelson contrast x 100 of a row profile's extremes `(lo, hi)`, 0..=100
+/// for non-negative rows; `None` when no row sees light (`hi + lo <= 0`).
+fn contrast_percent((lo, hi): (f64, f64)) -> Option<f64> {
+    (hi + lo > 0.0).then(|| 100.0 * (hi - lo) / (hi + lo))
 }
 
 /// Banding KPIs; `None` for a global shutter or a zero line time.
@@ -57,17 +72,12 @@ pub fn banding(shutter: &Shutter, pwm: &PwmDrive, sensor_rows: u32) -> Option<Ba
         return None;
     }
     let f = pwm.frequency_hz();
-    let period = 1.0 / (f * line_time_s);
+    let period = band_period_rows(f, line_time_s);
     let profile = row_profile(shutter, pwm, 0, sensor_rows);
-    let (lo, hi) = profile
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    let band_contrast_percent = (hi + lo > 0.0).then(|| 100.0 * (hi - lo) / (hi + lo));
-    let (estimated_frequency_hz, estimate_note) = match band_period_from_profile(&profile) {
-        Ok(p) => (Some(1.0 / (p * line_time_s)), None),
-        Err(e) => (None, Some(e)),
+    let band_contrast_percent = contrast_percent(extremes(&profile));
+    let (estimated_frequency_hz, estimate_note) = match estimate_profile(&profile) {
+        Ok(e) => (Some(e.frequency_hz(line_time_s).0), None),
+        Err(e) => (None, Some(e.to_string())),
     };
     Some(Banding {
         band_period_rows: period,
@@ -76,6 +86,62 @@ pub fn banding(shutter: &Shutter, pwm: &PwmDrive, sensor_rows: u32) -> Option<Ba
         band_velocity_rows_per_frame: -phase_step_cycles(f, shutter.fps) * period + 0.0,
         estimated_frequency_hz,
         estimate_note,
+    })
+}
+
+/// Row analysis of a frame: the mean luma of each row over some columns,
+/// between the first and the last row the LED lights.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FrameBanding {
+    /// First and last lit row (inclusive).
+    pub lit_rows: (u32, u32),
+    /// Michelson contrast x 100 of the row means over the lit rows.
+    pub row_contrast_percent: f64,
+    /// Mean spacing of the bands over the lit rows, rows; `None` when the
+    /// lit rows hold fewer than two band periods or show no bands.
+    pub band_period_rows: Option<f64>,
+}
+
+/// Row means of `frame` over the pixel columns `columns` (clipped to the
+/// frame); empty when none is left.
+pub fn frame_row_means(frame: &RenderedFrame, columns: std::ops::Range<u32>) -> Vec<f64> {
+    let w = frame.width;
+    let (x0, x1) = (columns.start.min(w), columns.end.min(w));
+    if x1 <= x0 {
+        return Vec::new();
+    }
+    (0..frame.height)
+        .map(|y| {
+            // Pixel by pixel, left to right: the same sum as over a slice.
+            let mut sum = 0.0;
+            frame.for_each_in_row(y, (x0, x1), |_, v| sum += v);
+            sum / f64::from(x1 - x0)
+        })
+        .collect()
+}
+
+/// Banding of `frame` in the pixel columns `columns` (an LED's): the lit
+/// rows, their contrast and, from [`NO_BANDS_CONTRAST_PERCENT`] up, their
+/// band period; `None` when no row differs from the darkest.
+pub fn frame_banding(frame: &RenderedFrame, columns: std::ops::Range<u32>) -> Option<FrameBanding> {
+    let profile = frame_row_means(frame, columns);
+    let (lo, hi) = extremes(&profile);
+    if hi - lo <= 1e-9 || hi.is_nan() || lo.is_nan() {
+        return None;
+    }
+    // Lit: more than 5 % of the way from the darkest row to the brightest.
+    let lit = |v: &f64| *v > lo + 0.05 * (hi - lo);
+    let first = profile.iter().position(lit)?;
+    let last = profile.iter().rposition(lit)?;
+    let span = &profile[first..=last];
+    let row_contrast_percent = contrast_percent(extremes(span)).unwrap_or(0.0);
+    let band_period_rows = (row_contrast_percent >= NO_BANDS_CONTRAST_PERCENT)
+        .then(|| estimate_profile(span).ok().map(|e| e.period_rows))
+        .flatten();
+    Some(FrameBanding {
+        lit_rows: (first as u32, last as u32),
+        row_contrast_percent,
+        band_period_rows,
     })
 }
 
@@ -157,5 +223,40 @@ mod tests {
             ..s
         };
         assert!(banding(&g, &PwmDrive::new(500.0, 0.5, 0.0).unwrap(), 800).is_none());
+    }
+
+    #[test]
+    fn a_frame_of_the_exact_rows_gives_the_kpis_band_period_and_contrast() {
+        // The case KPIs and the sample frame's row analysis are one
+        // analysis: on a frame whose rows are the exact LED-only profile
+        // (a bright panel over a dark background column), they agree.
+        let s = rolling(14.565e-6, 30.0);
+        let pwm = PwmDrive::new(1000.0, 0.3, 0.0).unwrap();
+        let kpi = banding(&s, &pwm, 800).unwrap();
+        let rows = row_profile(&s, &pwm, 0, 800);
+        let (w, h) = (8, 800);
+        let luma: Vec<f64> = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                if x < 6 { 10.0 + 200.0 * rows[y] } else { 0.0 }
+            })
+            .collect();
+        let frame = RenderedFrame::from_pixels(0, w as u32, h as u32, &luma, 255.0);
+        let b = frame_banding(&frame, 0..6).unwrap();
+        let p = b.band_period_rows.expect("a band period");
+        let p_kpi = 1.0 / (kpi.estimated_frequency_hz.unwrap() * 14.565e-6);
+        assert!((p - p_kpi).abs() < 1e-3 * p_kpi, "{p} vs {p_kpi}");
+        assert!((p - kpi.band_period_rows).abs() < 1e-3 * p, "{p}");
+        // 10 DN of the panel's own at the darkest row: (210 - 10) / 220.
+        let want = 100.0 * 200.0 / 220.0;
+        assert!(
+            (b.row_contrast_percent - want).abs() < 1e-6,
+            "{}",
+            b.row_contrast_percent
+        );
+        assert!((kpi.band_contrast_percent.unwrap() - 100.0).abs() < 1e-9);
+        // Columns past the frame are clipped; none left gives no analysis.
+        assert_eq!(frame_row_means(&frame, 6..100).len(), h);
+        assert_eq!(frame_banding(&frame, 8..100), None);
     }
 }

@@ -35,7 +35,7 @@ use crate::plan::{BackendKind, CameraConfig, Plan, RoiKind};
 use crate::runner::CaseResult;
 
 pub use apparent::{ApparentMethod, Beat};
-pub use banding::Banding;
+pub use banding::{Banding, FrameBanding};
 pub use drive::DriveFlicker;
 pub use hazard::HazardClass;
 pub use phase_fold::PhaseCoverage;

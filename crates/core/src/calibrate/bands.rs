@@ -122,6 +122,12 @@ pub struct Layout {
     pub block_grid: bool,
 }
 
+/// Rows between the bands of a light of `frequency_hz` on a rolling
+/// shutter of `line_time_s` per row: `P = 1 / (f t_line)`.
+pub fn band_period_rows(frequency_hz: f64, line_time_s: f64) -> f64 {
+    1.0 / (frequency_hz * line_time_s)
+}
+
 impl BandEstimate {
     /// Line time and its sigma, seconds, for a light of `frequency_hz`:
     /// `t_line = 1 / (f P)`.

@@ -415,7 +415,7 @@ pub fn write_case(case: &RecoveryCase, path: &Path) -> Result<(), String> {
             px
         }
         Scene::RuledOverlay => {
-            let period = 1.0 / (fr.frequency_hz * fr.line_time_s);
+            let period = super::bands::band_period_rows(fr.frequency_hz, fr.line_time_s);
             let mut px = fr.render()?;
             for (i, p) in px.iter_mut().enumerate() {
                 let phase = ((i / w) as f64 / (1.0075 * period)).fract();
@@ -465,7 +465,7 @@ pub fn refusal(case: &RecoveryCase, dir: &Path, index: usize) -> Result<Vec<Stri
         return Err(format!("{}: not a case of two lights", case.name));
     };
     let fr = &case.frame;
-    let period = |f: f64| 1.0 / (f * fr.line_time_s);
+    let period = |f: f64| super::bands::band_period_rows(f, fr.line_time_s);
     let regions = match calibrate_case(case, dir, index)? {
         Err(super::bands::NoConfidence::StripsDisagree { regions }) => regions,
         other => {

@@ -147,6 +147,7 @@ fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         fine_maps_note: analysis::fine_maps_note(plan),
         advice,
         report: None,
+        notes: Vec::new(),
     };
     super::method::describe(&mut model, plan);
     model
@@ -155,7 +156,7 @@ fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
 /// The results model of a finished run, as `plan` writes it and `merge`
 /// rebuilds it, and the only way to build one: `build` (the cases), the capture
 /// summaries of captured and rig runs (from each case's acquisition), then
-/// the method section.
+/// the method section and the notes.
 pub fn assemble(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
     let mut model = build(plan, backend_id, results);
     for (case, r) in model.cases.iter_mut().zip(results) {
@@ -169,6 +170,7 @@ pub fn assemble(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Result
         case.capture = Some(s.clone());
     }
     super::method::describe(&mut model, plan);
+    model.notes = super::method::notes(&model, plan);
     model
 }
 

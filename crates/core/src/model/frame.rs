@@ -7,13 +7,15 @@
 //! The stretch maps the frame's 0.5th percentile of luma to black and its
 //! 99.5th percentile to white, linearly, clipping the rest: a frame whose
 //! values span 24 to 66 DN of 255 fills the grey scale instead of looking
-//! black. The row analysis of the frame ([`frame_banding`]) gives the
-//! banding sentence printed beside it, so the text always describes the
-//! frame shown.
+//! black. The row analysis of the frame in its LED ROI's columns
+//! ([`frame_banding`], by the banding analysis [`crate::analysis::banding`])
+//! gives the banding sentence printed beside it, so the text always
+//! describes the frame shown.
 
 use serde::{Deserialize, Serialize};
 
-use crate::analysis::banding::band_period_from_profile;
+use super::FrameBanding;
+use crate::analysis::banding::NO_BANDS_CONTRAST_PERCENT;
 use crate::plan::{Roi, RoiKind};
 use crate::trace::RenderedFrame;
 
@@ -27,8 +29,6 @@ pub const CROP_ZOOM: u32 = 4;
 const CROP_MAX: (u32, u32) = (120, 80);
 /// Smallest crop, source pixels.
 const CROP_MIN: u32 = 24;
-/// Row contrast below which a frame's LED rows count as even (no bands), %.
-pub const NO_BANDS_CONTRAST_PERCENT: f64 = 1.0;
 
 /// The linear display stretch of a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -156,73 +156,11 @@ pub fn crop_rect(rois: &[RoiBox], (width, height): (u32, u32)) -> Option<[u32; 4
     Some([centre(x, w, cw, width), centre(y, h, ch, height), cw, ch])
 }
 
-/// Row analysis of the frame shown: the mean luma of each row over the LED
-/// ROI's columns, between the first and the last row the LED lights.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct FrameBanding {
-    /// First and last lit row (inclusive).
-    pub lit_rows: (u32, u32),
-    /// Michelson contrast x 100 of the row means over the lit rows.
-    pub row_contrast_percent: f64,
-    /// Mean spacing of the bands over the lit rows, rows; `None` when the
-    /// lit rows hold fewer than two band periods or show no bands.
-    pub band_period_rows: Option<f64>,
-}
-
-/// Row means of `frame` over the columns of `roi`.
-fn row_profile(frame: &RenderedFrame, roi: &RoiBox) -> Vec<f64> {
-    let w = frame.width;
-    let x0 = roi.rect_px[0].min(w);
-    let x1 = roi.rect_px[0].saturating_add(roi.rect_px[2]).min(w);
-    if x1 <= x0 {
-        return Vec::new();
-    }
-    (0..frame.height)
-        .map(|y| {
-            // Pixel by pixel, left to right: the same sum as over a slice.
-            let mut sum = 0.0;
-            frame.for_each_in_row(y, (x0, x1), |_, v| sum += v);
-            sum / f64::from(x1 - x0)
-        })
-        .collect()
-}
-
 /// Banding of the frame shown, in the columns of the first LED ROI; `None`
 /// without an LED ROI or when no row differs from the darkest.
 pub fn frame_banding(frame: &RenderedFrame, rois: &[RoiBox]) -> Option<FrameBanding> {
-    let led = rois.iter().find(|r| r.kind == RoiKind::Led)?;
-    let profile = row_profile(frame, led);
-    let (lo, hi) = profile
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    if hi - lo <= 1e-9 || hi.is_nan() || lo.is_nan() {
-        return None;
-    }
-    // Lit: more than 5 % of the way from the darkest row to the brightest.
-    let lit = |v: &f64| *v > lo + 0.05 * (hi - lo);
-    let first = profile.iter().position(lit)?;
-    let last = profile.iter().rposition(lit)?;
-    let span = &profile[first..=last];
-    let (slo, shi) = span
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    let row_contrast_percent = if shi + slo > 0.0 {
-        100.0 * (shi - slo) / (shi + slo)
-    } else {
-        0.0
-    };
-    let band_period_rows = (row_contrast_percent >= NO_BANDS_CONTRAST_PERCENT)
-        .then(|| band_period_from_profile(span).ok())
-        .flatten();
-    Some(FrameBanding {
-        lit_rows: (first as u32, last as u32),
-        row_contrast_percent,
-        band_period_rows,
-    })
+    let [x, _, w, _] = rois.iter().find(|r| r.kind == RoiKind::Led)?.rect_px;
+    crate::analysis::banding::frame_banding(frame, x..x.saturating_add(w))
 }
 
 /// The sentence on the banding of the frame shown.

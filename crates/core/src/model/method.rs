@@ -1,13 +1,14 @@
 //! What was really done, in words: the acquisition of each case and of the
-//! whole run per backend, and the verdict basis actually used.
+//! whole run per backend, the verdict basis actually used, and where the run
+//! departs from the method of Deegan 2018.
 //!
-//! Part of the report stage. The text goes into results.json (`method` and
-//! each case's `acquisition`), so HTML and PDF, and a report re-rendered at
-//! signing, all say the same.
+//! Part of the results model. The text goes into results.json (`method`,
+//! each case's `acquisition` and the report's `notes`), so HTML and PDF, and
+//! a report re-rendered at signing, all say the same.
 
 use serde::{Deserialize, Serialize};
 
-use super::{CaseInfo, Results};
+use super::{BackendName, CaseInfo, Results, Verdict};
 use crate::backend::sim::SegmentFrames;
 use crate::plan::{BackendKind, Limits, Plan, ShutterKind, Thresholds, VerdictBasis};
 
@@ -199,5 +200,125 @@ pub fn describe(model: &mut Results, plan: &Plan) {
     model.method = method(plan);
     for case in &mut model.cases {
         case.acquisition = case_acquisition(plan, case);
+    }
+}
+
+/// Deviations from the method of Deegan 2018 (IS&T EI AVM-146) and notes a
+/// reader of the report must see, one sentence each: the sequence and light
+/// levels when they differ from the paper's, the simulated camera, saturated
+/// ROIs, undefined metrics, cases not judged, and the plan's description.
+/// `model` is the assembled model of `plan`'s run.
+pub fn notes(model: &Results, plan: &Plan) -> Vec<String> {
+    let mut out = Vec::new();
+    let s = &model.sequence;
+    // Deegan 2018, section 3: 2 s ON, 2 s OFF, 60 s PWM, at 40 and 2000 lux.
+    if (s.on_s, s.off_s, s.pwm_s) != (2.0, 2.0, 60.0) {
+        out.push(format!(
+            "Sequence: {} s ON, {} s OFF, {} s PWM; Deegan 2018 uses 2 s, 2 s and 60 s.",
+            s.on_s, s.off_s, s.pwm_s
+        ));
+    }
+    let odd: Vec<String> = model
+        .light_levels()
+        .into_iter()
+        .filter(|lux| *lux != 40.0 && *lux != 2000.0)
+        .map(|lux| format!("{lux} lux"))
+        .collect();
+    if !odd.is_empty() {
+        out.push(format!(
+            "Light levels {} differ from the 40 lux and 2000 lux of Deegan 2018.",
+            odd.join(", ")
+        ));
+    }
+    if model.method.backend == BackendName::Simulator {
+        let which = if plan.dut.camera.physical.is_some() {
+            "physical"
+        } else {
+            "ideal"
+        };
+        out.push(format!(
+            "Frames come from the {which} camera simulator (backend {}), not from a captured device; \
+             the DUT fields name the camera being modelled.",
+            model.dut.backend
+        ));
+    }
+    let saturated: Vec<&str> = model
+        .cases
+        .iter()
+        .filter(|c| c.rois.iter().any(|r| r.saturated))
+        .map(|c| c.id.as_str())
+        .collect();
+    if !saturated.is_empty() {
+        out.push(format!(
+            "{} case(s) have a saturated ROI (e.g. {}): their metrics understate the modulation.",
+            saturated.len(),
+            saturated[0]
+        ));
+    }
+    let mut undefined = 0;
+    let mut example = None;
+    for c in &model.cases {
+        for r in &c.rois {
+            for (metric, reason) in &r.reasons {
+                undefined += 1;
+                example
+                    .get_or_insert_with(|| format!("{} / {} / {metric}: {reason}", c.id, r.name));
+            }
+        }
+    }
+    if let Some(example) = example {
+        out.push(format!(
+            "{undefined} metric value(s) are undefined or carry a caveat, e.g. {example}."
+        ));
+    }
+    if model.counts.info > 0 {
+        out.push(format!(
+            "{} case(s) were not judged (outside the claimed mitigation range, marked informative, or no limit applies): measured and reported, never failing.",
+            model.counts.info
+        ));
+    }
+    if model.verdict == Verdict::Info {
+        out.push("No case was judged: the run shows no pass.".to_string());
+    }
+    if !model.plan.description.trim().is_empty() {
+        out.push(format!(
+            "Plan description: {}",
+            model.plan.description.trim()
+        ));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn notes_name_the_simulated_camera_only_for_the_simulator_backend() {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+            .join("tests/fixtures/plans/base.toml");
+        let plan = crate::plan::load(&path).unwrap();
+        let cases = crate::plan::expand_cases(&plan);
+        let backend = crate::backend::sim::Simulator::new(&plan);
+        let results = crate::runner::run(&plan, &cases, &backend, Some(2), &|_| {}).unwrap();
+        let mut model = crate::model::assemble(&plan, "sim-ideal", &results);
+        assert_eq!(model.notes, notes(&model, &plan));
+        // The fixture's sequence (0.5 s, 0.5 s, 4 s) is not the paper's.
+        assert!(
+            model.notes[0].starts_with("Sequence: 0.5 s ON"),
+            "{:?}",
+            model.notes
+        );
+        let simulated = |n: &[String]| n.iter().any(|n| n.contains("camera simulator"));
+        assert!(
+            model
+                .notes
+                .iter()
+                .any(|n| n.contains("the ideal camera simulator (backend sim-ideal)")),
+            "{:?}",
+            model.notes
+        );
+        model.method.backend = BackendName::Captured;
+        assert!(!simulated(&notes(&model, &plan)));
     }
 }

@@ -26,6 +26,7 @@
 pub mod build;
 pub mod frame;
 pub mod method;
+pub mod plane;
 
 use std::collections::BTreeMap;
 
@@ -34,7 +35,7 @@ use serde::{Deserialize, Serialize};
 pub use crate::advise::{Advice, Candidate};
 pub use crate::analysis::finemap::FineMap;
 pub use crate::analysis::{
-    Banding, Beat, DriveFlicker, FineMapInfo, FrameTiming, HazardClass, RoiAnalysis,
+    Banding, Beat, DriveFlicker, FineMapInfo, FrameBanding, FrameTiming, HazardClass, RoiAnalysis,
 };
 pub use crate::inputs::InputFile;
 pub use crate::metrics::verdict::VERDICT_TOLERANCE;
@@ -89,6 +90,13 @@ pub struct Results {
     /// models built in memory.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub report: Option<ReportMeta>,
+    /// Deviations from the method of Deegan 2018 and notes a reader of the
+    /// report must see, one sentence each ([`method::notes`], filled by
+    /// [`assemble`]). results.json holds them as `report.notes`, written
+    /// with the report, so they are not serialised here: a model read back
+    /// is empty here and has them in `report.notes`.
+    #[serde(skip)]
+    pub notes: Vec<String>,
 }
 
 /// Exposure advice for a plan's range.
@@ -280,6 +288,52 @@ pub struct CaseInfo {
     pub frame_timing: Option<FrameTiming>,
 }
 
+impl CaseInfo {
+    /// The LED ROI that stands for the case (the terminal summary's `roi`): the one whose checks come closest
+    /// to failing, or fail worst (margins compared smallest first, so a tie on
+    /// one limit is broken by the next); without checks, the one with the
+    /// highest Percent Flicker; without LED ROIs, the first ROI. Ties go to the
+    /// first in plan order.
+    pub fn worst_roi(&self) -> Option<&RoiInfo> {
+        let leds = || self.rois.iter().filter(|r| r.kind == RoiKind::Led);
+        let margins = |r: &RoiInfo| {
+            let mut m: Vec<f64> = self
+                .checks
+                .iter()
+                .filter(|k| k.roi == r.name)
+                .map(|k| k.margin())
+                .collect();
+            m.sort_by(f64::total_cmp);
+            m
+        };
+        let by_margins = |a: &Vec<f64>, b: &Vec<f64>| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| x.total_cmp(y))
+                .find(|o| o.is_ne())
+                .unwrap_or_else(|| b.len().cmp(&a.len()))
+        };
+        if !self.checks.is_empty() {
+            // min_by keeps the first of equals: plan order breaks ties.
+            return leds()
+                .map(|r| (r, margins(r)))
+                .min_by(|a, b| by_margins(&a.1, &b.1))
+                .map(|(r, _)| r);
+        }
+        let pf = |r: &RoiInfo| {
+            r.metrics
+                .get("percent_flicker")
+                .copied()
+                .flatten()
+                .unwrap_or(f64::NEG_INFINITY)
+        };
+        leds()
+            .rev()
+            .max_by(|a, b| pf(a).total_cmp(&pf(b)))
+            .or(self.rois.first())
+    }
+}
+
 /// A rendered frame written next to the report.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SampleFrameInfo {
@@ -298,7 +352,7 @@ pub struct SampleFrameInfo {
     pub crop_px: Option<[u32; 4]>,
     /// Row analysis of this frame in the LED ROI's columns; `null` without
     /// an LED ROI or for an even frame.
-    pub banding: Option<frame::FrameBanding>,
+    pub banding: Option<FrameBanding>,
     /// Caption of the view: stretch, ROI key, crop, banding of this frame.
     pub caption: String,
 }

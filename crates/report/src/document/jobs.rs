@@ -91,7 +91,7 @@ impl<'a> ChartJobs<'a> {
                 charts::trace_zoom_svg(r, apparent_hz)
             });
         }
-        for (i, lux) in matrix::light_levels(model).into_iter().enumerate() {
+        for (i, lux) in model.light_levels().into_iter().enumerate() {
             jobs.add(matrix_chart_path(i), move || matrix::matrix_svg(model, lux));
         }
         for c in &model.cases {

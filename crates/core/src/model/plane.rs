@@ -1,0 +1,220 @@
+//! The cases of one light level on the PWM frequency x duty plane, and
+//! where Deegan 2018 Eq. (1) says the LED can appear OFF there.
+//!
+//! Part of the results model: computed from results.json's fields alone
+//! (`cases` and `dut.camera`), so a model read back from a report directory
+//! gives the same plane. The report's matrix draws it
+//! (`ledflicker_report::matrix`) and computes nothing of its own.
+
+use super::{CaseInfo, Results};
+
+/// One light level's cases on the frequency x duty plane.
+#[derive(Debug, Clone)]
+pub struct LevelPlane<'a> {
+    /// Illuminance, lux (> 0).
+    pub light_lux: f64,
+    /// PWM frequencies of the cases, Hz, ascending and distinct: the
+    /// columns.
+    pub frequencies_hz: Vec<f64>,
+    /// Duty cycles of the cases, percent, ascending and distinct: the rows,
+    /// row 0 the lowest.
+    pub duties_percent: Vec<f64>,
+    /// Every case at this light level, in plan order, with its cell.
+    pub cells: Vec<PlaneCell<'a>>,
+    /// Deegan 2018 Eq. (1) for the simulated camera's exposure; `None`
+    /// without a camera or with a zero exposure.
+    pub eq1: Option<Eq1>,
+}
+
+/// A case and its cell of a [`LevelPlane`].
+#[derive(Debug, Clone, Copy)]
+pub struct PlaneCell<'a> {
+    /// Column: index into `frequencies_hz`.
+    pub column: usize,
+    /// Row: index into `duties_percent`.
+    pub row: usize,
+    /// The case.
+    pub case: &'a CaseInfo,
+}
+
+/// Deegan 2018 Eq. (1) on a plane: an exposure `T_exp` can fall entirely
+/// in the OFF part of a PWM period, so the LED can appear OFF, when
+/// `T_exp < (1 - D) / f`, that is `D < 1 - f T_exp`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Eq1 {
+    /// The camera's exposure `T_exp`, milliseconds (> 0).
+    pub exposure_ms: f64,
+    /// Per column, the number of rows from the lowest duty where the LED
+    /// can appear OFF ([`eq1_rows`]).
+    pub off_rows: Vec<usize>,
+}
+
+impl Eq1 {
+    /// Whether the LED can appear OFF in some cell.
+    pub fn any_off(&self) -> bool {
+        self.off_rows.iter().any(|&b| b > 0)
+    }
+}
+
+/// Per frequency column, the number of duty rows (from the lowest) where
+/// Deegan 2018 Eq. (1) says the LED can appear OFF: `D < 1 - f T_exp`
+/// (duties in percent, exposure in seconds; a duty within 1e-9 % of the
+/// limit is on it, not below).
+pub fn eq1_rows(freqs: &[f64], duties_percent: &[f64], exposure_s: f64) -> Vec<usize> {
+    freqs
+        .iter()
+        .map(|f| {
+            let limit = 100.0 * (1.0 - f * exposure_s);
+            duties_percent.iter().filter(|&&d| d < limit - 1e-9).count()
+        })
+        .collect()
+}
+
+/// Whether a case's conditions are known (a capture may carry only a
+/// source file; its light level, frequency and duty are then 0 in the model
+/// and `null` in results.json). Only known cases are on a plane.
+fn known(c: &CaseInfo) -> bool {
+    c.light_lux > 0.0 && c.frequency_hz > 0.0 && c.duty > 0.0
+}
+
+/// Sorted distinct values.
+fn distinct(mut v: Vec<f64>) -> Vec<f64> {
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    v
+}
+
+impl Results {
+    /// Light levels of the cases with known conditions, lux, in plan order
+    /// of first appearance: one [`LevelPlane`] each.
+    pub fn light_levels(&self) -> Vec<f64> {
+        let mut out: Vec<f64> = Vec::new();
+        for c in self.cases.iter().filter(|c| known(c)) {
+            if !out.contains(&c.light_lux) {
+                out.push(c.light_lux);
+            }
+        }
+        out
+    }
+
+    /// The plane of the cases at `light_lux`; `None` when no case with
+    /// known conditions is at that level.
+    pub fn plane(&self, light_lux: f64) -> Option<LevelPlane<'_>> {
+        let cases: Vec<&CaseInfo> = self
+            .cases
+            .iter()
+            .filter(|c| known(c) && c.light_lux == light_lux)
+            .collect();
+        if cases.is_empty() {
+            return None;
+        }
+        let frequencies_hz = distinct(cases.iter().map(|c| c.frequency_hz).collect());
+        let duties_percent = distinct(cases.iter().map(|c| c.duty * 100.0).collect());
+        let cells = cases
+            .into_iter()
+            .filter_map(|case| {
+                Some(PlaneCell {
+                    column: frequencies_hz
+                        .iter()
+                        .position(|&f| f == case.frequency_hz)?,
+                    row: duties_percent
+                        .iter()
+                        .position(|&d| d == case.duty * 100.0)?,
+                    case,
+                })
+            })
+            .collect();
+        let eq1 = self
+            .dut
+            .camera
+            .as_ref()
+            .filter(|cam| cam.exposure_ms > 0.0)
+            .map(|cam| Eq1 {
+                exposure_ms: cam.exposure_ms,
+                off_rows: eq1_rows(&frequencies_hz, &duties_percent, cam.exposure_ms * 1e-3),
+            });
+        Some(LevelPlane {
+            light_lux,
+            frequencies_hz,
+            duties_percent,
+            cells,
+            eq1,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The small fixture plan (2 frequencies x 2 duties at 2000 lux, an
+    /// 11.111 ms exposure) run on the simulator.
+    fn small_model() -> Results {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+            .join("tests/fixtures/plans/base.toml");
+        let plan = crate::plan::load(&path).unwrap();
+        let cases = crate::plan::expand_cases(&plan);
+        let backend = crate::backend::sim::Simulator::new(&plan);
+        let results = crate::runner::run(&plan, &cases, &backend, Some(2), &|_| {}).unwrap();
+        crate::model::assemble(&plan, "sim-ideal", &results)
+    }
+
+    #[test]
+    fn eq1_rows_follow_the_closed_form() {
+        // T_exp = 11.111 ms: (1 - D) / f > T_exp below D = 1 - f T_exp:
+        // 44.4 % at 50 Hz, 0 % from 90 Hz.
+        let rows = eq1_rows(
+            &[50.0, 90.0, 1000.0],
+            &[5.0, 10.0, 20.0, 50.0, 100.0],
+            11.111e-3,
+        );
+        assert_eq!(rows, vec![3, 0, 0]);
+        assert_eq!(eq1_rows(&[10.0], &[5.0, 50.0, 100.0], 1e-3), vec![2]);
+        // A duty on the limit is not below it: 50 Hz, 10 ms gives D = 50 %.
+        assert_eq!(eq1_rows(&[50.0], &[49.0, 50.0], 10e-3), vec![1]);
+    }
+
+    #[test]
+    fn every_known_case_has_one_cell_and_eq1_uses_the_camera_exposure() {
+        let model = small_model();
+        assert_eq!(model.light_levels(), vec![2000.0]);
+        let plane = model.plane(2000.0).unwrap();
+        assert_eq!(plane.frequencies_hz, vec![60.0, 150.0]);
+        assert_eq!(plane.duties_percent, vec![20.0, 50.0]);
+        assert_eq!(plane.cells.len(), model.cases.len());
+        for cell in &plane.cells {
+            assert_eq!(plane.frequencies_hz[cell.column], cell.case.frequency_hz);
+            assert!((plane.duties_percent[cell.row] - 100.0 * cell.case.duty).abs() < 1e-12);
+        }
+        // 60 Hz: D < 1 - 60 x 11.111 ms = 33.3 %, the 20 % row; 150 Hz: none.
+        let eq1 = plane.eq1.unwrap();
+        assert!((eq1.exposure_ms - 11.111).abs() < 1e-9);
+        assert_eq!(eq1.off_rows, vec![1, 0]);
+        assert!(eq1.any_off());
+        assert!(model.plane(40.0).is_none());
+    }
+
+    #[test]
+    fn the_plane_of_a_model_read_back_is_the_same() {
+        let mut model = small_model();
+        let back = super::super::read_results(&serde_json::to_string(&model).unwrap()).unwrap();
+        let (a, b) = (model.plane(2000.0).unwrap(), back.plane(2000.0).unwrap());
+        assert_eq!(a.frequencies_hz, b.frequencies_hz);
+        assert_eq!(a.duties_percent, b.duties_percent);
+        assert_eq!(a.eq1, b.eq1);
+        let ids = |p: &LevelPlane<'_>| -> Vec<(usize, usize, String)> {
+            p.cells
+                .iter()
+                .map(|c| (c.column, c.row, c.case.id.clone()))
+                .collect()
+        };
+        assert_eq!(ids(&a), ids(&b));
+        // Without a camera (a capture) there is no Eq. (1); a case of
+        // unknown conditions is on no plane.
+        model.dut.camera = None;
+        model.cases[0].light_lux = 0.0;
+        let plane = model.plane(2000.0).unwrap();
+        assert_eq!(plane.eq1, None);
+        assert_eq!(plane.cells.len(), model.cases.len() - 1);
+    }
+}
