@@ -4,8 +4,8 @@
 //! `calibrate`; `keygen`, `sign` and `verify` share `sign`; `plan --shard`
 //! is `shard`). This module holds the clap `Command` list, the exit codes
 //! and [`main`]; `failure` the error every command returns and its map to
-//! the exit codes; `args` the flags several commands share. The CLI sits on top: it may import any module, and no
-//! module imports it.
+//! the exit codes; `args` the flags several commands share. The CLI sits
+//! on top: it may import any module, and no module imports it.
 //!
 //! Exit codes (stable; CI scripts depend on them):
 //!
