@@ -1,5 +1,5 @@
 //! The `ledflicker` binary: parse arguments, run, map the outcome to an
-//! exit code (see `ledflicker::cli::exit_code`).
+//! exit code (see `ledflicker::cli::Failure::exit_code`).
 
 /// `--version`: the package version and the commit it was built from
 /// (build.rs; `unknown` outside a git checkout). It is set here, not in the

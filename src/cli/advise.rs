@@ -5,10 +5,10 @@
 use super::output::{out, outln};
 use std::path::PathBuf;
 
-use anyhow::Context;
+use super::failure::Context;
 use clap::Args;
 
-use super::EXIT_PASS;
+use super::{EXIT_PASS, Failure};
 use crate::error::UsageError;
 use crate::report;
 
@@ -50,7 +50,7 @@ pub(super) struct AdviseArgs {
     json: bool,
 }
 
-pub(super) fn advise(a: AdviseArgs) -> anyhow::Result<i32> {
+pub(super) fn advise(a: AdviseArgs) -> Result<i32, Failure> {
     use crate::advise::{AdviseRequest, advise, curve, table};
     if a.hdr_ratio.iter().any(|r| !(r.is_finite() && *r > 1.0)) {
         return Err(UsageError("--hdr-ratio must be > 1".into()).into());

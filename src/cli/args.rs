@@ -124,13 +124,12 @@ impl CameraArgs {
 }
 
 /// The report date: `--date`, else $SOURCE_DATE_EPOCH, else today.
-pub fn report_date(arg: Option<&str>) -> anyhow::Result<String> {
+pub fn report_date(arg: Option<&str>) -> Result<String, UsageError> {
     if let Some(d) = arg {
         if !crate::util::is_calendar_date(d) {
             return Err(UsageError(format!(
                 "--date `{d}` is not a date YYYY-MM-DD (e.g. 2026-11-23)"
-            ))
-            .into());
+            )));
         }
         return Ok(d.to_string());
     }
@@ -161,13 +160,12 @@ pub(super) fn now_unix_s() -> u64 {
 /// reproducible output), else now. `--date` sets only the date the report
 /// shows: the signing time is when the signature was made, which is what
 /// `verify` checks the certificate's validity at.
-pub(super) fn signing_time() -> anyhow::Result<u64> {
+pub(super) fn signing_time() -> Result<u64, UsageError> {
     if let Ok(s) = std::env::var("SOURCE_DATE_EPOCH") {
         return s.trim().parse().map_err(|_| {
             UsageError(format!(
                 "SOURCE_DATE_EPOCH `{s}` is not an integer number of seconds"
             ))
-            .into()
         });
     }
     Ok(now_unix_s())

@@ -5,7 +5,7 @@
 use super::output::outln;
 use clap::Args;
 
-use super::EXIT_PASS;
+use super::{EXIT_PASS, Failure};
 use crate::error::UsageError;
 use crate::plan;
 
@@ -54,7 +54,7 @@ fn print_peer_ratio(rows: &[crate::bench::BenchRow]) -> std::io::Result<()> {
     }
 }
 
-pub(super) fn bench(a: BenchArgs) -> anyhow::Result<i32> {
+pub(super) fn bench(a: BenchArgs) -> Result<i32, Failure> {
     use crate::analysis::{FINE_DUTY, FINE_FREQUENCY, finemap};
     if a.repeat == 0 {
         return Err(UsageError("--repeat must be at least 1".into()).into());
@@ -74,7 +74,7 @@ pub(super) fn bench(a: BenchArgs) -> anyhow::Result<i32> {
         let _ = outln!("{:<44} {:>14} {:>12}  {}", r.method, time, err, r.note);
     };
     let rows = crate::bench::run(a.quick, &mut print_row)
-        .map_err(|e| anyhow::anyhow!("bench failed: {e}"))?;
+        .map_err(|e| Failure::Internal(format!("bench failed: {e}")))?;
     print_peer_ratio(&rows)?;
     let repeat = if a.quick { a.repeat.min(3) } else { a.repeat };
     let plan = plan::find_and_load(&a.plan)?;
@@ -110,8 +110,9 @@ pub(super) fn bench(a: BenchArgs) -> anyhow::Result<i32> {
         repeat
     )?;
     if a.calibrate_8k {
-        let (t, rms) = crate::bench::calibrate_8k(5)
-            .map_err(|e| anyhow::anyhow!("bench of calibrate on an 8K frame failed: {e}"))?;
+        let (t, rms) = crate::bench::calibrate_8k(5).map_err(|e| {
+            Failure::Internal(format!("bench of calibrate on an 8K frame failed: {e}"))
+        })?;
         outln!(
             "calibrate, one 8K frame (7680 x 4320, 16-bit PNG), {} threads: median {:.2} s (min {:.2}, max {:.2}) over {} runs; closed-loop profile_rms {rms:.4}",
             rayon::current_num_threads(),

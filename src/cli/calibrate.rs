@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::EXIT_PASS;
+use super::{EXIT_PASS, Failure};
 use crate::calibrate::bands::{ColumnGroup, NoConfidence};
 use crate::calibrate::frames::{self, FrameSet};
 use crate::calibrate::profile::ProfileOptions;
@@ -99,7 +99,7 @@ fn positive(flag: &str, v: f64) -> Result<f64, UsageError> {
     }
 }
 
-fn load(a: &FrameArgs) -> anyhow::Result<FrameSet> {
+fn load(a: &FrameArgs) -> Result<FrameSet, Failure> {
     let roi = a
         .roi
         .as_deref()
@@ -126,7 +126,7 @@ fn input_name(a: &FrameArgs) -> String {
     }
 }
 
-fn refuse(a: &FrameArgs, reason: NoConfidence) -> anyhow::Error {
+fn refuse(a: &FrameArgs, reason: NoConfidence) -> Failure {
     let hint = reason.hint();
     NoEstimate {
         input: input_name(a),
@@ -137,7 +137,7 @@ fn refuse(a: &FrameArgs, reason: NoConfidence) -> anyhow::Error {
 }
 
 /// `linetime`: the line time on the first line (microseconds), then details.
-pub fn linetime(a: LinetimeArgs) -> anyhow::Result<i32> {
+pub fn linetime(a: LinetimeArgs) -> Result<i32, Failure> {
     let f = positive("--frequency-hz", a.frequency_hz)?;
     let set = load(&a.input)?;
     let (e, divided) = estimate_bands(&set).map_err(|r| refuse(&a.input, r))?;
@@ -170,7 +170,7 @@ pub fn linetime(a: LinetimeArgs) -> anyhow::Result<i32> {
 }
 
 /// `bands`: the PWM frequency from the band spacing, JSON.
-pub fn bands(a: BandsArgs) -> anyhow::Result<i32> {
+pub fn bands(a: BandsArgs) -> Result<i32, Failure> {
     let t = positive("--line-time-us", a.line_time_us)? * 1e-6;
     let set = load(&a.input)?;
     let (e, divided) = estimate_bands(&set).map_err(|r| refuse(&a.input, r))?;
@@ -196,7 +196,7 @@ pub fn bands(a: BandsArgs) -> anyhow::Result<i32> {
 }
 
 /// `calibrate`: fits the camera, closes the loop, writes the profile.
-pub fn calibrate(a: CalibrateArgs) -> anyhow::Result<i32> {
+pub fn calibrate(a: CalibrateArgs) -> Result<i32, Failure> {
     let f = positive("--frequency-hz", a.frequency_hz)?;
     if let Some(d) = a.duty
         && !(d > 0.0 && d < 1.0)

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use super::Failure;
 use crate::bench::median;
 use crate::error::UsageError;
 
@@ -158,7 +159,7 @@ fn describe(what: &str, runs: &[Finished]) -> String {
 /// Times the daylight plan and the P2020 sample plan end to end, and the
 /// OpenCV reference beside the P2020 plan; prints one line each and the
 /// ratio.
-pub(super) fn bench_end_to_end(quick: bool) -> anyhow::Result<()> {
+pub(super) fn bench_end_to_end(quick: bool) -> Result<(), Failure> {
     let exe = std::env::current_exe()?;
     // The P2020 sample plan's videos and the OpenCV script are files of the
     // source tree: the bench runs from there, not from where it was built.
@@ -176,7 +177,7 @@ pub(super) fn bench_end_to_end(quick: bool) -> anyhow::Result<()> {
         "end to end (this binary as a separate process, all outputs, default detail, {} threads):",
         rayon::current_num_threads()
     )?;
-    let daylight = time_plan(&exe, root, "daylight.toml", reps).map_err(anyhow::Error::msg)?;
+    let daylight = time_plan(&exe, root, "daylight.toml", reps).map_err(Failure::Internal)?;
     outln!("  {}", describe("daylight plan (35 cases)", &daylight))?;
     let reps = if quick { 1 } else { 3 };
     // Interleaved, so that both see the same load.
@@ -184,7 +185,7 @@ pub(super) fn bench_end_to_end(quick: bool) -> anyhow::Result<()> {
     let mut peer = Vec::new();
     let mut peer_missing = None;
     for _ in 0..reps {
-        ours.extend(time_plan(&exe, root, "p2020-samples.toml", 1).map_err(anyhow::Error::msg)?);
+        ours.extend(time_plan(&exe, root, "p2020-samples.toml", 1).map_err(Failure::Internal)?);
         if peer_missing.is_none() {
             match time_opencv(root, 1) {
                 Ok(r) => peer.extend(r),

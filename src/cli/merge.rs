@@ -5,11 +5,11 @@
 use super::output::{out, outln};
 use std::path::PathBuf;
 
-use anyhow::Context;
+use super::failure::Context;
 use clap::Args;
 
 use super::args::{DetailArg, report_date};
-use super::{EXIT_FAIL, EXIT_NOT_JUDGED, EXIT_PASS};
+use super::{EXIT_FAIL, EXIT_NOT_JUDGED, EXIT_PASS, Failure};
 use crate::metrics::Verdict;
 use crate::report::{self, WriteOptions};
 
@@ -42,7 +42,7 @@ pub(super) struct MergeArgs {
 }
 
 /// Checks the shards, then writes the report of the whole plan.
-pub(super) fn merge(a: MergeArgs) -> anyhow::Result<i32> {
+pub(super) fn merge(a: MergeArgs) -> Result<i32, Failure> {
     let date = report_date(a.date.as_deref())?;
     let m = crate::shard::merge::gather(&a.shards, a.plan.as_deref())?;
     let plan = &m.plan;

@@ -2,10 +2,10 @@
 //! `bench`, `linetime`, `render`, `bands`, `calibrate`, `keygen`, `sign` and
 //! `verify`, one module each (`linetime`, `bands` and `calibrate` share
 //! `calibrate`; `keygen`, `sign` and `verify` share `sign`; `plan --shard`
-//! is `shard`). This module holds the clap `Command` list, the exit codes,
-//! the error-to-exit-code map and [`main`]; `args` holds the flags several
-//! commands share. The CLI sits on top: it may import any module, and no
-//! module imports it.
+//! is `shard`). This module holds the clap `Command` list, the exit codes
+//! and [`main`]; `failure` the error every command returns and its map to
+//! the exit codes; `args` the flags several commands share. The CLI sits
+//! on top: it may import any module, and no module imports it.
 //!
 //! Exit codes (stable; CI scripts depend on them):
 //!
@@ -22,16 +22,14 @@
 
 use clap::{Parser, Subcommand};
 
-use crate::backend::SetupError;
 pub use crate::error::UsageError;
-use crate::plan::PlanError;
-use crate::{report, runner};
 
 mod advise;
 mod args;
 mod bench;
 mod calibrate;
 mod endtoend;
+mod failure;
 mod merge;
 pub(crate) mod output;
 mod plan;
@@ -46,6 +44,7 @@ mod simulate;
 mod validate;
 
 pub use args::DetailArg;
+pub use failure::Failure;
 
 /// Every case passed.
 pub const EXIT_PASS: i32 = 0;
@@ -142,99 +141,15 @@ fn command(version: &'static str) -> clap::Command {
     <Cli as clap::CommandFactory>::command().version(version)
 }
 
-/// Maps an error to its exit code.
-pub fn exit_code(err: &anyhow::Error) -> i32 {
-    // A stop asked for by the user wins, whatever stage it wrapped.
-    if let Some(i) = err
-        .chain()
-        .find_map(|c| c.downcast_ref::<crate::interrupt::Interrupted>())
-    {
-        return i.exit_code();
-    }
-    for cause in err.chain() {
-        if let Some(e) = cause.downcast_ref::<std::io::Error>()
-            && crate::util::is_not_regular(e)
-        {
-            return EXIT_INVALID;
-        }
-        if let Some(i) = cause.downcast_ref::<crate::interrupt::Interrupted>() {
-            return i.exit_code();
-        }
-        if let Some(runner::RunError::Interrupted(i)) = cause.downcast_ref() {
-            return i.exit_code();
-        }
-        if let Some(e) = cause.downcast_ref::<crate::outdir::OutDirError>() {
-            return if e.is_usage_error() {
-                EXIT_INVALID
-            } else {
-                EXIT_INTERNAL
-            };
-        }
-        if cause.is::<PlanError>() || cause.is::<UsageError>() {
-            return EXIT_INVALID;
-        }
-        if let Some(SetupError::NoCommand) = cause.downcast_ref() {
-            return EXIT_INVALID;
-        }
-        if let Some(e) = cause.downcast_ref::<crate::capture::CaptureError>() {
-            return if e.is_input_error() {
-                EXIT_INVALID
-            } else {
-                EXIT_INTERNAL
-            };
-        }
-        if cause.is::<calibrate::NoEstimate>() {
-            return EXIT_NO_CONFIDENCE;
-        }
-        if let Some(e) = cause.downcast_ref::<crate::calibrate::frames::FrameError>() {
-            return match e {
-                crate::calibrate::frames::FrameError::Capture(c) if !c.is_input_error() => {
-                    EXIT_INTERNAL
-                }
-                _ => EXIT_INVALID,
-            };
-        }
-        if let Some(report::ReportError::Invalid { .. }) = cause.downcast_ref() {
-            return EXIT_INVALID;
-        }
-        if let Some(report::ReportError::OutDir(e)) = cause.downcast_ref() {
-            return if e.is_usage_error() {
-                EXIT_INVALID
-            } else {
-                EXIT_INTERNAL
-            };
-        }
-        if cause.is::<crate::error::NotBuiltIn>() {
-            return EXIT_INVALID;
-        }
-        #[cfg(feature = "signoff")]
-        if let Some(e) = cause.downcast_ref::<crate::signoff::SignoffError>() {
-            return match e {
-                crate::signoff::SignoffError::Report(
-                    report::ReportError::Invalid { .. }
-                    | report::ReportError::OutDir(crate::outdir::OutDirError::Signed { .. }),
-                )
-                | crate::signoff::SignoffError::Io { .. }
-                | crate::signoff::SignoffError::Key { .. }
-                | crate::signoff::SignoffError::Pdf(_)
-                | crate::signoff::SignoffError::Refused(_) => EXIT_INVALID,
-                crate::signoff::SignoffError::Report(_)
-                | crate::signoff::SignoffError::Crypto(_) => EXIT_INTERNAL,
-            };
-        }
-    }
-    EXIT_INTERNAL
-}
-
 /// The run's inputs, hashed ([`crate::inputs::collect`]): a file that
 /// cannot be read is the user's input error (exit 2); hashing stopped by
 /// Ctrl-C is the signal's exit.
 pub(crate) fn collect_inputs(
     plan: &crate::plan::Plan,
-) -> anyhow::Result<Vec<crate::inputs::InputFile>> {
+) -> Result<Vec<crate::inputs::InputFile>, Failure> {
     crate::inputs::collect(plan).map_err(|e| match crate::interrupt::check() {
-        Err(stop) => anyhow::Error::from(stop),
-        Ok(()) => anyhow::Error::from(UsageError(e.to_string())),
+        Err(stop) => Failure::from(stop),
+        Ok(()) => Failure::from(UsageError(e.to_string())),
     })
 }
 
@@ -249,13 +164,13 @@ pub fn main(version: &'static str) -> i32 {
     match run(cli, version) {
         Ok(code) => code,
         Err(err) => {
-            eprintln!("error: {err:#}");
-            exit_code(&err)
+            eprintln!("error: {}", err.message());
+            err.exit_code()
         }
     }
 }
 
-fn run(cli: Cli, version: &'static str) -> anyhow::Result<i32> {
+fn run(cli: Cli, version: &'static str) -> Result<i32, Failure> {
     match cli.command {
         Command::Plan(args) => plan::run_plan(args),
         Command::Merge(args) => merge::merge(args),

@@ -11,13 +11,13 @@ use super::output::out;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
+use super::failure::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use super::args::{DetailArg, report_date};
 use super::sign::{Signing, sign_report, signing};
-use super::{EXIT_FAIL, EXIT_NOT_JUDGED, EXIT_PASS};
+use super::{EXIT_FAIL, EXIT_NOT_JUDGED, EXIT_PASS, Failure};
 use crate::backend::{Backend, PlanBackend};
 use crate::error::UsageError;
 use crate::metrics::Verdict;
@@ -76,7 +76,7 @@ pub(super) struct PlanArgs {
     shard: Option<String>,
 }
 
-pub(super) fn run_plan(args: PlanArgs) -> anyhow::Result<i32> {
+pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
     if args.timings {
         crate::timings::enable();
     }
@@ -142,7 +142,7 @@ fn finish(
     out: &Path,
     golden: Option<GoldenCheck>,
     total: crate::timings::Guard,
-) -> anyhow::Result<i32> {
+) -> Result<i32, Failure> {
     if !args.quiet {
         print_summary(model, out)?;
     }
@@ -164,7 +164,7 @@ fn finish(
 }
 
 /// The plan and the report date, checked with `--threads`.
-fn load(args: &PlanArgs) -> anyhow::Result<(Plan, String)> {
+fn load(args: &PlanArgs) -> Result<(Plan, String), Failure> {
     let t = crate::timings::span("load and validate plan");
     let plan = plan::find_and_load(&args.plan)?;
     drop(t);
@@ -192,7 +192,7 @@ fn write_report(
     results: &[CaseResult],
     inputs: Vec<crate::inputs::InputFile>,
     signing: Option<Signing<'_>>,
-) -> anyhow::Result<crate::model::Results> {
+) -> Result<crate::model::Results, Failure> {
     let stage = report_spinner(run.args.quiet);
     // Ctrl-C acts within a fraction of a second here too, where no loop
     // of ours runs to look at it (the PDF layout).
@@ -240,7 +240,7 @@ fn write_report_files(
     model: &crate::model::Results,
     results: &[CaseResult],
     inputs: Vec<crate::inputs::InputFile>,
-) -> anyhow::Result<()> {
+) -> Result<(), Failure> {
     report::write_report(
         run.generation.path(),
         model,
@@ -261,7 +261,7 @@ fn write_report_files(
 /// Refuses before spending time on the run (a signed report without
 /// --force, a directory ledflicker did not write, an unwritable place),
 /// then starts the new generation of `out` and installs the signal handler.
-fn prepare_output(out: &Path, force: bool) -> anyhow::Result<Generation> {
+fn prepare_output(out: &Path, force: bool) -> Result<Generation, Failure> {
     crate::outdir::check_overwrite(out, force)?;
     let generation = Generation::begin(out)?;
     crate::interrupt::install();
@@ -275,7 +275,7 @@ type GoldenCheck = Box<dyn FnOnce(&crate::model::Results) -> std::io::Result<boo
 /// `--golden`: reads the tolerances and the stored results now (a bad file
 /// fails before the run); the check returned prints the drift of a model
 /// and says whether it is beyond tolerance.
-fn golden_check(args: &PlanArgs) -> anyhow::Result<Option<GoldenCheck>> {
+fn golden_check(args: &PlanArgs) -> Result<Option<GoldenCheck>, Failure> {
     let mut tolerances = report::golden::Tolerances::default();
     for t in &args.golden_tolerance {
         tolerances.set(t).map_err(UsageError)?;
@@ -294,7 +294,7 @@ fn golden_check(args: &PlanArgs) -> anyhow::Result<Option<GoldenCheck>> {
 
 /// The plan's backend; a captured plan's captures are read now, under a
 /// "frames decoded" spinner.
-fn build_backend(plan: &Plan, quiet: bool) -> anyhow::Result<PlanBackend> {
+fn build_backend(plan: &Plan, quiet: bool) -> Result<PlanBackend, Failure> {
     let decoding = (plan.dut.backend == plan::BackendKind::Captured).then(|| decode_spinner(quiet));
     let backend = crate::backend::for_plan(plan, None);
     if let Some(d) = decoding {
@@ -308,7 +308,7 @@ fn run_cases(
     plan: &Plan,
     backend: &PlanBackend,
     args: &PlanArgs,
-) -> anyhow::Result<Vec<CaseResult>> {
+) -> Result<Vec<CaseResult>, Failure> {
     let cases = plan::expand_cases(plan);
     let bar = case_bar(cases.len(), args.quiet);
     bar.set_message(plan.id.clone());
@@ -338,7 +338,7 @@ fn report_model(
     crate::model::assemble(plan, backend.id(), results)
 }
 
-fn print_summary(model: &crate::model::Results, out: &Path) -> anyhow::Result<()> {
+fn print_summary(model: &crate::model::Results, out: &Path) -> Result<(), Failure> {
     let mut w = super::output::Stdout;
     w.write_all(report::terminal::summary(model, out).as_bytes())?;
     Ok(())

@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::EXIT_PASS;
 use super::args::{CameraArgs, PwmArgs, check_drive_and_camera};
+use super::{EXIT_PASS, Failure};
 use crate::error::UsageError;
 use crate::physics::PwmDrive;
 use crate::plan::bounds::{
@@ -39,8 +39,8 @@ pub(super) struct RenderArgs {
     out: PathBuf,
 }
 
-pub(super) fn render(a: RenderArgs) -> anyhow::Result<i32> {
-    let usage = |m: String| anyhow::Error::from(UsageError(m));
+pub(super) fn render(a: RenderArgs) -> Result<i32, Failure> {
+    let usage = |m: String| Failure::from(UsageError(m));
     let (p, c) = (&a.pwm, &a.camera);
     let pwm = PwmDrive::new(p.frequency_hz, p.duty, p.pwm_delay_ms * 1e-3).map_err(usage)?;
     let ok = |v: f64| v.is_finite() && v >= 0.0;
@@ -69,7 +69,7 @@ pub(super) fn render(a: RenderArgs) -> anyhow::Result<i32> {
     };
     let n = crate::render::render_frames(&spec, &pwm, &a.out).map_err(|e| match e {
         crate::render::RenderError::Refused(m) => usage(m),
-        crate::render::RenderError::Write(m) => anyhow::Error::msg(m),
+        crate::render::RenderError::Write(m) => Failure::Internal(m),
     })?;
     eprintln!("wrote {n} frames to {}", a.out.display());
     Ok(EXIT_PASS)

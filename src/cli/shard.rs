@@ -4,9 +4,9 @@
 use super::output::outln;
 use std::path::Path;
 
-use anyhow::Context;
+use super::failure::Context;
 
-use super::EXIT_PASS;
+use super::{EXIT_PASS, Failure};
 use crate::error::UsageError;
 use crate::plan::{self, Plan};
 use crate::runner;
@@ -31,7 +31,7 @@ pub(super) struct ShardRun<'a> {
 
 /// Runs one shard and writes its directory. Exit 0 whatever the verdicts:
 /// the merge judges (a failing case must not stop a dependent merge job).
-pub(super) fn run_shard(r: &ShardRun<'_>) -> anyhow::Result<i32> {
+pub(super) fn run_shard(r: &ShardRun<'_>) -> Result<i32, Failure> {
     let plan = r.plan;
     if r.threads == Some(0) {
         return Err(UsageError("--threads must be at least 1".into()).into());

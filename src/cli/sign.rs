@@ -5,11 +5,11 @@
 use super::output::outln;
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
+use super::failure::Context;
 use clap::Args;
 
 use super::args::{SignOptions, now_unix_s, report_date, signing_time};
-use super::{EXIT_FAIL, EXIT_IDENTITY_UNCHECKED, EXIT_PASS};
+use super::{EXIT_FAIL, EXIT_IDENTITY_UNCHECKED, EXIT_PASS, Failure};
 use crate::error::UsageError;
 
 #[derive(Args, Debug)]
@@ -66,7 +66,7 @@ pub(super) struct VerifyArgs {
     inputs_root: Option<PathBuf>,
 }
 
-pub(super) fn keygen(a: KeygenArgs) -> anyhow::Result<i32> {
+pub(super) fn keygen(a: KeygenArgs) -> Result<i32, Failure> {
     let files = crate::signoff::keygen(&a.out, &a.signer, &a.org, now_unix_s())?;
     outln!(
         "private key: {} (PKCS#8 PEM, mode 0600; keep it secret, outside report directories)\ncertificate: {} (self-signed X.509 PEM; give it to whoever verifies your reports)\nSHA-256:     {}",
@@ -85,7 +85,7 @@ pub(super) fn load_signer(
     cert: Option<&Path>,
     p12: Option<&Path>,
     time_unix_s: u64,
-) -> anyhow::Result<(crate::signoff::SignerKey, Vec<PathBuf>)> {
+) -> Result<(crate::signoff::SignerKey, Vec<PathBuf>), Failure> {
     let (signer, cert_file, key_files) = if let Some(p12) = p12 {
         let pass = match std::env::var("LEDFLICKER_P12_PASSPHRASE") {
             Ok(p) => p,
@@ -109,7 +109,7 @@ pub(super) fn load_signer(
     Ok((signer, key_files))
 }
 
-pub(super) fn sign(args: SignArgs) -> anyhow::Result<i32> {
+pub(super) fn sign(args: SignArgs) -> Result<i32, Failure> {
     let date = report_date(args.date.as_deref())?;
     let time = signing_time()?;
     let (key, key_files) = load_signer(
@@ -140,7 +140,7 @@ pub(super) fn sign(args: SignArgs) -> anyhow::Result<i32> {
     Ok(EXIT_PASS)
 }
 
-pub(super) fn verify(a: VerifyArgs) -> anyhow::Result<i32> {
+pub(super) fn verify(a: VerifyArgs) -> Result<i32, Failure> {
     let inputs = (a.inputs || a.inputs_root.is_some()).then_some(a.inputs_root.as_deref());
     let (dir, trust) = (a.dir.as_path(), a.trust.as_slice());
     let trusted = crate::signoff::verify::load_trusted(trust)?;
@@ -206,7 +206,7 @@ pub(super) struct Signing<'a> {
 pub(super) fn signing<'a>(
     asked: &SignOptions<'a>,
     out: &Path,
-) -> anyhow::Result<Option<Signing<'a>>> {
+) -> Result<Option<Signing<'a>>, Failure> {
     let time_unix_s = signing_time()?;
     let loaded = match asked.key {
         Some(key) => {
@@ -234,7 +234,7 @@ pub(super) fn sign_report(
     date: &str,
     quiet: bool,
     s: Signing<'_>,
-) -> anyhow::Result<()> {
+) -> Result<(), Failure> {
     let done = crate::signoff::sign(
         dir,
         &crate::signoff::SignRequest {

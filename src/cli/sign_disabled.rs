@@ -8,6 +8,7 @@ use std::path::Path;
 
 use clap::Args;
 
+use super::Failure;
 use super::args::{SignOptions, signing_time};
 use crate::error::NotBuiltIn;
 
@@ -25,7 +26,7 @@ pub(super) type KeygenArgs = Absent;
 pub(super) type SignArgs = Absent;
 pub(super) type VerifyArgs = Absent;
 
-fn absent(what: &str) -> anyhow::Error {
+fn absent(what: &str) -> Failure {
     NotBuiltIn {
         what: what.to_string(),
         part: SIGNOFF,
@@ -33,15 +34,15 @@ fn absent(what: &str) -> anyhow::Error {
     .into()
 }
 
-pub(super) fn keygen(_: KeygenArgs) -> anyhow::Result<i32> {
+pub(super) fn keygen(_: KeygenArgs) -> Result<i32, Failure> {
     Err(absent("`keygen`"))
 }
 
-pub(super) fn sign(_: SignArgs) -> anyhow::Result<i32> {
+pub(super) fn sign(_: SignArgs) -> Result<i32, Failure> {
     Err(absent("`sign`"))
 }
 
-pub(super) fn verify(_: VerifyArgs) -> anyhow::Result<i32> {
+pub(super) fn verify(_: VerifyArgs) -> Result<i32, Failure> {
     Err(absent("`verify`"))
 }
 
@@ -56,7 +57,7 @@ pub(super) enum Signing<'a> {
 pub(super) fn signing<'a>(
     asked: &SignOptions<'a>,
     _out: &Path,
-) -> anyhow::Result<Option<Signing<'a>>> {
+) -> Result<Option<Signing<'a>>, Failure> {
     signing_time()?;
     if asked.key.is_some() || asked.cert.is_some() || asked.signer.is_some() {
         return Err(absent("`plan --sign-key`"));
@@ -70,7 +71,7 @@ pub(super) fn sign_report(
     _date: &str,
     _quiet: bool,
     s: Signing<'_>,
-) -> anyhow::Result<()> {
+) -> Result<(), Failure> {
     match s {
         Signing::Never(never, _) => match never {},
     }

@@ -6,8 +6,8 @@ use std::io::Write;
 
 use clap::Args;
 
-use super::EXIT_PASS;
 use super::args::{CameraArgs, PwmArgs};
+use super::{EXIT_PASS, Failure};
 use crate::analysis::colour::Die;
 use crate::error::UsageError;
 use crate::physics::{PwmDrive, Shutter};
@@ -49,8 +49,8 @@ pub(super) struct SimulateArgs {
     background_rgb: Option<[f64; 3]>,
 }
 
-fn usage(m: String) -> anyhow::Error {
-    anyhow::Error::from(UsageError(m))
+fn usage(m: String) -> Failure {
+    Failure::from(UsageError(m))
 }
 
 /// clap's value parser of an `R,G,B` flag: three finite numbers, each >= 0.
@@ -97,7 +97,7 @@ fn check_bounds(a: &SimulateArgs) -> Result<(), UsageError> {
 }
 
 /// The checked drive and shutter, and the ROI rows.
-fn condition(a: &SimulateArgs) -> anyhow::Result<(PwmDrive, Shutter, std::ops::Range<u32>)> {
+fn condition(a: &SimulateArgs) -> Result<(PwmDrive, Shutter, std::ops::Range<u32>), Failure> {
     check_bounds(a)?;
     let (p, c) = (&a.pwm, &a.camera);
     let pwm = PwmDrive::new(p.frequency_hz, p.duty, p.pwm_delay_ms * 1e-3).map_err(usage)?;
@@ -122,7 +122,7 @@ fn condition(a: &SimulateArgs) -> anyhow::Result<(PwmDrive, Shutter, std::ops::R
     Ok((pwm, c.shutter(), a.rows.clone()))
 }
 
-pub(super) fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
+pub(super) fn simulate(a: SimulateArgs) -> Result<i32, Failure> {
     let (pwm, shutter, rows) = condition(&a)?;
     if a.summary {
         return summary(&a, &pwm, &shutter, rows);
@@ -145,7 +145,7 @@ pub(super) fn simulate(a: SimulateArgs) -> anyhow::Result<i32> {
 }
 
 /// The LED dies `--rgb-duty` or `--led-rgb` describe, if either.
-fn dies(a: &SimulateArgs) -> anyhow::Result<Option<Vec<Die>>> {
+fn dies(a: &SimulateArgs) -> Result<Option<Vec<Die>>, Failure> {
     Ok(match (&a.rgb_duty, &a.led_rgb) {
         (Some(_), Some(_)) => {
             return Err(usage("give --rgb-duty or --led-rgb, not both".into()));
@@ -183,7 +183,7 @@ fn summary(
     pwm: &PwmDrive,
     shutter: &Shutter,
     rows: std::ops::Range<u32>,
-) -> anyhow::Result<i32> {
+) -> Result<i32, Failure> {
     if !(a.background.is_finite() && a.background >= 0.0) {
         return Err(usage(format!(
             "--background must be >= 0, got {}",

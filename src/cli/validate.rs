@@ -1,11 +1,11 @@
 //! `ledflicker validate`: checks a plan without running it and says what
 //! a run would do.
 
-use super::EXIT_PASS;
 use super::output::outln;
+use super::{EXIT_PASS, Failure};
 use crate::plan;
 
-pub(super) fn validate(arg: &str) -> anyhow::Result<i32> {
+pub(super) fn validate(arg: &str) -> Result<i32, Failure> {
     let plan = plan::find_and_load(arg)?;
     let cases = plan::expand_cases(&plan);
     if plan.dut.backend == plan::BackendKind::Captured {

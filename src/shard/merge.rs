@@ -8,8 +8,21 @@ use std::path::{Path, PathBuf};
 use super::record::{self, CASES, MANIFEST, Manifest};
 use super::write::tool;
 use crate::error::UsageError;
-use crate::plan::{self, Plan};
+use crate::plan::{self, Plan, PlanError};
 use crate::runner::CaseResult;
+
+/// Why the shard directories cannot be merged. Both are the user's input
+/// (exit code 2).
+#[derive(Debug, thiserror::Error)]
+pub enum MergeError {
+    /// The shards do not fit together: missing, duplicated, damaged, or of
+    /// another plan, tool or seed.
+    #[error(transparent)]
+    Unfit(#[from] UsageError),
+    /// The plan the shards ran cannot be loaded.
+    #[error(transparent)]
+    Plan(#[from] PlanError),
+}
 
 /// A sharded run read back whole.
 pub struct Merged {
@@ -27,7 +40,7 @@ pub struct Merged {
 /// plan (`plan`, else where the shards read it). Every shard file is input:
 /// its manifest is checked against the plan, and its cases are checked and
 /// evaluated again from their traces ([`super::check`]).
-pub fn gather(args: &[String], plan: Option<&Path>) -> anyhow::Result<Merged> {
+pub fn gather(args: &[String], plan: Option<&Path>) -> Result<Merged, MergeError> {
     let dirs = expand_globs(args)?;
     let shards = dirs
         .iter()
@@ -297,7 +310,7 @@ fn read_cases(
     plan: &Plan,
     all: &[crate::plan::TestCase],
     shards: &[(PathBuf, Manifest)],
-) -> anyhow::Result<Vec<CaseResult>> {
+) -> Result<Vec<CaseResult>, MergeError> {
     let total = all.len();
     let mut slots: Vec<Option<(CaseResult, &Path)>> = vec![None; total];
     for (dir, m) in shards {
@@ -354,7 +367,7 @@ fn read_cases(
 fn load_plan(
     given: Option<&Path>,
     m: &Manifest,
-) -> anyhow::Result<(Plan, Vec<crate::inputs::InputFile>)> {
+) -> Result<(Plan, Vec<crate::inputs::InputFile>), MergeError> {
     let as_given = PathBuf::from(&m.plan_path);
     let absolute = PathBuf::from(&m.plan_path_absolute);
     // A built-in plan's shards name its path in the source tree; when no

@@ -4,8 +4,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
-
 use super::ShardSpec;
 use super::record::{self, CASES, MANIFEST, Manifest, ShardCase};
 use crate::inputs::InputFile;
@@ -30,6 +28,28 @@ pub struct ShardOutput<'a> {
     pub results: Vec<CaseResult>,
 }
 
+/// Why a shard directory could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum WriteError {
+    /// The case results could not be encoded as CBOR.
+    #[error("cannot encode the case results: {0}")]
+    Encode(String),
+    /// The manifest could not be serialised.
+    #[error(transparent)]
+    Manifest(#[from] serde_json::Error),
+    /// A file or the traces directory could not be written.
+    #[error("cannot {action} `{}`", path.display())]
+    Io {
+        /// What was being done: "write" or "create".
+        action: &'static str,
+        /// The file or directory.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
 /// `ledflicker <version>`: the tool every shard of one merge must share.
 pub fn tool() -> String {
     format!("ledflicker {}", env!("CARGO_PKG_VERSION"))
@@ -37,7 +57,7 @@ pub fn tool() -> String {
 
 /// Writes `cases.cbor`, `shard.json` and `traces/` into `dir` (which
 /// exists); returns the manifest written.
-pub fn write_dir(dir: &Path, out: ShardOutput<'_>) -> anyhow::Result<Manifest> {
+pub fn write_dir(dir: &Path, out: ShardOutput<'_>) -> Result<Manifest, WriteError> {
     let plan = out.plan;
     let traces: Vec<(String, String)> = out
         .results
@@ -60,8 +80,7 @@ pub fn write_dir(dir: &Path, out: ShardOutput<'_>) -> anyhow::Result<Manifest> {
             }
         })
         .collect();
-    let bytes = record::encode_cases(&records)
-        .map_err(|e| anyhow::anyhow!("cannot encode the case results: {e}"))?;
+    let bytes = record::encode_cases(&records).map_err(WriteError::Encode)?;
     let manifest = Manifest {
         schema: record::SCHEMA.to_string(),
         tool: tool(),
@@ -89,16 +108,23 @@ fn write_files(
     manifest: &Manifest,
     cases: &[u8],
     traces: &[(String, String)],
-) -> anyhow::Result<()> {
+) -> Result<(), WriteError> {
     let write = |path: PathBuf, bytes: &[u8]| {
-        std::fs::write(&path, bytes).with_context(|| format!("cannot write `{}`", path.display()))
+        std::fs::write(&path, bytes).map_err(|source| WriteError::Io {
+            action: "write",
+            path,
+            source,
+        })
     };
     write(dir.join(CASES), cases)?;
     let json = serde_json::to_string_pretty(manifest)?;
     write(dir.join(MANIFEST), format!("{json}\n").as_bytes())?;
     let traces_dir = dir.join("traces");
-    std::fs::create_dir_all(&traces_dir)
-        .with_context(|| format!("cannot create `{}`", traces_dir.display()))?;
+    std::fs::create_dir_all(&traces_dir).map_err(|source| WriteError::Io {
+        action: "create",
+        path: traces_dir.clone(),
+        source,
+    })?;
     for (name, text) in traces {
         write(traces_dir.join(name), text.as_bytes())?;
     }

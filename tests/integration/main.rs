@@ -16,6 +16,7 @@ mod features;
 mod mutate;
 mod physics;
 mod plans;
+mod properties;
 mod ranges;
 mod recgen;
 mod render;

@@ -206,7 +206,7 @@ fn mutated_plans_never_panic_and_validated_plans_stay_within_their_estimate() {
             Err(_) => panic!("panic on {what}"),
             Ok(Err(err)) => {
                 counts.invalid += 1;
-                let code = ledflicker::cli::exit_code(&anyhow::Error::from(err));
+                let code = ledflicker::cli::Failure::from(err).exit_code();
                 assert_eq!(code, 2, "{what}");
             }
             Ok(Ok((p, e))) => {

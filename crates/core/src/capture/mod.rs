@@ -157,10 +157,12 @@ impl CaptureError {
     /// True for problems with the input (exit code 2), false for a missing
     /// or failing tool (exit code 3) and for a read the user stopped.
     pub fn is_input_error(&self) -> bool {
-        !matches!(
-            self,
-            CaptureError::Tool { .. } | CaptureError::Interrupted { .. }
-        )
+        match self {
+            CaptureError::Read { .. }
+            | CaptureError::Frame { .. }
+            | CaptureError::Invalid { .. } => true,
+            CaptureError::Tool { .. } | CaptureError::Interrupted { .. } => false,
+        }
     }
 }
 

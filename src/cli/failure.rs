@@ -1,0 +1,273 @@
+//! Why a command failed, and the exit code that says so. Every error a
+//! command returns is a [`Failure`]: each error type of the library is
+//! wrapped by one variant (`From`, so `?` converts it), and
+//! [`Failure::exit_code`] maps every variant, and every variant of the
+//! wrapped enums whose code depends on it, by an exhaustive `match`. A new
+//! variant, or a new error type a command returns, does not compile until
+//! it has its code. The codes are those of the table in [`super`] and the
+//! README.
+//!
+//! Messages are printed as `error: ` and [`Failure::message`]: the error,
+//! then each of its causes after `: `.
+
+use std::error::Error as _;
+
+use super::calibrate::NoEstimate;
+use super::{EXIT_INTERNAL, EXIT_INVALID, EXIT_NO_CONFIDENCE};
+use crate::backend::SetupError;
+use crate::calibrate::ProfileError;
+use crate::calibrate::frames::FrameError;
+use crate::capture::CaptureError;
+use crate::error::{NotBuiltIn, UsageError};
+use crate::interrupt::Interrupted;
+use crate::outdir::OutDirError;
+use crate::plan::PlanError;
+use crate::report::ReportError;
+use crate::report::charts::ChartError;
+use crate::runner::RunError;
+use crate::shard::merge::MergeError;
+use crate::shard::write::WriteError;
+#[cfg(feature = "signoff")]
+use crate::signoff::SignoffError;
+
+/// Why a command could not do its work. Each variant says its exit code.
+#[derive(Debug, thiserror::Error)]
+pub enum Failure {
+    /// The plan cannot be found, read or validated (2).
+    #[error(transparent)]
+    Plan(#[from] PlanError),
+    /// A flag, a file or an input of the user's is wrong (2).
+    #[error(transparent)]
+    Usage(#[from] UsageError),
+    /// A command or option of a part this build lacks (2).
+    #[error(transparent)]
+    NotBuiltIn(#[from] NotBuiltIn),
+    /// `merge`: the shards do not fit together (missing, duplicated, of
+    /// another plan, tool or seed, damaged), or their plan cannot be
+    /// loaded (2).
+    #[error(transparent)]
+    Shards(#[from] MergeError),
+    /// `linetime`, `bands`, `calibrate`: no confident estimate (4).
+    #[error(transparent)]
+    NoEstimate(#[from] NoEstimate),
+    /// SIGINT or SIGTERM stopped the command (128 + the signal).
+    #[error(transparent)]
+    Interrupted(#[from] Interrupted),
+    /// The plan's backend could not be built: its input (2), a tool (3),
+    /// or stopped (the signal's code).
+    #[error(transparent)]
+    Setup(#[from] SetupError),
+    /// Frames of `linetime`, `bands`, `calibrate` could not be read: the
+    /// input (2), a tool (3), or stopped (the signal's code).
+    #[error(transparent)]
+    Frames(#[from] FrameError),
+    /// The run stopped: a backend or the thread pool broke (3), or a
+    /// signal (its code).
+    #[error(transparent)]
+    Run(#[from] RunError),
+    /// The output directory cannot be used: the user's directory (2) or
+    /// the file system (3); see [`OutDirError::is_usage_error`].
+    #[error(transparent)]
+    OutDir(#[from] OutDirError),
+    /// A report could not be written or read: a report file or output
+    /// directory of the user's is at fault (2), or the tool (3).
+    #[error(transparent)]
+    Report(#[from] ReportError),
+    /// A key could not be made or used, or a report not signed or
+    /// verified: the user's key, certificate or report (2), or the tool (3).
+    #[cfg(feature = "signoff")]
+    #[error(transparent)]
+    Signoff(#[from] SignoffError),
+    /// A shard directory could not be written (3).
+    #[error(transparent)]
+    ShardWrite(#[from] WriteError),
+    /// A fitted camera profile could not be written or simulated back (3).
+    #[error(transparent)]
+    Profile(#[from] ProfileError),
+    /// A chart could not be drawn (3).
+    #[error(transparent)]
+    Chart(#[from] ChartError),
+    /// Output could not be serialised (3).
+    #[error(transparent)]
+    Json(#[from] serde_json::Error),
+    /// A file or standard output failed: a FIFO, device, socket or
+    /// directory where a file was expected (2), anything else (3).
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    /// The tool broke, in its own words (3): a bench or a render step.
+    #[error("{0}")]
+    Internal(String),
+    /// `source`, with what was being done when it happened; the code is
+    /// the source's.
+    #[error("{context}")]
+    Context {
+        /// What was being done, e.g. "cannot write the report to `DIR`".
+        context: String,
+        /// Why it failed.
+        #[source]
+        source: Box<Failure>,
+    },
+}
+
+impl Failure {
+    /// The process exit code (the table in [`super`]).
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            Failure::Plan(_) | Failure::Usage(_) | Failure::NotBuiltIn(_) | Failure::Shards(_) => {
+                EXIT_INVALID
+            }
+            Failure::NoEstimate(_) => EXIT_NO_CONFIDENCE,
+            Failure::Interrupted(i) => i.exit_code(),
+            Failure::Setup(e) => setup(e),
+            Failure::Frames(e) => frames(e),
+            Failure::Run(e) => run(e),
+            Failure::OutDir(e) => out_dir(e),
+            Failure::Report(e) => report(e),
+            #[cfg(feature = "signoff")]
+            Failure::Signoff(e) => signoff(e),
+            Failure::ShardWrite(e) => shard_write(e),
+            Failure::Profile(_) | Failure::Chart(_) | Failure::Json(_) | Failure::Internal(_) => {
+                EXIT_INTERNAL
+            }
+            Failure::Io(e) => io(e),
+            Failure::Context { source, .. } => source.exit_code(),
+        }
+    }
+
+    /// The error and its causes, each after `: `, as printed after
+    /// `error: `.
+    pub fn message(&self) -> String {
+        let mut text = self.to_string();
+        let mut cause = self.source();
+        while let Some(c) = cause {
+            text.push_str(": ");
+            text.push_str(&c.to_string());
+            cause = c.source();
+        }
+        text
+    }
+}
+
+/// `.with_context(|| ...)` on any result whose error is a [`Failure`] or
+/// converts to one: says what was being done, keeps the source's code.
+pub(crate) trait Context<T> {
+    /// The error, as the source of [`Failure::Context`] with `context()`.
+    fn with_context<C: std::fmt::Display>(self, context: impl FnOnce() -> C) -> Result<T, Failure>;
+}
+
+impl<T, E: Into<Failure>> Context<T> for Result<T, E> {
+    fn with_context<C: std::fmt::Display>(self, context: impl FnOnce() -> C) -> Result<T, Failure> {
+        self.map_err(|e| Failure::Context {
+            context: context().to_string(),
+            source: Box::new(e.into()),
+        })
+    }
+}
+
+/// A FIFO, device, socket or directory given where a file is read
+/// ([`crate::util::open_input`]) is the user's input (2); any other I/O
+/// failure is the tool's or the system's (3).
+fn io(e: &std::io::Error) -> i32 {
+    if crate::util::is_not_regular(e) {
+        EXIT_INVALID
+    } else {
+        EXIT_INTERNAL
+    }
+}
+
+/// A capture the user gave is unreadable or inconsistent (2), the tool
+/// reading it (ffmpeg) is missing or broke (3), or the user stopped it.
+fn capture(e: &CaptureError) -> i32 {
+    match e {
+        CaptureError::Read { .. } | CaptureError::Frame { .. } | CaptureError::Invalid { .. } => {
+            EXIT_INVALID
+        }
+        CaptureError::Tool { .. } => EXIT_INTERNAL,
+        CaptureError::Interrupted { source, .. } => source.exit_code(),
+    }
+}
+
+fn setup(e: &SetupError) -> i32 {
+    match e {
+        SetupError::Captures { source, .. } => capture(source),
+        SetupError::Interrupted { source, .. } => source.exit_code(),
+        SetupError::NoCommand => EXIT_INVALID,
+    }
+}
+
+fn frames(e: &FrameError) -> i32 {
+    match e {
+        FrameError::Read { .. } | FrameError::Invalid { .. } => EXIT_INVALID,
+        FrameError::Capture(c) => capture(c),
+    }
+}
+
+/// A run stops on a broken backend or thread pool (the tool's fault: the
+/// plan was validated), or on a signal.
+fn run(e: &RunError) -> i32 {
+    match e {
+        RunError::Backend(_) | RunError::BadTrace { .. } | RunError::Threads { .. } => {
+            EXIT_INTERNAL
+        }
+        RunError::Interrupted(i) => i.exit_code(),
+    }
+}
+
+fn out_dir(e: &OutDirError) -> i32 {
+    if e.is_usage_error() {
+        EXIT_INVALID
+    } else {
+        EXIT_INTERNAL
+    }
+}
+
+/// A report file that is not what ledflicker writes (an earlier report,
+/// a golden results.json) is the user's input (2); so is an output
+/// directory refused for the user's reasons. Rendering is the tool's (3).
+fn report(e: &ReportError) -> i32 {
+    match e {
+        ReportError::Io { source, .. } => io(source),
+        ReportError::OutDir(o) => out_dir(o),
+        ReportError::Invalid { .. } => EXIT_INVALID,
+        ReportError::Template { .. }
+        | ReportError::Chart(_)
+        | ReportError::Json(_)
+        | ReportError::Pdf { .. } => EXIT_INTERNAL,
+    }
+}
+
+/// Keys, certificates and the report to sign are the user's input (2),
+/// and so is a request refused as unsafe; a failing cryptographic step or
+/// re-rendering the report is the tool's (3), except when the report on
+/// disk is not one ledflicker wrote or holds a signed report (2).
+#[cfg(feature = "signoff")]
+fn signoff(e: &SignoffError) -> i32 {
+    match e {
+        SignoffError::Io { .. }
+        | SignoffError::Key { .. }
+        | SignoffError::Pdf(_)
+        | SignoffError::Refused(_) => EXIT_INVALID,
+        SignoffError::Crypto(_) => EXIT_INTERNAL,
+        SignoffError::Report(r) => match r {
+            ReportError::Invalid { .. } | ReportError::OutDir(OutDirError::Signed { .. }) => {
+                EXIT_INVALID
+            }
+            ReportError::OutDir(OutDirError::Refused { .. } | OutDirError::Io { .. })
+            | ReportError::Io { .. }
+            | ReportError::Template { .. }
+            | ReportError::Chart(_)
+            | ReportError::Json(_)
+            | ReportError::Pdf { .. } => EXIT_INTERNAL,
+        },
+    }
+}
+
+fn shard_write(e: &WriteError) -> i32 {
+    match e {
+        WriteError::Encode(_) | WriteError::Manifest(_) => EXIT_INTERNAL,
+        WriteError::Io { source, .. } => io(source),
+    }
+}
+
+#[cfg(test)]
+mod tests;
