@@ -28,6 +28,8 @@
 //!   the sign-off;
 //! - [`signoff`]: X.509 certificates, PDF and CMS signatures of a report
 //!   directory, and their verification.
+//! - [`pipeline`]: from a run's case results to a finished, signed report
+//!   directory and its outcome, the one path of `plan` and `merge`.
 #![warn(missing_docs)]
 
 pub mod advise;
@@ -44,6 +46,7 @@ pub mod metrics;
 pub mod model;
 pub mod outdir;
 pub mod physics;
+pub mod pipeline;
 pub mod plan;
 pub mod render;
 pub mod report;

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 
 /// Top-level modules from the bottom of the pipeline to the top. A module
 /// may import only modules listed before it.
-const LAYERS: [&str; 23] = [
+const LAYERS: [&str; 24] = [
     "util",
     "error",
     "outdir",
@@ -40,6 +40,7 @@ const LAYERS: [&str; 23] = [
     "report",
     "signoff",
     "shard",
+    "pipeline",
     "bench",
     "cli",
 ];
