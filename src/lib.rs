@@ -28,6 +28,8 @@
 //!   the sign-off;
 //! - [`signoff`]: X.509 certificates, PDF and CMS signatures of a report
 //!   directory, and their verification.
+//! - [`pipeline`]: from a run's case results to a finished, signed report
+//!   directory and its outcome, the one path of `plan` and `merge`.
 //!
 //! The stages are crates of this workspace, re-exported here under their
 //! module names: `ledflicker-physics` ([`physics`]), `ledflicker-core`
@@ -46,4 +48,5 @@ pub use ledflicker_signoff as signoff;
 
 pub mod bench;
 pub mod cli;
+pub mod pipeline;
 pub mod shard;

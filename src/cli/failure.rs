@@ -21,6 +21,7 @@ use crate::capture::CaptureError;
 use crate::error::{NotBuiltIn, UsageError};
 use crate::interrupt::Interrupted;
 use crate::outdir::OutDirError;
+use crate::pipeline::PipelineError;
 use crate::plan::PlanError;
 use crate::report::ReportError;
 use crate::report::charts::ChartError;
@@ -78,6 +79,10 @@ pub enum Failure {
     #[cfg(feature = "signoff")]
     #[error(transparent)]
     Signoff(#[from] SignoffError),
+    /// The report stage of `plan` or `merge` failed: the code is its
+    /// cause's.
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
     /// A shard directory could not be written (3).
     #[error(transparent)]
     ShardWrite(#[from] WriteError),
@@ -125,6 +130,7 @@ impl Failure {
             Failure::Report(e) => report(e),
             #[cfg(feature = "signoff")]
             Failure::Signoff(e) => signoff(e),
+            Failure::Pipeline(e) => pipeline(e),
             Failure::ShardWrite(e) => shard_write(e),
             Failure::Profile(_) | Failure::Chart(_) | Failure::Json(_) | Failure::Internal(_) => {
                 EXIT_INTERNAL
@@ -218,6 +224,18 @@ fn out_dir(e: &OutDirError) -> i32 {
         EXIT_INVALID
     } else {
         EXIT_INTERNAL
+    }
+}
+
+fn pipeline(e: &PipelineError) -> i32 {
+    match e {
+        PipelineError::Interrupted(i) => i.exit_code(),
+        PipelineError::OutDir(o) => out_dir(o),
+        PipelineError::Golden { source, .. } | PipelineError::Write { source, .. } => {
+            report(source)
+        }
+        #[cfg(feature = "signoff")]
+        PipelineError::Sign { source, .. } => signoff(source),
     }
 }
 

@@ -1,17 +1,16 @@
 //! `ledflicker merge --out DIR SHARD_DIR...`: reads back the shard
 //! directories of a sharded run (crate::shard::merge) and writes the whole
-//! plan's report through the same report stage as `plan`.
+//! plan's report through the same [`crate::pipeline::report`] as `plan`.
 
 use super::output::{out, outln};
 use std::path::PathBuf;
 
-use super::failure::Context;
 use clap::Args;
 
+use super::Failure;
 use super::args::{DetailArg, report_date};
-use super::{EXIT_FAIL, EXIT_NOT_JUDGED, EXIT_PASS, Failure};
-use crate::metrics::Verdict;
-use crate::report::{self, WriteOptions};
+use crate::pipeline::{self, ReportOptions};
+use crate::report;
 
 /// `ledflicker merge` arguments.
 #[derive(Args, Debug)]
@@ -45,50 +44,42 @@ pub(super) struct MergeArgs {
 pub(super) fn merge(a: MergeArgs) -> Result<i32, Failure> {
     let date = report_date(a.date.as_deref())?;
     let m = crate::shard::merge::gather(&a.shards, a.plan.as_deref())?;
-    let plan = &m.plan;
     let out = a
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
-    crate::outdir::check_overwrite(&out, a.force)?;
-    let generation = crate::outdir::Generation::begin(&out)?;
-    crate::interrupt::install();
-    // Ctrl-C acts within a fraction of a second in the analyses and the
-    // PDF layout too, where no loop of ours looks at it.
-    let prompt = crate::interrupt::Prompt::start(generation.path().to_path_buf());
-    let model = crate::model::assemble(plan, &m.manifest.backend, &m.results);
-    crate::interrupt::check()?;
-    report::write_report(
-        generation.path(),
-        &model,
-        &m.results,
-        &WriteOptions {
+        .unwrap_or_else(|| PathBuf::from("reports").join(&m.plan.id));
+    let generation = pipeline::begin_output(&out, a.force)?;
+    let outcome = pipeline::report(
+        pipeline::Run {
+            plan: &m.plan,
+            backend_id: &m.manifest.backend,
+            results: &m.results,
+            inputs: m.manifest.inputs.iter().map(Into::into).collect(),
+        },
+        generation,
+        ReportOptions {
             date,
             force: a.force,
-            signatories: Vec::new(),
-            inputs: m.manifest.inputs.iter().map(Into::into).collect(),
             detail: a.detail.into(),
-            reuse_from: generation.previous().map(std::path::Path::to_path_buf),
+            signing: None,
+            golden: None,
         },
-    )
-    .with_context(|| format!("cannot write the report to `{}`", out.display()))?;
-    drop(prompt);
-    crate::interrupt::check()?;
-    if let Some(warning) = generation.commit()?.warning() {
+        &|_| {},
+    )?;
+    if let Some(warning) = &outcome.warning {
         eprintln!("{warning}");
     }
     if !a.quiet {
         outln!(
             "merged {} shards ({} cases) of plan `{}`",
             m.shards,
-            m.results.len(),
-            plan.id
+            outcome.cases,
+            m.plan.id
         )?;
-        out!("{}", report::terminal::summary(&model, &out))?;
+        out!(
+            "{}",
+            report::terminal::summary(&outcome.model, &outcome.dir)
+        )?;
     }
-    Ok(match model.verdict {
-        Verdict::Fail => EXIT_FAIL,
-        Verdict::Info => EXIT_NOT_JUDGED,
-        Verdict::Pass => EXIT_PASS,
-    })
+    Ok(super::plan::exit_code(outcome.status()))
 }

@@ -4,10 +4,11 @@
 //! `--shard` it hands over to [`super::shard`].
 //!
 //! The run goes in stages, one function each: load the plan, prepare the
-//! output (refusals before any work), build the backend, run the cases,
-//! write the report, sign it, print the summary.
+//! output (refusals before any work), build the backend, run the cases;
+//! then [`crate::pipeline::report`] analyses, writes, signs and swaps the
+//! report in, and this module prints its outcome.
 
-use super::output::out;
+use super::output::{out, outln};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
@@ -16,14 +17,13 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use super::args::{DetailArg, report_date};
-use super::sign::{Signing, sign_report, signing};
+use super::sign::signing;
 use super::{EXIT_FAIL, EXIT_NOT_JUDGED, EXIT_PASS, Failure};
 use crate::backend::{Backend, PlanBackend};
 use crate::error::UsageError;
-use crate::metrics::Verdict;
-use crate::outdir::Generation;
+use crate::pipeline::{self, Golden, Outcome, Progress, ReportOptions, Status};
 use crate::plan::{self, Plan};
-use crate::report::{self, WriteOptions};
+use crate::report;
 use crate::runner::{self, CaseResult, RunEvent};
 
 #[derive(Args, Debug)]
@@ -97,8 +97,8 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
-    let generation = prepare_output(&out, args.force)?;
-    let golden = golden_check(&args)?;
+    let generation = pipeline::begin_output(&out, args.force)?;
+    let golden = golden(&args)?;
     let signing = signing(
         &super::args::SignOptions {
             key: args.sign_key.as_deref(),
@@ -112,55 +112,64 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
     // After the backend has checked that the captures exist.
     let inputs = super::collect_inputs(&plan)?;
     let results = run_cases(&plan, &backend, &args)?;
-    let run = Run {
-        args: &args,
-        plan: &plan,
-        out: &out,
-        date: &date,
-        generation: &generation,
-    };
-    let model = write_report(&run, &backend, &results, inputs, signing)?;
-    // The new generation replaces the old report in one step, or not at all.
-    crate::interrupt::check()?;
-    if let Some(warning) = generation.commit()?.warning() {
-        eprintln!("{warning}");
-    }
-    finish(
-        &args,
-        &model,
-        &out,
-        golden.map(|g| Box::new(g) as Box<_>),
-        total,
-    )
+    let stage = report_spinner(args.quiet);
+    let outcome = pipeline::report(
+        pipeline::Run {
+            plan: &plan,
+            backend_id: backend.id(),
+            results: &results,
+            inputs,
+        },
+        generation,
+        ReportOptions {
+            date,
+            force: args.force,
+            detail: args.detail.into(),
+            signing,
+            golden,
+        },
+        &|p| show_progress(&stage, p),
+    )?;
+    finish(&args, &outcome, total)
 }
 
-/// The summary table, the drift from `--golden`, the `--timings` table
-/// (after the "total" span ends) and the exit code.
+/// The signature, the summary table, the drift from `--golden`, the
+/// `--timings` table (after the "total" span ends) and the exit code.
 fn finish(
     args: &PlanArgs,
-    model: &crate::model::Results,
-    out: &Path,
-    golden: Option<GoldenCheck>,
+    outcome: &Outcome,
     total: crate::timings::Guard,
 ) -> Result<i32, Failure> {
-    if !args.quiet {
-        print_summary(model, out)?;
+    if let Some(s) = outcome.signed.as_ref().filter(|_| !args.quiet) {
+        outln!(
+            "signed by {} (certificate SHA-256 {})",
+            s.signer,
+            s.fingerprint
+        )?;
     }
-    let drift = match golden {
-        Some(check) => check(model)?,
-        None => false,
-    };
+    if let Some(warning) = &outcome.warning {
+        eprintln!("{warning}");
+    }
+    if !args.quiet {
+        print_summary(&outcome.model, &outcome.dir)?;
+    }
+    if let Some(cmp) = &outcome.golden {
+        out!("{}", cmp.to_text())?;
+    }
     drop(total);
     if args.timings {
         eprint!("{}", crate::timings::table(&crate::timings::take()));
     }
-    Ok(if model.verdict == Verdict::Fail || drift {
-        EXIT_FAIL
-    } else if model.verdict == Verdict::Info {
-        EXIT_NOT_JUDGED
-    } else {
-        EXIT_PASS
-    })
+    Ok(exit_code(outcome.status()))
+}
+
+/// The exit code of a report's [`Status`] (`plan` and `merge`).
+pub(super) fn exit_code(status: Status) -> i32 {
+    match status {
+        Status::Pass => EXIT_PASS,
+        Status::Fail => EXIT_FAIL,
+        Status::NotJudged => EXIT_NOT_JUDGED,
+    }
 }
 
 /// The plan and the report date, checked with `--threads`.
@@ -175,121 +184,34 @@ fn load(args: &PlanArgs) -> Result<(Plan, String), Failure> {
     Ok((plan, date))
 }
 
-/// A run under way: what the report stage needs besides the results.
-struct Run<'a> {
-    args: &'a PlanArgs,
-    plan: &'a Plan,
-    out: &'a Path,
-    date: &'a str,
-    generation: &'a Generation,
-}
-
-/// The report stage: the model (analyses), report.html, report.pdf and
-/// the rest into the new generation, signed with `--sign-key`.
-fn write_report(
-    run: &Run<'_>,
-    backend: &PlanBackend,
-    results: &[CaseResult],
-    inputs: Vec<crate::inputs::InputFile>,
-    signing: Option<Signing<'_>>,
-) -> Result<crate::model::Results, Failure> {
-    let stage = report_spinner(run.args.quiet);
-    // Ctrl-C acts within a fraction of a second here too, where no loop
-    // of ours runs to look at it (the PDF layout).
-    let prompt = crate::interrupt::Prompt::start(run.generation.path().to_path_buf());
-    stage.set_message(format!("analysing {} cases", results.len()));
-    let t = crate::timings::span("report model (analyses)");
-    let model = report_model(run.plan, backend, results);
-    drop(t);
-    crate::interrupt::check()?;
-    let t = crate::timings::span("write report");
-    report::progress::reset();
-    stage.set_message("drawing charts, writing report.html and report.pdf".to_string());
-    let (written, waiting) = std::sync::mpsc::channel::<()>();
-    std::thread::scope(|scope| {
-        // The PDF layout is most of this stage: say what it waits on.
-        let stage = &stage;
-        scope.spawn(move || {
-            let tick = std::time::Duration::from_millis(100);
-            while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) = waiting.recv_timeout(tick)
-            {
-                let (drawn, planned) = report::progress::pictures();
-                stage.set_message(if drawn < planned {
-                    format!("laying out report.pdf, writing report.html; pictures {drawn}/{planned} drawn")
-                } else {
-                    format!("laying out report.pdf ({planned} pictures drawn)")
-                });
-            }
-        });
-        let done = write_report_files(run, &model, results, inputs);
-        drop(written);
-        done
-    })?;
-    drop(t);
-    drop(prompt);
-    if let Some(s) = signing {
-        sign_report(run.generation.path(), run.out, run.date, run.args.quiet, s)?;
-    }
-    stage.finish_and_clear();
-    Ok(model)
-}
-
-/// The report's files, into the new generation.
-fn write_report_files(
-    run: &Run<'_>,
-    model: &crate::model::Results,
-    results: &[CaseResult],
-    inputs: Vec<crate::inputs::InputFile>,
-) -> Result<(), Failure> {
-    report::write_report(
-        run.generation.path(),
-        model,
-        results,
-        &WriteOptions {
-            date: run.date.to_string(),
-            force: run.args.force,
-            signatories: Vec::new(),
-            inputs,
-            detail: run.args.detail.into(),
-            reuse_from: run.generation.previous().map(Path::to_path_buf),
-        },
-    )
-    .with_context(|| format!("cannot write the report to `{}`", run.out.display()))?;
-    Ok(())
-}
-
-/// Refuses before spending time on the run (a signed report without
-/// --force, a directory ledflicker did not write, an unwritable place),
-/// then starts the new generation of `out` and installs the signal handler.
-fn prepare_output(out: &Path, force: bool) -> Result<Generation, Failure> {
-    crate::outdir::check_overwrite(out, force)?;
-    let generation = Generation::begin(out)?;
-    crate::interrupt::install();
-    Ok(generation)
-}
-
-/// Prints the drift of a model from the golden results; true when it is
-/// beyond tolerance.
-type GoldenCheck = Box<dyn FnOnce(&crate::model::Results) -> std::io::Result<bool>>;
-
-/// `--golden`: reads the tolerances and the stored results now (a bad file
-/// fails before the run); the check returned prints the drift of a model
-/// and says whether it is beyond tolerance.
-fn golden_check(args: &PlanArgs) -> Result<Option<GoldenCheck>, Failure> {
+/// `--golden`: the tolerances and the stored results, read now, so that a
+/// bad file fails before the run.
+fn golden(args: &PlanArgs) -> Result<Option<Golden>, Failure> {
     let mut tolerances = report::golden::Tolerances::default();
     for t in &args.golden_tolerance {
         tolerances.set(t).map_err(UsageError)?;
     }
-    let Some(p) = &args.golden else {
-        return Ok(None);
-    };
-    let golden = report::golden::load(p)
-        .with_context(|| format!("cannot read the golden results `{}`", p.display()))?;
-    Ok(Some(Box::new(move |model: &crate::model::Results| {
-        let cmp = report::golden::compare(&golden, model, &tolerances);
-        out!("{}", cmp.to_text())?;
-        Ok(!cmp.ok())
-    })))
+    args.golden
+        .as_deref()
+        .map(|p| Golden::load(p, tolerances))
+        .transpose()
+        .map_err(Failure::from)
+}
+
+/// The report stage's progress on the spinner of [`report_spinner`].
+fn show_progress(stage: &ProgressBar, p: Progress) {
+    match p {
+        Progress::Analysing { cases } => stage.set_message(format!("analysing {cases} cases")),
+        Progress::Writing => {
+            stage.set_message("drawing charts, writing report.html and report.pdf".to_string());
+        }
+        Progress::Pictures { drawn, planned } => stage.set_message(if drawn < planned {
+            format!("laying out report.pdf, writing report.html; pictures {drawn}/{planned} drawn")
+        } else {
+            format!("laying out report.pdf ({planned} pictures drawn)")
+        }),
+        Progress::Written => stage.finish_and_clear(),
+    }
 }
 
 /// The plan's backend; a captured plan's captures are read now, under a
@@ -327,15 +249,6 @@ fn run_cases(
     drop(t);
     bar.finish_and_clear();
     Ok(results)
-}
-
-/// The results model of the run (the analysis stage).
-fn report_model(
-    plan: &Plan,
-    backend: &PlanBackend,
-    results: &[CaseResult],
-) -> crate::model::Results {
-    crate::model::assemble(plan, backend.id(), results)
 }
 
 fn print_summary(model: &crate::model::Results, out: &Path) -> Result<(), Failure> {

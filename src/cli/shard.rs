@@ -37,9 +37,7 @@ pub(super) fn run_shard(r: &ShardRun<'_>) -> Result<i32, Failure> {
         return Err(UsageError("--threads must be at least 1".into()).into());
     }
     // As `plan`: never a signed report without --force, never a user's folder.
-    crate::outdir::check_overwrite(r.out, r.force)?;
-    let generation = crate::outdir::Generation::begin(r.out)?;
-    crate::interrupt::install();
+    let generation = crate::pipeline::begin_output(r.out, r.force)?;
     let all = plan::expand_cases(plan);
     let mine = assign::cases_of(plan, &all, r.spec);
     // Read only this shard's captures.

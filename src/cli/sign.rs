@@ -1,6 +1,6 @@
 //! `ledflicker keygen`, `sign` and `verify`: a signing key and its
 //! certificate, the signatures of a report directory, and their check.
-//! `plan --sign-key` signs through [`signing`] and [`sign_report`].
+//! `plan --sign-key` loads its key through [`signing`]; the pipeline signs.
 
 use super::output::outln;
 use std::path::{Path, PathBuf};
@@ -192,21 +192,13 @@ pub(super) fn verify(a: VerifyArgs) -> Result<i32, Failure> {
     }
 }
 
-/// Who signs `plan --sign-key`'s report, with what key, and when.
-pub(super) struct Signing<'a> {
-    signer: &'a str,
-    key: crate::signoff::SignerKey,
-    key_files: Vec<PathBuf>,
-    time_unix_s: u64,
-}
-
 /// `plan --sign-key`: the key is loaded now, so that a bad key fails
 /// before the run, not after it. The signing time is checked even without
 /// a key.
-pub(super) fn signing<'a>(
-    asked: &SignOptions<'a>,
+pub(super) fn signing(
+    asked: &SignOptions<'_>,
     out: &Path,
-) -> Result<Option<Signing<'a>>, Failure> {
+) -> Result<Option<crate::pipeline::Signing>, Failure> {
     let time_unix_s = signing_time()?;
     let loaded = match asked.key {
         Some(key) => {
@@ -217,41 +209,12 @@ pub(super) fn signing<'a>(
         None => None,
     };
     Ok(match (loaded, asked.signer) {
-        (Some((key, key_files)), Some(signer)) => Some(Signing {
-            signer,
+        (Some((key, key_files)), Some(signer)) => Some(crate::pipeline::Signing {
+            signer: signer.to_string(),
             key,
             key_files,
             time_unix_s,
         }),
         _ => None,
     })
-}
-
-/// Signs the new generation `dir` of `out` (report.pdf and manifest.txt).
-pub(super) fn sign_report(
-    dir: &Path,
-    out: &Path,
-    date: &str,
-    quiet: bool,
-    s: Signing<'_>,
-) -> Result<(), Failure> {
-    let done = crate::signoff::sign(
-        dir,
-        &crate::signoff::SignRequest {
-            signer: s.signer,
-            date,
-            time_unix_s: s.time_unix_s,
-            key: &s.key,
-            key_files: s.key_files,
-        },
-    )
-    .with_context(|| format!("cannot sign `{}`", out.display()))?;
-    if !quiet {
-        outln!(
-            "signed by {} (certificate SHA-256 {})",
-            s.signer.trim(),
-            done.fingerprint
-        )?;
-    }
-    Ok(())
 }

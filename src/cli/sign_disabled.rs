@@ -9,6 +9,7 @@ use std::path::Path;
 use clap::Args;
 
 use super::Failure;
+
 use super::args::{SignOptions, signing_time};
 use crate::error::NotBuiltIn;
 
@@ -46,33 +47,15 @@ pub(super) fn verify(_: VerifyArgs) -> Result<i32, Failure> {
     Err(absent("`verify`"))
 }
 
-/// No signing is ever under way in this build.
-pub(super) enum Signing<'a> {
-    #[allow(dead_code)]
-    Never(std::convert::Infallible, std::marker::PhantomData<&'a ()>),
-}
-
 /// `plan --sign-key` is refused before the run; without it the signing
 /// time is still checked, as in a full build.
-pub(super) fn signing<'a>(
-    asked: &SignOptions<'a>,
+pub(super) fn signing(
+    asked: &SignOptions<'_>,
     _out: &Path,
-) -> Result<Option<Signing<'a>>, Failure> {
+) -> Result<Option<crate::pipeline::Signing>, Failure> {
     signing_time()?;
     if asked.key.is_some() || asked.cert.is_some() || asked.signer.is_some() {
         return Err(absent("`plan --sign-key`"));
     }
     Ok(None)
-}
-
-pub(super) fn sign_report(
-    _dir: &Path,
-    _out: &Path,
-    _date: &str,
-    _quiet: bool,
-    s: Signing<'_>,
-) -> Result<(), Failure> {
-    match s {
-        Signing::Never(never, _) => match never {},
-    }
 }

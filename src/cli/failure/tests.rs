@@ -294,6 +294,27 @@ fn output_failures() -> Vec<(Failure, i32)> {
             .into(),
             3,
         ),
+        (PipelineError::Interrupted(sigint()).into(), 130),
+        (PipelineError::OutDir(signed()).into(), 2),
+        (
+            PipelineError::Golden {
+                path: path(),
+                source: invalid_report(),
+            }
+            .into(),
+            2,
+        ),
+        (
+            PipelineError::Write {
+                out: path(),
+                source: ReportError::Io {
+                    path: path(),
+                    source: IoError::from(ErrorKind::StorageFull),
+                },
+            }
+            .into(),
+            3,
+        ),
     ]
 }
 
@@ -430,6 +451,7 @@ const VARIANTS: &[&str] = &[
     "Report",
     #[cfg(feature = "signoff")]
     "Signoff",
+    "Pipeline",
     "ShardWrite",
     "Profile",
     "Chart",
@@ -454,6 +476,7 @@ fn variant(f: &Failure) -> &'static str {
         Failure::Report(_) => "Report",
         #[cfg(feature = "signoff")]
         Failure::Signoff(_) => "Signoff",
+        Failure::Pipeline(_) => "Pipeline",
         Failure::ShardWrite(_) => "ShardWrite",
         Failure::Profile(_) => "Profile",
         Failure::Chart(_) => "Chart",
