@@ -51,6 +51,12 @@ pub enum ReportError {
     /// JSON serialisation failed.
     #[error("cannot serialise results: {0}")]
     Json(#[from] serde_json::Error),
+    /// A CSV export (summary.csv, a trace) failed to write.
+    #[error("cannot write CSV: {0}")]
+    Csv(#[from] csv::Error),
+    /// junit.xml failed to write.
+    #[error("cannot write junit.xml: {0}")]
+    Junit(#[from] quick_junit::SerializeError),
     /// The PDF engine failed.
     #[error("cannot render report.pdf: {message}")]
     Pdf {
@@ -96,28 +102,34 @@ pub struct WriteOptions {
 
 /// One case's trace as CSV: `frame,time_s,segment,<one luma column per ROI>`
 /// ([`TRACE_COLUMNS`], then the ROIs).
-pub fn trace_csv(result: &CaseResult) -> String {
+pub fn trace_csv(result: &CaseResult) -> Result<String, csv::Error> {
     let acq = &result.acquisition;
-    let mut out = TRACE_COLUMNS.join(",");
-    for roi in &acq.rois {
-        out.push(',');
-        out.push_str(&roi.name);
-    }
-    out.push('\n');
+    let mut out = export::csv_writer(acq.frames.len() * (24 + 20 * acq.rois.len()));
+    out.write_record(
+        TRACE_COLUMNS
+            .iter()
+            .copied()
+            .chain(acq.rois.iter().map(|roi| roi.name.as_str())),
+    )?;
     // A ROI's luma takes few distinct values (a steady segment repeats
     // one, a locked PWM phase cycles a few), so each column remembers the
     // text of its recent values: the output is the same as `{}` of each.
     let mut recent: Vec<RecentValues> = acq.rois.iter().map(|_| RecentValues::default()).collect();
-    out.reserve(acq.frames.len() * (24 + 20 * acq.rois.len()));
+    let mut number = String::new();
     for (i, f) in acq.frames.iter().enumerate() {
-        let _ = write!(out, "{},{},{}", f.index, f.time_s, f.segment.as_str());
+        number.clear();
+        let _ = write!(number, "{}", f.index);
+        out.write_field(&number)?;
+        number.clear();
+        let _ = write!(number, "{}", f.time_s);
+        out.write_field(&number)?;
+        out.write_field(f.segment.as_str())?;
         for (roi, recent) in acq.rois.iter().zip(&mut recent) {
-            out.push(',');
-            out.push_str(recent.text(roi.luma[i]));
+            out.write_field(recent.text(roi.luma[i]))?;
         }
-        out.push('\n');
+        out.write_record(None::<&[u8]>)?;
     }
-    out
+    export::csv_text(out)
 }
 
 /// The `{}` text of the last few distinct values seen, most recent first.
@@ -434,8 +446,8 @@ fn write_beside_pdf(
         use rayon::prelude::*;
         results
             .par_iter()
-            .map(|r| (format!("{}.csv", r.case.id), trace_csv(r).into_bytes()))
-            .collect()
+            .map(|r| Ok((format!("{}.csv", r.case.id), trace_csv(r)?.into_bytes())))
+            .collect::<Result<_, ReportError>>()?
     };
     replace_dir(dir, "traces", &traces, reuse)?;
 
@@ -466,8 +478,8 @@ fn write_beside_pdf(
     let mut full = model.clone();
     full.report = Some(document::report_meta(&full, &options.date, options.detail));
     let files = [
-        (export::JUNIT_FILE, export::junit_xml(model)),
-        (export::CSV_FILE, export::summary_csv(model)),
+        (export::JUNIT_FILE, export::junit_xml(model)?),
+        (export::CSV_FILE, export::summary_csv(model)?),
         ("results.json", serde_json::to_string_pretty(&full)?),
     ];
     files
@@ -742,7 +754,7 @@ mod tests {
         let (mut results, _) = document::small_run();
         // As simulated: steady segments and short PWM cycles.
         for r in &results {
-            assert_eq!(trace_csv(r), plain_csv(r));
+            assert_eq!(trace_csv(r).unwrap(), plain_csv(r));
         }
         // Cycles longer than the remembered values, values that differ in
         // the last bit, signed zeros and a value too small for plain digits.
@@ -759,6 +771,6 @@ mod tests {
                 };
             }
         }
-        assert_eq!(trace_csv(r), plain_csv(r));
+        assert_eq!(trace_csv(r).unwrap(), plain_csv(r));
     }
 }

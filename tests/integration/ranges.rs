@@ -410,14 +410,23 @@ fn run_in_process(text: &str) -> Result<[(String, String); 4], String> {
         .map_err(|e| format!("sample frames failed: {e:#}"))?;
     let model =
         ledflicker::model::assemble(&p, ledflicker::backend::Backend::id(&backend), &results);
-    let traces: String = results.iter().map(ledflicker::report::trace_csv).collect();
+    let traces: String = results
+        .iter()
+        .map(|r| ledflicker::report::trace_csv(r).unwrap())
+        .collect();
     Ok([
         (
             "results.json".into(),
             serde_json::to_string(&model).unwrap(),
         ),
-        (export::CSV_FILE.into(), export::summary_csv(&model)),
-        (export::JUNIT_FILE.into(), export::junit_xml(&model)),
+        (
+            export::CSV_FILE.into(),
+            export::summary_csv(&model).unwrap(),
+        ),
+        (
+            export::JUNIT_FILE.into(),
+            export::junit_xml(&model).unwrap(),
+        ),
         ("traces".into(), traces),
     ])
 }
