@@ -47,9 +47,11 @@ fn shown(s: &str) -> String {
 }
 
 /// Rows of CSV text, read with the `csv` crate: a line starting with `#`
-/// is a comment, fields are trimmed, quoted fields are unquoted, and a row
-/// may have fewer fields than the header (a missing field is reported
-/// where it is needed).
+/// is a comment, quoted fields are unquoted, and a row may have fewer
+/// fields than the header (a missing field is reported where it is
+/// needed). Fields are not trimmed here: the reader's trim rebuilds every
+/// row (a fifth of the instructions of a long trace, docs/speed.md), so
+/// callers trim the few fields they read.
 pub(super) struct Rows<'a> {
     text: &'a [u8],
     reader: csv::Reader<&'a [u8]>,
@@ -66,7 +68,6 @@ impl<'a> Rows<'a> {
             .has_headers(false)
             .comment(Some(b'#'))
             .flexible(true)
-            .trim(csv::Trim::All)
             .from_reader(text.as_bytes());
         Self {
             text: text.as_bytes(),
@@ -103,7 +104,7 @@ impl<'a> Rows<'a> {
         loop {
             match self.reader.read_record(&mut self.row) {
                 Ok(false) => return Ok(None),
-                Ok(true) if self.row.iter().all(str::is_empty) => {}
+                Ok(true) if self.row.iter().all(|f| f.trim().is_empty()) => {}
                 Ok(true) => {
                     let line = self.line_before(self.reader.position().byte());
                     return Ok(Some((line, &self.row)));
@@ -143,7 +144,7 @@ pub(super) fn read(
             hint: "a header row, e.g. `frame,time_s,led`, then one row per frame".to_string(),
         });
     };
-    let cols: Vec<String> = header.iter().map(str::to_string).collect();
+    let cols: Vec<String> = header.iter().map(|c| c.trim().to_string()).collect();
     let time_col = cols.iter().position(|c| c == "time_s");
     let mut roi_cols = Vec::with_capacity(roi_names.len());
     for name in roi_names {
@@ -169,7 +170,7 @@ pub(super) fn read(
             check_interrupt(path)?;
         }
         let num = |i: usize| -> Result<f64, CaptureError> {
-            let raw = fields.get(i).unwrap_or("");
+            let raw = fields.get(i).map_or("", str::trim);
             raw.parse::<f64>()
                 .ok()
                 .filter(|v| v.is_finite())
@@ -192,7 +193,7 @@ pub(super) fn read(
                     message: format!(
                         "line {line}, column {}: luma {} DN is outside 0..={MAX_CSV_LUMA_DN:e}\n    hint: a CSV trace holds ROI mean luma in DN, from 0 to 1e12",
                         shown(&cols[i]),
-                        shown(fields.get(i).unwrap_or(""))
+                        shown(fields.get(i).map_or("", str::trim))
                     ),
                 });
             }
@@ -235,7 +236,7 @@ mod tests {
         let mut rows = Rows::new(text);
         let mut out = Vec::new();
         while let Some((line, row)) = rows.next(Path::new("t.csv"), TRACE_HINT).unwrap() {
-            out.push((line, row.iter().map(str::to_string).collect()));
+            out.push((line, row.iter().map(|f| f.trim().to_string()).collect()));
         }
         out
     }

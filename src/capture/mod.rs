@@ -346,11 +346,11 @@ fn read_sidecar(path: &Path, frames: usize) -> Result<Vec<f64>, CaptureError> {
     let mut rows = csv_trace::Rows::new(&text);
     while let Some((line, row)) = rows.next(path, hint)? {
         // An indented comment line.
-        if row.get(0).is_some_and(|f| f.starts_with('#')) {
+        if row.get(0).is_some_and(|f| f.trim_start().starts_with('#')) {
             continue;
         }
         // The last field: the time of a `frame,time_s` row or of a lone time.
-        let field = row.iter().next_back().unwrap_or("");
+        let field = row.iter().next_back().map_or("", str::trim);
         match field.parse::<f64>() {
             Ok(t) if t.is_finite() => out.push(t),
             _ if out.is_empty() && line == 1 => continue, // header

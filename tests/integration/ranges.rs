@@ -410,10 +410,7 @@ fn run_in_process(text: &str) -> Result<[(String, String); 4], String> {
         .map_err(|e| format!("sample frames failed: {e:#}"))?;
     let model =
         ledflicker::model::assemble(&p, ledflicker::backend::Backend::id(&backend), &results);
-    let traces: String = results
-        .iter()
-        .map(|r| ledflicker::report::trace_csv(r).unwrap())
-        .collect();
+    let traces: String = results.iter().map(ledflicker::report::trace_csv).collect();
     Ok([
         (
             "results.json".into(),
