@@ -250,6 +250,8 @@ fn report(e: &ReportError) -> i32 {
         ReportError::Template { .. }
         | ReportError::Chart(_)
         | ReportError::Json(_)
+        | ReportError::Csv(_)
+        | ReportError::Junit(_)
         | ReportError::Pdf { .. } => EXIT_INTERNAL,
     }
 }
@@ -275,6 +277,8 @@ fn signoff(e: &SignoffError) -> i32 {
             | ReportError::Template { .. }
             | ReportError::Chart(_)
             | ReportError::Json(_)
+            | ReportError::Csv(_)
+            | ReportError::Junit(_)
             | ReportError::Pdf { .. } => EXIT_INTERNAL,
         },
     }

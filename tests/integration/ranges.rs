@@ -416,8 +416,14 @@ fn run_in_process(text: &str) -> Result<[(String, String); 4], String> {
             "results.json".into(),
             serde_json::to_string(&model).unwrap(),
         ),
-        (export::CSV_FILE.into(), export::summary_csv(&model)),
-        (export::JUNIT_FILE.into(), export::junit_xml(&model)),
+        (
+            export::CSV_FILE.into(),
+            export::summary_csv(&model).unwrap(),
+        ),
+        (
+            export::JUNIT_FILE.into(),
+            export::junit_xml(&model).unwrap(),
+        ),
         ("traces".into(), traces),
     ])
 }

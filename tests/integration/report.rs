@@ -189,6 +189,21 @@ fn junit_has_one_testcase_per_case_and_failures_name_metric_and_threshold() {
         // Every LED ROI's P2020 KPIs are listed, checked or not.
         assert!(block.contains("fmi ") && block.contains("mmp "), "{block}");
     }
+    // It reads back as JUnit: one suite of the plan, the counts of
+    // results.json, each case's name and status.
+    let report = quick_junit::Report::deserialize_from_str(&junit).unwrap();
+    let counts = &results["counts"];
+    assert_eq!(report.tests as u64, counts["total"].as_u64().unwrap());
+    assert_eq!(report.failures as u64, counts["fail"].as_u64().unwrap());
+    assert_eq!(report.skipped as u64, counts["info"].as_u64().unwrap());
+    assert_eq!(report.test_suites.len(), 1);
+    let suite = &report.test_suites[0];
+    assert_eq!(suite.name.as_str(), results["plan"]["id"].as_str().unwrap());
+    for (tc, c) in suite.test_cases.iter().zip(cases) {
+        assert_eq!(tc.name.as_str(), c["id"].as_str().unwrap());
+        let failed = matches!(tc.status, quick_junit::TestCaseStatus::NonSuccess { .. });
+        assert_eq!(failed, c["verdict"] == "fail", "{}", tc.name.as_str());
+    }
     let csv = std::fs::read_to_string(dir.join("summary.csv")).unwrap();
     let mut lines = csv.lines();
     assert!(

@@ -6,6 +6,8 @@
 
 use std::fmt::Write as _;
 
+use quick_junit::{NonSuccessKind, Report, TestCase, TestCaseStatus, TestSuite};
+
 use crate::model::Verdict;
 use crate::model::{CaseInfo, Results};
 
@@ -56,22 +58,19 @@ fn condition(x: f64) -> String {
     }
 }
 
-/// Escapes text for an XML attribute or element.
-fn xml(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&apos;"),
-            // XML 1.0 forbids most control characters even when escaped.
-            c if (c as u32) < 0x20 && !matches!(c, '\n' | '\t' | '\r') => out.push(' '),
-            c => out.push(c),
-        }
-    }
-    out
+/// Text for junit.xml: control characters but tab and line ends become
+/// spaces. XML 1.0 forbids them even escaped, and quick-junit would drop
+/// them, running the words on either side together.
+fn xml_text(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if (c as u32) < 0x20 && !matches!(c, '\n' | '\t' | '\r') {
+                ' '
+            } else {
+                c
+            }
+        })
+        .collect()
 }
 
 /// One check as a sentence, e.g. `fmi 1.000 > 0.1 on roi07`, with the
@@ -108,24 +107,14 @@ fn metric_lines(c: &CaseInfo) -> Vec<String> {
         .collect()
 }
 
-fn testcase(out: &mut String, plan_id: &str, c: &CaseInfo) {
-    let _ = writeln!(
-        out,
-        "    <testcase classname=\"{}\" name=\"{}\">",
-        xml(&if c.light_lux > 0.0 {
-            format!("{plan_id}.{}lux", c.light_lux)
-        } else {
-            format!("{plan_id}.unknown-lux")
-        }),
-        xml(&c.id)
-    );
+fn testcase(plan_id: &str, c: &CaseInfo) -> TestCase {
     let failed: Vec<String> = c
         .checks
         .iter()
         .filter(|k| !k.pass)
         .map(check_line)
         .collect();
-    match c.verdict {
+    let status = match c.verdict {
         Verdict::Fail => {
             let mut metrics: Vec<&str> = Vec::new();
             for k in c.checks.iter().filter(|k| !k.pass) {
@@ -143,58 +132,44 @@ fn testcase(out: &mut String, plan_id: &str, c: &CaseInfo) {
                     metrics.join(", ")
                 ),
             };
-            let _ = writeln!(
-                out,
-                "      <failure type=\"threshold\" message=\"{}\">{}</failure>",
-                xml(&message),
-                xml(&failed.join("\n"))
-            );
+            let mut status = TestCaseStatus::non_success(NonSuccessKind::Failure);
+            status
+                .set_type("threshold")
+                .set_message(xml_text(&message))
+                .set_description(xml_text(&failed.join("\n")));
+            status
         }
         Verdict::Info => {
-            let _ = writeln!(
-                out,
-                "      <skipped message=\"{}\"/>",
-                xml(&format!(
-                    "not judged: {}",
-                    c.not_judged.as_deref().unwrap_or("informational")
-                ))
-            );
+            let mut status = TestCaseStatus::skipped();
+            status.set_message(xml_text(&format!(
+                "not judged: {}",
+                c.not_judged.as_deref().unwrap_or("informational")
+            )));
+            status
         }
-        Verdict::Pass => {}
-    }
+        Verdict::Pass => TestCaseStatus::success(),
+    };
+    let mut case = TestCase::new(xml_text(&c.id), status);
+    case.set_classname(xml_text(&if c.light_lux > 0.0 {
+        format!("{plan_id}.{}lux", c.light_lux)
+    } else {
+        format!("{plan_id}.unknown-lux")
+    }));
     let mut all: Vec<String> = c.checks.iter().map(check_line).collect();
     all.extend(c.not_checked.iter().cloned());
     all.extend(metric_lines(c));
     if !all.is_empty() {
-        let _ = writeln!(
-            out,
-            "      <system-out>{}</system-out>",
-            xml(&all.join("\n"))
-        );
+        case.set_system_out(xml_text(&all.join("\n")));
     }
-    out.push_str("    </testcase>\n");
+    case
 }
 
-/// JUnit XML: one `<testsuite>` per plan, one `<testcase>` per case.
-/// Failed cases carry a `<failure>` naming each failed metric, its value and
-/// its threshold; informational cases are `<skipped>`.
-pub fn junit_xml(model: &Results) -> String {
-    let c = &model.counts;
-    let mut out = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-    let _ = writeln!(
-        out,
-        "<testsuites name=\"ledflicker\" tests=\"{}\" failures=\"{}\" skipped=\"{}\" errors=\"0\">",
-        c.total, c.fail, c.info
-    );
-    let _ = writeln!(
-        out,
-        "  <testsuite name=\"{}\" tests=\"{}\" failures=\"{}\" skipped=\"{}\" errors=\"0\">",
-        xml(&model.plan.id),
-        c.total,
-        c.fail,
-        c.info
-    );
-    out.push_str("    <properties>\n");
+/// JUnit XML, written by quick-junit: one `<testsuite>` per plan, one
+/// `<testcase>` per case. Failed cases carry a `<failure>` naming each
+/// failed metric, its value and its threshold; informational cases are
+/// `<skipped>`. The counts are the verdicts of the cases.
+pub fn junit_xml(model: &Results) -> Result<String, quick_junit::SerializeError> {
+    let mut suite = TestSuite::new(xml_text(&model.plan.id));
     for (name, value) in [
         ("plan.title", model.plan.title.as_str()),
         ("plan.sha256", model.plan.sha256.as_str()),
@@ -202,45 +177,53 @@ pub fn junit_xml(model: &Results) -> String {
         ("dut.backend", model.dut.backend.as_str()),
         ("tool.version", model.tool.version.as_str()),
     ] {
-        let _ = writeln!(
-            out,
-            "      <property name=\"{name}\" value=\"{}\"/>",
-            xml(value)
-        );
+        suite.add_property((name.to_string(), xml_text(value)));
     }
-    out.push_str("    </properties>\n");
-    for case in &model.cases {
-        testcase(&mut out, &model.plan.id, case);
-    }
-    out.push_str("  </testsuite>\n</testsuites>\n");
-    out
+    suite.add_test_cases(model.cases.iter().map(|c| testcase(&model.plan.id, c)));
+    let mut report = Report::new("ledflicker");
+    report.add_test_suite(suite);
+    report.to_string()
 }
 
-/// Quotes a CSV field when it needs it (RFC 4180).
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
+/// A CSV writer into memory, `capacity` bytes reserved: a field is quoted
+/// when it holds a comma, a quote or a line end (RFC 4180), and a row ends
+/// in `\n`.
+pub(crate) fn csv_writer(capacity: usize) -> csv::Writer<Vec<u8>> {
+    csv::WriterBuilder::new().from_writer(Vec::with_capacity(capacity))
+}
+
+/// The text a [`csv_writer`] wrote.
+pub(crate) fn csv_text(out: csv::Writer<Vec<u8>>) -> Result<String, csv::Error> {
+    let bytes = out
+        .into_inner()
+        .map_err(|e| csv::Error::from(e.into_error()))?;
+    // Every field written was a `&str`, so this never fails.
+    String::from_utf8(bytes)
+        .map_err(|e| csv::Error::from(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))
 }
 
 /// CSV summary, one row per case and ROI: conditions (empty when
 /// unknown), verdict, metrics (empty when undefined, `inf` for an unbounded
 /// FDI), saturation, the limits that applied to the case (empty: none) and
 /// the ROI's failed checks.
-pub fn summary_csv(model: &Results) -> String {
-    let mut out = String::from("case,light_lux,frequency_hz,duty,verdict,roi,kind");
-    for m in CSV_METRICS {
-        out.push(',');
-        out.push_str(m);
-    }
-    out.push_str(",saturated");
-    for l in CSV_LIMITS {
-        out.push(',');
-        out.push_str(l);
-    }
-    out.push_str(",failed\n");
+pub fn summary_csv(model: &Results) -> Result<String, csv::Error> {
+    let mut out = csv_writer(0);
+    out.write_record(
+        [
+            "case",
+            "light_lux",
+            "frequency_hz",
+            "duty",
+            "verdict",
+            "roi",
+            "kind",
+        ]
+        .into_iter()
+        .chain(CSV_METRICS)
+        .chain(["saturated"])
+        .chain(CSV_LIMITS)
+        .chain(["failed"]),
+    )?;
     for c in &model.cases {
         let lux = (c.light_lux > 0.0).then_some(c.light_lux);
         let lim = model.thresholds.limits_for(lux);
@@ -256,44 +239,42 @@ pub fn summary_csv(model: &Results) -> String {
                 crate::model::RoiKind::Led => "led",
                 crate::model::RoiKind::Background => "background",
             };
-            let _ = write!(
-                out,
-                "{},{},{},{},{},{},{}",
-                csv_field(&c.id),
+            let mut row = vec![
+                c.id.clone(),
                 condition(c.light_lux),
                 condition(c.frequency_hz),
                 condition(c.duty),
-                c.verdict.as_str(),
-                csv_field(&r.name),
-                kind
-            );
-            for m in CSV_METRICS {
-                out.push(',');
+                c.verdict.as_str().to_string(),
+                r.name.clone(),
+                kind.to_string(),
+            ];
+            row.extend(CSV_METRICS.into_iter().map(|m| {
                 if r.is_unbounded(m) {
-                    out.push_str("inf");
-                } else if let Some(v) = r.metrics.get(m).copied().flatten() {
-                    out.push_str(&csv_number(v));
+                    "inf".to_string()
+                } else {
+                    r.metrics
+                        .get(m)
+                        .copied()
+                        .flatten()
+                        .map_or(String::new(), csv_number)
                 }
-            }
-            let _ = write!(out, ",{}", r.saturated);
-            for l in limits {
-                out.push(',');
-                if r.kind == crate::model::RoiKind::Led
-                    && let Some(v) = l
-                {
-                    out.push_str(&csv_number(v));
-                }
-            }
+            }));
+            row.push(r.saturated.to_string());
+            row.extend(limits.iter().map(|l| match l {
+                Some(v) if r.kind == crate::model::RoiKind::Led => csv_number(*v),
+                _ => String::new(),
+            }));
             let failed: Vec<String> = c
                 .checks
                 .iter()
                 .filter(|k| !k.pass && k.roi == r.name)
                 .map(|k| k.describe())
                 .collect();
-            let _ = writeln!(out, ",{}", csv_field(&failed.join("; ")));
+            row.push(failed.join("; "));
+            out.write_record(&row)?;
         }
     }
-    out
+    csv_text(out)
 }
 
 #[cfg(test)]
@@ -301,11 +282,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn xml_escapes_markup_and_drops_control_characters() {
-        assert_eq!(
-            xml("a<b & \"c\" 'd'>\u{1}"),
-            "a&lt;b &amp; &quot;c&quot; &apos;d&apos;&gt; "
-        );
+    fn junit_text_turns_control_characters_into_spaces() {
+        assert_eq!(xml_text("a\u{1}b\u{1b}[31mc\td\ne"), "a b [31mc\td\ne");
     }
 
     #[test]
@@ -320,9 +298,13 @@ mod tests {
     }
 
     #[test]
-    fn csv_fields_with_commas_or_quotes_are_quoted() {
-        assert_eq!(csv_field("plain"), "plain");
-        assert_eq!(csv_field("a,b"), "\"a,b\"");
-        assert_eq!(csv_field("say \"hi\""), "\"say \"\"hi\"\"\"");
+    fn csv_fields_with_commas_quotes_or_line_ends_are_quoted() {
+        let mut out = csv_writer(0);
+        out.write_record(["plain", "a,b", "say \"hi\"", "two\nlines", "", "cr\r"])
+            .unwrap();
+        assert_eq!(
+            csv_text(out).unwrap(),
+            "plain,\"a,b\",\"say \"\"hi\"\"\",\"two\nlines\",,\"cr\r\"\n"
+        );
     }
 }

@@ -343,25 +343,27 @@ fn read_sidecar(path: &Path, frames: usize) -> Result<Vec<f64>, CaptureError> {
             hint: "one time in seconds per frame, or `frame,time_s` rows".to_string(),
         }
     })?;
+    let hint = "one time in seconds per frame, or `frame,time_s` rows";
     let mut out = Vec::with_capacity(frames);
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
+    let mut rows = csv_trace::Rows::new(&text);
+    while let Some((line, row)) = rows.next(path, hint)? {
+        // An indented comment line.
+        if row.get(0).is_some_and(|f| f.trim_start().starts_with('#')) {
             continue;
         }
-        let field = line.rsplit(',').next().unwrap_or(line).trim();
+        // The last field: the time of a `frame,time_s` row or of a lone time.
+        let field = row.iter().next_back().map_or("", str::trim);
         match field.parse::<f64>() {
             Ok(t) if t.is_finite() => out.push(t),
-            _ if out.is_empty() && i == 0 => continue, // header
+            _ if out.is_empty() && line == 1 => continue, // header
             _ => {
                 return Err(CaptureError::Invalid {
                     path: path.to_path_buf(),
                     message: format!(
-                        "line {}: `{}` is not a time in seconds",
-                        i + 1,
+                        "line {line}: `{}` is not a time in seconds",
                         field.chars().take(40).collect::<String>()
                     ),
-                    hint: "one time in seconds per frame, or `frame,time_s` rows".to_string(),
+                    hint: hint.to_string(),
                 });
             }
         }
