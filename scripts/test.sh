@@ -51,6 +51,8 @@ fi
 # Snapshots never update silently in a test run; see README "Golden files".
 export INSTA_UPDATE="${INSTA_UPDATE:-no}"
 
-cargo test --workspace --all-targets "$@"
+# --release: the tests share every dependency's build with the README's
+# `cargo run --release` (see [profile.bench] in Cargo.toml).
+cargo test --release --workspace --all-targets "$@"
 # Doc tests are not covered by --all-targets.
-cargo test --workspace --doc "$@"
+cargo test --release --workspace --doc "$@"
