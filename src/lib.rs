@@ -50,3 +50,4 @@ pub mod bench;
 pub mod cli;
 pub mod pipeline;
 pub mod shard;
+pub mod store;

@@ -84,6 +84,23 @@ pub fn begin_output(out: &Path, force: bool) -> Result<Generation, OutDirError> 
     Ok(generation)
 }
 
+/// [`begin_output`] for `plan --resume`: the new generation starts from
+/// the staging directory the interrupted run left, with only its case
+/// store kept.
+pub fn resume_output(out: &Path, force: bool) -> Result<Generation, OutDirError> {
+    crate::outdir::check_overwrite(out, force)?;
+    let generation = Generation::resume(
+        out,
+        &[
+            crate::store::PARTIAL,
+            crate::store::PARTIAL_WAL,
+            crate::store::PARTIAL_SHM,
+        ],
+    )?;
+    crate::interrupt::install();
+    Ok(generation)
+}
+
 /// A finished run: what the report is made from.
 #[derive(Debug)]
 pub struct Run<'a> {

@@ -28,7 +28,7 @@ const CRATES: [(&str, &[&str]); 5] = [
     ]),
     ("crates/report", &[]),
     ("crates/signoff", &[]),
-    (".", &["shard", "pipeline", "bench", "cli"]),
+    (".", &["shard", "store", "pipeline", "bench", "cli"]),
 ];
 
 /// What the report crate may import of `ledflicker-core`: the model and

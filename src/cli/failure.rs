@@ -83,6 +83,9 @@ pub enum Failure {
     /// cause's.
     #[error(transparent)]
     Pipeline(#[from] PipelineError),
+    /// The case store failed (3), or cannot be resumed (2).
+    #[error(transparent)]
+    Store(#[from] crate::store::StoreError),
     /// A shard directory could not be written (3).
     #[error(transparent)]
     ShardWrite(#[from] WriteError),
@@ -132,6 +135,8 @@ impl Failure {
             Failure::Signoff(e) => signoff(e),
             Failure::Pipeline(e) => pipeline(e),
             Failure::ShardWrite(e) => shard_write(e),
+            Failure::Store(crate::store::StoreError::Mismatch { .. }) => EXIT_INVALID,
+            Failure::Store(_) => EXIT_INTERNAL,
             Failure::Profile(_) | Failure::Chart(_) | Failure::Json(_) | Failure::Internal(_) => {
                 EXIT_INTERNAL
             }

@@ -49,6 +49,14 @@ pub(super) fn merge(a: MergeArgs) -> Result<i32, Failure> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("reports").join(&m.plan.id));
     let generation = pipeline::begin_output(&out, a.force)?;
+    let key = crate::store::RunKey {
+        plan_id: m.plan.id.clone(),
+        plan_hash: m.manifest.plan_hash.clone(),
+        tool: m.manifest.tool.clone(),
+        backend: m.manifest.backend.clone(),
+        case_count: m.manifest.case_count,
+    };
+    crate::store::write_all(generation.path(), &key, &m.results)?;
     let outcome = pipeline::report(
         pipeline::Run {
             plan: &m.plan,

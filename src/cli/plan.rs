@@ -74,6 +74,11 @@ pub(super) struct PlanArgs {
     /// array task or a Kubernetes Indexed Job (docs/scale-out.md).
     #[arg(long, requires = "out", conflicts_with_all = ["golden", "sign_key"])]
     shard: Option<String>,
+    /// Continue the interrupted or killed run whose report was to go to
+    /// DIR, from the cases it stored (docs/store.md); the plan and its
+    /// inputs must be those of that run.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["out", "shard"])]
+    resume: Option<PathBuf>,
 }
 
 pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
@@ -94,10 +99,14 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
         });
     }
     let out = args
-        .out
+        .resume
         .clone()
+        .or_else(|| args.out.clone())
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
-    let generation = pipeline::begin_output(&out, args.force)?;
+    let generation = match &args.resume {
+        None => pipeline::begin_output(&out, args.force)?,
+        Some(dir) => pipeline::resume_output(dir, args.force)?,
+    };
     let golden = golden(&args)?;
     let signing = signing(
         &super::args::SignOptions {
@@ -108,10 +117,25 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
         &out,
     )?;
 
-    let backend = build_backend(&plan, args.quiet)?;
-    // After the backend has checked that the captures exist.
-    let inputs = super::collect_inputs(&plan)?;
-    let results = run_cases(&plan, &backend, &args)?;
+    // A failure from here on keeps what a resumed run had stored, and what
+    // this run stored, for another `--resume`.
+    let resuming = args.resume.is_some();
+    let backend = build_backend(&plan, args.quiet)
+        .map_err(|e| (e, resuming))
+        .and_then(|backend| {
+            // After the backend has checked that the captures exist.
+            let inputs = super::collect_inputs(&plan).map_err(|e| (e, resuming))?;
+            Ok((backend, inputs))
+        })
+        .and_then(|(backend, inputs)| {
+            run_cases(&plan, &backend, &args, generation.path(), &inputs)
+                .map(|results| (backend, inputs, results))
+                .map_err(|(e, stored)| (e, stored || resuming))
+        });
+    let (backend, inputs, results) = match backend {
+        Ok(ran) => ran,
+        Err(e) => return Err(keep_for_resume(e, generation, &args, &out)),
+    };
     let stage = report_spinner(args.quiet);
     let outcome = pipeline::report(
         pipeline::Run {
@@ -225,30 +249,116 @@ fn build_backend(plan: &Plan, quiet: bool) -> Result<PlanBackend, Failure> {
     Ok(backend?)
 }
 
-/// Runs every case with a progress bar, then renders the sample frames.
+/// A run that stopped with cases stored (or a resumed run that stopped)
+/// keeps its store for `--resume`; the error is passed on.
+fn keep_for_resume(
+    e: (Failure, bool),
+    generation: crate::outdir::Generation,
+    args: &PlanArgs,
+    out: &Path,
+) -> Failure {
+    let (failure, stored) = e;
+    if stored {
+        let kept = generation.keep_for_resume();
+        eprintln!(
+            "the cases stored so far are kept in `{}`; continue the run with `ledflicker plan {} --resume {}`",
+            kept.display(),
+            args.plan,
+            out.display()
+        );
+    }
+    failure
+}
+
+/// Runs every case with a progress bar, each case into the store in `dir`
+/// as it finishes (with `--resume`, only the cases not stored yet), then
+/// reads them back in case order. On failure, says whether the store
+/// holds cases worth resuming.
 fn run_cases(
     plan: &Plan,
     backend: &PlanBackend,
     args: &PlanArgs,
-) -> Result<Vec<CaseResult>, Failure> {
+    dir: &Path,
+    inputs: &[crate::inputs::InputFile],
+) -> Result<Vec<CaseResult>, (Failure, bool)> {
     let cases = plan::expand_cases(plan);
+    let key = crate::store::RunKey {
+        plan_id: plan.id.clone(),
+        plan_hash: crate::shard::record::plan_hash(inputs),
+        tool: crate::shard::write::tool(),
+        backend: backend.id().to_string(),
+        case_count: cases.len(),
+    };
+    let (store, done) = match args.resume {
+        None => crate::store::Store::create(dir, &key).map(|s| (s, Default::default())),
+        Some(_) => crate::store::Store::resume(dir, &key),
+    }
+    .map_err(|e| (e.into(), false))?;
+    let (positions, todo): (Vec<usize>, Vec<_>) = cases
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !done.contains(i))
+        .map(|(i, c)| (i, c.clone()))
+        .unzip();
     let bar = case_bar(cases.len(), args.quiet);
     bar.set_message(plan.id.clone());
+    // The rate and ETA count from here: the stored cases took no time now.
+    bar.set_position(done.len() as u64);
+    bar.reset_eta();
     let on_event = |ev: RunEvent<'_>| {
         if let RunEvent::CaseFinished { .. } = ev {
             bar.inc(1);
         }
     };
+    let options = runner::RunOptions {
+        threads: args.threads,
+        sample_frames: true,
+    };
     let t = crate::timings::span("run cases");
-    let mut results = runner::run(plan, &cases, backend, args.threads, &on_event)
-        .with_context(|| format!("run of plan `{}` failed", plan.id))?;
-    drop(t);
-    let t = crate::timings::span("render sample frames");
-    runner::render_sample_frames(plan, &mut results, backend)
-        .with_context(|| format!("cannot render the sample frames of plan `{}`", plan.id))?;
+    let mut sink = Storing {
+        stored: !done.is_empty(),
+        store,
+        positions,
+    };
+    let ran = runner::run_streaming(plan, &todo, backend, options, &on_event, &mut sink);
     drop(t);
     bar.finish_and_clear();
-    Ok(results)
+    let Storing { store, stored, .. } = sink;
+    if let Err(e) = ran {
+        let e = Err::<(), _>(e)
+            .with_context(|| format!("run of plan `{}` failed", plan.id))
+            .unwrap_err();
+        return Err(match store.close() {
+            Ok(()) => (e, stored),
+            Err(_) => (e, false),
+        });
+    }
+    let path = store.finish().map_err(|e| (e.into(), false))?;
+    let _t = crate::timings::span("read cases back");
+    crate::store::read_cases(&path).map_err(|e| (e.into(), false))
+}
+
+/// The run's sink: each case into the store, under its position in the plan.
+struct Storing {
+    store: crate::store::Store,
+    /// Plan position of each case run, by its position in the run.
+    positions: Vec<usize>,
+    /// Whether the store holds a case.
+    stored: bool,
+}
+
+impl runner::CaseSink for Storing {
+    type Error = Failure;
+
+    fn put(&mut self, position: usize, result: CaseResult) -> Result<(), Failure> {
+        self.store.put(self.positions[position], result)?;
+        self.stored = true;
+        Ok(())
+    }
+
+    fn idle(&mut self) -> Result<(), Failure> {
+        Ok(self.store.flush()?)
+    }
 }
 
 fn print_summary(model: &crate::model::Results, out: &Path) -> Result<(), Failure> {
@@ -265,9 +375,11 @@ fn case_bar(cases: usize, quiet: bool) -> ProgressBar {
         ProgressBar::hidden()
     };
     bar.set_style(
-        ProgressStyle::with_template("{spinner} {msg:>10} [{bar:30}] {pos}/{len} cases, {elapsed}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
+        ProgressStyle::with_template(
+            "{spinner} {msg:>10} [{bar:30}] {pos}/{len} cases, {elapsed}, {per_sec}, {eta} left",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> "),
     );
     bar
 }

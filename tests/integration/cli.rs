@@ -592,7 +592,7 @@ fn report_stage(timings: &str) -> (f64, f64) {
     let before = [
         "load and validate plan",
         "run cases",
-        "render sample frames",
+        "read cases back",
         "report model (analyses)",
     ];
     (before.iter().map(|n| span(n)).sum(), span("write report"))

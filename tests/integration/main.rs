@@ -27,6 +27,7 @@ mod saturation;
 mod shard;
 mod shard_input;
 mod signoff;
+mod store;
 mod time_base;
 mod timing;
 mod verdicts;

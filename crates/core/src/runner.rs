@@ -84,7 +84,8 @@ pub enum RunError {
 }
 
 /// Runs `cases` of `plan` on `backend`, with `threads` workers (default:
-/// rayon's, one per core). `on_event` is called from worker threads.
+/// rayon's, one per core), and returns their results in case order.
+/// `on_event` is called from worker threads.
 pub fn run(
     plan: &Plan,
     cases: &[TestCase],
@@ -92,37 +93,148 @@ pub fn run(
     threads: Option<usize>,
     on_event: &(dyn Fn(RunEvent<'_>) + Sync),
 ) -> Result<Vec<CaseResult>, RunError> {
-    on_event(RunEvent::Started { total: cases.len() });
-    let work = || -> Result<Vec<CaseResult>, RunError> {
-        cases
-            .par_iter()
-            .map(|case| {
-                // Stop between cases once Ctrl-C or SIGTERM arrived; a
-                // case that fails because its rig was killed for the same
-                // reason is reported as the interruption.
-                crate::interrupt::check()?;
-                let result = run_case(plan, case, backend).map_err(|e| {
-                    crate::interrupt::check().map_or_else(RunError::Interrupted, |()| e)
-                })?;
-                on_event(RunEvent::CaseFinished {
-                    case,
-                    verdict: result.verdict,
-                });
-                Ok(result)
-            })
-            .collect()
+    let options = RunOptions {
+        threads,
+        sample_frames: false,
     };
-    match threads {
-        None => work(),
-        Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build()
-            .map_err(|e| RunError::Threads {
-                threads: n,
-                message: e.to_string(),
-            })?
-            .install(work),
+    let mut results = InOrder(vec![None; cases.len()]);
+    run_streaming(plan, cases, backend, options, on_event, &mut results)?;
+    Ok(results.0.into_iter().flatten().collect())
+}
+
+/// A sink that keeps every case, in case order.
+struct InOrder(Vec<Option<CaseResult>>);
+
+impl CaseSink for InOrder {
+    type Error = RunError;
+
+    fn put(&mut self, position: usize, result: CaseResult) -> Result<(), RunError> {
+        self.0[position] = Some(result);
+        Ok(())
     }
+}
+
+/// How [`run_streaming`] runs.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RunOptions {
+    /// Worker threads (default: rayon's, one per core).
+    pub threads: Option<usize>,
+    /// Render each case's sample frame in its worker ([`render_sample_frame`]).
+    pub sample_frames: bool,
+}
+
+/// Where [`run_streaming`] hands finished cases, on the calling thread.
+pub trait CaseSink {
+    /// The sink's error; a run error becomes one.
+    type Error: From<RunError>;
+    /// Takes the case at `position` of the run's cases.
+    fn put(&mut self, position: usize, result: CaseResult) -> Result<(), Self::Error>;
+    /// No case has finished for [`IDLE`]: a moment to flush.
+    fn idle(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+/// How long the sink waits for a case before [`CaseSink::idle`].
+pub const IDLE: std::time::Duration = std::time::Duration::from_millis(250);
+
+/// Cases finished but not yet taken by the sink, per worker: enough that a
+/// worker rarely waits, few enough that memory does not grow with the run.
+const QUEUE_PER_WORKER: usize = 2;
+
+/// Runs `cases` and hands each finished case, with its position in
+/// `cases`, to `sink` on the calling thread as soon as it finishes (in any
+/// order). Workers wait when the sink falls behind by a few cases (a
+/// bounded channel), so a run holds a few cases in memory whatever its
+/// size. The first error (a case's, or the sink's) stops the run.
+pub fn run_streaming<S: CaseSink>(
+    plan: &Plan,
+    cases: &[TestCase],
+    backend: &dyn Backend,
+    options: RunOptions,
+    on_event: &(dyn Fn(RunEvent<'_>) + Sync),
+    sink: &mut S,
+) -> Result<(), S::Error> {
+    use std::sync::mpsc::RecvTimeoutError;
+    on_event(RunEvent::Started { total: cases.len() });
+    let pool = match options.threads {
+        None => None,
+        Some(n) => Some(
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| RunError::Threads {
+                    threads: n,
+                    message: e.to_string(),
+                })?,
+        ),
+    };
+    let workers = pool
+        .as_ref()
+        .map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
+    let (tx, rx) = std::sync::mpsc::sync_channel(QUEUE_PER_WORKER * workers.max(1));
+    std::thread::scope(|scope| {
+        let work = scope.spawn(move || {
+            let work = || {
+                cases
+                    .par_iter()
+                    .enumerate()
+                    .try_for_each_with(tx, |tx, (i, case)| {
+                        let result = finish_case(plan, case, backend, options.sample_frames)
+                            .map_err(Some)?;
+                        on_event(RunEvent::CaseFinished {
+                            case,
+                            verdict: result.verdict,
+                        });
+                        // A closed channel means the sink failed: stop quietly,
+                        // the sink's error is the one reported.
+                        tx.send((i, result)).map_err(|_| None::<RunError>)
+                    })
+            };
+            match &pool {
+                None => work(),
+                Some(p) => p.install(work),
+            }
+        });
+        let failed = loop {
+            let taken = match rx.recv_timeout(IDLE) {
+                Ok((i, result)) => sink.put(i, result),
+                Err(RecvTimeoutError::Timeout) => sink.idle(),
+                Err(RecvTimeoutError::Disconnected) => break None,
+            };
+            if let Err(e) = taken {
+                break Some(e);
+            }
+        };
+        // Dropping the receiver makes every worker's next send fail.
+        drop(rx);
+        let worked = work.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
+        match (failed, worked) {
+            (Some(e), _) => Err(e),
+            (None, Err(Some(e))) => Err(e.into()),
+            (None, _) => Ok(()),
+        }
+    })
+}
+
+/// One case in its worker: acquired, evaluated and, when asked, its sample
+/// frame rendered. Stops between cases once Ctrl-C or SIGTERM arrived; a
+/// case that fails because its rig was killed for the same reason is
+/// reported as the interruption.
+fn finish_case(
+    plan: &Plan,
+    case: &TestCase,
+    backend: &dyn Backend,
+    sample_frame: bool,
+) -> Result<CaseResult, RunError> {
+    crate::interrupt::check()?;
+    let as_interrupted =
+        |e: RunError| crate::interrupt::check().map_or_else(RunError::Interrupted, |()| e);
+    let mut result = run_case(plan, case, backend).map_err(as_interrupted)?;
+    if sample_frame {
+        render_sample_frame(plan, &mut result, backend).map_err(as_interrupted)?;
+    }
+    Ok(result)
 }
 
 /// Acquires and evaluates one case.
@@ -247,13 +359,22 @@ pub fn render_sample_frames(
 ) -> Result<(), RunError> {
     results.par_iter_mut().try_for_each(|r| {
         crate::interrupt::check()?;
-        if let Some(frame) = darkest_pwm_frame(plan, r)
-            && let Some(rendered) = backend.render_frame(&r.case, frame)
-        {
-            r.sample_frame = Some(rendered?);
-        }
-        Ok(())
+        render_sample_frame(plan, r, backend)
     })
+}
+
+/// Renders one case's darkest PWM frame into its result, where the backend can.
+pub fn render_sample_frame(
+    plan: &Plan,
+    result: &mut CaseResult,
+    backend: &dyn Backend,
+) -> Result<(), RunError> {
+    if let Some(frame) = darkest_pwm_frame(plan, result)
+        && let Some(rendered) = backend.render_frame(&result.case, frame)
+    {
+        result.sample_frame = Some(rendered?);
+    }
+    Ok(())
 }
 
 #[cfg(test)]

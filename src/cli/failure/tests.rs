@@ -322,6 +322,23 @@ fn output_failures() -> Vec<(Failure, i32)> {
 fn tool_failures() -> Vec<(Failure, i32)> {
     vec![
         (WriteError::Encode("cbor".into()).into(), 3),
+        (
+            crate::store::StoreError::Mismatch {
+                path: path(),
+                message: "its plan_hash is `a`".into(),
+            }
+            .into(),
+            2,
+        ),
+        (
+            crate::store::StoreError::Record {
+                path: path(),
+                idx: 3,
+                message: "cannot decode".into(),
+            }
+            .into(),
+            3,
+        ),
         (WriteError::Manifest(json_error()).into(), 3),
         (
             WriteError::Io {
@@ -453,6 +470,7 @@ const VARIANTS: &[&str] = &[
     "Signoff",
     "Pipeline",
     "ShardWrite",
+    "Store",
     "Profile",
     "Chart",
     "Json",
@@ -478,6 +496,7 @@ fn variant(f: &Failure) -> &'static str {
         Failure::Signoff(_) => "Signoff",
         Failure::Pipeline(_) => "Pipeline",
         Failure::ShardWrite(_) => "ShardWrite",
+        Failure::Store(_) => "Store",
         Failure::Profile(_) => "Profile",
         Failure::Chart(_) => "Chart",
         Failure::Json(_) => "Json",

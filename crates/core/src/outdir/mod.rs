@@ -45,6 +45,7 @@ pub const REPORT_ENTRIES: &[&str] = &[
     "report.pdf",
     "junit.xml",
     "summary.csv",
+    "cases.sqlite",
 ];
 
 /// A file in a report directory that marks it as signed (the CMS signature
@@ -324,6 +325,62 @@ impl Generation {
     /// Checks `out` and starts a new generation beside it (see the module
     /// documentation). The signed-report rule is checked by the caller.
     pub fn begin(out: &Path) -> Result<Generation, OutDirError> {
+        Generation::begin_with(out, false)
+    }
+
+    /// Starts a generation from the staging directory that an interrupted
+    /// or killed run of `out` left beside it with the file `keep` in it
+    /// (the newest, when there are several); everything else in that
+    /// directory is removed. Refused when there is none.
+    pub fn resume(out: &Path, keep: &[&str]) -> Result<Generation, OutDirError> {
+        let (parent, name) = split(out)?;
+        let prefix = format!("{}new-", temp_prefix(&name));
+        let mut left: Vec<(std::time::SystemTime, PathBuf)> = std::fs::read_dir(&parent)
+            .map(|entries| {
+                entries
+                    .flatten()
+                    .filter(|e| {
+                        let file = e.file_name().to_string_lossy().into_owned();
+                        file.strip_prefix(&prefix)
+                            .and_then(|pid| pid.parse::<u32>().ok())
+                            .is_some_and(|pid| !crate::util::alive(pid))
+                    })
+                    .filter(|e| keep.first().is_some_and(|k| e.path().join(k).is_file()))
+                    .filter_map(|e| Some((e.metadata().ok()?.modified().ok()?, e.path())))
+                    .collect()
+            })
+            .unwrap_or_default();
+        left.sort();
+        let Some((_, from)) = left.pop() else {
+            return Err(OutDirError::Refused {
+                dir: out.to_path_buf(),
+                message: "has no interrupted run beside it to resume (no staging directory with a partial case store)".to_string(),
+                hint: "run the plan without --resume".to_string(),
+            });
+        };
+        let staging = parent.join(format!("{prefix}{}", std::process::id()));
+        std::fs::rename(&from, &staging).map_err(|e| io_err(out, "take over", &from, e))?;
+        for e in std::fs::read_dir(&staging)
+            .map_err(|e| io_err(out, "list", &staging, e))?
+            .flatten()
+        {
+            if !keep.contains(&e.file_name().to_string_lossy().as_ref()) {
+                remove_tree(&e.path()).map_err(|err| io_err(out, "remove", &e.path(), err))?;
+            }
+        }
+        Generation::begin_with(out, true)
+    }
+
+    /// Leaves the staging directory in place for a later
+    /// [`Generation::resume`] (the run was interrupted); returns it.
+    pub fn keep_for_resume(mut self) -> PathBuf {
+        self.committed = true;
+        self.staging.clone()
+    }
+
+    /// [`Generation::begin`], or with the staging directory already made
+    /// (`staged`, by [`Generation::resume`]).
+    fn begin_with(out: &Path, staged: bool) -> Result<Generation, OutDirError> {
         let (parent, name) = split(out)?;
         std::fs::create_dir_all(&parent).map_err(|e| OutDirError::Refused {
             dir: out.to_path_buf(),
@@ -340,14 +397,18 @@ impl Generation {
             });
         }
         let staging = parent.join(format!("{}new-{}", temp_prefix(&name), std::process::id()));
-        if staging.exists() {
-            std::fs::remove_dir_all(&staging).map_err(|e| io_err(out, "remove", &staging, e))?;
+        // A staging directory taken over by `resume` is kept as it is.
+        if !staged {
+            if staging.exists() {
+                std::fs::remove_dir_all(&staging)
+                    .map_err(|e| io_err(out, "remove", &staging, e))?;
+            }
+            std::fs::create_dir(&staging).map_err(|e| OutDirError::Refused {
+                dir: out.to_path_buf(),
+                message: format!("cannot create `{}` next to it: {e}", staging.display()),
+                hint: "choose an --out directory in a writable place".to_string(),
+            })?;
         }
-        std::fs::create_dir(&staging).map_err(|e| OutDirError::Refused {
-            dir: out.to_path_buf(),
-            message: format!("cannot create `{}` next to it: {e}", staging.display()),
-            hint: "choose an --out directory in a writable place".to_string(),
-        })?;
         let mut generation = Generation {
             out: out.to_path_buf(),
             staging,

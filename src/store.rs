@@ -1,0 +1,483 @@
+//! The case store: every finished case goes to an SQLite file as soon as
+//! it finishes, so a run holds a few cases in memory, a killed run can be
+//! resumed, and the report directory keeps its cases in a form a database
+//! reads (docs/store.md).
+//!
+//! ```text
+//! Store::create ──▶ put (each case, any order) ──▶ finish ──▶ cases.sqlite
+//!   (cases.partial.sqlite, status "running")        (status "complete",
+//!                                                    rebuilt in case order)
+//! ```
+//!
+//! While a run works, its store is `cases.partial.sqlite` in the report's
+//! staging directory: a name no reader takes for finished results. Cases
+//! are committed in small transactions, so a run killed at any instant
+//! leaves every case committed before it whole. [`Store::finish`] writes
+//! `cases.sqlite` afresh in case order (`VACUUM INTO`), so that the file's
+//! bytes depend on the cases only, not on the order they finished in.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use rusqlite::{Connection, OptionalExtension, params};
+
+use crate::runner::CaseResult;
+use crate::shard::record::ShardCase;
+
+/// Schema of the store, in its `run` table under `schema`.
+pub const SCHEMA: &str = "ledflicker.store/1";
+/// The finished store's file name in a report directory.
+pub const FILE: &str = "cases.sqlite";
+/// The store's file name while its run works.
+pub const PARTIAL: &str = "cases.partial.sqlite";
+/// SQLite's write-ahead log of [`PARTIAL`].
+pub const PARTIAL_WAL: &str = "cases.partial.sqlite-wal";
+/// SQLite's shared-memory index of [`PARTIAL`].
+pub const PARTIAL_SHM: &str = "cases.partial.sqlite-shm";
+
+/// Cases written in one transaction at most; a transaction also ends after
+/// [`COMMIT_EVERY`], and when the run is idle ([`Store::flush`]), so that a
+/// killed run loses little.
+const BATCH: usize = 64;
+/// Longest time a finished case waits uncommitted.
+const COMMIT_EVERY: Duration = Duration::from_millis(500);
+
+const CREATE: &str = "
+CREATE TABLE run (
+    key   TEXT PRIMARY KEY,
+    value TEXT NOT NULL
+);
+CREATE TABLE cases (
+    idx          INTEGER PRIMARY KEY,
+    id           TEXT NOT NULL UNIQUE,
+    light_lux    REAL NOT NULL,
+    frequency_hz REAL NOT NULL,
+    duty         REAL NOT NULL,
+    verdict      TEXT NOT NULL,
+    result       BLOB NOT NULL
+);
+CREATE TABLE roi_metrics (
+    idx    INTEGER NOT NULL REFERENCES cases(idx),
+    roi    TEXT NOT NULL,
+    metric TEXT NOT NULL,
+    value  REAL,
+    PRIMARY KEY (idx, roi, metric)
+) WITHOUT ROWID;
+";
+
+/// What identifies a run: a store is resumed only by a run of the same
+/// plan, inputs, tool and backend.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RunKey {
+    /// Plan id.
+    pub plan_id: String,
+    /// Hash of the plan and every input it names
+    /// ([`crate::shard::record::plan_hash`]).
+    pub plan_hash: String,
+    /// `ledflicker <version>`.
+    pub tool: String,
+    /// Backend id.
+    pub backend: String,
+    /// Cases in the plan.
+    pub case_count: usize,
+}
+
+impl RunKey {
+    fn rows(&self) -> [(&'static str, String); 6] {
+        [
+            ("schema", SCHEMA.to_string()),
+            ("plan_id", self.plan_id.clone()),
+            ("plan_hash", self.plan_hash.clone()),
+            ("tool", self.tool.clone()),
+            ("backend", self.backend.clone()),
+            ("case_count", self.case_count.to_string()),
+        ]
+    }
+}
+
+/// Why the store failed.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    /// SQLite failed on the file.
+    #[error("case store `{}`", path.display())]
+    Sqlite {
+        /// The store file.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: rusqlite::Error,
+    },
+    /// A case could not be encoded or decoded.
+    #[error("case store `{}`: case {idx}: {message}", path.display())]
+    Record {
+        /// The store file.
+        path: PathBuf,
+        /// The case's index.
+        idx: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// The store belongs to another run, or is not a store at all.
+    #[error("case store `{}` cannot be resumed: {message}", path.display())]
+    Mismatch {
+        /// The store file.
+        path: PathBuf,
+        /// What differs.
+        message: String,
+    },
+    /// The finished store could not replace the partial one.
+    #[error("case store `{}`", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// A store being written.
+pub struct Store {
+    conn: Connection,
+    path: PathBuf,
+    /// Cases written in the open transaction.
+    pending: usize,
+    /// When the open transaction began.
+    opened: Instant,
+}
+
+impl Store {
+    /// Creates the partial store of a new run in `dir`.
+    pub fn create(dir: &Path, key: &RunKey) -> Result<Store, StoreError> {
+        let path = dir.join(PARTIAL);
+        remove_partial(&path)?;
+        let conn = Connection::open(&path).map_err(sqlite(&path))?;
+        let store = Store::tuned(conn, path)?;
+        let sql = |e| sqlite(&store.path)(e);
+        store.conn.execute_batch(CREATE).map_err(sql)?;
+        for (k, v) in key
+            .rows()
+            .iter()
+            .chain([&("status", "running".to_string())])
+        {
+            store
+                .conn
+                .execute(
+                    "INSERT INTO run (key, value) VALUES (?1, ?2)",
+                    params![k, v],
+                )
+                .map_err(sql)?;
+        }
+        Ok(store)
+    }
+
+    /// Opens the partial store an interrupted run left in `dir`, once it
+    /// was made by a run of `key`; returns it with the positions of the
+    /// cases it holds.
+    pub fn resume(dir: &Path, key: &RunKey) -> Result<(Store, BTreeSet<usize>), StoreError> {
+        let path = dir.join(PARTIAL);
+        if !path.is_file() {
+            return Err(StoreError::Mismatch {
+                path,
+                message:
+                    "there is no partial case store (the run finished, or never stored a case)"
+                        .to_string(),
+            });
+        }
+        let conn = Connection::open(&path).map_err(sqlite(&path))?;
+        let store = Store::tuned(conn, path)?;
+        let stored = store.run_rows()?;
+        for (k, want) in key.rows() {
+            let have = stored
+                .iter()
+                .find(|(key, _)| key == k)
+                .map(|(_, v)| v.as_str());
+            if have != Some(want.as_str()) {
+                return Err(StoreError::Mismatch {
+                    path: store.path.clone(),
+                    message: format!(
+                        "its {k} is {}, this run's is `{want}`",
+                        have.map_or("missing".to_string(), |h| format!("`{h}`"))
+                    ),
+                });
+            }
+        }
+        let done = store.positions()?;
+        Ok((store, done))
+    }
+
+    fn tuned(conn: Connection, path: PathBuf) -> Result<Store, StoreError> {
+        // WAL: a commit is one append; NORMAL: a killed process loses no
+        // committed case (only a machine crash could), and commits do not
+        // wait for the disk.
+        conn.execute_batch("PRAGMA journal_mode = WAL; PRAGMA synchronous = NORMAL;")
+            .map_err(sqlite(&path))?;
+        Ok(Store {
+            conn,
+            path,
+            pending: 0,
+            opened: Instant::now(),
+        })
+    }
+
+    fn run_rows(&self) -> Result<Vec<(String, String)>, StoreError> {
+        let sql = sqlite(&self.path);
+        let mut q = self
+            .conn
+            .prepare("SELECT key, value FROM run")
+            .map_err(|e| StoreError::Mismatch {
+                path: self.path.clone(),
+                message: format!("it is not a ledflicker case store ({e})"),
+            })?;
+        let rows = q
+            .query_map([], |r| Ok((r.get(0)?, r.get(1)?)))
+            .map_err(&sql)?;
+        rows.collect::<Result<_, _>>().map_err(sql)
+    }
+
+    /// Positions of the cases stored.
+    fn positions(&self) -> Result<BTreeSet<usize>, StoreError> {
+        let sql = sqlite(&self.path);
+        let mut q = self.conn.prepare("SELECT idx FROM cases").map_err(&sql)?;
+        let rows = q.query_map([], |r| r.get::<_, i64>(0)).map_err(&sql)?;
+        rows.map(|r| r.map(|i| i as usize))
+            .collect::<Result<_, _>>()
+            .map_err(sql)
+    }
+
+    /// Stores the case at position `idx` of the run.
+    pub fn put(&mut self, idx: usize, result: CaseResult) -> Result<(), StoreError> {
+        let record = encode(&self.path, idx, result)?;
+        let sql = sqlite(&self.path);
+        if self.pending == 0 {
+            self.conn.execute_batch("BEGIN").map_err(&sql)?;
+            self.opened = Instant::now();
+        }
+        let c = &record.result.case;
+        self.conn
+            .execute(
+                "INSERT INTO cases (idx, id, light_lux, frequency_hz, duty, verdict, result) \
+                 VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+                params![
+                    idx as i64,
+                    c.id,
+                    c.light_lux,
+                    c.frequency_hz,
+                    c.duty,
+                    record.result.verdict.as_str(),
+                    record.bytes
+                ],
+            )
+            .map_err(&sql)?;
+        let mut m = self
+            .conn
+            .prepare_cached(
+                "INSERT INTO roi_metrics (idx, roi, metric, value) VALUES (?1, ?2, ?3, ?4)",
+            )
+            .map_err(&sql)?;
+        for (roi, metric, value) in &record.metrics {
+            m.execute(params![idx as i64, roi, metric, value])
+                .map_err(&sql)?;
+        }
+        drop(m);
+        drop(sql);
+        self.pending += 1;
+        if self.pending >= BATCH || self.opened.elapsed() >= COMMIT_EVERY {
+            self.commit()?;
+        }
+        Ok(())
+    }
+
+    /// Commits the cases written since the last commit: called when no case
+    /// has finished for a moment, so that a run killed during a long case
+    /// keeps every case before it.
+    pub fn flush(&mut self) -> Result<(), StoreError> {
+        self.commit()
+    }
+
+    fn commit(&mut self) -> Result<(), StoreError> {
+        if self.pending > 0 {
+            self.conn
+                .execute_batch("COMMIT")
+                .map_err(sqlite(&self.path))?;
+            self.pending = 0;
+        }
+        Ok(())
+    }
+
+    /// Commits what is pending: after an interruption, so that a resumed
+    /// run finds every case that finished.
+    pub fn close(mut self) -> Result<(), StoreError> {
+        self.commit()
+    }
+
+    /// Marks the run complete and writes the finished store, in case
+    /// order, as [`FILE`] beside the partial one, which is removed.
+    /// Returns the finished store's path.
+    pub fn finish(mut self) -> Result<PathBuf, StoreError> {
+        self.commit()?;
+        let sql = sqlite(&self.path);
+        self.conn
+            .execute("UPDATE run SET value = 'complete' WHERE key = 'status'", [])
+            .map_err(&sql)?;
+        let dir = self.path.parent().unwrap_or(Path::new("."));
+        let done = dir.join(FILE);
+        remove_file(&done)?;
+        self.conn
+            .execute("VACUUM INTO ?1", params![done.to_string_lossy()])
+            .map_err(&sql)?;
+        let partial = self.path.clone();
+        drop(self.conn);
+        remove_partial(&partial)?;
+        Ok(done)
+    }
+}
+
+/// Writes the finished store of `results` (in case order) into `dir`, as a
+/// run would have: `merge` writes the store of the shards' cases so.
+pub fn write_all(dir: &Path, key: &RunKey, results: &[CaseResult]) -> Result<PathBuf, StoreError> {
+    let mut store = Store::create(dir, key)?;
+    for (i, r) in results.iter().enumerate() {
+        store.put(i, r.clone())?;
+    }
+    store.finish()
+}
+
+/// A case ready to insert.
+struct Encoded {
+    result: CaseResult,
+    bytes: Vec<u8>,
+    metrics: Vec<(String, String, Option<f64>)>,
+}
+
+fn encode(path: &Path, idx: usize, mut result: CaseResult) -> Result<Encoded, StoreError> {
+    let capture_signal = result
+        .acquisition
+        .capture
+        .as_mut()
+        .map(|s| std::mem::take(&mut s.segments.signal))
+        .unwrap_or_default();
+    let metrics = roi_metrics(&result);
+    let record = ShardCase {
+        result,
+        capture_signal,
+    };
+    let mut bytes = Vec::new();
+    ciborium::into_writer(&record, &mut bytes).map_err(|e| StoreError::Record {
+        path: path.to_path_buf(),
+        idx,
+        message: format!("cannot encode: {e}"),
+    })?;
+    Ok(Encoded {
+        result: record.result,
+        bytes,
+        metrics,
+    })
+}
+
+/// The `roi_metrics` rows of a case: each ROI's metrics by their
+/// results.json names; an undefined metric is NULL.
+fn roi_metrics(result: &CaseResult) -> Vec<(String, String, Option<f64>)> {
+    let mut rows = Vec::new();
+    for (i, (trace, m)) in result
+        .acquisition
+        .rois
+        .iter()
+        .zip(&result.metrics)
+        .enumerate()
+    {
+        let mut named = vec![
+            ("fdi_2018", Some(&m.fdi_2018)),
+            ("percent_flicker", Some(&m.percent_flicker)),
+            ("fdi_2018_worst_phase", m.fdi_2018_worst_phase.as_ref()),
+            (
+                "percent_flicker_worst_phase",
+                m.percent_flicker_worst_phase.as_ref(),
+            ),
+        ];
+        if let Some(p) = result.p2020.get(i) {
+            named.extend([
+                ("fmi", Some(&p.fmi)),
+                ("fdi_p2020", Some(&p.fdi)),
+                ("mmp", Some(&p.mmp)),
+            ]);
+        }
+        for (name, metric) in named {
+            if let Some(metric) = metric {
+                rows.push((trace.name.clone(), name.to_string(), metric.value));
+            }
+        }
+    }
+    rows
+}
+
+/// Every case of the finished store at `path`, in case order.
+pub fn read_cases(path: &Path) -> Result<Vec<CaseResult>, StoreError> {
+    let conn = Connection::open_with_flags(path, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
+        .map_err(sqlite(path))?;
+    let sql = sqlite(path);
+    let status: Option<String> = conn
+        .query_row("SELECT value FROM run WHERE key = 'status'", [], |r| {
+            r.get(0)
+        })
+        .optional()
+        .map_err(&sql)?;
+    if status.as_deref() != Some("complete") {
+        return Err(StoreError::Mismatch {
+            path: path.to_path_buf(),
+            message: "its run did not finish".to_string(),
+        });
+    }
+    let mut q = conn
+        .prepare("SELECT idx, result FROM cases ORDER BY idx")
+        .map_err(&sql)?;
+    let rows = q
+        .query_map([], |r| Ok((r.get::<_, i64>(0)?, r.get::<_, Vec<u8>>(1)?)))
+        .map_err(&sql)?;
+    let mut cases = Vec::new();
+    for row in rows {
+        let (idx, bytes) = row.map_err(&sql)?;
+        let record: ShardCase =
+            ciborium::from_reader(bytes.as_slice()).map_err(|e| StoreError::Record {
+                path: path.to_path_buf(),
+                idx: idx as usize,
+                message: format!("cannot decode: {e}"),
+            })?;
+        let mut result = record.result;
+        if let Some(s) = &mut result.acquisition.capture {
+            s.segments.signal = record.capture_signal;
+        }
+        cases.push(result);
+    }
+    Ok(cases)
+}
+
+fn sqlite(path: &Path) -> impl Fn(rusqlite::Error) -> StoreError + '_ {
+    move |source| StoreError::Sqlite {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+fn remove_file(path: &Path) -> Result<(), StoreError> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(StoreError::Io {
+            path: path.to_path_buf(),
+            source: e,
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Removes the partial store at `path` (named [`PARTIAL`]) with its WAL files.
+fn remove_partial(path: &Path) -> Result<(), StoreError> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    for name in [PARTIAL, PARTIAL_WAL, PARTIAL_SHM] {
+        remove_file(&dir.join(name))?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;

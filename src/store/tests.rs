@@ -1,0 +1,115 @@
+use super::*;
+/// Three simulated cases of the daylight plan, in case order.
+fn results() -> Vec<CaseResult> {
+    let plan = crate::plan::find_and_load("daylight").unwrap();
+    let cases = crate::plan::expand_cases(&plan);
+    let backend = crate::backend::for_plan(&plan, None).unwrap();
+    let mut results = crate::runner::run(&plan, &cases[..3], &backend, Some(1), &|_| {}).unwrap();
+    crate::runner::render_sample_frames(&plan, &mut results, &backend).unwrap();
+    assert!(results.iter().any(|r| r.sample_frame.is_some()));
+    results
+}
+
+fn key() -> RunKey {
+    RunKey {
+        plan_id: "daylight".into(),
+        plan_hash: "ab".repeat(32),
+        tool: "ledflicker 0.1.0".into(),
+        backend: "simulator".into(),
+        case_count: 3,
+    }
+}
+
+#[test]
+fn cases_come_back_exactly_and_in_case_order_whatever_order_they_were_stored_in() {
+    let results = results();
+    let mut files = Vec::new();
+    for order in [[0, 1, 2], [2, 0, 1]] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut store = Store::create(dir.path(), &key()).unwrap();
+        for i in order {
+            store.put(i, results[i].clone()).unwrap();
+        }
+        let path = store.finish().unwrap();
+        assert_eq!(path, dir.path().join(FILE));
+        for name in [PARTIAL, PARTIAL_WAL, PARTIAL_SHM] {
+            assert!(!dir.path().join(name).exists(), "{name} is removed");
+        }
+        assert_eq!(read_cases(&path).unwrap(), results);
+        files.push(std::fs::read(&path).unwrap());
+    }
+    assert!(
+        files[0] == files[1],
+        "the finished store's bytes do not depend on the order cases finished in"
+    );
+}
+
+#[test]
+fn the_store_answers_queries_on_verdicts_and_metrics() {
+    let results = results();
+    let dir = tempfile::tempdir().unwrap();
+    let mut store = Store::create(dir.path(), &key()).unwrap();
+    for (i, r) in results.iter().enumerate() {
+        store.put(i, r.clone()).unwrap();
+    }
+    let path = store.finish().unwrap();
+    let conn = Connection::open(&path).unwrap();
+    let fdi: f64 = conn
+        .query_row(
+            "SELECT value FROM roi_metrics WHERE idx = 1 AND roi = ?1 AND metric = 'fdi_2018'",
+            [&results[1].acquisition.rois[0].name],
+            |r| r.get(0),
+        )
+        .unwrap();
+    assert_eq!(Some(fdi), results[1].metrics[0].fdi_2018.value);
+    let (id, verdict): (String, String) = conn
+        .query_row("SELECT id, verdict FROM cases WHERE idx = 2", [], |r| {
+            Ok((r.get(0)?, r.get(1)?))
+        })
+        .unwrap();
+    assert_eq!(id, results[2].case.id);
+    assert_eq!(verdict, results[2].verdict.as_str());
+}
+
+#[test]
+fn a_partial_store_resumes_only_for_the_same_run_and_is_never_read_as_finished() {
+    let results = results();
+    let dir = tempfile::tempdir().unwrap();
+    let mut store = Store::create(dir.path(), &key()).unwrap();
+    store.put(2, results[2].clone()).unwrap();
+    store.put(0, results[0].clone()).unwrap();
+    store.close().unwrap();
+    let partial = dir.path().join(PARTIAL);
+    let e = read_cases(&partial).unwrap_err().to_string();
+    assert!(e.contains("did not finish"), "{e}");
+
+    let other = RunKey {
+        plan_hash: "cd".repeat(32),
+        ..key()
+    };
+    let e = Store::resume(dir.path(), &other).err().unwrap().to_string();
+    assert!(
+        e.contains("plan_hash") && e.contains(&"cd".repeat(32)),
+        "{e}"
+    );
+
+    let (mut store, done) = Store::resume(dir.path(), &key()).unwrap();
+    assert_eq!(done.into_iter().collect::<Vec<_>>(), [0, 2]);
+    store.put(1, results[1].clone()).unwrap();
+    let path = store.finish().unwrap();
+    assert_eq!(read_cases(&path).unwrap(), results);
+}
+
+#[test]
+fn resuming_without_a_partial_store_or_from_a_foreign_file_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let e = Store::resume(dir.path(), &key()).err().unwrap().to_string();
+    assert!(e.contains("no partial case store"), "{e}");
+    std::fs::write(
+        dir.path().join(PARTIAL),
+        b"not a database at all, just text",
+    )
+    .unwrap();
+    let e = Store::resume(dir.path(), &key()).err().unwrap();
+    assert!(!e.to_string().is_empty());
+}
