@@ -29,6 +29,7 @@ mod shard_input;
 mod signoff;
 mod time_base;
 mod timing;
+mod units;
 mod verdicts;
 mod visual;
 
