@@ -39,7 +39,12 @@ pub(super) fn validate(arg: &str) -> Result<i32, Failure> {
 /// plan's ROIs are checked against each capture's frame size (read from
 /// its header), and the plausibility warnings are printed to stderr.
 pub(super) fn load(arg: &str) -> Result<plan::Plan, Failure> {
+    // With the handler installed, Ctrl-C during a probe stops its ffprobe
+    // (in a process group of its own, which the terminal's signal does not
+    // reach) rather than end ledflicker and leave ffprobe behind.
+    crate::interrupt::install();
     let plan = plan::find_and_load_with(arg, &crate::capture::frame_size)?;
+    crate::interrupt::check()?;
     eprint!("{}", plan.warnings_text());
     Ok(plan)
 }

@@ -96,6 +96,22 @@ fn a_line_time_in_nanoseconds_is_an_error_whose_hint_names_the_unit() {
 }
 
 #[test]
+fn an_exposure_in_microseconds_is_an_error_whose_hint_names_the_unit() {
+    let dir = scratch("units-exposure-us");
+    let (plan, line) = daylight_with(&dir, "plan.toml", "exposure-ms", "exposure-ms = 11111");
+    let o = ledflicker_in(&["validate", plan.to_str().unwrap()], &dir);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains(&format!("line {line}, column 1: `dut.camera.exposure-ms`"))
+            && err.contains(
+                "exposure-ms is in milliseconds: 11111 reads like microseconds (11.111 ms)"
+            ),
+        "{err}"
+    );
+}
+
+#[test]
 fn a_percent_flicker_limit_given_as_a_fraction_warns() {
     let dir = scratch("units-percent");
     // [thresholds] is daylight.toml's last table: a level table follows it.

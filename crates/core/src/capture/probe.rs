@@ -67,9 +67,20 @@ struct ProbeOutput {
 /// What [`probe`] asks ffprobe for: the stream's facts and every packet's time.
 const PROBE_ENTRIES: &str = "stream=width,height,codec_name,pix_fmt,color_range,avg_frame_rate,r_frame_rate,time_base:packet=pts";
 
+/// Longest wait for [`frame_size`]'s ffprobe: reading a stream's header
+/// takes well under a second, and a video whose header does not come
+/// within this (a FIFO behind a concat list, a stalled mount) is left to
+/// the run, which waits [`STALL`] and says why, so that validation never
+/// hangs on it.
+const SIZE_STALL: std::time::Duration = std::time::Duration::from_secs(10);
+
 /// Runs ffprobe on `path` for `entries` (of the first video stream), with
-/// bounded output.
-fn run_ffprobe(path: &Path, entries: &str) -> Result<ProbeOutput, CaptureError> {
+/// bounded output, stopped after `stall` without finishing.
+fn run_ffprobe(
+    path: &Path,
+    entries: &str,
+    stall: std::time::Duration,
+) -> Result<ProbeOutput, CaptureError> {
     let mut child = Command::new("ffprobe")
         .args([
             "-v",
@@ -88,7 +99,7 @@ fn run_ffprobe(path: &Path, entries: &str) -> Result<ProbeOutput, CaptureError> 
         .process_group(0)
         .spawn()
         .map_err(|e| tool_error(path, "ffprobe", e))?;
-    let dog = Watchdog::start(child.id(), STALL);
+    let dog = Watchdog::start(child.id(), stall);
     let err_thread = drain_stderr(child.stderr.take());
     let mut stdout = Vec::new();
     let read = match child.stdout.take() {
@@ -126,7 +137,7 @@ fn run_ffprobe(path: &Path, entries: &str) -> Result<ProbeOutput, CaptureError> 
 
 /// Probes the first video stream of `path`: size, format, packet times.
 pub(super) fn probe(path: &Path) -> Result<Probe, CaptureError> {
-    let out = run_ffprobe(path, PROBE_ENTRIES)?;
+    let out = run_ffprobe(path, PROBE_ENTRIES, STALL)?;
     let text = String::from_utf8_lossy(&out.stdout);
     let get = |k: &str| {
         text.lines()
@@ -174,7 +185,7 @@ pub(super) fn probe(path: &Path) -> Result<Probe, CaptureError> {
 /// from the stream's header alone: no packet is listed or decoded. `None`
 /// when ffprobe cannot run or finds no video stream.
 pub(super) fn frame_size(path: &Path) -> Option<(u32, u32)> {
-    let out = run_ffprobe(path, "stream=width,height").ok()?;
+    let out = run_ffprobe(path, "stream=width,height", SIZE_STALL).ok()?;
     if !out.status.success() {
         return None;
     }

@@ -404,3 +404,21 @@ impl<'a> Checker<'a> {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::approx;
+
+    #[test]
+    fn approx_keeps_six_significant_digits_and_drops_trailing_zeros() {
+        assert_eq!(approx(0.014565 * 1e3), "14.565");
+        assert_eq!(approx(11.111_000_000_000_001), "11.111");
+        assert_eq!(approx(0.15 * 100.0), "15");
+        assert_eq!(approx(2000.0), "2000");
+        assert_eq!(approx(0.034_955_999_9), "0.034956");
+        assert_eq!(approx(-1.5), "-1.5");
+        // Outside the hand-written range: exponent form, as `number`.
+        assert_eq!(approx(5e-324), "5e-324");
+        assert_eq!(approx(0.0), "0");
+    }
+}
