@@ -412,7 +412,7 @@ mod tests {
     #[test]
     fn approx_keeps_six_significant_digits_and_drops_trailing_zeros() {
         assert_eq!(approx(0.014565 * 1e3), "14.565");
-        assert_eq!(approx(11.111_000_000_000_001), "11.111");
+        assert_eq!(approx(0.1 + 0.2), "0.3");
         assert_eq!(approx(0.15 * 100.0), "15");
         assert_eq!(approx(2000.0), "2000");
         assert_eq!(approx(0.034_955_999_9), "0.034956");
