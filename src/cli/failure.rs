@@ -190,9 +190,10 @@ fn io(e: &std::io::Error) -> i32 {
 /// reading it (ffmpeg) is missing or broke (3), or the user stopped it.
 fn capture(e: &CaptureError) -> i32 {
     match e {
-        CaptureError::Read { .. } | CaptureError::Frame { .. } | CaptureError::Invalid { .. } => {
-            EXIT_INVALID
-        }
+        CaptureError::Read { .. }
+        | CaptureError::Frame { .. }
+        | CaptureError::RoiOutside { .. }
+        | CaptureError::Invalid { .. } => EXIT_INVALID,
         CaptureError::Tool { .. } => EXIT_INTERNAL,
         CaptureError::Interrupted { source, .. } => source.exit_code(),
     }

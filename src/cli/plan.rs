@@ -199,7 +199,7 @@ pub(super) fn exit_code(status: Status) -> i32 {
 /// The plan and the report date, checked with `--threads`.
 fn load(args: &PlanArgs) -> Result<(Plan, String), Failure> {
     let t = crate::timings::span("load and validate plan");
-    let plan = plan::find_and_load(&args.plan)?;
+    let plan = super::validate::load(&args.plan)?;
     drop(t);
     let date = report_date(args.date.as_deref())?;
     if args.threads == Some(0) {

@@ -6,7 +6,7 @@ use super::{EXIT_PASS, Failure};
 use crate::plan;
 
 pub(super) fn validate(arg: &str) -> Result<i32, Failure> {
-    let plan = plan::find_and_load(arg)?;
+    let plan = load(arg)?;
     let cases = plan::expand_cases(&plan);
     if plan.dut.backend == plan::BackendKind::Captured {
         outln!(
@@ -33,4 +33,18 @@ pub(super) fn validate(arg: &str) -> Result<i32, Failure> {
     )?;
     outln!("{}", plan::WorkEstimate::of(&plan).summary())?;
     Ok(EXIT_PASS)
+}
+
+/// Finds and validates a plan for `validate` and `plan`: a captured
+/// plan's ROIs are checked against each capture's frame size (read from
+/// its header), and the plausibility warnings are printed to stderr.
+pub(super) fn load(arg: &str) -> Result<plan::Plan, Failure> {
+    // With the handler installed, Ctrl-C during a probe stops its ffprobe
+    // (in a process group of its own, which the terminal's signal does not
+    // reach) rather than end ledflicker and leave ffprobe behind.
+    crate::interrupt::install();
+    let plan = plan::find_and_load_with(arg, &crate::capture::frame_size)?;
+    crate::interrupt::check()?;
+    eprint!("{}", plan.warnings_text());
+    Ok(plan)
 }

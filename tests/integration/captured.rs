@@ -467,9 +467,13 @@ fn bad_captures_exit_2_naming_the_file_and_frame() {
     expect_invalid(&dir, &plan, &["f3.png", "frame 3", "corrupt"]);
     std::fs::remove_file(frames.join("f3.png")).unwrap();
 
-    // ROI outside the frame.
+    // ROI outside the frame: found by validation, at the ROI's line.
     let plan = one_case_plan(&dir, "frames", (6, 0, 4, 2), "");
-    expect_invalid(&dir, &plan, &["frame 0", "outside the 8x8 frame"]);
+    expect_invalid(
+        &dir,
+        &plan,
+        &["roi[0].x-px", "ROI `a`", "outside the 8x8 frame"],
+    );
 
     // A capture shorter than the plan's segments.
     let plan = one_case_plan(
@@ -528,7 +532,12 @@ fn bad_videos_exit_2_naming_the_file() {
     expect_invalid(
         &dir,
         &plan,
-        &["v.mp4", "frame 0", "outside the 1280x800 frame"],
+        &[
+            "v.mp4",
+            "roi[0].x-px",
+            "ROI `a`",
+            "outside the 1280x800 frame",
+        ],
     );
 }
 

@@ -30,6 +30,7 @@ mod signoff;
 mod store;
 mod time_base;
 mod timing;
+mod units;
 mod verdicts;
 mod visual;
 

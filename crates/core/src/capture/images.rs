@@ -17,10 +17,30 @@ pub(super) fn read_dir(
     rois: &[RoiRect],
     opts: &ReadOptions,
 ) -> Result<CaptureTrace, CaptureError> {
-    let entries = std::fs::read_dir(dir).map_err(|e| CaptureError::Read {
+    let files = frame_files(dir).map_err(|e| CaptureError::Read {
         path: dir.to_path_buf(),
         message: e.to_string(),
     })?;
+    if files.is_empty() {
+        return Err(CaptureError::Invalid {
+            path: dir.to_path_buf(),
+            message: "the directory holds no .png, .tif or .tiff frames".to_string(),
+            hint: "frames are read in file-name order, e.g. frame_000000.png".to_string(),
+        });
+    }
+    read_files(dir, &files, rois, opts)
+}
+
+/// The frame size (width, height) of the image `file`, from its header
+/// alone; `None` when it cannot be read (the read says why).
+pub(super) fn frame_size(file: &Path) -> Option<(u32, u32)> {
+    image_reader(file).ok()?.into_dimensions().ok()
+}
+
+/// The frame files of the directory `dir`: its `.png`, `.tif` and `.tiff`
+/// files, sorted by name.
+pub(super) fn frame_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let entries = std::fs::read_dir(dir)?;
     let mut files: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
@@ -30,14 +50,7 @@ pub(super) fn read_dir(
         })
         .collect();
     files.sort();
-    if files.is_empty() {
-        return Err(CaptureError::Invalid {
-            path: dir.to_path_buf(),
-            message: "the directory holds no .png, .tif or .tiff frames".to_string(),
-            hint: "frames are read in file-name order, e.g. frame_000000.png".to_string(),
-        });
-    }
-    read_files(dir, &files, rois, opts)
+    Ok(files)
 }
 
 /// Decoder limits: the header's size is checked before any pixel buffer

@@ -123,6 +123,31 @@ pub enum CaptureError {
         /// What is wrong.
         message: String,
     },
+    /// A ROI does not lie on the capture's frame.
+    #[error(
+        "capture `{path}`, frame {frame}: ROI `{name}` (columns {}..{}, rows {}..{}) falls outside the {width}x{height} frame\n    hint: pixels are 0-based: x-px + width-px must be at most {width} and y-px + height-px at most {height}",
+        .rect.x,
+        .rect.x as u64 + .rect.width as u64,
+        .rect.y,
+        .rect.y as u64 + .rect.height as u64
+    )]
+    RoiOutside {
+        /// Path of the capture (or of the frame's file).
+        path: PathBuf,
+        /// 0-based frame number.
+        frame: u64,
+        /// The ROI's name; `roi[i]` (its key path, 0-based) until the
+        /// reader's caller names it ([`CaptureError::with_roi_names`]).
+        name: String,
+        /// Its index in the ROIs read.
+        index: usize,
+        /// Its rectangle.
+        rect: RoiRect,
+        /// Frame width, pixels.
+        width: u32,
+        /// Frame height, pixels.
+        height: u32,
+    },
     /// The capture as a whole is unusable (no frames, unknown format, ...).
     #[error("capture `{path}`: {message}\n    hint: {hint}")]
     Invalid {
@@ -160,8 +185,36 @@ impl CaptureError {
         match self {
             CaptureError::Read { .. }
             | CaptureError::Frame { .. }
+            | CaptureError::RoiOutside { .. }
             | CaptureError::Invalid { .. } => true,
             CaptureError::Tool { .. } | CaptureError::Interrupted { .. } => false,
+        }
+    }
+}
+
+impl CaptureError {
+    /// The error with its ROI named from `names` (the plan's ROI names,
+    /// in the order of the ROIs read): readers know ROIs by index only.
+    pub fn with_roi_names(self, names: &[String]) -> CaptureError {
+        match self {
+            CaptureError::RoiOutside {
+                path,
+                frame,
+                name,
+                index,
+                rect,
+                width,
+                height,
+            } => CaptureError::RoiOutside {
+                name: names.get(index).cloned().unwrap_or(name),
+                path,
+                frame,
+                index,
+                rect,
+                width,
+                height,
+            },
+            other => other,
         }
     }
 }
@@ -260,6 +313,26 @@ pub fn source_kind(path: &Path) -> SourceKind {
     }
 }
 
+/// The frame size (width, height in pixels) of the capture at `path`,
+/// read from the first frame's header (an image, a Y4M header) or
+/// ffprobe's stream facts, without decoding a frame; `None` for a CSV
+/// trace, which has no frame, and for a capture that cannot be read now
+/// (its read at run time says why). Plan validation checks ROIs with it
+/// ([`crate::plan::FrameSize`]).
+pub fn frame_size(path: &Path) -> Option<(u32, u32)> {
+    // A FIFO or a device in a capture's place is never waited on.
+    if !std::fs::metadata(path).is_ok_and(|m| m.is_file() || m.is_dir()) {
+        return None;
+    }
+    match source_kind(path) {
+        SourceKind::ImageDir => images::frame_size(images::frame_files(path).ok()?.first()?),
+        SourceKind::Image => images::frame_size(path),
+        SourceKind::Y4m => y4m::frame_size(path),
+        SourceKind::Video => probe::frame_size(path),
+        SourceKind::Csv => None,
+    }
+}
+
 /// Reads the capture at `path` and returns the means of `rois` in every
 /// frame. `roi_names` name the columns of a CSV trace.
 pub fn read_capture(
@@ -270,12 +343,13 @@ pub fn read_capture(
 ) -> Result<CaptureTrace, CaptureError> {
     check_exists(path)?;
     let trace = match source_kind(path) {
-        SourceKind::ImageDir => images::read_dir(path, rois, opts)?,
-        SourceKind::Image => images::read_files(path, &[path.to_path_buf()], rois, opts)?,
-        SourceKind::Y4m => y4m::read(path, rois, opts)?,
-        SourceKind::Video => video::probe_and_read(path, rois, opts)?,
-        SourceKind::Csv => csv_trace::read(path, roi_names, opts)?,
-    };
+        SourceKind::ImageDir => images::read_dir(path, rois, opts),
+        SourceKind::Image => images::read_files(path, &[path.to_path_buf()], rois, opts),
+        SourceKind::Y4m => y4m::read(path, rois, opts),
+        SourceKind::Video => video::probe_and_read(path, rois, opts),
+        SourceKind::Csv => csv_trace::read(path, roi_names, opts),
+    }
+    .map_err(|e| e.with_roi_names(roi_names))?;
     finish_trace(path, trace)
 }
 
@@ -418,17 +492,14 @@ fn check_rois(
         if r.x as u64 + r.width as u64 > width as u64
             || r.y as u64 + r.height as u64 > height as u64
         {
-            return Err(CaptureError::Frame {
+            return Err(CaptureError::RoiOutside {
                 path: path.to_path_buf(),
                 frame,
-                message: format!(
-                    "ROI {} (columns {}..{}, rows {}..{}) falls outside the {width}x{height} frame",
-                    i + 1,
-                    r.x,
-                    r.x as u64 + r.width as u64,
-                    r.y,
-                    r.y as u64 + r.height as u64
-                ),
+                name: format!("roi[{i}]"),
+                index: i,
+                rect: *r,
+                width,
+                height,
             });
         }
     }

@@ -64,8 +64,23 @@ struct ProbeOutput {
     stderr: String,
 }
 
-/// Runs ffprobe on `path` with bounded output.
-fn run_ffprobe(path: &Path) -> Result<ProbeOutput, CaptureError> {
+/// What [`probe`] asks ffprobe for: the stream's facts and every packet's time.
+const PROBE_ENTRIES: &str = "stream=width,height,codec_name,pix_fmt,color_range,avg_frame_rate,r_frame_rate,time_base:packet=pts";
+
+/// Longest wait for [`frame_size`]'s ffprobe: reading a stream's header
+/// takes well under a second, and a video whose header does not come
+/// within this (a FIFO behind a concat list, a stalled mount) is left to
+/// the run, which waits [`STALL`] and says why, so that validation never
+/// hangs on it.
+const SIZE_STALL: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// Runs ffprobe on `path` for `entries` (of the first video stream), with
+/// bounded output, stopped after `stall` without finishing.
+fn run_ffprobe(
+    path: &Path,
+    entries: &str,
+    stall: std::time::Duration,
+) -> Result<ProbeOutput, CaptureError> {
     let mut child = Command::new("ffprobe")
         .args([
             "-v",
@@ -73,7 +88,7 @@ fn run_ffprobe(path: &Path) -> Result<ProbeOutput, CaptureError> {
             "-select_streams",
             "v:0",
             "-show_entries",
-            "stream=width,height,codec_name,pix_fmt,color_range,avg_frame_rate,r_frame_rate,time_base:packet=pts",
+            entries,
             "-of",
             "default=noprint_wrappers=1",
         ])
@@ -84,7 +99,7 @@ fn run_ffprobe(path: &Path) -> Result<ProbeOutput, CaptureError> {
         .process_group(0)
         .spawn()
         .map_err(|e| tool_error(path, "ffprobe", e))?;
-    let dog = Watchdog::start(child.id(), STALL);
+    let dog = Watchdog::start(child.id(), stall);
     let err_thread = drain_stderr(child.stderr.take());
     let mut stdout = Vec::new();
     let read = match child.stdout.take() {
@@ -122,7 +137,7 @@ fn run_ffprobe(path: &Path) -> Result<ProbeOutput, CaptureError> {
 
 /// Probes the first video stream of `path`: size, format, packet times.
 pub(super) fn probe(path: &Path) -> Result<Probe, CaptureError> {
-    let out = run_ffprobe(path)?;
+    let out = run_ffprobe(path, PROBE_ENTRIES, STALL)?;
     let text = String::from_utf8_lossy(&out.stdout);
     let get = |k: &str| {
         text.lines()
@@ -164,6 +179,27 @@ pub(super) fn probe(path: &Path) -> Result<Probe, CaptureError> {
             _ => None,
         },
     })
+}
+
+/// The frame size (width, height) of the first video stream of `path`,
+/// from the stream's header alone: no packet is listed or decoded. `None`
+/// when ffprobe cannot run or finds no video stream.
+pub(super) fn frame_size(path: &Path) -> Option<(u32, u32)> {
+    let out = run_ffprobe(path, "stream=width,height", SIZE_STALL).ok()?;
+    if !out.status.success() {
+        return None;
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let get = |k: &str| {
+        text.lines().find_map(|l| {
+            l.strip_prefix(k)?
+                .strip_prefix('=')?
+                .trim()
+                .parse::<u32>()
+                .ok()
+        })
+    };
+    Some((get("width")?, get("height")?))
 }
 
 /// The packets' presentation times in `text` (ffprobe's `pts=` lines, in

@@ -58,7 +58,7 @@ pub fn read_captures(
     };
     if videos == paths.len() && videos > 1 {
         let slots = rayon::current_num_threads().max(1);
-        return read_videos(paths, rois, &opts, slots);
+        return read_videos(paths, rois, &opts, slots).map_err(|e| e.with_roi_names(roi_names));
     }
     let sizes: Vec<u64> = paths
         .iter()

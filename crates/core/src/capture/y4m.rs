@@ -109,6 +109,16 @@ fn parse_header(line: &str, path: &Path) -> Result<Header, CaptureError> {
     })
 }
 
+/// The frame size (width, height) in the header line of the Y4M file
+/// `path`; `None` when it cannot be read or parsed (the read says why).
+pub(super) fn frame_size(path: &Path) -> Option<(u32, u32)> {
+    let mut r = BufReader::new(open_file(path).ok()?);
+    let mut line = Vec::new();
+    read_line_bounded(&mut r, &mut line).ok()?;
+    let hdr = parse_header(header_text(&line, path).ok()?.trim_end(), path).ok()?;
+    Some((hdr.width, hdr.height))
+}
+
 /// Longest header or FRAME line read, bytes; the parameters take a few
 /// dozen.
 const MAX_LINE: u64 = 4096;

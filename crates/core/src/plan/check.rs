@@ -3,7 +3,9 @@
 //! file, line and column, and carries on, so that the user sees all the
 //! problems of a file in one run. The generic checks (required, ranges,
 //! grids, named choices) live here; each table's own checks are in
-//! `validate/`.
+//! `validate/`. Plausibility warnings (a value that is valid but most
+//! likely in the wrong unit) go to a second list: they are printed, and
+//! never stop a run.
 
 use std::path::PathBuf;
 
@@ -34,6 +36,23 @@ pub(super) fn number(x: f64) -> String {
     }
 }
 
+/// A computed number for a message, to 6 significant digits with
+/// trailing zeros dropped (`14.565`, not `14.565000000000001`); [`number`]
+/// outside the range people write by hand.
+pub(super) fn approx(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 || !x.is_finite() || !(1e-4..1e7).contains(&a) {
+        return number(x);
+    }
+    let decimals = (5 - a.log10().floor() as i32).max(0) as usize;
+    let s = format!("{x:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
 /// Stores an optional key's checked value in `slot`: `checked` is `None`
 /// when the key is absent (`slot` keeps its default), `Some(None)` when the
 /// value was invalid (reported already; clears `ok`).
@@ -50,16 +69,23 @@ pub(super) fn keep<T>(slot: &mut T, checked: Option<Option<T>>, ok: &mut bool) {
 pub(super) struct Checker<'a> {
     index: &'a SpanIndex,
     diags: &'a mut Vec<Diagnostic>,
+    warnings: &'a mut Vec<Diagnostic>,
     /// Set while checking a file other than the plan (a camera profile).
     file: Option<PathBuf>,
 }
 
 impl<'a> Checker<'a> {
-    /// A checker of the plan file itself, located by `index`.
-    pub(super) fn new(index: &'a SpanIndex, diags: &'a mut Vec<Diagnostic>) -> Self {
+    /// A checker of the plan file itself, located by `index`; errors go
+    /// to `diags`, plausibility warnings to `warnings`.
+    pub(super) fn new(
+        index: &'a SpanIndex,
+        diags: &'a mut Vec<Diagnostic>,
+        warnings: &'a mut Vec<Diagnostic>,
+    ) -> Self {
         Checker {
             index,
             diags,
+            warnings,
             file: None,
         }
     }
@@ -70,6 +96,7 @@ impl<'a> Checker<'a> {
         Checker {
             index,
             diags: &mut *self.diags,
+            warnings: &mut *self.warnings,
             file: Some(file),
         }
     }
@@ -77,7 +104,21 @@ impl<'a> Checker<'a> {
     /// Reports `message` at `key` (or at its nearest enclosing table in the
     /// file).
     pub(super) fn error(&mut self, key: &str, message: impl Into<String>, hint: Option<&str>) {
-        // A key that is absent from the file is reported at its table.
+        let d = self.diagnostic(key, message.into(), hint);
+        self.diags.push(d);
+    }
+
+    /// Warns at `key` of a value that is valid but implausible, most
+    /// likely given in another unit: `message` names the likely unit and
+    /// `hint` the value it would be. The plan stays valid.
+    pub(super) fn warn(&mut self, key: &str, message: impl Into<String>, hint: &str) {
+        let d = self.diagnostic(key, message.into(), Some(hint));
+        self.warnings.push(d);
+    }
+
+    /// A diagnostic at `key`; a key that is absent from the file is
+    /// located at its nearest enclosing table.
+    fn diagnostic(&self, key: &str, message: String, hint: Option<&str>) -> Diagnostic {
         let location = self.index.location(key).or_else(|| {
             let mut k = key;
             while let Some(i) = k.rfind(['.', '[']) {
@@ -88,13 +129,13 @@ impl<'a> Checker<'a> {
             }
             None
         });
-        self.diags.push(Diagnostic {
+        Diagnostic {
             file: self.file.clone(),
             key: key.to_string(),
             location,
-            message: message.into(),
+            message,
             hint: hint.map(str::to_string),
-        });
+        }
     }
 
     /// Reports `message` at `key`, located at `anchor` (or its nearest
@@ -361,5 +402,23 @@ impl<'a> Checker<'a> {
                 .map(|i| start + i as f64 * step)
                 .collect(),
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::approx;
+
+    #[test]
+    fn approx_keeps_six_significant_digits_and_drops_trailing_zeros() {
+        assert_eq!(approx(0.014565 * 1e3), "14.565");
+        assert_eq!(approx(0.1 + 0.2), "0.3");
+        assert_eq!(approx(0.15 * 100.0), "15");
+        assert_eq!(approx(2000.0), "2000");
+        assert_eq!(approx(0.034_955_999_9), "0.034956");
+        assert_eq!(approx(-1.5), "-1.5");
+        // Outside the hand-written range: exponent form, as `number`.
+        assert_eq!(approx(5e-324), "5e-324");
+        assert_eq!(approx(0.0), "0");
     }
 }

@@ -75,6 +75,10 @@ pub struct Plan {
     pub capture: Option<CaptureConfig>,
     /// IEEE P2020 KPI settings (`[p2020]`).
     pub p2020: P2020Options,
+    /// Plausibility warnings, in file order: values that are valid but
+    /// most likely in another unit (docs/plan-format.md, "Plausibility
+    /// warnings"). They never stop a run; [`Plan::warnings_text`] words them.
+    pub warnings: Vec<Diagnostic>,
 }
 
 /// The light sequence of one case: steady ON (luminance matched to the PWM
@@ -485,7 +489,30 @@ impl Plan {
             self.path.display().to_string()
         }
     }
+
+    /// The plausibility warnings, one `warning: FILE: line L, column C:
+    /// `key`: message` (and its hint) each, ending with a newline; empty
+    /// when there are none. FILE is the plan, or the camera profile that
+    /// holds the key.
+    pub fn warnings_text(&self) -> String {
+        let label = self.source_label();
+        self.warnings
+            .iter()
+            .map(|d| match d.file {
+                Some(_) => format!("warning: {d}\n"),
+                None => format!("warning: {label}: {d}\n"),
+            })
+            .collect()
+    }
 }
+
+/// Reads the frame size (width, height in pixels) of the capture at a
+/// path without decoding its frames: `None` when the capture has no
+/// frames of its own (a CSV trace) or cannot be read now (the run then
+/// says why). The capture readers, a layer above the plan, provide one
+/// (`capture::frame_size`); with it, validation checks that a captured
+/// plan's ROIs lie on every capture's frame.
+pub type FrameSize<'a> = &'a dyn Fn(&Path) -> Option<(u32, u32)>;
 
 /// Where a plan comes from.
 #[derive(Debug, Clone, PartialEq)]
@@ -539,19 +566,44 @@ pub fn resolve_plan(arg: &str) -> Result<PlanSource, PlanError> {
 
 /// Finds ([`resolve_plan`]), reads and validates a plan.
 pub fn find_and_load(arg: &str) -> Result<Plan, PlanError> {
+    find_and_load_inner(arg, None)
+}
+
+/// [`find_and_load`], also checking a captured plan's ROIs against the
+/// frame size of each capture, read with `frame_size` (`validate` and
+/// `plan` do, so that a ROI off the frame fails before a run).
+pub fn find_and_load_with(arg: &str, frame_size: FrameSize<'_>) -> Result<Plan, PlanError> {
+    find_and_load_inner(arg, Some(frame_size))
+}
+
+fn find_and_load_inner(arg: &str, frame_size: Option<FrameSize<'_>>) -> Result<Plan, PlanError> {
     match resolve_plan(arg)? {
-        PlanSource::File(path) => load(&path),
-        PlanSource::BuiltIn(built_in) => load_built_in(built_in),
+        PlanSource::File(path) => load_inner(&path, frame_size),
+        PlanSource::BuiltIn(built_in) => load_built_in_inner(built_in, frame_size),
     }
 }
 
 /// Validates a plan built into the binary.
 pub fn load_built_in(built_in: &shipped::Shipped) -> Result<Plan, PlanError> {
+    load_built_in_inner(built_in, None)
+}
+
+fn load_built_in_inner(
+    built_in: &shipped::Shipped,
+    frame_size: Option<FrameSize<'_>>,
+) -> Result<Plan, PlanError> {
     let sha256 = crate::util::sha256_hex(built_in.text.as_bytes());
     // Its errors name it as built in: a capture it names "does not exist"
     // because the plan is not read from a folder that holds its files.
     let labelled = || PathBuf::from(shipped::label(built_in.path));
-    let mut plan = parse(built_in.text, Path::new(built_in.path), sha256).map_err(|e| match e {
+    let parsed = parse_inner(
+        built_in.text,
+        Path::new(built_in.path),
+        sha256,
+        true,
+        frame_size,
+    );
+    let mut plan = parsed.map_err(|e| match e {
         PlanError::Invalid { diagnostics, .. } => PlanError::Invalid {
             path: labelled(),
             diagnostics,
@@ -568,6 +620,10 @@ pub fn load_built_in(built_in: &shipped::Shipped) -> Result<Plan, PlanError> {
 
 /// Reads and validates the plan at `path`.
 pub fn load(path: &Path) -> Result<Plan, PlanError> {
+    load_inner(path, None)
+}
+
+fn load_inner(path: &Path, frame_size: Option<FrameSize<'_>>) -> Result<Plan, PlanError> {
     let bytes = crate::util::read_input(path).map_err(|source| PlanError::Read {
         path: path.to_path_buf(),
         source,
@@ -580,7 +636,7 @@ pub fn load(path: &Path) -> Result<Plan, PlanError> {
         ),
     })?;
     let sha256 = crate::util::sha256_hex(&bytes);
-    parse(&text, path, sha256)
+    parse_inner(&text, path, sha256, true, frame_size)
 }
 
 /// Parses and validates plan text; `path` is used in messages only.
@@ -596,6 +652,16 @@ pub fn parse_within(
     path: &Path,
     sha256: String,
     work_limits: bool,
+) -> Result<Plan, PlanError> {
+    parse_inner(text, path, sha256, work_limits, None)
+}
+
+fn parse_inner(
+    text: &str,
+    path: &Path,
+    sha256: String,
+    work_limits: bool,
+    frame_size: Option<FrameSize<'_>>,
 ) -> Result<Plan, PlanError> {
     let syntax = |e: toml::de::Error| PlanError::Syntax {
         path: path.to_path_buf(),
@@ -618,13 +684,23 @@ pub fn parse_within(
             key,
         })
         .collect();
-    let plan = validate::validate(raw, &index, &mut diags, path, sha256);
+    let mut warnings = Vec::new();
+    let checked = validate::Checked {
+        diags: &mut diags,
+        warnings: &mut warnings,
+        frame_size,
+    };
+    let mut plan = validate::validate(raw, &index, checked, path, sha256);
     if let Some(p) = &plan
         && diags.is_empty()
     {
         bounds::check(p, &index, &mut diags, work_limits);
     }
     diags.sort_by_key(|d| d.location.unwrap_or((usize::MAX, 0)));
+    warnings.sort_by_key(|d| d.location.unwrap_or((usize::MAX, 0)));
+    if let Some(p) = &mut plan {
+        p.warnings = warnings;
+    }
     match plan {
         Some(plan) if diags.is_empty() => Ok(plan),
         _ => Err(PlanError::Invalid {

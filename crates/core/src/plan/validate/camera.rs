@@ -4,7 +4,7 @@
 
 use super::sensor;
 use crate::plan::bounds::{FULL_SCALE_DN_RANGE, MAX_FPS, MAX_PWM_DELAY_S, MIN_FPS, RESPONSE_RANGE};
-use crate::plan::check::Checker;
+use crate::plan::check::{Checker, approx};
 use crate::plan::raw::RawCamera;
 use crate::plan::{CameraConfig, ShutterKind};
 
@@ -133,7 +133,17 @@ fn frame_timing(c: &mut Checker<'_>, cam: &RawCamera, prefix: &str) -> (Option<f
                 t * 1e3,
                 1e3 / fps
             ),
-            Some("lower exposure-ms or frame-rate-fps"),
+            // Ten times the frame time and more, yet within it read as
+            // microseconds: a unit slip, not a slightly long exposure.
+            Some(&if t > 10.0 / fps && t * 1e-3 <= 1.0 / fps {
+                format!(
+                    "exposure-ms is in milliseconds: {} reads like microseconds ({} ms)",
+                    approx(t * 1e3),
+                    approx(t)
+                )
+            } else {
+                "lower exposure-ms or frame-rate-fps".to_string()
+            }),
         );
     }
     (fps, exposure_s)
@@ -166,19 +176,65 @@ fn line_time(
     };
     if let (Some(ShutterKind::Rolling), Some(lt), Some(rows), Some(fps)) =
         (shutter, line_time_s, rows, fps)
-        && lt * rows as f64 > 1.0 / fps * (1.0 + 1e-12)
     {
-        c.error(
-            &k("line-time-us"),
-            format!(
-                "readout of {rows} rows takes {:.3} ms, longer than the frame time {:.3} ms",
-                lt * rows as f64 * 1e3,
-                1e3 / fps
-            ),
-            Some("check line-time-us and sensor-rows"),
-        );
+        readout_fits(c, &k("line-time-us"), lt, rows, fps);
     }
     line_time_s
+}
+
+/// Shortest line time taken at face value, seconds. The fastest CMOS
+/// sensors start a row every microsecond or so; below 100 ns a value is
+/// far more likely a line time in milliseconds written under `-us`
+/// (14.565 us as 0.014565).
+const MIN_PLAUSIBLE_LINE_TIME_S: f64 = 1e-7;
+
+/// The rolling readout, `rows` rows `lt` seconds apart, must fit in the
+/// frame time at `fps`: an error when it does not (with the nanosecond
+/// reading in the hint when that fits), a warning when the line time is
+/// implausibly short and its millisecond reading fits.
+fn readout_fits(c: &mut Checker<'_>, key: &str, lt: f64, rows: u32, fps: f64) {
+    let (readout, frame) = (lt * rows as f64, 1.0 / fps);
+    let us = lt * 1e6;
+    if readout > frame * (1.0 + 1e-12) {
+        // Ten times the frame time and more, yet within it read as
+        // nanoseconds: a unit slip, not a slightly long readout.
+        let hint = if readout > 10.0 * frame && readout * 1e-3 <= frame {
+            format!(
+                "line-time-us is in microseconds: {} reads like nanoseconds ({} us, a {:.3} ms readout)",
+                approx(us),
+                approx(us * 1e-3),
+                readout
+            )
+        } else {
+            "check line-time-us and sensor-rows".to_string()
+        };
+        c.error(
+            key,
+            format!(
+                "readout of {rows} rows takes {:.3} ms, longer than the frame time {:.3} ms",
+                readout * 1e3,
+                frame * 1e3
+            ),
+            Some(&hint),
+        );
+    } else if lt > 0.0 && lt < MIN_PLAUSIBLE_LINE_TIME_S && readout * 1e3 <= frame {
+        c.warn(
+            key,
+            format!(
+                "line time {} us is below 0.1 us, so the {rows} rows read out in {} us ({} % of the {:.3} ms frame): likely given in milliseconds",
+                approx(us),
+                approx(readout * 1e6),
+                approx(readout / frame * 100.0),
+                frame * 1e3
+            ),
+            &format!(
+                "line-time-us is in microseconds: {} ms is {} us (a {:.3} ms readout)",
+                approx(us),
+                approx(us * 1e3),
+                readout * 1e6
+            ),
+        );
+    }
 }
 
 /// `response-dn-per-cd-m2-s`: required by the ideal camera, refused by a

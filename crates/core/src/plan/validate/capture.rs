@@ -330,6 +330,15 @@ fn case_entry(
     let duty = raw_case
         .duty_cycle
         .and_then(|v| grid::duty(c, v, &k("duty-cycle")));
+    if let (Some(f), Some(_)) = (frequency_hz, duty) {
+        grid::warn_low_frequency(
+            c,
+            (&k("frequency-hz"), "frequency-hz"),
+            "a PWM frequency",
+            f,
+            " with a duty cycle",
+        );
+    }
     let given = [
         raw_case.light_lux.is_some(),
         raw_case.frequency_hz.is_some(),

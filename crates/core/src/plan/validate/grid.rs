@@ -2,7 +2,7 @@
 //! cycles): the axes a simulator or command plan expands into cases.
 
 use crate::plan::bounds::{MAX_FREQUENCY_HZ, MAX_LIGHT_LUX, MIN_DUTY, MIN_LIGHT_LUX};
-use crate::plan::check::Checker;
+use crate::plan::check::{Checker, approx};
 use crate::plan::raw::{RawGrid, RawLight};
 
 /// A light level in lux, in `MIN_LIGHT_LUX ..= MAX_LIGHT_LUX`.
@@ -35,6 +35,38 @@ pub(super) fn frequency_hz(
     let v = c.positive(v, key, "PWM frequency in Hz, e.g. 90.0")?;
     let hint = "at least one PWM period in [sequence] pwm-s; lamps' PWM runs below 100 kHz";
     c.within(v, key, range, " Hz", hint)
+}
+
+/// Lowest PWM frequency taken at face value, Hz. Below a few hertz a
+/// light blinks visibly rather than dims: LED PWM runs from the mains
+/// multiples (50 to 120 Hz) to tens of kHz, and a value under 5 is far more
+/// likely one in kHz (0.09 for 90 Hz, 2 for 2 kHz).
+pub(super) const MIN_PLAUSIBLE_PWM_HZ: f64 = 5.0;
+
+/// Warns at `key` of `what` (e.g. "a PWM frequency") of `v` Hz when it
+/// is below [`MIN_PLAUSIBLE_PWM_HZ`]; `name` is the key as the user
+/// writes it, `note` ends the message (what the slip leads to).
+pub(super) fn warn_low_frequency(
+    c: &mut Checker<'_>,
+    (key, name): (&str, &str),
+    what: &str,
+    v: f64,
+    note: &str,
+) {
+    if v > 0.0 && v < MIN_PLAUSIBLE_PWM_HZ {
+        c.warn(
+            key,
+            format!(
+                "{what} of {} Hz is below 5 Hz{note}: likely given in kHz",
+                approx(v)
+            ),
+            &format!(
+                "{name} is in hertz: {} kHz is {} Hz; LED PWM runs from 50 Hz to tens of kHz",
+                approx(v),
+                approx(v * 1e3)
+            ),
+        );
+    }
 }
 
 /// A duty cycle in `MIN_DUTY ..= 1`.
@@ -81,6 +113,10 @@ pub(super) fn grid_table(
     ) else {
         return (None, None);
     };
+    let list_key = match &g.frequencies_hz {
+        Some(_) => "grid.frequencies-hz",
+        None => "grid.frequency-range-hz",
+    };
     let freqs = c.grid(
         g.frequencies_hz,
         g.frequency_range_hz,
@@ -95,5 +131,22 @@ pub(super) fn grid_table(
         "grid.duty-cycle-range",
         &mut duty,
     );
+    if let Some(f) = &freqs
+        && let Some(i) = f.iter().position(|&v| v < MIN_PLAUSIBLE_PWM_HZ)
+    {
+        // One warning for the grid, at its first low value: a grid
+        // written in kHz is low throughout.
+        let low = f.iter().filter(|&&v| v < MIN_PLAUSIBLE_PWM_HZ).count();
+        let key = match list_key {
+            "grid.frequencies-hz" => format!("{list_key}[{i}]"),
+            _ => format!("{list_key}.start"),
+        };
+        let note = format!(
+            " ({low} of the grid's {} frequencies, each run at every duty cycle)",
+            f.len()
+        );
+        let name = list_key.trim_start_matches("grid.");
+        warn_low_frequency(c, (&key, name), "a PWM frequency", f[i], &note);
+    }
     (freqs, duties)
 }

@@ -13,7 +13,10 @@
 //! Every check pushes a [`Diagnostic`] into the shared collector
 //! (`plan::check::Checker`) and carries on, so the user sees all the
 //! problems of a file in one run. The tables are checked in a fixed order,
-//! which is the order of diagnostics on the same line.
+//! which is the order of diagnostics on the same line. Plausibility
+//! warnings (a valid value most likely in another unit) are pushed the same
+//! way into a list of their own, by the module of the table that holds
+//! the key.
 
 mod ae;
 mod camera;
@@ -32,21 +35,32 @@ use std::path::Path;
 use super::check::Checker;
 use super::raw::{RawCaptureTable, RawCaseEntry, RawDut, RawGrid, RawLight, RawPlan};
 use super::spans::SpanIndex;
-use super::{CaptureConfig, Diagnostic, MAX_CASES, Plan, Sequence};
+use super::{CaptureConfig, Diagnostic, FrameSize, MAX_CASES, Plan, Sequence};
 
 /// Longest capture the simulator will make for one case, in frames.
 const MAX_FRAMES: f64 = 10_000_000.0;
 
-/// Validates `raw`, pushing every problem into `diags`. Returns `None` when
-/// something required is missing or invalid.
+/// Where validation reports, and how it reads a capture's frame size.
+pub(super) struct Checked<'a> {
+    /// Errors: the plan is invalid when one is pushed.
+    pub diags: &'a mut Vec<Diagnostic>,
+    /// Plausibility warnings.
+    pub warnings: &'a mut Vec<Diagnostic>,
+    /// Reads a capture's frame size; `None`: captures are not opened.
+    pub frame_size: Option<FrameSize<'a>>,
+}
+
+/// Validates `raw`, pushing every problem into `out.diags` and every
+/// plausibility warning into `out.warnings`. Returns `None` when something
+/// required is missing or invalid.
 pub(super) fn validate(
     raw: RawPlan,
     index: &SpanIndex,
-    diags: &mut Vec<Diagnostic>,
+    out: Checked<'_>,
     path: &Path,
     sha256: String,
 ) -> Option<Plan> {
-    let mut c = Checker::new(index, diags);
+    let mut c = Checker::new(index, out.diags, out.warnings);
     meta::format_version(&mut c, raw.format_version);
     let meta = meta::plan_table(&mut c, raw.plan);
     let (on_s, off_s, pwm_s) = meta::sequence_table(&mut c, raw.sequence);
@@ -72,6 +86,11 @@ pub(super) fn validate(
     let (levels, freqs, duties) = conditions(&mut c, light, grid, role.captured, pwm_s);
     let dut = dut::dut_table(&mut c, raw.dut, role.is_sim, path);
     let rois = roi::rois(&mut c, raw.roi, dut.as_ref().map(|d| &d.camera), has_sensor);
+    if let (true, Some(read), Some(cap), Some(rois)) =
+        (role.captured, out.frame_size, &capture, &rois)
+    {
+        roi::fit_captures(&mut c, rois, &cap.cases, read);
+    }
     let scene = scene::scene_table(&mut c, raw.scene);
     let known_lux: Option<Vec<f64>> = if role.captured {
         capture
@@ -111,6 +130,7 @@ pub(super) fn validate(
         thresholds: thresholds?,
         capture,
         p2020: p2020?,
+        warnings: Vec::new(),
     })
 }
 

@@ -1,8 +1,14 @@
-//! `[[roi]]`: the regions of interest, checked against the camera's sensor.
+//! `[[roi]]`: the regions of interest, checked against the camera's sensor
+//! or, in a captured plan, against each capture's frame. Messages name a
+//! ROI by its `name`; its key path counts `[[roi]]` tables from 0
+//! (`roi[0]` is the first), as every key path of a plan does, and so does
+//! the default name (`roi0`).
+
+use std::path::Path;
 
 use crate::plan::check::Checker;
 use crate::plan::raw::RawRoi;
-use crate::plan::{CameraConfig, Roi, RoiKind};
+use crate::plan::{CameraConfig, CaptureCase, FrameSize, Roi, RoiKind};
 use crate::trace::TRACE_COLUMNS;
 
 /// Default ROI size from Deegan 2018: 100 px wide, 2 rows high (a taller ROI
@@ -146,11 +152,12 @@ fn fits_sensor(c: &mut Checker<'_>, roi: &Roi, i: usize, cam: &CameraConfig) -> 
     let k = |s: &str| format!("roi[{i}].{s}");
     let mut ok = true;
     let (x, y, w, h) = (roi.x_px, roi.y_px, roi.width_px, roi.height_px);
+    let name = &roi.name;
     if x as u64 + w as u64 > cam.sensor_columns as u64 {
         c.error(
             &k("x-px"),
             format!(
-                "ROI columns {x}..{} fall outside the sensor's {} columns",
+                "ROI `{name}` columns {x}..{} fall outside the sensor's {} columns",
                 x as u64 + w as u64,
                 cam.sensor_columns
             ),
@@ -162,7 +169,7 @@ fn fits_sensor(c: &mut Checker<'_>, roi: &Roi, i: usize, cam: &CameraConfig) -> 
         c.error(
             &k("y-px"),
             format!(
-                "ROI rows {y}..{} fall outside the sensor's {} rows",
+                "ROI `{name}` rows {y}..{} fall outside the sensor's {} rows",
                 y as u64 + h as u64,
                 cam.sensor_rows
             ),
@@ -171,4 +178,55 @@ fn fits_sensor(c: &mut Checker<'_>, roi: &Roi, i: usize, cam: &CameraConfig) -> 
         ok = false;
     }
     ok
+}
+
+/// Reports each ROI that does not lie on the frame of every capture of
+/// `cases`, whose frame sizes `read` takes from a header or a probe,
+/// never by decoding. A capture whose size cannot be read now is left to
+/// the run, which says why; each source is read once.
+pub(super) fn fit_captures(
+    c: &mut Checker<'_>,
+    rois: &[Roi],
+    cases: &[CaptureCase],
+    read: FrameSize<'_>,
+) {
+    let mut frames: Vec<(&Path, (u32, u32), &str)> = Vec::new();
+    for case in cases {
+        if frames.iter().any(|(p, ..)| *p == case.source.as_path()) {
+            continue;
+        }
+        if let Some(size) = read(&case.source) {
+            frames.push((&case.source, size, &case.id));
+        }
+    }
+    for (i, roi) in rois.iter().enumerate() {
+        let right = roi.x_px as u64 + roi.width_px as u64;
+        let bottom = roi.y_px as u64 + roi.height_px as u64;
+        let outside: Vec<_> = frames
+            .iter()
+            .filter(|(_, (w, h), _)| right > *w as u64 || bottom > *h as u64)
+            .collect();
+        let Some(&&(source, (w, h), id)) = outside.first() else {
+            continue;
+        };
+        let others = match outside.len() - 1 {
+            0 => String::new(),
+            1 => " and 1 other capture".to_string(),
+            n => format!(" and {n} other captures"),
+        };
+        let side = if right > w as u64 { "x-px" } else { "y-px" };
+        c.error(
+            &format!("roi[{i}].{side}"),
+            format!(
+                "ROI `{}` (columns {}..{right}, rows {}..{bottom}) falls outside the {w}x{h} frame of capture `{}` (case `{id}`){others}",
+                roi.name,
+                roi.x_px,
+                roi.y_px,
+                source.display(),
+            ),
+            Some(&format!(
+                "pixels are 0-based: x-px + width-px must be at most {w} and y-px + height-px at most {h}"
+            )),
+        );
+    }
 }

@@ -6,7 +6,8 @@
 //! globally and may be overridden per light level. Every problem is reported
 //! with its key, line and a hint, as for the rest of the plan.
 
-use crate::plan::check::Checker;
+use super::grid::warn_low_frequency;
+use crate::plan::check::{Checker, approx};
 use crate::plan::raw::{RawLevelThresholds, RawThresholds};
 use crate::plan::{LevelLimits, Limits, Thresholds, VerdictBasis};
 
@@ -58,10 +59,36 @@ fn limit(
     None
 }
 
+/// Warns of a Percent Flicker limit in (0, 1): the metric is in percent,
+/// and a limit under 1 % is far stricter than any in use (IEEE 1789's
+/// low-risk line is 8 % at 100 Hz), so it is most likely a fraction
+/// (0.15 for 15 %). 0 is kept silent: it asks for no flicker at all.
+fn warn_fraction_of_percent(c: &mut Checker<'_>, key: &str, v: Option<f64>) {
+    if let Some(v) = v
+        && v > 0.0
+        && v < 1.0
+    {
+        c.warn(
+            key,
+            format!(
+                "a Percent Flicker limit of {} % is below 1 %: likely given as a fraction",
+                approx(v)
+            ),
+            &format!(
+                "percent-flicker-max is in percent: the fraction {} is {} %; write {}",
+                approx(v),
+                approx(v * 100.0),
+                approx(v * 100.0)
+            ),
+        );
+    }
+}
+
 fn limits(c: &mut Checker<'_>, raw: RawLimits, prefix: &str, ok: &mut bool) -> Limits {
     let k = |name: &str| format!("{prefix}.{name}");
+    let pf_key = k("percent-flicker-max");
     let share = Some((0.0, 1.0));
-    Limits {
+    let limits = Limits {
         fdi_2018_min: limit(
             c,
             raw.fdi_2018_min,
@@ -102,7 +129,9 @@ fn limits(c: &mut Checker<'_>, raw: RawLimits, prefix: &str, ok: &mut bool) -> L
             "the share of PWM frames within the band around the reference, 0..1; e.g. 0.9",
             ok,
         ),
-    }
+    };
+    warn_fraction_of_percent(c, &pf_key, limits.percent_flicker_max);
+    limits
 }
 
 fn level(
@@ -213,7 +242,18 @@ pub(super) fn thresholds(
             "thresholds.mitigation-min-hz",
             "e.g. 90.0: cases below are informational",
         ) {
-            Some(v) => th.mitigation_min_hz = v,
+            Some(v) => {
+                th.mitigation_min_hz = v;
+                let key = "thresholds.mitigation-min-hz";
+                let note = ", so cases from there up are judged";
+                warn_low_frequency(
+                    c,
+                    (key, "mitigation-min-hz"),
+                    "the mitigation range's lower end",
+                    v,
+                    note,
+                );
+            }
             None => ok = false,
         }
     }
@@ -223,7 +263,18 @@ pub(super) fn thresholds(
             "thresholds.mitigation-max-hz",
             "omit it for no upper limit",
         ) {
-            Some(v) if v >= th.mitigation_min_hz => th.mitigation_max_hz = Some(v),
+            Some(v) if v >= th.mitigation_min_hz => {
+                th.mitigation_max_hz = Some(v);
+                let key = "thresholds.mitigation-max-hz";
+                let note = ", so every case above it is not judged";
+                warn_low_frequency(
+                    c,
+                    (key, "mitigation-max-hz"),
+                    "the mitigation range's upper end",
+                    v,
+                    note,
+                );
+            }
             Some(v) => {
                 c.error(
                     "thresholds.mitigation-max-hz",
