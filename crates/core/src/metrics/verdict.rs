@@ -209,6 +209,7 @@ fn roi_checks(
     };
     let no_off = m.levels.off.is_none();
     let mut skip = |metric: &str, why: &str| {
+        let metric = super::glossary::human_name(metric);
         not_checked.push(format!("{name}: {metric} not checked: {why}"));
     };
     if let Some(min) = lim.fdi_2018_min {
