@@ -21,12 +21,15 @@ struct Word {
 impl Word {
     /// Font size of the word, points. poppler's box of a horizontal word
     /// is exactly its font size high; a rotated one (a chart's y-axis
-    /// title) is that wide and as high as it is long. A narrow horizontal
-    /// word taken for a rotated one measures smaller than it is, so the
-    /// guess can only make the test stricter.
+    /// title: "duty", "(%)", "(DN)") is that wide and as high as it is
+    /// long, at least 1.7 times its size for 3 characters, where no
+    /// horizontal word of 3 or more characters is 1.5 times higher than
+    /// wide ("ill" is 1.2). A word taken for rotated by mistake would
+    /// measure smaller than it is, so the guess can only make the test
+    /// stricter.
     fn size(&self) -> f64 {
         let chars = self.text.chars().count();
-        if chars >= 2 && self.height > 1.2 * self.width {
+        if chars >= 3 && self.height > 1.5 * self.width {
             self.width
         } else {
             self.height
@@ -56,6 +59,8 @@ fn words(pdf: &Path) -> Vec<Word> {
             continue;
         };
         let (tag, body) = rest.split_once('>').unwrap();
+        let tag = format!(" {tag}");
+        let tag = tag.as_str();
         words.push(Word {
             page,
             width: attr(tag, "xMax") - attr(tag, "xMin"),

@@ -572,9 +572,9 @@ mod tests {
                 pt >= MIN_TEXT_PT,
                 "charts/{name}: {px} px text on {width_px} px printed at {percent} % is {pt:.2} pt"
             );
-            kinds.insert(name.split('-').next().unwrap().to_string());
+            kinds.insert(name.split(['-', '.']).next().unwrap().to_string());
         }
-        for kind in ["trace", "zoom", "matrix", "fold"] {
+        for kind in ["trace", "zoom", "matrix", "finemap", "advice"] {
             assert!(kinds.contains(kind), "no {kind} chart printed: {kinds:?}");
         }
     }
