@@ -398,9 +398,10 @@ fn draw_finemap_scale(
             plotters::style::text_anchor::HPos::Left,
             plotters::style::text_anchor::VPos::Center,
         ));
+    // Positions on the bar; Percent Flicker's are 0, 25, 50 and 100 %.
     let ticks: &[f64] = match kind {
         FineMapKind::Fdi => &[0.0, 0.25, 0.5, 0.75, 1.0],
-        FineMapKind::PercentFlicker => &[0.0, 0.5, 0.7071, 1.0],
+        FineMapKind::PercentFlicker => &[0.0, 0.5, std::f64::consts::FRAC_1_SQRT_2, 1.0],
     };
     for &p in ticks {
         let y = bottom - (h * p).round() as i32;
