@@ -43,7 +43,8 @@ pub fn y_label_area(lo: f64, hi: f64, font: u32) -> u32 {
     let decimals = if hi - lo < 100.0 { 3 } else { 0 };
     let sign = usize::from(lo < 0.0);
     let chars = digits(lo).max(digits(hi)) + decimals + sign;
-    let tick = crate::matrix::text_width(&"0".repeat(chars), px);
+    // 0.64 em a character, a little over DejaVu Sans' digit advance.
+    let tick = chars as f64 * 0.64 * px;
     (tick + 1.6 * px + 14.0).ceil() as u32
 }
 
@@ -645,6 +646,23 @@ pub(crate) fn linear_axes<'a, 'b>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_y_label_area_holds_the_widest_tick_beside_the_axis_title() {
+        let px = f64::from(FONT_FULL_WIDTH) / PLOTTERS_FONT_SCALE;
+        // A 12-bit trace: ticks up to "4000", then the rotated title (one
+        // line, `px` wide) and the gaps plotters leaves.
+        let area = f64::from(y_label_area(0.0, 4095.0, FONT_FULL_WIDTH));
+        assert!(
+            area >= crate::matrix::text_width("4000", px) + px + 10.0,
+            "{area}"
+        );
+        // More digits, or decimals for a short range, take more room.
+        let of = |lo, hi| y_label_area(lo, hi, FONT_FULL_WIDTH);
+        assert!(of(0.0, 65535.0) > of(0.0, 4095.0));
+        assert!(of(24.0, 66.0) > of(0.0, 255.0));
+        assert!(of(-20.0, 4095.0) > of(0.0, 4095.0));
+    }
 
     #[test]
     fn a_fold_with_few_phases_is_a_sentence() {
