@@ -12,7 +12,8 @@ use crate::physics::{Shutter, ShutterModel};
 pub enum DetailArg {
     /// No case pages.
     Summary,
-    /// A page for each failing or not judged case.
+    /// A page for each failing case; not judged cases are one table row
+    /// each.
     Standard,
     /// A page for every case.
     Full,

@@ -46,8 +46,9 @@ pub(super) struct PlanArgs {
     #[arg(long, short)]
     quiet: bool,
     /// How much of each case the report shows: `summary` (no case pages),
-    /// `standard` (a page for each failing or not judged case; passing
-    /// cases one line each in the appendix) or `full` (a page for every case).
+    /// `standard` (a page for each failing case; not judged cases one row
+    /// each in a table, passing cases one line each in the appendix) or
+    /// `full` (a page for every case).
     #[arg(long, value_enum, default_value_t = DetailArg::Standard)]
     detail: DetailArg,
     /// Sign the report with this private key (PKCS#8 PEM, from `ledflicker keygen`).

@@ -338,8 +338,9 @@ fn the_report_shows_detected_segments_and_the_summary_marks_them() {
         html.contains("detected from the LED-ROI luma by the plan&#x27;s sequence")
             || html.contains("detected from the LED-ROI luma by the plan's sequence")
     );
+    // The legend wraps the entry at 24 characters (its 7 pt text).
     assert!(
-        html.contains("settle 0.5 s after each step"),
+        html.contains("settle 0.5 s after each") && html.contains("step (left out)"),
         "chart legend"
     );
     let pdf = Command::new("pdftotext")

@@ -13,6 +13,7 @@ mod cli;
 mod detect;
 mod exact;
 mod features;
+mod legible;
 mod mutate;
 mod physics;
 mod plans;

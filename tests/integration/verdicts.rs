@@ -173,10 +173,10 @@ fn p2020_samples_fail_test_vid2_on_fmi_and_mmp_in_every_output() {
     // HTML and PDF show the KPIs, the limits and the capture's method.
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     for needle in [
-        "<th>FMI</th>",
-        "<th>MMP</th>",
+        "<th>Flicker Modulation Index (P2020)</th>",
+        "<th>Modulation Mitigation Probability (P2020)</th>",
         "FMI &lt;= 0.1",
-        "Capture `",
+        "Capture <code>",
         "test_vid2.mp4",
         "frames used",
         "trace as captured",

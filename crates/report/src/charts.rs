@@ -17,6 +17,37 @@ pub use trace::{luma_trace_svg, pwm_zoom_frames, trace_zoom_svg};
 /// Font family named in every chart.
 pub const FONT: &str = "DejaVu Sans";
 
+/// Width of the PDF's text column, points: A4 (595.3 pt) less the
+/// template's margins of 1.8 cm each side.
+pub const PDF_TEXT_WIDTH_PT: f64 = 493.2;
+/// The smallest text of the printed report, points: below it a printed
+/// value is hard to read.
+pub const MIN_TEXT_PT: f64 = 7.0;
+/// plotters writes a font of size `s` into the SVG as `font-size` of
+/// `s / 1.24` pixels.
+pub const PLOTTERS_FONT_SCALE: f64 = 1.24;
+/// Font size (plotters' units) of a 760 px chart printed at the full text
+/// width: 14 / 1.24 px x 493.2 / 760 = 7.3 pt.
+pub const FONT_FULL_WIDTH: u32 = 14;
+/// Font size of a 760 px chart printed at 90 to 94 % of the text width
+/// (the zoom panels, the exposure advice): 7.1 pt and more.
+pub const FONT_NARROW: u32 = 15;
+
+/// Width of the y label area (pixels) that holds the widest tick label of
+/// an axis from `lo` to `hi` at `font` beside the rotated axis title, so a
+/// 12-bit trace's "4000" never runs into its title.
+pub fn y_label_area(lo: f64, hi: f64, font: u32) -> u32 {
+    let px = f64::from(font) / PLOTTERS_FONT_SCALE;
+    let digits = |v: f64| crate::util::fixed(v.abs().max(1.0), 0).len();
+    // plotters gives short ranges one or two decimals.
+    let decimals = if hi - lo < 100.0 { 3 } else { 0 };
+    let sign = usize::from(lo < 0.0);
+    let chars = digits(lo).max(digits(hi)) + decimals + sign;
+    // 0.64 em a character, a little over DejaVu Sans' digit advance.
+    let tick = chars as f64 * 0.64 * px;
+    (tick + 1.6 * px + 14.0).ceil() as u32
+}
+
 const SERIES_COLOURS: [RGBColor; 6] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
@@ -278,19 +309,21 @@ pub fn finemap_svg(
     {
         let root = SVGBackend::with_string(&mut svg, (760, 300)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(&e))?;
+        let (plot, bar) = root.split_horizontally(760 - FINEMAP_SCALE_WIDTH);
         let caption = match kind {
-            FineMapKind::Fdi => "FDI (2018), worst phase",
-            FineMapKind::PercentFlicker => "Percent Flicker, worst phase",
+            FineMapKind::Fdi => crate::model::human_name("fdi_2018_worst_phase"),
+            FineMapKind::PercentFlicker => crate::model::human_name("percent_flicker_worst_phase"),
         };
         // Right and top margins hold half a tick label, so the labels at
         // the ends of the axes are never cut off.
-        let mut chart = ChartBuilder::on(&root)
+        let mut chart = ChartBuilder::on(&plot)
             .margin(10)
-            .margin_right(36)
+            .margin_right(24)
             .margin_top(14)
-            .caption(caption, (FONT, 13))
-            .x_label_area_size(32)
-            .y_label_area_size(46)
+            .margin_bottom(16)
+            .caption(caption, (FONT, FONT_FULL_WIDTH + 2))
+            .x_label_area_size(38)
+            .y_label_area_size(y_label_area(0.0, 100.0, FONT_FULL_WIDTH))
             .build_cartesian_2d(f_lo..f_hi, d_lo..d_hi)
             .map_err(|e| err(&e))?;
         chart
@@ -299,11 +332,13 @@ pub fn finemap_svg(
             .y_desc("duty (%)")
             .x_label_formatter(&|x| crate::util::fixed(*x, 0))
             .y_label_formatter(&|y| crate::util::fixed(*y, 0))
-            .label_style((FONT, 11))
-            .axis_desc_style((FONT, 11))
+            .label_style((FONT, FONT_FULL_WIDTH))
+            .axis_desc_style((FONT, FONT_FULL_WIDTH))
             .disable_mesh()
             .draw()
             .map_err(|e| err(&e))?;
+        let top = chart.plotting_area().get_pixel_range().1;
+        draw_finemap_scale(&bar, kind, fdi_threshold, top.start, top.end).map_err(|e| err(&e))?;
         // Blocks of one colour that touch along the frequency axis are
         // merged into one rectangle: same picture, a fraction of the SVG.
         let rows = finemap_rows(map, values, kind, (bf, bd), colour);
@@ -314,6 +349,87 @@ pub fn finemap_svg(
         root.present().map_err(|e| err(&e))?;
     }
     Ok(svg)
+}
+
+/// Width of a fine map's colour scale, right of the map, pixels.
+const FINEMAP_SCALE_WIDTH: u32 = 110;
+
+/// A fine map's colour scale, from `y0` to `y1` (pixels, top down): the
+/// colours of [`finemap_colour`] against the value, ticked, with the grey
+/// of an undefined cell below. FDI: the lower half runs from 0 to the
+/// threshold (red), the upper half from it to 11 times it (green), linear
+/// in each; Percent Flicker: 0 to 100 % on the square-root scale the map
+/// uses.
+fn draw_finemap_scale(
+    area: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
+    kind: FineMapKind,
+    fdi_threshold: Option<f64>,
+    y0: i32,
+    y1: i32,
+) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
+    let t = fdi_threshold.unwrap_or(0.1);
+    // Value at position p of the bar, 0 at the bottom, 1 at the top.
+    let value = |p: f64| match kind {
+        FineMapKind::Fdi if p <= 0.5 => 2.0 * p * t,
+        FineMapKind::Fdi => t + (2.0 * p - 1.0) * 10.0 * t,
+        FineMapKind::PercentFlicker => 100.0 * p * p,
+    };
+    let (x0, x1) = (6, 22);
+    let grey = 18;
+    let (top, bottom) = (y0, y1 - grey - 6);
+    let h = f64::from(bottom - top);
+    let steps = 40;
+    for k in 0..steps {
+        let a = top + (h * k as f64 / steps as f64).round() as i32;
+        let b = top + (h * (k + 1) as f64 / steps as f64).round() as i32;
+        let p = 1.0 - (k as f64 + 0.5) / steps as f64;
+        let c = finemap_colour(kind, fdi_threshold, Some(value(p)));
+        area.draw(&Rectangle::new([(x0, a), (x1, b)], c.filled()))
+            .map_err(e)?;
+    }
+    area.draw(&Rectangle::new(
+        [(x0, top), (x1, bottom)],
+        BLACK.stroke_width(1),
+    ))
+    .map_err(e)?;
+    let style = TextStyle::from((FONT, FONT_FULL_WIDTH).into_font())
+        .color(&BLACK)
+        .pos(plotters::style::text_anchor::Pos::new(
+            plotters::style::text_anchor::HPos::Left,
+            plotters::style::text_anchor::VPos::Center,
+        ));
+    // Positions on the bar; Percent Flicker's are 0, 25, 50 and 100 %.
+    let ticks: &[f64] = match kind {
+        FineMapKind::Fdi => &[0.0, 0.25, 0.5, 0.75, 1.0],
+        FineMapKind::PercentFlicker => &[0.0, 0.5, std::f64::consts::FRAC_1_SQRT_2, 1.0],
+    };
+    for &p in ticks {
+        let y = bottom - (h * p).round() as i32;
+        let v = value(p);
+        let text = match kind {
+            FineMapKind::Fdi if p == 0.5 => format!("{} limit", crate::util::fixed(v, 2)),
+            FineMapKind::Fdi if p == 1.0 => format!("\u{2265} {}", crate::util::fixed(v, 2)),
+            FineMapKind::Fdi => crate::util::fixed(v, 2),
+            FineMapKind::PercentFlicker => format!("{} %", crate::util::fixed(v, 0)),
+        };
+        area.draw(&PathElement::new(
+            [(x1, y), (x1 + 4, y)],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(e)?;
+        area.draw(&Text::new(text, (x1 + 6, y), style.clone()))
+            .map_err(e)?;
+    }
+    let gy = y1 - grey;
+    area.draw(&Rectangle::new(
+        [(x0, gy), (x1, y1)],
+        finemap_colour(kind, fdi_threshold, None).filled(),
+    ))
+    .map_err(e)?;
+    area.draw(&Text::new("undefined", (x1 + 6, gy + grey / 2), style))
+        .map_err(e)?;
+    Ok(())
 }
 
 /// Colour of a fine-map cell of value `v` (grey when undefined).
@@ -422,16 +538,16 @@ pub fn advise_svg(curve: &[crate::model::Candidate], bound_s: f64) -> Result<Str
         root.fill(&WHITE).map_err(|e| err(&e))?;
         let mut chart = ChartBuilder::on(&root)
             .margin(10)
-            .x_label_area_size(34)
-            .y_label_area_size(46)
+            .x_label_area_size(38)
+            .y_label_area_size(y_label_area(0.0, 105.0, FONT_NARROW))
             .build_cartesian_2d(0.0..x_max, 0.0..105.0)
             .map_err(|e| err(&e))?;
         chart
             .configure_mesh()
             .x_desc("exposure (ms)")
-            .y_desc("% ")
-            .label_style((FONT, 11))
-            .axis_desc_style((FONT, 11))
+            .y_desc("percent (%)")
+            .label_style((FONT, FONT_NARROW))
+            .axis_desc_style((FONT, FONT_NARROW))
             .light_line_style(RGBColor(235, 235, 235))
             .draw()
             .map_err(|e| err(&e))?;
@@ -471,7 +587,7 @@ pub fn advise_svg(curve: &[crate::model::Candidate], bound_s: f64) -> Result<Str
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT, 11))
+            .label_font((FONT, FONT_NARROW))
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(200, 200, 200))
             .draw()
@@ -530,6 +646,23 @@ pub(crate) fn linear_axes<'a, 'b>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_y_label_area_holds_the_widest_tick_beside_the_axis_title() {
+        let px = f64::from(FONT_FULL_WIDTH) / PLOTTERS_FONT_SCALE;
+        // A 12-bit trace: ticks up to "4000", then the rotated title (one
+        // line, `px` wide) and the gaps plotters leaves.
+        let area = f64::from(y_label_area(0.0, 4095.0, FONT_FULL_WIDTH));
+        assert!(
+            area >= crate::matrix::text_width("4000", px) + px + 10.0,
+            "{area}"
+        );
+        // More digits, or decimals for a short range, take more room.
+        let of = |lo, hi| y_label_area(lo, hi, FONT_FULL_WIDTH);
+        assert!(of(0.0, 65535.0) > of(0.0, 4095.0));
+        assert!(of(24.0, 66.0) > of(0.0, 255.0));
+        assert!(of(-20.0, 4095.0) > of(0.0, 4095.0));
+    }
 
     #[test]
     fn a_fold_with_few_phases_is_a_sentence() {

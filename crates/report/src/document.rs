@@ -11,8 +11,10 @@ use std::path::Path;
 
 use serde::Serialize;
 
+mod info;
 mod jobs;
 
+pub use info::{InfoRow, info_row};
 #[cfg(test)]
 pub(crate) use jobs::tests::small_run;
 pub use jobs::{ChartJobs, Jobs, ViewJobs};
@@ -178,6 +180,18 @@ impl Document {
             .collect()
     }
 
+    /// The informational cases without a page of their own, one table row
+    /// each, in plan order ([`Detail::shows_case`]).
+    pub fn info_rows(&self) -> Vec<InfoRow> {
+        let pages = self.case_pages();
+        self.results
+            .cases
+            .iter()
+            .filter(|c| !pages.contains(&c.id))
+            .filter_map(info_row)
+            .collect()
+    }
+
     /// Per case, the sentences that stand for its phase folds that are not
     /// drawn ([`super::charts::degenerate_fold_sentence`]); ROIs with the
     /// same reason share one sentence ("Phase fold of roi0, roi1 not drawn").
@@ -212,7 +226,8 @@ impl Document {
     }
 
     /// Per case, its caveats (metric values undefined or qualified), each
-    /// text once: `"led, background / fdi_2018: <why>"`. An LED ROI's
+    /// text once, metrics by their names for people:
+    /// `"led, background / FDI (Deegan 2018): <why>"`. An LED ROI's
     /// reasons in [`SHOWN_IN_CASE_TABLE`] are left out: the case table's
     /// "Apparent flicker" and "Phase coverage" rows print them.
     pub fn caveats(&self) -> BTreeMap<String, Vec<String>> {
@@ -245,7 +260,11 @@ impl Document {
             let lines = seen
                 .into_iter()
                 .map(|(why, rois, metrics)| {
-                    format!("{} / {}: {why}", rois.join(", "), metrics.join(", "))
+                    let names: Vec<&str> = metrics
+                        .iter()
+                        .map(|m| crate::model::human_name(m))
+                        .collect();
+                    format!("{} / {}: {why}", rois.join(", "), names.join(", "))
                 })
                 .collect();
             out.insert(c.id.clone(), lines);

@@ -25,6 +25,48 @@ pub(crate) fn num(value: Option<f64>, digits: Option<usize>) -> String {
     }
 }
 
+/// `text` cut at its Markdown code spans: (is code, piece), in order,
+/// without the backticks. The model's prose marks names of files, cameras
+/// and commands with backticks (`hdr3-1080p30`); the reports set those
+/// pieces as code, so no backtick reaches a reader. A backtick without a
+/// partner is dropped.
+pub(crate) fn code_spans(text: &str) -> Vec<(bool, &str)> {
+    let pieces: Vec<&str> = text.split('`').collect();
+    let paired = pieces.len() % 2 == 1;
+    pieces
+        .iter()
+        .enumerate()
+        // With an odd number of backticks the last one has no partner:
+        // the text after it is prose.
+        .map(|(i, p)| (i % 2 == 1 && (paired || i + 1 < pieces.len()), *p))
+        .filter(|(_, p)| !p.is_empty())
+        .collect()
+}
+
+/// Writes a value into the HTML: escaped, its code spans as `<code>`.
+/// Values marked safe (the inline SVG charts) are written as they are.
+fn format_value(
+    out: &mut minijinja::Output<'_>,
+    state: &mut minijinja::State<'_, '_>,
+    value: &Value,
+) -> Result<(), minijinja::Error> {
+    match value.as_str() {
+        Some(text) if !value.is_safe() && text.contains('`') => {
+            for (code, piece) in code_spans(text) {
+                if code {
+                    out.write_str("<code>")?;
+                }
+                minijinja::escape_formatter(out, state, &Value::from(piece))?;
+                if code {
+                    out.write_str("</code>")?;
+                }
+            }
+            Ok(())
+        }
+        _ => minijinja::escape_formatter(out, state, value),
+    }
+}
+
 fn environment() -> Result<Environment<'static>, ReportError> {
     let mut env = Environment::new();
     env.set_undefined_behavior(UndefinedBehavior::Strict);
@@ -40,6 +82,13 @@ fn environment() -> Result<Environment<'static>, ReportError> {
     env.add_filter("num", |v: Serde<Option<f64>>, digits: Option<usize>| {
         num(v.0, digits)
     });
+    env.add_filter("metric", |id: &str| {
+        crate::model::human_name(id).to_string()
+    });
+    env.add_filter("metric_short", |id: &str| {
+        crate::model::short_name(id).to_string()
+    });
+    env.set_formatter(format_value);
     Ok(env)
 }
 
@@ -141,6 +190,8 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             signatories => Serde(&doc.signatories),
             zooms => zooms,
             pages => doc.case_pages(),
+            info_rows => Serde(doc.info_rows()),
+            glossary => Serde(crate::model::GLOSSARY),
             caveats => doc.caveats(),
             fold_notes => doc.fold_notes(),
             detail => doc.detail().as_str(),
@@ -151,4 +202,39 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             template: "report.html.j2".to_string(),
             message: format!("{e:#}"),
         })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn code_spans_are_cut_at_backtick_pairs() {
+        assert_eq!(
+            code_spans("camera `hdr3` and `x`."),
+            [
+                (false, "camera "),
+                (true, "hdr3"),
+                (false, " and "),
+                (true, "x"),
+                (false, ".")
+            ]
+        );
+        assert_eq!(code_spans("a ` b"), [(false, "a "), (false, " b")]);
+        assert_eq!(code_spans("plain"), [(false, "plain")]);
+    }
+
+    #[test]
+    fn prose_with_code_spans_shows_code_and_no_backtick() {
+        let (results, mut model) = super::super::document::small_run();
+        model
+            .notes
+            .push("capture `<x>.mp4` read with `ffmpeg`".to_string());
+        let doc = Document::build(&model, &results, "2026-01-01", Vec::new()).unwrap();
+        let html = render_document(&doc).unwrap();
+        assert!(html.contains("capture <code>&lt;x&gt;.mp4</code> read with <code>ffmpeg</code>"));
+        let note = html.split("id=\"notes\"").nth(1).unwrap();
+        let note = note.split("id=\"environment\"").next().unwrap();
+        assert!(!note.contains('`'), "{note}");
+    }
 }

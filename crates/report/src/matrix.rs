@@ -110,13 +110,15 @@ const LEFT: i32 = 64;
 /// Right of the cells; the colour bar is right of it, pixels.
 const RIGHT: i32 = WIDTH - 140;
 /// Top of the cells (below the title), pixels.
-const TOP: i32 = 32;
-/// Below the cells: frequency labels, axis title, Eq. (1) legend, pixels.
-const BOTTOM: i32 = 78;
+const TOP: i32 = 38;
+/// Below the cells: frequency labels, axis title, Eq. (1) legend (two
+/// lines), pixels.
+const BOTTOM: i32 = 100;
 /// Space kept between neighbouring axis labels, pixels.
 const LABEL_GAP: f64 = 6.0;
-/// Font size of the axis labels, pixels.
-const LABEL_SIZE: f64 = 11.0;
+/// Font size of every text of a matrix but its title (plotters' units: 7.3
+/// pt printed at the full text width, [`super::charts::FONT_FULL_WIDTH`]).
+const LABEL_SIZE: f64 = super::charts::FONT_FULL_WIDTH as f64;
 
 /// Estimated width of `text` set at `size` px in DejaVu Sans: 0.64 em per
 /// character, a little over its digit advance (0.636 em), so estimates err
@@ -158,18 +160,20 @@ pub fn thin_labels(texts: &[String], cell: f64, extent: impl Fn(&str) -> f64) ->
 }
 
 /// The text of a cell `w` x `h` px that fits, with its font size: the
-/// verdict mark and the value at 11 px, else at 9 px, else the value alone
-/// at 9 px, else the mark alone, else nothing.
+/// verdict mark and the value, else the value alone, else the mark alone,
+/// else nothing; always at [`LABEL_SIZE`], never smaller, so that what is
+/// printed can be read (the colour and outline still give value and
+/// verdict).
 pub fn cell_text(mark: &str, value: &str, w: f64, h: f64) -> Option<(String, f64)> {
-    let both = format!("{mark} {value}");
+    let px = LABEL_SIZE / super::charts::PLOTTERS_FONT_SCALE;
     [
-        (both.clone(), 11.0),
-        (both, 9.0),
-        (value.to_string(), 9.0),
-        (mark.to_string(), 9.0),
+        format!("{mark} {value}"),
+        value.to_string(),
+        mark.to_string(),
     ]
     .into_iter()
-    .find(|(t, size)| text_width(t, *size) <= w - 4.0 && size + 3.0 <= h)
+    .find(|t| text_width(t, px) <= w - 4.0 && px + 3.0 <= h)
+    .map(|t| (t, LABEL_SIZE))
 }
 
 /// Inverse of [`scale`]: the value at position `t` of the colour scale.
@@ -260,16 +264,20 @@ fn draw_axes(area: &Area<'_>, grid: &Grid, freqs: &[f64], duties: &[f64]) -> Res
     }
     area.draw(&Text::new(
         "PWM frequency (Hz)",
-        ((LEFT + RIGHT) / 2, TOP + grid.height() + 24),
-        text_style(12.0, Pos::new(HPos::Center, VPos::Top)),
+        ((LEFT + RIGHT) / 2, TOP + grid.height() + 26),
+        text_style(LABEL_SIZE, Pos::new(HPos::Center, VPos::Top)),
     ))
     .map_err(e)?;
     area.draw(&Text::new(
         "duty (%)",
         (14, TOP + grid.height() / 2),
-        TextStyle::from((FONT, 12).into_font().transform(FontTransform::Rotate270))
-            .color(&BLACK)
-            .pos(Pos::new(HPos::Center, VPos::Center)),
+        TextStyle::from(
+            (FONT, LABEL_SIZE)
+                .into_font()
+                .transform(FontTransform::Rotate270),
+        )
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Center, VPos::Center)),
     ))
     .map_err(e)?;
     Ok(())
@@ -290,7 +298,7 @@ fn draw_colour_bar(
     area.draw(&Text::new(
         title.to_string(),
         (x0 - 4, TOP - 6),
-        text_style(11.0, Pos::new(HPos::Left, VPos::Top)),
+        text_style(LABEL_SIZE, Pos::new(HPos::Left, VPos::Top)),
     ))
     .map_err(e)?;
     let steps = 24;
@@ -322,7 +330,7 @@ fn draw_colour_bar(
         area.draw(&Text::new(
             text,
             (x1 + 6, y),
-            text_style(11.0, Pos::new(HPos::Left, VPos::Center)),
+            text_style(LABEL_SIZE, Pos::new(HPos::Left, VPos::Center)),
         ))
         .map_err(e)?;
     }
@@ -353,27 +361,36 @@ fn draw_eq1(area: &Area<'_>, grid: &Grid, eq1: &Eq1) -> Result<(), String> {
             .map_err(e)?;
         }
     }
-    let y = TOP + grid.height() + 50;
+    let y = TOP + grid.height() + 56;
     area.draw(&PathElement::new([(LEFT, y), (LEFT + 24, y)], style))
         .map_err(e)?;
     let exposure_ms = eq1.exposure_ms;
-    let text = if eq1.any_off() {
-        format!(
-            "Eq. (1), T_exp = {} ms: below and left of the line T_exp < (1 \u{2212} D) / f, the LED can appear OFF",
-            crate::util::fixed(exposure_ms, 3)
-        )
+    // Two lines, so the legend fits the width at a readable size.
+    let lines = if eq1.any_off() {
+        [
+            format!(
+                "Eq. (1), T_exp = {} ms: below and left of the line",
+                crate::util::fixed(exposure_ms, 3)
+            ),
+            "T_exp < (1 \u{2212} D) / f, the LED can appear OFF".to_string(),
+        ]
     } else {
-        format!(
-            "Eq. (1), T_exp = {} ms: no cell has T_exp < (1 \u{2212} D) / f",
-            crate::util::fixed(exposure_ms, 3)
-        )
+        [
+            format!(
+                "Eq. (1), T_exp = {} ms:",
+                crate::util::fixed(exposure_ms, 3)
+            ),
+            "no cell has T_exp < (1 \u{2212} D) / f".to_string(),
+        ]
     };
-    area.draw(&Text::new(
-        text,
-        (LEFT + 30, y),
-        text_style(11.0, Pos::new(HPos::Left, VPos::Center)),
-    ))
-    .map_err(e)?;
+    for (k, text) in lines.into_iter().enumerate() {
+        area.draw(&Text::new(
+            text,
+            (LEFT + 30, y + 17 * k as i32),
+            text_style(LABEL_SIZE, Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(e)?;
+    }
     Ok(())
 }
 
@@ -465,17 +482,13 @@ pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError>
         let root = SVGBackend::with_string(&mut svg, (WIDTH as u32, height)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(&e))?;
         let caption = format!(
-            "{light_lux} lux: {title}{} by PWM frequency and duty",
-            if metric.ends_with("worst_phase") {
-                ", worst phase,"
-            } else {
-                ""
-            }
+            "{light_lux} lux: {} by PWM frequency and duty",
+            crate::model::human_name(&metric)
         );
         root.draw(&Text::new(
             caption,
             ((LEFT + RIGHT) / 2, 8),
-            text_style(14.0, Pos::new(HPos::Center, VPos::Top)),
+            text_style(LABEL_SIZE + 2.0, Pos::new(HPos::Center, VPos::Top)),
         ))
         .map_err(|e| err(&e))?;
         for cell in &plane.cells {
@@ -600,20 +613,22 @@ pub(crate) mod tests {
 
     #[test]
     fn cell_text_is_written_only_where_it_fits() {
+        // 14 / 1.24 = 11.3 px: "✔ 8.73" is 6 x 0.64 x 11.3 = 43.4 px wide.
+        let size = LABEL_SIZE;
         assert_eq!(
             cell_text("\u{2714}", "8.73", 80.0, 46.0),
-            Some(("\u{2714} 8.73".to_string(), 11.0))
+            Some(("\u{2714} 8.73".to_string(), size))
         );
         assert_eq!(
-            cell_text("\u{2714}", "8.73", 30.0, 46.0),
-            Some(("8.73".to_string(), 9.0))
+            cell_text("\u{2714}", "8.73", 40.0, 46.0),
+            Some(("8.73".to_string(), size))
         );
         assert_eq!(
             cell_text("\u{2714}", "8.73", 12.0, 46.0),
-            Some(("\u{2714}".to_string(), 9.0))
+            Some(("\u{2714}".to_string(), size))
         );
         assert_eq!(cell_text("\u{2714}", "8.73", 8.0, 46.0), None);
-        assert_eq!(cell_text("\u{2714}", "8.73", 80.0, 10.0), None);
+        assert_eq!(cell_text("\u{2714}", "8.73", 80.0, 12.0), None);
     }
 
     #[test]

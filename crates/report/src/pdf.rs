@@ -177,13 +177,35 @@ impl World for ReportWorld<'_> {
 }
 
 /// Turns a value into a Typst string literal, `"..."`, escaping what Typst
-/// would otherwise read as markup or an escape.
+/// would otherwise read as markup or an escape. Text with Markdown code
+/// spans (`hdr3-1080p30`) becomes a code block that joins the prose and
+/// `raw(..)` pieces, `{"camera "; raw("hdr3-1080p30")}`: content that
+/// stands where the literal would, with the code set as code and no
+/// backtick left.
 fn typst_str(value: &Value) -> String {
     let text = match value.as_str() {
         Some(s) => s.to_string(),
         None if value.is_none() || value.is_undefined() => String::new(),
         None => value.to_string(),
     };
+    if !text.contains('`') {
+        return typst_literal(&text);
+    }
+    let pieces: Vec<String> = super::html::code_spans(&text)
+        .into_iter()
+        .map(|(code, piece)| {
+            if code {
+                format!("raw({})", typst_literal(piece))
+            } else {
+                typst_literal(piece)
+            }
+        })
+        .collect();
+    format!("{{{}}}", pieces.join("; "))
+}
+
+/// `text` as a Typst string literal.
+fn typst_literal(text: &str) -> String {
     let mut out = String::with_capacity(text.len() + 2);
     out.push('"');
     for c in text.chars() {
@@ -214,6 +236,12 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
     env.add_template(TEMPLATE_NAME, TEMPLATE)
         .map_err(template_error)?;
     env.add_filter("t", |v: Value| typst_str(&v));
+    env.add_filter("metric", |id: &str| {
+        crate::model::human_name(id).to_string()
+    });
+    env.add_filter("metric_short", |id: &str| {
+        crate::model::short_name(id).to_string()
+    });
     env.add_filter("num", |v: Serde<Option<f64>>, digits: Option<usize>| {
         super::html::num(v.0, digits)
     });
@@ -272,6 +300,8 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             signatories => Serde(&doc.signatories),
             zooms => zooms,
             pages => doc.case_pages(),
+            info_rows => Serde(doc.info_rows()),
+            glossary => Serde(crate::model::GLOSSARY),
             appendix_pages => appendix_page_values(doc),
             caveats => doc.caveats(),
             fold_notes => doc.fold_notes(),
@@ -309,12 +339,12 @@ fn appendix_page_values(doc: &Document) -> Vec<Value> {
         .collect()
 }
 
-/// Rows of Appendix A's table (6.5 pt text, 3 pt inset: about 11.5 pt a
-/// row) that one page holds below the table's header, with room to spare:
-/// a full page takes 61.
-const APPENDIX_PAGE_ROWS: f64 = 56.0;
+/// Rows of Appendix A's table (7 pt text, the smallest the report prints,
+/// 3 pt inset: about 12 pt a row) that one page holds below the table's
+/// header, with room to spare: a full page takes 59.
+const APPENDIX_PAGE_ROWS: f64 = 54.0;
 /// The same on the appendix's first page, below its heading and lead text.
-const APPENDIX_FIRST_PAGE_ROWS: f64 = 50.0;
+const APPENDIX_FIRST_PAGE_ROWS: f64 = 48.0;
 /// A case of one ROI takes one row, as tall as its verdict badge.
 const APPENDIX_BADGE_ROWS: f64 = 1.4;
 
@@ -473,13 +503,13 @@ mod tests {
 
     #[test]
     fn appendix_pages_fill_each_page_and_never_split_a_case() {
-        // Daylight: 35 cases of 2 ROIs, 25 under the heading, 10 after.
+        // Daylight: 35 cases of 2 ROIs, 24 under the heading, 11 after.
         let pages = appendix_pages(std::iter::repeat_n(2, 35));
-        assert_eq!(pages.iter().map(Vec::len).collect::<Vec<_>>(), [25, 10]);
+        assert_eq!(pages.iter().map(Vec::len).collect::<Vec<_>>(), [24, 11]);
         assert_eq!(pages.concat(), (0..35).collect::<Vec<_>>());
-        // One ROI each: badge rows, 35 and 40 a page.
+        // One ROI each: badge rows, 34 and 38 a page.
         let pages = appendix_pages(std::iter::repeat_n(1, 100));
-        assert_eq!(pages.iter().map(Vec::len).collect::<Vec<_>>(), [35, 40, 25]);
+        assert_eq!(pages.iter().map(Vec::len).collect::<Vec<_>>(), [34, 38, 28]);
         // A P2020 chart of 36 patches: one case a page; a case larger than
         // a page stands alone.
         let pages = appendix_pages([36, 36, 80, 3, 0].into_iter());
@@ -501,6 +531,72 @@ mod tests {
         // A case id that may wrap: its page's rows are measured.
         doc.results.cases[0].id = "a-case-id-long-enough-to-wrap-in-its-column".to_string();
         assert_eq!(rows(&doc), pages - 1);
+    }
+
+    /// Smallest `font-size` of an SVG and its width, pixels.
+    fn smallest_font(svg: &str) -> (f64, f64) {
+        let number = |after: &str, from: &str| -> f64 {
+            let v = from.split(after).nth(1).unwrap();
+            v.split('"').next().unwrap().parse().unwrap()
+        };
+        let width = number("width=\"", svg.split("<svg").nth(1).unwrap());
+        let smallest = svg
+            .split("font-size=\"")
+            .skip(1)
+            .map(|v| v.split('"').next().unwrap().parse::<f64>().unwrap())
+            .fold(f64::INFINITY, f64::min);
+        (smallest, width)
+    }
+
+    #[test]
+    fn every_chart_prints_its_text_at_7_pt_or_more() {
+        use crate::charts::{MIN_TEXT_PT, PDF_TEXT_WIDTH_PT};
+        let (results, model) = super::super::document::small_run();
+        let mut doc = Document::build(&model, &results, "2026-01-01", Vec::new()).unwrap();
+        // Every case a page, so every kind of chart is printed.
+        doc.results.report.as_mut().unwrap().detail = "full".to_string();
+        let markup = render_markup(&doc).unwrap();
+        let mut kinds = std::collections::BTreeSet::new();
+        // The charts as the markup places them: `image("charts/..", width: N%)`.
+        for part in markup.split("image(\"charts/").skip(1) {
+            let (name, rest) = part.split_once('"').unwrap();
+            let percent: f64 = rest
+                .strip_prefix(", width: ")
+                .and_then(|r| r.split_once('%'))
+                .map(|(n, _)| n.parse().unwrap())
+                .unwrap_or_else(|| panic!("charts/{name}: no width in the markup"));
+            let svg = &doc.charts[&format!("charts/{name}")];
+            let (px, width_px) = smallest_font(svg);
+            let pt = px * PDF_TEXT_WIDTH_PT * percent / 100.0 / width_px;
+            assert!(
+                pt >= MIN_TEXT_PT,
+                "charts/{name}: {px} px text on {width_px} px printed at {percent} % is {pt:.2} pt"
+            );
+            kinds.insert(name.split(['-', '.']).next().unwrap().to_string());
+        }
+        for kind in ["trace", "zoom", "matrix", "finemap", "advice"] {
+            assert!(kinds.contains(kind), "no {kind} chart printed: {kinds:?}");
+        }
+    }
+
+    #[test]
+    fn code_spans_become_raw_and_no_backtick_reaches_the_markup() {
+        let markup = typst_str(&Value::from("camera `hdr3-1080p30` (\"a\") `b`"));
+        assert_eq!(
+            markup,
+            "{\"camera \"; raw(\"hdr3-1080p30\"); \" (\\\"a\\\") \"; raw(\"b\")}"
+        );
+        // An unpaired backtick is dropped; the rest stays prose.
+        assert_eq!(typst_str(&Value::from("a ` b")), "{\"a \"; \" b\"}");
+        // The whole report, with a note full of code spans, lays out.
+        let (results, mut model) = super::super::document::small_run();
+        model
+            .notes
+            .push("capture `x.mp4` read with `ffmpeg`".to_string());
+        let doc = Document::build(&model, &results, "2026-01-01", Vec::new()).unwrap();
+        let markup = render_markup(&doc).unwrap();
+        assert!(markup.contains("raw(\"x.mp4\")"), "the note's code is raw");
+        assert!(render(&doc).is_ok());
     }
 
     #[test]

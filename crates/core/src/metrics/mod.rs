@@ -5,8 +5,10 @@
 //! measured the same way.
 
 pub mod flicker;
+pub mod glossary;
 pub mod p2020;
 pub mod verdict;
 
 pub use flicker::{Levels, Metric, RoiMetrics, evaluate_roi};
+pub use glossary::{GLOSSARY, MetricName, human_name, short_name};
 pub use verdict::{Check, Verdict, evaluate_case};

@@ -209,6 +209,7 @@ fn roi_checks(
     };
     let no_off = m.levels.off.is_none();
     let mut skip = |metric: &str, why: &str| {
+        let metric = super::glossary::human_name(metric);
         not_checked.push(format!("{name}: {metric} not checked: {why}"));
     };
     if let Some(min) = lim.fdi_2018_min {
@@ -450,6 +451,12 @@ mod tests {
         assert_eq!(e.checks.len(), 1);
         assert_eq!(e.checks[0].metric, "percent_flicker");
         assert!(e.not_checked[0].contains("no OFF segment"));
+        // The line reaches the reports: the metric is named for people.
+        assert!(
+            e.not_checked[0].contains("FDI (Deegan 2018) not checked"),
+            "{:?}",
+            e.not_checked
+        );
         // Only FDI (2018) set and no OFF segment: nothing applies, so info.
         let t = Thresholds {
             percent_flicker_max: None,

@@ -38,8 +38,10 @@ pub use crate::analysis::{
     Banding, Beat, DriveFlicker, FineMapInfo, FrameBanding, FrameTiming, HazardClass, RoiAnalysis,
 };
 pub use crate::inputs::InputFile;
-pub use crate::metrics::verdict::VERDICT_TOLERANCE;
-pub use crate::metrics::{Check, Levels, Metric, Verdict};
+pub use crate::metrics::verdict::{Comparison, VERDICT_TOLERANCE};
+pub use crate::metrics::{
+    Check, GLOSSARY, Levels, Metric, MetricName, Verdict, human_name, short_name,
+};
 pub use crate::plan::{RoiKind, Thresholds, VerdictBasis};
 pub use crate::runner::CaseResult;
 pub use crate::trace::{
@@ -440,7 +442,8 @@ pub enum Detail {
     /// Cover, summary, matrices and the one-line table of every case; no
     /// case pages.
     Summary,
-    /// As `Summary`, plus a page for every failing or not judged case.
+    /// As `Summary`, plus a page for every failing case; the not judged
+    /// (informational) cases are one row each in a table, not a page.
     #[default]
     Standard,
     /// A page for every case.
@@ -465,11 +468,14 @@ impl Detail {
         Detail::ALL.into_iter().find(|d| d.as_str() == s)
     }
 
-    /// Whether a case with this verdict gets its own page.
+    /// Whether a case with this verdict gets its own page. At the default
+    /// detail only failing cases do: an informational case cannot fail the
+    /// plan, so its evidence is a table row, and a plan sweeping far beyond
+    /// the mitigation range does not bury its failures under such pages.
     pub fn shows_case(self, verdict: &str) -> bool {
         match self {
             Detail::Summary => false,
-            Detail::Standard => verdict != "pass",
+            Detail::Standard => verdict == "fail",
             Detail::Full => true,
         }
     }

@@ -17,6 +17,11 @@ use crate::model::SegmentsFound;
 
 /// Width of the legend column right of the trace, pixels.
 const LEGEND_WIDTH: u32 = 200;
+/// Characters a legend line holds beside its swatch at
+/// [`super::FONT_FULL_WIDTH`] (about 6.9 px a character).
+const LEGEND_CHARS: usize = 24;
+/// Height of a legend line, pixels.
+const LEGEND_LINE: i32 = 15;
 
 /// Frames shown before and after a step in a zoomed panel.
 const STEP_BEFORE: usize = 10;
@@ -71,13 +76,13 @@ pub(crate) fn draw_legend<DB: DrawingBackend>(
     more: &str,
 ) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    let style = TextStyle::from((FONT, 11).into_font()).color(&BLACK);
+    let style = TextStyle::from((FONT, super::FONT_FULL_WIDTH).into_font()).color(&BLACK);
     let height = area.dim_in_pixel().1 as i32;
-    let lines = |label: &str| wrap(label, 28).len() as i32;
+    let lines = |label: &str| wrap(label, LEGEND_CHARS).len() as i32;
     let mut y = top;
     for (k, (swatch, label)) in entries.iter().enumerate() {
         let rest = entries.len() - k;
-        let fits = |n: i32| y + 13 * n + 4 <= height;
+        let fits = |n: i32| y + LEGEND_LINE * n + 4 <= height;
         // Room for this entry, and for the count line after it if needed.
         let truncated = !fits(lines(label) + if rest > 1 { 2 } else { 0 });
         let count = format!("and {rest} more {more}");
@@ -121,10 +126,10 @@ pub(crate) fn draw_legend<DB: DrawingBackend>(
             }
             Swatch::None => {}
         }
-        for line in wrap(label, 28) {
+        for line in wrap(label, LEGEND_CHARS) {
             area.draw(&Text::new(line, (x + 24, y), style.clone()))
                 .map_err(e)?;
-            y += 13;
+            y += LEGEND_LINE;
         }
         y += 4;
         if truncated {
@@ -235,11 +240,11 @@ pub fn luma_trace_svg(
             &super::Axes {
                 margin: 10,
                 caption: None,
-                label_areas: (34, 52),
+                label_areas: (36, super::y_label_area(y0, y1, super::FONT_FULL_WIDTH)),
                 x: 0.0..t_end,
                 y: y0..y1,
                 desc: ("time (s)", "ROI luma (DN)"),
-                font: 12,
+                font: super::FONT_FULL_WIDTH,
             },
         )
         .map_err(|e| err(&e))?;
@@ -506,9 +511,9 @@ fn draw_panel(
     let x1 = frames.last().map_or(1.0, |f| f.index as f64) + 0.5;
     let mut chart = ChartBuilder::on(area)
         .margin(6)
-        .caption(&panel.title, (FONT, 11))
-        .x_label_area_size(30)
-        .y_label_area_size(44)
+        .caption(&panel.title, (FONT, super::FONT_NARROW))
+        .x_label_area_size(34)
+        .y_label_area_size(super::y_label_area(y0, y1, super::FONT_NARROW))
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(e)?;
     chart
@@ -518,8 +523,8 @@ fn draw_panel(
         .x_labels(5)
         .y_labels(5)
         .x_label_formatter(&|x| format!("{x:.0}"))
-        .label_style((FONT, 10))
-        .axis_desc_style((FONT, 10))
+        .label_style((FONT, super::FONT_NARROW))
+        .axis_desc_style((FONT, super::FONT_NARROW))
         .max_light_lines(0)
         .draw()
         .map_err(e)?;
