@@ -179,7 +179,13 @@ fn roi_detect_refuses_a_missing_capture_and_a_still_one_with_hints() {
 #[test]
 fn roi_is_in_the_completions_and_the_manual_pages() {
     let bash = super::text(&super::ledflicker(&["completions", "bash"]));
-    assert!(bash.contains("roi") && bash.contains("--detect"), "bash completions lack `roi`");
+    assert!(
+        bash.contains("roi") && bash.contains("--detect"),
+        "bash completions lack `roi`"
+    );
     let page = super::text(&super::ledflicker(&["man", "roi"]));
-    assert!(page.contains("ledflicker\\-roi") && page.contains("\\-\\-detect"), "{page}");
+    assert!(
+        page.contains("ledflicker\\-roi") && page.contains("\\-\\-detect"),
+        "{page}"
+    );
 }
