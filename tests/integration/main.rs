@@ -24,6 +24,7 @@ mod render;
 mod report;
 mod results;
 mod robust;
+mod roi;
 mod saturation;
 mod shard;
 mod shard_input;

@@ -15,7 +15,8 @@
 //! - [`finemap`]: worst-phase FDI and Percent Flicker over frequency x duty;
 //! - [`colour`]: per-channel modulation and chroma shift (RGB and white LEDs);
 //! - [`summary`]: `simulate --summary`;
-//! - [`timing`]: frame rate, drops and spectrum from a capture's own frame times.
+//! - [`timing`]: frame rate, drops and spectrum from a capture's own frame times;
+//! - [`roi`]: ROIs drawn on a capture's frame, and proposed from its ON -> OFF step.
 
 pub mod apparent;
 pub mod banding;
@@ -24,6 +25,7 @@ pub mod drive;
 pub mod finemap;
 pub mod hazard;
 pub mod phase_fold;
+pub mod roi;
 pub mod summary;
 pub mod timing;
 

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use image::DynamicImage;
 
 use super::{
-    Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, ReadOptions, RoiRect,
+    Accumulator, CaptureError, CaptureTrace, FrameSink, FrameView, Pixels, ReadOptions, RoiRect,
     check_interrupt, check_rois, image_reader, times_from_fps,
 };
 
@@ -16,6 +16,7 @@ pub(super) fn read_dir(
     dir: &Path,
     rois: &[RoiRect],
     opts: &ReadOptions,
+    sink: Option<&mut dyn FrameSink>,
 ) -> Result<CaptureTrace, CaptureError> {
     let files = frame_files(dir).map_err(|e| CaptureError::Read {
         path: dir.to_path_buf(),
@@ -28,7 +29,7 @@ pub(super) fn read_dir(
             hint: "frames are read in file-name order, e.g. frame_000000.png".to_string(),
         });
     }
-    read_files(dir, &files, rois, opts)
+    read_files(dir, &files, rois, opts, sink)
 }
 
 /// The frame size (width, height) of the image `file`, from its header
@@ -70,8 +71,9 @@ pub(super) fn read_files(
     files: &[PathBuf],
     rois: &[RoiRect],
     opts: &ReadOptions,
+    sink: Option<&mut dyn FrameSink>,
 ) -> Result<CaptureTrace, CaptureError> {
-    let mut acc = Accumulator::new(rois, opts.luma);
+    let mut acc = Accumulator::new(rois, opts.luma).with_sink(sink);
     let mut first: Option<(u32, u32, image::ColorType)> = None;
     let mut full_scale = 255.0;
     for (k, file) in files.iter().enumerate() {

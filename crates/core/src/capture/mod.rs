@@ -343,9 +343,9 @@ pub fn read_capture(
 ) -> Result<CaptureTrace, CaptureError> {
     check_exists(path)?;
     let trace = match source_kind(path) {
-        SourceKind::ImageDir => images::read_dir(path, rois, opts),
-        SourceKind::Image => images::read_files(path, &[path.to_path_buf()], rois, opts),
-        SourceKind::Y4m => y4m::read(path, rois, opts),
+        SourceKind::ImageDir => images::read_dir(path, rois, opts, None),
+        SourceKind::Image => images::read_files(path, &[path.to_path_buf()], rois, opts, None),
+        SourceKind::Y4m => y4m::read(path, rois, opts, None),
         SourceKind::Video => video::probe_and_read(path, rois, opts),
         SourceKind::Csv => csv_trace::read(path, roi_names, opts),
     }
@@ -544,7 +544,107 @@ pub(crate) struct FrameView<'a> {
 /// `[roi][frame]` R, G, B means, DN.
 pub(crate) type RgbTraces = Vec<Vec<[f64; 3]>>;
 
-/// Accumulates ROI means frame by frame.
+/// Receives every frame of a capture as grey pixels, for the analyses that
+/// need pixels rather than ROI means ([`read_grey_frames`]).
+pub trait FrameSink {
+    /// Frame `frame` (0-based), whole, as the ROI means see it.
+    fn frame(&mut self, frame: &GreyFrame<'_>);
+}
+
+/// One frame's grey image as the ROI means see it: the plan's luma weights
+/// on RGB, limited-range Y' expanded to full range.
+pub struct GreyFrame<'a> {
+    view: &'a FrameView<'a>,
+    weights: LumaWeights,
+    expand: Option<&'a [u32]>,
+    /// 0-based frame number.
+    pub index: u64,
+}
+
+impl GreyFrame<'_> {
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.view.width
+    }
+
+    /// Rows held (the whole frame's height).
+    pub fn height(&self) -> u32 {
+        let w = self.view.width.max(1) as usize;
+        let samples = match &self.view.pixels {
+            Pixels::Grey8(p) => p.len(),
+            Pixels::Grey16(p) => p.len(),
+            Pixels::Rgb8(p, c) => p.len() / c,
+            Pixels::Rgb16(p, c) => p.len() / c,
+        };
+        (samples / w) as u32
+    }
+
+    /// The grey values of row `y` (0 = the frame's top) into `out`, which
+    /// holds [`GreyFrame::width`] values.
+    pub fn row(&self, y: u32, out: &mut [u32]) {
+        let w = self.view.width as usize;
+        let base = (y - self.view.origin.1) as usize * w;
+        let lut = |v: u32| self.expand.map_or(v, |l| l[v as usize]);
+        match &self.view.pixels {
+            Pixels::Grey8(p) => {
+                for (o, &v) in out.iter_mut().zip(&p[base..base + w]) {
+                    *o = lut(u32::from(v));
+                }
+            }
+            Pixels::Grey16(p) => {
+                for (o, &v) in out.iter_mut().zip(&p[base..base + w]) {
+                    *o = lut(u32::from(v));
+                }
+            }
+            Pixels::Rgb8(p, c) => {
+                for (o, px) in out
+                    .iter_mut()
+                    .zip(p[base * c..(base + w) * c].chunks_exact(*c))
+                {
+                    *o = self.weights.luma(px[0].into(), px[1].into(), px[2].into());
+                }
+            }
+            Pixels::Rgb16(p, c) => {
+                for (o, px) in out
+                    .iter_mut()
+                    .zip(p[base * c..(base + w) * c].chunks_exact(*c))
+                {
+                    *o = self.weights.luma(px[0].into(), px[1].into(), px[2].into());
+                }
+            }
+        }
+    }
+}
+
+/// Reads every frame of the capture at `path` whole, handing each to
+/// `sink` as grey pixels; returns the capture's trace (frame times, scale,
+/// size) without ROIs. A CSV trace has no pixels and is refused.
+pub fn read_grey_frames(
+    path: &Path,
+    opts: &ReadOptions,
+    sink: &mut dyn FrameSink,
+) -> Result<CaptureTrace, CaptureError> {
+    check_exists(path)?;
+    let trace = match source_kind(path) {
+        SourceKind::ImageDir => images::read_dir(path, &[], opts, Some(sink))?,
+        SourceKind::Image => {
+            images::read_files(path, &[path.to_path_buf()], &[], opts, Some(sink))?
+        }
+        SourceKind::Y4m => y4m::read(path, &[], opts, Some(sink))?,
+        SourceKind::Video => video::read_whole(path, opts, sink)?,
+        SourceKind::Csv => {
+            return Err(CaptureError::Invalid {
+                path: path.to_path_buf(),
+                message: "a CSV trace holds ROI means, not pixels".to_string(),
+                hint: "give the video or image sequence the trace was made from".to_string(),
+            });
+        }
+    };
+    finish_trace(path, trace)
+}
+
+/// Accumulates ROI means frame by frame, and hands each frame to a
+/// [`FrameSink`] when one is given.
 pub(crate) struct Accumulator<'r> {
     rois: &'r [RoiRect],
     weights: LumaWeights,
@@ -553,6 +653,8 @@ pub(crate) struct Accumulator<'r> {
     luma: Vec<Vec<f64>>,
     rgb: Vec<Vec<[f64; 3]>>,
     colour: bool,
+    frames: usize,
+    sink: Option<&'r mut dyn FrameSink>,
 }
 
 impl<'r> Accumulator<'r> {
@@ -564,12 +666,30 @@ impl<'r> Accumulator<'r> {
             luma: vec![Vec::new(); rois.len()],
             rgb: vec![Vec::new(); rois.len()],
             colour: false,
+            frames: 0,
+            sink: None,
         }
+    }
+
+    /// The accumulator that also hands every frame to `sink`; its views
+    /// must then hold whole frames.
+    pub fn with_sink<'s: 'r>(mut self, sink: Option<&'r mut (dyn FrameSink + 's)>) -> Self {
+        self.sink = sink.map(|s| s as &'r mut (dyn FrameSink + 'r));
+        self
     }
 
     /// Adds one frame. The view must cover every ROI.
     pub fn push(&mut self, view: &FrameView<'_>) {
         progress::count_frame();
+        if let Some(sink) = self.sink.as_deref_mut() {
+            sink.frame(&GreyFrame {
+                view,
+                weights: self.weights,
+                expand: self.expand.as_deref(),
+                index: self.frames as u64,
+            });
+        }
+        self.frames += 1;
         let w = self.weights;
         let stride = view.width as usize;
         for (i, r) in self.rois.iter().enumerate() {
@@ -622,7 +742,7 @@ impl<'r> Accumulator<'r> {
 
     /// Frames pushed so far.
     pub fn frames(&self) -> usize {
-        self.luma.first().map_or(0, Vec::len)
+        self.frames
     }
 
     /// The luma traces and, when every frame had colour, the RGB traces.

@@ -35,8 +35,8 @@ use super::layout::Layout;
 use super::probe::{Probe, drain_stderr, probe, stopped, tool_error};
 use super::watch::{STALL, Watchdog};
 use super::{
-    Accumulator, CaptureError, CaptureTrace, FrameView, Pixels, ReadOptions, RoiRect, VideoDecode,
-    VideoRange, check_rois, limited_to_full_lut, open_file, times_from_fps,
+    Accumulator, CaptureError, CaptureTrace, FrameSink, FrameView, Pixels, ReadOptions, RoiRect,
+    VideoDecode, VideoRange, check_rois, limited_to_full_lut, open_file, times_from_fps,
 };
 
 /// True when `ffmpeg` and `ffprobe` can be run.
@@ -78,7 +78,19 @@ fn probe_and_read_with(
     stall: Duration,
 ) -> Result<CaptureTrace, CaptureError> {
     let ready = prepare_with(path, rois, opts, probe_with)?;
-    ready.decoder.read(path, ready.probe, opts, stall)
+    ready.decoder.read(path, ready.probe, opts, stall, None)
+}
+
+/// Reads every frame of the video at `path` whole, handing each to `sink`.
+pub(super) fn read_whole(
+    path: &Path,
+    opts: &ReadOptions,
+    sink: &mut dyn FrameSink,
+) -> Result<CaptureTrace, CaptureError> {
+    let ready = prepare_with(path, &[], opts, probe)?;
+    ready
+        .decoder
+        .read(path, ready.probe, opts, STALL, Some(sink))
 }
 
 /// A video probed, its ROIs checked, and its ffmpeg started on the layout
@@ -105,7 +117,7 @@ impl Prepared {
         path: &Path,
         opts: &ReadOptions,
     ) -> Result<CaptureTrace, CaptureError> {
-        self.decoder.read(path, self.probe, opts, STALL)
+        self.decoder.read(path, self.probe, opts, STALL, None)
     }
 }
 
@@ -158,7 +170,7 @@ fn read_with(
 ) -> Result<CaptureTrace, CaptureError> {
     check_rois(path, 0, rois, p.width, p.height)?;
     let layout = layout_for(rois, (p.width, p.height));
-    Decoder::start(path, layout, opts)?.read(path, p, opts, STALL)
+    Decoder::start(path, layout, opts)?.read(path, p, opts, STALL, None)
 }
 
 /// An ffmpeg process decoding a video through `layout`, its stderr drained
@@ -198,9 +210,10 @@ impl Decoder {
         p: Probe,
         opts: &ReadOptions,
         stall: Duration,
+        sink: Option<&mut dyn FrameSink>,
     ) -> Result<CaptureTrace, CaptureError> {
         let (_, bpp, _) = pixel_format(opts.video_decode);
-        let mut acc = Accumulator::new(&self.layout.rois, opts.luma);
+        let mut acc = Accumulator::new(&self.layout.rois, opts.luma).with_sink(sink);
         let full = match opts.range {
             VideoRange::Full => true,
             VideoRange::Limited => false,

@@ -206,6 +206,7 @@ pub(super) fn read(
     path: &Path,
     rois: &[RoiRect],
     opts: &ReadOptions,
+    sink: Option<&mut dyn super::FrameSink>,
 ) -> Result<CaptureTrace, CaptureError> {
     let read_err = |e: std::io::Error| CaptureError::Read {
         path: path.to_path_buf(),
@@ -234,7 +235,7 @@ pub(super) fn read(
         VideoRange::Limited => false,
         VideoRange::Auto => hdr.full_range.unwrap_or(false),
     };
-    let mut acc = Accumulator::new(rois, opts.luma);
+    let mut acc = Accumulator::new(rois, opts.luma).with_sink(sink);
     if !full {
         acc.expand = Some(limited_to_full_lut(hdr.bits));
     }
