@@ -143,6 +143,7 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             pages => doc.case_pages(),
             caveats => doc.caveats(),
             fold_notes => doc.fold_notes(),
+            limit_tables => Serde(doc.limit_tables()),
             detail => doc.detail().as_str(),
             draft => doc.is_draft(),
             date => doc.date(),
