@@ -293,11 +293,16 @@ fn check(plan_name: &str, r: &Results, frames: &BTreeMap<String, Frames>) {
         BTreeMap::new(),
     );
     let html = unescape(&ledflicker::report::html::render_document(&doc).unwrap());
+    // The Typst markup of report.pdf; a build without PDFs has none.
+    #[cfg(feature = "pdf")]
     let typ = ledflicker::report::pdf::render_markup(&doc).unwrap();
+    #[cfg(not(feature = "pdf"))]
+    let typ = String::new();
+    let pdf = ledflicker::report::WRITES_PDF;
     for s in c.stated.iter().chain(&c.setup) {
         assert!(html.contains(&s.text), "{plan_name}: HTML lacks {s:?}");
         assert!(
-            typ.contains(&format!("{:?}", s.text)),
+            !pdf || typ.contains(&format!("{:?}", s.text)),
             "{plan_name}: PDF lacks {s:?}"
         );
     }
@@ -320,7 +325,7 @@ fn check(plan_name: &str, r: &Results, frames: &BTreeMap<String, Frames>) {
                 .unwrap_or_else(|| panic!("{plan_name}: no {cell}"));
         }
         assert!(
-            typ.contains(&format!("[#{:?}],", t.rows[0].roi)),
+            !pdf || typ.contains(&format!("[#{:?}],", t.rows[0].roi)),
             "{plan_name}: PDF table"
         );
     }

@@ -34,6 +34,9 @@ pub struct Conditions {
     /// single-exposure camera); empty when ledflicker does not know it (a
     /// capture or a rig).
     pub exposure_ms: Vec<f64>,
+    /// Name of each capture of `exposure_ms` (e.g. "L", "M", "S"); empty
+    /// for a single-exposure camera.
+    pub exposure_captures: Vec<String>,
     /// The exposure is the starting point of auto exposure, not fixed.
     pub auto_exposure: bool,
     /// Light levels of the cases, lux, rising.
@@ -438,6 +441,12 @@ pub fn conditions(model: &Results, plan: &Plan) -> Conditions {
     } else {
         (Vec::new(), false)
     };
+    let exposure_captures = match &cam.physical {
+        Some(p) if simulated && p.captures.len() > 1 => {
+            p.captures.iter().map(|c| c.name.clone()).collect()
+        }
+        _ => Vec::new(),
+    };
     let light_lux = distinct(model.cases.iter().map(|c| c.light_lux));
     let light_unknown_cases = model.cases.iter().filter(|c| c.light_lux <= 0.0).count();
     let frequencies_hz = distinct(model.cases.iter().map(|c| c.frequency_hz));
@@ -483,6 +492,7 @@ pub fn conditions(model: &Results, plan: &Plan) -> Conditions {
         frame_rate_fps,
         frame_rate_unknown_cases,
         exposure_ms,
+        exposure_captures,
         auto_exposure,
         light_lux,
         light_unknown_cases,
@@ -539,7 +549,11 @@ fn summary_sentences(c: &Conditions, total: usize, backend: BackendName, fps: f6
         xs => {
             let each = xs
                 .iter()
-                .map(|x| format!("{} ms", fixed(*x, 3)))
+                .enumerate()
+                .map(|(i, x)| match c.exposure_captures.get(i) {
+                    Some(name) => format!("{name} {} ms", fixed(*x, 3)),
+                    None => format!("{} ms", fixed(*x, 3)),
+                })
                 .collect::<Vec<_>>()
                 .join(", ");
             let captures = if xs.len() > 1 {
