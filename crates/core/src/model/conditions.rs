@@ -126,9 +126,10 @@ pub struct PwmClock {
     /// (phase locked at 0 ppm), Hz, rising.
     pub multiples_hz: Vec<f64>,
     /// For each of `multiples_hz`, the time the offset takes to sweep the
-    /// PWM phase once round, `1 / (f ppm 1e-6)`, seconds; empty at 0 ppm
-    /// (the phase never drifts).
-    pub drift_period_s: Vec<f64>,
+    /// PWM phase once round, `1 / (f ppm 1e-6)`, seconds; `null` when that
+    /// exceeds the largest number results.json holds (an offset near
+    /// 1e-300 ppm); empty at 0 ppm (the phase never drifts).
+    pub drift_period_s: Vec<Option<f64>>,
 }
 
 /// The simulated scene (`[scene]`, `[light]`).
@@ -329,7 +330,7 @@ fn pwm_clock(plan: &Plan, frequencies: &[f64]) -> PwmClock {
     } else {
         multiples_hz
             .iter()
-            .map(|f| 1.0 / (f * ppm.abs() * 1e-6))
+            .map(|f| Some(1.0 / (f * ppm.abs() * 1e-6)).filter(|p| p.is_finite()))
             .collect()
     };
     PwmClock {
@@ -368,7 +369,10 @@ fn pwm_clock_text(c: &PwmClock, fps: f64) -> String {
         .multiples_hz
         .iter()
         .zip(&c.drift_period_s)
-        .map(|(f, p)| format!("{f} Hz once every {} s", fixed(*p, 1)))
+        .map(|(f, p)| match p {
+            Some(p) => format!("{f} Hz once every {} s", fixed(*p, 1)),
+            None => format!("{f} Hz more slowly than any stated time"),
+        })
         .collect();
     let drift = if drifts.is_empty() {
         String::new()
