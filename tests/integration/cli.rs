@@ -166,7 +166,7 @@ fn signed_report_is_not_overwritten_without_force() {
     let out = scratch("signed");
     // A signed earlier report: `plan` replaces only reports it wrote,
     // recognised here by results.json's schema.
-    let earlier = r#"{"schema": "ledflicker.results/2"}"#;
+    let earlier = r#"{"schema": "ledflicker.results/3"}"#;
     std::fs::write(out.join("results.json"), earlier).unwrap();
     std::fs::write(out.join("signoff.json"), "{}").unwrap();
     let args = [

@@ -10,6 +10,7 @@ mod camera_model;
 mod capture_inputs;
 mod captured;
 mod cli;
+mod conditions;
 mod detect;
 mod exact;
 mod features;

@@ -192,6 +192,17 @@ impl Document {
             .collect()
     }
 
+    /// Per failing case, its limits as a ROI x metric table, worst ROI
+    /// first ([`crate::model::limits`]), for the failing-cases summary.
+    pub fn limit_tables(&self) -> BTreeMap<String, crate::model::limits::LimitTable> {
+        self.results
+            .cases
+            .iter()
+            .filter(|c| c.verdict == crate::model::Verdict::Fail)
+            .map(|c| (c.id.clone(), c.limit_table()))
+            .collect()
+    }
+
     /// Per case, the sentences that stand for its phase folds that are not
     /// drawn ([`super::charts::degenerate_fold_sentence`]); ROIs with the
     /// same reason share one sentence ("Phase fold of roi0, roi1 not drawn").

@@ -194,6 +194,7 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             glossary => Serde(crate::model::GLOSSARY),
             caveats => doc.caveats(),
             fold_notes => doc.fold_notes(),
+            limit_tables => Serde(doc.limit_tables()),
             detail => doc.detail().as_str(),
             draft => doc.is_draft(),
             date => doc.date(),

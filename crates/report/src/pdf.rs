@@ -305,6 +305,7 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             appendix_pages => appendix_page_values(doc),
             caveats => doc.caveats(),
             fold_notes => doc.fold_notes(),
+            limit_tables => Serde(doc.limit_tables()),
             detail => doc.detail().as_str(),
             draft => doc.is_draft(),
             date => doc.date(),

@@ -137,6 +137,7 @@ fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         },
         dut: dut_info(plan, backend_id),
         sequence: SequenceInfo { on_s, off_s, pwm_s },
+        conditions: Default::default(),
         thresholds,
         method: super::method::method(plan),
         p2020: plan.p2020,

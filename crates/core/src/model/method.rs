@@ -201,6 +201,7 @@ pub fn describe(model: &mut Results, plan: &Plan) {
     for case in &mut model.cases {
         case.acquisition = case_acquisition(plan, case);
     }
+    model.conditions = super::conditions::conditions(model, plan);
 }
 
 /// Deviations from the method of Deegan 2018 (IS&T EI AVM-146) and notes a
@@ -210,12 +211,10 @@ pub fn describe(model: &mut Results, plan: &Plan) {
 /// `model` is the assembled model of `plan`'s run.
 pub fn notes(model: &Results, plan: &Plan) -> Vec<String> {
     let mut out = Vec::new();
-    let s = &model.sequence;
     // Deegan 2018, section 3: 2 s ON, 2 s OFF, 60 s PWM, at 40 and 2000 lux.
-    if (s.on_s, s.off_s, s.pwm_s) != (2.0, 2.0, 60.0) {
+    if let Some(used) = super::conditions::sequence_deviation(&model.conditions) {
         out.push(format!(
-            "Sequence: {} s ON, {} s OFF, {} s PWM; Deegan 2018 uses 2 s, 2 s and 60 s.",
-            s.on_s, s.off_s, s.pwm_s
+            "Sequence: {used}; Deegan 2018 uses 2 s, 2 s and 60 s."
         ));
     }
     let odd: Vec<String> = model

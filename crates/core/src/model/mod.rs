@@ -4,7 +4,7 @@
 //! this model and imports nothing else of the pipeline; the types it shows
 //! from lower modules are re-exported here (docs/architecture.md).
 //!
-//! Contract `ledflicker.results/2` (see docs/changes.md; fields may be added,
+//! Contract `ledflicker.results/3` (see docs/changes.md; fields may be added,
 //! never renamed):
 //! `schema`, `plan {id, title, path, sha256}`, `verdict`, and `cases[]` with
 //! `id, light_lux, frequency_hz, duty, verdict` and
@@ -18,13 +18,19 @@
 //! `phase_coverage` and an `analysis` object; at the top `fine_maps` and
 //! `advice`.
 //!
+//! `conditions` holds the conditions the report states (sequence as used,
+//! frame rate, exposure, light levels, PWM grid and clock, scene, ROIs),
+//! each computed from what was run ([`conditions`]).
+//!
 //! A captured or rig case also has `frame_timing` (the rate fitted to its
 //! frame times, its uncertainty, the times' resolution, the stated rate
 //! and the drops), and its `capture` the container's `time_base_s` and
 //! `stated_frame_rate_fps`.
 
 pub mod build;
+pub mod conditions;
 pub mod frame;
+pub mod limits;
 pub mod method;
 pub mod plane;
 
@@ -51,7 +57,7 @@ pub use crate::trace::{
 pub use build::assemble;
 
 /// Schema id of results.json.
-pub const RESULTS_SCHEMA: &str = "ledflicker.results/2";
+pub const RESULTS_SCHEMA: &str = "ledflicker.results/3";
 
 /// Top of results.json.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -64,8 +70,11 @@ pub struct Results {
     pub plan: PlanInfo,
     /// Device under test and backend.
     pub dut: DutInfo,
-    /// The light sequence.
+    /// The light sequence of the plan (`[sequence]`); what was run is in
+    /// `conditions.sequence`.
     pub sequence: SequenceInfo,
+    /// The conditions the report states, each from what was run.
+    pub conditions: conditions::Conditions,
     /// Pass criteria; `basis` is the one actually used (as captured for
     /// captures and rigs).
     pub thresholds: Thresholds,

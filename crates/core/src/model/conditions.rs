@@ -1,0 +1,695 @@
+//! The conditions a report states, each from what was run: the segments
+//! of the light sequence actually used (simulated, given in the plan or
+//! detected in each capture), the frame rate (the simulated camera's, or
+//! fitted to each capture's frame times), exposure, light levels, PWM
+//! grid, the PWM clock against the camera clock, the scene and the ROIs.
+//!
+//! Part of the results model: results.json holds them as `conditions`,
+//! structured and as the sentences the summary and the method print
+//! (`stated`, `setup`), so HTML and PDF state the same conditions and a
+//! test can check each sentence's figures against the per-case data.
+
+use serde::{Deserialize, Serialize};
+
+use super::{BackendName, Results, RoiKind, Segment, SegmentMethod};
+use crate::plan::{Plan, SegmentFrames};
+use crate::util::fixed;
+
+/// Everything the report states about the conditions of the run.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Conditions {
+    /// Each segment of the sequence, over the cases that have it, in the
+    /// order ON, OFF, PWM.
+    pub sequence: Vec<SegmentSpan>,
+    /// Captured or rig cases whose segments the plan gives.
+    pub segments_given: usize,
+    /// Captured or rig cases whose segments were detected from the luma.
+    pub segments_detected: usize,
+    /// Frame rate, frames/s: the simulated camera's, or the range of the
+    /// rates fitted to the cases' frame times; `null` when no case has one.
+    pub frame_rate_fps: Option<Span>,
+    /// Cases without a frame rate of their own (too few frames to fit one).
+    pub frame_rate_unknown_cases: usize,
+    /// Exposure of each capture of a frame, milliseconds (one for a
+    /// single-exposure camera); empty when ledflicker does not know it (a
+    /// capture or a rig).
+    pub exposure_ms: Vec<f64>,
+    /// Name of each capture of `exposure_ms` (e.g. "L", "M", "S"); empty
+    /// for a single-exposure camera.
+    pub exposure_captures: Vec<String>,
+    /// The exposure is the starting point of auto exposure, not fixed.
+    pub auto_exposure: bool,
+    /// Light levels of the cases, lux, rising.
+    pub light_lux: Vec<f64>,
+    /// Cases whose light level is not stated (a capture without conditions).
+    pub light_unknown_cases: usize,
+    /// PWM frequencies of the cases, Hz, rising.
+    pub frequencies_hz: Vec<f64>,
+    /// Duty cycles of the cases, 0..1, rising.
+    pub duty_cycles: Vec<f64>,
+    /// The simulated PWM clock; `null` unless the simulator made the frames.
+    pub pwm_clock: Option<PwmClock>,
+    /// The plan's `pwm-clock-offset-ppm` when the simulator did not make
+    /// the frames (so it was not applied); 0 otherwise.
+    pub unapplied_ppm: f64,
+    /// The simulated scene; `null` unless the simulator made the frames.
+    pub scene: Option<SceneSetup>,
+    /// The plan's ROIs, in plan order.
+    pub rois: Vec<RoiSetup>,
+    /// The conditions as the executive summary states them, in order.
+    pub stated: Vec<Stated>,
+    /// The set-up as the method section states it (light source, scene,
+    /// camera), so that another lab can repeat the test.
+    pub setup: Vec<Stated>,
+}
+
+/// A closed range of values; `min == max` for a single value.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Span {
+    /// Smallest value.
+    pub min: f64,
+    /// Largest value.
+    pub max: f64,
+}
+
+impl Span {
+    /// The range of `values`; `None` when empty.
+    pub fn of(values: impl IntoIterator<Item = f64>) -> Option<Span> {
+        values.into_iter().fold(None, |s, v| {
+            Some(s.map_or(Span { min: v, max: v }, |s: Span| Span {
+                min: s.min.min(v),
+                max: s.max.max(v),
+            }))
+        })
+    }
+
+    /// `a` or `a-b` with `digits` decimals, and the unit.
+    fn text(&self, digits: usize, unit: &str) -> String {
+        let (a, b) = (fixed(self.min, digits), fixed(self.max, digits));
+        if a == b {
+            format!("{a} {unit}")
+        } else {
+            format!("{a}-{b} {unit}")
+        }
+    }
+}
+
+/// One segment of the sequence over the cases that have it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SegmentSpan {
+    /// on, off or pwm.
+    pub segment: Segment,
+    /// How many cases have it.
+    pub cases: usize,
+    /// Its frames `[first, end)` when every case that has it has the same;
+    /// `null` when they differ.
+    pub frames: Option<(u64, u64)>,
+    /// Its first frame, over the cases.
+    pub first_frame: Span,
+    /// Frames in it, over the cases.
+    pub frame_count: Span,
+    /// Start, seconds from the first frame, over the cases.
+    pub start_s: Span,
+    /// Duration, seconds, over the cases.
+    pub duration_s: Span,
+}
+
+/// The simulated PWM clock against the camera clock.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PwmClock {
+    /// The PWM clock's error, parts per million (`pwm-clock-offset-ppm`):
+    /// the LED runs at `f (1 + ppm 1e-6)`.
+    pub offset_ppm: f64,
+    /// First PWM rising edge after frame 0 starts, milliseconds.
+    pub delay_ms: f64,
+    /// The cases' frequencies that are whole multiples of the frame rate
+    /// (phase locked at 0 ppm), Hz, rising.
+    pub multiples_hz: Vec<f64>,
+    /// For each of `multiples_hz`, the time the offset takes to sweep the
+    /// PWM phase once round, `1 / (f ppm 1e-6)`, seconds; `null` when that
+    /// exceeds the largest number results.json holds (an offset near
+    /// 1e-300 ppm); empty at 0 ppm (the phase never drifts).
+    pub drift_period_s: Vec<Option<f64>>,
+}
+
+/// The simulated scene (`[scene]`, `[light]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SceneSetup {
+    /// Luminance of the LED while ON, cd/m^2.
+    pub led_luminance_cd_m2: f64,
+    /// Share of an LED ROI the LED covers, 0..1.
+    pub led_fill: f64,
+    /// Reflectance of the grey background, 0..1.
+    pub background_reflectance: f64,
+    /// Per light level, the background's luminance `rho E / pi`, cd/m^2,
+    /// as `(lux, cd/m^2)`.
+    pub background_luminance_cd_m2: Vec<(f64, f64)>,
+}
+
+/// One ROI as the plan places it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RoiSetup {
+    /// Name.
+    pub name: String,
+    /// led or background.
+    pub kind: RoiKind,
+    /// Left column, 0-based, pixels.
+    pub x_px: u32,
+    /// Top row, 0-based, pixels.
+    pub y_px: u32,
+    /// Width, pixels.
+    pub width_px: u32,
+    /// Height, rows.
+    pub height_px: u32,
+    /// The frames it is read from: every case's (the plan's ROIs apply to
+    /// every capture and every simulated frame).
+    pub applies_to: String,
+}
+
+/// One stated condition: a label and its sentence.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Stated {
+    /// Short label, e.g. "Sequence".
+    pub label: String,
+    /// What the report says.
+    pub text: String,
+}
+
+fn stated(label: &str, text: String) -> Stated {
+    Stated {
+        label: label.to_string(),
+        text,
+    }
+}
+
+/// The distinct values of `xs` (> 0), rising.
+fn distinct(xs: impl Iterator<Item = f64>) -> Vec<f64> {
+    let mut out: Vec<f64> = xs.filter(|x| *x > 0.0).collect();
+    out.sort_by(f64::total_cmp);
+    out.dedup();
+    out
+}
+
+/// The segments of every case: the simulator's from the plan's sequence
+/// at the camera's rate (ON, OFF, PWM back to back from frame 0), a
+/// capture's or a rig's as found in it.
+fn segments(model: &Results, plan: &Plan) -> Vec<SegmentSpan> {
+    type Found = (u64, u64, f64, f64);
+    let mut per: [Vec<Found>; 3] = Default::default();
+    let simulated = model.method.backend == BackendName::Simulator;
+    for case in &model.cases {
+        if let Some(cap) = &case.capture {
+            let s = &cap.segments;
+            let mut add = |i: usize, f: Option<(u64, u64)>, t: Option<(f64, f64)>| {
+                if let (Some((a, b)), Some((ta, tb))) = (f, t) {
+                    per[i].push((a, b, ta, tb));
+                }
+            };
+            add(0, s.on, s.on_time_s);
+            add(1, s.off, s.off_time_s);
+            add(2, Some(s.pwm), Some(s.pwm_time_s));
+        } else if simulated {
+            let fps = plan.dut.camera.fps;
+            let n = SegmentFrames::new(&plan.sequence, fps);
+            let mut start = 0;
+            for (i, count) in [n.on, n.off, n.pwm].into_iter().enumerate() {
+                if count > 0 {
+                    let end = start + count;
+                    per[i].push((start, end, start as f64 / fps, end as f64 / fps));
+                }
+                start += count;
+            }
+        }
+    }
+    [Segment::On, Segment::Off, Segment::Pwm]
+        .into_iter()
+        .zip(per)
+        .filter(|(_, found)| !found.is_empty())
+        .map(|(segment, found)| {
+            let first = (found[0].0, found[0].1);
+            let same = found.iter().all(|f| (f.0, f.1) == first);
+            SegmentSpan {
+                segment,
+                cases: found.len(),
+                frames: same.then_some(first),
+                first_frame: Span::of(found.iter().map(|f| f.0 as f64))
+                    .unwrap_or(Span { min: 0.0, max: 0.0 }),
+                frame_count: Span::of(found.iter().map(|f| (f.1 - f.0) as f64))
+                    .unwrap_or(Span { min: 0.0, max: 0.0 }),
+                start_s: Span::of(found.iter().map(|f| f.2)).unwrap_or(Span { min: 0.0, max: 0.0 }),
+                duration_s: Span::of(found.iter().map(|f| f.3 - f.2))
+                    .unwrap_or(Span { min: 0.0, max: 0.0 }),
+            }
+        })
+        .collect()
+}
+
+fn segment_name(s: Segment) -> &'static str {
+    match s {
+        Segment::On => "steady ON",
+        Segment::Off => "OFF",
+        Segment::Pwm => "PWM",
+    }
+}
+
+/// Whether some case's segments were given in the plan, and whether some
+/// were detected.
+#[derive(Debug, Clone, Copy)]
+struct SegmentMethods {
+    plan: bool,
+    detected: bool,
+}
+
+/// The sequence sentence: each segment's frames and seconds, as used.
+fn sequence_text(
+    spans: &[SegmentSpan],
+    methods: SegmentMethods,
+    total: usize,
+    backend: BackendName,
+) -> String {
+    if spans.is_empty() {
+        return "no segment was used".to_string();
+    }
+    let mut parts: Vec<String> = spans
+        .iter()
+        .map(|s| {
+            let name = segment_name(s.segment);
+            let single = |x: &Span| fixed(x.min, 3) == fixed(x.max, 3);
+            let seconds = if single(&s.start_s) && single(&s.duration_s) {
+                let end = s.start_s.min + s.duration_s.min;
+                format!("{}-{} s", fixed(s.start_s.min, 3), fixed(end, 3))
+            } else {
+                format!(
+                    "from {}, {} long",
+                    s.start_s.text(3, "s"),
+                    s.duration_s.text(3, "s")
+                )
+            };
+            let mut t = match s.frames {
+                Some((a, b)) => format!("{name} frames {a}..{b} ({seconds})"),
+                None => format!(
+                    "{name} {} frames from frame {} ({seconds}; each case's page gives its own)",
+                    s.frame_count.text(0, "").trim_end(),
+                    s.first_frame.text(0, "").trim_end(),
+                ),
+            };
+            if s.cases < total {
+                t += &format!(" in {} of {total} cases", s.cases);
+            }
+            t
+        })
+        .collect();
+    if !spans.iter().any(|s| s.segment == Segment::On) {
+        parts.push("no steady ON segment".to_string());
+    }
+    let found = match (methods.plan, methods.detected) {
+        (true, false) => "given in the plan",
+        (false, true) => "detected per case from the LED-ROI luma",
+        _ => "given in the plan or detected per case",
+    };
+    let how = match backend {
+        BackendName::Simulator => "simulated for every case, ON at the PWM average".to_string(),
+        BackendName::Captured => format!("as used in the captures, {found}"),
+        BackendName::Command => format!("as used in the rig's frames, {found}"),
+    };
+    format!("{}; {how}", parts.join(", "))
+}
+
+/// The PWM clock of the simulator: its offset, and what it does to the
+/// frequencies that are whole multiples of the frame rate.
+fn pwm_clock(plan: &Plan, frequencies: &[f64]) -> PwmClock {
+    let fps = plan.dut.camera.fps;
+    let ppm = plan.scene.pwm_clock_offset_ppm;
+    let multiples_hz: Vec<f64> = frequencies
+        .iter()
+        .copied()
+        .filter(|&f| crate::analysis::apparent::apparent_frequency_hz(f, fps) == 0.0)
+        .collect();
+    let drift_period_s = if ppm == 0.0 {
+        Vec::new()
+    } else {
+        multiples_hz
+            .iter()
+            .map(|f| Some(1.0 / (f * ppm.abs() * 1e-6)).filter(|p| p.is_finite()))
+            .collect()
+    };
+    PwmClock {
+        offset_ppm: ppm,
+        delay_ms: plan.dut.camera.pwm_delay_s * 1e3,
+        multiples_hz,
+        drift_period_s,
+    }
+}
+
+fn pwm_clock_text(c: &PwmClock, fps: f64) -> String {
+    let edge = format!("first rising edge {} ms after frame 0 starts", c.delay_ms);
+    let list = |xs: &[f64]| {
+        xs.iter()
+            .map(|f| format!("{f} Hz"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if c.offset_ppm == 0.0 {
+        let locked = if c.multiples_hz.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; {} {} whole multiples of {fps} fps, so phase locked: every frame sees the same PWM phase",
+                list(&c.multiples_hz),
+                if c.multiples_hz.len() == 1 {
+                    "is a"
+                } else {
+                    "are"
+                }
+            )
+        };
+        return format!("locked to the camera clock (offset 0 ppm), {edge}{locked}");
+    }
+    let drifts: Vec<String> = c
+        .multiples_hz
+        .iter()
+        .zip(&c.drift_period_s)
+        .map(|(f, p)| match p {
+            Some(p) => format!("{f} Hz once every {} s", fixed(*p, 1)),
+            None => format!("{f} Hz more slowly than any stated time"),
+        })
+        .collect();
+    let drift = if drifts.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; not phase locked at the multiples of {fps} fps: the PWM phase drifts once round at {}",
+            drifts.join(", ")
+        )
+    };
+    format!(
+        "offset {} ppm from the camera clock (the LED runs at f (1 + {} x 1e-6)), {edge}{drift}",
+        c.offset_ppm, c.offset_ppm
+    )
+}
+
+/// `x` with at most 3 decimals, trailing zeros dropped: 0.05 x 100 prints
+/// as 5, not 5.000000000000001.
+fn short(x: f64) -> String {
+    let s = fixed(x, 3);
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+fn list_text(xs: &[f64], scale: f64, unit: &str) -> String {
+    xs.iter()
+        .map(|x| short(x * scale))
+        .collect::<Vec<_>>()
+        .join(", ")
+        + unit
+}
+
+/// The conditions of `model`'s run of `plan` (captures' summaries already
+/// attached to the cases).
+pub fn conditions(model: &Results, plan: &Plan) -> Conditions {
+    let backend = model.method.backend;
+    let simulated = backend == BackendName::Simulator;
+    let total = model.cases.len();
+    let sequence = segments(model, plan);
+    let cam = &plan.dut.camera;
+    let (frame_rate_fps, frame_rate_unknown_cases) = if simulated {
+        (
+            Some(Span {
+                min: cam.fps,
+                max: cam.fps,
+            }),
+            0,
+        )
+    } else {
+        let rates: Vec<f64> = model
+            .cases
+            .iter()
+            .filter_map(|c| c.frame_timing.as_ref().map(|t| t.fps))
+            .collect();
+        (Span::of(rates.iter().copied()), total - rates.len())
+    };
+    let (exposure_ms, auto_exposure) = if simulated {
+        match &cam.physical {
+            Some(p) => (
+                p.captures
+                    .iter()
+                    .map(|c| c.exposure_s(cam.exposure_s) * 1e3)
+                    .collect(),
+                p.auto_exposure.is_some(),
+            ),
+            None => (vec![cam.exposure_s * 1e3], false),
+        }
+    } else {
+        (Vec::new(), false)
+    };
+    let exposure_captures = match &cam.physical {
+        Some(p) if simulated && p.captures.len() > 1 => {
+            p.captures.iter().map(|c| c.name.clone()).collect()
+        }
+        _ => Vec::new(),
+    };
+    let light_lux = distinct(model.cases.iter().map(|c| c.light_lux));
+    let light_unknown_cases = model.cases.iter().filter(|c| c.light_lux <= 0.0).count();
+    let frequencies_hz = distinct(model.cases.iter().map(|c| c.frequency_hz));
+    let duty_cycles = distinct(model.cases.iter().map(|c| c.duty));
+    let pwm_clock = simulated.then(|| pwm_clock(plan, &frequencies_hz));
+    let scene = simulated.then(|| SceneSetup {
+        led_luminance_cd_m2: plan.scene.led_luminance_cd_m2,
+        led_fill: plan.scene.led_fill,
+        background_reflectance: plan.scene.background_reflectance,
+        background_luminance_cd_m2: light_lux
+            .iter()
+            .map(|&lux| (lux, plan.scene.background_luminance_cd_m2(lux)))
+            .collect(),
+    });
+    let rois = plan
+        .rois
+        .iter()
+        .map(|r| RoiSetup {
+            name: r.name.clone(),
+            kind: r.kind,
+            x_px: r.x_px,
+            y_px: r.y_px,
+            width_px: r.width_px,
+            height_px: r.height_px,
+            applies_to: match backend {
+                BackendName::Captured => "every capture".to_string(),
+                BackendName::Command => "every rig run".to_string(),
+                BackendName::Simulator => "every simulated case".to_string(),
+            },
+        })
+        .collect();
+    let method_count = |m: SegmentMethod| {
+        model
+            .cases
+            .iter()
+            .filter(|c| c.capture.as_ref().is_some_and(|k| k.segments.method == m))
+            .count()
+    };
+    let mut c = Conditions {
+        sequence,
+        segments_given: method_count(SegmentMethod::Plan),
+        segments_detected: method_count(SegmentMethod::Detected),
+        frame_rate_fps,
+        frame_rate_unknown_cases,
+        exposure_ms,
+        exposure_captures,
+        auto_exposure,
+        light_lux,
+        light_unknown_cases,
+        frequencies_hz,
+        duty_cycles,
+        pwm_clock,
+        unapplied_ppm: if simulated {
+            0.0
+        } else {
+            plan.scene.pwm_clock_offset_ppm
+        },
+        scene,
+        rois,
+        stated: Vec::new(),
+        setup: Vec::new(),
+    };
+    c.stated = summary_sentences(&c, total, backend, cam.fps);
+    c.setup = setup_sentences(&c, backend);
+    c
+}
+
+/// The executive summary's conditions, each from `c`.
+fn summary_sentences(c: &Conditions, total: usize, backend: BackendName, fps: f64) -> Vec<Stated> {
+    let methods = SegmentMethods {
+        plan: c.segments_given > 0,
+        detected: c.segments_detected > 0,
+    };
+    let mut out = vec![stated(
+        "Sequence",
+        sequence_text(&c.sequence, methods, total, backend),
+    )];
+    let unknown = |n: usize, what: &str| {
+        if n == 0 {
+            String::new()
+        } else {
+            format!("; {what} in {n} of {total} cases")
+        }
+    };
+    let rate = match (&c.frame_rate_fps, backend) {
+        (Some(r), BackendName::Simulator) => format!("{} (the simulated camera)", r.text(3, "fps")),
+        (Some(r), _) => format!(
+            "{}, fitted to each case's frame times{}",
+            r.text(3, "fps"),
+            unknown(c.frame_rate_unknown_cases, "unknown")
+        ),
+        (None, _) => "unknown: no case has frame times to fit".to_string(),
+    };
+    out.push(stated("Frame rate", rate));
+    let exposure = match c.exposure_ms.as_slice() {
+        [] if backend == BackendName::Command => {
+            "set by the rig, not known to ledflicker".to_string()
+        }
+        [] => "not known to ledflicker: the captures do not record it".to_string(),
+        xs => {
+            let each = xs
+                .iter()
+                .enumerate()
+                .map(|(i, x)| match c.exposure_captures.get(i) {
+                    Some(name) => format!("{name} {} ms", fixed(*x, 3)),
+                    None => format!("{} ms", fixed(*x, 3)),
+                })
+                .collect::<Vec<_>>()
+                .join(", ");
+            let captures = if xs.len() > 1 {
+                " (one per capture of a frame)"
+            } else {
+                ""
+            };
+            if c.auto_exposure {
+                format!("auto exposure starting at {each}{captures}")
+            } else {
+                format!("fixed, {each}{captures}")
+            }
+        }
+    };
+    out.push(stated("Exposure", exposure));
+    let light = if c.light_lux.is_empty() {
+        "not stated (captures without conditions)".to_string()
+    } else {
+        list_text(&c.light_lux, 1.0, " lux") + &unknown(c.light_unknown_cases, "not stated")
+    };
+    out.push(stated("Light levels", light));
+    let pwm = if c.frequencies_hz.is_empty() {
+        "not stated (captures without conditions)".to_string()
+    } else {
+        format!(
+            "{}; duty {}",
+            list_text(&c.frequencies_hz, 1.0, " Hz"),
+            list_text(&c.duty_cycles, 100.0, " %")
+        )
+    };
+    out.push(stated("PWM", pwm));
+    if let Some(clock) = &c.pwm_clock {
+        out.push(stated("PWM clock", pwm_clock_text(clock, fps)));
+    } else if c.unapplied_ppm != 0.0 {
+        out.push(stated(
+            "PWM clock",
+            format!(
+                "the lamp's own, unknown to ledflicker: the plan's pwm-clock-offset-ppm = {} is a simulator setting and was not applied",
+                c.unapplied_ppm
+            ),
+        ));
+    }
+    out
+}
+
+/// The method's set-up: what another lab needs to repeat the test.
+fn setup_sentences(c: &Conditions, backend: BackendName) -> Vec<Stated> {
+    let mut out = Vec::new();
+    match &c.scene {
+        Some(s) => {
+            out.push(stated(
+                "LED",
+                format!(
+                    "luminance {} cd/m² while ON, covering {} % of each LED ROI",
+                    s.led_luminance_cd_m2,
+                    short(s.led_fill * 100.0)
+                ),
+            ));
+            let lum: Vec<String> = s
+                .background_luminance_cd_m2
+                .iter()
+                .map(|(lux, l)| format!("{} cd/m² at {lux} lux", fixed(*l, 2)))
+                .collect();
+            out.push(stated(
+                "Background",
+                format!(
+                    "grey, reflectance {} % (Lambertian: luminance = reflectance x illuminance / pi), {}",
+                    short(s.background_reflectance * 100.0),
+                    lum.join(", ")
+                ),
+            ));
+        }
+        None => {
+            let what = if backend == BackendName::Command {
+                "the rig"
+            } else {
+                "the captures"
+            };
+            out.push(stated(
+                "Scene",
+                format!("set up by {what}: the plan states no LED luminance or background, so the lab's own record of them belongs with this report"),
+            ));
+        }
+    }
+    out.push(stated(
+        "ROIs",
+        format!(
+            "{} {}, placed as in the ROI table (pixels, 0-based from the frame's top-left corner)",
+            c.rois.len(),
+            if c.rois.len() == 1 { "ROI" } else { "ROIs" }
+        ),
+    ));
+    out
+}
+
+/// The segments as used, in words (`0.5 s ON, 0.5 s OFF, 4 s PWM`), when
+/// they depart from Deegan 2018's 2 s ON, 2 s OFF and 60 s PWM by more
+/// than one frame (or a segment is missing); `None` when they match it.
+pub fn sequence_deviation(c: &Conditions) -> Option<String> {
+    let frame_s = c.frame_rate_fps.map_or(0.0, |r| 1.0 / r.min);
+    let paper = [
+        (Segment::On, 2.0),
+        (Segment::Off, 2.0),
+        (Segment::Pwm, 60.0),
+    ];
+    let mut differs = false;
+    let parts: Vec<String> = paper
+        .iter()
+        .map(|&(seg, want)| {
+            let name = match seg {
+                Segment::On => "ON",
+                Segment::Off => "OFF",
+                Segment::Pwm => "PWM",
+            };
+            match c.sequence.iter().find(|s| s.segment == seg) {
+                Some(s) => {
+                    let d = s.duration_s;
+                    differs |= (d.min - want).abs() > frame_s + 1e-9
+                        || (d.max - want).abs() > frame_s + 1e-9;
+                    let (a, b) = (short(d.min), short(d.max));
+                    if a == b {
+                        format!("{a} s {name}")
+                    } else {
+                        format!("{a}-{b} s {name}")
+                    }
+                }
+                None => {
+                    differs = true;
+                    format!("no {name}")
+                }
+            }
+        })
+        .collect();
+    differs.then(|| parts.join(", "))
+}
