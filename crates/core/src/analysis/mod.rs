@@ -15,7 +15,8 @@
 //! - [`finemap`]: worst-phase FDI and Percent Flicker over frequency x duty;
 //! - [`colour`]: per-channel modulation and chroma shift (RGB and white LEDs);
 //! - [`summary`]: `simulate --summary`;
-//! - [`timing`]: frame rate, drops and spectrum from a capture's own frame times.
+//! - [`timing`]: frame rate, drops and spectrum from a capture's own frame times;
+//! - [`worst_phase`]: the trace and frame at the worst phase a verdict rests on.
 
 pub mod apparent;
 pub mod banding;
@@ -26,6 +27,7 @@ pub mod hazard;
 pub mod phase_fold;
 pub mod summary;
 pub mod timing;
+pub mod worst_phase;
 
 use serde::{Deserialize, Serialize};
 
@@ -231,6 +233,10 @@ pub struct CaseAnalysis {
     /// the simulator, whose frames run on the plan camera's clock.
     #[serde(default)]
     pub timing: Option<FrameTiming>,
+    /// The case run again at the worst phase its verdict rests on
+    /// ([`worst_phase`]); the model states it, so it is not stored here.
+    #[serde(skip)]
+    pub worst_phase: Option<worst_phase::WorstPhaseRun>,
 }
 
 /// Analyses a finished case. The simulator's frames run on the plan
@@ -348,6 +354,7 @@ pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
         banding,
         rois,
         timing,
+        worst_phase: worst_phase::worst_phase_run(plan, r),
     }
 }
 

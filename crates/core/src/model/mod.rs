@@ -24,6 +24,7 @@
 //! `stated_frame_rate_fps`.
 
 pub mod build;
+pub mod evidence;
 pub mod frame;
 pub mod method;
 pub mod plane;
@@ -286,6 +287,10 @@ pub struct CaseInfo {
     /// simulator).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frame_timing: Option<FrameTiming>,
+    /// The trace and frame at the worst PWM phase that a failing or
+    /// informational worst-phase verdict rests on (simulator only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub worst_phase: Option<evidence::WorstPhaseInfo>,
 }
 
 impl CaseInfo {
