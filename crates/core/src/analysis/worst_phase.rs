@@ -7,7 +7,9 @@
 //! ([`Shutter::darkest_phase`]), which gives the trace and the frame the
 //! verdict stands on. Only cases whose verdict rests on a worst-phase check
 //! that is not met get this run, and only for the ideal camera, whose worst
-//! phase is a closed form.
+//! phase is a closed form. A case whose trace already holds its worst
+//! case (the capture saw that phase) needs no run: its trace is the
+//! evidence.
 //!
 //! [`Shutter::darkest_phase`]: crate::physics::Shutter::darkest_phase
 
@@ -53,9 +55,11 @@ pub struct WorstPhaseRun {
     pub rendered: Option<RenderedFrame>,
 }
 
-/// The ROI and check a worst-phase verdict of `r` rests on: among the
-/// worst-phase checks not met, the one with the lowest margin (plan order
-/// breaks ties). `None` for a passing case or one judged on other checks.
+/// The ROI and check a worst-phase verdict of `r` rests on and that its
+/// trace does not show: among the worst-phase checks not met whose value
+/// differs from the same metric as run ([`shown_as_run`]), the one with the
+/// lowest margin (plan order breaks ties). `None` for a passing case, one
+/// judged on other checks, or one whose trace already holds its worst case.
 pub fn failing_check(r: &CaseResult) -> Option<&Check> {
     if r.verdict == Verdict::Pass {
         return None;
@@ -63,7 +67,36 @@ pub fn failing_check(r: &CaseResult) -> Option<&Check> {
     r.checks
         .iter()
         .filter(|k| !k.pass && k.metric.ends_with(WORST_PHASE_SUFFIX))
+        .filter(|k| !shown_as_run(r, k))
         .min_by(|a, b| a.margin().total_cmp(&b.margin()))
+}
+
+/// Relative difference under which a worst-phase value is the value as run:
+/// the worst phase then is in the trace, which shows the verdict already.
+const SAME_VALUE: f64 = 1e-9;
+
+/// Whether the check's worst-phase value is its metric's value as run (the
+/// capture saw its worst phase).
+fn shown_as_run(r: &CaseResult, k: &Check) -> bool {
+    let Some(m) = r
+        .acquisition
+        .rois
+        .iter()
+        .position(|t| t.name == k.roi)
+        .and_then(|i| r.metrics.get(i))
+    else {
+        return false;
+    };
+    let as_run = match k.metric.strip_suffix(WORST_PHASE_SUFFIX) {
+        Some("fdi_2018") => &m.fdi_2018,
+        Some("percent_flicker") => &m.percent_flicker,
+        _ => return false,
+    };
+    match (as_run.value, k.value) {
+        (Some(a), Some(w)) => (a - w).abs() <= SAME_VALUE * a.abs().max(w.abs()).max(1.0),
+        (None, None) => as_run.unbounded == k.unbounded,
+        _ => false,
+    }
 }
 
 /// The case `r` of `plan` run again at the worst phase of the ROI its

@@ -90,7 +90,13 @@ fn panel<DB: DrawingBackend>(
         None => "PF n/a".to_string(),
     };
     let range = if lo.is_finite() && hi.is_finite() {
-        format!("{lo:.1}\u{2013}{hi:.1} DN")
+        // Whole DN from 100 up: the range then still fits its panel.
+        let places = if hi.abs().max(lo.abs()) >= 100.0 {
+            0
+        } else {
+            1
+        };
+        format!("{lo:.places$}\u{2013}{hi:.places$} DN")
     } else {
         "no samples".to_string()
     };
