@@ -106,7 +106,12 @@ impl<'a> ChartJobs<'a> {
             jobs.add(zoom_chart_path(&r.case.id), move || {
                 charts::trace_zoom_svg(r, apparent_hz)
             });
-            if let Some(w) = case.and_then(|c| c.worst_phase.as_ref()) {
+            // The worst-phase trace is not in results.json: a model read
+            // back from it has the sentence but no chart.
+            if let Some(w) = case
+                .and_then(|c| c.worst_phase.as_ref())
+                .filter(|w| !w.luma.is_empty())
+            {
                 let fdi_min = model.thresholds.fdi_2018_min;
                 jobs.add(worst_phase_chart_path(&r.case.id), move || {
                     charts::worst_phase_svg(r, w, fdi_min)
