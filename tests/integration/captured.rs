@@ -146,6 +146,86 @@ fn p2020_samples_agree_with_the_reference_pipeline_per_roi() {
     }
 }
 
+#[test]
+fn p2020_sample_report_draws_each_videos_phase_folds_as_one_chart_of_panels() {
+    need_ffmpeg();
+    let dir = scratch("p2020-folds");
+    let json = run_plan(&root().join("test-plans/p2020-samples.toml"), &dir);
+    let out = dir.join("out");
+    for case in json["cases"].as_array().unwrap() {
+        let id = case["id"].as_str().unwrap();
+        // The ROIs whose fold is drawn (the others are a sentence).
+        let names: Vec<&str> = case["rois"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|r| r["analysis"]["phase_coverage"]["covered_bins"].as_u64() >= Some(4))
+            .map(|r| r["name"].as_str().unwrap())
+            .collect();
+        assert!(names.len() >= 35, "{id}: {} folds drawn", names.len());
+        let folds: Vec<PathBuf> = std::fs::read_dir(out.join("charts"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| {
+                let name = p.file_name().unwrap().to_string_lossy();
+                name.starts_with(&format!("fold-{id}-"))
+            })
+            .collect();
+        assert_eq!(folds.len(), 1, "{id}: {folds:?}");
+        // Every ROI keeps its panel, named, with its Percent Flicker.
+        let svg = std::fs::read_to_string(&folds[0]).unwrap();
+        for name in &names {
+            assert!(
+                svg.contains(&format!("\n{name}\n")),
+                "{id}: no panel {name}"
+            );
+        }
+        assert_eq!(svg.matches("\nPF ").count(), names.len(), "{id}");
+    }
+    let pdf = out.join("report.pdf");
+    if !pdf.exists() {
+        return; // built without the `pdf` feature
+    }
+    let info = Command::new("pdfinfo").arg(&pdf).output().unwrap();
+    let info = String::from_utf8_lossy(&info.stdout).into_owned();
+    let pages: usize = info
+        .lines()
+        .find_map(|l| l.strip_prefix("Pages:"))
+        .and_then(|n| n.trim().parse().ok())
+        .unwrap();
+    assert!(pages <= 20, "{pages} pages");
+    // The panels' ROI names and figures are set at 7 pt at least in print
+    // (pdftotext's word boxes are as tall as the font is large).
+    let o = Command::new("pdftotext")
+        .args(["-bbox", pdf.to_str().unwrap(), "-"])
+        .output()
+        .unwrap();
+    let boxes = String::from_utf8_lossy(&o.stdout).into_owned();
+    let attr = |line: &str, key: &str| -> f64 {
+        let at = line.find(&format!("{key}=\"")).unwrap() + key.len() + 2;
+        line[at..].split('"').next().unwrap().parse().unwrap()
+    };
+    // Only the pages of the panels: "PF" is in other tables too.
+    let fold_pages = boxes
+        .split("<page ")
+        .filter(|page| page.contains(">panel:</word>"));
+    let mut panels = 0;
+    for line in fold_pages
+        .flat_map(str::lines)
+        .filter(|l| l.contains("<word"))
+    {
+        let word = line
+            .rsplit_once("\">")
+            .map_or("", |(_, w)| w.trim_end_matches("</word>"));
+        if word == "PF" {
+            panels += 1;
+            let height = attr(line, "yMax") - attr(line, "yMin");
+            assert!(height >= 7.0 - 1e-3, "panel text {height:.2} pt high");
+        }
+    }
+    assert!(panels >= 72, "{panels} panel figures in the PDF");
+}
+
 fn grey_diff(name: &str, decode: VideoDecode) -> (f64, f64) {
     let rois = sample_rois();
     let trace = read_capture(&data(&format!("{name}.mp4")), &rois, &[], &opts(decode)).unwrap();

@@ -126,7 +126,15 @@ fn plan_run_writes_results_traces_and_report() {
     // The darkest PWM frame of each case, as a PNG file and inline.
     let png = image::open(out.join("frames/2000lux-150hz-20pct.png")).unwrap();
     assert_eq!((png.width(), png.height()), (1280, 800));
-    assert_eq!(html.matches("data:image/png;base64,").count(), 4);
+    // Beside them, the frame at the worst phase of each case that fails
+    // on a worst phase its trace does not show.
+    let worst = json["cases"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|c| c.get("worst_phase").is_some())
+        .count();
+    assert_eq!(html.matches("data:image/png;base64,").count(), 4 + worst);
     assert_eq!(
         json["cases"][0]["sample_frame"]["path"],
         "frames/2000lux-60hz-20pct.png"

@@ -264,6 +264,47 @@ impl Shutter {
         }
     }
 
+    /// The start phase (cycles in `[0, 1)`, of row 0's exposure from a
+    /// rising edge, as [`PwmDrive::phase_at`] gives it for offset 0) at
+    /// which the ROI-mean ON fraction is lowest: where
+    /// [`Shutter::phase_envelope`]'s low end is attained, the first such
+    /// corner when several tie. A duty of 1 never dims, so 0.
+    ///
+    /// Not a kernel: the report asks for it once per failing case, to show
+    /// the trace and the frame at that phase.
+    pub fn darkest_phase(&self, pwm: &PwmDrive, rows: Range<u32>) -> f64 {
+        let duty = pwm.duty();
+        if duty >= 1.0 {
+            return 0.0;
+        }
+        let f = pwm.frequency_hz();
+        let width = self.exposure_s * f;
+        let offsets: Vec<f64> = self
+            .distinct_rows(rows)
+            .map(|r| wrap_unit(self.row_offset_s(r) * f))
+            .collect();
+        let mean_at = |phase0: f64| -> f64 {
+            offsets
+                .iter()
+                .map(|&o| on_fraction(wrap_unit(phase0 + o), width, duty))
+                .sum::<f64>()
+                / offsets.len() as f64
+        };
+        // The corners of `corner_extremes`, in its order.
+        let corners = [0.0, duty, -width, duty - width];
+        let mut best = (f64::INFINITY, 0.0);
+        for &o in &offsets {
+            for &c in &corners {
+                let phase = wrap_unit(c - o);
+                let v = mean_at(phase);
+                if v < best.0 {
+                    best = (v, phase);
+                }
+            }
+        }
+        best.1
+    }
+
     /// [`Shutter::phase_envelope`] through the kernel copy `extremes`.
     #[inline(always)]
     fn phase_envelope_with(
@@ -299,6 +340,35 @@ mod tests {
     use super::*;
     use crate::sensor::Rng;
     use crate::shutter::ShutterModel;
+
+    #[test]
+    fn darkest_phase_attains_the_envelope_low_end() {
+        let mut rng = Rng::new(5);
+        for case in 0..200 {
+            let f = 50.0 + rng.uniform() * 950.0;
+            let duty = 0.01 + rng.uniform() * 0.98;
+            let shutter = Shutter {
+                model: if case % 2 == 0 {
+                    ShutterModel::Global
+                } else {
+                    ShutterModel::Rolling {
+                        line_time_s: 14.565e-6,
+                    }
+                },
+                exposure_s: 1e-4 + rng.uniform() * 0.02,
+                fps: 30.0,
+            };
+            let pwm = PwmDrive::new(f, duty, 0.0).unwrap();
+            let rows = 399..401 + case % 3;
+            let phase = shutter.darkest_phase(&pwm, rows.clone());
+            assert!((0.0..1.0).contains(&phase), "case {case}: {phase}");
+            // A drive whose first rise puts frame 0's row 0 at that phase.
+            let at = PwmDrive::new(f, duty, -phase / f).unwrap();
+            let got = shutter.frame_on_fraction(&at, 0, rows.clone());
+            let (lo, _) = shutter.phase_envelope(&pwm, rows);
+            assert!((got - lo).abs() < 1e-9, "case {case}: {got} vs {lo}");
+        }
+    }
 
     /// The envelope as first written (before this kernel): offsets in a
     /// `Vec`, the same closed form. The kernel must return its bits.

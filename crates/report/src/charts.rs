@@ -10,9 +10,13 @@ use crate::model::Segment;
 use crate::model::{SegmentsFound, StepKind};
 
 pub mod envelope;
+mod fold_grid;
 mod trace;
+mod worst_phase;
 
+pub use fold_grid::{FOLD_GRID_FROM, fold_grid_svg};
 pub use trace::{luma_trace_svg, pwm_zoom_frames, trace_zoom_svg};
+pub use worst_phase::worst_phase_svg;
 
 /// Font family named in every chart.
 pub const FONT: &str = "DejaVu Sans";

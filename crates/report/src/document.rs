@@ -70,6 +70,18 @@ pub fn finemap_chart_path(index: usize, kind: &str) -> String {
 /// Chart of the exposure advice.
 pub const ADVICE_CHART: &str = "charts/advice.svg";
 
+/// Chart of one case's trace at the worst PWM phase beside the trace as
+/// run (the evidence of a worst-phase verdict).
+pub fn worst_phase_chart_path(case_id: &str) -> String {
+    format!("{CHARTS_DIR}/worst-phase-{case_id}.svg")
+}
+
+/// A case's frame at the worst PWM phase, as the document names it: the
+/// full-size frame's path.
+pub fn worst_phase_image_path(case_id: &str) -> String {
+    crate::model::evidence::worst_phase_frame_path(case_id)
+}
+
 /// Folder of the sample frames, relative to the report directory.
 pub const FRAMES_DIR: &str = "frames";
 
@@ -334,6 +346,12 @@ impl Document {
             charts.insert(format!("{CHARTS_DIR}/{name}"), svg);
         }
         let mut images = BTreeMap::new();
+        for case in results.cases.iter().filter(|c| c.worst_phase.is_some()) {
+            let view = dir.join(crate::model::evidence::worst_phase_view_path(&case.id));
+            if let Ok(bytes) = crate::util::read_input(&view) {
+                images.insert(worst_phase_image_path(&case.id), bytes);
+            }
+        }
         for case in &results.cases {
             let id = case.id.as_str();
             let rel = frame_image_path(id);

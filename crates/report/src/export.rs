@@ -164,6 +164,39 @@ fn testcase(plan_id: &str, c: &CaseInfo) -> TestCase {
     case
 }
 
+/// Each worst-phase run of the model as a trace CSV for traces/:
+/// `frame,time_s,segment,<roi> as run,<roi> at the worst phase`, named
+/// like [`crate::model::evidence::worst_phase_trace_path`].
+pub fn worst_phase_traces(
+    model: &Results,
+    results: &[crate::model::CaseResult],
+) -> Vec<(String, Vec<u8>)> {
+    let mut files = Vec::new();
+    for c in &model.cases {
+        let Some(w) = &c.worst_phase else { continue };
+        let Some(r) = results.iter().find(|r| r.case.id == c.id) else {
+            continue;
+        };
+        let acq = &r.acquisition;
+        let Some(roi) = acq.rois.iter().find(|t| t.name == w.roi) else {
+            continue;
+        };
+        let mut out = format!("frame,time_s,segment,{0},{0}_worst_phase\n", w.roi);
+        for ((f, run), worst) in acq.frames.iter().zip(&roi.luma).zip(&w.luma) {
+            let _ = writeln!(
+                out,
+                "{},{},{},{run},{worst}",
+                f.index,
+                f.time_s,
+                f.segment.as_str()
+            );
+        }
+        let name = format!("{}-worst-phase.csv", c.id);
+        files.push((name, out.into_bytes()));
+    }
+    files
+}
+
 /// JUnit XML, written by quick-junit: one `<testsuite>` per plan, one
 /// `<testcase>` per case. Failed cases carry a `<failure>` naming each
 /// failed metric, its value and its threshold; informational cases are

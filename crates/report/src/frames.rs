@@ -29,6 +29,26 @@ pub fn view_png(
     Ok(out.into_inner())
 }
 
+/// Each worst-phase frame of the model (full size) and its annotated view
+/// from `views` (which the document names by the frame's path), as file
+/// names in frames/.
+pub fn worst_phase_files(
+    model: &crate::model::Results,
+    views: &std::collections::BTreeMap<String, Vec<u8>>,
+) -> Result<Vec<(String, Vec<u8>)>, ReportError> {
+    let mut files = Vec::new();
+    for c in &model.cases {
+        let Some(frame) = c.worst_phase.as_ref().and_then(|w| w.rendered.as_ref()) else {
+            continue;
+        };
+        files.push((format!("{}-worst-phase.png", c.id), png_bytes(frame)?));
+        if let Some(view) = views.get(&crate::model::evidence::worst_phase_frame_path(&c.id)) {
+            files.push((format!("{}-worst-phase-view.png", c.id), view.clone()));
+        }
+    }
+    Ok(files)
+}
+
 /// Width of the inline copy in the HTML report, pixels.
 pub const THUMBNAIL_WIDTH: u32 = 480;
 

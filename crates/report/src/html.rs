@@ -148,6 +148,22 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             frames.insert(case, Value::from_safe_string(uri));
         }
     }
+    // The evidence of worst-phase verdicts: chart and frame view by case.
+    let mut worst_charts = BTreeMap::new();
+    let mut worst_frames = BTreeMap::new();
+    for case in doc.case_ids() {
+        let chart = super::document::worst_phase_chart_path(&case);
+        if doc.charts.contains_key(&chart) {
+            worst_charts.insert(case.clone(), inline(&chart));
+        }
+        if let Some(png) = doc
+            .images
+            .get(&super::document::worst_phase_image_path(&case))
+        {
+            let uri = format!("data:image/png;base64,{}", super::frames::base64(png));
+            worst_frames.insert(case, Value::from_safe_string(uri));
+        }
+    }
     // The flicker signal folded by phase, one chart per LED ROI.
     let mut folds: BTreeMap<String, Vec<Value>> = BTreeMap::new();
     for case in doc.case_ids() {
@@ -189,6 +205,8 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             matrices => matrices(doc, inline),
             signatories => Serde(&doc.signatories),
             zooms => zooms,
+            worst_charts => worst_charts,
+            worst_frames => worst_frames,
             pages => doc.case_pages(),
             info_rows => Serde(doc.info_rows()),
             glossary => Serde(crate::model::GLOSSARY),

@@ -371,11 +371,12 @@ fn write_frames(
     dir: &Path,
     results: &[CaseResult],
     full_frames: Vec<(String, Vec<u8>)>,
+    worst_phase: Vec<(String, Vec<u8>)>,
     doc: &document::Document,
     reuse: Option<&Path>,
 ) -> Result<(), ReportError> {
     let _t = crate::timings::span("report: write frames");
-    if full_frames.is_empty() {
+    if full_frames.is_empty() && worst_phase.is_empty() {
         let old = dir.join(document::FRAMES_DIR);
         if old.exists() {
             std::fs::remove_dir_all(&old).map_err(io_err(&old))?;
@@ -390,6 +391,7 @@ fn write_frames(
             files.push((format!("{}-view.png", r.case.id), view.clone()));
         }
     }
+    files.extend(worst_phase);
     replace_dir(dir, document::FRAMES_DIR, &files, reuse)
 }
 
@@ -451,6 +453,8 @@ fn write_beside_pdf(
             .map(|r| (format!("{}.csv", r.case.id), trace_csv(r).into_bytes()))
             .collect()
     };
+    let mut traces = traces;
+    traces.extend(export::worst_phase_traces(model, results));
     replace_dir(dir, "traces", &traces, reuse)?;
 
     // PNG encoding is independent per frame: in parallel, in case order.
@@ -468,7 +472,8 @@ fn write_beside_pdf(
         images,
         ..layout_doc.clone()
     };
-    write_frames(dir, results, full_frames, &doc, reuse)?;
+    let worst_phase = frames::worst_phase_files(model, &doc.images)?;
+    write_frames(dir, results, full_frames, worst_phase, &doc, reuse)?;
     let html = {
         let _t = crate::timings::span("report: html");
         html::render_document(&doc)?

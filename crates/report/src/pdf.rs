@@ -274,6 +274,19 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             .collect();
         folds.insert(case, paths);
     }
+    // The evidence of worst-phase verdicts: chart and frame view by case.
+    let mut worst_charts = BTreeMap::new();
+    let mut worst_frames = BTreeMap::new();
+    for case in doc.case_ids() {
+        let chart = super::document::worst_phase_chart_path(&case);
+        if doc.charts.contains_key(&chart) {
+            worst_charts.insert(case.clone(), chart);
+        }
+        let frame = super::document::worst_phase_image_path(&case);
+        if doc.images.contains_key(&frame) {
+            worst_frames.insert(case, frame);
+        }
+    }
     let finemaps: Vec<Value> = (0..)
         .map_while(|i| {
             let fdi = super::document::finemap_chart_path(i, "fdi");
@@ -299,6 +312,8 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             matrices => super::html::matrices(doc, |p: &str| Value::from(p)),
             signatories => Serde(&doc.signatories),
             zooms => zooms,
+            worst_charts => worst_charts,
+            worst_frames => worst_frames,
             pages => doc.case_pages(),
             info_rows => Serde(doc.info_rows()),
             glossary => Serde(crate::model::GLOSSARY),

@@ -17,6 +17,7 @@
 //! - [`summary`]: `simulate --summary`;
 //! - [`timing`]: frame rate, drops and spectrum from a capture's own frame times;
 //! - [`roi`]: ROIs drawn on a capture's frame, and proposed from its ON -> OFF step.
+//! - [`worst_phase`]: the trace and frame at the worst phase a verdict rests on.
 
 pub mod apparent;
 pub mod banding;
@@ -28,6 +29,7 @@ pub mod phase_fold;
 pub mod roi;
 pub mod summary;
 pub mod timing;
+pub mod worst_phase;
 
 use serde::{Deserialize, Serialize};
 
@@ -233,6 +235,10 @@ pub struct CaseAnalysis {
     /// the simulator, whose frames run on the plan camera's clock.
     #[serde(default)]
     pub timing: Option<FrameTiming>,
+    /// The case run again at the worst phase its verdict rests on
+    /// ([`worst_phase`]); the model states it, so it is not stored here.
+    #[serde(skip)]
+    pub worst_phase: Option<worst_phase::WorstPhaseRun>,
 }
 
 /// Analyses a finished case. The simulator's frames run on the plan
@@ -350,6 +356,7 @@ pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
         banding,
         rois,
         timing,
+        worst_phase: worst_phase::worst_phase_run(plan, r),
     }
 }
 

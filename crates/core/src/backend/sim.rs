@@ -101,7 +101,25 @@ impl Simulator {
         self.camera.exposure_timing()
     }
 
-    fn pwm_for(&self, case: &TestCase) -> Result<PwmDrive, BackendError> {
+    /// The same simulator with the LED's first rising edge `delay_s`
+    /// seconds after frame 0 starts, in place of the plan's `pwm-delay-ms`:
+    /// the run at another PWM phase, which the report shows for a verdict
+    /// on the worst case over phase.
+    pub fn with_pwm_delay(&self, delay_s: f64) -> Self {
+        let mut other = self.clone();
+        other.camera.pwm_delay_s = delay_s;
+        other
+    }
+
+    /// Whether this is the ideal camera (no `[sensor]` table), whose worst
+    /// case over phase is a closed form of the ON fraction.
+    pub fn is_ideal(&self) -> bool {
+        self.camera.physical.is_none()
+    }
+
+    /// The PWM drive of `case`: its frequency on the simulator's clock
+    /// (`pwm-clock-offset-ppm`), its first rise at `pwm-delay-ms`.
+    pub fn pwm_for(&self, case: &TestCase) -> Result<PwmDrive, BackendError> {
         let f = case.frequency_hz * (1.0 + self.scene.pwm_clock_offset_ppm * 1e-6);
         PwmDrive::new(f, case.duty, self.camera.pwm_delay_s).map_err(|message| BackendError {
             backend: self.id().to_string(),

@@ -257,6 +257,9 @@ fn case_info(
         drive: a.drive,
         banding: a.banding,
         frame_timing: a.timing,
+        worst_phase: a
+            .worst_phase
+            .map(|w| super::evidence::worst_phase_info(&r.case.id, w, &plan.rois)),
     }
 }
 

@@ -29,6 +29,7 @@
 
 pub mod build;
 pub mod conditions;
+pub mod evidence;
 pub mod frame;
 pub mod limits;
 pub mod method;
@@ -297,6 +298,10 @@ pub struct CaseInfo {
     /// simulator).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frame_timing: Option<FrameTiming>,
+    /// The trace and frame at the worst PWM phase that a failing or
+    /// informational worst-phase verdict rests on (simulator only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub worst_phase: Option<evidence::WorstPhaseInfo>,
 }
 
 impl CaseInfo {

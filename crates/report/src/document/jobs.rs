@@ -19,7 +19,7 @@ use super::super::charts::{self, ChartError};
 use super::super::matrix;
 use super::{
     ADVICE_CHART, finemap_chart_path, fold_chart_path, frame_image_path, matrix_chart_path,
-    trace_chart_path, zoom_chart_path,
+    trace_chart_path, worst_phase_chart_path, worst_phase_image_path, zoom_chart_path,
 };
 use crate::model::{CaseResult, Results, RoiKind};
 
@@ -68,6 +68,22 @@ impl<'a> ViewJobs<'a> {
                 })
             });
         }
+        for c in &model.cases {
+            let Some(w) = c.worst_phase.as_ref() else {
+                continue;
+            };
+            let (Some(frame), Some(info)) = (w.rendered.as_ref(), w.sample_frame.as_ref()) else {
+                continue;
+            };
+            jobs.add(worst_phase_image_path(&c.id), move || {
+                super::super::frames::view_png(frame, &info.rois, &info.stretch).map_err(|e| {
+                    ChartError {
+                        chart: format!("worst-phase frame view {}", c.id),
+                        message: e.to_string(),
+                    }
+                })
+            });
+        }
         jobs
     }
 }
@@ -90,6 +106,17 @@ impl<'a> ChartJobs<'a> {
             jobs.add(zoom_chart_path(&r.case.id), move || {
                 charts::trace_zoom_svg(r, apparent_hz)
             });
+            // The worst-phase trace is not in results.json: a model read
+            // back from it has the sentence but no chart.
+            if let Some(w) = case
+                .and_then(|c| c.worst_phase.as_ref())
+                .filter(|w| !w.luma.is_empty())
+            {
+                let fdi_min = model.thresholds.fdi_2018_min;
+                jobs.add(worst_phase_chart_path(&r.case.id), move || {
+                    charts::worst_phase_svg(r, w, fdi_min)
+                });
+            }
         }
         for (i, lux) in model.light_levels().into_iter().enumerate() {
             jobs.add(matrix_chart_path(i), move || matrix::matrix_svg(model, lux));
@@ -99,6 +126,14 @@ impl<'a> ChartJobs<'a> {
                 roi.kind == RoiKind::Led
                     && roi.analysis.phase_coverage.covered_bins >= charts::MIN_FOLD_PHASES
             });
+            // Many ROIs: one chart of small panels instead of a chart each.
+            if drawn.clone().count() > charts::FOLD_GRID_FROM {
+                let rois: Vec<_> = drawn.collect();
+                jobs.add(fold_chart_path(&c.id, 0), move || {
+                    charts::fold_grid_svg(&c.id, &rois)
+                });
+                continue;
+            }
             for (k, roi) in drawn.enumerate() {
                 jobs.add(fold_chart_path(&c.id, k), move || {
                     charts::phase_fold_svg(
