@@ -109,11 +109,11 @@ pub fn worst_phase_svg(
             &super::Axes {
                 margin: 10,
                 caption: None,
-                label_areas: (34, 52),
+                label_areas: (36, super::y_label_area(y0, y1, super::FONT_FULL_WIDTH)),
                 x: x0..x1,
                 y: y0..y1,
                 desc: ("frame", "ROI luma (DN)"),
-                font: 12,
+                font: super::FONT_FULL_WIDTH,
             },
         )
         .map_err(|m| err(&m))?;
