@@ -121,21 +121,28 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
     // A failure from here on keeps what a resumed run had stored, and what
     // this run stored, for another `--resume`.
     let resuming = args.resume.is_some();
-    let backend = build_backend(&plan, args.quiet)
-        .map_err(|e| (e, resuming))
-        .and_then(|backend| {
-            // After the backend has checked that the captures exist.
-            let inputs = super::collect_inputs(&plan).map_err(|e| (e, resuming))?;
-            Ok((backend, inputs))
-        })
-        .and_then(|(backend, inputs)| {
-            run_cases(&plan, &backend, &args, generation.path(), &inputs)
-                .map(|results| (backend, inputs, results))
-                .map_err(|(e, stored)| (e, stored || resuming))
-        });
-    let (backend, inputs, results) = match backend {
-        Ok(ran) => ran,
-        Err(e) => return Err(keep_for_resume(e, generation, &args, &out)),
+    let stop = |failure: Failure, generation| {
+        let stopped = Stopped {
+            failure: Box::new(failure),
+            stored: resuming,
+        };
+        keep_for_resume(stopped, generation, &args, &out)
+    };
+    let backend = match build_backend(&plan, args.quiet) {
+        Ok(backend) => backend,
+        Err(e) => return Err(stop(e, generation)),
+    };
+    // After the backend has checked that the captures exist.
+    let inputs = match super::collect_inputs(&plan) {
+        Ok(inputs) => inputs,
+        Err(e) => return Err(stop(e, generation)),
+    };
+    let results = match run_cases(&plan, &backend, &args, generation.path(), &inputs) {
+        Ok(results) => results,
+        Err(mut e) => {
+            e.stored |= resuming;
+            return Err(keep_for_resume(e, generation, &args, &out));
+        }
     };
     let stage = report_spinner(args.quiet);
     let outcome = pipeline::report(
@@ -250,15 +257,31 @@ fn build_backend(plan: &Plan, quiet: bool) -> Result<PlanBackend, Failure> {
     Ok(backend?)
 }
 
+/// Why the run stage stopped, and whether its store holds cases worth
+/// resuming.
+struct Stopped {
+    failure: Box<Failure>,
+    stored: bool,
+}
+
+impl<E: Into<Failure>> From<E> for Stopped {
+    fn from(e: E) -> Self {
+        Stopped {
+            failure: Box::new(e.into()),
+            stored: false,
+        }
+    }
+}
+
 /// A run that stopped with cases stored (or a resumed run that stopped)
 /// keeps its store for `--resume`; the error is passed on.
 fn keep_for_resume(
-    e: (Failure, bool),
+    e: Stopped,
     generation: crate::outdir::Generation,
     args: &PlanArgs,
     out: &Path,
 ) -> Failure {
-    let (failure, stored) = e;
+    let Stopped { failure, stored } = e;
     if stored {
         let kept = generation.keep_for_resume();
         eprintln!(
@@ -268,7 +291,7 @@ fn keep_for_resume(
             out.display()
         );
     }
-    failure
+    *failure
 }
 
 /// Runs every case with a progress bar, each case into the store in `dir`
@@ -281,7 +304,7 @@ fn run_cases(
     args: &PlanArgs,
     dir: &Path,
     inputs: &[crate::inputs::InputFile],
-) -> Result<Vec<CaseResult>, (Failure, bool)> {
+) -> Result<Vec<CaseResult>, Stopped> {
     let cases = plan::expand_cases(plan);
     let key = crate::store::RunKey {
         plan_id: plan.id.clone(),
@@ -293,8 +316,7 @@ fn run_cases(
     let (store, done) = match args.resume {
         None => crate::store::Store::create(dir, &key).map(|s| (s, Default::default())),
         Some(_) => crate::store::Store::resume(dir, &key),
-    }
-    .map_err(|e| (e.into(), false))?;
+    }?;
     let (positions, todo): (Vec<usize>, Vec<_>) = cases
         .iter()
         .enumerate()
@@ -329,14 +351,14 @@ fn run_cases(
         let e = Err::<(), _>(e)
             .with_context(|| format!("run of plan `{}` failed", plan.id))
             .unwrap_err();
-        return Err(match store.close() {
-            Ok(()) => (e, stored),
-            Err(_) => (e, false),
+        return Err(Stopped {
+            failure: Box::new(e),
+            stored: stored && store.close().is_ok(),
         });
     }
-    let path = store.finish().map_err(|e| (e.into(), false))?;
+    let path = store.finish()?;
     let _t = crate::timings::span("read cases back");
-    crate::store::read_cases(&path).map_err(|e| (e.into(), false))
+    Ok(crate::store::read_cases(&path)?)
 }
 
 /// The run's sink: each case into the store, under its position in the plan.
