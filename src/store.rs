@@ -351,18 +351,9 @@ struct Encoded {
     metrics: Vec<(String, String, Option<f64>)>,
 }
 
-fn encode(path: &Path, idx: usize, mut result: CaseResult) -> Result<Encoded, StoreError> {
-    let capture_signal = result
-        .acquisition
-        .capture
-        .as_mut()
-        .map(|s| std::mem::take(&mut s.segments.signal))
-        .unwrap_or_default();
+fn encode(path: &Path, idx: usize, result: CaseResult) -> Result<Encoded, StoreError> {
     let metrics = roi_metrics(&result);
-    let record = ShardCase {
-        result,
-        capture_signal,
-    };
+    let record = ShardCase::from_result(result);
     let mut bytes = Vec::new();
     ciborium::into_writer(&record, &mut bytes).map_err(|e| StoreError::Record {
         path: path.to_path_buf(),
@@ -444,11 +435,7 @@ pub fn read_cases(path: &Path) -> Result<Vec<CaseResult>, StoreError> {
                 idx: idx as usize,
                 message: format!("cannot decode: {e}"),
             })?;
-        let mut result = record.result;
-        if let Some(s) = &mut result.acquisition.capture {
-            s.segments.signal = record.capture_signal;
-        }
-        cases.push(result);
+        cases.push(record.into_result());
     }
     Ok(cases)
 }

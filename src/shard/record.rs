@@ -103,6 +103,31 @@ pub struct ShardCase {
     pub capture_signal: Vec<(f64, f64)>,
 }
 
+impl ShardCase {
+    /// The record of `result`, its capture signal moved out of the summary
+    /// (which does not serialise it) into the record.
+    pub fn from_result(mut result: CaseResult) -> ShardCase {
+        let capture_signal = result
+            .acquisition
+            .capture
+            .as_mut()
+            .map(|s| std::mem::take(&mut s.segments.signal))
+            .unwrap_or_default();
+        ShardCase {
+            result,
+            capture_signal,
+        }
+    }
+
+    /// The case result, its capture signal put back.
+    pub fn into_result(mut self) -> CaseResult {
+        if let Some(s) = &mut self.result.acquisition.capture {
+            s.segments.signal = self.capture_signal;
+        }
+        self.result
+    }
+}
+
 /// Hash identifying a plan and its inputs: SHA-256 over each input's role,
 /// SHA-256 and size (not its path, which may differ between machines), in
 /// the order [`crate::inputs::collect`] lists them, the plan first.

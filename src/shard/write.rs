@@ -67,18 +67,7 @@ pub fn write_dir(dir: &Path, out: ShardOutput<'_>) -> Result<Manifest, WriteErro
     let records: Vec<ShardCase> = out
         .results
         .into_iter()
-        .map(|mut result| {
-            let capture_signal = result
-                .acquisition
-                .capture
-                .as_mut()
-                .map(|s| std::mem::take(&mut s.segments.signal))
-                .unwrap_or_default();
-            ShardCase {
-                result,
-                capture_signal,
-            }
-        })
+        .map(ShardCase::from_result)
         .collect();
     let bytes = record::encode_cases(&records).map_err(WriteError::Encode)?;
     let manifest = Manifest {
