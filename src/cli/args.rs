@@ -29,6 +29,33 @@ impl From<DetailArg> for crate::model::Detail {
     }
 }
 
+/// `--max-memory` and `--max-report` of `validate` and `plan`: the limits
+/// a plan's work estimate must fit.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct LimitArgs {
+    /// Largest estimated peak memory to accept, e.g. `4GB` [default: 1 GB].
+    #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+    max_memory: Option<f64>,
+    /// Largest estimated report directory to accept, e.g. `20GB` [default: 2 GB].
+    #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+    max_report: Option<f64>,
+}
+
+impl LimitArgs {
+    /// The limits, the defaults where a flag is not given.
+    pub fn limits(self) -> crate::plan::ResourceLimits {
+        let d = crate::plan::ResourceLimits::default();
+        crate::plan::ResourceLimits {
+            memory_bytes: self.max_memory.unwrap_or(d.memory_bytes),
+            output_bytes: self.max_report.unwrap_or(d.output_bytes),
+        }
+    }
+}
+
+fn parse_size(text: &str) -> Result<f64, String> {
+    crate::plan::bounds::parse_bytes(text)
+}
+
 /// `--shutter`.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ShutterArg {

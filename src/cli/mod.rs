@@ -88,6 +88,8 @@ enum Command {
     Validate {
         /// Plan file, or a plan name from test-plans/ (e.g. `daylight`).
         plan: String,
+        #[command(flatten)]
+        limits: args::LimitArgs,
     },
     /// Probe the ideal camera for one condition; prints a CSV trace, or with
     /// --summary one JSON object of metrics.
@@ -179,7 +181,7 @@ fn run(cli: Cli, version: &'static str) -> Result<i32, Failure> {
     match cli.command {
         Command::Plan(args) => plan::run_plan(args),
         Command::Merge(args) => merge::merge(args),
-        Command::Validate { plan } => validate::validate(&plan),
+        Command::Validate { plan, limits } => validate::validate(&plan, limits.limits()),
         Command::Simulate(args) => simulate::simulate(args),
         Command::Advise(args) => advise::advise(args),
         Command::Bench(args) => bench::bench(args),

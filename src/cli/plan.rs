@@ -80,6 +80,8 @@ pub(super) struct PlanArgs {
     /// inputs must be those of that run.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["out", "shard"])]
     resume: Option<PathBuf>,
+    #[command(flatten)]
+    limits: super::args::LimitArgs,
 }
 
 pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
@@ -207,7 +209,7 @@ pub(super) fn exit_code(status: Status) -> i32 {
 /// The plan and the report date, checked with `--threads`.
 fn load(args: &PlanArgs) -> Result<(Plan, String), Failure> {
     let t = crate::timings::span("load and validate plan");
-    let plan = super::validate::load(&args.plan)?;
+    let plan = super::validate::load(&args.plan, args.limits.limits())?;
     drop(t);
     let date = report_date(args.date.as_deref())?;
     if args.threads == Some(0) {

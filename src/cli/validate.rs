@@ -5,8 +5,8 @@ use super::output::outln;
 use super::{EXIT_PASS, Failure};
 use crate::plan;
 
-pub(super) fn validate(arg: &str) -> Result<i32, Failure> {
-    let plan = load(arg)?;
+pub(super) fn validate(arg: &str, limits: plan::ResourceLimits) -> Result<i32, Failure> {
+    let plan = load(arg, limits)?;
     let cases = plan::expand_cases(&plan);
     if plan.dut.backend == plan::BackendKind::Captured {
         outln!(
@@ -37,13 +37,14 @@ pub(super) fn validate(arg: &str) -> Result<i32, Failure> {
 
 /// Finds and validates a plan for `validate` and `plan`: a captured
 /// plan's ROIs are checked against each capture's frame size (read from
-/// its header), and the plausibility warnings are printed to stderr.
-pub(super) fn load(arg: &str) -> Result<plan::Plan, Failure> {
+/// its header), its work estimate against `limits`, and the plausibility
+/// warnings are printed to stderr.
+pub(super) fn load(arg: &str, limits: plan::ResourceLimits) -> Result<plan::Plan, Failure> {
     // With the handler installed, Ctrl-C during a probe stops its ffprobe
     // (in a process group of its own, which the terminal's signal does not
     // reach) rather than end ledflicker and leave ffprobe behind.
     crate::interrupt::install();
-    let plan = plan::find_and_load_with(arg, &crate::capture::frame_size)?;
+    let plan = plan::find_and_load_with(arg, &crate::capture::frame_size, limits)?;
     crate::interrupt::check()?;
     eprint!("{}", plan.warnings_text());
     Ok(plan)

@@ -374,11 +374,17 @@ fn load_plan(
     // file is there, the built-in copy is the plan (its hash is checked
     // below like a file's).
     let built_in = plan::shipped::plan_at(&m.plan_path);
+    // The shards checked the plan's work estimate against the limits they
+    // ran with (`plan --max-memory`); the merge takes the plan they ran.
+    let unbounded = plan::ResourceLimits {
+        memory_bytes: f64::INFINITY,
+        output_bytes: f64::INFINITY,
+    };
     let mut plan = match (given, built_in) {
-        (Some(p), _) => plan::load(p)?,
-        (None, _) if as_given.is_file() => plan::load(&as_given)?,
+        (Some(p), _) => plan::load_within(p, unbounded)?,
+        (None, _) if as_given.is_file() => plan::load_within(&as_given, unbounded)?,
         (None, Some(b)) if !absolute.is_file() => plan::load_built_in(b)?,
-        (None, _) => plan::load(&absolute)?,
+        (None, _) => plan::load_within(&absolute, unbounded)?,
     };
     let inputs = crate::inputs::collect(&plan).map_err(|e| UsageError(e.to_string()))?;
     if record::plan_hash(&inputs) != m.plan_hash {

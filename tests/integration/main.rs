@@ -12,6 +12,7 @@ mod captured;
 mod cli;
 mod conditions;
 mod detect;
+mod estimate;
 mod exact;
 mod features;
 mod legible;

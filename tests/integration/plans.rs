@@ -118,8 +118,7 @@ fn ranges_expand_by_index_and_include_the_stop() {
             "frequency-range-hz = { start = 50.0, stop = 84.9, step = 0.1 }",
         )
         .replace("duty-cycles = [0.2, 0.5]", "duty-cycles = [0.5]");
-    // 350 cases, the case maximum; the report's memory limit is
-    // off, as this checks the grid only.
+    // 350 cases; the work limits are off, as this checks the grid only.
     let p = plan::parse_within(
         &text,
         std::path::Path::new("inline.toml"),

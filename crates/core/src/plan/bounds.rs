@@ -2,7 +2,7 @@
 //! plan passes after [`super::validate`], so that a plan `validate` accepts
 //! runs in bounded time, memory and disk space.
 //!
-//! Limits are documented in docs/plan-format.md, "Limits". The estimate is
+//! ResourceLimits are documented in docs/plan-format.md, "ResourceLimits". The estimate is
 //! an upper bound calibrated on the simulator (see [`WorkEstimate`]).
 
 use super::spans::SpanIndex;
@@ -27,9 +27,11 @@ pub const MAX_FRAMES_PER_CASE: u64 = 100_000;
 /// Most row integrals in a run: cases x frames x ROI rows. At about 10 M
 /// row integrals per second and core this is an hour on 2 cores.
 pub const MAX_ROW_INTEGRALS: f64 = 5.0e10;
-/// Largest estimated peak memory of a run, bytes.
+/// Largest estimated peak memory of a run by default, bytes
+/// (`--max-memory` raises it).
 pub const MAX_MEMORY_BYTES: f64 = 1.0e9;
-/// Largest estimated report directory, bytes.
+/// Largest estimated report directory by default, bytes (`--max-report`
+/// raises it).
 pub const MAX_OUTPUT_BYTES: f64 = 2.0e9;
 
 /// Lowest ambient illuminance, lux: a moonless, overcast night is about
@@ -92,16 +94,81 @@ pub const CAPTURE_FPS_RANGE: (f64, f64) = (MIN_FPS, 1.0e5);
 pub const TIMEOUT_S_RANGE: (f64, f64) = (1.0e-3, 86_400.0);
 
 /// Memory of the process before the first case: code, the PDF engine's
-/// fonts, the thread pool, bytes (measured: 85 MB).
-const BASE_MEMORY_BYTES: f64 = 100.0e6;
+/// fonts, the thread pool, bytes (measured: 58 MB for 2 and 4 cases).
+const BASE_MEMORY_BYTES: f64 = 60.0e6;
 /// Memory each case costs in the report whatever its size: its part of the
-/// model, charts, HTML and the PDF engine's layout (measured: 2.07 MB a
-/// case for 200 cases of a 16 x 12 sensor and 12 frames).
-const CASE_MEMORY_BYTES: f64 = 2.5e6;
+/// model, its charts, the HTML and the PDF layout (measured: 0.67 MB a
+/// case for 1000 and 4000 cases of a 16 x 12 sensor, 120 frames, 2 ROIs).
+const CASE_MEMORY_BYTES: f64 = 0.75e6;
+/// Memory a case costs per frame and ROI: the trace, its charts and the
+/// exports written from it (fitted to daylight and hdr-example, 1920
+/// frames and 2 ROIs a case: 1.4 to 2.0 MB a case).
+const FRAME_ROI_MEMORY_BYTES: f64 = 370.0;
+/// Memory per sensor pixel while the report draws the frame views, once
+/// per run: frames are held as runs of equal values, a view is a PNG of
+/// its pixels (measured: 46 MB for a 3840 x 2160 sensor).
+const PIXEL_MEMORY_BYTES: f64 = 6.0;
 /// Size of the report that does not grow with cases, bytes.
-const BASE_OUTPUT_BYTES: f64 = 2.0e6;
-/// Report bytes each case costs whatever its size (measured: 170 kB).
-const CASE_OUTPUT_BYTES: f64 = 200.0e3;
+const BASE_OUTPUT_BYTES: f64 = 1.5e6;
+/// Report bytes each case costs whatever its size: its charts, frame view,
+/// results.json entry and table rows (measured: 92 kB a case for 1000
+/// cases of 120 frames and 2 ROIs).
+const CASE_OUTPUT_BYTES: f64 = 80.0e3;
+/// Report bytes per frame and ROI of a case: its trace CSV and the charts
+/// drawn from it (fitted to daylight, 330 kB a case).
+const FRAME_ROI_OUTPUT_BYTES: f64 = 65.0;
+
+/// The resources a run may use; `validate` refuses a plan whose estimate
+/// exceeds them. The defaults suit a 2-core machine with a few GB;
+/// `--max-memory` and `--max-report` raise them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ResourceLimits {
+    /// Peak resident memory, bytes.
+    pub memory_bytes: f64,
+    /// Size of the report directory, bytes.
+    pub output_bytes: f64,
+}
+
+impl Default for ResourceLimits {
+    fn default() -> Self {
+        ResourceLimits {
+            memory_bytes: MAX_MEMORY_BYTES,
+            output_bytes: MAX_OUTPUT_BYTES,
+        }
+    }
+}
+
+/// Parses a size such as `4GB`, `1500 MB`, `2GiB` or `800000000` (bytes)
+/// for `--max-memory` and `--max-report`.
+pub fn parse_bytes(text: &str) -> Result<f64, String> {
+    let t = text.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (number, unit) = t.split_at(split);
+    let scale = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 1.0,
+        "kb" | "k" => 1e3,
+        "mb" | "m" => 1e6,
+        "gb" | "g" => 1e9,
+        "tb" | "t" => 1e12,
+        "kib" => 1024.0,
+        "mib" => 1024.0 * 1024.0,
+        "gib" => 1024.0 * 1024.0 * 1024.0,
+        "tib" => 1024.0f64.powi(4),
+        u => {
+            return Err(format!(
+                "unknown unit `{u}` in `{text}`; use B, kB, MB, GB, TB or KiB, MiB, GiB, TiB"
+            ));
+        }
+    };
+    match number.parse::<f64>() {
+        Ok(n) if n.is_finite() && n > 0.0 => Ok(n * scale),
+        _ => Err(format!(
+            "`{text}` is not a size; give a positive number of bytes with a unit, e.g. 4GB or 1500MB"
+        )),
+    }
+}
 
 /// What running a plan costs, estimated before running it. Every figure is
 /// an upper bound for the simulator; for captured and command backends the
@@ -150,27 +217,25 @@ impl WorkEstimate {
         };
         let rois = plan.rois.len() as f64;
         let n = cases as f64;
-        let tf = trace_frames as f64;
-        // Per case on disk: the trace CSV (about 24 bytes a frame plus 20
-        // per ROI), its chart (about 40 bytes per point and ROI), the
-        // sample frame PNG (at most 2 bytes a pixel), and the case's share
-        // of report.html and report.pdf, which embed the chart again.
-        let trace_csv = tf * (24.0 + 20.0 * rois);
-        let chart = tf * 40.0 * rois;
-        let output_per_case = CASE_OUTPUT_BYTES + trace_csv + 3.0 * chart + 2.0 * pixels as f64;
-        // Per case in memory until the report is written: the report's share,
-        // the trace (24 bytes per frame plus 8 per ROI), the rendered sample
-        // frame (8 bytes a pixel, plus up to 1 for its PNG and thumbnail;
-        // measured 8.3 in all) and the chart three times (SVG, HTML, PDF).
-        let memory_per_case =
-            CASE_MEMORY_BYTES + tf * (24.0 + 8.0 * rois) + 9.0 * pixels as f64 + 3.0 * chart;
+        let frame_rois = trace_frames as f64 * rois;
+        // Per case on disk: its charts, frame view, results.json entry and
+        // table rows, and the trace CSV and trace charts, which grow with
+        // its frames and ROIs.
+        let output_per_case = CASE_OUTPUT_BYTES + FRAME_ROI_OUTPUT_BYTES * frame_rois;
+        // Per case in memory until the report is written (cases are read
+        // back from the store for it); frames are held as runs of equal
+        // values, so the sensor's size costs memory only while a view is
+        // drawn.
+        let memory_per_case = CASE_MEMORY_BYTES + FRAME_ROI_MEMORY_BYTES * frame_rois;
         WorkEstimate {
             cases,
             frames_per_case: frames,
             rows_per_frame: rows,
             row_integrals: n * frames as f64 * rows as f64,
             frame_pixels: pixels,
-            memory_bytes: BASE_MEMORY_BYTES + n * memory_per_case,
+            memory_bytes: BASE_MEMORY_BYTES
+                + PIXEL_MEMORY_BYTES * pixels as f64
+                + n * memory_per_case,
             output_bytes: BASE_OUTPUT_BYTES + n * output_per_case,
         }
     }
@@ -221,15 +286,20 @@ fn error(index: &SpanIndex, diags: &mut Vec<Diagnostic>, key: &str, message: Str
 }
 
 /// Checks the physical bounds, the uniqueness of case ids and, with
-/// `work`, the work estimate of a validated plan.
-pub(super) fn check(plan: &Plan, index: &SpanIndex, diags: &mut Vec<Diagnostic>, work: bool) {
+/// `work`, the work estimate of a validated plan against those limits.
+pub(super) fn check(
+    plan: &Plan,
+    index: &SpanIndex,
+    diags: &mut Vec<Diagnostic>,
+    work: Option<ResourceLimits>,
+) {
     let before = diags.len();
     physical(plan, index, diags);
     let cases = super::expand_cases(plan);
     unique_ids(&cases, index, diags);
-    if diags.len() > before || !work {
+    let Some(limits) = work.filter(|_| diags.len() == before) else {
         return;
-    }
+    };
     let e = WorkEstimate::of(plan);
     let over = [
         (
@@ -240,19 +310,19 @@ pub(super) fn check(plan: &Plan, index: &SpanIndex, diags: &mut Vec<Diagnostic>,
             ),
         ),
         (
-            e.memory_bytes > MAX_MEMORY_BYTES,
+            e.memory_bytes > limits.memory_bytes,
             format!(
-                "peak memory {} (at most {})",
+                "peak memory {} (at most {}; --max-memory raises it)",
                 bytes(e.memory_bytes),
-                bytes(MAX_MEMORY_BYTES)
+                bytes(limits.memory_bytes)
             ),
         ),
         (
-            e.output_bytes > MAX_OUTPUT_BYTES,
+            e.output_bytes > limits.output_bytes,
             format!(
-                "a report of {} (at most {})",
+                "a report of {} (at most {}; --max-report raises it)",
                 bytes(e.output_bytes),
-                bytes(MAX_OUTPUT_BYTES)
+                bytes(limits.output_bytes)
             ),
         ),
     ];
@@ -271,7 +341,7 @@ pub(super) fn check(plan: &Plan, index: &SpanIndex, diags: &mut Vec<Diagnostic>,
                 problems.join(", "),
                 e.summary()
             ),
-            "use fewer grid points, a shorter [sequence], fewer or smaller ROIs or a smaller sensor, or split the plan (docs/plan-format.md, \"Limits\")",
+            "use fewer grid points, a shorter [sequence], fewer or smaller ROIs or a smaller sensor, or split the plan (docs/plan-format.md, \"ResourceLimits\")",
         );
     }
 }

@@ -18,7 +18,7 @@ mod validate;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-pub use bounds::WorkEstimate;
+pub use bounds::{ResourceLimits, WorkEstimate};
 pub use capture::{
     CaptureCase, CaptureConfig, CommandSpec, DEFAULT_SETTLE_S, LumaWeights, SegmentSpec, Span,
     VideoDecode, VideoRange,
@@ -26,10 +26,11 @@ pub use capture::{
 pub use grid::{TestCase, expand_cases};
 pub use p2020::{MmpReference, P2020Options};
 
-/// Upper bound on cases in one plan. A report holds every case, at about
-/// 2 MB of memory each (charts, HTML, PDF layout): at this maximum a run
-/// peaks below 1 GB (20000 cases would need about 40 GB).
-pub const MAX_CASES: usize = 350;
+/// Upper bound on cases in one plan, whatever the limits: the list of
+/// cases itself is held in memory (about 200 bytes a case). The practical
+/// bound is the memory and disk estimate ([`WorkEstimate`]) against the
+/// run's [`ResourceLimits`].
+pub const MAX_CASES: usize = 10_000_000;
 
 /// A validated test plan. All values are in range and in SI-prefixed units
 /// named in the field.
@@ -566,31 +567,41 @@ pub fn resolve_plan(arg: &str) -> Result<PlanSource, PlanError> {
 
 /// Finds ([`resolve_plan`]), reads and validates a plan.
 pub fn find_and_load(arg: &str) -> Result<Plan, PlanError> {
-    find_and_load_inner(arg, None)
+    find_and_load_inner(arg, None, ResourceLimits::default())
 }
 
 /// [`find_and_load`], also checking a captured plan's ROIs against the
 /// frame size of each capture, read with `frame_size` (`validate` and
-/// `plan` do, so that a ROI off the frame fails before a run).
-pub fn find_and_load_with(arg: &str, frame_size: FrameSize<'_>) -> Result<Plan, PlanError> {
-    find_and_load_inner(arg, Some(frame_size))
+/// `plan` do, so that a ROI off the frame fails before a run), and its
+/// work estimate against `limits` (`--max-memory`, `--max-report`).
+pub fn find_and_load_with(
+    arg: &str,
+    frame_size: FrameSize<'_>,
+    limits: ResourceLimits,
+) -> Result<Plan, PlanError> {
+    find_and_load_inner(arg, Some(frame_size), limits)
 }
 
-fn find_and_load_inner(arg: &str, frame_size: Option<FrameSize<'_>>) -> Result<Plan, PlanError> {
+fn find_and_load_inner(
+    arg: &str,
+    frame_size: Option<FrameSize<'_>>,
+    limits: ResourceLimits,
+) -> Result<Plan, PlanError> {
     match resolve_plan(arg)? {
-        PlanSource::File(path) => load_inner(&path, frame_size),
-        PlanSource::BuiltIn(built_in) => load_built_in_inner(built_in, frame_size),
+        PlanSource::File(path) => load_inner(&path, frame_size, limits),
+        PlanSource::BuiltIn(built_in) => load_built_in_inner(built_in, frame_size, limits),
     }
 }
 
 /// Validates a plan built into the binary.
 pub fn load_built_in(built_in: &shipped::Shipped) -> Result<Plan, PlanError> {
-    load_built_in_inner(built_in, None)
+    load_built_in_inner(built_in, None, ResourceLimits::default())
 }
 
 fn load_built_in_inner(
     built_in: &shipped::Shipped,
     frame_size: Option<FrameSize<'_>>,
+    limits: ResourceLimits,
 ) -> Result<Plan, PlanError> {
     let sha256 = crate::util::sha256_hex(built_in.text.as_bytes());
     // Its errors name it as built in: a capture it names "does not exist"
@@ -600,7 +611,7 @@ fn load_built_in_inner(
         built_in.text,
         Path::new(built_in.path),
         sha256,
-        true,
+        Some(limits),
         frame_size,
     );
     let mut plan = parsed.map_err(|e| match e {
@@ -620,10 +631,19 @@ fn load_built_in_inner(
 
 /// Reads and validates the plan at `path`.
 pub fn load(path: &Path) -> Result<Plan, PlanError> {
-    load_inner(path, None)
+    load_inner(path, None, ResourceLimits::default())
 }
 
-fn load_inner(path: &Path, frame_size: Option<FrameSize<'_>>) -> Result<Plan, PlanError> {
+/// [`load`], with the work estimate checked against `limits`.
+pub fn load_within(path: &Path, limits: ResourceLimits) -> Result<Plan, PlanError> {
+    load_inner(path, None, limits)
+}
+
+fn load_inner(
+    path: &Path,
+    frame_size: Option<FrameSize<'_>>,
+    limits: ResourceLimits,
+) -> Result<Plan, PlanError> {
     let bytes = crate::util::read_input(path).map_err(|source| PlanError::Read {
         path: path.to_path_buf(),
         source,
@@ -636,7 +656,7 @@ fn load_inner(path: &Path, frame_size: Option<FrameSize<'_>>) -> Result<Plan, Pl
         ),
     })?;
     let sha256 = crate::util::sha256_hex(&bytes);
-    parse_inner(&text, path, sha256, true, frame_size)
+    parse_inner(&text, path, sha256, Some(limits), frame_size)
 }
 
 /// Parses and validates plan text; `path` is used in messages only.
@@ -653,14 +673,20 @@ pub fn parse_within(
     sha256: String,
     work_limits: bool,
 ) -> Result<Plan, PlanError> {
-    parse_inner(text, path, sha256, work_limits, None)
+    parse_inner(
+        text,
+        path,
+        sha256,
+        work_limits.then(ResourceLimits::default),
+        None,
+    )
 }
 
 fn parse_inner(
     text: &str,
     path: &Path,
     sha256: String,
-    work_limits: bool,
+    work_limits: Option<ResourceLimits>,
     frame_size: Option<FrameSize<'_>>,
 ) -> Result<Plan, PlanError> {
     let syntax = |e: toml::de::Error| PlanError::Syntax {

@@ -1,0 +1,156 @@
+//! The work estimate `validate` prints against what a run takes: peak
+//! memory within 1.5 times the measured peak for every shipped plan, and
+//! limits a user can raise.
+
+use super::{ledflicker, root, scratch, stderr, text};
+use std::process::Command;
+
+/// Bytes of a size as `plan::bounds::bytes` prints it (`340 MB`).
+fn size(value: &str, unit: &str) -> f64 {
+    let v: f64 = value.parse().unwrap();
+    v * match unit {
+        "kB" => 1e3,
+        "MB" => 1e6,
+        "GB" => 1e9,
+        u => panic!("unit {u}"),
+    }
+}
+
+/// The peak memory `validate` estimates for `plan` (with `extra`
+/// flags), bytes.
+fn estimated_memory(plan: &str, extra: &[&str]) -> f64 {
+    let o = ledflicker(&[&["validate", plan][..], extra].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let out = text(&o);
+    let after = out
+        .split("peak memory ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no estimate in: {out}"));
+    let mut words = after.split([' ', ';']);
+    size(words.next().unwrap(), words.next().unwrap())
+}
+
+/// Runs `plan` and returns its exit code and peak resident memory, bytes,
+/// as the kernel accounted it to that process alone (wait4(2)).
+// The child is reaped by wait4, which std's `wait` has no way to call.
+#[allow(clippy::zombie_processes)]
+fn measured_memory(plan: &str, out: &std::path::Path) -> (i32, f64) {
+    let child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(["plan", plan, "-q", "--out", out.to_str().unwrap()])
+        .current_dir(root())
+        .env_remove("SOURCE_DATE_EPOCH")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut status = 0;
+    // SAFETY: an all-zero rusage is a valid value for wait4 to fill in.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: waits for the child this function started, once; `child` is
+    // not waited on again.
+    let pid = unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut usage) };
+    assert_eq!(pid, child.id() as libc::pid_t);
+    assert!(libc::WIFEXITED(status), "{plan} did not exit");
+    // ru_maxrss is in kilobytes on Linux.
+    (libc::WEXITSTATUS(status), usage.ru_maxrss as f64 * 1024.0)
+}
+
+#[test]
+fn the_memory_estimate_is_within_one_and_a_half_times_the_peak_of_every_shipped_plan() {
+    let dir = scratch("estimate");
+    let mut plans: Vec<_> = std::fs::read_dir(root().join("test-plans"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    plans.sort();
+    assert!(plans.len() >= 7, "{plans:?}");
+    let mut table = Vec::new();
+    for plan in &plans {
+        let name = plan.file_stem().unwrap().to_str().unwrap();
+        let estimate = estimated_memory(plan.to_str().unwrap(), &[]);
+        let (code, peak) = measured_memory(plan.to_str().unwrap(), &dir.join(name));
+        assert!(matches!(code, 0 | 1 | 4), "{name} exited {code}");
+        table.push(format!(
+            "{name}: estimate {:.0} MB, peak {:.0} MB",
+            estimate / 1e6,
+            peak / 1e6
+        ));
+        let ratio = estimate / peak;
+        assert!(
+            (1.0 / 1.5..=1.5).contains(&ratio),
+            "{name}: estimate {:.0} MB against a peak of {:.0} MB ({ratio:.2}x)\n{}",
+            estimate / 1e6,
+            peak / 1e6,
+            table.join("\n")
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A grid of `n` x 10 cases on a 16 x 12 sensor.
+fn sweep(n: usize) -> String {
+    let base = std::fs::read_to_string(root().join("test-plans/grid-192.toml")).unwrap();
+    let freqs: Vec<String> = (0..n).map(|i| format!("{}.0", 50 + 5 * i)).collect();
+    let mut out = String::new();
+    for line in base.lines() {
+        let line = match line.split(" = ").next().unwrap() {
+            "frequencies-hz" => format!("frequencies-hz = [{}]", freqs.join(", ")),
+            "duty-cycles" => {
+                "duty-cycles = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0]".into()
+            }
+            "sensor-rows" => "sensor-rows = 12".into(),
+            "sensor-columns" => "sensor-columns = 16".into(),
+            "x-px" => "x-px = 2".into(),
+            "y-px" => "y-px = 4".into(),
+            "width-px" => "width-px = 10".into(),
+            _ => line.to_string(),
+        };
+        out.push_str(&line);
+        out.push('\n');
+    }
+    out
+}
+
+#[test]
+fn a_plan_over_the_memory_limit_names_the_flag_that_raises_it() {
+    let dir = scratch("max-memory");
+    let plan = dir.join("sweep.toml");
+    // 2000 cases: more than the case cap of earlier releases (350), and
+    // more than 1 GB by the estimate.
+    std::fs::write(&plan, sweep(200)).unwrap();
+    let p = plan.to_str().unwrap();
+    let o = ledflicker(&["validate", p]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("2000 cases") && err.contains("--max-memory raises it"),
+        "{err}"
+    );
+    let estimate = estimated_memory(p, &["--max-memory", "100GB"]);
+    assert!(estimate > 1e9, "{estimate}");
+    // Above the estimate it validates, below it does not (the estimate
+    // is printed to two digits).
+    let above = format!("{}MB", (estimate * 1.1 / 1e6).ceil());
+    let below = format!("{}MB", (estimate / 1.1 / 1e6).floor());
+    assert_eq!(
+        ledflicker(&["validate", p, "--max-memory", &above])
+            .status
+            .code(),
+        Some(0)
+    );
+    assert_eq!(
+        ledflicker(&["validate", p, "--max-memory", &below])
+            .status
+            .code(),
+        Some(2)
+    );
+    let o = ledflicker(&["validate", p, "--max-memory", "4 parsecs"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        stderr(&o).contains("unknown unit `parsecs`"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
