@@ -42,12 +42,14 @@ pub struct LimitArgs {
 }
 
 impl LimitArgs {
-    /// The limits, the defaults where a flag is not given.
-    pub fn limits(self) -> crate::plan::ResourceLimits {
+    /// The limits, the defaults where a flag is not given, for a report
+    /// that gives `every_case` a page or not.
+    pub fn limits(self, every_case: bool) -> crate::plan::ResourceLimits {
         let d = crate::plan::ResourceLimits::default();
         crate::plan::ResourceLimits {
             memory_bytes: self.max_memory.unwrap_or(d.memory_bytes),
             output_bytes: self.max_report.unwrap_or(d.output_bytes),
+            every_case,
         }
     }
 }

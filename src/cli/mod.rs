@@ -181,7 +181,7 @@ fn run(cli: Cli, version: &'static str) -> Result<i32, Failure> {
     match cli.command {
         Command::Plan(args) => plan::run_plan(args),
         Command::Merge(args) => merge::merge(args),
-        Command::Validate { plan, limits } => validate::validate(&plan, limits.limits()),
+        Command::Validate { plan, limits } => validate::validate(&plan, limits.limits(false)),
         Command::Simulate(args) => simulate::simulate(args),
         Command::Advise(args) => advise::advise(args),
         Command::Bench(args) => bench::bench(args),

@@ -209,7 +209,10 @@ pub(super) fn exit_code(status: Status) -> i32 {
 /// The plan and the report date, checked with `--threads`.
 fn load(args: &PlanArgs) -> Result<(Plan, String), Failure> {
     let t = crate::timings::span("load and validate plan");
-    let plan = super::validate::load(&args.plan, args.limits.limits())?;
+    let plan = super::validate::load(
+        &args.plan,
+        args.limits.limits(matches!(args.detail, DetailArg::Full)),
+    )?;
     drop(t);
     let date = report_date(args.date.as_deref())?;
     if args.threads == Some(0) {

@@ -379,6 +379,7 @@ fn load_plan(
     let unbounded = plan::ResourceLimits {
         memory_bytes: f64::INFINITY,
         output_bytes: f64::INFINITY,
+        every_case: false,
     };
     let mut plan = match (given, built_in) {
         (Some(p), _) => plan::load_within(p, unbounded)?,

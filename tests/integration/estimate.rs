@@ -65,6 +65,10 @@ fn the_memory_estimate_is_within_one_and_a_half_times_the_peak_of_every_shipped_
         .collect();
     plans.sort();
     assert!(plans.len() >= 7, "{plans:?}");
+    // And a sweep beyond the cases a report lists (1000 cases).
+    let sweep_plan = dir.join("sweep-1000.toml");
+    std::fs::write(&sweep_plan, sweep(100)).unwrap();
+    plans.push(sweep_plan);
     let mut table = Vec::new();
     for plan in &plans {
         let name = plan.file_stem().unwrap().to_str().unwrap();
@@ -85,6 +89,7 @@ fn the_memory_estimate_is_within_one_and_a_half_times_the_peak_of_every_shipped_
             table.join("\n")
         );
     }
+    eprintln!("{}", table.join("\n"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -116,15 +121,14 @@ fn sweep(n: usize) -> String {
 fn a_plan_over_the_memory_limit_names_the_flag_that_raises_it() {
     let dir = scratch("max-memory");
     let plan = dir.join("sweep.toml");
-    // 2000 cases: more than the case cap of earlier releases (350), and
-    // more than 1 GB by the estimate.
-    std::fs::write(&plan, sweep(200)).unwrap();
+    // 20000 cases: more than 1 GB by the estimate.
+    std::fs::write(&plan, sweep(2000)).unwrap();
     let p = plan.to_str().unwrap();
     let o = ledflicker(&["validate", p]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     let err = stderr(&o);
     assert!(
-        err.contains("2000 cases") && err.contains("--max-memory raises it"),
+        err.contains("20000 cases") && err.contains("--max-memory raises it"),
         "{err}"
     );
     let estimate = estimated_memory(p, &["--max-memory", "100GB"]);

@@ -309,7 +309,7 @@ fn validate_refuses_plans_beyond_the_physical_bounds_and_the_work_limit() {
             {
                 let p = small_plan(
                     &sub("memory"),
-                    "frequency-range-hz = { start = 50.0, stop = 1549.0, step = 1.0 }\nduty-cycles = [0.5]",
+                    "frequency-range-hz = { start = 50.0, stop = 5049.0, step = 1.0 }\nduty-cycles = [0.5]",
                 );
                 let t = std::fs::read_to_string(&p)
                     .unwrap()
@@ -321,7 +321,7 @@ fn validate_refuses_plans_beyond_the_physical_bounds_and_the_work_limit() {
             vec![
                 "too large to run",
                 "peak memory",
-                "estimated work: 1500 cases x 150 frames",
+                "estimated work: 5000 cases x 150 frames",
             ],
         ),
     ];

@@ -175,31 +175,28 @@ impl Document {
     /// The `--detail` the report was written with (results.json
     /// `report.detail`; reports written before it existed are `full`).
     pub fn detail(&self) -> Detail {
-        match self.results.report.as_ref().map(|r| r.detail.as_str()) {
-            Some("") | None => Detail::Full,
-            Some(s) => Detail::parse(s).unwrap_or_default(),
-        }
+        self.results.report_detail()
+    }
+
+    /// Which cases the report shows: pages, and rows of the per-case
+    /// tables ([`crate::model::listing`]).
+    pub fn listing(&self) -> crate::model::listing::Listing {
+        crate::model::listing::listing(&self.results, self.detail())
     }
 
     /// Ids of the cases that get their own page at this report's detail.
     pub fn case_pages(&self) -> std::collections::BTreeSet<String> {
-        let detail = self.detail();
-        self.results
-            .cases
-            .iter()
-            .filter(|c| detail.shows_case(c.verdict.as_str()))
-            .map(|c| c.id.clone())
-            .collect()
+        self.listing().pages
     }
 
-    /// The informational cases without a page of their own, one table row
-    /// each, in plan order ([`Detail::shows_case`]).
+    /// The listed informational cases without a page of their own, one
+    /// table row each, in plan order ([`Detail::shows_case`]).
     pub fn info_rows(&self) -> Vec<InfoRow> {
-        let pages = self.case_pages();
+        let listing = self.listing();
         self.results
             .cases
             .iter()
-            .filter(|c| !pages.contains(&c.id))
+            .filter(|c| !listing.pages.contains(&c.id) && listing.listed.contains(&c.id))
             .filter_map(info_row)
             .collect()
     }
@@ -207,10 +204,12 @@ impl Document {
     /// Per failing case, its limits as a ROI x metric table, worst ROI
     /// first ([`crate::model::limits`]), for the failing-cases summary.
     pub fn limit_tables(&self) -> BTreeMap<String, crate::model::limits::LimitTable> {
+        let listing = self.listing();
         self.results
             .cases
             .iter()
             .filter(|c| c.verdict == crate::model::Verdict::Fail)
+            .filter(|c| listing.listed.contains(&c.id))
             .map(|c| (c.id.clone(), c.limit_table()))
             .collect()
     }

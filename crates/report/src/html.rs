@@ -194,6 +194,7 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             template: "report.html.j2".to_string(),
             message: format!("{e:#}"),
         })?;
+    let listing = doc.listing();
     template
         .render(minijinja::context! {
             r => Serde(&results),
@@ -207,7 +208,11 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             zooms => zooms,
             worst_charts => worst_charts,
             worst_frames => worst_frames,
-            pages => doc.case_pages(),
+            pages => listing.pages.clone(),
+            listed => listed_ids(&listing),
+            unlisted => listing.unlisted,
+            pages_omitted => listing.pages_omitted,
+            listed_max => crate::model::listing::LISTED_CASES_MAX,
             info_rows => Serde(doc.info_rows()),
             glossary => Serde(crate::model::GLOSSARY),
             caveats => doc.caveats(),
@@ -221,6 +226,12 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             template: "report.html.j2".to_string(),
             message: format!("{e:#}"),
         })
+}
+
+/// The listed cases' ids as a map to `true`, for the templates' `c.id in
+/// listed` (a key lookup, where a list would be searched).
+pub(crate) fn listed_ids(listing: &crate::model::listing::Listing) -> BTreeMap<String, bool> {
+    listing.listed.iter().map(|id| (id.clone(), true)).collect()
 }
 
 #[cfg(test)]

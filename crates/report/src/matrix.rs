@@ -114,6 +114,8 @@ const TOP: i32 = 38;
 /// Below the cells: frequency labels, axis title, Eq. (1) legend (two
 /// lines), pixels.
 const BOTTOM: i32 = 100;
+/// Cells narrower than this, pixels, are drawn without borders.
+const DENSE_CELL_PX: f64 = 5.0;
 /// Space kept between neighbouring axis labels, pixels.
 const LABEL_GAP: f64 = 6.0;
 /// Font size of every text of a matrix but its title (plotters' units: 7.3
@@ -230,7 +232,9 @@ fn text_style(size: f64, pos: Pos) -> TextStyle<'static> {
 /// Axis labels and titles of both axes.
 fn draw_axes(area: &Area<'_>, grid: &Grid, freqs: &[f64], duties: &[f64]) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
-    let label = |v: f64| crate::util::fixed(v, if v.fract() == 0.0 { 0 } else { 1 });
+    // A duty of 0.55 is 55.00000000000001 percent: whole to within 1e-9
+    // reads as whole.
+    let label = |v: f64| crate::util::fixed(v, if (v - v.round()).abs() < 1e-9 { 0 } else { 1 });
     let fx: Vec<String> = freqs.iter().map(|&v| label(v)).collect();
     for l in thin_labels(&fx, grid.cell_w, |t| text_width(t, LABEL_SIZE)) {
         let x = LEFT + l.centre.round() as i32;
@@ -417,13 +421,18 @@ fn draw_cell(
     let (x0, x1, y0, y1) = (grid.x(i), grid.x(i + 1), grid.y(j + 1), grid.y(j));
     area.draw(&Rectangle::new([(x0, y0), (x1, y1)], fill.filled()))
         .map_err(e)?;
-    let gap = if grid.cell_w >= 8.0 { 1 } else { 0 };
-    area.draw(&Rectangle::new(
-        [(x0, y0), (x1, y1)],
-        WHITE.stroke_width(gap + 1),
-    ))
-    .map_err(e)?;
-    if case.verdict == Verdict::Fail {
+    // Cells narrower than a few pixels (a dense sweep) join into a heat
+    // map: a white border on each would leave stripes of white, or white
+    // only.
+    if grid.cell_w >= DENSE_CELL_PX && grid.cell_h >= DENSE_CELL_PX {
+        let gap = if grid.cell_w >= 8.0 { 1 } else { 0 };
+        area.draw(&Rectangle::new(
+            [(x0, y0), (x1, y1)],
+            WHITE.stroke_width(gap + 1),
+        ))
+        .map_err(e)?;
+    }
+    if case.verdict == Verdict::Fail && grid.cell_w >= 8.0 && grid.cell_h >= 8.0 {
         area.draw(&Rectangle::new(
             [(x0 + 2, y0 + 2), (x1 - 2, y1 - 2)],
             RGBColor(120, 0, 0).stroke_width(2),

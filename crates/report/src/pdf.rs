@@ -11,6 +11,7 @@
 
 mod shapes;
 
+use super::html::listed_ids;
 use std::collections::BTreeMap;
 use std::sync::{LazyLock, OnceLock};
 
@@ -301,6 +302,7 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
         .then_some(super::document::ADVICE_CHART);
     let template = env.get_template(TEMPLATE_NAME).map_err(template_error)?;
     let results = doc.json()?;
+    let listing = doc.listing();
     template
         .render(minijinja::context! {
             r => Serde(&results),
@@ -314,7 +316,11 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             zooms => zooms,
             worst_charts => worst_charts,
             worst_frames => worst_frames,
-            pages => doc.case_pages(),
+            pages => listing.pages.clone(),
+            listed => listed_ids(&listing),
+            unlisted => listing.unlisted,
+            pages_omitted => listing.pages_omitted,
+            listed_max => crate::model::listing::LISTED_CASES_MAX,
             info_rows => Serde(doc.info_rows()),
             glossary => Serde(crate::model::GLOSSARY),
             appendix_pages => appendix_page_values(doc),
@@ -340,8 +346,13 @@ const APPENDIX_ONE_LINE_ROI: usize = 16;
 /// first (about a third of the table's layout).
 fn appendix_page_values(doc: &Document) -> Vec<Value> {
     let cases = &doc.results.cases;
-    appendix_pages(cases.iter().map(|c| c.rois.len()))
+    let listing = doc.listing();
+    let listed: Vec<usize> = (0..cases.len())
+        .filter(|&i| listing.listed.contains(&cases[i].id))
+        .collect();
+    appendix_pages(listed.iter().map(|&i| cases[i].rois.len()))
         .into_iter()
+        .map(|page| page.into_iter().map(|k| listed[k]).collect::<Vec<usize>>())
         .map(|page| {
             let fixed = page.iter().all(|&i| {
                 let c = &cases[i];

@@ -140,11 +140,17 @@ impl CaseInfo {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::metrics::verdict::Comparison;
 
-    fn check(roi: &str, metric: &str, value: Option<f64>, min: bool, threshold: f64) -> Check {
+    pub(in crate::model) fn check(
+        roi: &str,
+        metric: &str,
+        value: Option<f64>,
+        min: bool,
+        threshold: f64,
+    ) -> Check {
         let comparison = if min {
             Comparison::AtLeast
         } else {
@@ -163,7 +169,7 @@ mod tests {
         }
     }
 
-    fn case(checks: Vec<Check>) -> CaseInfo {
+    pub(in crate::model) fn case(checks: Vec<Check>) -> CaseInfo {
         let mut c = minimal_case();
         c.checks = checks;
         c

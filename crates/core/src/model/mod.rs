@@ -32,6 +32,7 @@ pub mod conditions;
 pub mod evidence;
 pub mod frame;
 pub mod limits;
+pub mod listing;
 pub mod method;
 pub mod plane;
 

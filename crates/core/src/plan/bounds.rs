@@ -93,30 +93,47 @@ pub const CAPTURE_FPS_RANGE: (f64, f64) = (MIN_FPS, 1.0e5);
 /// (exit code 3), as documented for the command backend.
 pub const TIMEOUT_S_RANGE: (f64, f64) = (1.0e-3, 86_400.0);
 
+/// Most cases a report lists in its per-case tables; a run of more cases
+/// lists its worst ones (`model::listing`, docs/report.md "Large runs").
+pub const LISTED_CASES_MAX: usize = 500;
+/// Most case pages a report gives at `--detail standard`.
+pub const CASE_PAGES_MAX: usize = 50;
+
 /// Memory of the process before the first case: code, the PDF engine's
 /// fonts, the thread pool, bytes (measured: 58 MB for 2 and 4 cases).
 const BASE_MEMORY_BYTES: f64 = 60.0e6;
-/// Memory each case costs in the report whatever its size: its part of the
-/// model, its charts, the HTML and the PDF layout (measured: 0.67 MB a
-/// case for 1000 and 4000 cases of a 16 x 12 sensor, 120 frames, 2 ROIs).
-const CASE_MEMORY_BYTES: f64 = 0.75e6;
-/// Memory a case costs per frame and ROI: the trace, its charts and the
-/// exports written from it (fitted to daylight and hdr-example, 1920
-/// frames and 2 ROIs a case: 1.4 to 2.0 MB a case).
-const FRAME_ROI_MEMORY_BYTES: f64 = 370.0;
+/// Memory every case costs until the report is written: its result read
+/// back from the store, its part of the model and results.json, its rows
+/// of summary.csv and junit.xml (measured: 0.12 MB a case beyond the
+/// first 500 of a sweep of a 16 x 12 sensor, 120 frames, 2 ROIs).
+const CASE_MEMORY_BYTES: f64 = 0.12e6;
+/// Memory every case costs per frame and ROI: its trace and trace CSV.
+const FRAME_ROI_MEMORY_BYTES: f64 = 100.0;
+/// Memory a case the report lists costs on top: its charts, its rows of
+/// the PDF's and the HTML's tables and its part of the PDF layout
+/// (fitted to daylight, grid-192 and sweeps of 1000 and 4000 cases).
+const LISTED_MEMORY_BYTES: f64 = 0.63e6;
+/// Memory a listed case costs per frame and ROI: its trace charts.
+const LISTED_FRAME_ROI_MEMORY_BYTES: f64 = 270.0;
 /// Memory per sensor pixel while the report draws the frame views, once
 /// per run: frames are held as runs of equal values, a view is a PNG of
 /// its pixels (measured: 46 MB for a 3840 x 2160 sensor).
 const PIXEL_MEMORY_BYTES: f64 = 6.0;
 /// Size of the report that does not grow with cases, bytes.
 const BASE_OUTPUT_BYTES: f64 = 1.5e6;
-/// Report bytes each case costs whatever its size: its charts, frame view,
-/// results.json entry and table rows (measured: 92 kB a case for 1000
-/// cases of 120 frames and 2 ROIs).
-const CASE_OUTPUT_BYTES: f64 = 80.0e3;
-/// Report bytes per frame and ROI of a case: its trace CSV and the charts
-/// drawn from it (fitted to daylight, 330 kB a case).
-const FRAME_ROI_OUTPUT_BYTES: f64 = 65.0;
+/// Report bytes every case costs: its frame and view, its results.json
+/// entry, its store row and table rows (measured: 32 kB a case of 120
+/// frames and 2 ROIs in a sweep of 4000).
+const CASE_OUTPUT_BYTES: f64 = 25.0e3;
+/// Report bytes every case costs per frame and ROI: its trace CSV.
+const FRAME_ROI_OUTPUT_BYTES: f64 = 30.0;
+/// Report bytes a charted case costs on top (every case of a run the
+/// report lists whole, else the cases with a page): its charts, in
+/// charts/ and in report.html and report.pdf (fitted to daylight: 330 kB
+/// a case of 1920 frames and 2 ROIs).
+const CHARTED_OUTPUT_BYTES: f64 = 55.0e3;
+/// Report bytes a charted case costs per frame and ROI: its trace charts.
+const CHARTED_FRAME_ROI_OUTPUT_BYTES: f64 = 35.0;
 
 /// The resources a run may use; `validate` refuses a plan whose estimate
 /// exceeds them. The defaults suit a 2-core machine with a few GB;
@@ -127,6 +144,9 @@ pub struct ResourceLimits {
     pub memory_bytes: f64,
     /// Size of the report directory, bytes.
     pub output_bytes: f64,
+    /// The report gives every case a page (`--detail full`): every case
+    /// is listed and charted, which the estimate counts.
+    pub every_case: bool,
 }
 
 impl Default for ResourceLimits {
@@ -134,6 +154,7 @@ impl Default for ResourceLimits {
         ResourceLimits {
             memory_bytes: MAX_MEMORY_BYTES,
             output_bytes: MAX_OUTPUT_BYTES,
+            every_case: false,
         }
     }
 }
@@ -192,8 +213,14 @@ pub struct WorkEstimate {
 }
 
 impl WorkEstimate {
-    /// The estimate for `plan`.
+    /// The estimate for `plan`, its report at the default detail.
     pub fn of(plan: &Plan) -> WorkEstimate {
+        WorkEstimate::with_report(plan, false)
+    }
+
+    /// The estimate for `plan`; with `every_case`, a report that gives every
+    /// case a page (`--detail full`).
+    pub fn with_report(plan: &Plan, every_case: bool) -> WorkEstimate {
         let cases = super::expand_cases(plan).len();
         let sim = plan.dut.backend == BackendKind::Simulator;
         let frames = if sim {
@@ -218,25 +245,28 @@ impl WorkEstimate {
         let rois = plan.rois.len() as f64;
         let n = cases as f64;
         let frame_rois = trace_frames as f64 * rois;
-        // Per case on disk: its charts, frame view, results.json entry and
-        // table rows, and the trace CSV and trace charts, which grow with
-        // its frames and ROIs.
-        let output_per_case = CASE_OUTPUT_BYTES + FRAME_ROI_OUTPUT_BYTES * frame_rois;
-        // Per case in memory until the report is written (cases are read
-        // back from the store for it); frames are held as runs of equal
-        // values, so the sensor's size costs memory only while a view is
-        // drawn.
-        let memory_per_case = CASE_MEMORY_BYTES + FRAME_ROI_MEMORY_BYTES * frame_rois;
+        // Every case is read back, modelled and exported; the report lists
+        // (tables, PDF layout) and charts at most its worst cases, unless it
+        // gives every case a page.
+        let (listed, charted) = if every_case || cases <= LISTED_CASES_MAX {
+            (n, n)
+        } else {
+            (LISTED_CASES_MAX as f64, CASE_PAGES_MAX as f64)
+        };
+        let output = n * (CASE_OUTPUT_BYTES + FRAME_ROI_OUTPUT_BYTES * frame_rois)
+            + charted * (CHARTED_OUTPUT_BYTES + CHARTED_FRAME_ROI_OUTPUT_BYTES * frame_rois);
+        // Frames are held as runs of equal values, so the sensor's size
+        // costs memory only while a view is drawn.
+        let memory = n * (CASE_MEMORY_BYTES + FRAME_ROI_MEMORY_BYTES * frame_rois)
+            + listed * (LISTED_MEMORY_BYTES + LISTED_FRAME_ROI_MEMORY_BYTES * frame_rois);
         WorkEstimate {
             cases,
             frames_per_case: frames,
             rows_per_frame: rows,
             row_integrals: n * frames as f64 * rows as f64,
             frame_pixels: pixels,
-            memory_bytes: BASE_MEMORY_BYTES
-                + PIXEL_MEMORY_BYTES * pixels as f64
-                + n * memory_per_case,
-            output_bytes: BASE_OUTPUT_BYTES + n * output_per_case,
+            memory_bytes: BASE_MEMORY_BYTES + PIXEL_MEMORY_BYTES * pixels as f64 + memory,
+            output_bytes: BASE_OUTPUT_BYTES + output,
         }
     }
 
@@ -300,7 +330,7 @@ pub(super) fn check(
     let Some(limits) = work.filter(|_| diags.len() == before) else {
         return;
     };
-    let e = WorkEstimate::of(plan);
+    let e = WorkEstimate::with_report(plan, limits.every_case);
     let over = [
         (
             e.row_integrals > MAX_ROW_INTEGRALS,

@@ -21,7 +21,8 @@ use super::{
     ADVICE_CHART, finemap_chart_path, fold_chart_path, frame_image_path, matrix_chart_path,
     trace_chart_path, worst_phase_chart_path, worst_phase_image_path, zoom_chart_path,
 };
-use crate::model::{CaseResult, Results, RoiKind};
+use crate::model::listing::listing;
+use crate::model::{CaseInfo, CaseResult, Results, RoiKind};
 
 /// Draws one picture.
 type Draw<'a, T> = Box<dyn Fn() -> Result<T, ChartError> + Send + Sync + 'a>;
@@ -92,12 +93,20 @@ impl<'a> ChartJobs<'a> {
     /// The charts of a finished run: per case its luma trace and zoom, one
     /// matrix per light level, a phase fold per LED ROI with enough phases,
     /// the fine maps and the exposure advice. Nothing is drawn yet.
+    /// A run with more cases than a report lists draws the case charts of
+    /// the cases with a page only ([`crate::model::listing::Listing::charts_case`]).
     pub fn plan(model: &'a Results, results: &'a [CaseResult]) -> Self {
         let mut jobs = Jobs {
             jobs: BTreeMap::new(),
         };
+        let listing = listing(model, model.report_detail());
+        let cases: BTreeMap<&str, &CaseInfo> =
+            model.cases.iter().map(|c| (c.id.as_str(), c)).collect();
         for r in results {
-            let case = model.cases.iter().find(|c| c.id == r.case.id);
+            if !listing.charts_case(&r.case.id) {
+                continue;
+            }
+            let case = cases.get(r.case.id.as_str()).copied();
             let segments = case.and_then(|c| c.capture.as_ref()).map(|c| &c.segments);
             let apparent_hz = case.map_or(0.0, |c| c.apparent_frequency_hz);
             jobs.add(trace_chart_path(&r.case.id), move || {
@@ -121,7 +130,7 @@ impl<'a> ChartJobs<'a> {
         for (i, lux) in model.light_levels().into_iter().enumerate() {
             jobs.add(matrix_chart_path(i), move || matrix::matrix_svg(model, lux));
         }
-        for c in &model.cases {
+        for c in model.cases.iter().filter(|c| listing.charts_case(&c.id)) {
             let drawn = c.rois.iter().filter(|roi| {
                 roi.kind == RoiKind::Led
                     && roi.analysis.phase_coverage.covered_bins >= charts::MIN_FOLD_PHASES

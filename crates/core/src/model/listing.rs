@@ -1,0 +1,186 @@
+//! Which cases a report shows, and how: a page, a row of the per-case
+//! tables, or only the matrices, summary.csv, results.json and the case
+//! store. A report of a few hundred cases lists every case; a sweep of
+//! thousands summarises, so that its PDF stays a report a person reads
+//! (docs/report.md, "Large runs").
+//!
+//! Part of the results model: computed from the cases' verdicts and
+//! checks, so a report rendered again from results.json shows the same.
+
+use std::collections::BTreeSet;
+
+use super::{CaseInfo, Detail, Results, Verdict};
+
+/// Most case pages a report gives at `--detail standard` (failing cases,
+/// worst first); `--detail full` gives every case a page. Most cases a
+/// report lists in its per-case tables (failing cases, informational
+/// cases, case seeds, Appendix A): a run of more cases lists its worst ones
+/// and says where the rest are. The plan's work estimate counts on both.
+pub use crate::plan::bounds::{CASE_PAGES_MAX, LISTED_CASES_MAX};
+
+/// The cases a report shows, by id.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Listing {
+    /// Cases with a page of their own.
+    pub pages: BTreeSet<String>,
+    /// Cases in the per-case tables; every page's case is one of them.
+    pub listed: BTreeSet<String>,
+    /// Cases that would have had a page at this detail but are beyond
+    /// [`CASE_PAGES_MAX`].
+    pub pages_omitted: usize,
+    /// Cases not in the per-case tables.
+    pub unlisted: usize,
+}
+
+impl Listing {
+    /// Whether the report draws the case's own charts (trace, zoom, phase
+    /// folds, worst phase): every case of a run that lists every case, else
+    /// the cases with a page.
+    pub fn charts_case(&self, id: &str) -> bool {
+        self.unlisted == 0 || self.pages.contains(id)
+    }
+}
+
+impl Results {
+    /// The `--detail` the report was written with (`report.detail`;
+    /// reports written before it existed are `full`).
+    pub fn report_detail(&self) -> Detail {
+        match self.report.as_ref().map(|r| r.detail.as_str()) {
+            Some("") | None => Detail::Full,
+            Some(s) => Detail::parse(s).unwrap_or_default(),
+        }
+    }
+}
+
+/// How far a case is from failing, worst first: failing cases before
+/// informational ones before passing ones, each by the smallest margin of
+/// its checks ([`crate::metrics::Check::margin`]).
+fn rank(c: &CaseInfo) -> (u8, f64) {
+    let class = match c.verdict {
+        Verdict::Fail => 0,
+        Verdict::Info => 1,
+        Verdict::Pass => 2,
+    };
+    let margin = c
+        .checks
+        .iter()
+        .map(|k| k.margin())
+        .fold(f64::INFINITY, f64::min);
+    (class, margin)
+}
+
+/// The cases a report of `results` at `detail` shows.
+pub fn listing(results: &Results, detail: Detail) -> Listing {
+    listing_of(&results.cases, detail)
+}
+
+fn listing_of(cases: &[CaseInfo], detail: Detail) -> Listing {
+    let mut order: Vec<&CaseInfo> = cases.iter().collect();
+    // A stable sort: equal ranks keep plan order.
+    order.sort_by(|a, b| {
+        let (ca, ma) = rank(a);
+        let (cb, mb) = rank(b);
+        ca.cmp(&cb).then(ma.total_cmp(&mb))
+    });
+    let paged: Vec<&CaseInfo> = order
+        .iter()
+        .copied()
+        .filter(|c| detail.shows_case(c.verdict.as_str()))
+        .collect();
+    let keep = match detail {
+        Detail::Full => paged.len(),
+        _ => paged.len().min(CASE_PAGES_MAX),
+    };
+    let pages: BTreeSet<String> = paged[..keep].iter().map(|c| c.id.clone()).collect();
+    let listed: BTreeSet<String> = if cases.len() <= LISTED_CASES_MAX {
+        cases.iter().map(|c| c.id.clone()).collect()
+    } else {
+        let mut listed = pages.clone();
+        for c in &order {
+            if listed.len() >= LISTED_CASES_MAX.max(pages.len()) {
+                break;
+            }
+            listed.insert(c.id.clone());
+        }
+        listed
+    };
+    Listing {
+        pages_omitted: paged.len() - keep,
+        unlisted: cases.len() - listed.len(),
+        pages,
+        listed,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::limits::tests::{case, check};
+    use super::*;
+
+    /// `n` cases `c0000`...: case `i` fails when `fails(i)` with FDI
+    /// `i / n` against a limit of 1, else passes; every tenth is
+    /// informational.
+    fn cases(n: usize, fails: impl Fn(usize) -> bool) -> Vec<CaseInfo> {
+        (0..n)
+            .map(|i| {
+                let value = if fails(i) { i as f64 / n as f64 } else { 2.0 };
+                let mut c = case(vec![check("led", "fdi_2018", Some(value), true, 1.0)]);
+                c.id = format!("c{i:04}");
+                c.verdict = match (i % 10, fails(i)) {
+                    (0, _) => Verdict::Info,
+                    (_, true) => Verdict::Fail,
+                    (_, false) => Verdict::Pass,
+                };
+                c
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_run_within_the_list_limit_lists_every_case_and_pages_its_failures() {
+        let all = cases(LISTED_CASES_MAX, |i| i % 13 == 1);
+        let failing = all.iter().filter(|c| c.verdict == Verdict::Fail).count();
+        assert!(failing > 0 && failing <= CASE_PAGES_MAX, "{failing}");
+        let l = listing_of(&all, Detail::Standard);
+        assert_eq!(l.listed.len(), LISTED_CASES_MAX);
+        assert_eq!((l.unlisted, l.pages_omitted), (0, 0));
+        assert_eq!(l.pages.len(), failing);
+        assert!(all.iter().all(|c| l.charts_case(&c.id)));
+        assert!(listing_of(&all, Detail::Summary).pages.is_empty());
+        assert_eq!(listing_of(&all, Detail::Full).pages.len(), all.len());
+    }
+
+    #[test]
+    fn a_sweep_pages_and_lists_its_worst_cases_only() {
+        let n = 4 * LISTED_CASES_MAX;
+        // Every third case fails, furthest beyond the limit at low i.
+        let all = cases(n, |i| i % 3 == 2);
+        let failing: Vec<&CaseInfo> = all.iter().filter(|c| c.verdict == Verdict::Fail).collect();
+        let l = listing_of(&all, Detail::Standard);
+        assert_eq!(l.pages.len(), CASE_PAGES_MAX);
+        assert_eq!(l.pages_omitted, failing.len() - CASE_PAGES_MAX);
+        // The pages are the failing cases furthest beyond the limit: the
+        // lowest FDI, so the first failing cases in plan order.
+        let worst: BTreeSet<String> = failing[..CASE_PAGES_MAX]
+            .iter()
+            .map(|c| c.id.clone())
+            .collect();
+        assert_eq!(l.pages, worst);
+        assert_eq!(l.listed.len(), LISTED_CASES_MAX);
+        assert_eq!(l.unlisted, n - LISTED_CASES_MAX);
+        assert!(l.pages.is_subset(&l.listed));
+        // More failing cases than the list holds: it lists failing cases only.
+        assert!(failing.len() > LISTED_CASES_MAX);
+        assert!(
+            all.iter()
+                .filter(|c| l.listed.contains(&c.id))
+                .all(|c| c.verdict == Verdict::Fail)
+        );
+        assert!(!l.charts_case("c0000") && l.charts_case(&failing[0].id));
+        // Full detail pages every case, and lists every paged case.
+        let full = listing_of(&all, Detail::Full);
+        assert_eq!(full.pages.len(), n);
+        assert_eq!(full.pages_omitted, 0);
+        assert!(full.pages.is_subset(&full.listed));
+    }
+}
