@@ -18,6 +18,7 @@ mod legible;
 mod mutate;
 mod physics;
 mod plans;
+mod profile;
 mod properties;
 mod ranges;
 mod recgen;
