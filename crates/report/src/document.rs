@@ -68,6 +68,15 @@ pub fn finemap_chart_path(index: usize, kind: &str) -> String {
     format!("{CHARTS_DIR}/finemap-{index}-{kind}.svg")
 }
 
+/// Chart of the ROIs drawn and named on a whole frame of one case: the
+/// frame of each capture, or of the simulated camera.
+pub fn roi_map_chart_path(case_id: &str) -> String {
+    format!("{CHARTS_DIR}/rois-{case_id}.svg")
+}
+
+/// Common prefix of the ROI maps' paths.
+pub const ROI_MAP_PREFIX: &str = "charts/rois-";
+
 /// Chart of the exposure advice.
 pub const ADVICE_CHART: &str = "charts/advice.svg";
 

@@ -144,6 +144,26 @@ pub(crate) fn matrices(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec
         .collect()
 }
 
+/// The ROI maps ([`super::document::roi_map_chart_path`]), in case order:
+/// `{case, frame, chart}`, where `chart` is what `chart_for` makes of the
+/// map's chart path and `frame` the frame number shown.
+pub(crate) fn roi_maps(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec<Value> {
+    doc.results
+        .cases
+        .iter()
+        .filter_map(|c| {
+            let path = super::document::roi_map_chart_path(&c.id);
+            doc.charts.contains_key(&path).then(|| {
+                minijinja::context! {
+                    case => c.id.clone(),
+                    frame => c.sample_frame.as_ref().map(|f| f.frame),
+                    chart => chart_for(&path),
+                }
+            })
+        })
+        .collect()
+}
+
 /// Renders report.html for a run in memory (a draft: no signatories).
 pub fn render(
     model: &crate::model::Results,
@@ -242,6 +262,7 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             finemaps => finemaps,
             advice_chart => advice_chart,
             matrices => matrices(doc, inline),
+            roi_maps => roi_maps(doc, inline),
             signatories => Serde(&doc.signatories),
             zooms => zooms,
             worst_charts => worst_charts,
