@@ -269,6 +269,7 @@ pub fn report(
         inputs: run.inputs,
         detail: options.detail,
         reuse_from: generation.previous().map(Path::to_path_buf),
+        profile: run.plan.report.clone(),
     };
     write_files(&generation, &model, run.results, write, on_progress)?;
     drop(t);

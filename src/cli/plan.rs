@@ -80,6 +80,11 @@ pub(super) struct PlanArgs {
     /// inputs must be those of that run.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["out", "shard"])]
     resume: Option<PathBuf>,
+    /// Report profile: a TOML file with a `[report]` table (company, logo,
+    /// document number, labels, sections, templates), whose keys win over
+    /// the plan's `[report]` one by one (docs/plan-format.md).
+    #[arg(long, value_name = "FILE")]
+    profile: Option<PathBuf>,
     #[command(flatten)]
     limits: super::args::LimitArgs,
 }
@@ -209,10 +214,14 @@ pub(super) fn exit_code(status: Status) -> i32 {
 /// The plan and the report date, checked with `--threads`.
 fn load(args: &PlanArgs) -> Result<(Plan, String), Failure> {
     let t = crate::timings::span("load and validate plan");
-    let plan = super::validate::load(
+    let mut plan = super::validate::load(
         &args.plan,
         args.limits.limits(matches!(args.detail, DetailArg::Full)),
     )?;
+    if let Some(path) = &args.profile {
+        let profile = plan::load_report_profile(path)?;
+        plan.report = std::mem::take(&mut plan.report).overridden_by(profile);
+    }
     drop(t);
     let date = report_date(args.date.as_deref())?;
     if args.threads == Some(0) {

@@ -19,6 +19,7 @@ mod legible;
 mod mutate;
 mod physics;
 mod plans;
+mod profile;
 mod properties;
 mod ranges;
 mod recgen;

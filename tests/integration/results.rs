@@ -230,6 +230,7 @@ fn full_html(
         detail: "full".to_string(),
         inputs: Vec::new(),
         notes: Vec::new(),
+        profile: None,
     });
     report::html::render(&model, results, "2026-01-01").unwrap()
 }

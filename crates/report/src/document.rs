@@ -13,6 +13,7 @@ use serde::Serialize;
 
 mod info;
 mod jobs;
+pub mod profile;
 
 pub use info::{InfoRow, info_row};
 #[cfg(test)]
@@ -67,6 +68,15 @@ pub fn finemap_chart_path(index: usize, kind: &str) -> String {
     format!("{CHARTS_DIR}/finemap-{index}-{kind}.svg")
 }
 
+/// Chart of the ROIs drawn and named on a whole frame of one case: the
+/// frame of each capture, or of the simulated camera.
+pub fn roi_map_chart_path(case_id: &str) -> String {
+    format!("{CHARTS_DIR}/rois-{case_id}.svg")
+}
+
+/// Common prefix of the ROI maps' paths.
+pub const ROI_MAP_PREFIX: &str = "charts/rois-";
+
 /// Chart of the exposure advice.
 pub const ADVICE_CHART: &str = "charts/advice.svg";
 
@@ -103,6 +113,9 @@ pub struct Document {
     /// Image path (see [`frame_image_path`]) -> small PNG for the renderers;
     /// the full-size frames are in the report directory.
     pub images: BTreeMap<String, Vec<u8>>,
+    /// The report profile's files (logo, replaced templates); empty
+    /// without a profile.
+    pub look: profile::Look,
 }
 
 /// Reasons of an LED ROI that both reports print in the case table (the
@@ -153,6 +166,7 @@ impl Document {
             charts,
             signatories,
             images,
+            look: profile::Look::default(),
         }
     }
 
@@ -385,11 +399,13 @@ impl Document {
             let small = super::frames::thumbnail(&frame, super::frames::THUMBNAIL_WIDTH);
             images.insert(rel, super::frames::png_bytes(&small)?);
         }
+        let look = profile::Look::load(dir, &results)?;
         Ok(Document {
             results,
             charts,
             signatories: Vec::new(),
             images,
+            look,
         })
     }
 }
@@ -417,5 +433,6 @@ pub fn report_meta(model: &Results, date: &str, detail: Detail) -> ReportMeta {
         detail: detail.as_str().to_string(),
         inputs,
         notes: model.notes.clone(),
+        profile: model.report.as_ref().and_then(|r| r.profile.clone()),
     }
 }

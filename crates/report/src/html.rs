@@ -67,18 +67,52 @@ fn format_value(
     }
 }
 
-fn environment() -> Result<Environment<'static>, ReportError> {
+/// A template's error, naming the file of a replaced template (else the
+/// built-in template's name) and the line.
+pub(crate) fn template_error(
+    e: &minijinja::Error,
+    fallback: &str,
+    look: &super::document::profile::Look,
+) -> ReportError {
+    let name = e.name().unwrap_or(fallback);
+    // A replaced template's error is the user's: its file, line and
+    // message; a built-in one's is ours, with minijinja's whole account.
+    let (template, text) = match look.templates.get(name) {
+        Some(t) => (t.path.display().to_string(), format!("{e}")),
+        None => (name.to_string(), format!("{e:#}")),
+    };
+    let message = match e.line() {
+        Some(line) => format!("line {line}: {text}"),
+        None => text,
+    };
+    ReportError::Template { template, message }
+}
+
+/// The templates: the built-in ones, each replaced by the profile's
+/// template of its name, if any.
+pub(crate) fn add_templates(
+    env: &mut Environment<'static>,
+    built_in: &[(&'static str, &'static str)],
+    look: &super::document::profile::Look,
+) -> Result<(), ReportError> {
+    for (name, src) in built_in {
+        let added = match look.templates.get(*name) {
+            Some(t) => env.add_template_owned(name.to_string(), t.text.clone()),
+            None => env.add_template(name, src),
+        };
+        added.map_err(|e| template_error(&e, name, look))?;
+    }
+    Ok(())
+}
+
+fn environment(look: &super::document::profile::Look) -> Result<Environment<'static>, ReportError> {
     let mut env = Environment::new();
     env.set_undefined_behavior(UndefinedBehavior::Strict);
-    let add = |env: &mut Environment<'static>, name: &'static str, src: &'static str| {
-        env.add_template(name, src)
-            .map_err(|e| ReportError::Template {
-                template: name.to_string(),
-                message: format!("{e:#}"),
-            })
-    };
-    add(&mut env, "base.html.j2", BASE)?;
-    add(&mut env, "report.html.j2", REPORT)?;
+    add_templates(
+        &mut env,
+        &[("base.html.j2", BASE), ("report.html.j2", REPORT)],
+        look,
+    )?;
     env.add_filter("num", |v: Serde<Option<f64>>, digits: Option<usize>| {
         num(v.0, digits)
     });
@@ -110,6 +144,26 @@ pub(crate) fn matrices(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec
         .collect()
 }
 
+/// The ROI maps ([`super::document::roi_map_chart_path`]), in case order:
+/// `{case, frame, chart}`, where `chart` is what `chart_for` makes of the
+/// map's chart path and `frame` the frame number shown.
+pub(crate) fn roi_maps(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec<Value> {
+    doc.results
+        .cases
+        .iter()
+        .filter_map(|c| {
+            let path = super::document::roi_map_chart_path(&c.id);
+            doc.charts.contains_key(&path).then(|| {
+                minijinja::context! {
+                    case => c.id.clone(),
+                    frame => c.sample_frame.as_ref().map(|f| f.frame),
+                    chart => chart_for(&path),
+                }
+            })
+        })
+        .collect()
+}
+
 /// Renders report.html for a run in memory (a draft: no signatories).
 pub fn render(
     model: &crate::model::Results,
@@ -121,7 +175,7 @@ pub fn render(
 
 /// Renders report.html from a [`Document`].
 pub fn render_document(doc: &Document) -> Result<String, ReportError> {
-    let env = environment()?;
+    let env = environment(&doc.look)?;
     let inline = |path: &str| {
         doc.charts
             .get(path)
@@ -188,12 +242,17 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
         .collect();
     let advice_chart = inline(ADVICE_CHART);
     let results = doc.json()?;
-    let template = env
-        .get_template("report.html.j2")
-        .map_err(|e| ReportError::Template {
-            template: "report.html.j2".to_string(),
-            message: format!("{e:#}"),
-        })?;
+    let error = |e: minijinja::Error| template_error(&e, "report.html.j2", &doc.look);
+    let template = env.get_template("report.html.j2").map_err(error)?;
+    let look = doc.look_context(|path, bytes| {
+        let mime = if path.ends_with(".svg") {
+            "image/svg+xml"
+        } else {
+            "image/png"
+        };
+        let uri = format!("data:{mime};base64,{}", super::frames::base64(bytes));
+        Value::from_safe_string(uri)
+    });
     let listing = doc.listing();
     template
         .render(minijinja::context! {
@@ -204,6 +263,7 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             finemaps => finemaps,
             advice_chart => advice_chart,
             matrices => matrices(doc, inline),
+            roi_maps => roi_maps(doc, inline),
             signatories => Serde(&doc.signatories),
             zooms => zooms,
             worst_charts => worst_charts,
@@ -221,11 +281,9 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             detail => doc.detail().as_str(),
             draft => doc.is_draft(),
             date => doc.date(),
+            look => look,
         })
-        .map_err(|e| ReportError::Template {
-            template: "report.html.j2".to_string(),
-            message: format!("{e:#}"),
-        })
+        .map_err(error)
 }
 
 /// The listed cases' ids as a map to `true`, for the templates' `c.id in

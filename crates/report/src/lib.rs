@@ -103,6 +103,8 @@ pub struct WriteOptions {
     /// a file of traces/, charts/ or frames/ whose bytes are the same as
     /// its file there is hard-linked from it instead of written.
     pub reuse_from: Option<PathBuf>,
+    /// The report's look (`[report]`, `--profile`); the default is none.
+    pub profile: crate::model::ReportProfile,
 }
 
 /// One case's trace as CSV: `frame,time_s,segment,<one luma column per ROI>`
@@ -527,8 +529,10 @@ pub fn write_report(
         detail: options.detail.as_str().to_string(),
         inputs: options.inputs.clone(),
         notes: Vec::new(),
+        profile: document::profile::meta(&options.profile),
     });
     let model = &model;
+    document::profile::write_files(dir, &options.profile)?;
     // Typst starts on a document that names every picture, and draws a
     // chart or frame view when a page shows it; the pictures it does not
     // show (most traces), the HTML, the exports and the results.json text
@@ -544,7 +548,8 @@ pub fn write_report(
             .map(|p| (p.to_string(), String::new()))
             .collect(),
         views.paths().map(|p| (p.to_string(), Vec::new())).collect(),
-    );
+    )
+    .with_profile_files(&options.profile);
     // The other renderers run on a thread of their own, not on a rayon
     // worker: their file writes block it, and Typst's parallel page runs
     // need every worker. Their drawing still runs on the pool.

@@ -68,6 +68,8 @@ struct ReportWorld<'a> {
     /// Where the charts and frame views come from.
     pictures: Pictures<'a>,
     today: Option<Datetime>,
+    /// The report profile's logo: its virtual path and bytes.
+    logo: Option<(String, Bytes)>,
 }
 
 /// A file of the world: a frame view as it is, or a chart, simplified for
@@ -158,6 +160,11 @@ impl World for ReportWorld<'_> {
 
     fn file(&self, id: FileId) -> FileResult<Bytes> {
         let path = id.vpath().get_without_slash();
+        if let Some((logo, bytes)) = &self.logo
+            && logo == path
+        {
+            return Ok(bytes.clone());
+        }
         let file = self
             .files
             .get(path)
@@ -223,19 +230,13 @@ fn typst_literal(text: &str) -> String {
     out
 }
 
-fn template_error(e: minijinja::Error) -> ReportError {
-    ReportError::Template {
-        template: TEMPLATE_NAME.to_string(),
-        message: format!("{e:#}"),
-    }
-}
-
 /// Renders the Typst markup of the report (the template's output).
 pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
     let mut env = Environment::new();
     env.set_undefined_behavior(UndefinedBehavior::Strict);
-    env.add_template(TEMPLATE_NAME, TEMPLATE)
-        .map_err(template_error)?;
+    super::html::add_templates(&mut env, &[(TEMPLATE_NAME, TEMPLATE)], &doc.look)?;
+    let template_error =
+        |e: minijinja::Error| super::html::template_error(&e, TEMPLATE_NAME, &doc.look);
     env.add_filter("t", |v: Value| typst_str(&v));
     env.add_filter("metric", |id: &str| {
         crate::model::human_name(id).to_string()
@@ -312,6 +313,7 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             advice_chart => advice_chart,
             charts => traces,
             matrices => super::html::matrices(doc, |p: &str| Value::from(p)),
+            roi_maps => super::html::roi_maps(doc, |p: &str| Value::from(p)),
             signatories => Serde(&doc.signatories),
             zooms => zooms,
             worst_charts => worst_charts,
@@ -330,6 +332,7 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             detail => doc.detail().as_str(),
             draft => doc.is_draft(),
             date => doc.date(),
+            look => doc.look_context(|path, _| Value::from(path)),
         })
         .map_err(template_error)
 }
@@ -464,6 +467,11 @@ pub fn render_with(
         files,
         pictures,
         today: parse_date(doc.date()),
+        logo: doc
+            .look
+            .logo
+            .as_ref()
+            .map(|(path, bytes)| (path.clone(), Bytes::new(bytes.clone()))),
     };
     let compiled = {
         let _t = crate::timings::span("pdf: layout");

@@ -50,6 +50,7 @@ pub use crate::metrics::verdict::{Comparison, VERDICT_TOLERANCE};
 pub use crate::metrics::{
     Check, GLOSSARY, Levels, Metric, MetricName, Verdict, human_name, short_name,
 };
+pub use crate::plan::profile::{LABELS, Logo, ReportProfile, SECTIONS, TemplateOverrides};
 pub use crate::plan::{RoiKind, Thresholds, VerdictBasis};
 pub use crate::runner::CaseResult;
 pub use crate::trace::{
@@ -509,6 +510,37 @@ pub struct ReportMeta {
     /// Deviations from the method of Deegan 2018 and other notes, one
     /// sentence each.
     pub notes: Vec<String>,
+    /// The report profile it was written with (`[report]`, `--profile`);
+    /// absent without one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub profile: Option<ProfileMeta>,
+}
+
+/// A report profile as results.json holds it: what the report shows, and
+/// the files of the report directory that hold its logo and templates (so
+/// that the report can be rendered again from its directory alone).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ProfileMeta {
+    /// Company name shown on the cover and in the page header.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub company: Option<String>,
+    /// Document number shown on the cover and in the page header.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub document_number: Option<String>,
+    /// The logo, relative to the report directory (`profile/logo.png` or
+    /// `profile/logo.svg`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub logo: Option<String>,
+    /// Renamed cover and sign-off fields: label key -> text.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub labels: std::collections::BTreeMap<String, String>,
+    /// The sections shown, in report order; absent: every section.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sections: Option<Vec<String>>,
+    /// Templates replaced, by name; their sources are in the report
+    /// directory under `profile/templates/`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub templates: Vec<String>,
 }
 
 /// A case's annotated view, relative to the report directory.

@@ -46,6 +46,7 @@ pub const REPORT_ENTRIES: &[&str] = &[
     "junit.xml",
     "summary.csv",
     "cases.sqlite",
+    "profile",
 ];
 
 /// A file in a report directory that marks it as signed (the CMS signature

@@ -10,6 +10,7 @@ mod capture;
 mod check;
 mod grid;
 mod p2020;
+pub mod profile;
 mod raw;
 pub mod shipped;
 mod spans;
@@ -25,6 +26,7 @@ pub use capture::{
 };
 pub use grid::{TestCase, expand_cases};
 pub use p2020::{MmpReference, P2020Options};
+pub use profile::{ReportProfile, load_report_profile};
 
 /// Upper bound on cases in one plan, whatever the limits: the list of
 /// cases itself is held in memory (about 200 bytes a case). The practical
@@ -76,6 +78,9 @@ pub struct Plan {
     pub capture: Option<CaptureConfig>,
     /// IEEE P2020 KPI settings (`[p2020]`).
     pub p2020: P2020Options,
+    /// The report's look (`[report]`, and `--profile`, which
+    /// [`profile::ReportProfile::overridden_by`] puts over it).
+    pub report: profile::ReportProfile,
     /// Plausibility warnings, in file order: values that are valid but
     /// most likely in another unit (docs/plan-format.md, "Plausibility
     /// warnings"). They never stop a run; [`Plan::warnings_text`] words them.

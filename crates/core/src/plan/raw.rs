@@ -38,6 +38,8 @@ pub struct RawPlan {
     pub case: Vec<RawCaseEntry>,
     /// `[p2020]`: IEEE P2020 KPI settings.
     pub p2020: Option<RawP2020>,
+    /// `[report]`: the report's look (company, logo, sections, templates).
+    pub report: Option<RawReport>,
 }
 
 /// `[plan]`
@@ -298,4 +300,25 @@ pub struct RawP2020 {
     pub contrast_threshold: Option<f64>,
     pub mmp_delta: Option<f64>,
     pub mmp_reference: Option<String>,
+}
+
+/// `[report]`, in a plan or in a report profile file (`--profile`).
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawReport {
+    pub company: Option<String>,
+    pub logo: Option<String>,
+    pub document_number: Option<String>,
+    pub sections: Option<Vec<String>>,
+    pub templates: Option<String>,
+    /// Checked against `plan::profile::LABELS` by the validator, so that
+    /// an unknown label gets the list of known ones.
+    pub labels: Option<std::collections::BTreeMap<String, String>>,
+}
+
+/// A report profile file: `[report]` with the keys of a plan's `[report]`.
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawReportFile {
+    pub report: Option<RawReport>,
 }

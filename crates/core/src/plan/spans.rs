@@ -99,6 +99,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "capture",
             "case",
             "p2020",
+            "report",
         ],
     ),
     (
@@ -261,6 +262,17 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
     (
         "p2020",
         &["contrast-threshold", "mmp-delta", "mmp-reference"],
+    ),
+    (
+        "report",
+        &[
+            "company",
+            "logo",
+            "document-number",
+            "sections",
+            "templates",
+            "labels",
+        ],
     ),
 ];
 

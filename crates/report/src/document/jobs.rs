@@ -19,7 +19,8 @@ use super::super::charts::{self, ChartError};
 use super::super::matrix;
 use super::{
     ADVICE_CHART, finemap_chart_path, fold_chart_path, frame_image_path, matrix_chart_path,
-    trace_chart_path, worst_phase_chart_path, worst_phase_image_path, zoom_chart_path,
+    roi_map_chart_path, trace_chart_path, worst_phase_chart_path, worst_phase_image_path,
+    zoom_chart_path,
 };
 use crate::model::listing::listing;
 use crate::model::{CaseInfo, CaseResult, Results, RoiKind};
@@ -126,6 +127,18 @@ impl<'a> ChartJobs<'a> {
                     charts::worst_phase_svg(r, w, fdi_min)
                 });
             }
+        }
+        // The ROI map: a frame of each capture; the simulated camera's
+        // frames all show the same scene, so one of them.
+        let each_capture = model.method.backend == crate::model::BackendName::Captured;
+        let framed = results.iter().filter_map(|r| {
+            let info = model.cases.iter().find(|c| c.id == r.case.id)?;
+            Some((r, r.sample_frame.as_ref()?, info.sample_frame.as_ref()?))
+        });
+        for (r, frame, info) in framed.take(if each_capture { usize::MAX } else { 1 }) {
+            jobs.add(roi_map_chart_path(&r.case.id), move || {
+                charts::roi_map_svg(frame, &info.rois, &info.stretch)
+            });
         }
         for (i, lux) in model.light_levels().into_iter().enumerate() {
             jobs.add(matrix_chart_path(i), move || matrix::matrix_svg(model, lux));

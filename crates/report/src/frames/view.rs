@@ -284,6 +284,17 @@ pub fn sample_view(frame: &RenderedFrame, rois: &[RoiBox]) -> (RgbImage, Stretch
     (stretched_view(frame, rois, &stretch), stretch)
 }
 
+/// The whole frame with `stretch`, box-averaged to at most `max_width`
+/// pixels wide, without annotations (the ROI map draws its own).
+pub fn stretched_frame(frame: &RenderedFrame, stretch: &Stretch, max_width: u32) -> RgbImage {
+    let (fw, fh) = (frame.width.max(1), frame.height.max(1));
+    let vw = fw.min(max_width.max(1));
+    let vh = ((u64::from(fh) * u64::from(vw)) / u64::from(fw)).max(1) as u32;
+    let mut img = RgbImage::from_pixel(vw, vh, Rgb([255, 255, 255]));
+    draw_frame(&mut img, frame, stretch, (vw, vh));
+    img
+}
+
 /// [`sample_view`] with the frame's stretch already known (the model's).
 pub fn stretched_view(frame: &RenderedFrame, rois: &[RoiBox], stretch: &Stretch) -> RgbImage {
     let (fw, fh) = (frame.width.max(1), frame.height.max(1));

@@ -8,7 +8,8 @@
 //! - `dut`: `[dut]` and camera profiles; `camera`: `[dut.camera]`;
 //!   `sensor`: its `[sensor]`, `[[capture]]`, `[hdr]`, `[tone]` and gains;
 //!   `ae`: its `[auto-exposure]`;
-//! - `roi`: `[[roi]]`; `scene`: `[scene]`; `thresholds`: `[thresholds]`.
+//! - `roi`: `[[roi]]`; `scene`: `[scene]`; `thresholds`: `[thresholds]`;
+//! - `report`: `[report]` (also of a report profile file).
 //!
 //! Every check pushes a [`Diagnostic`] into the shared collector
 //! (`plan::check::Checker`) and carries on, so the user sees all the
@@ -25,12 +26,15 @@ mod dut;
 mod grid;
 mod meta;
 mod p2020;
+mod report;
 mod roi;
 mod scene;
 mod sensor;
 mod thresholds;
 
 use std::path::Path;
+
+pub(crate) use report::report_table;
 
 use super::check::Checker;
 use super::raw::{RawCaptureTable, RawCaseEntry, RawDut, RawGrid, RawLight, RawPlan};
@@ -100,6 +104,7 @@ pub(super) fn validate(
         levels.clone()
     };
     let thresholds = thresholds::thresholds(&mut c, raw.thresholds, known_lux.as_deref());
+    let report = report::report_table(&mut c, raw.report, path);
     let sequence = Sequence {
         on_s: on_s?,
         off_s: off_s?,
@@ -130,6 +135,7 @@ pub(super) fn validate(
         thresholds: thresholds?,
         capture,
         p2020: p2020?,
+        report: report?,
         warnings: Vec::new(),
     })
 }
