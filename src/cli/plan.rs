@@ -80,6 +80,8 @@ pub(super) struct PlanArgs {
     /// inputs must be those of that run.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["out", "shard"])]
     resume: Option<PathBuf>,
+    #[command(flatten)]
+    record: super::campaign::RecordArgs,
 }
 
 pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
@@ -182,6 +184,13 @@ fn finish(
     if let Some(warning) = &outcome.warning {
         eprintln!("{warning}");
     }
+    super::campaign::record_finished(
+        &args.record,
+        &outcome.model,
+        &outcome.dir,
+        crate::campaign::record::Source::Plan,
+        outcome.signed.as_ref().map(|s| s.signer.as_str()),
+    );
     if !args.quiet {
         print_summary(&outcome.model, &outcome.dir)?;
     }
