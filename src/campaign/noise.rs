@@ -3,24 +3,27 @@
 //! (docs/campaigns.md, "The regression gate").
 //!
 //! In the steady ON and OFF segments the light does not change, so what
-//! changes from one frame to the next is noise. The estimate uses
-//! successive differences, `sigma^2 = mean((x[i+1] - x[i])^2) / 2` over
+//! changes from one frame to the next is noise. The estimate, per
+//! segment, uses successive differences, `sigma^2 = mean((x[i+1] - x[i])^2) / 2` over
 //! pairs of consecutive frames of the same steady segment: a slow drift
 //! (auto exposure settling, warm-up) barely enters it, unlike the spread
 //! about the segment's mean.
 
-/// The noise of one ROI's trace.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The noise of one ROI's trace, per steady segment: with shot noise a
+/// bright frame is noisier than a dark one.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Noise {
-    /// Standard deviation of one frame's ROI mean luma, DN (>= 0).
-    pub sigma_dn: f64,
-    /// Pairs of consecutive steady frames it rests on (0: no estimate).
-    pub pairs: usize,
+    /// Standard deviation of one ON frame's ROI mean luma, DN (>= 0);
+    /// `None` without two consecutive ON frames.
+    pub on_dn: Option<f64>,
+    /// The same of the OFF frames.
+    pub off_dn: Option<f64>,
+    /// OFF frames: the OFF reference is their mean.
+    pub off_frames: usize,
 }
 
 /// The noise of each named column of a ledflicker trace CSV (header
-/// `frame,time_s,segment,<roi>...`); `None` for a column the trace lacks
-/// or that has no two consecutive steady frames.
+/// `frame,time_s,segment,<roi>...`); `None` for a column the trace lacks.
 pub fn of_trace(text: &str, rois: &[&str]) -> Vec<Option<Noise>> {
     let mut reader = csv::ReaderBuilder::new().from_reader(text.as_bytes());
     let Ok(header) = reader.headers().cloned() else {
@@ -29,7 +32,9 @@ pub fn of_trace(text: &str, rois: &[&str]) -> Vec<Option<Noise>> {
     let col = |name: &str| header.iter().position(|h| h == name);
     let segment = col("segment");
     let columns: Vec<Option<usize>> = rois.iter().map(|r| col(r)).collect();
-    let mut sums = vec![(0.0f64, 0usize); rois.len()];
+    // Per ROI: (sum of squared steps, steps) of ON, then of OFF; OFF frames.
+    let mut sums = vec![[(0.0f64, 0usize); 2]; rois.len()];
+    let mut off_frames = 0;
     let mut previous: Option<(String, Vec<Option<f64>>)> = None;
     for row in reader.records() {
         let Ok(row) = row else {
@@ -44,23 +49,31 @@ pub fn of_trace(text: &str, rois: &[&str]) -> Vec<Option<Noise>> {
             })
             .map(|v| v.filter(|v| v.is_finite()))
             .collect();
-        let steady = seg == "on" || seg == "off";
-        if let Some((prev_seg, prev)) = previous.as_ref().filter(|(s, _)| steady && *s == seg) {
-            debug_assert_eq!(prev_seg, &seg);
+        let which = match seg.as_str() {
+            "on" => Some(0),
+            "off" => Some(1),
+            _ => None,
+        };
+        off_frames += usize::from(which == Some(1));
+        let same = previous.as_ref().filter(|(s, _)| *s == seg);
+        if let (Some(w), Some((_, prev))) = (which, same) {
             for (k, (a, b)) in prev.iter().zip(&values).enumerate() {
                 if let (Some(a), Some(b)) = (a, b) {
-                    sums[k].0 += (b - a) * (b - a);
-                    sums[k].1 += 1;
+                    sums[k][w].0 += (b - a) * (b - a);
+                    sums[k][w].1 += 1;
                 }
             }
         }
         previous = Some((seg, values));
     }
+    let sigma = |(s, n): (f64, usize)| (n > 0).then(|| (s / n as f64 / 2.0).sqrt());
     sums.into_iter()
-        .map(|(s, n)| {
-            (n > 0).then(|| Noise {
-                sigma_dn: (s / n as f64 / 2.0).sqrt(),
-                pairs: n,
+        .zip(&columns)
+        .map(|([on, off], c)| {
+            c.map(|_| Noise {
+                on_dn: sigma(on),
+                off_dn: sigma(off),
+                off_frames,
             })
         })
         .collect()
@@ -74,13 +87,12 @@ mod tests {
     fn a_steady_trace_without_noise_has_zero_noise_and_pwm_frames_do_not_count() {
         let csv = "frame,time_s,segment,led\n0,0,on,100\n1,0.1,on,100\n2,0.2,pwm,10\n3,0.3,pwm,200\n4,0.4,off,5\n5,0.5,off,5\n";
         let n = of_trace(csv, &["led", "missing"]);
-        assert_eq!(
-            n[0],
-            Some(Noise {
-                sigma_dn: 0.0,
-                pairs: 2
-            })
-        );
+        let want = Noise {
+            on_dn: Some(0.0),
+            off_dn: Some(0.0),
+            off_frames: 2,
+        };
+        assert_eq!(n[0], Some(want));
         assert_eq!(n[1], None);
     }
 
@@ -98,9 +110,11 @@ mod tests {
             csv.push_str(&format!("{i},{},{seg},{x}\n", i as f64 * 0.03));
         }
         let n = of_trace(&csv, &["led"])[0].unwrap();
-        // The pair across the ON -> OFF step is not counted.
-        assert_eq!(n.pairs, 198);
-        // Each segment's 99 pairs hold 49 or 50 steps of 2s: within 1 %.
-        assert!((n.sigma_dn - s).abs() < 0.01 * s, "{}", n.sigma_dn);
+        assert_eq!(n.off_frames, 100);
+        // Each segment's 99 pairs hold 49 or 50 steps of 2s (the pair
+        // across the ON -> OFF step is not counted): within 1 %.
+        for sigma in [n.on_dn.unwrap(), n.off_dn.unwrap()] {
+            assert!((sigma - s).abs() < 0.01 * s, "{sigma}");
+        }
     }
 }

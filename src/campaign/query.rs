@@ -178,8 +178,14 @@ pub struct RoiData {
     pub level_max: f64,
     /// Mean luma of the OFF segment, DN.
     pub level_off: Option<f64>,
-    /// Frame-to-frame noise of the ROI's luma, DN; `None`: unknown.
-    pub noise_dn: Option<f64>,
+    /// Mean luma of the steady-ON segment, DN.
+    pub level_on: Option<f64>,
+    /// Frame-to-frame noise of an ON frame's ROI luma, DN; `None`: unknown.
+    pub noise_on_dn: Option<f64>,
+    /// The same of an OFF frame.
+    pub noise_off_dn: Option<f64>,
+    /// OFF frames, whose mean is the OFF reference.
+    pub off_frames: usize,
     /// Metric -> value (`None`: undefined).
     pub metrics: BTreeMap<String, Option<f64>>,
 }
@@ -259,7 +265,8 @@ pub fn load_run(db: &Db, id: i64) -> Result<RunData, CampaignError> {
     let mut q = db
         .conn
         .prepare(
-            "SELECT idx, roi, kind, level_min, level_max, level_off, noise_dn FROM rois WHERE run_id = ?1",
+            "SELECT idx, roi, kind, level_min, level_max, level_off, level_on, noise_on_dn, \
+             noise_off_dn, off_frames FROM rois WHERE run_id = ?1",
         )
         .map_err(&sql)?;
     let rows = q
@@ -272,7 +279,10 @@ pub fn load_run(db: &Db, id: i64) -> Result<RunData, CampaignError> {
                     level_min: r.get(3)?,
                     level_max: r.get(4)?,
                     level_off: r.get(5)?,
-                    noise_dn: r.get(6)?,
+                    level_on: r.get(6)?,
+                    noise_on_dn: r.get(7)?,
+                    noise_off_dn: r.get(8)?,
+                    off_frames: r.get::<_, i64>(9)?.max(0) as usize,
                     metrics: BTreeMap::new(),
                 },
             ))

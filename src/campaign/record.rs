@@ -230,7 +230,8 @@ fn insert_case(
     ])?;
     let mut roi_row = tx.prepare_cached(
         "INSERT INTO rois (run_id, idx, roi, kind, saturated, level_off, level_on, level_min, \
-         level_max, noise_dn, noise_pairs) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11)",
+         level_max, noise_on_dn, noise_off_dn, off_frames) \
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)",
     )?;
     let mut metric_row = tx.prepare_cached(
         "INSERT INTO metrics (run_id, idx, roi, metric, value) VALUES (?1, ?2, ?3, ?4, ?5)",
@@ -250,8 +251,9 @@ fn insert_case(
             roi.levels.on,
             roi.levels.min,
             roi.levels.max,
-            n.map(|n| n.sigma_dn),
-            n.map_or(0, |n| n.pairs) as i64,
+            n.and_then(|n| n.on_dn),
+            n.and_then(|n| n.off_dn),
+            n.map_or(0, |n| n.off_frames) as i64,
         ])?;
         for (metric, value) in &roi.metrics {
             metric_row.execute(params![run_id, idx, roi.name, metric, value])?;

@@ -51,8 +51,9 @@ CREATE TABLE rois (
     level_on   REAL,
     level_min  REAL NOT NULL,
     level_max  REAL NOT NULL,
-    noise_dn   REAL,
-    noise_pairs INTEGER NOT NULL,
+    noise_on_dn  REAL,
+    noise_off_dn REAL,
+    off_frames   INTEGER NOT NULL,
     PRIMARY KEY (run_id, idx, roi),
     FOREIGN KEY (run_id, idx) REFERENCES cases(run_id, idx) ON DELETE CASCADE
 ) WITHOUT ROWID;

@@ -157,12 +157,24 @@ fn text(c: &Comparison) -> String {
         c.b.date
     );
     s.push_str(&format!(
-        "{} KPIs compared, {} gated by a check; gate: a change towards worse beyond {:.2} standard deviations of its noise (false-alarm rate {:.0} % per comparison)\n",
+        "{} KPIs compared, {} gated by a check; gate: a change towards worse beyond {:.2} standard deviations of its noise, or a metric's pooled change beyond {:.2} (false-alarm rate at most {:.0} % per comparison)\n",
         c.kpis.len(),
         c.gated(),
         c.k,
+        c.k_pooled,
         ALPHA * 100.0
     ));
+    for (metric, score, n) in &c.pooled {
+        let verdict = if *score > c.k_pooled {
+            "REGRESSED"
+        } else {
+            "within noise"
+        };
+        s.push_str(&format!(
+            "{metric} over {n} cases: pooled change towards worse {score:.2} sd (gate {:.2}): {verdict}\n",
+            c.k_pooled
+        ));
+    }
     let regressed: Vec<_> = c.kpis.iter().filter(|k| k.regressed).collect();
     if !regressed.is_empty() {
         s.push_str("REGRESSED:\n");

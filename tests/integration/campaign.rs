@@ -102,7 +102,7 @@ fn plan_records_the_run_its_device_cases_rois_and_checks() {
     assert_eq!(
         count(
             &db,
-            "SELECT count(*) FROM rois WHERE noise_dn = 0 AND noise_pairs > 0"
+            "SELECT count(*) FROM rois WHERE noise_on_dn = 0 AND noise_off_dn = 0 AND off_frames = 15"
         ),
         4
     );
