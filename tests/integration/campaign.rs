@@ -361,3 +361,52 @@ fn every_run_of_the_binary_in_the_tests_records_into_a_scratch_database() {
         }
     }
 }
+
+#[test]
+fn a_signed_run_is_recorded_with_its_signer_and_an_import_verifies_it() {
+    let dir = scratch("campaign-signed");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    let o = run(
+        &dir,
+        &[
+            "keygen",
+            "--signer",
+            "Ada Tester, Tested by",
+            "--out",
+            "ada.key",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let signing = [
+        "--db",
+        "db.sqlite",
+        "--sign-key",
+        "ada.key",
+        "--signer",
+        "Ada Tester, Tested by",
+    ];
+    let o = plan(&dir, &p, "r", &signing);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let manifest = std::fs::read(dir.join("r/manifest.txt")).unwrap();
+    let runs = history(&dir, "db.sqlite", &[]);
+    assert_eq!(runs[0]["signature"], "signed");
+    assert_eq!(runs[0]["signer"], "Ada Tester, Tested by");
+    assert_eq!(
+        runs[0]["manifest_sha256"],
+        ledflicker::util::sha256_hex(&manifest).as_str()
+    );
+    let o = run(&dir, &["import", "r", "--db", "db.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // A report changed after signing is still recorded, marked broken.
+    std::fs::write(dir.join("r/summary.csv"), "changed\n").unwrap();
+    let o = run(&dir, &["import", "r", "--db", "db.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(stderr(&o).contains("recorded as broken"), "{}", stderr(&o));
+    let runs = history(&dir, "db.sqlite", &[]);
+    let states: Vec<&str> = runs
+        .iter()
+        .map(|r| r["signature"].as_str().unwrap())
+        .collect();
+    assert_eq!(states, ["signed", "intact", "broken"]);
+    assert_eq!(runs[1]["signer"], "Ada Tester, Tested by");
+}
