@@ -410,3 +410,60 @@ fn a_signed_run_is_recorded_with_its_signer_and_an_import_verifies_it() {
     assert_eq!(states, ["signed", "intact", "broken"]);
     assert_eq!(runs[1]["signer"], "Ada Tester, Tested by");
 }
+
+#[test]
+fn merge_records_the_whole_run_once_and_shards_record_nothing() {
+    let dir = scratch("campaign-merge");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    for k in ["0/2", "1/2"] {
+        let out = format!("s{}", &k[..1]);
+        let o = run(
+            &dir,
+            &[
+                "plan",
+                p.to_str().unwrap(),
+                "--shard",
+                k,
+                "--out",
+                &out,
+                "-q",
+                "--db",
+                "db.sqlite",
+            ],
+        );
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    }
+    assert!(!dir.join("db.sqlite").exists());
+    let o = run(
+        &dir,
+        &[
+            "merge",
+            "s0",
+            "s1",
+            "--out",
+            "m",
+            "-q",
+            "--date",
+            "2026-03-04",
+            "--db",
+            "db.sqlite",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let runs = history(&dir, "db.sqlite", &[]);
+    assert_eq!(runs.len(), 1);
+    assert_eq!(runs[0]["source"], "merge");
+    assert_eq!(runs[0]["cases"], serde_json::json!([4, 2, 0, 2]));
+    // The merged run is the run `plan` would have recorded.
+    let o = plan(&dir, &p, "whole", &["--db", "db.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = run(&dir, &["compare", "1", "2", "--db", "db.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("no regression") && !out.contains("verdict flip"),
+        "{out}"
+    );
+    let runs = history(&dir, "db.sqlite", &[]);
+    assert_eq!(runs[0]["plan_hash"], runs[1]["plan_hash"]);
+}
