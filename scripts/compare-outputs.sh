@@ -18,6 +18,10 @@ bin=$(realpath "$1"); out=$2; base=${3:-}
 cd "$(dirname "$0")/.."
 case "$out" in /*) ;; *) out="$PWD/$out" ;; esac
 rm -rf "$out"; mkdir -p "$out"
+# The runs are recorded in a scratch results database, never the user's
+# (a binary older than the database ignores the variable).
+db_dir=$(mktemp -d); trap 'rm -rf "$db_dir"' EXIT
+export LEDFLICKER_DB="$db_dir/results.sqlite"
 for p in test-plans/*.toml; do
   n=$(basename "$p" .toml)
   env -u SOURCE_DATE_EPOCH "$bin" plan "$p" --out "$out/$n" --date 2026-01-01 -q --threads 2 \

@@ -30,6 +30,7 @@
 //!   directory, and their verification.
 //! - [`pipeline`]: from a run's case results to a finished, signed report
 //!   directory and its outcome, the one path of `plan` and `merge`.
+//! - [`campaign`]: the results database across runs (`history`, `compare`).
 //!
 //! The stages are crates of this workspace, re-exported here under their
 //! module names: `ledflicker-physics` ([`physics`]), `ledflicker-core`
@@ -47,6 +48,7 @@ pub use ledflicker_report as report;
 pub use ledflicker_signoff as signoff;
 
 pub mod bench;
+pub mod campaign;
 pub mod cli;
 pub mod pipeline;
 pub mod shard;

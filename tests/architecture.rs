@@ -28,7 +28,7 @@ const CRATES: [(&str, &[&str]); 5] = [
     ]),
     ("crates/report", &[]),
     ("crates/signoff", &[]),
-    (".", &["shard", "store", "pipeline", "bench", "cli"]),
+    (".", &["shard", "store", "pipeline", "campaign", "bench", "cli"]),
 ];
 
 /// What the report crate may import of `ledflicker-core`: the model and

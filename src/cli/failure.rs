@@ -86,6 +86,10 @@ pub enum Failure {
     /// The case store failed (3), or cannot be resumed (2).
     #[error(transparent)]
     Store(#[from] crate::store::StoreError),
+    /// The results database cannot be used: the user's file or request
+    /// (2), or SQLite (3).
+    #[error(transparent)]
+    Campaign(#[from] crate::campaign::CampaignError),
     /// A shard directory could not be written (3).
     #[error(transparent)]
     ShardWrite(#[from] WriteError),
@@ -137,6 +141,8 @@ impl Failure {
             Failure::ShardWrite(e) => shard_write(e),
             Failure::Store(crate::store::StoreError::Mismatch { .. }) => EXIT_INVALID,
             Failure::Store(_) => EXIT_INTERNAL,
+            Failure::Campaign(e) if e.is_usage_error() => EXIT_INVALID,
+            Failure::Campaign(_) => EXIT_INTERNAL,
             Failure::Profile(_) | Failure::Chart(_) | Failure::Json(_) | Failure::Internal(_) => {
                 EXIT_INTERNAL
             }

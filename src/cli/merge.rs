@@ -38,6 +38,8 @@ pub(super) struct MergeArgs {
     /// How much of each case the report shows (as for `plan`).
     #[arg(long, value_enum, default_value_t = DetailArg::Standard)]
     detail: DetailArg,
+    #[command(flatten)]
+    record: super::campaign::RecordArgs,
 }
 
 /// Checks the shards, then writes the report of the whole plan.
@@ -77,6 +79,13 @@ pub(super) fn merge(a: MergeArgs) -> Result<i32, Failure> {
     if let Some(warning) = &outcome.warning {
         eprintln!("{warning}");
     }
+    super::campaign::record_finished(
+        &a.record,
+        &outcome.model,
+        &outcome.dir,
+        crate::campaign::record::Source::Merge,
+        None,
+    );
     if !a.quiet {
         outln!(
             "merged {} shards ({} cases) of plan `{}`",

@@ -1,7 +1,8 @@
 //! Command-line interface: `plan`, `merge`, `validate`, `simulate`, `advise`,
-//! `bench`, `linetime`, `render`, `roi`, `bands`, `calibrate`, `keygen`, `sign` and
-//! `verify`, one module each (`linetime`, `bands` and `calibrate` share
-//! `calibrate`; `keygen`, `sign` and `verify` share `sign`; `plan --shard`
+//! `bench`, `linetime`, `render`, `roi`, `bands`, `calibrate`, `keygen`, `sign`,
+//! `verify`, `import`, `history` and `compare`, one module each (`linetime`, `bands` and `calibrate` share
+//! `calibrate`; `keygen`, `sign` and `verify` share `sign`; `import` and `history`
+//! share `campaign`; `plan --shard`
 //! is `shard`). This module holds the clap `Command` list, the exit codes
 //! and [`main`]; `failure` the error every command returns and its map to
 //! the exit codes; `args` the flags several commands share. The CLI sits
@@ -12,7 +13,7 @@
 //! | code | meaning |
 //! |---|---|
 //! | 0 | every judged case passed and at least one was judged (informational cases do not count); `plan --shard`: the shard ran and wrote its directory (verdicts are the merge's); `verify`: every hash and signature matched and every signer is trusted (`--trust`) |
-//! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `verify`: a hash, signature or input mismatch, an untrusted signer, or no signature |
+//! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `compare`: a KPI regressed beyond its measurement uncertainty; `verify`: a hash, signature or input mismatch, an untrusted signer, or no signature |
 //! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way; `merge`: shards that do not fit together (missing, duplicated, of another plan, tool or seed, damaged) |
 //! | 3 | internal or backend error |
 //! | 4 | per command: `plan`, `merge`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked; `linetime`, `bands`, `calibrate`: no confident estimate, the reason (flat rows, no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
@@ -28,6 +29,8 @@ mod advise;
 mod args;
 mod bench;
 mod calibrate;
+mod campaign;
+mod compare;
 mod endtoend;
 mod failure;
 mod merge;
@@ -128,6 +131,17 @@ enum Command {
     Sign(sign::SignArgs),
     /// Check every hash and signature of a signed report directory.
     Verify(sign::VerifyArgs),
+    /// Record existing report directories in the results database
+    /// (docs/campaigns.md); a signed one is verified and marked `intact`
+    /// or `broken`.
+    Import(campaign::ImportArgs),
+    /// List the runs in the results database as a table, or JSON with
+    /// --json, filtered by camera, serial, firmware, plan, date or verdict.
+    History(campaign::HistoryArgs),
+    /// Compare two runs, case by case and ROI by ROI: each KPI's change,
+    /// verdict flips, and a noise-aware regression gate. Exit code 1 on a
+    /// regression.
+    Compare(compare::CompareArgs),
     /// Print a shell completion script, e.g. `ledflicker completions bash >
     /// ~/.local/share/bash-completion/completions/ledflicker`.
     Completions {
@@ -193,6 +207,9 @@ fn run(cli: Cli, version: &'static str) -> Result<i32, Failure> {
         Command::Keygen(args) => sign::keygen(args),
         Command::Sign(args) => sign::sign(args),
         Command::Verify(args) => sign::verify(args),
+        Command::Import(args) => campaign::import(args),
+        Command::History(args) => campaign::history(args),
+        Command::Compare(args) => compare::compare(args),
         Command::Completions { shell } => {
             clap_complete::generate(
                 shell,

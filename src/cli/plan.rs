@@ -87,6 +87,8 @@ pub(super) struct PlanArgs {
     profile: Option<PathBuf>,
     #[command(flatten)]
     limits: super::args::LimitArgs,
+    #[command(flatten)]
+    record: super::campaign::RecordArgs,
 }
 
 pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
@@ -189,6 +191,13 @@ fn finish(
     if let Some(warning) = &outcome.warning {
         eprintln!("{warning}");
     }
+    super::campaign::record_finished(
+        &args.record,
+        &outcome.model,
+        &outcome.dir,
+        crate::campaign::record::Source::Plan,
+        outcome.signed.as_ref().map(|s| s.signer.as_str()),
+    );
     if !args.quiet {
         print_summary(&outcome.model, &outcome.dir)?;
     }

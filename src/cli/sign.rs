@@ -218,3 +218,24 @@ pub(super) fn signing(
         _ => None,
     })
 }
+
+/// What `import` records of a report's signature: none, or the result of
+/// [`crate::signoff::verify`] with the first signer it names.
+pub(super) fn signature_of(dir: &Path) -> (crate::campaign::record::Signature, Option<String>) {
+    use crate::campaign::record::Signature;
+    if !dir.join(crate::signoff::SIGNATURE_FILE).is_file() {
+        return (Signature::Unsigned, None);
+    }
+    match crate::signoff::verify(dir, &[], None) {
+        Ok(v) => {
+            let signer = v.signatures.first().map(|s| s.signer.clone());
+            let state = if v.ok() {
+                Signature::Intact
+            } else {
+                Signature::Broken
+            };
+            (state, signer)
+        }
+        Err(_) => (Signature::Broken, None),
+    }
+}

@@ -59,3 +59,14 @@ pub(super) fn signing(
     }
     Ok(None)
 }
+
+/// A build without the sign-off cannot check a signature: a signed report
+/// is imported as `unchecked`.
+pub(super) fn signature_of(dir: &Path) -> (crate::campaign::record::Signature, Option<String>) {
+    use crate::campaign::record::Signature;
+    if dir.join("signoff.p7s").is_file() {
+        (Signature::Unchecked, None)
+    } else {
+        (Signature::Unsigned, None)
+    }
+}

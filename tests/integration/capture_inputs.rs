@@ -212,6 +212,7 @@ const RIG_PLAN: &str = "[plan]\nid = \"t\"\ntitle = \"t\"\n[sequence]\non-s = 0.
 fn interrupt_after_a_second(dir: &Path, plan: &Path, big: &Path) {
     let err_path = dir.join("stderr.txt");
     let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args(["plan", plan.to_str().unwrap(), "--out"])
         .arg(dir.join("o"))
         .arg("-q")

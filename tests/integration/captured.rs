@@ -1040,6 +1040,7 @@ fn cases_plan(dir: &Path, sources: &[&str], roi: (u32, u32, u32, u32)) -> PathBu
 /// checks that it stops with exit 130 saying so (`why`) and leaves none.
 fn interrupt_while_probing(dir: &Path, plan: &Path, fifo: &Path, tools: usize, why: &[&str]) {
     let mut run = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args(["plan", plan.to_str().unwrap(), "--out"])
         .arg(dir.join("o"))
         .arg("-q")

@@ -26,6 +26,7 @@ fn validate_accepts_shipped_plans_by_path_and_by_name() {
 fn bare_plan_name_is_found_from_another_directory() {
     let dir = scratch("bare-name");
     let o = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args(["validate", "lowlight"])
         .current_dir(&dir)
         .output()
@@ -531,6 +532,7 @@ fn a_report_rerun_in_place_links_its_unchanged_files_and_never_a_users_copy() {
 /// before the first line is written (`ledflicker ... | head -c 0`).
 fn with_closed_stdout(args: &[&str]) -> std::process::Output {
     let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args(args)
         .current_dir(root())
         .stdout(std::process::Stdio::piped())
@@ -609,6 +611,7 @@ fn ctrl_c_in_the_report_stage_stops_at_once_and_keeps_the_old_report() {
     let report_s = report_stage(&stderr(&o));
     let before = std::fs::read(out.join("results.json")).unwrap();
     let mut run = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args(full)
         .current_dir(root())
         .stderr(std::process::Stdio::piped())

@@ -269,6 +269,7 @@ fn detected_segments_of_h264_recordings_judge_as_the_given_segments() {
 
 fn run_cli(plan: &Path, dir: &Path) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args(["plan", plan.to_str().unwrap(), "--detail", "full", "--out"])
         .arg(dir.join("out"))
         .current_dir(dir)

@@ -131,6 +131,7 @@ fn run_simulate(c: &Case) -> Vec<f64> {
         "rolling"
     };
     let out = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args([
             "simulate",
             "--frequency-hz",

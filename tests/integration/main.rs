@@ -7,6 +7,7 @@ mod bands_robust;
 mod beyond;
 mod calibrate;
 mod camera_model;
+mod campaign;
 mod capture_inputs;
 mod captured;
 mod cli;
@@ -60,10 +61,20 @@ pub fn scratch(name: &str) -> PathBuf {
     dir
 }
 
+/// The results database every run of the binary in these tests records
+/// into (`LEDFLICKER_DB`): never the user's own, under their home.
+pub fn test_db() -> PathBuf {
+    root()
+        .join("target")
+        .join("test-scratch")
+        .join("results.sqlite")
+}
+
 /// Runs the binary in `dir`, hermetically: no `SOURCE_DATE_EPOCH` or
 /// PKCS#12 passphrase from the caller's environment.
 pub fn ledflicker_in(args: &[&str], dir: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args(args)
         .current_dir(dir)
         .env_remove("SOURCE_DATE_EPOCH")
@@ -120,6 +131,7 @@ pub struct Ran {
 pub fn run_with_deadline(args: &[&str], dir: &Path, fifos: &[PathBuf], deadline: Duration) -> Ran {
     let err_path = dir.join("stderr.txt");
     let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args(args)
         .current_dir(dir)
         .env_remove("SOURCE_DATE_EPOCH")

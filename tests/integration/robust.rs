@@ -152,6 +152,7 @@ fn slow_rig_plan(dir: &Path, secs: u32) -> PathBuf {
 
 fn spawn_plan(plan: &Path, out: &Path, dir: &Path) -> std::process::Child {
     Command::new(exe())
+        .env("LEDFLICKER_DB", crate::test_db())
         .args([
             "plan",
             plan.to_str().unwrap(),
@@ -485,6 +486,7 @@ fn dates_and_source_date_epoch_are_validated() {
     }
     for epoch in ["-1", "99999999999999", "1.5", ""] {
         let o = Command::new(exe())
+            .env("LEDFLICKER_DB", crate::test_db())
             .args([
                 "plan",
                 plan.to_str().unwrap(),

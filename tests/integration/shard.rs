@@ -364,6 +364,7 @@ fn shard_auto_reads_slurm_and_kubernetes_indices() {
         serde_json::from_slice(&std::fs::read(dir.join(out).join("shard.json")).unwrap()).unwrap()
     };
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args([
             "plan",
             plan.to_str().unwrap(),
@@ -386,6 +387,7 @@ fn shard_auto_reads_slurm_and_kubernetes_indices() {
         serde_json::json!({"index": 2, "count": 3})
     );
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args([
             "plan",
             plan.to_str().unwrap(),
@@ -531,6 +533,7 @@ fn kubernetes_manifests_parse_and_their_commands_run() {
             .map(|a| a.replace("$(JOB_COMPLETION_INDEX)", &k.to_string()))
             .collect();
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+            .env("LEDFLICKER_DB", crate::test_db())
             .args(&args)
             .current_dir(&work)
             .env_remove("SLURM_ARRAY_TASK_ID")

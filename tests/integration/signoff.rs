@@ -406,6 +406,7 @@ fn pkcs12_from_openssl_signs() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let sign = |pass: &str| {
         Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+            .env("LEDFLICKER_DB", crate::test_db())
             .args([
                 "sign",
                 d,
@@ -1036,6 +1037,7 @@ fn bad_certificates_are_refused_by_sign_and_verify_agrees_with_openssl() {
     );
     // A signing time set before the certificate's validity is refused.
     let o = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args([
             "sign",
             dir.to_str().unwrap(),

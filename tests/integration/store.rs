@@ -58,7 +58,8 @@ fn plan(dir: &Path) -> PathBuf {
 
 fn plan_command(dir: &Path, args: &[&str]) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_ledflicker"));
-    c.arg("plan")
+    c.env("LEDFLICKER_DB", crate::test_db())
+        .arg("plan")
         .arg(dir.join("p.toml"))
         .args(["--date", "2026-01-01", "-q", "--threads", "1"])
         .args(args)

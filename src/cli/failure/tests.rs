@@ -323,6 +323,26 @@ fn tool_failures() -> Vec<(Failure, i32)> {
     vec![
         (WriteError::Encode("cbor".into()).into(), 3),
         (
+            crate::campaign::CampaignError::Unusable {
+                path: path(),
+                message: "it is not an SQLite database".into(),
+            }
+            .into(),
+            2,
+        ),
+        (
+            crate::campaign::CampaignError::Input("no run 7".into()).into(),
+            2,
+        ),
+        (
+            crate::campaign::CampaignError::Sqlite {
+                path: path(),
+                source: rusqlite::Error::InvalidQuery,
+            }
+            .into(),
+            3,
+        ),
+        (
             crate::store::StoreError::Mismatch {
                 path: path(),
                 message: "its plan_hash is `a`".into(),
@@ -471,6 +491,7 @@ const VARIANTS: &[&str] = &[
     "Pipeline",
     "ShardWrite",
     "Store",
+    "Campaign",
     "Profile",
     "Chart",
     "Json",
@@ -497,6 +518,7 @@ fn variant(f: &Failure) -> &'static str {
         Failure::Pipeline(_) => "Pipeline",
         Failure::ShardWrite(_) => "ShardWrite",
         Failure::Store(_) => "Store",
+        Failure::Campaign(_) => "Campaign",
         Failure::Profile(_) => "Profile",
         Failure::Chart(_) => "Chart",
         Failure::Json(_) => "Json",

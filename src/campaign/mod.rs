@@ -1,0 +1,253 @@
+//! The results database: every finished run of `plan` and `merge`, and
+//! every report directory `import` reads, with its device, cases, ROIs,
+//! metrics and verdicts, in one SQLite file across runs (docs/campaigns.md).
+//! `history` lists the runs, `compare` gates one against another.
+//!
+//! ```text
+//! Results (results.json) + report dir ──record──▶ results.sqlite
+//!                                                   │ query::history
+//!                                                   │ query::load_run ──▶ compare
+//! ```
+//!
+//! It sits after the pipeline: a run is recorded once its report is
+//! written, so recording never slows or endangers the report. A run is
+//! written in one transaction, so a run killed while it is recorded
+//! leaves nothing of itself; WAL and a busy timeout let several runs
+//! record into one file at once.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use rusqlite::{Connection, OptionalExtension, TransactionBehavior};
+
+pub mod compare;
+pub mod noise;
+pub mod query;
+pub mod record;
+
+/// Name of the schema; its version is SQLite's `user_version`.
+pub const SCHEMA: &str = "ledflicker.db";
+/// The database's file name in its directory.
+pub const FILE: &str = "results.sqlite";
+/// Environment variable naming the database (as `--db`).
+pub const ENV: &str = "LEDFLICKER_DB";
+
+/// How long a writer waits for another process's transaction to end.
+/// Recording a large run takes well under a second; a lab's CI may start
+/// a few runs at once.
+const BUSY_TIMEOUT: Duration = Duration::from_secs(30);
+
+/// The schema's migrations, in order: migration `i` takes the database
+/// from version `i` to `i + 1`. Version 0 is an empty file (or none).
+/// A step is never edited once shipped; a change is a new step.
+pub const MIGRATIONS: &[&str] = &[include_str!("schema_1.sql")];
+
+/// Why the database could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum CampaignError {
+    /// SQLite failed on the file.
+    #[error("results database `{}`", path.display())]
+    Sqlite {
+        /// The database file.
+        path: PathBuf,
+        /// Cause.
+        #[source]
+        source: rusqlite::Error,
+    },
+    /// The file is not a results database, or of a newer schema.
+    #[error("results database `{}`: {message}", path.display())]
+    Unusable {
+        /// The database file.
+        path: PathBuf,
+        /// What is wrong, with a hint.
+        message: String,
+    },
+    /// A report directory cannot be recorded, or a run asked for is not
+    /// there.
+    #[error("{0}")]
+    Input(String),
+}
+
+impl CampaignError {
+    /// The user's file or request is at fault (exit 2), not the tool.
+    pub fn is_usage_error(&self) -> bool {
+        matches!(
+            self,
+            CampaignError::Unusable { .. } | CampaignError::Input(_)
+        )
+    }
+}
+
+pub(crate) fn sqlite(path: &Path) -> impl Fn(rusqlite::Error) -> CampaignError + '_ {
+    move |source| CampaignError::Sqlite {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Where runs are recorded.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Location {
+    /// `--no-db`: nowhere.
+    Off,
+    /// This file.
+    File(PathBuf),
+}
+
+/// The database `--db`, `--no-db` and the environment ask for: `--no-db`,
+/// else `--db`, else `$LEDFLICKER_DB`, else `$XDG_DATA_HOME/ledflicker/
+/// results.sqlite` (an absolute `XDG_DATA_HOME` only, as the XDG base
+/// directory specification says), else `$HOME/.local/share/ledflicker/
+/// results.sqlite`. `None` when no rule gives a place (no `HOME`).
+pub fn locate(
+    db: Option<&Path>,
+    no_db: bool,
+    env: &dyn Fn(&str) -> Option<String>,
+) -> Option<Location> {
+    if no_db {
+        return Some(Location::Off);
+    }
+    let set = |k: &str| env(k).filter(|v| !v.is_empty());
+    let file = db
+        .map(Path::to_path_buf)
+        .or_else(|| set(ENV).map(PathBuf::from))
+        .or_else(|| {
+            set("XDG_DATA_HOME")
+                .map(PathBuf::from)
+                .filter(|p| p.is_absolute())
+                .map(|p| p.join("ledflicker").join(FILE))
+        })
+        .or_else(|| {
+            set("HOME").map(|h| Path::new(&h).join(".local/share/ledflicker").join(FILE))
+        })?;
+    Some(Location::File(file))
+}
+
+/// An open results database, migrated to the current schema.
+pub struct Db {
+    pub(crate) conn: Connection,
+    pub(crate) path: PathBuf,
+}
+
+impl Db {
+    /// Opens (creating it and its directory if need be) the database at
+    /// `path` and brings its schema up to date.
+    pub fn open(path: &Path) -> Result<Db, CampaignError> {
+        Db::open_with(path, MIGRATIONS)
+    }
+
+    /// Opens an existing database for reading; a missing file is an error
+    /// naming it, not an empty history.
+    pub fn open_existing(path: &Path) -> Result<Db, CampaignError> {
+        if !path.is_file() {
+            return Err(CampaignError::Unusable {
+                path: path.to_path_buf(),
+                message: "no such file\n    hint: runs are recorded by `ledflicker plan` and `ledflicker import`; pass the database with --db or $LEDFLICKER_DB".to_string(),
+            });
+        }
+        Db::open(path)
+    }
+
+    /// [`Db::open`] with the given migrations (tests give fewer, to make a
+    /// database of an older version).
+    pub fn open_with(path: &Path, migrations: &[&str]) -> Result<Db, CampaignError> {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| CampaignError::Unusable {
+                path: path.to_path_buf(),
+                message: format!("cannot create its directory: {e}"),
+            })?;
+        }
+        let sql = sqlite(path);
+        let conn = Connection::open(path).map_err(&sql)?;
+        conn.busy_timeout(BUSY_TIMEOUT).map_err(&sql)?;
+        // WAL: readers never block the writer, and a commit is one append.
+        conn.pragma_update(None, "journal_mode", "WAL")
+            .map_err(|e| not_a_database(path, e))?;
+        conn.execute_batch("PRAGMA foreign_keys = ON; PRAGMA synchronous = NORMAL;")
+            .map_err(&sql)?;
+        let mut db = Db {
+            conn,
+            path: path.to_path_buf(),
+        };
+        db.migrate(migrations)?;
+        Ok(db)
+    }
+
+    /// The file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The schema version the file is at.
+    pub fn version(&self) -> Result<usize, CampaignError> {
+        let v: i64 = self
+            .conn
+            .query_row("PRAGMA user_version", [], |r| r.get(0))
+            .map_err(|e| not_a_database(&self.path, e))?;
+        Ok(v.max(0) as usize)
+    }
+
+    /// Applies every step past the file's version, each with its new
+    /// version in one transaction: a migration stopped halfway leaves the
+    /// old version whole. Two processes migrating at once are serialised
+    /// by the write lock taken before the version is read.
+    fn migrate(&mut self, migrations: &[&str]) -> Result<(), CampaignError> {
+        let path = self.path.clone();
+        let sql = sqlite(&path);
+        loop {
+            let tx = self
+                .conn
+                .transaction_with_behavior(TransactionBehavior::Immediate)
+                .map_err(|e| not_a_database(&path, e))?;
+            let version: i64 = tx
+                .query_row("PRAGMA user_version", [], |r| r.get(0))
+                .map_err(&sql)?;
+            let version = version.max(0) as usize;
+            if version > migrations.len() {
+                return Err(CampaignError::Unusable {
+                    path: path.clone(),
+                    message: format!(
+                        "its schema is {SCHEMA}/{version}, newer than this ledflicker's {SCHEMA}/{}\n    hint: use a newer ledflicker, or another --db",
+                        migrations.len()
+                    ),
+                });
+            }
+            if version == 0 && !is_empty(&tx).map_err(&sql)? {
+                return Err(CampaignError::Unusable {
+                    path: path.clone(),
+                    message: "it is an SQLite database, but not a ledflicker results database\n    hint: pass another file with --db".to_string(),
+                });
+            }
+            let Some(step) = migrations.get(version) else {
+                return Ok(());
+            };
+            tx.execute_batch(step).map_err(&sql)?;
+            tx.pragma_update(None, "user_version", (version + 1) as i64)
+                .map_err(&sql)?;
+            tx.commit().map_err(&sql)?;
+        }
+    }
+}
+
+/// The database holds no table.
+fn is_empty(conn: &Connection) -> rusqlite::Result<bool> {
+    conn.query_row("SELECT name FROM sqlite_master LIMIT 1", [], |r| {
+        r.get::<_, String>(0)
+    })
+    .optional()
+    .map(|t| t.is_none())
+}
+
+fn not_a_database(path: &Path, e: rusqlite::Error) -> CampaignError {
+    match e.sqlite_error_code() {
+        Some(rusqlite::ErrorCode::NotADatabase) => CampaignError::Unusable {
+            path: path.to_path_buf(),
+            message: "it is not an SQLite database\n    hint: pass another file with --db"
+                .to_string(),
+        },
+        _ => sqlite(path)(e),
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,351 @@
+//! Reading runs back: the list `history` prints, and one run whole for
+//! `compare`.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use rusqlite::{OptionalExtension, Row, params_from_iter};
+use serde::Serialize;
+
+use super::{CampaignError, Db, sqlite};
+
+/// One recorded run, as `history` lists it (`--json`: these fields).
+#[derive(Debug, Clone, Serialize)]
+pub struct RunRow {
+    /// The run's id, for `compare`.
+    pub id: i64,
+    /// When it was recorded, Unix seconds.
+    pub recorded_unix_s: i64,
+    /// `plan`, `merge` or `import`.
+    pub source: String,
+    /// The report date, `YYYY-MM-DD`.
+    pub date: String,
+    /// Plan id.
+    pub plan_id: String,
+    /// Hash of the plan and its inputs.
+    pub plan_hash: String,
+    /// `ledflicker <version>`.
+    pub tool: String,
+    /// Backend id.
+    pub backend: String,
+    /// `[dut] supplier`.
+    pub supplier: String,
+    /// `[dut] model`: the camera.
+    pub model: String,
+    /// `[dut] serial`.
+    pub serial: String,
+    /// `[dut] firmware`.
+    pub firmware: String,
+    /// Signer, "Name, Role", when signed.
+    pub signer: Option<String>,
+    /// `unsigned`, `signed`, `intact`, `broken` or `unchecked`.
+    pub signature: String,
+    /// The report directory, absolute.
+    pub report_dir: String,
+    /// SHA-256 of its results.json.
+    pub results_sha256: String,
+    /// SHA-256 of its manifest.txt, when signed.
+    pub manifest_sha256: Option<String>,
+    /// `pass`, `fail` or `info`.
+    pub verdict: String,
+    /// Cases, and how many passed, failed and were not judged.
+    pub cases: [i64; 4],
+}
+
+const RUN_COLUMNS: &str = "id, recorded_unix_s, source, date, plan_id, plan_hash, tool, backend, \
+    supplier, model, serial, firmware, signer, signature, report_dir, results_sha256, \
+    manifest_sha256, verdict, cases_total, cases_pass, cases_fail, cases_info";
+
+fn run_row(r: &Row<'_>) -> rusqlite::Result<RunRow> {
+    Ok(RunRow {
+        id: r.get(0)?,
+        recorded_unix_s: r.get(1)?,
+        source: r.get(2)?,
+        date: r.get(3)?,
+        plan_id: r.get(4)?,
+        plan_hash: r.get(5)?,
+        tool: r.get(6)?,
+        backend: r.get(7)?,
+        supplier: r.get(8)?,
+        model: r.get(9)?,
+        serial: r.get(10)?,
+        firmware: r.get(11)?,
+        signer: r.get(12)?,
+        signature: r.get(13)?,
+        report_dir: r.get(14)?,
+        results_sha256: r.get(15)?,
+        manifest_sha256: r.get(16)?,
+        verdict: r.get(17)?,
+        cases: [r.get(18)?, r.get(19)?, r.get(20)?, r.get(21)?],
+    })
+}
+
+/// Which runs to list; every field set must match (exactly; dates
+/// inclusive).
+#[derive(Debug, Clone, Default)]
+pub struct Filter {
+    /// `[dut] model`.
+    pub camera: Option<String>,
+    /// `[dut] serial`.
+    pub serial: Option<String>,
+    /// `[dut] firmware`.
+    pub firmware: Option<String>,
+    /// Plan id.
+    pub plan: Option<String>,
+    /// Report date on or after, `YYYY-MM-DD`.
+    pub since: Option<String>,
+    /// Report date on or before, `YYYY-MM-DD`.
+    pub until: Option<String>,
+    /// `pass`, `fail` or `info`.
+    pub verdict: Option<String>,
+}
+
+impl Filter {
+    fn clause(&self) -> (String, Vec<String>) {
+        let mut terms = Vec::new();
+        let mut values = Vec::new();
+        for (column, op, value) in [
+            ("model", "=", &self.camera),
+            ("serial", "=", &self.serial),
+            ("firmware", "=", &self.firmware),
+            ("plan_id", "=", &self.plan),
+            ("date", ">=", &self.since),
+            ("date", "<=", &self.until),
+            ("verdict", "=", &self.verdict),
+        ] {
+            if let Some(v) = value {
+                values.push(v.clone());
+                terms.push(format!("{column} {op} ?{}", values.len()));
+            }
+        }
+        let clause = if terms.is_empty() {
+            String::new()
+        } else {
+            format!(" WHERE {}", terms.join(" AND "))
+        };
+        (clause, values)
+    }
+}
+
+/// The runs `filter` selects, oldest first.
+pub fn history(db: &Db, filter: &Filter) -> Result<Vec<RunRow>, CampaignError> {
+    let sql = sqlite(&db.path);
+    let (clause, values) = filter.clause();
+    let mut q = db
+        .conn
+        .prepare(&format!(
+            "SELECT {RUN_COLUMNS} FROM runs{clause} ORDER BY id"
+        ))
+        .map_err(&sql)?;
+    let rows = q
+        .query_map(params_from_iter(values), run_row)
+        .map_err(&sql)?;
+    rows.collect::<Result<_, _>>().map_err(sql)
+}
+
+/// The run with id `id`.
+pub fn run(db: &Db, id: i64) -> Result<Option<RunRow>, CampaignError> {
+    db.conn
+        .query_row(
+            &format!("SELECT {RUN_COLUMNS} FROM runs WHERE id = ?1"),
+            [id],
+            run_row,
+        )
+        .optional()
+        .map_err(sqlite(&db.path))
+}
+
+/// The newest run recorded of the report directory `dir`.
+pub fn run_of_dir(db: &Db, dir: &Path) -> Result<Option<i64>, CampaignError> {
+    let abs = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+    db.conn
+        .query_row(
+            "SELECT max(id) FROM runs WHERE report_dir = ?1",
+            [abs.to_string_lossy()],
+            |r| r.get(0),
+        )
+        .map_err(sqlite(&db.path))
+}
+
+/// One ROI of one case of a recorded run.
+#[derive(Debug, Clone, Default)]
+pub struct RoiData {
+    /// `led` or `background`.
+    pub kind: String,
+    /// Lowest and highest PWM-segment luma, DN.
+    pub level_min: f64,
+    /// See `level_min`.
+    pub level_max: f64,
+    /// Mean luma of the OFF segment, DN.
+    pub level_off: Option<f64>,
+    /// Mean luma of the steady-ON segment, DN.
+    pub level_on: Option<f64>,
+    /// Frame-to-frame noise of an ON frame's ROI luma, DN; `None`: unknown.
+    pub noise_on_dn: Option<f64>,
+    /// The same of an OFF frame.
+    pub noise_off_dn: Option<f64>,
+    /// OFF frames, whose mean is the OFF reference.
+    pub off_frames: usize,
+    /// Metric -> value (`None`: undefined).
+    pub metrics: BTreeMap<String, Option<f64>>,
+}
+
+/// One threshold check of a recorded case.
+#[derive(Debug, Clone)]
+pub struct CheckData {
+    /// ROI.
+    pub roi: String,
+    /// Metric checked.
+    pub metric: String,
+    /// `>=` or `<=`.
+    pub comparison: String,
+    /// Threshold.
+    pub threshold: f64,
+    /// Whether it was met.
+    pub pass: bool,
+}
+
+/// One case of a recorded run.
+#[derive(Debug, Clone, Default)]
+pub struct CaseData {
+    /// `pass`, `fail` or `info`.
+    pub verdict: String,
+    /// ROI name -> its data.
+    pub rois: BTreeMap<String, RoiData>,
+    /// Its checks.
+    pub checks: Vec<CheckData>,
+}
+
+/// A recorded run whole: its row and its cases by case id (in plan order
+/// by `order`).
+#[derive(Debug, Clone)]
+pub struct RunData {
+    /// The run.
+    pub run: RunRow,
+    /// Case ids in plan order.
+    pub order: Vec<String>,
+    /// Case id -> case.
+    pub cases: BTreeMap<String, CaseData>,
+}
+
+/// Reads run `id` whole; an unknown id is an error naming it.
+pub fn load_run(db: &Db, id: i64) -> Result<RunData, CampaignError> {
+    let sql = sqlite(&db.path);
+    let row = run(db, id)?.ok_or_else(|| {
+        CampaignError::Input(format!(
+            "no run {id} in `{}`\n    hint: `ledflicker history` lists the runs",
+            db.path.display()
+        ))
+    })?;
+    let mut order = Vec::new();
+    let mut ids = BTreeMap::new();
+    let mut cases = BTreeMap::new();
+    let mut q = db
+        .conn
+        .prepare("SELECT idx, id, verdict FROM cases WHERE run_id = ?1 ORDER BY idx")
+        .map_err(&sql)?;
+    let rows = q
+        .query_map([id], |r| {
+            Ok((r.get::<_, i64>(0)?, r.get::<_, String>(1)?, r.get(2)?))
+        })
+        .map_err(&sql)?;
+    for r in rows {
+        let (idx, case, verdict) = r.map_err(&sql)?;
+        order.push(case.clone());
+        ids.insert(idx, case.clone());
+        cases.insert(
+            case,
+            CaseData {
+                verdict,
+                ..Default::default()
+            },
+        );
+    }
+    let case_of = |idx: i64| ids.get(&idx).cloned().unwrap_or_default();
+    let mut q = db
+        .conn
+        .prepare(
+            "SELECT idx, roi, kind, level_min, level_max, level_off, level_on, noise_on_dn, \
+             noise_off_dn, off_frames FROM rois WHERE run_id = ?1",
+        )
+        .map_err(&sql)?;
+    let rows = q
+        .query_map([id], |r| {
+            Ok((
+                r.get::<_, i64>(0)?,
+                r.get::<_, String>(1)?,
+                RoiData {
+                    kind: r.get(2)?,
+                    level_min: r.get(3)?,
+                    level_max: r.get(4)?,
+                    level_off: r.get(5)?,
+                    level_on: r.get(6)?,
+                    noise_on_dn: r.get(7)?,
+                    noise_off_dn: r.get(8)?,
+                    off_frames: r.get::<_, i64>(9)?.max(0) as usize,
+                    metrics: BTreeMap::new(),
+                },
+            ))
+        })
+        .map_err(&sql)?;
+    for r in rows {
+        let (idx, roi, data) = r.map_err(&sql)?;
+        if let Some(c) = cases.get_mut(&case_of(idx)) {
+            c.rois.insert(roi, data);
+        }
+    }
+    let mut q = db
+        .conn
+        .prepare("SELECT idx, roi, metric, value FROM metrics WHERE run_id = ?1")
+        .map_err(&sql)?;
+    let rows = q
+        .query_map([id], |r| {
+            Ok((
+                r.get::<_, i64>(0)?,
+                r.get::<_, String>(1)?,
+                r.get::<_, String>(2)?,
+                r.get::<_, Option<f64>>(3)?,
+            ))
+        })
+        .map_err(&sql)?;
+    for r in rows {
+        let (idx, roi, metric, value) = r.map_err(&sql)?;
+        if let Some(d) = cases
+            .get_mut(&case_of(idx))
+            .and_then(|c| c.rois.get_mut(&roi))
+        {
+            d.metrics.insert(metric, value);
+        }
+    }
+    let mut q = db
+        .conn
+        .prepare(
+            "SELECT idx, roi, metric, comparison, threshold, pass FROM checks WHERE run_id = ?1",
+        )
+        .map_err(&sql)?;
+    let rows = q
+        .query_map([id], |r| {
+            Ok((
+                r.get::<_, i64>(0)?,
+                CheckData {
+                    roi: r.get(1)?,
+                    metric: r.get(2)?,
+                    comparison: r.get(3)?,
+                    threshold: r.get(4)?,
+                    pass: r.get(5)?,
+                },
+            ))
+        })
+        .map_err(&sql)?;
+    for r in rows {
+        let (idx, check) = r.map_err(&sql)?;
+        if let Some(c) = cases.get_mut(&case_of(idx)) {
+            c.checks.push(check);
+        }
+    }
+    Ok(RunData {
+        run: row,
+        order,
+        cases,
+    })
+}

@@ -1,0 +1,280 @@
+//! Recording one finished report directory: its results model and the
+//! files beside it (traces, manifest) as one run, in one transaction.
+
+use std::path::Path;
+
+use rusqlite::{Transaction, params};
+
+use super::{CampaignError, Db, noise, sqlite};
+use crate::model::{CaseInfo, Results};
+
+/// Which command recorded a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Source {
+    /// `ledflicker plan`.
+    Plan,
+    /// `ledflicker merge`.
+    Merge,
+    /// `ledflicker import`.
+    Import,
+}
+
+impl Source {
+    /// The word the database holds.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Source::Plan => "plan",
+            Source::Merge => "merge",
+            Source::Import => "import",
+        }
+    }
+}
+
+/// What is known of a recorded report's signature.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Signature {
+    /// The report carries no signature.
+    Unsigned,
+    /// Signed by the run that recorded it.
+    Signed,
+    /// Imported, and every hash and signature matched (`verify`).
+    Intact,
+    /// Imported, and a hash or signature did not match: the files may
+    /// not be the ones signed.
+    Broken,
+    /// Imported signed by a build without the sign-off: not checked.
+    Unchecked,
+}
+
+impl Signature {
+    /// The word the database holds.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Signature::Unsigned => "unsigned",
+            Signature::Signed => "signed",
+            Signature::Intact => "intact",
+            Signature::Broken => "broken",
+            Signature::Unchecked => "unchecked",
+        }
+    }
+}
+
+/// Who recorded the run and what its signature is worth.
+#[derive(Debug, Clone)]
+pub struct Provenance {
+    /// The command.
+    pub source: Source,
+    /// "Name, Role" of the (first) signer, when signed.
+    pub signer: Option<String>,
+    /// The signature's state.
+    pub signature: Signature,
+}
+
+/// A run as the database keeps it: the results and what is read beside
+/// them. Built before the transaction, so that reading files never holds
+/// the write lock.
+struct Prepared {
+    dir: String,
+    /// The report's date and inputs: from the model, else from
+    /// results.json (the pipeline adds them as it writes the file).
+    meta: Option<crate::model::ReportMeta>,
+    results_sha256: String,
+    manifest_sha256: Option<String>,
+    /// Per case, per ROI (in the case's order): the trace's noise.
+    noise: Vec<Vec<Option<noise::Noise>>>,
+}
+
+/// Records the report directory `dir`, whose results model is `results`;
+/// returns the new run's id.
+pub fn record(
+    db: &mut Db,
+    results: &Results,
+    dir: &Path,
+    provenance: &Provenance,
+) -> Result<i64, CampaignError> {
+    let prepared = prepare(results, dir)?;
+    let path = db.path.clone();
+    let sql = sqlite(&path);
+    let tx = db
+        .conn
+        .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)
+        .map_err(&sql)?;
+    let run_id = insert_run(&tx, results, &prepared, provenance).map_err(&sql)?;
+    for (idx, case) in results.cases.iter().enumerate() {
+        insert_case(&tx, run_id, idx, case, &prepared.noise[idx]).map_err(&sql)?;
+    }
+    tx.commit().map_err(&sql)?;
+    Ok(run_id)
+}
+
+fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
+    let unreadable = |what: &Path, e: std::io::Error| {
+        CampaignError::Input(format!("cannot read `{}`: {e}", what.display()))
+    };
+    let abs = std::fs::canonicalize(dir).map_err(|e| unreadable(dir, e))?;
+    let results_path = dir.join("results.json");
+    let bytes = std::fs::read(&results_path).map_err(|e| unreadable(&results_path, e))?;
+    let manifest = dir.join("manifest.txt");
+    let manifest_sha256 = match std::fs::read(&manifest) {
+        Ok(m) => Some(crate::util::sha256_hex(&m)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(unreadable(&manifest, e)),
+    };
+    let noise = results
+        .cases
+        .iter()
+        .map(|case| {
+            let names: Vec<&str> = case.rois.iter().map(|r| r.name.as_str()).collect();
+            // A trace that is gone or unreadable leaves the noise unknown:
+            // `compare` then says it cannot judge that case's changes.
+            match std::fs::read_to_string(dir.join(&case.trace)) {
+                Ok(text) => noise::of_trace(&text, &names),
+                Err(_) => vec![None; names.len()],
+            }
+        })
+        .collect();
+    let meta = match &results.report {
+        Some(m) => Some(m.clone()),
+        None => {
+            #[derive(serde::Deserialize)]
+            struct Head {
+                report: Option<crate::model::ReportMeta>,
+            }
+            serde_json::from_slice::<Head>(&bytes)
+                .map_err(|e| CampaignError::Input(format!("`{}`: {e}", results_path.display())))?
+                .report
+        }
+    };
+    Ok(Prepared {
+        dir: abs.to_string_lossy().into_owned(),
+        meta,
+        results_sha256: crate::util::sha256_hex(&bytes),
+        manifest_sha256,
+        noise,
+    })
+}
+
+fn insert_run(
+    tx: &Transaction<'_>,
+    r: &Results,
+    p: &Prepared,
+    provenance: &Provenance,
+) -> rusqlite::Result<i64> {
+    let date = p.meta.as_ref().map_or("", |m| m.date.as_str());
+    let plan_hash = p
+        .meta
+        .as_ref()
+        .map(|m| crate::shard::record::plan_hash(&m.inputs))
+        .unwrap_or_default();
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs() as i64);
+    tx.execute(
+        "INSERT INTO runs (recorded_unix_s, source, date, plan_id, plan_title, plan_hash, seed, \
+         tool, backend, supplier, model, serial, firmware, signer, signature, report_dir, \
+         results_sha256, manifest_sha256, verdict, cases_total, cases_pass, cases_fail, cases_info) \
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, \
+         ?19, ?20, ?21, ?22, ?23)",
+        params![
+            now,
+            provenance.source.as_str(),
+            date,
+            r.plan.id,
+            r.plan.title,
+            plan_hash,
+            // SQLite integers are signed: a seed above 2^63 keeps its bits.
+            r.plan.seed as i64,
+            format!("{} {}", r.tool.name, r.tool.version),
+            r.dut.backend,
+            r.dut.supplier,
+            r.dut.model,
+            r.dut.serial,
+            r.dut.firmware,
+            provenance.signer,
+            provenance.signature.as_str(),
+            p.dir,
+            p.results_sha256,
+            p.manifest_sha256,
+            r.verdict.as_str(),
+            r.counts.total as i64,
+            r.counts.pass as i64,
+            r.counts.fail as i64,
+            r.counts.info as i64,
+        ],
+    )?;
+    Ok(tx.last_insert_rowid())
+}
+
+fn insert_case(
+    tx: &Transaction<'_>,
+    run_id: i64,
+    idx: usize,
+    c: &CaseInfo,
+    noise: &[Option<noise::Noise>],
+) -> rusqlite::Result<()> {
+    let idx = idx as i64;
+    tx.prepare_cached(
+        "INSERT INTO cases (run_id, idx, id, light_lux, frequency_hz, duty, verdict, not_judged, trace) \
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
+    )?
+    .execute(params![
+        run_id,
+        idx,
+        c.id,
+        c.light_lux,
+        c.frequency_hz,
+        c.duty,
+        c.verdict.as_str(),
+        c.not_judged,
+        c.trace
+    ])?;
+    let mut roi_row = tx.prepare_cached(
+        "INSERT INTO rois (run_id, idx, roi, kind, saturated, level_off, level_on, level_min, \
+         level_max, noise_on_dn, noise_off_dn, off_frames) \
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)",
+    )?;
+    let mut metric_row = tx.prepare_cached(
+        "INSERT INTO metrics (run_id, idx, roi, metric, value) VALUES (?1, ?2, ?3, ?4, ?5)",
+    )?;
+    for (roi, n) in c.rois.iter().zip(noise) {
+        let kind = match roi.kind {
+            crate::model::RoiKind::Led => "led",
+            crate::model::RoiKind::Background => "background",
+        };
+        roi_row.execute(params![
+            run_id,
+            idx,
+            roi.name,
+            kind,
+            roi.saturated,
+            roi.levels.off,
+            roi.levels.on,
+            roi.levels.min,
+            roi.levels.max,
+            n.and_then(|n| n.on_dn),
+            n.and_then(|n| n.off_dn),
+            n.map_or(0, |n| n.off_frames) as i64,
+        ])?;
+        for (metric, value) in &roi.metrics {
+            metric_row.execute(params![run_id, idx, roi.name, metric, value])?;
+        }
+    }
+    let mut check_row = tx.prepare_cached(
+        "INSERT INTO checks (run_id, idx, roi, metric, comparison, threshold, value, unbounded, pass) \
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
+    )?;
+    for k in &c.checks {
+        check_row.execute(params![
+            run_id,
+            idx,
+            k.roi,
+            k.metric,
+            k.comparison.as_str(),
+            k.threshold,
+            k.value,
+            k.unbounded,
+            k.pass
+        ])?;
+    }
+    Ok(())
+}

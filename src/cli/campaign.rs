@@ -1,0 +1,270 @@
+//! The results database on the command line: `--db` / `--no-db` of `plan`
+//! and `merge` and the recording after their report, `import` and
+//! `history` (docs/campaigns.md). `compare` is [`super::compare`].
+
+use super::output::{out, outln};
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+
+use super::{EXIT_PASS, Failure, UsageError};
+use crate::campaign::query::{self, Filter, RunRow};
+use crate::campaign::record::{Provenance, Signature, Source};
+use crate::campaign::{self, Db, Location};
+
+/// `--db` and `--no-db` of `plan` and `merge`.
+#[derive(Args, Debug, Clone)]
+pub(super) struct RecordArgs {
+    /// Results database the run is recorded in [default: $LEDFLICKER_DB,
+    /// else $XDG_DATA_HOME/ledflicker/results.sqlite, else
+    /// ~/.local/share/ledflicker/results.sqlite].
+    #[arg(long, value_name = "PATH")]
+    db: Option<PathBuf>,
+    /// Record the run in no results database.
+    #[arg(long, conflicts_with = "db")]
+    no_db: bool,
+}
+
+/// `--db` of the commands that read the database.
+#[derive(Args, Debug, Clone)]
+pub(super) struct DbArg {
+    /// Results database [default: as for `plan`].
+    #[arg(long, value_name = "PATH")]
+    db: Option<PathBuf>,
+}
+
+impl DbArg {
+    /// The database file asked for; no place at all is a usage error.
+    pub(super) fn path(&self) -> Result<PathBuf, Failure> {
+        match campaign::locate(self.db.as_deref(), false, &|k| std::env::var(k).ok()) {
+            Some(Location::File(p)) => Ok(p),
+            _ => Err(no_place().into()),
+        }
+    }
+}
+
+fn no_place() -> UsageError {
+    UsageError(
+        "no results database: HOME, XDG_DATA_HOME and LEDFLICKER_DB are unset\n    hint: pass --db PATH".to_string(),
+    )
+}
+
+/// Records the finished report of `plan` or `merge`. The report is
+/// written and complete whatever happens here, so a failure is a warning
+/// that says how to record it later, and the exit code stays the run's.
+pub(super) fn record_finished(
+    args: &RecordArgs,
+    results: &crate::model::Results,
+    dir: &Path,
+    source: Source,
+    signer: Option<&str>,
+) {
+    let _t = crate::timings::span("record in the results database");
+    let path = match campaign::locate(args.db.as_deref(), args.no_db, &|k| std::env::var(k).ok()) {
+        Some(Location::Off) => return,
+        Some(Location::File(p)) => p,
+        None => {
+            eprintln!("warning: the run was not recorded: {}", no_place().0);
+            return;
+        }
+    };
+    let provenance = Provenance {
+        source,
+        signer: signer.map(str::to_string),
+        signature: if signer.is_some() {
+            Signature::Signed
+        } else {
+            Signature::Unsigned
+        },
+    };
+    let recorded = Db::open(&path)
+        .and_then(|mut db| campaign::record::record(&mut db, results, dir, &provenance));
+    if let Err(e) = recorded {
+        let e = Failure::from(e);
+        eprintln!(
+            "warning: the run was not recorded in the results database: {}\n    hint: the report in `{}` is complete; record it later with `ledflicker import {}`, or pass --no-db",
+            e.message(),
+            dir.display(),
+            dir.display()
+        );
+    }
+}
+
+/// `ledflicker import` arguments.
+#[derive(Args, Debug)]
+pub(super) struct ImportArgs {
+    /// Report directories written by `plan` or `merge`.
+    #[arg(required = true)]
+    dirs: Vec<PathBuf>,
+    #[command(flatten)]
+    db: DbArg,
+}
+
+/// Records each report directory; a signed one is verified first and
+/// recorded with what the check found (`intact` or `broken`).
+pub(super) fn import(a: ImportArgs) -> Result<i32, Failure> {
+    let path = a.db.path()?;
+    let mut db = Db::open(&path)?;
+    for dir in &a.dirs {
+        let results_path = dir.join("results.json");
+        let text = crate::util::read_input_to_string(&results_path).map_err(|e| {
+            UsageError(format!(
+                "cannot read `{}`: {e}\n    hint: pass report directories written by `ledflicker plan` or `merge`",
+                results_path.display()
+            ))
+        })?;
+        let results = crate::model::read_results(&text)
+            .map_err(|e| UsageError(format!("`{}`: {e}", results_path.display())))?;
+        let (signature, signer) = super::sign::signature_of(dir);
+        if signature == Signature::Broken {
+            eprintln!(
+                "warning: `{}`: a hash or signature does not match (see `ledflicker verify {}`); recorded as broken",
+                dir.display(),
+                dir.display()
+            );
+        }
+        let provenance = Provenance {
+            source: Source::Import,
+            signer,
+            signature,
+        };
+        let id = campaign::record::record(&mut db, &results, dir, &provenance)?;
+        outln!(
+            "run {id}: `{}`, plan `{}`, {} {} firmware {}, {} ({})",
+            dir.display(),
+            results.plan.id,
+            results.dut.model,
+            results.dut.serial,
+            results.dut.firmware,
+            results.verdict.as_str(),
+            signature.as_str()
+        )?;
+    }
+    Ok(EXIT_PASS)
+}
+
+/// `ledflicker history` arguments.
+#[derive(Args, Debug)]
+pub(super) struct HistoryArgs {
+    #[command(flatten)]
+    db: DbArg,
+    /// Only runs of this camera (`[dut] model`).
+    #[arg(long)]
+    camera: Option<String>,
+    /// Only runs of this serial number (`[dut] serial`).
+    #[arg(long)]
+    serial: Option<String>,
+    /// Only runs of this firmware (`[dut] firmware`).
+    #[arg(long)]
+    firmware: Option<String>,
+    /// Only runs of this plan id.
+    #[arg(long)]
+    plan: Option<String>,
+    /// Only runs whose report date is on or after YYYY-MM-DD.
+    #[arg(long)]
+    since: Option<String>,
+    /// Only runs whose report date is on or before YYYY-MM-DD.
+    #[arg(long)]
+    until: Option<String>,
+    /// Only runs with this verdict.
+    #[arg(long, value_parser = ["pass", "fail", "info"])]
+    verdict: Option<String>,
+    /// Print the runs as a JSON array.
+    #[arg(long)]
+    json: bool,
+}
+
+impl HistoryArgs {
+    pub(super) fn filter(&self) -> Result<Filter, Failure> {
+        for (flag, d) in [("--since", &self.since), ("--until", &self.until)] {
+            if let Some(d) = d.as_deref().filter(|d| !crate::util::is_calendar_date(d)) {
+                return Err(UsageError(format!(
+                    "{flag} `{d}` is not a date YYYY-MM-DD (e.g. 2026-11-23)"
+                ))
+                .into());
+            }
+        }
+        Ok(Filter {
+            camera: self.camera.clone(),
+            serial: self.serial.clone(),
+            firmware: self.firmware.clone(),
+            plan: self.plan.clone(),
+            since: self.since.clone(),
+            until: self.until.clone(),
+            verdict: self.verdict.clone(),
+        })
+    }
+}
+
+/// Lists the runs the filters select, oldest first.
+pub(super) fn history(a: HistoryArgs) -> Result<i32, Failure> {
+    let filter = a.filter()?;
+    let db = Db::open_existing(&a.db.path()?)?;
+    let runs = query::history(&db, &filter)?;
+    if a.json {
+        outln!("{}", serde_json::to_string_pretty(&runs)?)?;
+    } else {
+        out!("{}", table(&runs))?;
+    }
+    Ok(EXIT_PASS)
+}
+
+/// The runs as an aligned text table, one line each.
+fn table(runs: &[RunRow]) -> String {
+    let header = [
+        "run",
+        "date",
+        "plan",
+        "camera",
+        "serial",
+        "firmware",
+        "verdict",
+        "cases",
+        "fail",
+        "signature",
+        "report",
+    ];
+    let rows: Vec<[String; 11]> = runs
+        .iter()
+        .map(|r| {
+            [
+                r.id.to_string(),
+                r.date.clone(),
+                r.plan_id.clone(),
+                r.model.clone(),
+                r.serial.clone(),
+                r.firmware.clone(),
+                r.verdict.clone(),
+                r.cases[0].to_string(),
+                r.cases[2].to_string(),
+                r.signature.clone(),
+                r.report_dir.clone(),
+            ]
+        })
+        .collect();
+    let mut widths = header.map(str::len);
+    for row in &rows {
+        for (w, cell) in widths.iter_mut().zip(row) {
+            *w = (*w).max(cell.chars().count());
+        }
+    }
+    let line = |cells: &[&str]| {
+        let mut s = cells
+            .iter()
+            .zip(widths)
+            .map(|(c, w)| format!("{c:<w$}"))
+            .collect::<Vec<_>>()
+            .join("  ");
+        s.truncate(s.trim_end().len());
+        s.push('\n');
+        s
+    };
+    let mut text = line(&header);
+    for row in &rows {
+        text.push_str(&line(&row.each_ref().map(String::as_str)));
+    }
+    if rows.is_empty() {
+        text.push_str("(no runs)\n");
+    }
+    text
+}

@@ -1,0 +1,469 @@
+//! The results database: `plan` and `merge` record, `import`, `history`
+//! and `compare` (docs/campaigns.md).
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use crate::{ledflicker_in, root, scratch, stderr, text};
+
+/// A small, fast simulator plan (4 cases: 60 and 150 Hz x 20 and 50 %
+/// duty, 16 x 12 sensor) of firmware `firmware` with exposure
+/// `exposure_ms`, written to `dir/name.toml`.
+fn small_plan(dir: &Path, name: &str, firmware: &str, exposure_ms: &str) -> PathBuf {
+    let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml"))
+        .unwrap()
+        .replace("sensor-rows = 800", "sensor-rows = 12")
+        .replace("sensor-columns = 1280", "sensor-columns = 16")
+        .replace(
+            "model = \"Ideal rolling\"",
+            &format!("model = \"EX-1\"\nserial = \"S-7\"\nfirmware = \"{firmware}\""),
+        )
+        .replace(
+            "exposure-ms = 11.111",
+            &format!("exposure-ms = {exposure_ms}"),
+        )
+        + "\n[[roi]]\nname = \"led\"\nx-px = 2\ny-px = 4\nwidth-px = 8\nheight-px = 2\n";
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn run(dir: &Path, args: &[&str]) -> Output {
+    ledflicker_in(args, dir)
+}
+
+fn plan(dir: &Path, plan: &Path, out: &str, db: &[&str]) -> Output {
+    let mut args = vec![
+        "plan",
+        plan.to_str().unwrap(),
+        "--out",
+        out,
+        "-q",
+        "--date",
+        "2026-03-04",
+    ];
+    args.extend(db);
+    run(dir, &args)
+}
+
+fn history(dir: &Path, db: &str, filters: &[&str]) -> Vec<serde_json::Value> {
+    let mut args = vec!["history", "--db", db, "--json"];
+    args.extend(filters);
+    let o = run(dir, &args);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    serde_json::from_slice::<Vec<serde_json::Value>>(&o.stdout).unwrap()
+}
+
+fn count(db: &Path, sql: &str) -> i64 {
+    rusqlite::Connection::open(db)
+        .unwrap()
+        .query_row(sql, [], |r| r.get(0))
+        .unwrap()
+}
+
+#[test]
+fn plan_records_the_run_its_device_cases_rois_and_checks() {
+    let dir = scratch("campaign-record");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    let o = plan(&dir, &p, "r", &["--db", "db.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let runs = history(&dir, "db.sqlite", &[]);
+    assert_eq!(runs.len(), 1);
+    let r = &runs[0];
+    assert_eq!(r["plan_id"], "small");
+    assert_eq!(r["model"], "EX-1");
+    assert_eq!(r["serial"], "S-7");
+    assert_eq!(r["firmware"], "1.0");
+    assert_eq!(r["source"], "plan");
+    assert_eq!(r["signature"], "unsigned");
+    assert_eq!(r["date"], "2026-03-04");
+    assert_eq!(r["verdict"], "pass");
+    assert_eq!(r["cases"], serde_json::json!([4, 2, 0, 2]));
+    let report = std::fs::canonicalize(dir.join("r")).unwrap();
+    assert_eq!(r["report_dir"], report.to_str().unwrap());
+    let results = std::fs::read(dir.join("r/results.json")).unwrap();
+    assert_eq!(
+        r["results_sha256"],
+        ledflicker::util::sha256_hex(&results).as_str()
+    );
+    assert_eq!(r["plan_hash"].as_str().unwrap().len(), 64);
+    let db = dir.join("db.sqlite");
+    assert_eq!(count(&db, "SELECT count(*) FROM cases"), 4);
+    assert_eq!(count(&db, "SELECT count(*) FROM rois"), 4);
+    // Judged cases (150 Hz, in the mitigation range) have their FDI check.
+    assert_eq!(
+        count(
+            &db,
+            "SELECT count(*) FROM checks c JOIN cases k USING (run_id, idx) WHERE c.metric = 'fdi_2018_worst_phase' AND c.pass = 1 AND k.verdict = 'pass'"
+        ),
+        2
+    );
+    // A noiseless simulator: the steady frames do not move at all.
+    assert_eq!(
+        count(
+            &db,
+            "SELECT count(*) FROM rois WHERE noise_on_dn = 0 AND noise_off_dn = 0 AND off_frames = 15"
+        ),
+        4
+    );
+    assert!(
+        count(
+            &db,
+            "SELECT count(*) FROM metrics WHERE metric = 'percent_flicker'"
+        ) == 4
+    );
+}
+
+#[test]
+fn no_db_records_nothing_and_a_database_that_fails_is_a_warning() {
+    let dir = scratch("campaign-nodb");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    let o = plan(&dir, &p, "r", &["--no-db"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(!dir.join("db.sqlite").exists());
+    // A file that is no database: the report is written, the exit code is
+    // the run's, and the warning says how to record it later.
+    std::fs::write(dir.join("junk.sqlite"), "x".repeat(4096)).unwrap();
+    let o = plan(&dir, &p, "r2", &["--db", "junk.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("warning: the run was not recorded in the results database")
+            && err.contains("not an SQLite database")
+            && err.contains("ledflicker import r2"),
+        "{err}"
+    );
+    assert!(dir.join("r2/results.json").is_file());
+    // --db and --no-db together are a usage error.
+    let o = plan(&dir, &p, "r3", &["--db", "x.sqlite", "--no-db"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+}
+
+#[test]
+fn import_records_past_reports_and_history_filters_them() {
+    let dir = scratch("campaign-import");
+    let v10 = small_plan(&dir, "v10", "1.0", "11.111");
+    let v11 = small_plan(&dir, "v11", "1.1", "1.0");
+    assert_eq!(plan(&dir, &v10, "a", &["--no-db"]).status.code(), Some(0));
+    assert_eq!(plan(&dir, &v11, "b", &["--no-db"]).status.code(), Some(1));
+    let o = run(&dir, &["import", "a", "b", "--db", "h.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("run 1: `a`") && out.contains("run 2: `b`"),
+        "{out}"
+    );
+    assert!(out.contains("(unsigned)"), "{out}");
+    assert_eq!(history(&dir, "h.sqlite", &[]).len(), 2);
+    let by_fw = history(&dir, "h.sqlite", &["--firmware", "1.1"]);
+    assert_eq!(by_fw.len(), 1);
+    assert_eq!(by_fw[0]["source"], "import");
+    assert_eq!(by_fw[0]["verdict"], "fail");
+    assert_eq!(history(&dir, "h.sqlite", &["--verdict", "pass"]).len(), 1);
+    assert_eq!(
+        history(&dir, "h.sqlite", &["--camera", "EX-1", "--serial", "S-7"]).len(),
+        2
+    );
+    assert_eq!(history(&dir, "h.sqlite", &["--camera", "EX-2"]).len(), 0);
+    assert_eq!(
+        history(
+            &dir,
+            "h.sqlite",
+            &["--since", "2026-03-04", "--until", "2026-03-04"]
+        )
+        .len(),
+        2
+    );
+    assert_eq!(
+        history(&dir, "h.sqlite", &["--since", "2026-03-05"]).len(),
+        0
+    );
+    assert_eq!(history(&dir, "h.sqlite", &["--plan", "small"]).len(), 2);
+    // The table: a header and one line per run.
+    let o = run(&dir, &["history", "--db", "h.sqlite"]);
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(table.lines().count(), 3, "{table}");
+    assert!(table.starts_with("run  date"), "{table}");
+    let o = run(
+        &dir,
+        &["history", "--db", "h.sqlite", "--since", "2026-13-01"],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--since `2026-13-01` is not a date"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&dir, &["history", "--db", "missing.sqlite"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("no such file"), "{}", stderr(&o));
+    let o = run(&dir, &["import", "nowhere", "--db", "h.sqlite"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("cannot read `nowhere/results.json`"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn a_run_that_cannot_be_recorded_whole_leaves_nothing() {
+    let dir = scratch("campaign-atomic");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    assert_eq!(plan(&dir, &p, "r", &["--no-db"]).status.code(), Some(0));
+    // The last case names its ROI twice: the insert of its second copy
+    // fails after the run and three cases went in.
+    let path = dir.join("r/results.json");
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let rois = v["cases"][3]["rois"].as_array_mut().unwrap();
+    rois.push(rois[0].clone());
+    std::fs::write(&path, serde_json::to_vec(&v).unwrap()).unwrap();
+    let o = run(&dir, &["import", "r", "--db", "db.sqlite"]);
+    assert_eq!(o.status.code(), Some(3), "{}", text(&o));
+    let db = dir.join("db.sqlite");
+    for table in ["runs", "cases", "rois", "metrics", "checks"] {
+        assert_eq!(
+            count(&db, &format!("SELECT count(*) FROM {table}")),
+            0,
+            "{table}"
+        );
+    }
+}
+
+#[test]
+fn several_processes_recording_into_one_database_lose_nothing() {
+    let dir = scratch("campaign-concurrent");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    assert_eq!(plan(&dir, &p, "r", &["--no-db"]).status.code(), Some(0));
+    let children: Vec<_> = (0..6)
+        .map(|_| {
+            std::process::Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+                .env("LEDFLICKER_DB", dir.join("shared.sqlite"))
+                .args(["import", "r", "r", "r"])
+                .current_dir(&dir)
+                .output()
+        })
+        .collect();
+    for c in children {
+        let o = c.unwrap();
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    }
+    let db = dir.join("shared.sqlite");
+    assert_eq!(count(&db, "SELECT count(*) FROM runs"), 18);
+    assert_eq!(count(&db, "SELECT count(*) FROM cases"), 18 * 4);
+}
+
+#[test]
+fn compare_gates_a_shorter_exposure_as_a_regression_and_names_the_case() {
+    let dir = scratch("campaign-compare");
+    let v10 = small_plan(&dir, "v10", "1.0", "11.111");
+    let v11 = small_plan(&dir, "v11", "1.1", "1.0");
+    assert_eq!(
+        plan(&dir, &v10, "a", &["--db", "c.sqlite"]).status.code(),
+        Some(0)
+    );
+    assert_eq!(
+        plan(&dir, &v11, "b", &["--db", "c.sqlite"]).status.code(),
+        Some(1)
+    );
+    let o = run(
+        &dir,
+        &[
+            "compare", "a", "b", "--db", "c.sqlite", "--junit", "cmp.xml",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    // The simulator's verdict rests on the worst PWM phase.
+    assert!(
+        out.contains(
+            "REGRESSED:\n  2000lux-150hz-20pct led fdi_2018_worst_phase: 1.0472 -> 0.0000"
+        ),
+        "{out}"
+    );
+    // Cases judged in neither run (60 Hz, below the mitigation range) are
+    // not gated.
+    assert!(!out.contains("REGRESSION in 3"), "{out}");
+    assert!(
+        out.contains("REGRESSION in 2 case(s): 2000lux-150hz-20pct, 2000lux-150hz-50pct"),
+        "{out}"
+    );
+    assert!(
+        out.contains("verdict flip: 2000lux-150hz-20pct pass -> fail"),
+        "{out}"
+    );
+    let xml = std::fs::read_to_string(dir.join("cmp.xml")).unwrap();
+    let report = quick_junit::Report::deserialize_from_str(&xml).unwrap();
+    let failed: Vec<&str> = report.test_suites[0]
+        .test_cases
+        .iter()
+        .filter(|c| matches!(c.status, quick_junit::TestCaseStatus::NonSuccess { .. }))
+        .map(|c| c.name.as_str())
+        .collect();
+    assert!(failed.contains(&"2000lux-150hz-20pct"), "{xml}");
+    assert_eq!(report.test_suites[0].test_cases.len(), 4);
+    // The same run against itself, and the latest of firmware 1.1 against
+    // the run before it, by id and by --latest.
+    let o = run(&dir, &["compare", "1", "1", "--db", "c.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("no regression"));
+    let o = run(
+        &dir,
+        &[
+            "compare",
+            "--latest",
+            "--camera",
+            "EX-1",
+            "--firmware",
+            "1.1",
+            "--db",
+            "c.sqlite",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("A: run 1 "));
+    // The improvement (B back to A) is no regression.
+    let o = run(&dir, &["compare", "b", "a", "--db", "c.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = run(&dir, &["compare", "1", "9", "--db", "c.sqlite"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("no run 9"), "{}", stderr(&o));
+}
+
+/// Every place these tests start the binary points it at a scratch
+/// database: none may record into the user's own.
+#[test]
+fn every_run_of_the_binary_in_the_tests_records_into_a_scratch_database() {
+    let dir = root().join("tests/integration");
+    for entry in std::fs::read_dir(&dir).unwrap().flatten() {
+        let path = entry.path();
+        if path.extension().is_none_or(|e| e != "rs") {
+            continue;
+        }
+        let src = std::fs::read_to_string(&path).unwrap();
+        for (at, _) in src.match_indices("Command::new(") {
+            // This test's own patterns, in string literals.
+            if src[..at].ends_with('"') {
+                continue;
+            }
+            let call = &src[at..(at + 200).min(src.len())];
+            let starts_binary = call
+                .starts_with("Command::new(env!(\"CARGO_BIN_EXE_ledflicker\"))")
+                || call.starts_with("Command::new(exe())");
+            if starts_binary {
+                let next = &src[at..(at + 120).min(src.len())];
+                assert!(
+                    next.contains(".env(\"LEDFLICKER_DB\""),
+                    "{}: a run of the binary without LEDFLICKER_DB at byte {at}",
+                    path.display()
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_signed_run_is_recorded_with_its_signer_and_an_import_verifies_it() {
+    let dir = scratch("campaign-signed");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    let o = run(
+        &dir,
+        &[
+            "keygen",
+            "--signer",
+            "Ada Tester, Tested by",
+            "--out",
+            "ada.key",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let signing = [
+        "--db",
+        "db.sqlite",
+        "--sign-key",
+        "ada.key",
+        "--signer",
+        "Ada Tester, Tested by",
+    ];
+    let o = plan(&dir, &p, "r", &signing);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let manifest = std::fs::read(dir.join("r/manifest.txt")).unwrap();
+    let runs = history(&dir, "db.sqlite", &[]);
+    assert_eq!(runs[0]["signature"], "signed");
+    assert_eq!(runs[0]["signer"], "Ada Tester, Tested by");
+    assert_eq!(
+        runs[0]["manifest_sha256"],
+        ledflicker::util::sha256_hex(&manifest).as_str()
+    );
+    let o = run(&dir, &["import", "r", "--db", "db.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // A report changed after signing is still recorded, marked broken.
+    std::fs::write(dir.join("r/summary.csv"), "changed\n").unwrap();
+    let o = run(&dir, &["import", "r", "--db", "db.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(stderr(&o).contains("recorded as broken"), "{}", stderr(&o));
+    let runs = history(&dir, "db.sqlite", &[]);
+    let states: Vec<&str> = runs
+        .iter()
+        .map(|r| r["signature"].as_str().unwrap())
+        .collect();
+    assert_eq!(states, ["signed", "intact", "broken"]);
+    assert_eq!(runs[1]["signer"], "Ada Tester, Tested by");
+}
+
+#[test]
+fn merge_records_the_whole_run_once_and_shards_record_nothing() {
+    let dir = scratch("campaign-merge");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    for k in ["0/2", "1/2"] {
+        let out = format!("s{}", &k[..1]);
+        let o = run(
+            &dir,
+            &[
+                "plan",
+                p.to_str().unwrap(),
+                "--shard",
+                k,
+                "--out",
+                &out,
+                "-q",
+                "--db",
+                "db.sqlite",
+            ],
+        );
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    }
+    assert!(!dir.join("db.sqlite").exists());
+    let o = run(
+        &dir,
+        &[
+            "merge",
+            "s0",
+            "s1",
+            "--out",
+            "m",
+            "-q",
+            "--date",
+            "2026-03-04",
+            "--db",
+            "db.sqlite",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let runs = history(&dir, "db.sqlite", &[]);
+    assert_eq!(runs.len(), 1);
+    assert_eq!(runs[0]["source"], "merge");
+    assert_eq!(runs[0]["cases"], serde_json::json!([4, 2, 0, 2]));
+    // The merged run is the run `plan` would have recorded.
+    let o = plan(&dir, &p, "whole", &["--db", "db.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = run(&dir, &["compare", "1", "2", "--db", "db.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("no regression") && !out.contains("verdict flip"),
+        "{out}"
+    );
+    let runs = history(&dir, "db.sqlite", &[]);
+    assert_eq!(runs[0]["plan_hash"], runs[1]["plan_hash"]);
+}
