@@ -192,6 +192,20 @@ impl Document {
             .collect()
     }
 
+    /// The glossary the report lists: the visibility metrics follow the
+    /// others only for a plan with `[display]`, whose cases have them.
+    pub fn glossary(&self) -> Vec<crate::model::MetricName> {
+        let visibility = self.results.display.is_some();
+        let extra = crate::model::VISIBILITY_GLOSSARY
+            .iter()
+            .filter(|_| visibility);
+        crate::model::GLOSSARY
+            .iter()
+            .chain(extra)
+            .copied()
+            .collect()
+    }
+
     /// The informational cases without a page of their own, one table row
     /// each, in plan order ([`Detail::shows_case`]).
     pub fn info_rows(&self) -> Vec<InfoRow> {

@@ -209,7 +209,7 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             worst_frames => worst_frames,
             pages => doc.case_pages(),
             info_rows => Serde(doc.info_rows()),
-            glossary => Serde(crate::model::GLOSSARY),
+            glossary => Serde(doc.glossary()),
             caveats => doc.caveats(),
             fold_notes => doc.fold_notes(),
             limit_tables => Serde(doc.limit_tables()),

@@ -316,7 +316,7 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             worst_frames => worst_frames,
             pages => doc.case_pages(),
             info_rows => Serde(doc.info_rows()),
-            glossary => Serde(crate::model::GLOSSARY),
+            glossary => Serde(doc.glossary()),
             appendix_pages => appendix_page_values(doc),
             caveats => doc.caveats(),
             fold_notes => doc.fold_notes(),

@@ -38,6 +38,8 @@ pub struct RawPlan {
     pub case: Vec<RawCaseEntry>,
     /// `[p2020]`: IEEE P2020 KPI settings.
     pub p2020: Option<RawP2020>,
+    /// `[display]`: the CMS monitor and viewing geometry.
+    pub display: Option<RawDisplay>,
 }
 
 /// `[plan]`
@@ -222,6 +224,7 @@ pub struct RawThresholds {
     pub fmi_max: Option<f64>,
     pub fdi_p2020_min: Option<f64>,
     pub mmp_min: Option<f64>,
+    pub visibility_max: Option<f64>,
     pub mitigation_min_hz: Option<f64>,
     pub mitigation_max_hz: Option<f64>,
     pub basis: Option<String>,
@@ -239,6 +242,7 @@ pub struct RawLevelThresholds {
     pub fmi_max: Option<f64>,
     pub fdi_p2020_min: Option<f64>,
     pub mmp_min: Option<f64>,
+    pub visibility_max: Option<f64>,
 }
 
 /// `[capture]`
@@ -298,4 +302,19 @@ pub struct RawP2020 {
     pub contrast_threshold: Option<f64>,
     pub mmp_delta: Option<f64>,
     pub mmp_reference: Option<String>,
+}
+
+/// `[display]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawDisplay {
+    pub preset: Option<String>,
+    pub eotf: Option<String>,
+    pub refresh_hz: Option<f64>,
+    pub peak_cd_m2: Option<f64>,
+    pub black_cd_m2: Option<f64>,
+    pub image_width_mm: Option<f64>,
+    pub distance_mm: Option<f64>,
+    pub full_scale_dn: Option<f64>,
+    pub image_width_px: Option<i64>,
 }

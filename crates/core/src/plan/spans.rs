@@ -99,6 +99,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "capture",
             "case",
             "p2020",
+            "display",
         ],
     ),
     (
@@ -205,6 +206,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "fmi-max",
             "fdi-p2020-min",
             "mmp-min",
+            "visibility-max",
             "mitigation-min-hz",
             "mitigation-max-hz",
             "basis",
@@ -220,6 +222,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "fmi-max",
             "fdi-p2020-min",
             "mmp-min",
+            "visibility-max",
         ],
     ),
     (
@@ -261,6 +264,20 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
     (
         "p2020",
         &["contrast-threshold", "mmp-delta", "mmp-reference"],
+    ),
+    (
+        "display",
+        &[
+            "preset",
+            "eotf",
+            "refresh-hz",
+            "peak-cd-m2",
+            "black-cd-m2",
+            "image-width-mm",
+            "distance-mm",
+            "full-scale-dn",
+            "image-width-px",
+        ],
     ),
 ];
 
