@@ -19,6 +19,7 @@
 
 pub mod screen;
 pub mod tcsf;
+pub mod validation;
 
 use serde::{Deserialize, Serialize};
 
