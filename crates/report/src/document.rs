@@ -52,6 +52,12 @@ pub fn matrix_chart_path(index: usize) -> String {
     format!("{CHARTS_DIR}/matrix-{index}.svg")
 }
 
+/// Chart file name of the visibility matrix of the `index`-th light
+/// level (plans with `[display]`).
+pub fn visibility_matrix_chart_path(index: usize) -> String {
+    format!("{CHARTS_DIR}/matrix-visibility-{index}.svg")
+}
+
 /// Chart of the `k`-th LED ROI's phase fold of one case.
 pub fn fold_chart_path(case_id: &str, k: usize) -> String {
     format!("{}{k:02}.svg", fold_chart_prefix(case_id))
