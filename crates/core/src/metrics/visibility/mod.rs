@@ -30,10 +30,11 @@ use crate::trace::{FrameInfo, Segment};
 /// Minkowski exponent of the pooling over frequency (CIE TN 006:2016).
 pub const POOLING_EXPONENT: f64 = 3.7;
 
-/// Highest frequency summed, Hz. The elaTCSF sensitivity of a 60 deg field
-/// at 10 000 cd/m^2 is below 0.01 here, so components above it cannot
-/// add to a visible index.
-pub const MAX_FREQUENCY_HZ: f64 = 150.0;
+/// Highest frequency summed, Hz. The elaTCSF sensitivity of a 60 deg
+/// field at 1e5 cd/m^2 (the brightest display a plan accepts) is 0.006
+/// at 400 Hz and falls about tenfold per 100 Hz above, so a component
+/// there (modulation at most 2) adds at most 0.012 to the index.
+pub const MAX_FREQUENCY_HZ: f64 = 400.0;
 
 /// Modulation below which a component names no most-visible frequency:
 /// the rounding noise of a steady light's series (1e-16) is far below it,
