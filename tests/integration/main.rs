@@ -38,6 +38,7 @@ mod time_base;
 mod timing;
 mod units;
 mod verdicts;
+mod visibility;
 mod visual;
 
 use std::os::unix::fs::OpenOptionsExt;

@@ -10,7 +10,7 @@ use crate::backend::{Acquisition, Backend, BackendError, RenderedFrame};
 use crate::metrics::flicker::Segment;
 use crate::metrics::p2020::{self, P2020Metrics};
 use crate::metrics::verdict::{CaseConditions, RoiFigures, effective_basis};
-use crate::metrics::{Check, RoiMetrics, Verdict, evaluate_case, evaluate_roi};
+use crate::metrics::{Check, RoiMetrics, Verdict, evaluate_case, evaluate_roi, visibility};
 use crate::plan::RoiKind;
 use crate::plan::{Plan, TestCase};
 
@@ -258,7 +258,7 @@ pub fn run_case(
     let segments: Vec<_> = acquisition.frames.iter().map(|f| f.segment).collect();
     let mut metrics = Vec::with_capacity(plan.rois.len());
     let mut p2020s = Vec::with_capacity(plan.rois.len());
-    for trace in &acquisition.rois {
+    for (trace, roi) in acquisition.rois.iter().zip(&plan.rois) {
         if trace.luma.len() != segments.len() {
             return Err(bad(format!(
                 "ROI `{}` has {} luma values for {} frames",
@@ -288,6 +288,11 @@ pub fn run_case(
             acquisition.saturation_dn,
         )
         .ok_or_else(|| bad("the trace has no PWM frames".to_string()))?;
+        let mut m = m;
+        m.visibility = plan
+            .display
+            .as_ref()
+            .map(|d| visibility::of_trace(d, &acquisition.frames, &trace.luma, roi));
         metrics.push(m);
         p2020s.extend(p2020::evaluate(&trace.luma, &segments, &plan.p2020));
     }

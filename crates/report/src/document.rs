@@ -53,6 +53,12 @@ pub fn matrix_chart_path(index: usize) -> String {
     format!("{CHARTS_DIR}/matrix-{index}.svg")
 }
 
+/// Chart file name of the visibility matrix of the `index`-th light
+/// level (plans with `[display]`).
+pub fn visibility_matrix_chart_path(index: usize) -> String {
+    format!("{CHARTS_DIR}/matrix-visibility-{index}.svg")
+}
+
 /// Chart of the `k`-th LED ROI's phase fold of one case.
 pub fn fold_chart_path(case_id: &str, k: usize) -> String {
     format!("{}{k:02}.svg", fold_chart_prefix(case_id))
@@ -201,6 +207,20 @@ impl Document {
     /// Ids of the cases that get their own page at this report's detail.
     pub fn case_pages(&self) -> std::collections::BTreeSet<String> {
         self.listing().pages
+    }
+
+    /// The glossary the report lists: the visibility metrics follow the
+    /// others only for a plan with `[display]`, whose cases have them.
+    pub fn glossary(&self) -> Vec<crate::model::MetricName> {
+        let visibility = self.results.display.is_some();
+        let extra = crate::model::VISIBILITY_GLOSSARY
+            .iter()
+            .filter(|_| visibility);
+        crate::model::GLOSSARY
+            .iter()
+            .chain(extra)
+            .copied()
+            .collect()
     }
 
     /// The listed informational cases without a page of their own, one

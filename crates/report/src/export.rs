@@ -37,6 +37,21 @@ pub const CSV_LIMITS: [&str; 5] = [
     "mmp_min",
 ];
 
+/// Metric and limit columns added with `[display]`.
+pub const CSV_VISIBILITY: ([&str; 2], &str) =
+    (["visibility", "visibility_peak_hz"], "visibility_max");
+
+/// The metric and limit columns of `model`'s CSV: the visibility ones only
+/// for a plan with `[display]`, so other plans keep their columns.
+fn csv_columns(model: &Results) -> (Vec<&'static str>, Vec<&'static str>) {
+    let (mut metrics, mut limits) = (CSV_METRICS.to_vec(), CSV_LIMITS.to_vec());
+    if model.display.is_some() {
+        metrics.extend(CSV_VISIBILITY.0);
+        limits.push(CSV_VISIBILITY.1);
+    }
+    (metrics, limits)
+}
+
 /// A number for the CSV: at most 6 decimals, trailing zeros dropped, and
 /// never `-0` or `-4.5e-16` for a value that is zero to that precision.
 pub fn csv_number(x: f64) -> String {
@@ -91,6 +106,7 @@ fn metric_lines(c: &CaseInfo) -> Vec<String> {
         .map(|r| {
             let values: Vec<String> = CSV_METRICS
                 .iter()
+                .chain(&CSV_VISIBILITY.0)
                 .filter_map(|m| {
                     let v = if r.is_unbounded(m) {
                         "+inf".to_string()
@@ -241,6 +257,7 @@ pub(crate) fn csv_text(out: csv::Writer<Vec<u8>>) -> Result<String, csv::Error> 
 /// the ROI's failed checks.
 pub fn summary_csv(model: &Results) -> Result<String, csv::Error> {
     let mut out = csv_writer(0);
+    let (metric_columns, limit_columns) = csv_columns(model);
     out.write_record(
         [
             "case",
@@ -252,9 +269,9 @@ pub fn summary_csv(model: &Results) -> Result<String, csv::Error> {
             "kind",
         ]
         .into_iter()
-        .chain(CSV_METRICS)
+        .chain(metric_columns.iter().copied())
         .chain(["saturated"])
-        .chain(CSV_LIMITS)
+        .chain(limit_columns.iter().copied())
         .chain(["failed"]),
     )?;
     for c in &model.cases {
@@ -266,7 +283,9 @@ pub fn summary_csv(model: &Results) -> Result<String, csv::Error> {
             lim.fmi_max,
             lim.fdi_p2020_min,
             lim.mmp_min,
+            lim.visibility_max,
         ];
+        let limits = &limits[..limit_columns.len()];
         for r in &c.rois {
             let kind = match r.kind {
                 crate::model::RoiKind::Led => "led",
@@ -281,7 +300,7 @@ pub fn summary_csv(model: &Results) -> Result<String, csv::Error> {
                 r.name.clone(),
                 kind.to_string(),
             ];
-            row.extend(CSV_METRICS.into_iter().map(|m| {
+            row.extend(metric_columns.iter().map(|&m| {
                 if r.is_unbounded(m) {
                     "inf".to_string()
                 } else {

@@ -11,7 +11,7 @@ use minijinja::{Environment, UndefinedBehavior};
 use super::ReportError;
 use super::document::{
     ADVICE_CHART, Document, finemap_chart_path, fold_chart_prefix, frame_image_path,
-    matrix_chart_path, trace_chart_path,
+    matrix_chart_path, trace_chart_path, visibility_matrix_chart_path,
 };
 
 const BASE: &str = include_str!("../../../templates/base.html.j2");
@@ -135,11 +135,14 @@ pub(crate) fn matrices(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec
         .light_levels()
         .into_iter()
         .enumerate()
-        .filter_map(|(i, lux)| {
-            let path = matrix_chart_path(i);
-            doc.charts.contains_key(&path).then(|| {
-                minijinja::context! { lux => lux, chart => chart_for(&path) }
-            })
+        .flat_map(|(i, lux)| {
+            // A plan with `[display]` has a visibility matrix after each
+            // level's verdict matrix.
+            [matrix_chart_path(i), visibility_matrix_chart_path(i)]
+                .into_iter()
+                .filter(|path| doc.charts.contains_key(path))
+                .map(|path| minijinja::context! { lux => lux, chart => chart_for(&path) })
+                .collect::<Vec<_>>()
         })
         .collect()
 }
@@ -274,7 +277,7 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             pages_omitted => listing.pages_omitted,
             listed_max => crate::model::listing::LISTED_CASES_MAX,
             info_rows => Serde(doc.info_rows()),
-            glossary => Serde(crate::model::GLOSSARY),
+            glossary => Serde(doc.glossary()),
             caveats => doc.caveats(),
             fold_notes => doc.fold_notes(),
             limit_tables => Serde(doc.limit_tables()),

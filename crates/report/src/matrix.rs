@@ -24,6 +24,9 @@ enum Shown {
     Fdi,
     /// Percent Flicker: lower is better, `threshold` is a maximum.
     PercentFlicker,
+    /// Visibility on the monitor: lower is better, `threshold` is a
+    /// maximum; the scale ends at ten times it.
+    Visibility,
 }
 
 /// The metric, its results.json name, title and threshold.
@@ -59,13 +62,23 @@ fn scale(kind: Shown, value: f64, threshold: f64) -> f64 {
                 0.5 + 0.5 * ((1.0 + value - threshold).ln() / 11f64.ln()).clamp(0.0, 1.0)
             }
         }
-        Shown::PercentFlicker => {
+        Shown::PercentFlicker | Shown::Visibility => {
+            let top = worst_of(kind, threshold);
             if value <= threshold {
                 0.5 + 0.5 * (1.0 - value / threshold.max(1e-9)).clamp(0.0, 1.0)
             } else {
-                0.5 * (1.0 - (value - threshold) / (100.0 - threshold).max(1e-9)).clamp(0.0, 1.0)
+                0.5 * (1.0 - (value - threshold) / (top - threshold).max(1e-9)).clamp(0.0, 1.0)
             }
         }
+    }
+}
+
+/// The worst end of a maximum's scale: 100 % for Percent Flicker, ten
+/// times the limit for the visibility index (unbounded above).
+fn worst_of(kind: Shown, threshold: f64) -> f64 {
+    match kind {
+        Shown::Visibility => 10.0 * threshold,
+        _ => 100.0,
     }
 }
 
@@ -183,8 +196,10 @@ fn unscale(kind: Shown, t: f64, threshold: f64) -> f64 {
     match kind {
         Shown::Fdi if t < 0.5 => 2.0 * t * threshold,
         Shown::Fdi => threshold + 11f64.powf(2.0 * t - 1.0) - 1.0,
-        Shown::PercentFlicker if t >= 0.5 => threshold * (2.0 - 2.0 * t),
-        Shown::PercentFlicker => threshold + (1.0 - 2.0 * t) * (100.0 - threshold),
+        Shown::PercentFlicker | Shown::Visibility if t >= 0.5 => threshold * (2.0 - 2.0 * t),
+        Shown::PercentFlicker | Shown::Visibility => {
+            threshold + (1.0 - 2.0 * t) * (worst_of(kind, threshold) - threshold)
+        }
     }
 }
 
@@ -322,7 +337,9 @@ fn draw_colour_bar(
         let v = crate::util::fixed(unscale(kind, t, threshold), 2);
         let text = match (kind, t) {
             (_, 0.5) => format!("{v} limit"),
-            (Shown::Fdi, 1.0) | (Shown::PercentFlicker, 0.0) => format!("\u{2265} {v}"),
+            (Shown::Fdi, 1.0) | (Shown::PercentFlicker | Shown::Visibility, 0.0) => {
+                format!("\u{2265} {v}")
+            }
             (Shown::Fdi, 0.0) => format!("\u{2264} {v}"),
             _ => v,
         };
@@ -467,6 +484,27 @@ fn draw_cell(
 /// Deegan 2018 Eq. (1) drawn along the cell edges with its legend below
 /// the axis.
 pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError> {
+    draw_matrix(model, light_lux, shown(model))
+}
+
+/// The matrix of the visibility index on the plan's monitor at
+/// `light_lux`, as [`matrix_svg`] draws the verdict metric; the limit is
+/// `visibility-max`, else 1 (the standard observer's threshold).
+pub fn visibility_matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError> {
+    let limit = model.thresholds.visibility_max.or(Some(1.0));
+    let title = "visibility";
+    draw_matrix(
+        model,
+        light_lux,
+        (Shown::Visibility, "visibility".to_string(), title, limit),
+    )
+}
+
+fn draw_matrix(
+    model: &Results,
+    light_lux: f64,
+    (kind, metric, title, threshold): (Shown, String, &'static str, Option<f64>),
+) -> Result<String, ChartError> {
     let err = |e: &dyn std::fmt::Display| ChartError {
         chart: format!("matrix {light_lux} lux"),
         message: e.to_string(),
@@ -479,10 +517,10 @@ pub fn matrix_svg(model: &Results, light_lux: f64) -> Result<String, ChartError>
         duties_percent: duties,
         ..
     } = &plane;
-    let (kind, metric, title, threshold) = shown(model);
     let th = threshold.unwrap_or(match kind {
         Shown::Fdi => 0.1,
         Shown::PercentFlicker => 10.0,
+        Shown::Visibility => 1.0,
     });
     let grid = Grid::new(freqs.len(), duties.len());
     let mut svg = String::new();
@@ -534,6 +572,14 @@ pub(crate) mod tests {
         assert!((scale(Shown::PercentFlicker, 10.0, 10.0) - 0.5).abs() < 1e-12);
         assert!(scale(Shown::PercentFlicker, 50.0, 10.0) < 0.5);
         assert_eq!(scale(Shown::PercentFlicker, 0.0, 10.0), 1.0);
+        // Visibility: the limit at the middle, ten times it at the worst end.
+        assert!((scale(Shown::Visibility, 1.0, 1.0) - 0.5).abs() < 1e-12);
+        assert_eq!(scale(Shown::Visibility, 12.0, 1.0), 0.0);
+        for t in [0.0, 0.25, 0.5, 0.75, 1.0] {
+            let v = unscale(Shown::Visibility, t, 2.0);
+            assert!((scale(Shown::Visibility, v, 2.0) - t).abs() < 1e-12, "{t}");
+        }
+        assert!((unscale(Shown::Visibility, 0.0, 2.0) - 20.0).abs() < 1e-12);
     }
 
     /// The daylight plan with `n` frequencies from 50 Hz in 37 Hz steps,

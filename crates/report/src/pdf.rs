@@ -324,7 +324,7 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             pages_omitted => listing.pages_omitted,
             listed_max => crate::model::listing::LISTED_CASES_MAX,
             info_rows => Serde(doc.info_rows()),
-            glossary => Serde(crate::model::GLOSSARY),
+            glossary => Serde(doc.glossary()),
             appendix_pages => appendix_page_values(doc),
             caveats => doc.caveats(),
             fold_notes => doc.fold_notes(),

@@ -22,6 +22,13 @@ const COLUMNS: [(&str, &str, usize); 7] = [
     ("MMP", "mmp", 3),
 ];
 
+/// The column of a plan with `[display]`.
+const VISIBILITY_COLUMN: (&str, &str, usize) = ("Visible", "visibility", 2);
+
+/// The legend line of that column.
+pub const VISIBILITY_LEGEND: &str = "Visible = visibility index of the flicker on the plan's \
+monitor for the standard observer (elaTCSF): 1 = at threshold, above 1 seen (docs/visibility.md)";
+
 /// The legend printed under the table.
 pub const LEGEND: &str = "legend: roi = the case's worst LED ROI (least margin to its limits; \
 highest Percent Flicker when nothing was checked); worst = worst case over PWM phase (simulator only); \
@@ -119,7 +126,11 @@ pub fn summary(model: &Results, out: &Path) -> String {
     let id_w = id_w + usize::from(model.cases.iter().any(&detected));
     let mut s = String::new();
     let _ = write!(s, "{:<id_w$}  {:<7}  {:<roi_w$}", "case", "verdict", "roi");
-    for (h, _, _) in COLUMNS {
+    // The visibility column appears with `[display]` only, so a plan
+    // without a monitor prints the table it always did.
+    let visibility = model.display.is_some().then_some(VISIBILITY_COLUMN);
+    let columns: Vec<(&str, &str, usize)> = COLUMNS.into_iter().chain(visibility).collect();
+    for (h, _, _) in &columns {
         let _ = write!(s, "  {h:>9}");
     }
     s.push_str("  criterion\n");
@@ -132,13 +143,16 @@ pub fn summary(model: &Results, out: &Path) -> String {
             c.verdict.as_str(),
             roi.map_or("-", |r| r.name.as_str())
         );
-        for (_, name, digits) in COLUMNS {
+        for &(_, name, digits) in &columns {
             let v = roi.map_or("n/a".to_string(), |r| cell(r, name, digits));
             let _ = write!(s, "  {v:>9}");
         }
         let _ = writeln!(s, "  {}", criterion(c, roi));
     }
     let _ = writeln!(s, "{LEGEND}");
+    if visibility.is_some() {
+        let _ = writeln!(s, "{VISIBILITY_LEGEND}");
+    }
     if model.cases.iter().any(&detected) {
         let _ = writeln!(
             s,

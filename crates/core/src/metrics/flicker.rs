@@ -70,6 +70,10 @@ pub struct RoiMetrics {
     pub percent_flicker_worst_phase: Option<Metric>,
     /// Some frame reached the saturation level.
     pub saturated: bool,
+    /// Visibility of the flicker on the plan's `[display]`; `None` when the
+    /// plan has no display.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub visibility: Option<super::visibility::Visibility>,
 }
 
 /// FDI (2018) = `(min - L_OFF) / L_OFF`.
@@ -171,6 +175,7 @@ pub fn evaluate_roi(
         percent_flicker_worst_phase: worst.map(|(lo, hi)| percent_flicker(lo, hi)),
         saturated,
         levels,
+        visibility: None,
     };
     if saturated {
         let note = format!(

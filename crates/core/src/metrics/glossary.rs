@@ -89,17 +89,58 @@ pub const GLOSSARY: &[MetricName] = &[
     },
 ];
 
+/// The metrics of a plan with `[display]` (docs/visibility.md), listed
+/// in a report's glossary after [`GLOSSARY`] only when the plan has one.
+pub const VISIBILITY_GLOSSARY: &[MetricName] = &[
+    MetricName {
+        id: "visibility",
+        name: "Visibility on the monitor",
+        short: "visible",
+        definition: "displayed flicker weighted by the eye's temporal contrast sensitivity (elaTCSF): 1 = at threshold for the standard observer",
+        unit: "1",
+    },
+    MetricName {
+        id: "visibility_peak_hz",
+        name: "Most visible frequency",
+        short: "f visible",
+        definition: "frequency of the displayed flicker's component that adds most to the visibility",
+        unit: "Hz",
+    },
+    MetricName {
+        id: "display_luminance_cd_m2",
+        name: "Displayed luminance",
+        short: "L display",
+        definition: "mean luminance of the ROI on the monitor over the PWM segment",
+        unit: "cd/m^2",
+    },
+    MetricName {
+        id: "visual_radius_deg",
+        name: "Visual radius",
+        short: "radius",
+        definition: "radius of the disk with the visual area of the ROI on the monitor, at the viewing distance",
+        unit: "deg",
+    },
+];
+
+/// Metric `id`'s entry in [`GLOSSARY`] or [`VISIBILITY_GLOSSARY`].
+fn entry(id: &str) -> Option<&'static MetricName> {
+    GLOSSARY
+        .iter()
+        .chain(VISIBILITY_GLOSSARY)
+        .find(|m| m.id == id)
+}
+
 /// The abbreviation of metric `id` for a narrow column ([`human_name`]
 /// when it has none in [`GLOSSARY`]).
 pub fn short_name(id: &str) -> &str {
-    GLOSSARY.iter().find(|m| m.id == id).map_or(id, |m| m.short)
+    entry(id).map_or(id, |m| m.short)
 }
 
 /// The name a person reads for metric `id`; an id not in [`GLOSSARY`] is
 /// returned as it is, so a new metric shows up (named by its id) rather
 /// than vanishing.
 pub fn human_name(id: &str) -> &str {
-    GLOSSARY.iter().find(|m| m.id == id).map_or(id, |m| m.name)
+    entry(id).map_or(id, |m| m.name)
 }
 
 #[cfg(test)]
@@ -109,12 +150,13 @@ mod tests {
     #[test]
     fn every_metric_has_one_distinct_readable_name() {
         for field in [|m: &MetricName| m.name, |m: &MetricName| m.short] {
-            let mut names: Vec<&str> = GLOSSARY.iter().map(field).collect();
+            let all = GLOSSARY.iter().chain(VISIBILITY_GLOSSARY);
+            let mut names: Vec<&str> = all.clone().map(field).collect();
             names.sort_unstable();
             names.dedup();
-            assert_eq!(names.len(), GLOSSARY.len(), "two metrics share a name");
+            assert_eq!(names.len(), all.count(), "two metrics share a name");
         }
-        for m in GLOSSARY {
+        for m in GLOSSARY.iter().chain(VISIBILITY_GLOSSARY) {
             assert!(!m.name.contains('_') && !m.short.contains('_'), "{}", m.id);
             assert!(m.short.chars().count() <= 14, "{} is not short", m.short);
             assert!(!m.definition.is_empty() && !m.unit.is_empty(), "{}", m.id);

@@ -8,7 +8,8 @@ pub mod flicker;
 pub mod glossary;
 pub mod p2020;
 pub mod verdict;
+pub mod visibility;
 
 pub use flicker::{Levels, Metric, RoiMetrics, evaluate_roi};
-pub use glossary::{GLOSSARY, MetricName, human_name, short_name};
+pub use glossary::{GLOSSARY, MetricName, VISIBILITY_GLOSSARY, human_name, short_name};
 pub use verdict::{Check, Verdict, evaluate_case};

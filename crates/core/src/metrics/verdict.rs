@@ -249,6 +249,12 @@ fn roi_checks(
             _ => skip("mmp", "the trace has no frames for the MMP reference level"),
         }
     }
+    if let Some(max) = lim.visibility_max {
+        match &m.visibility {
+            Some(v) => checks.push(check(name, "visibility", &v.metric(), max, false)),
+            None => skip("visibility", "no display to see it on"),
+        }
+    }
 }
 
 /// Checks every LED ROI of a case against its limits (per light level, else
@@ -333,6 +339,7 @@ mod tests {
             fmi_max: None,
             fdi_p2020_min: None,
             mmp_min: None,
+            visibility_max: None,
             light_levels: Vec::new(),
             mitigation_min_hz: 90.0,
             mitigation_max_hz: None,
@@ -365,6 +372,7 @@ mod tests {
             fdi_2018_worst_phase: None,
             percent_flicker_worst_phase: None,
             saturated: false,
+            visibility: None,
         }
     }
 

@@ -63,6 +63,19 @@ fn insert(roi: &mut RoiInfo, name: &str, m: &Metric) {
     roi.contrast_unbounded |= m.unbounded;
 }
 
+/// The visibility figures of an ROI, under the names of results.json.
+fn insert_visibility(roi: &mut RoiInfo, v: &crate::metrics::visibility::Visibility) {
+    insert(roi, "visibility", &v.metric());
+    let figures = [
+        ("visibility_peak_hz", v.peak_frequency_hz),
+        ("display_luminance_cd_m2", Some(v.mean_luminance_cd_m2)),
+        ("visual_radius_deg", Some(v.radius_deg)),
+    ];
+    for (name, value) in figures {
+        roi.metrics.insert(name.to_string(), value);
+    }
+}
+
 /// The model of the run's cases, analyses, fine maps and advice: the part
 /// of [`assemble`] that does not depend on where the frames came from.
 fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
@@ -141,6 +154,7 @@ fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         thresholds,
         method: super::method::method(plan),
         p2020: plan.p2020,
+        display: plan.display,
         verdict: overall(results.iter().map(|r| r.verdict)),
         counts,
         cases,
@@ -213,6 +227,9 @@ fn roi_infos(plan: &Plan, r: &CaseResult, analyses: Vec<RoiAnalysis>) -> Vec<Roi
                 .insert("phase_coverage".to_string(), Some(coverage));
             if let Some(w) = &info.analysis.phase_coverage.warning {
                 info.reasons.insert("phase_coverage".to_string(), w.clone());
+            }
+            if let Some(v) = &m.visibility {
+                insert_visibility(&mut info, v);
             }
             if let Some(p) = r.p2020.get(i) {
                 insert(&mut info, "fmi", &p.fmi);

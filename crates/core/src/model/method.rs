@@ -34,6 +34,7 @@ pub fn limits_text(l: &Limits) -> String {
         ("FMI <=", l.fmi_max, ""),
         ("FDI (P2020) >=", l.fdi_p2020_min, ""),
         ("MMP >=", l.mmp_min, ""),
+        ("visibility on the monitor <=", l.visibility_max, ""),
     ]
     .into_iter()
     .filter_map(|(name, v, unit)| v.map(|v| format!("{name} {v}{unit}")))

@@ -48,7 +48,8 @@ pub use crate::analysis::{
 pub use crate::inputs::InputFile;
 pub use crate::metrics::verdict::{Comparison, VERDICT_TOLERANCE};
 pub use crate::metrics::{
-    Check, GLOSSARY, Levels, Metric, MetricName, Verdict, human_name, short_name,
+    Check, GLOSSARY, Levels, Metric, MetricName, VISIBILITY_GLOSSARY, Verdict, human_name,
+    short_name,
 };
 pub use crate::plan::profile::{LABELS, Logo, ReportProfile, SECTIONS, TemplateOverrides};
 pub use crate::plan::{RoiKind, Thresholds, VerdictBasis};
@@ -85,6 +86,10 @@ pub struct Results {
     pub method: method::Method,
     /// IEEE P2020 KPI settings (`[p2020]`).
     pub p2020: crate::metrics::p2020::P2020Options,
+    /// The CMS monitor the visibility of each ROI is computed for
+    /// (`[display]`); absent when the plan has none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub display: Option<crate::plan::display::Display>,
     /// Overall verdict: fail if any case failed, else pass if any case was
     /// judged, else info (no case judged: never pass).
     pub verdict: Verdict,

@@ -8,6 +8,7 @@
 pub mod bounds;
 mod capture;
 mod check;
+pub mod display;
 mod grid;
 mod p2020;
 pub mod profile;
@@ -81,6 +82,9 @@ pub struct Plan {
     /// The report's look (`[report]`, and `--profile`, which
     /// [`profile::ReportProfile::overridden_by`] puts over it).
     pub report: profile::ReportProfile,
+    /// The CMS monitor (`[display]`); `None` when the plan has none, and
+    /// then no visibility is computed.
+    pub display: Option<display::Display>,
     /// Plausibility warnings, in file order: values that are valid but
     /// most likely in another unit (docs/plan-format.md, "Plausibility
     /// warnings"). They never stop a run; [`Plan::warnings_text`] words them.
@@ -326,6 +330,10 @@ pub struct Limits {
     /// IEEE P2020 Modulation Mitigation Probability (share of PWM frames
     /// within the band around the reference) must be >= this (0..1).
     pub mmp_min: Option<f64>,
+    /// Visibility index of the displayed flicker (1 = at the standard
+    /// observer's threshold) must be <= this (>= 0); needs `[display]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub visibility_max: Option<f64>,
 }
 
 impl Limits {
@@ -337,6 +345,7 @@ impl Limits {
             fmi_max: self.fmi_max.or(base.fmi_max),
             fdi_p2020_min: self.fdi_p2020_min.or(base.fdi_p2020_min),
             mmp_min: self.mmp_min.or(base.mmp_min),
+            visibility_max: self.visibility_max.or(base.visibility_max),
         }
     }
 }
@@ -365,6 +374,9 @@ pub struct Thresholds {
     pub fdi_p2020_min: Option<f64>,
     /// IEEE P2020 MMP must be >= this.
     pub mmp_min: Option<f64>,
+    /// The visibility index must be <= this; needs `[display]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub visibility_max: Option<f64>,
     /// Per light level overrides (`[[thresholds.light-level]]`), in plan order.
     pub light_levels: Vec<LevelLimits>,
     /// Lowest frequency (Hz) at which the camera claims mitigation.
@@ -384,6 +396,7 @@ impl Thresholds {
             fmi_max: self.fmi_max,
             fdi_p2020_min: self.fdi_p2020_min,
             mmp_min: self.mmp_min,
+            visibility_max: self.visibility_max,
         }
     }
 

@@ -40,6 +40,8 @@ pub struct RawPlan {
     pub p2020: Option<RawP2020>,
     /// `[report]`: the report's look (company, logo, sections, templates).
     pub report: Option<RawReport>,
+    /// `[display]`: the CMS monitor and viewing geometry.
+    pub display: Option<RawDisplay>,
 }
 
 /// `[plan]`
@@ -224,6 +226,7 @@ pub struct RawThresholds {
     pub fmi_max: Option<f64>,
     pub fdi_p2020_min: Option<f64>,
     pub mmp_min: Option<f64>,
+    pub visibility_max: Option<f64>,
     pub mitigation_min_hz: Option<f64>,
     pub mitigation_max_hz: Option<f64>,
     pub basis: Option<String>,
@@ -241,6 +244,7 @@ pub struct RawLevelThresholds {
     pub fmi_max: Option<f64>,
     pub fdi_p2020_min: Option<f64>,
     pub mmp_min: Option<f64>,
+    pub visibility_max: Option<f64>,
 }
 
 /// `[capture]`
@@ -321,4 +325,19 @@ pub struct RawReport {
 #[serde(rename_all = "kebab-case")]
 pub struct RawReportFile {
     pub report: Option<RawReport>,
+}
+
+/// `[display]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawDisplay {
+    pub preset: Option<String>,
+    pub eotf: Option<String>,
+    pub refresh_hz: Option<f64>,
+    pub peak_cd_m2: Option<f64>,
+    pub black_cd_m2: Option<f64>,
+    pub image_width_mm: Option<f64>,
+    pub distance_mm: Option<f64>,
+    pub full_scale_dn: Option<f64>,
+    pub image_width_px: Option<i64>,
 }

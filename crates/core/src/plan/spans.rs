@@ -100,6 +100,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "case",
             "p2020",
             "report",
+            "display",
         ],
     ),
     (
@@ -206,6 +207,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "fmi-max",
             "fdi-p2020-min",
             "mmp-min",
+            "visibility-max",
             "mitigation-min-hz",
             "mitigation-max-hz",
             "basis",
@@ -221,6 +223,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "fmi-max",
             "fdi-p2020-min",
             "mmp-min",
+            "visibility-max",
         ],
     ),
     (
@@ -272,6 +275,20 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "sections",
             "templates",
             "labels",
+        ],
+    ),
+    (
+        "display",
+        &[
+            "preset",
+            "eotf",
+            "refresh-hz",
+            "peak-cd-m2",
+            "black-cd-m2",
+            "image-width-mm",
+            "distance-mm",
+            "full-scale-dn",
+            "image-width-px",
         ],
     ),
 ];

@@ -142,6 +142,11 @@ impl<'a> ChartJobs<'a> {
         }
         for (i, lux) in model.light_levels().into_iter().enumerate() {
             jobs.add(matrix_chart_path(i), move || matrix::matrix_svg(model, lux));
+            if model.display.is_some() {
+                jobs.add(super::visibility_matrix_chart_path(i), move || {
+                    matrix::visibility_matrix_svg(model, lux)
+                });
+            }
         }
         for c in model.cases.iter().filter(|c| listing.charts_case(&c.id)) {
             let drawn = c.rois.iter().filter(|roi| {

@@ -4,7 +4,7 @@
 //! - `meta`: `format-version`, `[plan]`, `[sequence]`;
 //! - `grid`: `[light]`, `[grid]`;
 //! - `capture`: `[capture]`, `[[case]]` (captured and command backends);
-//! - `p2020`: `[p2020]`;
+//! - `p2020`: `[p2020]`; `display`: `[display]`;
 //! - `dut`: `[dut]` and camera profiles; `camera`: `[dut.camera]`;
 //!   `sensor`: its `[sensor]`, `[[capture]]`, `[hdr]`, `[tone]` and gains;
 //!   `ae`: its `[auto-exposure]`;
@@ -22,6 +22,7 @@
 mod ae;
 mod camera;
 mod capture;
+mod display;
 mod dut;
 mod grid;
 mod meta;
@@ -96,6 +97,8 @@ pub(super) fn validate(
         roi::fit_captures(&mut c, rois, &cap.cases, read);
     }
     let scene = scene::scene_table(&mut c, raw.scene);
+    let camera = dut.as_ref().filter(|_| has_sensor).map(|d| &d.camera);
+    let display = display::display(&mut c, raw.display, camera);
     let known_lux: Option<Vec<f64>> = if role.captured {
         capture
             .as_ref()
@@ -115,6 +118,8 @@ pub(super) fn validate(
         return None;
     }
     sequence_fits(&mut c, &sequence, dut.camera.fps)?;
+    let (thresholds, display) = (thresholds?, display?);
+    display::limit_needs_display(&mut c, &thresholds, display.as_ref())?;
     Some(Plan {
         id: meta.id?,
         title: meta.title?,
@@ -132,10 +137,11 @@ pub(super) fn validate(
         rois: rois?,
         dut,
         scene: scene?,
-        thresholds: thresholds?,
+        thresholds,
         capture,
         p2020: p2020?,
         report: report?,
+        display,
         warnings: Vec::new(),
     })
 }

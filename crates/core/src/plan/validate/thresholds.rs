@@ -2,7 +2,8 @@
 //! serde mirror to a validated [`Thresholds`].
 //!
 //! Limits on the Deegan 2018 metrics (`fdi-2018-min`, `percent-flicker-max`)
-//! and the IEEE P2020 KPIs (`fmi-max`, `fdi-p2020-min`, `mmp-min`) are set
+//! and the IEEE P2020 KPIs (`fmi-max`, `fdi-p2020-min`, `mmp-min`), and on the
+//! visibility of the displayed flicker (`visibility-max`, with `[display]`), are set
 //! globally and may be overridden per light level. Every problem is reported
 //! with its key, line and a hint, as for the rest of the plan.
 
@@ -20,6 +21,7 @@ fn defaults() -> Thresholds {
         fmi_max: None,
         fdi_p2020_min: None,
         mmp_min: None,
+        visibility_max: None,
         light_levels: Vec::new(),
         mitigation_min_hz: 0.0,
         mitigation_max_hz: None,
@@ -27,13 +29,14 @@ fn defaults() -> Thresholds {
     }
 }
 
-/// The five limit keys of a table, checked. `prefix` is the table's key path.
+/// The limit keys of a table, checked. `prefix` is the table's key path.
 struct RawLimits {
     fdi_2018_min: Option<f64>,
     percent_flicker_max: Option<f64>,
     fmi_max: Option<f64>,
     fdi_p2020_min: Option<f64>,
     mmp_min: Option<f64>,
+    visibility_max: Option<f64>,
 }
 
 /// Checks one limit: finite, and inside `range` when given.
@@ -129,6 +132,14 @@ fn limits(c: &mut Checker<'_>, raw: RawLimits, prefix: &str, ok: &mut bool) -> L
             "the share of PWM frames within the band around the reference, 0..1; e.g. 0.9",
             ok,
         ),
+        visibility_max: limit(
+            c,
+            raw.visibility_max,
+            &k("visibility-max"),
+            Some((0.0, f64::INFINITY)),
+            "1 is the standard observer's threshold; e.g. 1.0",
+            ok,
+        ),
     };
     warn_fraction_of_percent(c, &pf_key, limits.percent_flicker_max);
     limits
@@ -157,6 +168,7 @@ fn level(
             fmi_max: raw.fmi_max,
             fdi_p2020_min: raw.fdi_p2020_min,
             mmp_min: raw.mmp_min,
+            visibility_max: raw.visibility_max,
         },
         &prefix,
         ok,
@@ -220,6 +232,7 @@ pub(super) fn thresholds(
             fmi_max: t.fmi_max,
             fdi_p2020_min: t.fdi_p2020_min,
             mmp_min: t.mmp_min,
+            visibility_max: t.visibility_max,
         },
         "thresholds",
         &mut ok,
@@ -230,6 +243,7 @@ pub(super) fn thresholds(
     th.fmi_max = global.fmi_max;
     th.fdi_p2020_min = global.fdi_p2020_min;
     th.mmp_min = global.mmp_min;
+    th.visibility_max = global.visibility_max;
     let mut seen = Vec::new();
     for (i, raw) in t.light_level.into_iter().enumerate() {
         if let Some(l) = level(c, raw, i, known_lux, &mut seen, &mut ok) {

@@ -1,0 +1,95 @@
+//! The visibility of the displayed flicker end to end: a plan with
+//! `[display]` and `visibility-max` judges it and every export carries
+//! it; the same plan without `[display]` has none of it
+//! (docs/visibility.md).
+
+use std::path::Path;
+
+use ledflicker::model::{Results, Verdict};
+
+const BASE: &str = include_str!("../fixtures/plans/base.toml");
+
+/// The fixture plan at 33 Hz (a 3 Hz beat at 30 fps) and 150 Hz (five
+/// pulses a frame: steady), 20 % duty, every case judged; with a night
+/// `[display]` and `visibility-max = 1` when `display`.
+fn run(display: bool) -> Results {
+    let mut text = BASE
+        .replace(
+            "frequencies-hz = [60.0, 150.0]",
+            "frequencies-hz = [33.0, 150.0]",
+        )
+        .replace("duty-cycles = [0.2, 0.5]", "duty-cycles = [0.2]")
+        .replace("mitigation-min-hz = 90.0", "mitigation-min-hz = 0.0");
+    if display {
+        text = text.replace("[thresholds]", "[thresholds]\nvisibility-max = 1.0");
+        text.push_str("\n[display]\npreset = \"night\"\n");
+    }
+    let plan = ledflicker::plan::parse(&text, Path::new("vis.toml"), String::new()).unwrap();
+    let cases = ledflicker::plan::expand_cases(&plan);
+    let backend = ledflicker::backend::sim::Simulator::new(&plan);
+    let results = ledflicker::runner::run(&plan, &cases, &backend, Some(2), &|_| {}).unwrap();
+    ledflicker::model::assemble(&plan, "sim-ideal", &results)
+}
+
+#[test]
+fn a_beat_on_the_monitor_fails_visibility_max_in_every_export() {
+    let m = run(true);
+    let metric = |case: usize, name: &str| m.cases[case].rois[0].metrics[name];
+    let (beat, steady) = (metric(0, "visibility"), metric(1, "visibility"));
+    assert!(
+        beat.is_some_and(|v| v > 1.0),
+        "a 3 Hz beat is seen: {beat:?}"
+    );
+    assert!(
+        steady.is_some_and(|v| v < 1e-6),
+        "a locked PWM is steady: {steady:?}"
+    );
+    let peak = metric(0, "visibility_peak_hz").unwrap_or(0.0);
+    assert!(
+        (peak - 3.0).abs() < 0.6,
+        "the beat is the most visible: {peak}"
+    );
+    assert!(metric(0, "display_luminance_cd_m2").is_some_and(|l| l > 0.0 && l <= 50.0));
+    // The beat fails on visibility; the steady case passes it.
+    let failed = |case: usize| {
+        m.cases[case]
+            .checks
+            .iter()
+            .any(|k| k.metric == "visibility" && !k.pass)
+    };
+    assert!(failed(0) && !failed(1));
+    assert_eq!(m.cases[0].verdict, Verdict::Fail);
+
+    let csv = ledflicker::report::export::summary_csv(&m).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let row: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
+    assert_eq!(row[col("visibility_max")], "1");
+    assert!(row[col("failed")].contains("visibility "), "{row:?}");
+    let parsed: f64 = row[col("visibility")].parse().unwrap();
+    assert!((parsed - beat.unwrap_or(0.0)).abs() < 1e-6);
+
+    let junit = ledflicker::report::export::junit_xml(&m).unwrap();
+    let failure = junit.split("<failure").nth(1).unwrap_or("");
+    assert!(
+        failure.contains("failed: fdi_2018_worst_phase, visibility"),
+        "{junit}"
+    );
+    let table = ledflicker::report::terminal::summary(&m, Path::new("out"));
+    assert!(table.lines().next().unwrap().contains("Visible"), "{table}");
+}
+
+#[test]
+fn without_a_display_no_visibility_appears_anywhere() {
+    let m = run(false);
+    assert!(m.display.is_none());
+    for c in &m.cases {
+        assert!(c.rois.iter().all(|r| !r.metrics.contains_key("visibility")));
+    }
+    let json = serde_json::to_string(&m).unwrap();
+    assert!(!json.contains("visib") && !json.contains("\"display\""));
+    let csv = ledflicker::report::export::summary_csv(&m).unwrap();
+    assert!(!csv.contains("visib"));
+    let table = ledflicker::report::terminal::summary(&m, Path::new("out"));
+    assert!(!table.contains("Visible"));
+}
