@@ -17,9 +17,12 @@ use std::time::Duration;
 
 use super::captured::{CaptureSummary, find_segments, read_options, roi_rects, to_acquisition};
 use super::rig::{self, RigError};
+use super::scpi::light::LightSource;
 use super::{Acquisition, Backend, BackendError};
 use crate::capture::{self, SourceKind};
 use crate::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Sequence, Span, TestCase};
+use crate::trace::SourceLog;
+use std::sync::atomic::AtomicBool;
 
 /// Name prefix of the rigs' scratch directories in the temporary
 /// directory: `ledflicker-rig-<pid>-<case id>-<random>`.
@@ -140,6 +143,8 @@ pub struct CommandRig {
     sequence: Sequence,
     fps: f64,
     rois: Vec<Roi>,
+    /// The plan's `[source]`, driven while the command records.
+    light: Option<LightSource>,
 }
 
 impl CommandRig {
@@ -171,6 +176,10 @@ impl CommandRig {
             sequence: plan.sequence,
             fps: plan.dut.camera.fps,
             rois: plan.rois.clone(),
+            light: plan
+                .source
+                .clone()
+                .map(|cfg| LightSource::new(cfg, plan.sequence)),
         })
     }
 
@@ -186,6 +195,13 @@ impl CommandRig {
             ("OFF_S", s.off_s.to_string()),
             ("PWM_S", s.pwm_s.to_string()),
             ("FRAME_RATE_FPS", self.fps.to_string()),
+            (
+                "LEAD_IN_S",
+                self.light
+                    .as_ref()
+                    .map_or(0.0, |l| l.lead_in_s())
+                    .to_string(),
+            ),
             ("OUT_DIR", out.display().to_string()),
         ]
         .into_iter()
@@ -243,8 +259,32 @@ impl CommandRig {
         (program, args)
     }
 
-    /// Runs the command for `case`; returns the capture it left in `out`.
-    fn run_command(&self, case: &TestCase, out: &Path) -> Result<PathBuf, BackendError> {
+    /// Runs the command for `case`, with the light source's sequence when
+    /// the plan has one; returns the capture it left in `out`.
+    fn record(
+        &self,
+        case: &TestCase,
+        out: &Path,
+    ) -> Result<(PathBuf, Option<SourceLog>), BackendError> {
+        match &self.light {
+            None => Ok((self.run_command(case, out, &AtomicBool::new(false))?, None)),
+            Some(light) => light
+                .during(case, |cancel| {
+                    self.run_command(case, out, cancel).map_err(|e| e.message)
+                })
+                .map(|(path, log)| (path, Some(log)))
+                .map_err(|message| self.fail(case, message)),
+        }
+    }
+
+    /// Runs the command for `case` (killed when `cancel` is set); returns
+    /// the capture it left in `out`.
+    fn run_command(
+        &self,
+        case: &TestCase,
+        out: &Path,
+        cancel: &AtomicBool,
+    ) -> Result<PathBuf, BackendError> {
         let (program, args) = self.program_and_args();
         let exe = std::env::current_exe().unwrap_or_default();
         let mut command = Command::new(&program);
@@ -253,8 +293,13 @@ impl CommandRig {
             .envs(self.env(case, out))
             .env("LEDFLICKER_EXE", exe)
             .current_dir(&self.plan_dir);
-        let finished = rig::run(&mut command, self.stdin_json(case, out), self.timeout)
-            .map_err(|e| self.fail(case, self.describe(&program, e)))?;
+        let finished = rig::run_until(
+            &mut command,
+            self.stdin_json(case, out),
+            self.timeout,
+            cancel,
+        )
+        .map_err(|e| self.fail(case, self.describe(&program, e)))?;
         if !finished.status.success() {
             let tail: Vec<&str> = finished.stderr.lines().rev().take(5).collect();
             return Err(self.fail(
@@ -329,11 +374,17 @@ impl CommandRig {
                 crate::interrupt::signal_name(signal)
             ),
             RigError::Wait(e) => format!("waiting for the command: {e}"),
+            RigError::Cancelled => format!(
+                "`{}` was killed with its process group: the light source failed",
+                self.argv.join(" ")
+            ),
         }
     }
 
     fn segments(&self) -> SegmentSpec {
-        if !self.capture.segments.detect() {
+        // A recording behind a light source starts with a dark lead-in of
+        // unknown length (the camera's start-up): its steps are found.
+        if !self.capture.segments.detect() || self.light.is_some() {
             return self.capture.segments;
         }
         let s = &self.sequence;
@@ -371,7 +422,7 @@ impl Backend for CommandRig {
         std::fs::create_dir(&out)
             .map_err(|e| self.fail(case, format!("cannot create `{}`: {e}", out.display())))?;
         let result = (|| {
-            let source = self.run_command(case, &out)?;
+            let (source, light_source) = self.record(case, &out)?;
             let names: Vec<String> = self.rois.iter().map(|r| r.name.clone()).collect();
             // Frames without timestamps run at the plan's frame rate.
             let mut opts = read_options(&self.capture);
@@ -392,6 +443,7 @@ impl Backend for CommandRig {
                 segments: found,
                 time_base_s: trace.time_base_s,
                 stated_frame_rate_fps: trace.stated_fps,
+                light_source,
             });
             Ok(acq)
         })();

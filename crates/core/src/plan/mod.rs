@@ -12,6 +12,7 @@ mod grid;
 mod p2020;
 mod raw;
 pub mod shipped;
+pub mod source;
 mod spans;
 mod validate;
 
@@ -75,6 +76,9 @@ pub struct Plan {
     pub capture: Option<CaptureConfig>,
     /// IEEE P2020 KPI settings (`[p2020]`).
     pub p2020: P2020Options,
+    /// The light source driven over SCPI (`[source]`); only a command
+    /// plan has one.
+    pub source: Option<source::SourceConfig>,
     /// Plausibility warnings, in file order: values that are valid but
     /// most likely in another unit (docs/plan-format.md, "Plausibility
     /// warnings"). They never stop a run; [`Plan::warnings_text`] words them.

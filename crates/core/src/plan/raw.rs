@@ -38,6 +38,8 @@ pub struct RawPlan {
     pub case: Vec<RawCaseEntry>,
     /// `[p2020]`: IEEE P2020 KPI settings.
     pub p2020: Option<RawP2020>,
+    /// `[source]`: the light source driven over SCPI.
+    pub source: Option<RawSource>,
 }
 
 /// `[plan]`
@@ -298,4 +300,33 @@ pub struct RawP2020 {
     pub contrast_threshold: Option<f64>,
     pub mmp_delta: Option<f64>,
     pub mmp_reference: Option<String>,
+}
+
+/// `[source]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawSource {
+    pub instrument: Option<String>,
+    pub host: Option<String>,
+    pub port: Option<i64>,
+    pub channel: Option<i64>,
+    pub amplitude_vpp: Option<f64>,
+    pub offset_v: Option<f64>,
+    pub timeout_s: Option<f64>,
+    pub lead_in_s: Option<f64>,
+    pub reconnects: Option<i64>,
+    pub commands: Option<RawSourceCommands>,
+}
+
+/// `[source.commands]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawSourceCommands {
+    pub identify: Option<String>,
+    pub error_query: Option<String>,
+    pub setup: Option<Vec<String>>,
+    pub steady: Option<Vec<String>>,
+    pub pwm: Option<Vec<String>>,
+    pub output_on: Option<Vec<String>>,
+    pub output_off: Option<Vec<String>>,
 }

@@ -8,7 +8,8 @@
 //! - `dut`: `[dut]` and camera profiles; `camera`: `[dut.camera]`;
 //!   `sensor`: its `[sensor]`, `[[capture]]`, `[hdr]`, `[tone]` and gains;
 //!   `ae`: its `[auto-exposure]`;
-//! - `roi`: `[[roi]]`; `scene`: `[scene]`; `thresholds`: `[thresholds]`.
+//! - `roi`: `[[roi]]`; `scene`: `[scene]`; `thresholds`: `[thresholds]`;
+//!   `source`: `[source]` (the command backend's SCPI light source).
 //!
 //! Every check pushes a [`Diagnostic`] into the shared collector
 //! (`plan::check::Checker`) and carries on, so the user sees all the
@@ -28,6 +29,7 @@ mod p2020;
 mod roi;
 mod scene;
 mod sensor;
+mod source;
 mod thresholds;
 
 use std::path::Path;
@@ -83,6 +85,8 @@ pub(super) fn validate(
         pwm_s,
     );
     let p2020 = p2020::p2020_options(&mut c, raw.p2020);
+    let command = !role.is_sim && !role.captured;
+    let (source, source_failed) = source::source_table(&mut c, raw.source, command);
     let (levels, freqs, duties) = conditions(&mut c, light, grid, role.captured, pwm_s);
     let dut = dut::dut_table(&mut c, raw.dut, role.is_sim, path);
     let rois = roi::rois(&mut c, raw.roi, dut.as_ref().map(|d| &d.camera), has_sensor);
@@ -106,7 +110,7 @@ pub(super) fn validate(
         pwm_s: pwm_s?,
     };
     let dut = dut?;
-    if capture_failed {
+    if capture_failed || source_failed {
         return None;
     }
     sequence_fits(&mut c, &sequence, dut.camera.fps)?;
@@ -130,6 +134,7 @@ pub(super) fn validate(
         thresholds: thresholds?,
         capture,
         p2020: p2020?,
+        source,
         warnings: Vec::new(),
     })
 }
