@@ -80,6 +80,10 @@ pub(super) struct PlanArgs {
     /// inputs must be those of that run.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["out", "shard"])]
     resume: Option<PathBuf>,
+    /// Print the cases and every line the light source (`[source]`) would
+    /// be sent, with the planned times; connect to nothing, run nothing.
+    #[arg(long, conflicts_with_all = ["shard", "resume"])]
+    dry_run: bool,
 }
 
 pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
@@ -88,6 +92,9 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
     }
     let total = crate::timings::span("total");
     let (plan, date) = load(&args)?;
+    if args.dry_run {
+        return super::rig::dry_run(&plan);
+    }
     if let Some(spec) = &args.shard {
         let spec = crate::shard::ShardSpec::parse(spec, &|k| std::env::var(k).ok())?;
         return super::shard::run_shard(&super::shard::ShardRun {

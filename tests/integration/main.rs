@@ -14,6 +14,7 @@ mod conditions;
 mod detect;
 mod exact;
 mod features;
+mod lab;
 mod legible;
 mod mutate;
 mod physics;

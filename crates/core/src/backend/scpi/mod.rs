@@ -208,6 +208,26 @@ impl Instrument {
         Ok(inst)
     }
 
+    /// Connects, asks the identity and reads the error queue, and sends
+    /// nothing else: no setup line, nothing that lights the LED (`rig
+    /// check`). Returns the identity and the queue's entries.
+    pub fn probe(cfg: &SourceConfig) -> Result<(String, Vec<(i64, String)>), SourceError> {
+        let timeout = Duration::from_secs_f64(cfg.timeout_s);
+        let mut client = Client::connect(&cfg.host, cfg.port, timeout)?;
+        let identity = if cfg.commands.identify.is_empty() {
+            String::new()
+        } else {
+            client.query(&cfg.commands.identify)?.trim().to_string()
+        };
+        let mut inst = Instrument {
+            cfg: cfg.clone(),
+            client,
+            identity,
+        };
+        let errors = inst.errors()?;
+        Ok((inst.identity, errors))
+    }
+
     /// Its answer to the identity query (`*IDN?`), trimmed.
     pub fn identity(&self) -> &str {
         &self.identity
