@@ -49,6 +49,8 @@ fn lab_bench_plan_sends_the_templates_sequence_and_logs_the_step_times() {
     let path = bench_plan(&dir, sim.port(), 1.0);
     let o = ledflicker_in(&["plan", "bench.toml", "--out", "out", "-q"], &dir);
     assert!(matches!(o.status.code(), Some(0 | 1)), "{}", stderr(&o));
+    // The ON and OFF lengths found in the recording agree with the log.
+    assert!(!stderr(&o).contains("more than a frame"), "{}", stderr(&o));
     // Exactly the template's lines, each step followed by the error query.
     let p = plan::load(&path).unwrap();
     let source = p.source.as_ref().unwrap();

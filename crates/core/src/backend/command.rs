@@ -18,6 +18,7 @@ use std::time::Duration;
 use super::captured::{CaptureSummary, find_segments, read_options, roi_rects, to_acquisition};
 use super::rig::{self, RigError};
 use super::scpi::light::LightSource;
+use super::scpi::sequence;
 use super::{Acquisition, Backend, BackendError};
 use crate::capture::{self, SourceKind};
 use crate::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Sequence, Span, TestCase};
@@ -435,6 +436,12 @@ impl Backend for CommandRig {
             trace.format = trace.format.replace(&out.display().to_string(), "frames");
             let found = find_segments(&self.segments(), &trace, &source)
                 .map_err(|e| self.fail(case, e.to_string()))?;
+            if let Some(log) = &light_source {
+                let frame_s = 1.0 / self.fps;
+                for w in sequence::timing_warnings(&found.steps, &log.steps, frame_s) {
+                    eprintln!("warning: case `{}`: {w}", case.id);
+                }
+            }
             let mut acq = to_acquisition(&trace, &found, &self.rois, self.capture.saturation_dn);
             acq.capture = Some(CaptureSummary {
                 source: format!("command: {}", self.argv.join(" ")),
