@@ -85,6 +85,8 @@ fn lab_bench_plan_sends_the_templates_sequence_and_logs_the_step_times() {
     // Segments found in the recording, which starts in the dark.
     let case = &json["cases"][0];
     assert_eq!(case["capture"]["segments"]["method"], "detected", "{case}");
+    assert_eq!(case["capture"]["segments"]["rule"], "sequence", "{case}");
+    assert_eq!(case["rois"][0]["levels"]["on"], 40.0, "{case}");
 }
 
 #[test]
@@ -221,4 +223,37 @@ fn lab_dry_run_prints_every_line_and_connects_to_nothing() {
         assert!(out.contains(want), "{want} not in\n{out}");
     }
     assert!(!root().join("reports/bench-scpi").exists());
+}
+
+#[test]
+fn lab_bench_plan_gives_the_verdicts_of_the_same_rig_without_a_source() {
+    let dir = scratch("lab-verdicts");
+    let sim = SimInstrument::start(Faults::default()).unwrap();
+    let path = bench_plan(&dir, sim.port(), 1.0);
+    let text = std::fs::read_to_string(&path).unwrap();
+    // The same plan and camera, the light left to the rig: no lead-in, the
+    // segments from [sequence].
+    let (head, tail) = text.split_once("[source]").unwrap();
+    let tail = &tail[tail.find("[thresholds]").unwrap()..];
+    std::fs::write(dir.join("plain.toml"), format!("{head}{tail}")).unwrap();
+    let mut metrics = Vec::new();
+    for (plan, out) in [("bench.toml", "a"), ("plain.toml", "b")] {
+        let o = ledflicker_in(&["plan", plan, "--out", out, "-q"], &dir);
+        assert!(matches!(o.status.code(), Some(0 | 1)), "{}", stderr(&o));
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join(out).join("results.json")).unwrap())
+                .unwrap();
+        metrics.push(json["cases"][0].clone());
+    }
+    let (with, without) = (&metrics[0], &metrics[1]);
+    assert_eq!(with["verdict"], without["verdict"]);
+    assert!(without["capture"].get("light_source").is_none());
+    for key in ["fdi_2018", "percent_flicker"] {
+        let a = with["rois"][0]["metrics"][key].as_f64().unwrap();
+        let b = without["rois"][0]["metrics"][key].as_f64().unwrap();
+        assert!(
+            (a - b).abs() <= 1e-6 * b.abs().max(1.0),
+            "{key}: {a} vs {b}"
+        );
+    }
 }

@@ -15,10 +15,13 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
-use super::captured::{CaptureSummary, find_segments, read_options, roi_rects, to_acquisition};
+use super::captured::{
+    CaptureSummary, find_segments_with, read_options, roi_rects, to_acquisition,
+};
 use super::rig::{self, RigError};
 use super::scpi::light::LightSource;
 use super::scpi::sequence;
+use super::segments::Detection;
 use super::{Acquisition, Backend, BackendError};
 use crate::capture::{self, SourceKind};
 use crate::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Sequence, Span, TestCase};
@@ -144,8 +147,12 @@ pub struct CommandRig {
     sequence: Sequence,
     fps: f64,
     rois: Vec<Roi>,
-    /// The plan's `[source]`, driven while the command records.
-    light: Option<LightSource>,
+    /// The plan's `[source]`, driven while the command records (boxed:
+    /// the other backends are far smaller).
+    light: Option<Box<LightSource>>,
+    /// How a `[source]` recording's segments are found: the plan's
+    /// sequence, settle time and LED ROIs.
+    detection: Detection,
 }
 
 impl CommandRig {
@@ -180,7 +187,8 @@ impl CommandRig {
             light: plan
                 .source
                 .clone()
-                .map(|cfg| LightSource::new(cfg, plan.sequence)),
+                .map(|cfg| Box::new(LightSource::new(cfg, plan.sequence))),
+            detection: Detection::for_plan(plan),
         })
     }
 
@@ -434,7 +442,7 @@ impl Backend for CommandRig {
             // rig's output `frames/...`, so the same plan gives the same
             // results.json on every run.
             trace.format = trace.format.replace(&out.display().to_string(), "frames");
-            let found = find_segments(&self.segments(), &trace, &source)
+            let found = find_segments_with(&self.segments(), &trace, &source, &self.detection)
                 .map_err(|e| self.fail(case, e.to_string()))?;
             if let Some(log) = &light_source {
                 let frame_s = 1.0 / self.fps;
