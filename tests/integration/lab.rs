@@ -111,6 +111,8 @@ fn lab_an_instrument_error_stops_the_run_with_its_message_and_the_output_off() {
 fn lab_ctrl_c_during_a_case_leaves_the_output_off() {
     let dir = scratch("lab-sigint");
     let sim = SimInstrument::start(Faults::default()).unwrap();
+    // The simulator's clock starts a moment before this one.
+    let sim_clock = Instant::now();
     // A long ON step to send the signal in.
     bench_plan(&dir, sim.port(), 30.0);
     let err_path = dir.join("stderr.txt");
@@ -137,6 +139,7 @@ fn lab_ctrl_c_during_a_case_leaves_the_output_off() {
         0
     );
     let signalled = Instant::now();
+    let signal_at = signalled - sim_clock;
     let status = loop {
         if let Some(status) = child.try_wait().unwrap() {
             break status;
@@ -151,7 +154,7 @@ fn lab_ctrl_c_during_a_case_leaves_the_output_off() {
     assert_eq!(status.code(), Some(130), "{err}");
     let lines = sim.lines();
     assert_eq!(last_output(&lines), Some("OUTP1 OFF"), "{lines:?}");
-    // Off within a second of the signal, long before the 30 s ON ended.
+    // Off soon after the signal, long before the 30 s ON ended.
     let on = sim
         .received()
         .into_iter()
@@ -163,10 +166,12 @@ fn lab_ctrl_c_during_a_case_leaves_the_output_off() {
         .into_iter()
         .find(|r| r.line == "OUTP1 ON")
         .unwrap();
+    assert!(on.at > first_on.at, "{lines:?}");
+    let latency = on.at.saturating_sub(signal_at);
+    eprintln!("output off {latency:?} after SIGINT");
     assert!(
-        on.at > first_on.at && on.at - first_on.at < Duration::from_secs(20),
-        "{:?} after ON",
-        on.at - first_on.at
+        latency < Duration::from_secs(2),
+        "output off {latency:?} after SIGINT"
     );
 }
 
