@@ -1,5 +1,5 @@
 //! Command-line interface: `plan`, `merge`, `validate`, `simulate`, `advise`,
-//! `bench`, `linetime`, `render`, `roi`, `bands`, `calibrate`, `keygen`, `sign`,
+//! `bench`, `linetime`, `render`, `rig`, `roi`, `bands`, `calibrate`, `keygen`, `sign`,
 //! `verify`, `import`, `history` and `compare`, one module each (`linetime`, `bands` and `calibrate` share
 //! `calibrate`; `keygen`, `sign` and `verify` share `sign`; `import` and `history`
 //! share `campaign`; `plan --shard`
@@ -37,6 +37,7 @@ mod merge;
 pub(crate) mod output;
 mod plan;
 mod render;
+mod rig;
 mod roi;
 mod shard;
 #[cfg(feature = "signoff")]
@@ -110,6 +111,9 @@ enum Command {
     Linetime(calibrate::LinetimeArgs),
     /// Render ideal-camera frames (ON, OFF, PWM) as grey PNG files.
     Render(render::RenderArgs),
+    /// A lab rig's light source: `rig check PLAN` connects, prints its
+    /// identity, error queue and settings, and lights nothing.
+    Rig(rig::RigArgs),
     /// Draw a plan's ROIs, named, on the first frame of each capture (PNG,
     /// full resolution) and print them as a table; with --detect CAPTURE,
     /// propose LED ROIs from the capture's ON -> OFF step as `[[roi]]` blocks.
@@ -201,6 +205,7 @@ fn run(cli: Cli, version: &'static str) -> Result<i32, Failure> {
         Command::Bench(args) => bench::bench(args),
         Command::Linetime(args) => calibrate::linetime(args),
         Command::Render(args) => render::render(args),
+        Command::Rig(args) => rig::rig(args),
         Command::Roi(args) => roi::roi(args),
         Command::Bands(args) => calibrate::bands(args),
         Command::Calibrate(args) => calibrate::calibrate(args),

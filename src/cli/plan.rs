@@ -89,6 +89,10 @@ pub(super) struct PlanArgs {
     limits: super::args::LimitArgs,
     #[command(flatten)]
     record: super::campaign::RecordArgs,
+    /// Print the cases and every line the light source (`[source]`) would
+    /// be sent, with the planned times; connect to nothing, run nothing.
+    #[arg(long, conflicts_with_all = ["shard", "resume"])]
+    dry_run: bool,
 }
 
 pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
@@ -97,6 +101,9 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
     }
     let total = crate::timings::span("total");
     let (plan, date) = load(&args)?;
+    if args.dry_run {
+        return super::rig::dry_run(&plan);
+    }
     if let Some(spec) = &args.shard {
         let spec = crate::shard::ShardSpec::parse(spec, &|k| std::env::var(k).ok())?;
         return super::shard::run_shard(&super::shard::ShardRun {

@@ -376,11 +376,7 @@ fn load_plan(
     let built_in = plan::shipped::plan_at(&m.plan_path);
     // The shards checked the plan's work estimate against the limits they
     // ran with (`plan --max-memory`); the merge takes the plan they ran.
-    let unbounded = plan::ResourceLimits {
-        memory_bytes: f64::INFINITY,
-        output_bytes: f64::INFINITY,
-        every_case: false,
-    };
+    let unbounded = plan::ResourceLimits::unbounded();
     let mut plan = match (given, built_in) {
         (Some(p), _) => plan::load_within(p, unbounded)?,
         (None, _) if as_given.is_file() => plan::load_within(&as_given, unbounded)?,

@@ -16,6 +16,7 @@ mod detect;
 mod estimate;
 mod exact;
 mod features;
+mod lab;
 mod legible;
 mod mutate;
 mod physics;

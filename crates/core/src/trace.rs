@@ -377,6 +377,35 @@ pub struct CaptureSummary {
     /// when it states none.
     #[serde(default)]
     pub stated_frame_rate_fps: Option<Ratio>,
+    /// The light source driven over SCPI while the capture was recorded
+    /// (`[source]`); absent without one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_source: Option<SourceLog>,
+}
+
+/// What the light source was sent for one case, and when.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SourceLog {
+    /// The template, e.g. "keysight-33500b" or "custom".
+    pub instrument: String,
+    /// `host:port` of its SCPI socket.
+    pub address: String,
+    /// Its answer to the identity query (`*IDN?`).
+    pub identity: String,
+    /// The steps, in the order sent.
+    pub steps: Vec<SourceStep>,
+}
+
+/// One step of the light sequence as sent.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SourceStep {
+    /// "prepare", "on", "off", "pwm" or "end".
+    pub step: String,
+    /// When its first line was sent, seconds from the start of the
+    /// capture command (host monotonic clock).
+    pub time_s: f64,
+    /// The SCPI lines sent.
+    pub commands: Vec<String>,
 }
 
 /// An exact ratio `num / den` as a container states it: a time base in

@@ -216,6 +216,7 @@ impl Captured {
                     segments: found,
                     time_base_s: trace.time_base_s,
                     stated_frame_rate_fps: trace.stated_fps,
+                    light_source: None,
                 });
                 Ok((c.id.clone(), acq))
             })

@@ -15,11 +15,18 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
-use super::captured::{CaptureSummary, find_segments, read_options, roi_rects, to_acquisition};
+use super::captured::{
+    CaptureSummary, find_segments_with, read_options, roi_rects, to_acquisition,
+};
 use super::rig::{self, RigError};
+use super::scpi::light::LightSource;
+use super::scpi::sequence;
+use super::segments::Detection;
 use super::{Acquisition, Backend, BackendError};
 use crate::capture::{self, SourceKind};
 use crate::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Sequence, Span, TestCase};
+use crate::trace::SourceLog;
+use std::sync::atomic::AtomicBool;
 
 /// Name prefix of the rigs' scratch directories in the temporary
 /// directory: `ledflicker-rig-<pid>-<case id>-<random>`.
@@ -140,6 +147,12 @@ pub struct CommandRig {
     sequence: Sequence,
     fps: f64,
     rois: Vec<Roi>,
+    /// The plan's `[source]`, driven while the command records (boxed:
+    /// the other backends are far smaller).
+    light: Option<Box<LightSource>>,
+    /// How a `[source]` recording's segments are found: the plan's
+    /// sequence, settle time and LED ROIs.
+    detection: Detection,
 }
 
 impl CommandRig {
@@ -171,6 +184,11 @@ impl CommandRig {
             sequence: plan.sequence,
             fps: plan.dut.camera.fps,
             rois: plan.rois.clone(),
+            light: plan
+                .source
+                .clone()
+                .map(|cfg| Box::new(LightSource::new(cfg, plan.sequence))),
+            detection: Detection::for_plan(plan),
         })
     }
 
@@ -186,6 +204,13 @@ impl CommandRig {
             ("OFF_S", s.off_s.to_string()),
             ("PWM_S", s.pwm_s.to_string()),
             ("FRAME_RATE_FPS", self.fps.to_string()),
+            (
+                "LEAD_IN_S",
+                self.light
+                    .as_ref()
+                    .map_or(0.0, |l| l.lead_in_s())
+                    .to_string(),
+            ),
             ("OUT_DIR", out.display().to_string()),
         ]
         .into_iter()
@@ -243,8 +268,32 @@ impl CommandRig {
         (program, args)
     }
 
-    /// Runs the command for `case`; returns the capture it left in `out`.
-    fn run_command(&self, case: &TestCase, out: &Path) -> Result<PathBuf, BackendError> {
+    /// Runs the command for `case`, with the light source's sequence when
+    /// the plan has one; returns the capture it left in `out`.
+    fn record(
+        &self,
+        case: &TestCase,
+        out: &Path,
+    ) -> Result<(PathBuf, Option<SourceLog>), BackendError> {
+        match &self.light {
+            None => Ok((self.run_command(case, out, &AtomicBool::new(false))?, None)),
+            Some(light) => light
+                .during(case, |cancel| {
+                    self.run_command(case, out, cancel).map_err(|e| e.message)
+                })
+                .map(|(path, log)| (path, Some(log)))
+                .map_err(|message| self.fail(case, message)),
+        }
+    }
+
+    /// Runs the command for `case` (killed when `cancel` is set); returns
+    /// the capture it left in `out`.
+    fn run_command(
+        &self,
+        case: &TestCase,
+        out: &Path,
+        cancel: &AtomicBool,
+    ) -> Result<PathBuf, BackendError> {
         let (program, args) = self.program_and_args();
         let exe = std::env::current_exe().unwrap_or_default();
         let mut command = Command::new(&program);
@@ -253,8 +302,13 @@ impl CommandRig {
             .envs(self.env(case, out))
             .env("LEDFLICKER_EXE", exe)
             .current_dir(&self.plan_dir);
-        let finished = rig::run(&mut command, self.stdin_json(case, out), self.timeout)
-            .map_err(|e| self.fail(case, self.describe(&program, e)))?;
+        let finished = rig::run_until(
+            &mut command,
+            self.stdin_json(case, out),
+            self.timeout,
+            cancel,
+        )
+        .map_err(|e| self.fail(case, self.describe(&program, e)))?;
         if !finished.status.success() {
             let tail: Vec<&str> = finished.stderr.lines().rev().take(5).collect();
             return Err(self.fail(
@@ -329,11 +383,17 @@ impl CommandRig {
                 crate::interrupt::signal_name(signal)
             ),
             RigError::Wait(e) => format!("waiting for the command: {e}"),
+            RigError::Cancelled => format!(
+                "`{}` was killed with its process group: the light source failed",
+                self.argv.join(" ")
+            ),
         }
     }
 
     fn segments(&self) -> SegmentSpec {
-        if !self.capture.segments.detect() {
+        // A recording behind a light source starts with a dark lead-in of
+        // unknown length (the camera's start-up): its steps are found.
+        if !self.capture.segments.detect() || self.light.is_some() {
             return self.capture.segments;
         }
         let s = &self.sequence;
@@ -371,7 +431,7 @@ impl Backend for CommandRig {
         std::fs::create_dir(&out)
             .map_err(|e| self.fail(case, format!("cannot create `{}`: {e}", out.display())))?;
         let result = (|| {
-            let source = self.run_command(case, &out)?;
+            let (source, light_source) = self.record(case, &out)?;
             let names: Vec<String> = self.rois.iter().map(|r| r.name.clone()).collect();
             // Frames without timestamps run at the plan's frame rate.
             let mut opts = read_options(&self.capture);
@@ -382,8 +442,14 @@ impl Backend for CommandRig {
             // rig's output `frames/...`, so the same plan gives the same
             // results.json on every run.
             trace.format = trace.format.replace(&out.display().to_string(), "frames");
-            let found = find_segments(&self.segments(), &trace, &source)
+            let found = find_segments_with(&self.segments(), &trace, &source, &self.detection)
                 .map_err(|e| self.fail(case, e.to_string()))?;
+            if let Some(log) = &light_source {
+                let frame_s = 1.0 / self.fps;
+                for w in sequence::timing_warnings(&found.steps, &log.steps, frame_s) {
+                    eprintln!("warning: case `{}`: {w}", case.id);
+                }
+            }
             let mut acq = to_acquisition(&trace, &found, &self.rois, self.capture.saturation_dn);
             acq.capture = Some(CaptureSummary {
                 source: format!("command: {}", self.argv.join(" ")),
@@ -392,6 +458,7 @@ impl Backend for CommandRig {
                 segments: found,
                 time_base_s: trace.time_base_s,
                 stated_frame_rate_fps: trace.stated_fps,
+                light_source,
             });
             Ok(acq)
         })();

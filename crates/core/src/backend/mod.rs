@@ -10,6 +10,7 @@ pub mod captured;
 pub mod command;
 pub mod factory;
 pub mod rig;
+pub mod scpi;
 pub mod segments;
 pub mod sim;
 

@@ -14,6 +14,7 @@
 use std::io::{Read, Write};
 use std::os::unix::process::CommandExt;
 use std::process::{Command, ExitStatus, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -54,6 +55,9 @@ pub enum RigError {
     },
     /// Waiting for it failed.
     Wait(std::io::Error),
+    /// The caller cancelled it (the light source failed); the group was
+    /// killed.
+    Cancelled,
 }
 
 /// The last [`STDERR_TAIL`] bytes of a stream.
@@ -103,6 +107,16 @@ pub fn escape_controls(text: &str) -> String {
 /// Runs `command` in its own process group with `stdin` on its standard
 /// input, stdout discarded, and a time-out of `timeout` from spawn.
 pub fn run(command: &mut Command, stdin: String, timeout: Duration) -> Result<Finished, RigError> {
+    run_until(command, stdin, timeout, &AtomicBool::new(false))
+}
+
+/// [`run`], also killing the group as soon as `cancel` is set.
+pub fn run_until(
+    command: &mut Command,
+    stdin: String,
+    timeout: Duration,
+    cancel: &AtomicBool,
+) -> Result<Finished, RigError> {
     let start = Instant::now();
     let deadline = start + timeout;
     let mut child = command
@@ -146,6 +160,11 @@ pub fn run(command: &mut Command, stdin: String, timeout: Duration) -> Result<Fi
             kill_group(pgid);
             let _ = child.wait();
             return Err(RigError::Interrupted { signal });
+        }
+        if cancel.load(Ordering::SeqCst) {
+            kill_group(pgid);
+            let _ = child.wait();
+            return Err(RigError::Cancelled);
         }
         match exited(pgid) {
             Ok(true) => break,

@@ -149,6 +149,19 @@ pub struct ResourceLimits {
     pub every_case: bool,
 }
 
+impl ResourceLimits {
+    /// No limit on memory or disk: for what runs no case or writes no
+    /// report of its own (`merge` takes the plan its shards ran, `rig
+    /// check` sets up an instrument).
+    pub fn unbounded() -> Self {
+        ResourceLimits {
+            memory_bytes: f64::INFINITY,
+            output_bytes: f64::INFINITY,
+            every_case: false,
+        }
+    }
+}
+
 impl Default for ResourceLimits {
     fn default() -> Self {
         ResourceLimits {

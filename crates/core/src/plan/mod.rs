@@ -14,6 +14,7 @@ mod p2020;
 pub mod profile;
 mod raw;
 pub mod shipped;
+pub mod source;
 mod spans;
 mod validate;
 
@@ -85,6 +86,9 @@ pub struct Plan {
     /// The CMS monitor (`[display]`); `None` when the plan has none, and
     /// then no visibility is computed.
     pub display: Option<display::Display>,
+    /// The light source driven over SCPI (`[source]`); only a command
+    /// plan has one.
+    pub source: Option<source::SourceConfig>,
     /// Plausibility warnings, in file order: values that are valid but
     /// most likely in another unit (docs/plan-format.md, "Plausibility
     /// warnings"). They never stop a run; [`Plan::warnings_text`] words them.

@@ -42,6 +42,8 @@ pub struct RawPlan {
     pub report: Option<RawReport>,
     /// `[display]`: the CMS monitor and viewing geometry.
     pub display: Option<RawDisplay>,
+    /// `[source]`: the light source driven over SCPI.
+    pub source: Option<RawSource>,
 }
 
 /// `[plan]`
@@ -340,4 +342,33 @@ pub struct RawDisplay {
     pub distance_mm: Option<f64>,
     pub full_scale_dn: Option<f64>,
     pub image_width_px: Option<i64>,
+}
+
+/// `[source]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawSource {
+    pub instrument: Option<String>,
+    pub host: Option<String>,
+    pub port: Option<i64>,
+    pub channel: Option<i64>,
+    pub amplitude_vpp: Option<f64>,
+    pub offset_v: Option<f64>,
+    pub timeout_s: Option<f64>,
+    pub lead_in_s: Option<f64>,
+    pub reconnects: Option<i64>,
+    pub commands: Option<RawSourceCommands>,
+}
+
+/// `[source.commands]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawSourceCommands {
+    pub identify: Option<String>,
+    pub error_query: Option<String>,
+    pub setup: Option<Vec<String>>,
+    pub steady: Option<Vec<String>>,
+    pub pwm: Option<Vec<String>>,
+    pub output_on: Option<Vec<String>>,
+    pub output_off: Option<Vec<String>>,
 }

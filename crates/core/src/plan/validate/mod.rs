@@ -9,6 +9,7 @@
 //!   `sensor`: its `[sensor]`, `[[capture]]`, `[hdr]`, `[tone]` and gains;
 //!   `ae`: its `[auto-exposure]`;
 //! - `roi`: `[[roi]]`; `scene`: `[scene]`; `thresholds`: `[thresholds]`;
+//!   `source`: `[source]` (the command backend's SCPI light source);
 //! - `report`: `[report]` (also of a report profile file).
 //!
 //! Every check pushes a [`Diagnostic`] into the shared collector
@@ -31,6 +32,7 @@ mod report;
 mod roi;
 mod scene;
 mod sensor;
+mod source;
 mod thresholds;
 
 use std::path::Path;
@@ -88,6 +90,8 @@ pub(super) fn validate(
         pwm_s,
     );
     let p2020 = p2020::p2020_options(&mut c, raw.p2020);
+    let command = !role.is_sim && !role.captured;
+    let (source, source_failed) = source::source_table(&mut c, raw.source, command);
     let (levels, freqs, duties) = conditions(&mut c, light, grid, role.captured, pwm_s);
     let dut = dut::dut_table(&mut c, raw.dut, role.is_sim, path);
     let rois = roi::rois(&mut c, raw.roi, dut.as_ref().map(|d| &d.camera), has_sensor);
@@ -114,7 +118,7 @@ pub(super) fn validate(
         pwm_s: pwm_s?,
     };
     let dut = dut?;
-    if capture_failed {
+    if capture_failed || source_failed {
         return None;
     }
     sequence_fits(&mut c, &sequence, dut.camera.fps)?;
@@ -142,6 +146,7 @@ pub(super) fn validate(
         p2020: p2020?,
         report: report?,
         display,
+        source,
         warnings: Vec::new(),
     })
 }

@@ -1,0 +1,130 @@
+//! `ledflicker rig check PLAN` and `ledflicker plan --dry-run`: a lab
+//! rig's light source (`[source]`, docs/lab.md) looked at before a run.
+//! `rig check` connects, prints the instrument's identity, its error
+//! queue and the plan's settings, and sends nothing but the identity and
+//! error queries; the dry run connects to nothing and prints every line a
+//! run would send, case by case, with the planned times.
+
+use clap::{Args, Subcommand};
+
+use super::output::outln;
+use super::{EXIT_PASS, Failure};
+use crate::backend::scpi::{self, Instrument};
+use crate::plan::source::SourceConfig;
+use crate::plan::{self, Plan};
+
+#[derive(Args, Debug)]
+pub(super) struct RigArgs {
+    #[command(subcommand)]
+    action: RigAction,
+}
+
+#[derive(Subcommand, Debug)]
+enum RigAction {
+    /// Connect to the plan's light source, print its identity, its error
+    /// queue and the plan's settings; sets nothing (the LED stays as it is).
+    Check {
+        /// Plan file, or a plan name from test-plans/.
+        plan: String,
+    },
+}
+
+pub(super) fn rig(args: RigArgs) -> Result<i32, Failure> {
+    match args.action {
+        RigAction::Check { plan } => check(&plan),
+    }
+}
+
+fn check(arg: &str) -> Result<i32, Failure> {
+    let plan = super::validate::load(arg, crate::plan::ResourceLimits::unbounded())?;
+    let Some(source) = &plan.source else {
+        return Err(crate::error::UsageError(format!(
+            "plan `{}` has no [source]: there is no instrument to check\n    hint: docs/lab.md shows a [source] table",
+            plan.id
+        ))
+        .into());
+    };
+    settings(&plan, source)?;
+    let (identity, errors) =
+        Instrument::probe(source).map_err(|e| Failure::Internal(format!("light source: {e}")))?;
+    outln!("identity: {identity}")?;
+    if errors.is_empty() {
+        outln!("error queue: empty")?;
+    } else {
+        for (code, message) in &errors {
+            outln!("error queue: {code}, \"{message}\" (read and cleared)")?;
+        }
+    }
+    Ok(EXIT_PASS)
+}
+
+/// The plan's light source and capture command, as a run would use them.
+fn settings(plan: &Plan, s: &SourceConfig) -> Result<(), Failure> {
+    outln!(
+        "light source: {} at {}:{}, channel {}",
+        s.instrument.name(),
+        s.host,
+        s.port,
+        s.channel
+    )?;
+    outln!(
+        "  PWM: square wave {} Vpp, offset {} V (low {} V, high {} V); ON: steady {} V",
+        scpi::scpi_number(s.amplitude_vpp),
+        scpi::scpi_number(s.offset_v),
+        scpi::scpi_number(s.low_v()),
+        scpi::scpi_number(s.high_v()),
+        scpi::scpi_number(s.high_v())
+    )?;
+    outln!(
+        "  time limit {} s per answer, {} reconnects, {} s dark lead-in",
+        scpi::scpi_number(s.timeout_s),
+        s.reconnects,
+        scpi::scpi_number(s.lead_in_s)
+    )?;
+    if let Some(cmd) = plan.capture.as_ref().and_then(|c| c.command.as_ref()) {
+        outln!("capture command: {}", cmd.argv.join(" "))?;
+    }
+    Ok(())
+}
+
+/// `plan --dry-run`: every line the run would send, nothing connected.
+pub(super) fn dry_run(plan: &Plan) -> Result<i32, Failure> {
+    let cases = plan::expand_cases(plan);
+    outln!(
+        "dry run of plan `{}`: {} cases; nothing is connected or sent",
+        plan.id,
+        cases.len()
+    )?;
+    let Some(source) = &plan.source else {
+        outln!("the plan has no [source]: a run sends no instrument commands")?;
+        return Ok(EXIT_PASS);
+    };
+    settings(plan, source)?;
+    let query = &source.commands.error_query;
+    let checked = |lines: &mut Vec<String>| {
+        if !query.is_empty() {
+            lines.push(query.clone());
+        }
+    };
+    outln!("on connecting:")?;
+    for line in scpi::connect_lines(source) {
+        outln!("  {line}")?;
+    }
+    for case in &cases {
+        outln!("case {}:", case.id)?;
+        let mut at = 0.0;
+        for step in scpi::case_steps(source, case, &plan.sequence) {
+            let mut lines = step.lines.clone();
+            checked(&mut lines);
+            for (i, line) in lines.iter().enumerate() {
+                if i == 0 {
+                    outln!("  {:>9.3} s  {:<8} {line}", at, step.name)?;
+                } else {
+                    outln!("  {:>11}  {:<8} {line}", "", "")?;
+                }
+            }
+            at += step.hold_s;
+        }
+    }
+    Ok(EXIT_PASS)
+}
