@@ -4,7 +4,7 @@
 //! this model and imports nothing else of the pipeline; the types it shows
 //! from lower modules are re-exported here (docs/architecture.md).
 //!
-//! Contract `ledflicker.results/3` (see docs/changes.md; fields may be added,
+//! Contract `ledflicker.results/4` (see docs/changes.md; fields may be added,
 //! never renamed):
 //! `schema`, `plan {id, title, path, sha256}`, `verdict`, and `cases[]` with
 //! `id, light_lux, frequency_hz, duty, verdict` and
@@ -61,7 +61,7 @@ pub use crate::trace::{
 pub use build::assemble;
 
 /// Schema id of results.json.
-pub const RESULTS_SCHEMA: &str = "ledflicker.results/3";
+pub const RESULTS_SCHEMA: &str = "ledflicker.results/4";
 
 /// Top of results.json.
 #[derive(Debug, Clone, Serialize, Deserialize)]
