@@ -135,7 +135,13 @@ fn plan_run_writes_results_traces_and_report() {
         .iter()
         .filter(|c| c.get("worst_phase").is_some())
         .count();
-    assert_eq!(html.matches("data:image/png;base64,").count(), 4 + worst);
+    // And the ROI map of the method's set-up: the first case's frame.
+    let roi_maps = html.matches("<figcaption>ROIs on frame").count();
+    assert_eq!(roi_maps, 1);
+    assert_eq!(
+        html.matches("data:image/png;base64,").count(),
+        4 + worst + roi_maps
+    );
     assert_eq!(
         json["cases"][0]["sample_frame"]["path"],
         "frames/2000lux-60hz-20pct.png"
@@ -457,7 +463,10 @@ fn a_report_rerun_in_place_links_its_unchanged_files_and_never_a_users_copy() {
         .filter(|n| n != ledflicker::outdir::MARKER)
         .collect();
     written.sort();
+    // All of them but profile/, which only a report profile's logo or
+    // templates make.
     let mut names = ledflicker::outdir::REPORT_ENTRIES.to_vec();
+    names.retain(|n| *n != "profile");
     names.sort();
     assert_eq!(written, names);
     let traces: Vec<std::path::PathBuf> = std::fs::read_dir(out.join("traces"))

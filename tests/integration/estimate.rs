@@ -36,6 +36,7 @@ fn estimated_memory(plan: &str, extra: &[&str]) -> f64 {
 #[allow(clippy::zombie_processes)]
 fn measured_memory(plan: &str, out: &std::path::Path) -> (i32, f64) {
     let child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", super::test_db())
         .args(["plan", plan, "-q", "--out", out.to_str().unwrap()])
         .current_dir(root())
         .env_remove("SOURCE_DATE_EPOCH")

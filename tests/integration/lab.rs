@@ -117,6 +117,7 @@ fn lab_ctrl_c_during_a_case_leaves_the_output_off() {
     bench_plan(&dir, sim.port(), 30.0);
     let err_path = dir.join("stderr.txt");
     let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args(["plan", "bench.toml", "--out", "out", "-q"])
         .current_dir(&dir)
         .stdin(Stdio::null())
