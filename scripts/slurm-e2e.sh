@@ -51,6 +51,8 @@ fi
 
 work=$(mktemp -d /tmp/ledflicker-slurm-e2e.XXXXXX)
 chmod 0755 "$work"
+# The runs record into a database of their own, never the user's.
+export LEDFLICKER_DB=$work/results.sqlite
 pids=()
 cleanup() {
     local pid
