@@ -30,12 +30,13 @@ fn estimated_memory(plan: &str, extra: &[&str]) -> f64 {
     size(words.next().unwrap(), words.next().unwrap())
 }
 
-/// Runs `plan` and returns its exit code and peak resident memory, bytes,
-/// as the kernel accounted it to that process alone (wait4(2)).
-// The child is reaped by wait4, which std's `wait` has no way to call.
-#[allow(clippy::zombie_processes)]
+/// Runs `plan` and returns its exit code and peak resident memory, bytes:
+/// the high-water mark the kernel keeps for that process alone (VmHWM in
+/// /proc/PID/status), read until it exits. A command plan's rig runs in
+/// processes of its own, which are not ledflicker's memory (wait4's
+/// maximum would count the largest of them).
 fn measured_memory(plan: &str, out: &std::path::Path) -> (i32, f64) {
-    let child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
         .env("LEDFLICKER_DB", super::test_db())
         .args(["plan", plan, "-q", "--out", out.to_str().unwrap()])
         .current_dir(root())
@@ -44,16 +45,26 @@ fn measured_memory(plan: &str, out: &std::path::Path) -> (i32, f64) {
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
-    let mut status = 0;
-    // SAFETY: an all-zero rusage is a valid value for wait4 to fill in.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    // SAFETY: waits for the child this function started, once; `child` is
-    // not waited on again.
-    let pid = unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut usage) };
-    assert_eq!(pid, child.id() as libc::pid_t);
-    assert!(libc::WIFEXITED(status), "{plan} did not exit");
-    // ru_maxrss is in kilobytes on Linux.
-    (libc::WEXITSTATUS(status), usage.ru_maxrss as f64 * 1024.0)
+    let status_file = format!("/proc/{}/status", child.id());
+    // The mark only grows, so the last one read is the peak but for what
+    // the process adds in its last millisecond.
+    let mut peak_kb = 0.0f64;
+    let status = loop {
+        if let Some(line) = std::fs::read_to_string(&status_file).ok().and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .map(str::to_string)
+        }) {
+            let kb: f64 = line.split_whitespace().nth(1).unwrap().parse().unwrap();
+            peak_kb = peak_kb.max(kb);
+        }
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    };
+    assert!(peak_kb > 0.0, "{plan}: no memory figure read");
+    (status.code().unwrap(), peak_kb * 1024.0)
 }
 
 #[test]

@@ -18,6 +18,7 @@ use super::{Acquisition, Backend, BackendError, FrameInfo, RoiTrace};
 use crate::capture::{self, CaptureError, CaptureTrace, ReadOptions, RoiRect};
 use crate::metrics::flicker::Segment;
 use crate::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Span, TestCase};
+use crate::trace::RenderedFrame;
 
 /// Turns the plan's ROIs into pixel rectangles.
 pub fn roi_rects(rois: &[Roi]) -> Vec<RoiRect> {
@@ -183,6 +184,8 @@ pub use crate::trace::CaptureSummary;
 #[derive(Debug)]
 pub struct Captured {
     acquisitions: HashMap<String, Acquisition>,
+    /// Each case's capture and how it is read, for its sample frame.
+    sources: HashMap<String, (std::path::PathBuf, ReadOptions)>,
 }
 
 impl Captured {
@@ -194,6 +197,7 @@ impl Captured {
         let Some(cap) = &plan.capture else {
             return Ok(Self {
                 acquisitions: HashMap::new(),
+                sources: HashMap::new(),
             });
         };
         let rects = roi_rects(&plan.rois);
@@ -223,7 +227,15 @@ impl Captured {
             .collect::<Vec<Result<_, CaptureError>>>()
             .into_iter()
             .collect::<Result<HashMap<_, _>, CaptureError>>()?;
-        Ok(Self { acquisitions })
+        let sources = cap
+            .cases
+            .iter()
+            .map(|c| (c.id.clone(), (c.source.clone(), opts)))
+            .collect();
+        Ok(Self {
+            acquisitions,
+            sources,
+        })
     }
 }
 
@@ -241,5 +253,68 @@ impl Backend for Captured {
                 case: case.id.clone(),
                 message: "no capture was loaded for this case".to_string(),
             })
+    }
+
+    /// Frame `frame` of the case's capture, read again (frames are not kept
+    /// while the traces are made): the sample frame the report shows, with
+    /// its ROIs, as the simulator's rendered frame is. None for a CSV trace.
+    fn render_frame(
+        &self,
+        case: &TestCase,
+        frame: u64,
+    ) -> Option<Result<RenderedFrame, BackendError>> {
+        let (path, opts) = self.sources.get(&case.id)?;
+        // A CSV trace holds ROI means, not a picture.
+        if capture::source_kind(path) == capture::SourceKind::Csv {
+            return None;
+        }
+        let error = |message: String| BackendError {
+            backend: "captured".to_string(),
+            case: case.id.clone(),
+            message,
+        };
+        let mut grab = Grab {
+            want: frame,
+            picture: None,
+        };
+        let read = match capture::read_grey_frames(path, opts, &mut grab) {
+            Ok(trace) => trace,
+            Err(e) => return Some(Err(error(e.to_string()))),
+        };
+        Some(match grab.picture {
+            Some((width, height, luma)) => Ok(RenderedFrame::from_pixels(
+                frame,
+                width,
+                height,
+                &luma,
+                read.full_scale_dn,
+            )),
+            None => Err(error(format!(
+                "frame {frame} is not in `{}` on a second read",
+                path.display()
+            ))),
+        })
+    }
+}
+
+/// Keeps one frame of a capture, whole, as grey levels.
+struct Grab {
+    want: u64,
+    picture: Option<(u32, u32, Vec<f64>)>,
+}
+
+impl capture::FrameSink for Grab {
+    fn frame(&mut self, f: &capture::GreyFrame<'_>) {
+        if f.index != self.want || self.picture.is_some() {
+            return;
+        }
+        let (w, h) = (f.width(), f.height());
+        let mut row = vec![0u32; w as usize];
+        let mut luma = Vec::with_capacity(w as usize * h as usize);
+        for y in 0..h {
+            f.row(y, &mut row);
+            luma.extend(row.iter().map(|&v| f64::from(v)));
+        }
+        self.picture = Some((w, h, luma));
     }
 }
