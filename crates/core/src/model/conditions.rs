@@ -344,10 +344,12 @@ fn pwm_clock(plan: &Plan, frequencies: &[f64]) -> PwmClock {
 fn pwm_clock_text(c: &PwmClock, fps: f64) -> String {
     let edge = format!("first rising edge {} ms after frame 0 starts", c.delay_ms);
     let list = |xs: &[f64]| {
-        xs.iter()
-            .map(|f| format!("{f} Hz"))
-            .collect::<Vec<_>>()
-            .join(", ")
+        range_text(xs, 1.0, " Hz").unwrap_or_else(|| {
+            xs.iter()
+                .map(|f| format!("{f} Hz"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        })
     };
     if c.offset_ppm == 0.0 {
         let locked = if c.multiples_hz.is_empty() {
@@ -400,11 +402,41 @@ fn short(x: f64) -> String {
 }
 
 fn list_text(xs: &[f64], scale: f64, unit: &str) -> String {
+    if let Some(range) = range_text(xs, scale, unit) {
+        return range;
+    }
     xs.iter()
         .map(|x| short(x * scale))
         .collect::<Vec<_>>()
         .join(", ")
         + unit
+}
+
+/// Most values a condition lists one by one; a longer list in equal steps
+/// (a sweep's grid) is stated as its range and step.
+const LISTED_VALUES_MAX: usize = 20;
+
+/// `50 to 2045 Hz in steps of 5 Hz (400 values)` for more than
+/// [`LISTED_VALUES_MAX`] values in equal steps (within 1e-9 of the step),
+/// else `None`.
+fn range_text(xs: &[f64], scale: f64, unit: &str) -> Option<String> {
+    if xs.len() <= LISTED_VALUES_MAX {
+        return None;
+    }
+    let step = xs[1] - xs[0];
+    let even = step > 0.0
+        && xs
+            .windows(2)
+            .all(|w| ((w[1] - w[0]) - step).abs() <= 1e-9 * step.abs().max(1.0));
+    even.then(|| {
+        format!(
+            "{} to {}{unit} in steps of {}{unit} ({} values)",
+            short(xs[0] * scale),
+            short(xs[xs.len() - 1] * scale),
+            short(step * scale),
+            xs.len()
+        )
+    })
 }
 
 /// The conditions of `model`'s run of `plan` (captures' summaries already
@@ -692,4 +724,29 @@ pub fn sequence_deviation(c: &Conditions) -> Option<String> {
         })
         .collect();
     differs.then(|| parts.join(", "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_long_list_in_equal_steps_is_stated_as_its_range() {
+        let sweep: Vec<f64> = (0..400).map(|i| 50.0 + 5.0 * f64::from(i)).collect();
+        assert_eq!(
+            list_text(&sweep, 1.0, " Hz"),
+            "50 to 2045 Hz in steps of 5 Hz (400 values)"
+        );
+        // Duty as computed, 0.05 steps that are not exact in binary.
+        let duty: Vec<f64> = (1..=21).map(|i| f64::from(i) * 0.05).collect();
+        assert_eq!(
+            list_text(&duty, 100.0, " %"),
+            "5 to 105 % in steps of 5 % (21 values)"
+        );
+        // Short lists and uneven ones are listed value by value.
+        assert_eq!(list_text(&sweep[..3], 1.0, " Hz"), "50, 55, 60 Hz");
+        let mut uneven = sweep.clone();
+        uneven[200] += 1.0;
+        assert!(list_text(&uneven, 1.0, " Hz").starts_with("50, 55, 60, "));
+    }
 }
