@@ -188,9 +188,9 @@ pub struct Instrument {
 }
 
 impl Instrument {
-    /// Connects, asks its identity, sends the setup lines and reads the
-    /// error queue.
-    pub fn connect(cfg: &SourceConfig) -> Result<Instrument, SourceError> {
+    /// Connects and asks the identity (when the template has a query for
+    /// it); sends nothing else.
+    fn open(cfg: &SourceConfig) -> Result<Instrument, SourceError> {
         let timeout = Duration::from_secs_f64(cfg.timeout_s);
         let mut client = Client::connect(&cfg.host, cfg.port, timeout)?;
         let identity = if cfg.commands.identify.is_empty() {
@@ -198,11 +198,17 @@ impl Instrument {
         } else {
             client.query(&cfg.commands.identify)?.trim().to_string()
         };
-        let mut inst = Instrument {
+        Ok(Instrument {
             cfg: cfg.clone(),
             client,
             identity,
-        };
+        })
+    }
+
+    /// Connects, asks its identity, sends the setup lines and reads the
+    /// error queue.
+    pub fn connect(cfg: &SourceConfig) -> Result<Instrument, SourceError> {
+        let mut inst = Instrument::open(cfg)?;
         let setup = fill(cfg, &cfg.commands.setup, None);
         inst.apply_lines("setup", &setup)?;
         Ok(inst)
@@ -212,18 +218,7 @@ impl Instrument {
     /// nothing else: no setup line, nothing that lights the LED (`rig
     /// check`). Returns the identity and the queue's entries.
     pub fn probe(cfg: &SourceConfig) -> Result<(String, Vec<(i64, String)>), SourceError> {
-        let timeout = Duration::from_secs_f64(cfg.timeout_s);
-        let mut client = Client::connect(&cfg.host, cfg.port, timeout)?;
-        let identity = if cfg.commands.identify.is_empty() {
-            String::new()
-        } else {
-            client.query(&cfg.commands.identify)?.trim().to_string()
-        };
-        let mut inst = Instrument {
-            cfg: cfg.clone(),
-            client,
-            identity,
-        };
+        let mut inst = Instrument::open(cfg)?;
         let errors = inst.errors()?;
         Ok((inst.identity, errors))
     }
