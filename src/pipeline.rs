@@ -22,11 +22,12 @@ use std::time::Duration;
 
 use crate::interrupt::Interrupted;
 use crate::metrics::Verdict;
-use crate::model::{CaseResult, Detail, InputFile, Results};
+use crate::model::{Detail, InputFile, Results};
 use crate::outdir::{Generation, OutDirError};
 use crate::plan::Plan;
 use crate::report::golden::{Comparison, Tolerances};
 use crate::report::{self, ReportError, WriteOptions};
+use crate::runner::CaseSource;
 #[cfg(feature = "signoff")]
 use crate::signoff::SignoffError;
 
@@ -108,8 +109,9 @@ pub struct Run<'a> {
     pub plan: &'a Plan,
     /// The backend's id ([`crate::backend::Backend::id`]), as results.json shows it.
     pub backend_id: &'a str,
-    /// Every case's result, in case order, sample frames rendered.
-    pub results: &'a [CaseResult],
+    /// Every case's result, in case order, sample frames rendered: in
+    /// memory, or read back from the run's case store.
+    pub results: &'a dyn CaseSource,
     /// The run's input files, hashed ([`crate::inputs::collect`]).
     pub inputs: Vec<InputFile>,
 }
@@ -258,7 +260,14 @@ pub fn report(
         cases: run.results.len(),
     });
     let t = crate::timings::span("report model (analyses)");
-    let model = crate::model::assemble(run.plan, run.backend_id, run.results);
+    let mut model =
+        crate::model::assemble_from(run.plan, run.backend_id, run.results).map_err(|e| {
+            PipelineError::Write {
+                out: generation.out().to_path_buf(),
+                source: e.into(),
+            }
+        })?;
+    crate::model::listing::drop_undrawn(&mut model, options.detail);
     drop(t);
     crate::interrupt::check()?;
     let t = crate::timings::span("write report");
@@ -271,7 +280,7 @@ pub fn report(
         reuse_from: generation.previous().map(Path::to_path_buf),
         profile: run.plan.report.clone(),
     };
-    write_files(&generation, &model, run.results, write, on_progress)?;
+    let model = write_files(&generation, model, run.results, write, on_progress)?;
     drop(t);
     drop(prompt);
     let signed = match options.signing {
@@ -300,11 +309,11 @@ pub fn report(
 /// line can say what it waits on.
 fn write_files(
     generation: &Generation,
-    model: &Results,
-    results: &[CaseResult],
+    model: Results,
+    results: &dyn CaseSource,
     write: WriteOptions,
     on_progress: &(dyn Fn(Progress) + Sync),
-) -> Result<(), PipelineError> {
+) -> Result<Results, PipelineError> {
     report::progress::reset();
     on_progress(Progress::Writing);
     let (written, waiting) = channel::<()>();
@@ -359,7 +368,7 @@ mod tests {
 
     /// The small fixture plan (tests/fixtures/plans/base.toml) and its
     /// case results on the simulator.
-    fn small_run() -> (Plan, Vec<CaseResult>) {
+    fn small_run() -> (Plan, Vec<crate::model::CaseResult>) {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/plans/base.toml");
         let plan = crate::plan::load(&path).unwrap();
         let cases = crate::plan::expand_cases(&plan);

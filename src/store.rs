@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 
 use rusqlite::{Connection, OptionalExtension, params};
 
-use crate::runner::CaseResult;
+use crate::runner::{CaseReadError, CaseResult, CaseSource};
 use crate::shard::record::ShardCase;
 
 /// Schema of the store, in its `run` table under `schema`.
@@ -405,39 +405,115 @@ fn roi_metrics(result: &CaseResult) -> Vec<(String, String, Option<f64>)> {
 
 /// Every case of the finished store at `path`, in case order.
 pub fn read_cases(path: &Path) -> Result<Vec<CaseResult>, StoreError> {
-    let conn = Connection::open_with_flags(path, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
-        .map_err(sqlite(path))?;
-    let sql = sqlite(path);
-    let status: Option<String> = conn
-        .query_row("SELECT value FROM run WHERE key = 'status'", [], |r| {
-            r.get(0)
-        })
-        .optional()
-        .map_err(&sql)?;
-    if status.as_deref() != Some("complete") {
-        return Err(StoreError::Mismatch {
-            path: path.to_path_buf(),
-            message: "its run did not finish".to_string(),
-        });
-    }
-    let mut q = conn
-        .prepare("SELECT idx, result FROM cases ORDER BY idx")
-        .map_err(&sql)?;
-    let rows = q
-        .query_map([], |r| Ok((r.get::<_, i64>(0)?, r.get::<_, Vec<u8>>(1)?)))
-        .map_err(&sql)?;
-    let mut cases = Vec::new();
-    for row in rows {
-        let (idx, bytes) = row.map_err(&sql)?;
-        let record: ShardCase =
-            ciborium::from_reader(bytes.as_slice()).map_err(|e| StoreError::Record {
+    let stored = StoredCases::open(path)?;
+    stored.read_range(0..stored.len)
+}
+
+/// The cases of a finished store, read back a chunk at a time
+/// ([`CaseSource`]): the stages after the run hold a chunk of them, never
+/// the whole run.
+pub struct StoredCases {
+    /// One connection, read by one worker at a time (a connection is not
+    /// shared between threads).
+    conn: std::sync::Mutex<Connection>,
+    path: PathBuf,
+    len: usize,
+}
+
+impl StoredCases {
+    /// Opens the finished store at `path`, read only; a store whose run
+    /// did not finish, or whose cases are not numbered 0 to n - 1, is
+    /// refused.
+    pub fn open(path: &Path) -> Result<StoredCases, StoreError> {
+        let conn = Connection::open_with_flags(path, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
+            .map_err(sqlite(path))?;
+        let sql = sqlite(path);
+        let status: Option<String> = conn
+            .query_row("SELECT value FROM run WHERE key = 'status'", [], |r| {
+                r.get(0)
+            })
+            .optional()
+            .map_err(&sql)?;
+        if status.as_deref() != Some("complete") {
+            return Err(StoreError::Mismatch {
                 path: path.to_path_buf(),
-                idx: idx as usize,
-                message: format!("cannot decode: {e}"),
-            })?;
-        cases.push(record.into_result());
+                message: "its run did not finish".to_string(),
+            });
+        }
+        let (count, last): (i64, Option<i64>) = conn
+            .query_row("SELECT COUNT(*), MAX(idx) FROM cases", [], |r| {
+                Ok((r.get(0)?, r.get(1)?))
+            })
+            .map_err(&sql)?;
+        if last.map_or(count != 0, |last| last + 1 != count) {
+            return Err(StoreError::Mismatch {
+                path: path.to_path_buf(),
+                message: format!("it holds {count} cases, numbered up to {last:?}"),
+            });
+        }
+        Ok(StoredCases {
+            conn: std::sync::Mutex::new(conn),
+            path: path.to_path_buf(),
+            len: usize::try_from(count).unwrap_or(0),
+        })
     }
-    Ok(cases)
+
+    fn read_range(&self, range: std::ops::Range<usize>) -> Result<Vec<CaseResult>, StoreError> {
+        let path = &self.path;
+        let sql = sqlite(path);
+        let conn = match self.conn.lock() {
+            Ok(conn) => conn,
+            // A reader that panicked left no state behind in a read-only
+            // connection.
+            Err(poisoned) => poisoned.into_inner(),
+        };
+        let mut q = conn
+            .prepare_cached(
+                "SELECT idx, result FROM cases WHERE idx >= ?1 AND idx < ?2 ORDER BY idx",
+            )
+            .map_err(&sql)?;
+        let rows = q
+            .query_map(params![range.start as i64, range.end as i64], |r| {
+                Ok((r.get::<_, i64>(0)?, r.get::<_, Vec<u8>>(1)?))
+            })
+            .map_err(&sql)?;
+        let mut cases = Vec::with_capacity(range.len());
+        for (want, row) in range.clone().zip(rows) {
+            let (idx, bytes) = row.map_err(&sql)?;
+            if idx != want as i64 {
+                return Err(StoreError::Record {
+                    path: path.to_path_buf(),
+                    idx: want,
+                    message: "missing".to_string(),
+                });
+            }
+            let record: ShardCase =
+                ciborium::from_reader(bytes.as_slice()).map_err(|e| StoreError::Record {
+                    path: path.to_path_buf(),
+                    idx: want,
+                    message: format!("cannot decode: {e}"),
+                })?;
+            cases.push(record.into_result());
+        }
+        if cases.len() != range.len() {
+            return Err(StoreError::Record {
+                path: path.to_path_buf(),
+                idx: range.start + cases.len(),
+                message: "missing".to_string(),
+            });
+        }
+        Ok(cases)
+    }
+}
+
+impl CaseSource for StoredCases {
+    fn len(&self) -> usize {
+        self.len
+    }
+
+    fn read(&self, range: std::ops::Range<usize>) -> Result<Vec<CaseResult>, CaseReadError> {
+        Ok(self.read_range(range)?)
+    }
 }
 
 fn sqlite(path: &Path) -> impl Fn(rusqlite::Error) -> StoreError + '_ {

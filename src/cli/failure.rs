@@ -261,6 +261,7 @@ fn report(e: &ReportError) -> i32 {
         ReportError::Invalid { .. } => EXIT_INVALID,
         ReportError::Template { .. }
         | ReportError::Chart(_)
+        | ReportError::Cases(_)
         | ReportError::Json(_)
         | ReportError::Csv(_)
         | ReportError::Junit(_)
@@ -288,6 +289,7 @@ fn signoff(e: &SignoffError) -> i32 {
             | ReportError::Io { .. }
             | ReportError::Template { .. }
             | ReportError::Chart(_)
+            | ReportError::Cases(_)
             | ReportError::Json(_)
             | ReportError::Csv(_)
             | ReportError::Junit(_)

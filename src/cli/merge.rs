@@ -45,7 +45,7 @@ pub(super) struct MergeArgs {
 /// Checks the shards, then writes the report of the whole plan.
 pub(super) fn merge(a: MergeArgs) -> Result<i32, Failure> {
     let date = report_date(a.date.as_deref())?;
-    let m = crate::shard::merge::gather(&a.shards, a.plan.as_deref())?;
+    let mut m = crate::shard::merge::gather(&a.shards, a.plan.as_deref())?;
     let out = a
         .out
         .clone()
@@ -58,12 +58,16 @@ pub(super) fn merge(a: MergeArgs) -> Result<i32, Failure> {
         backend: m.manifest.backend.clone(),
         case_count: m.manifest.case_count,
     };
-    crate::store::write_all(generation.path(), &key, &m.results)?;
+    let path = crate::store::write_all(generation.path(), &key, &m.results)?;
+    // The report stage reads the cases back from the store, as `plan`'s
+    // does, so that it need not hold them all.
+    drop(std::mem::take(&mut m.results));
+    let stored = crate::store::StoredCases::open(&path)?;
     let outcome = pipeline::report(
         pipeline::Run {
             plan: &m.plan,
             backend_id: &m.manifest.backend,
-            results: &m.results,
+            results: &stored,
             inputs: m.manifest.inputs.iter().map(Into::into).collect(),
         },
         generation,

@@ -325,16 +325,16 @@ fn keep_for_resume(
 }
 
 /// Runs every case with a progress bar, each case into the store in `dir`
-/// as it finishes (with `--resume`, only the cases not stored yet), then
-/// reads them back in case order. On failure, says whether the store
-/// holds cases worth resuming.
+/// as it finishes (with `--resume`, only the cases not stored yet), and
+/// gives the finished store, which the report stage reads back in case
+/// order. On failure, says whether the store holds cases worth resuming.
 fn run_cases(
     plan: &Plan,
     backend: &PlanBackend,
     args: &PlanArgs,
     dir: &Path,
     inputs: &[crate::inputs::InputFile],
-) -> Result<Vec<CaseResult>, Stopped> {
+) -> Result<crate::store::StoredCases, Stopped> {
     let cases = plan::expand_cases(plan);
     let key = crate::store::RunKey {
         plan_id: plan.id.clone(),
@@ -387,8 +387,7 @@ fn run_cases(
         });
     }
     let path = store.finish()?;
-    let _t = crate::timings::span("read cases back");
-    Ok(crate::store::read_cases(&path)?)
+    Ok(crate::store::StoredCases::open(&path)?)
 }
 
 /// The run's sink: each case into the store, under its position in the plan.

@@ -286,7 +286,7 @@ fn check(plan_name: &str, r: &Results, frames: &BTreeMap<String, Frames>) {
     let mut bare = r.clone();
     bare.fine_maps.clear();
     let doc = Document::with_pictures(
-        &bare,
+        bare,
         "2026-01-01",
         Vec::new(),
         BTreeMap::new(),

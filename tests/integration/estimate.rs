@@ -105,8 +105,9 @@ fn the_memory_estimate_is_within_one_and_a_half_times_the_peak_of_every_shipped_
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// A grid of `n` x 10 cases on a 16 x 12 sensor.
-fn sweep(n: usize) -> String {
+/// A grid of `n` x 10 cases on a 16 x 12 sensor (frequencies from 50 Hz
+/// in steps of 5 Hz, duties 10 % to 100 %), from the 192-case grid plan.
+pub(crate) fn sweep(n: usize) -> String {
     let base = std::fs::read_to_string(root().join("test-plans/grid-192.toml")).unwrap();
     let freqs: Vec<String> = (0..n).map(|i| format!("{}.0", 50 + 5 * i)).collect();
     let mut out = String::new();

@@ -105,6 +105,25 @@ fn simulated_plan_in_three_shards_merges_to_the_single_run_byte_for_byte() {
 }
 
 #[test]
+fn a_sweep_of_two_thousand_cases_in_two_shards_merges_to_the_single_run_byte_for_byte() {
+    // More cases than a report lists: the merge reads them back from its
+    // store, as the single run does, and both reports summarise alike.
+    let dir = scratch("shard-sweep");
+    let plan = dir.join("sweep-2100.toml");
+    std::fs::write(&plan, crate::estimate::sweep(210)).unwrap();
+    single_and_merged(plan.to_str().unwrap(), 2, root(), &dir, &[]);
+    for file in ["summary.csv", "junit.xml"] {
+        let a = std::fs::read(dir.join("single").join(file)).unwrap();
+        let b = std::fs::read(dir.join("merged").join(file)).unwrap();
+        assert!(a == b, "merged {file} differs from the single run's");
+    }
+    let results: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("merged/results.json")).unwrap()).unwrap();
+    assert_eq!(results["cases"].as_array().map(Vec::len), Some(2100));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn more_shards_than_cases_leaves_empty_shards_that_still_merge() {
     let dir = scratch("shard-empty");
     let plan = root().join("tests/fixtures/plans/base.toml");

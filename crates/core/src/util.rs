@@ -158,6 +158,15 @@ impl Staged {
     /// Writes `bytes` under a temporary name in `path`'s directory and
     /// flushes them to disk.
     pub fn write(path: &Path, bytes: &[u8]) -> std::io::Result<Staged> {
+        Self::write_with(path, |out| out.write_all(bytes))
+    }
+
+    /// [`Self::write`] with the bytes from `fill`, through a buffer, so
+    /// that a large file need not be held whole in memory first.
+    pub fn write_with(
+        path: &Path,
+        fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+    ) -> std::io::Result<Staged> {
         let dir = path
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
@@ -172,7 +181,11 @@ impl Staged {
             .suffix(".tmp")
             .permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666))
             .tempfile_in(dir)?;
-        tmp.write_all(bytes)?;
+        {
+            let mut out = std::io::BufWriter::new(tmp.as_file_mut());
+            fill(&mut out)?;
+            out.flush()?;
+        }
         tmp.as_file().sync_all()?;
         Ok(Staged {
             tmp,

@@ -109,8 +109,10 @@ pub fn frame_image_path(case_id: &str) -> String {
 /// Everything a renderer needs.
 #[derive(Debug, Clone)]
 pub struct Document {
-    /// results.json, typed (the results model, with `report` metadata).
-    pub results: Results,
+    /// results.json, typed (the results model, with `report` metadata);
+    /// shared, because the HTML, the PDF and results.json are written at
+    /// once from the same model and a large run's model is large.
+    pub results: std::sync::Arc<Results>,
     /// Chart path relative to the report dir (see [`trace_chart_path`]) ->
     /// SVG text.
     pub charts: BTreeMap<String, String>,
@@ -143,7 +145,7 @@ impl Document {
             || ViewJobs::plan(model, results).draw_all(),
         );
         Ok(Self::with_pictures(
-            model,
+            model.clone(),
             date,
             signatories,
             charts?,
@@ -154,13 +156,12 @@ impl Document {
     /// [`Self::build`] with the charts and frame views given (path ->
     /// picture): adds the `report` metadata to the model.
     pub fn with_pictures(
-        model: &Results,
+        mut model: Results,
         date: &str,
         signatories: Vec<Signatory>,
         charts: BTreeMap<String, String>,
         images: BTreeMap<String, Vec<u8>>,
     ) -> Document {
-        let mut model = model.clone();
         let detail = model
             .report
             .as_ref()
@@ -168,7 +169,7 @@ impl Document {
             .unwrap_or_default();
         model.report = Some(report_meta(&model, date, detail));
         Document {
-            results: model,
+            results: std::sync::Arc::new(model),
             charts,
             signatories,
             images,
@@ -182,9 +183,21 @@ impl Document {
     }
 
     /// results.json as the renderers read it: the JSON value of the
-    /// model, so HTML and PDF show exactly what results.json says.
+    /// model, so HTML and PDF show exactly what results.json says. Its
+    /// `cases` are the listed ones ([`Self::listing`]), in case order: a
+    /// report shows no other, and a large run's every case would cost the
+    /// renderers memory in proportion to the run.
     pub fn json(&self) -> Result<serde_json::Value, ReportError> {
-        Ok(serde_json::to_value(&self.results)?)
+        let listing = self.listing();
+        if listing.unlisted == 0 {
+            return Ok(serde_json::to_value(&*self.results)?);
+        }
+        let mut shown = self.results.without_cases();
+        shown.cases = (self.results.cases.iter())
+            .filter(|c| listing.listed.contains(&c.id))
+            .cloned()
+            .collect();
+        Ok(serde_json::to_value(&shown)?)
     }
 
     /// Case ids in plan order.
@@ -239,22 +252,29 @@ impl Document {
     /// first ([`crate::model::limits`]), for the failing-cases summary.
     pub fn limit_tables(&self) -> BTreeMap<String, crate::model::limits::LimitTable> {
         let listing = self.listing();
+        // A run beyond the listed cases gives a table to the failing cases
+        // with a page (the worst); Appendix A and summary.csv hold the rest.
+        let tabled = |id: &String| match listing.unlisted {
+            0 => listing.listed.contains(id),
+            _ => listing.pages.contains(id),
+        };
         self.results
             .cases
             .iter()
             .filter(|c| c.verdict == crate::model::Verdict::Fail)
-            .filter(|c| listing.listed.contains(&c.id))
+            .filter(|c| tabled(&c.id))
             .map(|c| (c.id.clone(), c.limit_table()))
             .collect()
     }
 
-    /// Per case, the sentences that stand for its phase folds that are not
+    /// Per listed case, the sentences that stand for its phase folds that are not
     /// drawn ([`super::charts::degenerate_fold_sentence`]); ROIs with the
     /// same reason share one sentence ("Phase fold of roi0, roi1 not drawn").
     pub fn fold_notes(&self) -> BTreeMap<String, Vec<String>> {
         const NAME: &str = "\u{0}";
         let mut out = BTreeMap::new();
-        for c in &self.results.cases {
+        let listing = self.listing();
+        for c in (self.results.cases.iter()).filter(|c| listing.listed.contains(&c.id)) {
             let frequency_known = c.frequency_hz > 0.0;
             // Sentence with a placeholder name -> the ROIs it stands for.
             let mut notes: Vec<(String, Vec<&str>)> = Vec::new();
@@ -281,14 +301,15 @@ impl Document {
         out
     }
 
-    /// Per case, its caveats (metric values undefined or qualified), each
+    /// Per listed case, its caveats (metric values undefined or qualified), each
     /// text once, metrics by their names for people:
     /// `"led, background / FDI (Deegan 2018): <why>"`. An LED ROI's
     /// reasons in [`SHOWN_IN_CASE_TABLE`] are left out: the case table's
     /// "Apparent flicker" and "Phase coverage" rows print them.
     pub fn caveats(&self) -> BTreeMap<String, Vec<String>> {
         let mut out = BTreeMap::new();
-        for c in &self.results.cases {
+        let listing = self.listing();
+        for c in (self.results.cases.iter()).filter(|c| listing.listed.contains(&c.id)) {
             // Reason text -> (ROIs, metrics), in order of first appearance.
             let mut seen: Vec<(&str, Vec<&str>, Vec<&str>)> = Vec::new();
             for roi in &c.rois {
@@ -421,7 +442,7 @@ impl Document {
         }
         let look = profile::Look::load(dir, &results)?;
         Ok(Document {
-            results,
+            results: std::sync::Arc::new(results),
             charts,
             signatories: Vec::new(),
             images,

@@ -180,37 +180,29 @@ fn testcase(plan_id: &str, c: &CaseInfo) -> TestCase {
     case
 }
 
-/// Each worst-phase run of the model as a trace CSV for traces/:
+/// A case's worst-phase run as a trace CSV for traces/:
 /// `frame,time_s,segment,<roi> as run,<roi> at the worst phase`, named
-/// like [`crate::model::evidence::worst_phase_trace_path`].
-pub fn worst_phase_traces(
-    model: &Results,
-    results: &[crate::model::CaseResult],
-) -> Vec<(String, Vec<u8>)> {
-    let mut files = Vec::new();
-    for c in &model.cases {
-        let Some(w) = &c.worst_phase else { continue };
-        let Some(r) = results.iter().find(|r| r.case.id == c.id) else {
-            continue;
-        };
-        let acq = &r.acquisition;
-        let Some(roi) = acq.rois.iter().find(|t| t.name == w.roi) else {
-            continue;
-        };
-        let mut out = format!("frame,time_s,segment,{0},{0}_worst_phase\n", w.roi);
-        for ((f, run), worst) in acq.frames.iter().zip(&roi.luma).zip(&w.luma) {
-            let _ = writeln!(
-                out,
-                "{},{},{},{run},{worst}",
-                f.index,
-                f.time_s,
-                f.segment.as_str()
-            );
-        }
-        let name = format!("{}-worst-phase.csv", c.id);
-        files.push((name, out.into_bytes()));
+/// like [`crate::model::evidence::worst_phase_trace_path`]; none for a
+/// case without one. `c` is the model's row of the run's case `r`.
+pub fn worst_phase_trace(
+    c: &crate::model::CaseInfo,
+    r: &crate::model::CaseResult,
+) -> Option<(String, Vec<u8>)> {
+    let w = c.worst_phase.as_ref()?;
+    let acq = &r.acquisition;
+    let roi = acq.rois.iter().find(|t| t.name == w.roi)?;
+    let mut out = format!("frame,time_s,segment,{0},{0}_worst_phase\n", w.roi);
+    for ((f, run), worst) in acq.frames.iter().zip(&roi.luma).zip(&w.luma) {
+        let _ = writeln!(
+            out,
+            "{},{},{},{run},{worst}",
+            f.index,
+            f.time_s,
+            f.segment.as_str()
+        );
     }
-    files
+    let name = format!("{}-worst-phase.csv", c.id);
+    Some((name, out.into_bytes()))
 }
 
 /// JUnit XML, written by quick-junit: one `<testsuite>` per plan, one

@@ -344,21 +344,23 @@ const APPENDIX_ONE_LINE_ID: usize = 28;
 const APPENDIX_ONE_LINE_ROI: usize = 16;
 
 /// Appendix A page by page for the template: `cases` (indices into the
-/// cases) and `fixed`, whether every row is one line, so that the table
-/// can be given its row heights instead of measuring each row's cells
-/// first (about a third of the table's layout).
+/// cases the templates see, the listed ones, [`Document::json`]) and
+/// `fixed`, whether every row is one line, so that the table can be given
+/// its row heights instead of measuring each row's cells first (about a
+/// third of the table's layout).
 fn appendix_page_values(doc: &Document) -> Vec<Value> {
-    let cases = &doc.results.cases;
     let listing = doc.listing();
-    let listed: Vec<usize> = (0..cases.len())
-        .filter(|&i| listing.listed.contains(&cases[i].id))
+    let listed: Vec<_> = doc
+        .results
+        .cases
+        .iter()
+        .filter(|c| listing.listed.contains(&c.id))
         .collect();
-    appendix_pages(listed.iter().map(|&i| cases[i].rois.len()))
+    appendix_pages(listed.iter().map(|c| c.rois.len()))
         .into_iter()
-        .map(|page| page.into_iter().map(|k| listed[k]).collect::<Vec<usize>>())
         .map(|page| {
-            let fixed = page.iter().all(|&i| {
-                let c = &cases[i];
+            let fixed = page.iter().all(|&k| {
+                let c = listed[k];
                 c.id.chars().count() <= APPENDIX_ONE_LINE_ID
                     && c.rois
                         .iter()
@@ -564,7 +566,8 @@ mod tests {
         assert!(pages >= 1);
         assert_eq!(rows(&doc), pages, "short ids: every page's rows are given");
         // A case id that may wrap: its page's rows are measured.
-        doc.results.cases[0].id = "a-case-id-long-enough-to-wrap-in-its-column".to_string();
+        std::sync::Arc::make_mut(&mut doc.results).cases[0].id =
+            "a-case-id-long-enough-to-wrap-in-its-column".to_string();
         assert_eq!(rows(&doc), pages - 1);
     }
 
@@ -589,7 +592,11 @@ mod tests {
         let (results, model) = super::super::document::small_run();
         let mut doc = Document::build(&model, &results, "2026-01-01", Vec::new()).unwrap();
         // Every case a page, so every kind of chart is printed.
-        doc.results.report.as_mut().unwrap().detail = "full".to_string();
+        std::sync::Arc::make_mut(&mut doc.results)
+            .report
+            .as_mut()
+            .unwrap()
+            .detail = "full".to_string();
         let markup = render_markup(&doc).unwrap();
         let mut kinds = std::collections::BTreeSet::new();
         // The charts as the markup places them: `image("charts/..", width: N%)`.

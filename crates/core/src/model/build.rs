@@ -9,6 +9,7 @@ use super::*;
 use crate::analysis;
 use crate::metrics::verdict::{effective_basis, in_mitigation_range, overall};
 use crate::plan::{BackendKind, Plan, Sequence, ShutterKind};
+use crate::runner::{CaseReadError, CaseSource};
 
 /// Grid of the report's advice: coarser than `ledflicker advise`'s default
 /// so that a report stays quick to build.
@@ -76,32 +77,28 @@ fn insert_visibility(roi: &mut RoiInfo, v: &crate::metrics::visibility::Visibili
     }
 }
 
-/// The model of the run's cases, analyses, fine maps and advice: the part
-/// of [`assemble`] that does not depend on where the frames came from.
-fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
+/// The model of the run's cases, analyses, fine maps and advice. The
+/// cases are read from `source` a chunk at a time, each analysed in
+/// parallel, so that only the model's own row of each case is kept.
+fn build(plan: &Plan, backend_id: &str, source: &dyn CaseSource) -> Result<Results, CaseReadError> {
     let mut counts = Counts {
-        total: results.len(),
+        total: source.len(),
         ..Counts::default()
     };
-    // The analyses, the sample frames' banding, the fine maps and the
-    // exposure advice are independent: all in parallel, collected in order.
+    // The case analyses, the fine maps and the exposure advice are
+    // independent: all in parallel, the cases collected in order.
     let depth = crate::timings::depth();
-    let (analyses, (fine_maps, advice)) = rayon::join(
+    let (cases, (fine_maps, advice)) = rayon::join(
         || {
             use rayon::prelude::*;
             let _t = crate::timings::span_at("analyses: cases and sample frames", depth);
-            results
-                .par_iter()
-                .map(|r| {
-                    let frame = || {
-                        r.sample_frame
-                            .as_ref()
-                            .map(|f| super::frame::sample_frame_info(&r.case.id, f, &plan.rois))
-                    };
-                    let (a, frame) = rayon::join(|| analysis::analyse_case(plan, r), frame);
-                    (a, frame)
-                })
-                .collect::<Vec<_>>()
+            let mut cases = Vec::with_capacity(source.len());
+            crate::runner::for_each_chunk(source, |_, chunk| {
+                let infos = chunk.par_iter().map(|r| analysed_case(plan, r));
+                cases.par_extend(infos);
+                Ok::<(), CaseReadError>(())
+            })?;
+            Ok::<Vec<CaseInfo>, CaseReadError>(cases)
         },
         || {
             rayon::join(
@@ -116,23 +113,18 @@ fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
             )
         },
     );
-    let cases = results
-        .iter()
-        .zip(analyses)
-        .map(|(r, (mut a, sample_frame))| {
-            match r.verdict {
-                Verdict::Pass => counts.pass += 1,
-                Verdict::Fail => counts.fail += 1,
-                Verdict::Info => counts.info += 1,
-            }
-            let rois = roi_infos(plan, r, std::mem::take(&mut a.rois));
-            case_info(plan, r, a, sample_frame, rois)
-        })
-        .collect();
+    let cases = cases?;
+    for c in &cases {
+        match c.verdict {
+            Verdict::Pass => counts.pass += 1,
+            Verdict::Fail => counts.fail += 1,
+            Verdict::Info => counts.info += 1,
+        }
+    }
     let Sequence { on_s, off_s, pwm_s } = plan.sequence;
     let mut thresholds = plan.thresholds.clone();
     thresholds.basis = effective_basis(plan.dut.backend, &plan.thresholds);
-    let mut model = Results {
+    let model = Results {
         schema: RESULTS_SCHEMA.to_string(),
         tool: Tool {
             name: "ledflicker".to_string(),
@@ -155,7 +147,7 @@ fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         method: super::method::method(plan),
         p2020: plan.p2020,
         display: plan.display,
-        verdict: overall(results.iter().map(|r| r.verdict)),
+        verdict: overall(cases.iter().map(|c| c.verdict)),
         counts,
         cases,
         fine_maps,
@@ -164,8 +156,27 @@ fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
         report: None,
         notes: Vec::new(),
     };
-    super::method::describe(&mut model, plan);
-    model
+    Ok(model)
+}
+
+/// One case of the model: its analyses (and its sample frame's, beside
+/// them), its ROIs, and for a captured or rig case what was read.
+fn analysed_case(plan: &Plan, r: &CaseResult) -> CaseInfo {
+    let frame = || {
+        r.sample_frame
+            .as_ref()
+            .map(|f| super::frame::sample_frame_info(&r.case.id, f, &plan.rois))
+    };
+    let (mut a, sample_frame) = rayon::join(|| analysis::analyse_case(plan, r), frame);
+    let rois = roi_infos(plan, r, std::mem::take(&mut a.rois));
+    let mut case = case_info(plan, r, a, sample_frame, rois);
+    if let Some(s) = &r.acquisition.capture {
+        if plan.dut.backend == BackendKind::Captured {
+            case.source = Some(s.source.clone());
+        }
+        case.capture = Some(s.clone());
+    }
+    case
 }
 
 /// The results model of a finished run, as `plan` writes it and `merge`
@@ -173,20 +184,24 @@ fn build(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
 /// summaries of captured and rig runs (from each case's acquisition), then
 /// the method section and the notes.
 pub fn assemble(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
-    let mut model = build(plan, backend_id, results);
-    for (case, r) in model.cases.iter_mut().zip(results) {
-        debug_assert_eq!(case.id, r.case.id);
-        let Some(s) = &r.acquisition.capture else {
-            continue;
-        };
-        if plan.dut.backend == BackendKind::Captured {
-            case.source = Some(s.source.clone());
-        }
-        case.capture = Some(s.clone());
+    match assemble_from(plan, backend_id, &results) {
+        Ok(model) => model,
+        // A slice reads every range asked of it.
+        Err(e) => unreachable!("cases in memory: {e}"),
     }
+}
+
+/// [`assemble`] of the cases `source` reads back (the case store of a
+/// run), which may fail where a read fails.
+pub fn assemble_from(
+    plan: &Plan,
+    backend_id: &str,
+    source: &dyn CaseSource,
+) -> Result<Results, CaseReadError> {
+    let mut model = build(plan, backend_id, source)?;
     super::method::describe(&mut model, plan);
     model.notes = super::method::notes(&model, plan);
-    model
+    Ok(model)
 }
 
 /// The ROIs of one case: the run's metrics, the analyses and the P2020

@@ -52,6 +52,22 @@ impl Results {
     }
 }
 
+/// Drops what only a case's own charts read (its phase folds' bins) from
+/// the cases whose charts a report at `detail` does not draw
+/// ([`Listing::charts_case`]): a large run's model then holds what
+/// results.json says of each case, not the data of pictures never drawn.
+pub fn drop_undrawn(model: &mut Results, detail: Detail) {
+    let listing = listing(model, detail);
+    if listing.unlisted == 0 {
+        return;
+    }
+    for c in (model.cases.iter_mut()).filter(|c| !listing.charts_case(&c.id)) {
+        for roi in &mut c.rois {
+            roi.analysis.folded_bins = Vec::new();
+        }
+    }
+}
+
 /// How far a case is from failing, worst first: failing cases before
 /// informational ones before passing ones, each by the smallest margin of
 /// its checks ([`crate::metrics::Check::margin`]).

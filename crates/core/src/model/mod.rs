@@ -53,12 +53,12 @@ pub use crate::metrics::{
 };
 pub use crate::plan::profile::{LABELS, Logo, ReportProfile, SECTIONS, TemplateOverrides};
 pub use crate::plan::{RoiKind, Thresholds, VerdictBasis};
-pub use crate::runner::CaseResult;
+pub use crate::runner::{CaseReadError, CaseResult, CaseSource, for_each_chunk};
 pub use crate::trace::{
     Acquisition, CaptureSummary, DetectionRule, FrameInfo, RenderedFrame, Run, Segment,
     SegmentMethod, SegmentsFound, StepKind, StepSource, TRACE_COLUMNS, TimestampSource,
 };
-pub use build::assemble;
+pub use build::{assemble, assemble_from};
 
 /// Schema id of results.json.
 pub const RESULTS_SCHEMA: &str = "ledflicker.results/4";
@@ -116,6 +116,55 @@ pub struct Results {
     /// is empty here and has them in `report.notes`.
     #[serde(skip)]
     pub notes: Vec<String>,
+}
+
+impl Results {
+    /// A copy of everything but the cases (left empty): the frame of a
+    /// large run's model, without the memory of its every case.
+    pub fn without_cases(&self) -> Results {
+        // Named field by field, so that a field added to the model cannot
+        // be left out of the copy.
+        let Results {
+            schema,
+            tool,
+            plan,
+            dut,
+            sequence,
+            conditions,
+            thresholds,
+            method,
+            p2020,
+            display,
+            verdict,
+            counts,
+            cases: _,
+            fine_maps,
+            fine_maps_note,
+            advice,
+            report,
+            notes,
+        } = self;
+        Results {
+            schema: schema.clone(),
+            tool: tool.clone(),
+            plan: plan.clone(),
+            dut: dut.clone(),
+            sequence: sequence.clone(),
+            conditions: conditions.clone(),
+            thresholds: thresholds.clone(),
+            method: method.clone(),
+            p2020: *p2020,
+            display: *display,
+            verdict: *verdict,
+            counts: counts.clone(),
+            cases: Vec::new(),
+            fine_maps: fine_maps.clone(),
+            fine_maps_note: fine_maps_note.clone(),
+            advice: advice.clone(),
+            report: report.clone(),
+            notes: notes.clone(),
+        }
+    }
 }
 
 /// Exposure advice for a plan's range.

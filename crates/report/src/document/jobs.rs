@@ -53,8 +53,10 @@ impl<'a> ViewJobs<'a> {
         let mut jobs = Jobs {
             jobs: BTreeMap::new(),
         };
+        let cases: BTreeMap<&str, &CaseInfo> =
+            model.cases.iter().map(|c| (c.id.as_str(), c)).collect();
         for r in results {
-            let info = model.cases.iter().find(|c| c.id == r.case.id);
+            let info = cases.get(r.case.id.as_str()).copied();
             let Some(frame) = r.sample_frame.as_ref() else {
                 continue;
             };
@@ -132,7 +134,7 @@ impl<'a> ChartJobs<'a> {
         // frames all show the same scene, so one of them.
         let each_capture = model.method.backend == crate::model::BackendName::Captured;
         let framed = results.iter().filter_map(|r| {
-            let info = model.cases.iter().find(|c| c.id == r.case.id)?;
+            let info = cases.get(r.case.id.as_str())?;
             Some((r, r.sample_frame.as_ref()?, info.sample_frame.as_ref()?))
         });
         for (r, frame, info) in framed.take(if each_capture { usize::MAX } else { 1 }) {
