@@ -55,10 +55,7 @@ pub struct DriverRow {
 /// `listed` says which cases the report lists.
 pub fn driver_view(results: &Results, listed: impl Fn(&str) -> bool) -> Option<DriverView> {
     let d = results.display.as_ref()?;
-    let eotf = match d.eotf {
-        ledflicker_core::plan::display::Eotf::Srgb => "sRGB (IEC 61966-2-1)",
-        ledflicker_core::plan::display::Eotf::Bt1886 => "BT.1886 (ITU-R)",
-    };
+    let eotf = d.eotf.title();
     let display = vec![
         (
             "Monitor".to_string(),
