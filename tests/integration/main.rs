@@ -35,6 +35,7 @@ mod shard;
 mod shard_input;
 mod signoff;
 mod store;
+mod svm;
 mod time_base;
 mod timing;
 mod units;

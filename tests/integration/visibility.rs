@@ -93,3 +93,68 @@ fn without_a_display_no_visibility_appears_anywhere() {
     let table = ledflicker::report::terminal::summary(&m, Path::new("out"));
     assert!(!table.contains("Visible"));
 }
+
+/// The shipped night CMS plan (test-plans/cms-night.toml) judges every
+/// case on the monitor: a PWM locked to the frame rate (240 Hz, 4 pulses a
+/// 60 fps frame; 600 Hz, 10) is steady, the 1 Hz beats of 119 and 121 Hz
+/// are seen and fail `visibility-max`, and the summary prints the index
+/// of every case.
+#[test]
+fn the_shipped_night_cms_plan_judges_visibility_in_every_case() {
+    let plan = ledflicker::plan::load(&crate::root().join("test-plans/cms-night.toml")).unwrap();
+    let d = plan.display.expect("cms-night has a [display]");
+    assert_eq!((d.refresh_hz, d.peak_cd_m2), (60.0, 50.0));
+    let cases = ledflicker::plan::expand_cases(&plan);
+    let backend = ledflicker::backend::sim::Simulator::new(&plan);
+    let results = ledflicker::runner::run(&plan, &cases, &backend, Some(2), &|_| {}).unwrap();
+    let m = ledflicker::model::assemble(&plan, "sim-ideal", &results);
+    assert_eq!(m.thresholds.visibility_max, Some(1.0));
+    let lamp = |id: &str| {
+        let case = m.cases.iter().find(|c| c.id == id).unwrap();
+        let roi = case.rois.iter().find(|r| r.name == "tail-lamp").unwrap();
+        let failed = case
+            .checks
+            .iter()
+            .any(|k| k.metric == "visibility" && !k.pass);
+        (
+            roi.metrics["visibility"],
+            roi.metrics["visibility_peak_hz"],
+            failed,
+        )
+    };
+    for case in &m.cases {
+        let (v, _, failed) = lamp(&case.id);
+        let v = v.unwrap_or_else(|| panic!("{}: no visibility", case.id));
+        assert!(v.is_finite() && v >= 0.0, "{}: {v}", case.id);
+        assert_eq!(failed, v > 1.0, "{}: {v}", case.id);
+        assert!(case.checks.iter().any(|k| k.metric == "visibility"));
+        let shown = case.rois[0].metrics["display_luminance_cd_m2"].unwrap();
+        assert!(shown > 0.0 && shown <= 50.0, "{}: {shown}", case.id);
+    }
+    for locked in [
+        "10lux-240hz-10pct",
+        "10lux-240hz-30pct",
+        "10lux-600hz-30pct",
+    ] {
+        assert!(
+            lamp(locked).0.unwrap() < 1e-6,
+            "{locked}: {:?}",
+            lamp(locked)
+        );
+    }
+    for beat in ["10lux-119hz-30pct", "10lux-121hz-30pct"] {
+        let (v, peak, failed) = lamp(beat);
+        assert!(v.unwrap() > 2.0 && failed, "{beat}: {v:?}");
+        assert!((peak.unwrap() - 1.0).abs() < 0.3, "{beat}: peak {peak:?}");
+    }
+    assert_eq!(m.cases[0].verdict, Verdict::Pass, "{}", m.cases[0].id);
+    let table = ledflicker::report::terminal::summary(&m, Path::new("out"));
+    let header = table.lines().next().unwrap();
+    let col = header.find("Visible").expect("a Visible column");
+    let rows: Vec<&str> = table.lines().filter(|l| l.starts_with("10lux-")).collect();
+    assert_eq!(rows.len(), m.cases.len(), "{table}");
+    for row in rows {
+        let cell = row.get(col..col + 7).unwrap_or("").trim();
+        assert!(cell.parse::<f64>().is_ok(), "no index in {row:?}\n{table}");
+    }
+}

@@ -11,10 +11,12 @@ use std::path::Path;
 
 use serde::Serialize;
 
+mod driver;
 mod info;
 mod jobs;
 pub mod profile;
 
+pub use driver::{DriverRow, DriverView};
 pub use info::{InfoRow, info_row};
 #[cfg(test)]
 pub(crate) use jobs::tests::small_run;
@@ -234,6 +236,13 @@ impl Document {
             .chain(extra)
             .copied()
             .collect()
+    }
+
+    /// The section on what the driver sees, over the listed cases; `None`
+    /// for a plan without `[display]`.
+    pub fn driver(&self) -> Option<DriverView> {
+        let listing = self.listing();
+        driver::driver_view(&self.results, |id| listing.listed.contains(id))
     }
 
     /// The listed informational cases without a page of their own, one

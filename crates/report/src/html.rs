@@ -266,6 +266,7 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             finemaps => finemaps,
             advice_chart => advice_chart,
             matrices => matrices(doc, inline),
+            driver => Serde(doc.driver()),
             roi_maps => roi_maps(doc, inline),
             signatories => Serde(&doc.signatories),
             zooms => zooms,

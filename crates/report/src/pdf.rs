@@ -313,6 +313,7 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             advice_chart => advice_chart,
             charts => traces,
             matrices => super::html::matrices(doc, |p: &str| Value::from(p)),
+            driver => Serde(doc.driver()),
             roi_maps => super::html::roi_maps(doc, |p: &str| Value::from(p)),
             signatories => Serde(&doc.signatories),
             zooms => zooms,

@@ -4,6 +4,7 @@
 //! never the physics that made them, so simulated and captured traces are
 //! measured the same way.
 
+pub mod chromaticity;
 pub mod flicker;
 pub mod glossary;
 pub mod p2020;

@@ -119,6 +119,12 @@ const LISTED_FRAME_ROI_MEMORY_BYTES: f64 = 270.0;
 /// per run: frames are held as runs of equal values, a view is a PNG of
 /// its pixels (measured: 46 MB for a 3840 x 2160 sensor).
 const PIXEL_MEMORY_BYTES: f64 = 6.0;
+/// Memory of each light level's fine map (simulated ideal cameras only):
+/// its 1951 x 100 cells, and their copies in results.json and in the
+/// HTML's and the PDF's template data (measured: a 2-case plan of the
+/// ideal camera peaks 31 MB above the same plan of the paper-like HDR
+/// camera, which has none).
+const FINE_MAP_MEMORY_BYTES: f64 = 30.0e6;
 /// Size of the report that does not grow with cases, bytes.
 const BASE_OUTPUT_BYTES: f64 = 1.5e6;
 /// Report bytes every case costs: its frame and view, its results.json
@@ -272,6 +278,17 @@ impl WorkEstimate {
         // costs memory only while a view is drawn.
         let memory = n * (CASE_MEMORY_BYTES + FRAME_ROI_MEMORY_BYTES * frame_rois)
             + listed * (LISTED_MEMORY_BYTES + LISTED_FRAME_ROI_MEMORY_BYTES * frame_rois);
+        // The fine maps' condition is `analysis::fine_maps_note`'s, which
+        // this layer cannot call.
+        let fine_maps = sim
+            && plan.dut.camera.physical.is_none()
+            && plan.rois.iter().any(|r| r.kind == super::RoiKind::Led);
+        let memory = memory
+            + if fine_maps {
+                FINE_MAP_MEMORY_BYTES * plan.light_levels_lux.len() as f64
+            } else {
+                0.0
+            };
         WorkEstimate {
             cases,
             frames_per_case: frames,

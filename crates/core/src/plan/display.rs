@@ -18,6 +18,16 @@ pub enum Eotf {
     Bt1886,
 }
 
+impl Eotf {
+    /// The curve's name and its standard, for a reader.
+    pub fn title(self) -> &'static str {
+        match self {
+            Eotf::Srgb => "sRGB (IEC 61966-2-1)",
+            Eotf::Bt1886 => "BT.1886 (ITU-R)",
+        }
+    }
+}
+
 /// A named set of defaults: the monitor's peak luminance by day or night.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]

@@ -22,6 +22,7 @@ use super::{Diagnostic, PlanError};
 pub const SECTIONS: &[&str] = &[
     "summary",
     "matrices",
+    "driver",
     "verdicts",
     "informational",
     "cases",

@@ -177,9 +177,10 @@ impl Document {
 
     /// The HTML's numbered sections -> their number among those shown.
     pub fn section_numbers(&self) -> BTreeMap<String, usize> {
-        const NUMBERED: [&str; 8] = [
+        const NUMBERED: [&str; 9] = [
             "summary",
             "matrices",
+            "driver",
             "verdicts",
             "cases",
             "method",
@@ -188,8 +189,12 @@ impl Document {
             "signoff",
         ];
         let shown = self.sections();
+        // The driver's view exists only for a plan with `[display]`; the
+        // other plans' sections keep their numbers.
+        let display = self.results.display.is_some();
         NUMBERED
             .iter()
+            .filter(|s| **s != "driver" || display)
             .filter(|s| shown.iter().any(|n| n == *s))
             .enumerate()
             .map(|(i, s)| (s.to_string(), i + 1))

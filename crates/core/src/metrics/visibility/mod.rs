@@ -18,6 +18,7 @@
 //!    sinusoid of modulation `m` at `f` gives `V = m S(f)`: 1 is threshold.
 
 pub mod screen;
+pub mod svm;
 pub mod tcsf;
 pub mod validation;
 
