@@ -415,6 +415,7 @@ mod tests {
             source: "plan".into(),
             date: String::new(),
             plan_id: "p".into(),
+            plan_title: String::new(),
             plan_hash: String::new(),
             tool: String::new(),
             backend: String::new(),
