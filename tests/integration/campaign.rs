@@ -677,3 +677,91 @@ fn history_trend_and_the_history_page_cover_a_campaign_of_52_runs() {
         "mine"
     );
 }
+
+/// `\d{4}-\d{2}-\d{2}` replaced by `DATE`: the README's dates are the
+/// day it was written.
+fn undated(line: &str) -> String {
+    let b = line.as_bytes();
+    let mut out = String::new();
+    let mut i = 0;
+    while i < b.len() {
+        let date = b.len() >= i + 10
+            && (0..10).all(|k| {
+                if k == 4 || k == 7 {
+                    b[i + k] == b'-'
+                } else {
+                    b[i + k].is_ascii_digit()
+                }
+            });
+        if date {
+            out.push_str("DATE");
+            i += 10;
+        } else {
+            out.push(b[i] as char);
+            i += 1;
+        }
+    }
+    out
+}
+
+/// The README's three-command campaign, run as written (its commands in
+/// one shell, `ledflicker` this build): every line of output it shows
+/// appears, in order (`...` stands for lines or text left out).
+#[test]
+fn readme_campaign_runs_as_written() {
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    let section = readme
+        .split("### A campaign in three commands")
+        .nth(1)
+        .unwrap();
+    let block = section.split("```sh\n").nth(1).unwrap();
+    let block = block.split("```").next().unwrap();
+    let commands: Vec<&str> = block.lines().filter_map(|l| l.strip_prefix("$ ")).collect();
+    let shown: Vec<&str> = block.lines().filter(|l| !l.starts_with("$ ")).collect();
+    assert_eq!(commands.len(), 4, "{block}");
+    let dir = scratch("campaign-readme");
+    std::os::unix::fs::symlink(root().join("test-plans"), dir.join("test-plans")).unwrap();
+    let bin = dir.join("bin");
+    std::fs::create_dir(&bin).unwrap();
+    std::os::unix::fs::symlink(env!("CARGO_BIN_EXE_ledflicker"), bin.join("ledflicker")).unwrap();
+    let script = format!("exec 2>&1\n{}\n", commands.join("\n"));
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let o = std::process::Command::new("sh")
+        .args(["-c", &script])
+        .current_dir(&dir)
+        .env("PATH", path)
+        .env("LEDFLICKER_DB", dir.join("results.sqlite"))
+        .env_remove("SOURCE_DATE_EPOCH")
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    let actual: Vec<String> = out.lines().map(undated).collect();
+    let mut at = 0;
+    for line in shown.iter().map(|l| undated(l)) {
+        if line == "..." {
+            continue;
+        }
+        let (head, tail) = line.split_once("...").unwrap_or((&line, ""));
+        let found = actual[at..].iter().position(|a| {
+            if line.contains("...") {
+                a.starts_with(head) && a.ends_with(tail)
+            } else {
+                *a == line
+            }
+        });
+        let Some(k) = found else {
+            panic!("the README shows `{line}`, not in the output after line {at}:\n{out}");
+        };
+        at += k + 1;
+    }
+    assert_eq!(out.lines().last(), Some("1"), "compare exits 1");
+    assert!(dir.join("compare.xml").is_file());
+    assert!(dir.join("reports/compare/comparison.html").is_file());
+    if cfg!(feature = "pdf") {
+        assert!(dir.join("reports/compare/comparison.pdf").is_file());
+    }
+}
