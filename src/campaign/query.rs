@@ -307,6 +307,61 @@ pub struct RunData {
     pub order: Vec<String>,
     /// Case id -> case.
     pub cases: BTreeMap<String, CaseData>,
+    /// The spread of each KPI over repeated runs of the same plan on the
+    /// same device (see [`repeat_spread`]); empty unless filled.
+    pub repeats: Repeats,
+}
+
+/// (case, ROI, metric) -> (runs, sample standard deviation of the KPI over
+/// them).
+pub type Repeats = BTreeMap<(String, String, String), (usize, f64)>;
+
+/// The run-to-run spread of every KPI over the runs of `run`'s plan id on
+/// the same device and firmware (`[dut]` model, serial, firmware), run
+/// `except` left out (the run compared with it): the sample standard
+/// deviation of each KPI's defined values, with how many there are.
+pub fn repeat_spread(db: &Db, run: &RunRow, except: i64) -> Result<Repeats, CampaignError> {
+    let sql = sqlite(&db.path);
+    let mut q = db
+        .conn
+        .prepare(
+            "SELECT c.id, m.roi, m.metric, m.value FROM metrics m \
+             JOIN cases c ON c.run_id = m.run_id AND c.idx = m.idx \
+             JOIN runs r ON r.id = m.run_id \
+             WHERE r.plan_id = ?1 AND r.model = ?2 AND r.serial = ?3 AND r.firmware = ?4 \
+             AND r.id != ?5 AND m.value IS NOT NULL",
+        )
+        .map_err(&sql)?;
+    let rows = q
+        .query_map(
+            rusqlite::params![run.plan_id, run.model, run.serial, run.firmware, except],
+            |r| {
+                Ok((
+                    (
+                        r.get::<_, String>(0)?,
+                        r.get::<_, String>(1)?,
+                        r.get::<_, String>(2)?,
+                    ),
+                    r.get::<_, f64>(3)?,
+                ))
+            },
+        )
+        .map_err(&sql)?;
+    // Welford's running mean and sum of squares, per KPI.
+    let mut acc: BTreeMap<(String, String, String), (usize, f64, f64)> = BTreeMap::new();
+    for r in rows {
+        let (key, x) = r.map_err(&sql)?;
+        let e = acc.entry(key).or_default();
+        e.0 += 1;
+        let d = x - e.1;
+        e.1 += d / e.0 as f64;
+        e.2 += d * (x - e.1);
+    }
+    Ok(acc
+        .into_iter()
+        .filter(|(_, (n, _, _))| *n >= 2)
+        .map(|(k, (n, _, m2))| (k, (n, (m2 / (n - 1) as f64).max(0.0).sqrt())))
+        .collect())
 }
 
 /// Reads run `id` whole; an unknown id is an error naming it.
@@ -428,5 +483,6 @@ pub fn load_run(db: &Db, id: i64) -> Result<RunData, CampaignError> {
         run: row,
         order,
         cases,
+        repeats: Repeats::new(),
     })
 }

@@ -85,6 +85,12 @@ fn noise_source(c: &Comparison) -> String {
             gated.len()
         )
     };
+    if c.from_repeats.0 > 0 {
+        s.push_str(&format!(
+            " The database holds up to {} repeated runs of A's plan on the same camera, serial and firmware: for {} KPIs σ is their spread over those runs instead (times √2, for two runs).",
+            c.from_repeats.1, c.from_repeats.0
+        ));
+    }
     if unknown > 0 {
         s.push_str(&format!(
             " For {unknown}, a trace was not readable when its run was recorded: any change towards worse counts."

@@ -57,7 +57,8 @@ pub(super) struct CompareArgs {
 pub(super) fn compare(a: CompareArgs) -> Result<i32, Failure> {
     let db = Db::open_existing(&a.db.path()?)?;
     let (id_a, id_b) = pick(&db, &a)?;
-    let run_a = query::load_run(&db, id_a)?;
+    let mut run_a = query::load_run(&db, id_a)?;
+    run_a.repeats = query::repeat_spread(&db, &run_a.run, id_b)?;
     let run_b = query::load_run(&db, id_b)?;
     if run_a.run.plan_id != run_b.run.plan_id {
         eprintln!(
@@ -188,6 +189,12 @@ fn text(c: &Comparison) -> String {
         c.k_pooled,
         ALPHA * 100.0
     ));
+    if c.from_repeats.0 > 0 {
+        s.push_str(&format!(
+            "noise of {} KPIs from their spread over up to {} repeated runs of A's plan, camera, serial and firmware\n",
+            c.from_repeats.0, c.from_repeats.1
+        ));
+    }
     for (metric, score, n) in &c.pooled {
         let verdict = if *score > c.k_pooled {
             "REGRESSED"
