@@ -373,9 +373,7 @@ pub fn load_run(db: &Db, id: i64) -> Result<RunData, CampaignError> {
             db.path.display()
         ))
     })?;
-    let mut order = Vec::new();
-    let mut ids = BTreeMap::new();
-    let mut cases = BTreeMap::new();
+    let (mut order, mut ids, mut cases) = (Vec::new(), BTreeMap::new(), BTreeMap::new());
     let mut q = db
         .conn
         .prepare("SELECT idx, id, verdict FROM cases WHERE run_id = ?1 ORDER BY idx")
