@@ -85,14 +85,16 @@ pub fn history_view(runs: &[RunRow], database: &Path, filters: &str, date: &str)
             title: format!("{plan} on {camera}"),
             y_desc: "cases".to_string(),
             labels: runs.iter().map(|r| r.firmware.clone()).collect(),
+            // Passing in the first series colour (blue), failing in the
+            // second (red).
             series: vec![
-                (
-                    "failing".to_string(),
-                    runs.iter().map(|r| Some(r.cases[2] as f64)).collect(),
-                ),
                 (
                     "passing".to_string(),
                     runs.iter().map(|r| Some(r.cases[1] as f64)).collect(),
+                ),
+                (
+                    "failing".to_string(),
+                    runs.iter().map(|r| Some(r.cases[2] as f64)).collect(),
                 ),
             ],
         })
