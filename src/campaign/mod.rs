@@ -22,8 +22,10 @@ use rusqlite::{Connection, OptionalExtension, TransactionBehavior};
 
 pub mod compare;
 pub mod noise;
+pub mod pages;
 pub mod query;
 pub mod record;
+pub mod view;
 
 /// Name of the schema; its version is SQLite's `user_version`.
 pub const SCHEMA: &str = "ledflicker.db";

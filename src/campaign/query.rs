@@ -22,6 +22,8 @@ pub struct RunRow {
     pub date: String,
     /// Plan id.
     pub plan_id: String,
+    /// Plan title.
+    pub plan_title: String,
     /// Hash of the plan and its inputs.
     pub plan_hash: String,
     /// `ledflicker <version>`.
@@ -54,7 +56,7 @@ pub struct RunRow {
 
 const RUN_COLUMNS: &str = "id, recorded_unix_s, source, date, plan_id, plan_hash, tool, backend, \
     supplier, model, serial, firmware, signer, signature, report_dir, results_sha256, \
-    manifest_sha256, verdict, cases_total, cases_pass, cases_fail, cases_info";
+    manifest_sha256, verdict, cases_total, cases_pass, cases_fail, cases_info, plan_title";
 
 fn run_row(r: &Row<'_>) -> rusqlite::Result<RunRow> {
     Ok(RunRow {
@@ -77,6 +79,7 @@ fn run_row(r: &Row<'_>) -> rusqlite::Result<RunRow> {
         manifest_sha256: r.get(16)?,
         verdict: r.get(17)?,
         cases: [r.get(18)?, r.get(19)?, r.get(20)?, r.get(21)?],
+        plan_title: r.get(22)?,
     })
 }
 
@@ -101,7 +104,9 @@ pub struct Filter {
 }
 
 impl Filter {
-    fn clause(&self) -> (String, Vec<String>) {
+    /// The SQL `WHERE` clause and its values, the columns of `runs`
+    /// qualified by `prefix` (e.g. `r.`).
+    fn clause(&self, prefix: &str) -> (String, Vec<String>) {
         let mut terms = Vec::new();
         let mut values = Vec::new();
         for (column, op, value) in [
@@ -115,7 +120,7 @@ impl Filter {
         ] {
             if let Some(v) = value {
                 values.push(v.clone());
-                terms.push(format!("{column} {op} ?{}", values.len()));
+                terms.push(format!("{prefix}{column} {op} ?{}", values.len()));
             }
         }
         let clause = if terms.is_empty() {
@@ -130,7 +135,7 @@ impl Filter {
 /// The runs `filter` selects, oldest first.
 pub fn history(db: &Db, filter: &Filter) -> Result<Vec<RunRow>, CampaignError> {
     let sql = sqlite(&db.path);
-    let (clause, values) = filter.clause();
+    let (clause, values) = filter.clause("");
     let mut q = db
         .conn
         .prepare(&format!(
@@ -139,6 +144,82 @@ pub fn history(db: &Db, filter: &Filter) -> Result<Vec<RunRow>, CampaignError> {
         .map_err(&sql)?;
     let rows = q
         .query_map(params_from_iter(values), run_row)
+        .map_err(&sql)?;
+    rows.collect::<Result<_, _>>().map_err(sql)
+}
+
+/// One value of a KPI in a run: a point of `ledflicker trend`.
+#[derive(Debug, Clone, Serialize)]
+pub struct TrendPoint {
+    /// Run id.
+    pub run: i64,
+    /// Report date, `YYYY-MM-DD`.
+    pub date: String,
+    /// Plan id.
+    pub plan: String,
+    /// `[dut] model`, serial and firmware.
+    pub camera: String,
+    /// See `camera`.
+    pub serial: String,
+    /// See `camera`.
+    pub firmware: String,
+    /// Case id.
+    pub case: String,
+    /// ROI name.
+    pub roi: String,
+    /// Metric id.
+    pub metric: String,
+    /// Its value; `None`: undefined in that run.
+    pub value: Option<f64>,
+}
+
+/// The values of `metric` (of case `case` and ROI `roi` when given) in the
+/// runs `filter` selects, by run (oldest first) then plan order.
+pub fn trend(
+    db: &Db,
+    filter: &Filter,
+    metric: &str,
+    case: Option<&str>,
+    roi: Option<&str>,
+) -> Result<Vec<TrendPoint>, CampaignError> {
+    let sql = sqlite(&db.path);
+    let (clause, mut values) = filter.clause("r.");
+    let mut terms = vec![clause];
+    for (column, v) in [("m.metric", Some(metric)), ("c.id", case), ("m.roi", roi)] {
+        if let Some(v) = v {
+            values.push(v.to_string());
+            let join = if terms.concat().is_empty() {
+                " WHERE"
+            } else {
+                " AND"
+            };
+            terms.push(format!("{join} {column} = ?{}", values.len()));
+        }
+    }
+    let mut q = db
+        .conn
+        .prepare(&format!(
+            "SELECT r.id, r.date, r.plan_id, r.model, r.serial, r.firmware, c.id, m.roi, m.metric, m.value \
+             FROM metrics m JOIN cases c ON c.run_id = m.run_id AND c.idx = m.idx \
+             JOIN runs r ON r.id = m.run_id{} ORDER BY r.id, c.idx, m.roi",
+            terms.concat()
+        ))
+        .map_err(&sql)?;
+    let rows = q
+        .query_map(params_from_iter(values), |r| {
+            Ok(TrendPoint {
+                run: r.get(0)?,
+                date: r.get(1)?,
+                plan: r.get(2)?,
+                camera: r.get(3)?,
+                serial: r.get(4)?,
+                firmware: r.get(5)?,
+                case: r.get(6)?,
+                roi: r.get(7)?,
+                metric: r.get(8)?,
+                value: r.get(9)?,
+            })
+        })
         .map_err(&sql)?;
     rows.collect::<Result<_, _>>().map_err(sql)
 }
@@ -226,6 +307,61 @@ pub struct RunData {
     pub order: Vec<String>,
     /// Case id -> case.
     pub cases: BTreeMap<String, CaseData>,
+    /// The spread of each KPI over repeated runs of the same plan on the
+    /// same device (see [`repeat_spread`]); empty unless filled.
+    pub repeats: Repeats,
+}
+
+/// (case, ROI, metric) -> (runs, sample standard deviation of the KPI over
+/// them).
+pub type Repeats = BTreeMap<(String, String, String), (usize, f64)>;
+
+/// The run-to-run spread of every KPI over the runs of `run`'s plan id on
+/// the same device and firmware (`[dut]` model, serial, firmware), run
+/// `except` left out (the run compared with it): the sample standard
+/// deviation of each KPI's defined values, with how many there are.
+pub fn repeat_spread(db: &Db, run: &RunRow, except: i64) -> Result<Repeats, CampaignError> {
+    let sql = sqlite(&db.path);
+    let mut q = db
+        .conn
+        .prepare(
+            "SELECT c.id, m.roi, m.metric, m.value FROM metrics m \
+             JOIN cases c ON c.run_id = m.run_id AND c.idx = m.idx \
+             JOIN runs r ON r.id = m.run_id \
+             WHERE r.plan_id = ?1 AND r.model = ?2 AND r.serial = ?3 AND r.firmware = ?4 \
+             AND r.id != ?5 AND m.value IS NOT NULL",
+        )
+        .map_err(&sql)?;
+    let rows = q
+        .query_map(
+            rusqlite::params![run.plan_id, run.model, run.serial, run.firmware, except],
+            |r| {
+                Ok((
+                    (
+                        r.get::<_, String>(0)?,
+                        r.get::<_, String>(1)?,
+                        r.get::<_, String>(2)?,
+                    ),
+                    r.get::<_, f64>(3)?,
+                ))
+            },
+        )
+        .map_err(&sql)?;
+    // Welford's running mean and sum of squares, per KPI.
+    let mut acc: BTreeMap<(String, String, String), (usize, f64, f64)> = BTreeMap::new();
+    for r in rows {
+        let (key, x) = r.map_err(&sql)?;
+        let e = acc.entry(key).or_default();
+        e.0 += 1;
+        let d = x - e.1;
+        e.1 += d / e.0 as f64;
+        e.2 += d * (x - e.1);
+    }
+    Ok(acc
+        .into_iter()
+        .filter(|(_, (n, _, _))| *n >= 2)
+        .map(|(k, (n, _, m2))| (k, (n, (m2 / (n - 1) as f64).max(0.0).sqrt())))
+        .collect())
 }
 
 /// Reads run `id` whole; an unknown id is an error naming it.
@@ -237,9 +373,7 @@ pub fn load_run(db: &Db, id: i64) -> Result<RunData, CampaignError> {
             db.path.display()
         ))
     })?;
-    let mut order = Vec::new();
-    let mut ids = BTreeMap::new();
-    let mut cases = BTreeMap::new();
+    let (mut order, mut ids, mut cases) = (Vec::new(), BTreeMap::new(), BTreeMap::new());
     let mut q = db
         .conn
         .prepare("SELECT idx, id, verdict FROM cases WHERE run_id = ?1 ORDER BY idx")
@@ -347,5 +481,6 @@ pub fn load_run(db: &Db, id: i64) -> Result<RunData, CampaignError> {
         run: row,
         order,
         cases,
+        repeats: Repeats::new(),
     })
 }

@@ -172,6 +172,10 @@ pub(super) struct HistoryArgs {
     /// Print the runs as a JSON array.
     #[arg(long)]
     json: bool,
+    /// Also write the runs as one standalone HTML page: by camera and
+    /// firmware, each linked to its report, with trend charts.
+    #[arg(long, value_name = "FILE")]
+    html: Option<PathBuf>,
 }
 
 impl HistoryArgs {
@@ -201,6 +205,9 @@ pub(super) fn history(a: HistoryArgs) -> Result<i32, Failure> {
     let filter = a.filter()?;
     let db = Db::open_existing(&a.db.path()?)?;
     let runs = query::history(&db, &filter)?;
+    if let Some(path) = &a.html {
+        write_page(path, &runs, db.path(), &filter)?;
+    }
     if a.json {
         outln!("{}", serde_json::to_string_pretty(&runs)?)?;
     } else {
@@ -267,4 +274,41 @@ fn table(runs: &[RunRow]) -> String {
         text.push_str("(no runs)\n");
     }
     text
+}
+
+/// The filters of `history` in words, for the page.
+fn in_words(filter: &Filter) -> String {
+    [
+        ("camera", &filter.camera),
+        ("serial", &filter.serial),
+        ("firmware", &filter.firmware),
+        ("plan", &filter.plan),
+        ("since", &filter.since),
+        ("until", &filter.until),
+        ("verdict", &filter.verdict),
+    ]
+    .iter()
+    .filter_map(|(k, v)| v.as_ref().map(|v| format!("{k} {v}")))
+    .collect::<Vec<_>>()
+    .join(", ")
+}
+
+/// Writes the history page of `runs` to `path`. A file there that is not
+/// such a page is the user's and is left alone.
+fn write_page(path: &Path, runs: &[RunRow], db: &Path, filter: &Filter) -> Result<(), Failure> {
+    if let Ok(old) = std::fs::read(path)
+        && !String::from_utf8_lossy(&old).contains("<title>ledflicker history:")
+    {
+        return Err(UsageError(format!(
+            "`{}` exists and is not a page `ledflicker history --html` wrote; refusing to replace it\n    hint: give another file name",
+            path.display()
+        ))
+        .into());
+    }
+    let date = super::args::report_date(None)?;
+    let view = crate::campaign::pages::history_view(runs, db, &in_words(filter), &date);
+    let html = crate::report::history::html(&view)?;
+    crate::util::write_atomic(path, html.as_bytes())
+        .map_err(|e| UsageError(format!("cannot write `{}`: {e}", path.display())))?;
+    Ok(())
 }

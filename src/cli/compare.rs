@@ -1,6 +1,8 @@
 //! `ledflicker compare A B`: two recorded runs side by side, through
 //! [`crate::campaign::compare`]; prints the regressions first, then the
-//! verdict flips, and writes JUnit XML for a CI with `--junit`.
+//! verdict flips, writes JUnit XML for a CI with `--junit`, and the
+//! comparison report (HTML, and PDF with the `pdf` feature) with
+//! `--report`.
 
 use super::output::out;
 use std::path::{Path, PathBuf};
@@ -38,6 +40,15 @@ pub(super) struct CompareArgs {
     /// where a KPI regressed.
     #[arg(long, value_name = "FILE")]
     junit: Option<PathBuf>,
+    /// Write the comparison report into DIR: comparison.html, comparison.pdf
+    /// and junit.xml. DIR is new, empty, or a comparison report written
+    /// before (replaced whole); never a run's report directory.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+    /// Date the comparison report carries, YYYY-MM-DD [default:
+    /// $SOURCE_DATE_EPOCH, else today].
+    #[arg(long, requires = "report")]
+    date: Option<String>,
     #[command(flatten)]
     db: DbArg,
 }
@@ -46,7 +57,8 @@ pub(super) struct CompareArgs {
 pub(super) fn compare(a: CompareArgs) -> Result<i32, Failure> {
     let db = Db::open_existing(&a.db.path()?)?;
     let (id_a, id_b) = pick(&db, &a)?;
-    let run_a = query::load_run(&db, id_a)?;
+    let mut run_a = query::load_run(&db, id_a)?;
+    run_a.repeats = query::repeat_spread(&db, &run_a.run, id_b)?;
     let run_b = query::load_run(&db, id_b)?;
     if run_a.run.plan_id != run_b.run.plan_id {
         eprintln!(
@@ -54,12 +66,25 @@ pub(super) fn compare(a: CompareArgs) -> Result<i32, Failure> {
             run_a.run.plan_id, run_b.run.plan_id
         );
     }
+    let date = match &a.report {
+        Some(_) => Some(super::args::report_date(a.date.as_deref())?),
+        None => None,
+    };
     let c = compare_runs(&run_a, &run_b, ALPHA);
     out!("{}", text(&c))?;
+    let xml = junit(&c).map_err(|e| Failure::Internal(format!("junit.xml: {e}")))?;
     if let Some(path) = &a.junit {
-        let xml = junit(&c).map_err(|e| Failure::Internal(format!("junit.xml: {e}")))?;
-        std::fs::write(path, xml)
+        std::fs::write(path, &xml)
             .map_err(|e| UsageError(format!("cannot write `{}`: {e}", path.display())))?;
+    }
+    if let (Some(dir), Some(date)) = (&a.report, date) {
+        let view = crate::campaign::view::view(&c, &run_b, &date);
+        let written = super::compare_report::write(dir, &view, &xml)?;
+        eprintln!(
+            "comparison report: {} in `{}`",
+            written.join(", "),
+            dir.display()
+        );
     }
     Ok(if c.regressed_cases().is_empty() {
         EXIT_PASS
@@ -164,6 +189,12 @@ fn text(c: &Comparison) -> String {
         c.k_pooled,
         ALPHA * 100.0
     ));
+    if c.from_repeats.0 > 0 {
+        s.push_str(&format!(
+            "noise of {} KPIs from their spread over up to {} repeated runs of A's plan, camera, serial and firmware\n",
+            c.from_repeats.0, c.from_repeats.1
+        ));
+    }
     for (metric, score, n) in &c.pooled {
         let verdict = if *score > c.k_pooled {
             "REGRESSED"

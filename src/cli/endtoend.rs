@@ -85,25 +85,35 @@ fn run_timed(
     }
 }
 
-/// `reps` runs of `ledflicker plan PLAN` into a scratch report directory;
-/// an exit code other than 0 or 1 (pass or fail) is an error.
-fn time_plan(exe: &Path, root: &Path, plan: &str, reps: usize) -> Result<Vec<Finished>, String> {
+/// `reps` runs of `ledflicker plan PLAN` into a scratch report directory,
+/// recorded in a scratch results database or (`record` false) in none; an
+/// exit code other than 0 or 1 (pass or fail) is an error.
+fn time_plan(
+    exe: &Path,
+    root: &Path,
+    plan: &str,
+    reps: usize,
+    record: bool,
+) -> Result<Vec<Finished>, String> {
     let scratch = tempfile::tempdir().map_err(|e| format!("no scratch directory: {e}"))?;
     let out = scratch.path().join("report");
     // Every run is recorded, as a user's is, but in a scratch database:
     // a benchmark is no run of the user's.
     let db = scratch.path().join("results.sqlite");
     let plan_path = root.join("test-plans").join(plan);
-    let args = [
+    let mut args = vec![
         "plan",
         plan_path.to_str().unwrap_or_default(),
         "--out",
         out.to_str().unwrap_or_default(),
         "-q",
         "--force",
-        "--db",
-        db.to_str().unwrap_or_default(),
     ];
+    if record {
+        args.extend(["--db", db.to_str().unwrap_or_default()]);
+    } else {
+        args.push("--no-db");
+    }
     (0..reps)
         .map(|_| {
             let run = run_timed(exe, &args, root, RUN_TIMEOUT)?;
@@ -182,15 +192,36 @@ pub(super) fn bench_end_to_end(quick: bool) -> Result<(), Failure> {
         "end to end (this binary as a separate process, all outputs, default detail, {} threads):",
         rayon::current_num_threads()
     )?;
-    let daylight = time_plan(&exe, root, "daylight.toml", reps).map_err(Failure::Internal)?;
+    // Interleaved with runs that record nothing, so that both see the
+    // same load: the cost of recording (docs/campaigns.md).
+    let (mut daylight, mut unrecorded) = (Vec::new(), Vec::new());
+    for _ in 0..reps {
+        daylight
+            .extend(time_plan(&exe, root, "daylight.toml", 1, true).map_err(Failure::Internal)?);
+        unrecorded
+            .extend(time_plan(&exe, root, "daylight.toml", 1, false).map_err(Failure::Internal)?);
+    }
     outln!("  {}", describe("daylight plan (35 cases)", &daylight))?;
+    outln!(
+        "  {}",
+        describe("daylight plan, --no-db (not recorded)", &unrecorded)
+    )?;
+    let cost = median(daylight.iter().map(|r| r.wall_s).collect())
+        / median(unrecorded.iter().map(|r| r.wall_s).collect())
+        - 1.0;
+    outln!(
+        "  recording in the results database: {:+.1} % of the daylight plan's median wall",
+        100.0 * cost
+    )?;
     let reps = if quick { 1 } else { 3 };
     // Interleaved, so that both see the same load.
     let mut ours = Vec::new();
     let mut peer = Vec::new();
     let mut peer_missing = None;
     for _ in 0..reps {
-        ours.extend(time_plan(&exe, root, "p2020-samples.toml", 1).map_err(Failure::Internal)?);
+        ours.extend(
+            time_plan(&exe, root, "p2020-samples.toml", 1, true).map_err(Failure::Internal)?,
+        );
         if peer_missing.is_none() {
             match time_opencv(root, 1) {
                 Ok(r) => peer.extend(r),

@@ -31,6 +31,7 @@ mod bench;
 mod calibrate;
 mod campaign;
 mod compare;
+mod compare_report;
 mod endtoend;
 mod failure;
 mod merge;
@@ -46,6 +47,7 @@ mod sign;
 #[path = "sign_disabled.rs"]
 mod sign;
 mod simulate;
+mod trend;
 mod validate;
 
 pub use args::DetailArg;
@@ -146,6 +148,9 @@ enum Command {
     /// verdict flips, and a noise-aware regression gate. Exit code 1 on a
     /// regression.
     Compare(compare::CompareArgs),
+    /// One KPI over the recorded runs, per case and ROI, filtered by
+    /// camera, firmware and plan: a table, JSON, or an SVG chart.
+    Trend(trend::TrendArgs),
     /// Print a shell completion script, e.g. `ledflicker completions bash >
     /// ~/.local/share/bash-completion/completions/ledflicker`.
     Completions {
@@ -215,6 +220,7 @@ fn run(cli: Cli, version: &'static str) -> Result<i32, Failure> {
         Command::Import(args) => campaign::import(args),
         Command::History(args) => campaign::history(args),
         Command::Compare(args) => compare::compare(args),
+        Command::Trend(args) => trend::trend(args),
         Command::Completions { shell } => {
             clap_complete::generate(
                 shell,

@@ -330,6 +330,81 @@ fn compare_gates_a_shorter_exposure_as_a_regression_and_names_the_case() {
     assert!(stderr(&o).contains("no run 9"), "{}", stderr(&o));
 }
 
+#[test]
+fn compare_writes_a_comparison_report_into_a_directory_of_its_own() {
+    let dir = scratch("campaign-report");
+    let v10 = small_plan(&dir, "v10", "1.0", "11.111");
+    let v11 = small_plan(&dir, "v11", "1.1", "1.0");
+    plan(&dir, &v10, "a", &["--db", "c.sqlite"]);
+    plan(&dir, &v11, "b", &["--db", "c.sqlite"]);
+    let compare = |report: &str| {
+        run(
+            &dir,
+            &[
+                "compare",
+                "a",
+                "b",
+                "--db",
+                "c.sqlite",
+                "--report",
+                report,
+                "--date",
+                "2026-05-06",
+            ],
+        )
+    };
+    let o = compare("cmp");
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let html = std::fs::read_to_string(dir.join("cmp/comparison.html")).unwrap();
+    // The two runs, the regressed cases first (in the regressions table,
+    // before the table of the other gated KPIs), the flip, and a chart.
+    assert!(html.contains("firmware 1.0 → 1.1"), "{html}");
+    assert!(html.contains("2026-05-06"));
+    let regressions = html.find("<h2>Regressions</h2>").unwrap();
+    let flips = html.find("<h2>Verdict flips</h2>").unwrap();
+    for case in ["2000lux-150hz-20pct", "2000lux-150hz-50pct"] {
+        let at = html[regressions..].find(case).map(|i| i + regressions);
+        assert!(
+            at.is_some_and(|i| i < flips),
+            "{case} not among the regressions"
+        );
+    }
+    assert!(html[flips..].contains("2000lux-150hz-20pct"));
+    assert!(html.contains("<svg"), "no chart");
+    assert_eq!(html.matches("<tr class=\"regressed\">").count(), 2);
+    let xml = std::fs::read_to_string(dir.join("cmp/junit.xml")).unwrap();
+    assert!(xml.contains("2000lux-150hz-20pct"));
+    if cfg!(feature = "pdf") {
+        let pdf = std::fs::read(dir.join("cmp/comparison.pdf")).unwrap();
+        assert!(pdf.starts_with(b"%PDF"));
+    }
+    // Written again, the directory is replaced whole and a user's file in
+    // it survives.
+    std::fs::write(dir.join("cmp/notes.txt"), "mine").unwrap();
+    assert_eq!(compare("cmp").status.code(), Some(1));
+    assert_eq!(
+        std::fs::read_to_string(dir.join("cmp/notes.txt")).unwrap(),
+        "mine"
+    );
+    // A run's report directory, or a directory of the user's, is refused
+    // and left as it was.
+    let results = std::fs::read(dir.join("a/results.json")).unwrap();
+    let o = compare("a");
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        stderr(&o).contains("a run's report directory"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(std::fs::read(dir.join("a/results.json")).unwrap(), results);
+    assert!(!dir.join("a/comparison.html").exists());
+    std::fs::create_dir(dir.join("mine")).unwrap();
+    std::fs::write(dir.join("mine/x.txt"), "x").unwrap();
+    let o = compare("mine");
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(!dir.join("mine/comparison.html").exists());
+}
+
 /// Every place these tests start the binary points it at a scratch
 /// database: none may record into the user's own.
 #[test]
@@ -466,4 +541,227 @@ fn merge_records_the_whole_run_once_and_shards_record_nothing() {
     );
     let runs = history(&dir, "db.sqlite", &[]);
     assert_eq!(runs[0]["plan_hash"], runs[1]["plan_hash"]);
+}
+
+/// Copies the report directory `from` to `to`, with its results.json's
+/// `[dut] firmware` set to `firmware`: a past report of another build.
+fn copy_as_firmware(from: &Path, to: &Path, firmware: &str) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap().flatten() {
+        let target = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_as_firmware(&e.path(), &target, firmware);
+        } else if e.file_name() == "results.json" {
+            let mut r: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(e.path()).unwrap()).unwrap();
+            r["dut"]["firmware"] = serde_json::Value::from(firmware);
+            std::fs::write(&target, serde_json::to_vec(&r).unwrap()).unwrap();
+        } else {
+            std::fs::copy(e.path(), &target).unwrap();
+        }
+    }
+}
+
+/// `%XX` of a `file://` URL back to the path.
+fn url_path(url: &str) -> PathBuf {
+    let bytes = url.strip_prefix("file://").unwrap().as_bytes();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%' {
+            let hex = std::str::from_utf8(&bytes[i + 1..i + 3]).unwrap();
+            out.push(u8::from_str_radix(hex, 16).unwrap());
+            i += 3;
+        } else {
+            out.push(bytes[i]);
+            i += 1;
+        }
+    }
+    PathBuf::from(String::from_utf8(out).unwrap())
+}
+
+#[test]
+fn history_trend_and_the_history_page_cover_a_campaign_of_52_runs() {
+    let dir = scratch("campaign-trend");
+    let v10 = small_plan(&dir, "v10", "1.0", "11.111");
+    let v11 = small_plan(&dir, "v11", "1.1", "1.0");
+    plan(&dir, &v10, "a", &["--db", "t.sqlite"]);
+    plan(&dir, &v11, "b", &["--db", "t.sqlite"]);
+    // Fifty past reports: builds 2.0 to 2.39 as good as run a, 2.40 to
+    // 2.49 with run b's shorter exposure.
+    let mut import = vec!["import".to_string(), "--db".into(), "t.sqlite".into()];
+    for i in 0..50 {
+        let from = if i < 40 { "a" } else { "b" };
+        let to = format!("past/fw 2.{i}");
+        copy_as_firmware(&dir.join(from), &dir.join(&to), &format!("2.{i}"));
+        import.push(to);
+    }
+    let args: Vec<&str> = import.iter().map(String::as_str).collect();
+    let o = run(&dir, &args);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert_eq!(history(&dir, "t.sqlite", &[]).len(), 52);
+    let one = history(&dir, "t.sqlite", &["--firmware", "2.45"]);
+    assert_eq!(one.len(), 1);
+    assert_eq!(one[0]["verdict"], "fail");
+
+    let case = "2000lux-150hz-20pct";
+    let trend = |extra: &[&str]| {
+        let mut args = vec![
+            "trend",
+            "--db",
+            "t.sqlite",
+            "--kpi",
+            "fdi_2018_worst_phase",
+            "--case",
+            case,
+            "--roi",
+            "led",
+        ];
+        args.extend(extra);
+        run(&dir, &args)
+    };
+    let o = trend(&["--json", "--svg", "trend.svg"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let points: Vec<serde_json::Value> = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(points.len(), 52);
+    let value = |p: &serde_json::Value| p["value"].as_f64().unwrap();
+    let (good, bad) = (value(&points[0]), value(&points[1]));
+    assert!(good - bad > 0.5, "{good} {bad}");
+    for (k, p) in points[2..].iter().enumerate() {
+        assert_eq!(p["firmware"], format!("2.{k}").as_str());
+        let want = if k < 40 { good } else { bad };
+        assert!((value(p) - want).abs() < 1e-9, "{p}");
+    }
+    let svg = std::fs::read_to_string(dir.join("trend.svg")).unwrap();
+    assert!(svg.contains("<svg") && svg.contains(&format!("\n{case} led\n")));
+    let o = trend(&["--firmware", "2.45", "--camera", "EX-1"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(table.lines().count(), 2, "{table}");
+    assert!(table.lines().nth(1).unwrap().contains(" 2.45 "), "{table}");
+    let o = trend(&["--plan", "no-such-plan"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("no value of `fdi_2018_worst_phase`"));
+
+    let o = run(
+        &dir,
+        &["history", "--db", "t.sqlite", "--html", "history.html"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let page = std::fs::read_to_string(dir.join("history.html")).unwrap();
+    let hrefs: Vec<&str> = page
+        .split("href=\"")
+        .skip(1)
+        .map(|s| s.split('"').next().unwrap())
+        .filter(|h| h.starts_with("file://"))
+        .collect();
+    // Every run's report.html and report.pdf (when built with the PDF),
+    // and every link resolves.
+    let per_run = if cfg!(feature = "pdf") { 2 } else { 1 };
+    assert_eq!(hrefs.len(), 52 * per_run, "{page}");
+    for h in &hrefs {
+        assert!(url_path(h).is_file(), "{h} does not resolve");
+    }
+    assert!(page.contains("2.49") && page.contains("<svg"));
+    let (_, console) = crate::visual::chromium(&dir.join("history.html"), &dir);
+    assert!(console.is_empty(), "console output: {console:#?}");
+    // A file of the user's is never replaced.
+    std::fs::write(dir.join("notes.html"), "mine").unwrap();
+    let o = run(
+        &dir,
+        &["history", "--db", "t.sqlite", "--html", "notes.html"],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(
+        std::fs::read_to_string(dir.join("notes.html")).unwrap(),
+        "mine"
+    );
+}
+
+/// `\d{4}-\d{2}-\d{2}` replaced by `DATE`: the README's dates are the
+/// day it was written.
+fn undated(line: &str) -> String {
+    let b = line.as_bytes();
+    let mut out = String::new();
+    let mut i = 0;
+    while i < b.len() {
+        let date = b.len() >= i + 10
+            && (0..10).all(|k| {
+                if k == 4 || k == 7 {
+                    b[i + k] == b'-'
+                } else {
+                    b[i + k].is_ascii_digit()
+                }
+            });
+        if date {
+            out.push_str("DATE");
+            i += 10;
+        } else {
+            out.push(b[i] as char);
+            i += 1;
+        }
+    }
+    out
+}
+
+/// The README's three-command campaign, run as written (its commands in
+/// one shell, `ledflicker` this build): every line of output it shows
+/// appears, in order (`...` stands for lines or text left out).
+#[test]
+fn readme_campaign_runs_as_written() {
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    let section = readme
+        .split("### A campaign in three commands")
+        .nth(1)
+        .unwrap();
+    let block = section.split("```sh\n").nth(1).unwrap();
+    let block = block.split("```").next().unwrap();
+    let commands: Vec<&str> = block.lines().filter_map(|l| l.strip_prefix("$ ")).collect();
+    let shown: Vec<&str> = block.lines().filter(|l| !l.starts_with("$ ")).collect();
+    assert_eq!(commands.len(), 4, "{block}");
+    let dir = scratch("campaign-readme");
+    std::os::unix::fs::symlink(root().join("test-plans"), dir.join("test-plans")).unwrap();
+    let bin = dir.join("bin");
+    std::fs::create_dir(&bin).unwrap();
+    std::os::unix::fs::symlink(env!("CARGO_BIN_EXE_ledflicker"), bin.join("ledflicker")).unwrap();
+    let script = format!("exec 2>&1\n{}\n", commands.join("\n"));
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let o = std::process::Command::new("sh")
+        .args(["-c", &script])
+        .current_dir(&dir)
+        .env("PATH", path)
+        .env("LEDFLICKER_DB", dir.join("results.sqlite"))
+        .env_remove("SOURCE_DATE_EPOCH")
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    let actual: Vec<String> = out.lines().map(undated).collect();
+    let mut at = 0;
+    for line in shown.iter().map(|l| undated(l)) {
+        if line == "..." {
+            continue;
+        }
+        let (head, tail) = line.split_once("...").unwrap_or((&line, ""));
+        let found = actual[at..].iter().position(|a| {
+            if line.contains("...") {
+                a.starts_with(head) && a.ends_with(tail)
+            } else {
+                *a == line
+            }
+        });
+        let Some(k) = found else {
+            panic!("the README shows `{line}`, not in the output after line {at}:\n{out}");
+        };
+        at += k + 1;
+    }
+    assert_eq!(out.lines().last(), Some("1"), "compare exits 1");
+    assert!(dir.join("compare.xml").is_file());
+    assert!(dir.join("reports/compare/comparison.html").is_file());
+    if cfg!(feature = "pdf") {
+        assert!(dir.join("reports/compare/comparison.pdf").is_file());
+    }
 }

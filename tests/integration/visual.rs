@@ -246,7 +246,7 @@ fn page_comparison_tells_a_changed_page_from_the_same_page() {
 
 /// Loads `html` in headless Chromium; returns the screenshot and every
 /// console line Chromium logged (script errors are logged as `CONSOLE`).
-fn chromium(html: &Path, scratch_dir: &Path) -> (RgbImage, Vec<String>) {
+pub(crate) fn chromium(html: &Path, scratch_dir: &Path) -> (RgbImage, Vec<String>) {
     let shot = scratch_dir.join("screenshot.png");
     let profile = scratch_dir.join("chromium-profile");
     let o = Command::new("chromium")

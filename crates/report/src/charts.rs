@@ -11,13 +11,17 @@ use crate::model::{SegmentsFound, StepKind};
 
 pub mod envelope;
 mod fold_grid;
+mod kpi_change;
 mod roi_map;
 mod trace;
+mod trend;
 mod worst_phase;
 
 pub use fold_grid::{FOLD_GRID_FROM, fold_grid_svg};
+pub use kpi_change::kpi_change_svg;
 pub use roi_map::{ROI_MAP_WIDTH, roi_map_svg};
 pub use trace::{luma_trace_svg, pwm_zoom_frames, trace_zoom_svg};
+pub use trend::{TrendSeries, trend_svg};
 pub use worst_phase::worst_phase_svg;
 
 /// Font family named in every chart.

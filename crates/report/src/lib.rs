@@ -11,10 +11,12 @@
 use ledflicker_core::{model, outdir, timings, util};
 
 pub mod charts;
+pub mod comparison;
 pub mod document;
 pub mod export;
 pub mod frames;
 pub mod golden;
+pub mod history;
 pub mod html;
 pub mod matrix;
 #[cfg(feature = "pdf")]

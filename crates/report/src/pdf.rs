@@ -98,6 +98,9 @@ pub enum Pictures<'a> {
     Drawn(&'a Document),
     /// Drawn on first use, by whichever thread asks first.
     Jobs(&'a ChartJobs<'a>, &'a ViewJobs<'a>),
+    /// Charts of a document other than a run's report (the comparison
+    /// report), by path; it has no frame views.
+    Svgs(&'a BTreeMap<String, String>),
 }
 
 impl Pictures<'_> {
@@ -112,6 +115,7 @@ impl Pictures<'_> {
                     Some(Ok(svg)) => Some(svg.as_str()),
                     None => None,
                 },
+                Pictures::Svgs(svgs) => svgs.get(path).map(String::as_str),
             };
             Ok(Bytes::from_string(shapes::simplify(
                 svg.ok_or_else(missing)?,
@@ -124,6 +128,7 @@ impl Pictures<'_> {
                     Some(Ok(png)) => Some(png),
                     None => None,
                 },
+                Pictures::Svgs(_) => None,
             };
             Ok(Bytes::new(png.ok_or_else(missing)?.clone()))
         }
@@ -190,7 +195,7 @@ impl World for ReportWorld<'_> {
 /// `raw(..)` pieces, `{"camera "; raw("hdr3-1080p30")}`: content that
 /// stands where the literal would, with the code set as code and no
 /// backtick left.
-fn typst_str(value: &Value) -> String {
+pub(crate) fn typst_str(value: &Value) -> String {
     let text = match value.as_str() {
         Some(s) => s.to_string(),
         None if value.is_none() || value.is_undefined() => String::new(),
@@ -476,25 +481,55 @@ pub fn render_with(
             .as_ref()
             .map(|(path, bytes)| (path.clone(), Bytes::new(bytes.clone()))),
     };
+    lay_out(&world, format!("ledflicker-{}", doc.results.plan.id))
+}
+
+/// Lays out the world's main file and writes it as PDF; `ident` is the
+/// PDF's stable identifier (the same inputs give the same bytes).
+fn lay_out(world: &ReportWorld<'_>, ident: String) -> Result<(Vec<u8>, usize), ReportError> {
     let compiled = {
         let _t = crate::timings::span("pdf: layout");
-        typst::compile::<PagedDocument>(&world)
+        typst::compile::<PagedDocument>(world)
     };
     let document = compiled
         .output
-        .map_err(|errors| diagnostics("typst could not lay out the report", &errors, &world))?;
+        .map_err(|errors| diagnostics("typst could not lay out the report", &errors, world))?;
     let options = typst_pdf::PdfOptions {
         // A stable identifier: the same report gives the same PDF bytes.
-        ident: typst::foundations::Smart::Custom(format!("ledflicker-{}", doc.results.plan.id)),
+        ident: typst::foundations::Smart::Custom(ident),
         ..typst_pdf::PdfOptions::default()
     };
     let mut bytes = {
         let _t = crate::timings::span("pdf: write");
         typst_pdf::pdf(&document, &options)
-            .map_err(|errors| diagnostics("typst could not write the PDF", &errors, &world))?
+            .map_err(|errors| diagnostics("typst could not write the PDF", &errors, world))?
     };
     blank_suspects_false(&mut bytes);
     Ok((bytes, document.pages().len()))
+}
+
+/// Lays out `markup` (a whole Typst document) with the charts `svgs` (by
+/// the paths the markup names) in the report's fonts, dated `date`
+/// (`YYYY-MM-DD`): the PDF of a document other than a run's report.
+pub fn render_standalone(
+    markup: String,
+    svgs: &BTreeMap<String, String>,
+    date: &str,
+    ident: &str,
+) -> Result<(Vec<u8>, usize), ReportError> {
+    let main = file_id("document.typ")?;
+    let world = ReportWorld {
+        main,
+        source: Source::new(main, markup),
+        files: svgs
+            .keys()
+            .map(|path| (path.as_str(), WorldFile::new(true)))
+            .collect(),
+        pictures: Pictures::Svgs(svgs),
+        today: parse_date(date),
+        logo: None,
+    };
+    lay_out(&world, ident.to_string())
 }
 
 /// Overwrites the catalog's `/Suspects false` (in `/MarkInfo`) with spaces.

@@ -1,0 +1,149 @@
+//! A value over the runs of a campaign (`ledflicker trend --svg`, the
+//! charts of `ledflicker history --html`): one line per series, the runs
+//! in order along x, each labelled by its firmware or date.
+
+use plotters::prelude::*;
+
+use super::{ChartError, FONT, FONT_FULL_WIDTH, SERIES_COLOURS};
+
+/// One line of a trend chart: its legend and a value per run (`None`: no
+/// value in that run, a gap in the line).
+pub type TrendSeries = (String, Vec<Option<f64>>);
+
+/// Series drawn in colour and named in the legend; the others are drawn
+/// grey, unnamed, so a plan of many cases still reads.
+const NAMED: usize = 6;
+
+/// The chart as SVG, 760 x 380 px: `labels` along x (one a run, the axis
+/// described by `x_desc`), `series` as lines with a dot at each value.
+pub fn trend_svg(
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    labels: &[String],
+    series: &[TrendSeries],
+) -> Result<String, ChartError> {
+    let err = |e: &dyn std::fmt::Display| ChartError {
+        chart: format!("trend {title}"),
+        message: e.to_string(),
+    };
+    let values = series.iter().flat_map(|s| s.1.iter().flatten().copied());
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    // The top quarter is left free for the legend.
+    let (lo, hi) = if lo.is_finite() {
+        let pad = ((hi - lo) * 0.08).max(1e-3 * hi.abs().max(1.0));
+        (lo - pad, hi + (hi - lo + pad) * 0.35)
+    } else {
+        (0.0, 1.0)
+    };
+    let n = labels.len().max(1);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (760, 380)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let mut c = ChartBuilder::on(&root)
+            .margin(10)
+            .caption(title, (FONT, FONT_FULL_WIDTH + 2))
+            .x_label_area_size(50)
+            .y_label_area_size(super::y_label_area(lo, hi, FONT_FULL_WIDTH))
+            .build_cartesian_2d(-0.5..(n as f64 - 0.5), lo..hi)
+            .map_err(|e| err(&e))?;
+        // At most 8 labels along x (plotters' SVG sets text upright), so
+        // that labels of a dozen characters never overlap.
+        let every = n.div_ceil(8).max(1);
+        c.configure_mesh()
+            .y_desc(y_desc)
+            .x_labels(0)
+            .x_desc(x_desc)
+            .label_style((FONT, FONT_FULL_WIDTH))
+            .axis_desc_style((FONT, FONT_FULL_WIDTH))
+            .max_light_lines(0)
+            .draw()
+            .map_err(|e| err(&e))?;
+        let style = TextStyle::from((FONT, FONT_FULL_WIDTH).into_font()).pos(
+            plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Center,
+                plotters::style::text_anchor::VPos::Top,
+            ),
+        );
+        for (i, label) in labels.iter().enumerate().step_by(every) {
+            let (x, y) = c.backend_coord(&(i as f64, lo));
+            root.draw(&Text::new(label.clone(), (x, y + 6), style.clone()))
+                .map_err(|e| err(&e))?;
+        }
+        for (k, (name, values)) in series.iter().enumerate().rev() {
+            let colour = if k < NAMED {
+                SERIES_COLOURS[k % SERIES_COLOURS.len()]
+            } else {
+                RGBColor(190, 190, 190)
+            };
+            // A gap (no value) breaks the line.
+            let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+            for (i, v) in values.iter().enumerate() {
+                match (v.filter(|v| v.is_finite()), runs.last_mut()) {
+                    (Some(v), Some(run)) => run.push((i as f64, v)),
+                    _ => runs.push(Vec::new()),
+                }
+            }
+            for (j, run) in runs.into_iter().filter(|r| !r.is_empty()).enumerate() {
+                let drawn = c
+                    .draw_series(LineSeries::new(run.clone(), colour.stroke_width(2)))
+                    .map_err(|e| err(&e))?;
+                if k < NAMED && j == 0 {
+                    drawn.label(name.as_str()).legend(move |(x, y)| {
+                        PathElement::new([(x, y), (x + 18, y)], colour.stroke_width(2))
+                    });
+                }
+                c.draw_series(run.into_iter().map(|p| Circle::new(p, 3, colour.filled())))
+                    .map_err(|e| err(&e))?;
+            }
+        }
+        c.configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .label_font((FONT, FONT_FULL_WIDTH))
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(200, 200, 200))
+            .draw()
+            .map_err(|e| err(&e))?;
+        root.present().map_err(|e| err(&e))?;
+    }
+    Ok(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_run_is_labelled_and_a_named_series_is_in_the_legend() {
+        let labels: Vec<String> = (0..5).map(|i| format!("fw-1.{i}")).collect();
+        let series = vec![
+            (
+                "case-a".to_string(),
+                vec![Some(1.0), Some(1.1), None, Some(0.2), Some(0.2)],
+            ),
+            ("case-b".to_string(), vec![Some(0.5); 5]),
+        ];
+        let svg = trend_svg("FDI over firmware", "firmware", "FDI", &labels, &series).unwrap();
+        for l in &labels {
+            assert!(svg.contains(&format!("\n{l}\n")), "no label {l}");
+        }
+        assert!(svg.contains("\ncase-a\n") && svg.contains("\ncase-b\n"));
+        // Nine dots: four of case-a (one gap), five of case-b.
+        assert_eq!(svg.matches("<circle").count(), 9, "{svg}");
+    }
+
+    #[test]
+    fn many_runs_get_a_label_every_few_runs() {
+        let labels: Vec<String> = (0..60).map(|i| format!("r{i}")).collect();
+        let series = vec![("x".to_string(), vec![Some(1.0); 60])];
+        let svg = trend_svg("t", "run", "y", &labels, &series).unwrap();
+        // Every eighth run.
+        assert!(svg.contains("\nr0\n") && svg.contains("\nr8\n"), "{svg}");
+        assert!(!svg.contains("\nr4\n"));
+    }
+}

@@ -1,0 +1,205 @@
+//! A [`Comparison`] as the comparison report shows it
+//! ([`crate::report::comparison::ComparisonView`]): the two runs, the
+//! regressions worst first, the other gated KPIs, the flips, and a chart
+//! per gated KPI with the regressed cases on top.
+
+use std::collections::BTreeMap;
+
+use super::compare::{ALPHA, Comparison, Kpi};
+use super::query::{RunData, RunRow};
+use crate::report::comparison::{
+    ChartPoint, ComparisonView, FlipRow, KpiChange, KpiChart, PooledRow, RunSide,
+};
+
+/// Charts in a report at most: the regressed KPIs come first, so a long
+/// plan's report stays readable and never loses one of them.
+const MAX_CHARTS: usize = 8;
+
+fn side(r: &RunRow) -> RunSide {
+    RunSide {
+        id: r.id,
+        plan: r.plan_id.clone(),
+        plan_title: r.plan_title.clone(),
+        supplier: r.supplier.clone(),
+        model: r.model.clone(),
+        serial: r.serial.clone(),
+        firmware: r.firmware.clone(),
+        date: r.date.clone(),
+        tool: r.tool.clone(),
+        backend: r.backend.clone(),
+        verdict: r.verdict.clone(),
+        cases: r.cases,
+        signature: r.signature.clone(),
+        report_dir: r.report_dir.clone(),
+    }
+}
+
+fn change(k: &Kpi) -> KpiChange {
+    KpiChange {
+        case: k.case.clone(),
+        roi: k.roi.clone(),
+        metric: k.metric.clone(),
+        a: k.a,
+        b: k.b,
+        delta: k.delta(),
+        sigma: k.sigma.filter(|s| *s > 0.0),
+        z: k.z(),
+        worse: match k.worse {
+            1 => "rise",
+            -1 => "fall",
+            _ => "",
+        }
+        .to_string(),
+        regressed: k.regressed,
+    }
+}
+
+/// Most worrying first: larger change towards worse in sigma, then (no
+/// sigma) larger change towards worse.
+fn by_concern(a: &KpiChange, b: &KpiChange) -> std::cmp::Ordering {
+    let key = |k: &KpiChange| {
+        let sign = if k.worse == "rise" { 1.0 } else { -1.0 };
+        (
+            k.z.unwrap_or(f64::INFINITY),
+            k.delta.map_or(f64::INFINITY, |d| d * sign),
+        )
+    };
+    key(b)
+        .partial_cmp(&key(a))
+        .unwrap_or(std::cmp::Ordering::Equal)
+}
+
+/// The sentence saying where the gate's sigma came from.
+fn noise_source(c: &Comparison) -> String {
+    let gated: Vec<&Kpi> = c.kpis.iter().filter(|k| k.worse != 0).collect();
+    let noisy = gated
+        .iter()
+        .filter(|k| k.sigma.is_some_and(|s| s > 0.0))
+        .count();
+    let unknown = gated.iter().filter(|k| k.sigma.is_none()).count();
+    let mut s = if noisy == 0 {
+        "Both runs' traces are free of noise (a simulator without a noise model): every change beyond floating-point rounding is real.".to_string()
+    } else {
+        format!(
+            "The noise σ of {noisy} of the {} gated KPIs comes from each run's trace: its ROI's frame-to-frame noise in the steady ON and OFF segments, propagated through the KPI's formula.",
+            gated.len()
+        )
+    };
+    if c.from_repeats.0 > 0 {
+        s.push_str(&format!(
+            " The database holds up to {} repeated runs of A's plan on the same camera, serial and firmware: for {} KPIs σ is their spread over those runs instead (times √2, for two runs).",
+            c.from_repeats.1, c.from_repeats.0
+        ));
+    }
+    if unknown > 0 {
+        s.push_str(&format!(
+            " For {unknown}, a trace was not readable when its run was recorded: any change towards worse counts."
+        ));
+    }
+    s
+}
+
+/// One chart per gated ROI and metric, regressed ones first.
+fn charts(c: &Comparison, changes: &[KpiChange], b: &RunData) -> Vec<KpiChart> {
+    let mut groups: BTreeMap<(String, String), Vec<&KpiChange>> = BTreeMap::new();
+    for k in changes.iter().filter(|k| !k.worse.is_empty()) {
+        groups
+            .entry((k.roi.clone(), k.metric.clone()))
+            .or_default()
+            .push(k);
+    }
+    let threshold = |roi: &str, metric: &str, points: &[&KpiChange]| {
+        let limits: Vec<f64> = points
+            .iter()
+            .filter_map(|p| b.cases.get(&p.case))
+            .flat_map(|case| &case.checks)
+            .filter(|x| x.roi == roi && x.metric == metric)
+            .map(|x| x.threshold)
+            .collect();
+        let first = *limits.first()?;
+        limits
+            .iter()
+            .all(|t| (t - first).abs() <= 1e-12 * first.abs().max(1.0))
+            .then_some(first)
+    };
+    let mut out: Vec<KpiChart> = groups
+        .into_iter()
+        .map(|((roi, metric), mut points)| {
+            points.sort_by_key(|p| std::cmp::Reverse(p.regressed));
+            KpiChart {
+                threshold: threshold(&roi, &metric, &points),
+                name: crate::model::human_name(&metric).to_string(),
+                points: points
+                    .iter()
+                    .map(|p| ChartPoint {
+                        case: p.case.clone(),
+                        a: p.a,
+                        b: p.b,
+                        band: p.sigma.map(|s| s * c.k),
+                        regressed: p.regressed,
+                    })
+                    .collect(),
+                roi,
+                metric,
+            }
+        })
+        .collect();
+    out.sort_by_key(|chart| !chart.points.iter().any(|p| p.regressed));
+    out.truncate(MAX_CHARTS);
+    out
+}
+
+/// The report's view of `c`, made on `date` (`YYYY-MM-DD`); `b` is run B
+/// whole (for its checks' limits).
+pub fn view(c: &Comparison, b: &RunData, date: &str) -> ComparisonView {
+    let changes: Vec<KpiChange> = c.kpis.iter().map(change).collect();
+    let mut regressions: Vec<KpiChange> = changes.iter().filter(|k| k.regressed).cloned().collect();
+    regressions.sort_by(by_concern);
+    let mut gated_changes: Vec<KpiChange> = changes
+        .iter()
+        .filter(|k| !k.regressed && !k.worse.is_empty())
+        .cloned()
+        .collect();
+    gated_changes.sort_by(by_concern);
+    let regressed_cases: Vec<String> = c
+        .regressed_cases()
+        .into_iter()
+        .map(str::to_string)
+        .collect();
+    ComparisonView {
+        a: side(&c.a),
+        b: side(&c.b),
+        date: date.to_string(),
+        compared: c.kpis.len(),
+        gated: c.gated(),
+        k: c.k,
+        k_pooled: c.k_pooled,
+        alpha: ALPHA,
+        noise_source: noise_source(c),
+        flips: c
+            .flips
+            .iter()
+            .map(|f| FlipRow {
+                case: f.case.clone(),
+                from: f.from.clone(),
+                to: f.to.clone(),
+                regressed: regressed_cases.contains(&f.case),
+            })
+            .collect(),
+        pooled: c
+            .pooled
+            .iter()
+            .map(|(metric, score, n)| PooledRow {
+                metric: metric.clone(),
+                score: *score,
+                n: *n,
+                regressed: *score > c.k_pooled,
+            })
+            .collect(),
+        unmatched: c.unmatched.clone(),
+        charts: charts(c, &changes, b),
+        regressed_cases,
+        regressions,
+        gated_changes,
+    }
+}
