@@ -81,7 +81,16 @@ fn settings(plan: &Plan, s: &SourceConfig) -> Result<(), Failure> {
         s.reconnects,
         scpi::scpi_number(s.lead_in_s)
     )?;
-    if let Some(cmd) = plan.capture.as_ref().and_then(|c| c.command.as_ref()) {
+    if let Some(rec) = &plan.recorder {
+        outln!(
+            "camera recorder: {} frames ({} s at {} fps), {} s after the end",
+            rec.frames,
+            scpi::scpi_number(rec.duration_s),
+            scpi::scpi_number(plan.dut.camera.fps),
+            scpi::scpi_number(rec.tail_s)
+        )?;
+        outln!("  {}", rec.argv.join(" "))?;
+    } else if let Some(cmd) = plan.capture.as_ref().and_then(|c| c.command.as_ref()) {
         outln!("capture command: {}", cmd.argv.join(" "))?;
     }
     Ok(())
