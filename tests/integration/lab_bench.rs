@@ -258,3 +258,66 @@ fn lab_bench_example_dry_run_prints_the_recorder_and_every_line() {
         assert!(out.contains(want), "{want} not in\n{out}");
     }
 }
+
+#[test]
+fn lab_rig_simulate_serves_until_ctrl_c_and_logs_each_line() {
+    use std::io::{BufRead, BufReader, Write};
+    let dir = scratch("lab-simulate");
+    let log = dir.join("instrument.log");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(["rig", "simulate", "--port", "0", "--log"])
+        .arg(&log)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    let port: u16 = first
+        .strip_prefix("SCPI instrument simulator on 127.0.0.1:")
+        .and_then(|r| r.split(' ').next())
+        .and_then(|p| p.parse().ok())
+        .unwrap_or_else(|| panic!("no port in {first:?}"));
+    let mut stream = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_secs(10)))
+        .unwrap();
+    stream.write_all(b"*IDN?\nOUTP1 ON\n").unwrap();
+    let mut answer = String::new();
+    BufReader::new(stream.try_clone().unwrap())
+        .read_line(&mut answer)
+        .unwrap();
+    assert_eq!(
+        answer.trim_end(),
+        ledflicker::backend::scpi::simulator::IDENTITY
+    );
+    // The second line reaches the log without an answer to wait for.
+    let started = Instant::now();
+    while read_log(&log).len() < 2 {
+        assert!(
+            started.elapsed() < Duration::from_secs(10),
+            "{:?}",
+            read_log(&log)
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    // SAFETY: kill(2) on the child this test started.
+    assert_eq!(
+        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) },
+        0
+    );
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(
+            "stopped: 2 line(s) received on 1 connection(s); the last output line was `OUTP1 ON`"
+        ),
+        "{}",
+        stderr(&o)
+    );
+    let lines: Vec<String> = read_log(&log).into_iter().map(|(_, l)| l).collect();
+    assert_eq!(lines, ["*IDN?", "OUTP1 ON"]);
+}
