@@ -125,20 +125,36 @@ fn lab_bench_example_with_a_simulated_camera_gives_the_simulators_verdicts() {
     // A failing case and a passing one: the verdict is not the same
     // whatever the frames.
     assert_eq!(verdicts, ["fail", "pass"]);
-    // The log holds exactly the template's lines, in the documented order.
+    // The log holds exactly the template's lines, each case's in the
+    // documented order; the cases come in the order the workers take
+    // them (one at a time at the instrument).
     let p = plan::load(&path).unwrap();
     let source = p.source.as_ref().unwrap();
-    let mut expected = connect_lines(source);
-    for case in plan::expand_cases(&p) {
-        for step in case_steps(source, &case, &p.sequence) {
-            expected.extend(step.lines);
-            expected.push("SYST:ERR?".to_string());
-        }
-    }
+    let connect = connect_lines(source);
+    let mut expected: Vec<Vec<String>> = plan::expand_cases(&p)
+        .iter()
+        .map(|case| {
+            let mut lines = Vec::new();
+            for step in case_steps(source, case, &p.sequence) {
+                lines.extend(step.lines);
+                lines.push("SYST:ERR?".to_string());
+            }
+            lines
+        })
+        .collect();
     let logged = read_log(&log);
-    let lines: Vec<&str> = logged.iter().map(|(_, l)| l.as_str()).collect();
-    assert_eq!(lines, expected);
-    assert_eq!(sim.lines(), expected);
+    let lines: Vec<String> = logged.iter().map(|(_, l)| l.clone()).collect();
+    assert_eq!(lines, sim.lines());
+    assert_eq!(lines[..connect.len()], connect);
+    let per_case = expected[0].len();
+    assert!(expected.iter().all(|e| e.len() == per_case));
+    let mut seen: Vec<Vec<String>> = lines[connect.len()..]
+        .chunks(per_case)
+        .map(<[String]>::to_vec)
+        .collect();
+    seen.sort();
+    expected.sort();
+    assert_eq!(seen, expected);
     // Each case's ON is held on-s, its OFF off-s and its PWM pwm-s, as
     // the Unix times in the log show.
     let at = |line: &str| -> Vec<f64> {
@@ -265,6 +281,7 @@ fn lab_rig_simulate_serves_until_ctrl_c_and_logs_each_line() {
     let dir = scratch("lab-simulate");
     let log = dir.join("instrument.log");
     let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
         .args(["rig", "simulate", "--port", "0", "--log"])
         .arg(&log)
         .stdin(Stdio::null())

@@ -163,7 +163,7 @@ mod tests {
     fn a_recorder_becomes_the_plans_command_for_the_whole_recording() {
         let plan = plan_with(
             "[capture]\ntimeout-s = 30.0\n",
-            &format!("{SOURCE}[recorder]\ngstreamer = \"aravissrc camera-name=Fake_1\"\n"),
+            &format!("{SOURCE}[recorder]\ngstreamer = \"aravissrc camera-name=Fake_1 ! video/x-raw,format={{GRAY8,I420}}\"\n"),
         )
         .unwrap();
         let rec = plan.recorder.unwrap();

@@ -104,10 +104,9 @@ fn recorder_config(
                 );
                 return None;
             }
-            let argv = gstreamer_argv(&pipeline, 0);
             (
                 RecorderKind::GStreamer(pipeline),
-                argv,
+                Vec::new(),
                 "recorder.gstreamer",
             )
         }
@@ -123,7 +122,12 @@ fn recorder_config(
             (RecorderKind::Command, argv, "recorder.command")
         }
     };
-    let unknown: Vec<String> = argv.iter().flat_map(|a| unknown_placeholders(a)).collect();
+    // A GStreamer pipeline holds no placeholders of the plan's, and its
+    // caps may hold braces of their own (`format={I420,NV12}`).
+    let unknown: Vec<String> = match kind {
+        RecorderKind::GStreamer(_) => Vec::new(),
+        RecorderKind::Command => argv.iter().flat_map(|a| unknown_placeholders(a)).collect(),
+    };
     if !unknown.is_empty() {
         let known: Vec<String> = PLACEHOLDERS.iter().map(|p| format!("{{{p}}}")).collect();
         c.error(
