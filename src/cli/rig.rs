@@ -3,7 +3,9 @@
 //! `rig check` connects, prints the instrument's identity, its error
 //! queue and the plan's settings, and sends nothing but the identity and
 //! error queries; the dry run connects to nothing and prints every line a
-//! run would send, case by case, with the planned times.
+//! run would send, case by case, with the planned times. `rig simulate`
+//! runs the SCPI instrument simulator on 127.0.0.1, to try a plan
+//! without an instrument.
 
 use clap::{Args, Subcommand};
 
@@ -27,12 +29,63 @@ enum RigAction {
         /// Plan file, or a plan name from test-plans/.
         plan: String,
     },
+    /// Run an SCPI instrument simulator on 127.0.0.1 until Ctrl-C: it
+    /// answers `*IDN?` and the error query, and records every line it is
+    /// sent (docs/lab.md, "Trying it without hardware").
+    Simulate {
+        /// TCP port to listen on; 0 picks a free one.
+        #[arg(long, default_value_t = scpi_port())]
+        port: u16,
+        /// Append every line received to this file, as `<Unix time, s>
+        /// <connection> <line>`.
+        #[arg(long)]
+        log: Option<std::path::PathBuf>,
+    },
+}
+
+const fn scpi_port() -> u16 {
+    crate::plan::source::DEFAULT_PORT
 }
 
 pub(super) fn rig(args: RigArgs) -> Result<i32, Failure> {
     match args.action {
         RigAction::Check { plan } => check(&plan),
+        RigAction::Simulate { port, log } => simulate(port, log.as_deref()),
     }
+}
+
+/// Serves as an instrument until SIGINT or SIGTERM, then says how many
+/// lines it received.
+fn simulate(port: u16, log: Option<&std::path::Path>) -> Result<i32, Failure> {
+    use crate::backend::scpi::simulator::{Faults, SimInstrument};
+    crate::interrupt::install();
+    let sim = SimInstrument::start_at(port, Faults::default(), log).map_err(|e| {
+        Failure::Internal(format!(
+            "cannot run the instrument simulator on 127.0.0.1:{port}{}: {e}",
+            log.map(|l| format!(" with the log `{}`", l.display()))
+                .unwrap_or_default()
+        ))
+    })?;
+    outln!(
+        "SCPI instrument simulator on 127.0.0.1:{} (Ctrl-C stops it)",
+        sim.port()
+    )?;
+    while crate::interrupt::requested().is_none() {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let lines = sim.lines();
+    let last = lines
+        .iter()
+        .rev()
+        .find(|l| l.contains("OUTP"))
+        .map(|l| format!("; the last output line was `{l}`"));
+    eprintln!(
+        "stopped: {} line(s) received on {} connection(s){}",
+        lines.len(),
+        sim.connections(),
+        last.unwrap_or_default()
+    );
+    Ok(EXIT_PASS)
 }
 
 fn check(arg: &str) -> Result<i32, Failure> {
@@ -81,7 +134,16 @@ fn settings(plan: &Plan, s: &SourceConfig) -> Result<(), Failure> {
         s.reconnects,
         scpi::scpi_number(s.lead_in_s)
     )?;
-    if let Some(cmd) = plan.capture.as_ref().and_then(|c| c.command.as_ref()) {
+    if let Some(rec) = &plan.recorder {
+        outln!(
+            "camera recorder: {} frames ({} s at {} fps), {} s after the end",
+            rec.frames,
+            scpi::scpi_number(rec.duration_s),
+            scpi::scpi_number(plan.dut.camera.fps),
+            scpi::scpi_number(rec.tail_s)
+        )?;
+        outln!("  {}", rec.argv.join(" "))?;
+    } else if let Some(cmd) = plan.capture.as_ref().and_then(|c| c.command.as_ref()) {
         outln!("capture command: {}", cmd.argv.join(" "))?;
     }
     Ok(())

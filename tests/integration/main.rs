@@ -17,6 +17,7 @@ mod estimate;
 mod exact;
 mod features;
 mod lab;
+mod lab_bench;
 mod legible;
 mod mutate;
 mod physics;

@@ -153,6 +153,9 @@ pub struct CommandRig {
     /// How a `[source]` recording's segments are found: the plan's
     /// sequence, settle time and LED ROIs.
     detection: Detection,
+    /// The command is the plan's `[recorder]`, whose arguments name the
+    /// case's output directory as `{out-dir}`.
+    recorder: bool,
 }
 
 impl CommandRig {
@@ -189,6 +192,7 @@ impl CommandRig {
                 .clone()
                 .map(|cfg| Box::new(LightSource::new(cfg, plan.sequence))),
             detection: Detection::for_plan(plan),
+            recorder: plan.recorder.is_some(),
         })
     }
 
@@ -247,8 +251,9 @@ impl CommandRig {
         .to_string()
     }
 
-    /// Program and arguments, with paths relative to the plan resolved.
-    fn program_and_args(&self) -> (PathBuf, Vec<String>) {
+    /// Program and arguments, with paths relative to the plan resolved
+    /// and a recorder's `{out-dir}` filled with `out`.
+    fn program_and_args(&self, out: &Path) -> (PathBuf, Vec<String>) {
         let mut program = PathBuf::from(&self.argv[0]);
         let local = self.plan_dir.join(&program);
         if program.is_relative() && program.components().count() > 1 && local.exists() {
@@ -257,11 +262,16 @@ impl CommandRig {
         let args: Vec<String> = self.argv[1..]
             .iter()
             .map(|a| {
-                let p = self.plan_dir.join(a);
-                if Path::new(a).is_relative() && a.contains('/') && p.exists() {
-                    p.display().to_string()
+                let a = if self.recorder {
+                    a.replace("{out-dir}", &out.display().to_string())
                 } else {
                     a.clone()
+                };
+                let p = self.plan_dir.join(&a);
+                if Path::new(&a).is_relative() && a.contains('/') && p.exists() {
+                    p.display().to_string()
+                } else {
+                    a
                 }
             })
             .collect();
@@ -294,7 +304,7 @@ impl CommandRig {
         out: &Path,
         cancel: &AtomicBool,
     ) -> Result<PathBuf, BackendError> {
-        let (program, args) = self.program_and_args();
+        let (program, args) = self.program_and_args(out);
         let exe = std::env::current_exe().unwrap_or_default();
         let mut command = Command::new(&program);
         command

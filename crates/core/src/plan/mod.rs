@@ -13,6 +13,7 @@ mod grid;
 mod p2020;
 pub mod profile;
 mod raw;
+pub mod recorder;
 pub mod shipped;
 pub mod source;
 mod spans;
@@ -89,6 +90,10 @@ pub struct Plan {
     /// The light source driven over SCPI (`[source]`); only a command
     /// plan has one.
     pub source: Option<source::SourceConfig>,
+    /// The camera recorder (`[recorder]`); only a command plan with a
+    /// light source has one, and then its command is the plan's
+    /// `capture.command`.
+    pub recorder: Option<recorder::RecorderConfig>,
     /// Plausibility warnings, in file order: values that are valid but
     /// most likely in another unit (docs/plan-format.md, "Plausibility
     /// warnings"). They never stop a run; [`Plan::warnings_text`] words them.

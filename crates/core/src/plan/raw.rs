@@ -44,6 +44,8 @@ pub struct RawPlan {
     pub display: Option<RawDisplay>,
     /// `[source]`: the light source driven over SCPI.
     pub source: Option<RawSource>,
+    /// `[recorder]`: the camera recorder of a plan with a light source.
+    pub recorder: Option<RawRecorder>,
 }
 
 /// `[plan]`
@@ -371,4 +373,13 @@ pub struct RawSourceCommands {
     pub pwm: Option<Vec<String>>,
     pub output_on: Option<Vec<String>>,
     pub output_off: Option<Vec<String>>,
+}
+
+/// `[recorder]`
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawRecorder {
+    pub gstreamer: Option<String>,
+    pub command: Option<Vec<String>>,
+    pub tail_s: Option<f64>,
 }

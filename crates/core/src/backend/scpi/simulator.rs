@@ -3,7 +3,10 @@
 //! sent (with the host-clock time and the connection's number), answers
 //! `*IDN?`, the error query (anything ending in `ERR?`) and other queries
 //! (`0`), and can be told to misbehave ([`Faults`]): push an error for a
-//! command, never answer a query, drop a connection.
+//! command, never answer a query, drop a connection. With a log file, it
+//! also appends each line there as it arrives, with the Unix time: other
+//! processes (a simulated camera, a person with `tail -f`) then see what
+//! the instrument was told and when.
 //!
 //! PyVISA-sim cannot stand in for it: it runs inside Python and opens no
 //! socket, while ledflicker talks to instruments over TCP.
@@ -45,6 +48,7 @@ pub struct Received {
 #[derive(Debug, Default)]
 struct State {
     received: Vec<Received>,
+    log: Option<std::fs::File>,
     errors: VecDeque<(i64, String)>,
     connections: usize,
     dropped: bool,
@@ -62,10 +66,33 @@ pub struct SimInstrument {
 impl SimInstrument {
     /// Starts a simulator on 127.0.0.1 at a free port.
     pub fn start(faults: Faults) -> std::io::Result<SimInstrument> {
-        let listener = TcpListener::bind("127.0.0.1:0")?;
+        Self::start_at(0, faults, None)
+    }
+
+    /// Starts a simulator on 127.0.0.1 at `port` (0: a free one). With
+    /// `log`, every line received is appended to that file as
+    /// `<Unix time, s> <connection> <line>`, written as it arrives.
+    pub fn start_at(
+        port: u16,
+        faults: Faults,
+        log: Option<&std::path::Path>,
+    ) -> std::io::Result<SimInstrument> {
+        let listener = TcpListener::bind(("127.0.0.1", port))?;
         listener.set_nonblocking(true)?;
         let port = listener.local_addr()?.port();
-        let state = Arc::new(Mutex::new(State::default()));
+        let log = match log {
+            Some(path) => Some(
+                std::fs::OpenOptions::new()
+                    .create(true)
+                    .append(true)
+                    .open(path)?,
+            ),
+            None => None,
+        };
+        let state = Arc::new(Mutex::new(State {
+            log,
+            ..State::default()
+        }));
         let stop = Arc::new(AtomicBool::new(false));
         let started = Instant::now();
         let accept = {
@@ -198,6 +225,14 @@ impl Connection {
             return None;
         }
         *seen += 1;
+        if let Some(log) = s.log.as_mut() {
+            let unix = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .unwrap_or_default()
+                .as_secs_f64();
+            // A log that cannot be written loses lines, not the instrument.
+            let _ = writeln!(log, "{unix:.6} {} {text}", self.number);
+        }
         s.received.push(Received {
             connection: self.number,
             at: self.started.elapsed(),

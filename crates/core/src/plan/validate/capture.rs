@@ -99,12 +99,14 @@ fn segments(
 }
 
 /// Validates `[capture]` and `[[case]]`. `captured` is true for the captured
-/// backend (cases from `[[case]]`), false for the command backend.
+/// backend (cases from `[[case]]`), false for the command backend;
+/// `recorder` is true when the plan has a `[recorder]`, whose command
+/// takes the place of `[capture] command`.
 pub(super) fn capture_config(
     c: &mut Checker<'_>,
     raw: Option<RawCaptureTable>,
     cases: Vec<RawCaseEntry>,
-    captured: bool,
+    (captured, recorder): (bool, bool),
     plan_path: &Path,
     pwm_s: Option<f64>,
 ) -> Option<CaptureConfig> {
@@ -148,7 +150,7 @@ pub(super) fn capture_config(
         "capture",
         SegmentSpec::default(),
     );
-    let command = command(c, raw.command, raw.timeout_s, captured);
+    let command = command(c, raw.command, raw.timeout_s, (captured, recorder));
     let out_cases = case_entries(c, cases, (captured, pwm_s), plan_path, base, &mut ok);
     let command_ok = captured || command.is_some();
     if !(ok && command_ok) {
@@ -215,23 +217,39 @@ fn optional_positive(
 
 /// `command` and `timeout-s`: the lab rig's command, required by the
 /// command backend and refused by the captured one. `None` when absent or
-/// invalid (the captured backend has none).
+/// invalid (the captured backend has none). With a `[recorder]`, the
+/// command is the recorder's: `argv` is left empty here and filled once
+/// `[recorder]` is validated, and `timeout-s` still bounds each case.
 fn command(
     c: &mut Checker<'_>,
     argv: Option<Vec<String>>,
     timeout_s: Option<f64>,
-    captured: bool,
+    (captured, recorder): (bool, bool),
 ) -> Option<CommandSpec> {
+    let timeout = |c: &mut Checker<'_>| {
+        c.within(
+            timeout_s.unwrap_or(300.0),
+            "capture.timeout-s",
+            TIMEOUT_S_RANGE,
+            " s",
+            "seconds one case may take",
+        )
+    };
     match (argv, captured) {
-        (Some(argv), false) if !argv.is_empty() => {
-            let timeout_s = c.within(
-                timeout_s.unwrap_or(300.0),
-                "capture.timeout-s",
-                TIMEOUT_S_RANGE,
-                " s",
-                "seconds one case may take",
+        (Some(_), false) if recorder => {
+            c.error(
+                "capture.command",
+                "the plan records the camera with [recorder], so it has no [capture] command",
+                Some("keep one of them: [recorder] for a camera recorded while the light source plays, or [capture] command for a rig that does both"),
             );
-            timeout_s.map(|timeout_s| CommandSpec { argv, timeout_s })
+            None
+        }
+        (None, false) if recorder => timeout(c).map(|timeout_s| CommandSpec {
+            argv: Vec::new(),
+            timeout_s,
+        }),
+        (Some(argv), false) if !argv.is_empty() => {
+            timeout(c).map(|timeout_s| CommandSpec { argv, timeout_s })
         }
         (_, false) => {
             c.error(

@@ -28,6 +28,7 @@ mod dut;
 mod grid;
 mod meta;
 mod p2020;
+mod recorder;
 mod report;
 mod roi;
 mod scene;
@@ -81,19 +82,39 @@ pub(super) fn validate(
             .as_ref()
             .is_some_and(|d| d.camera.is_some() || d.camera_profile.is_some());
     let (light, grid) = (raw.light, raw.grid);
-    let (capture, capture_failed) = case_sources(
+    let recorder_given = raw.recorder.is_some();
+    let (mut capture, capture_failed) = case_sources(
         &mut c,
         role,
         (light.is_some(), grid.is_some()),
-        (raw.capture, raw.case),
+        (raw.capture, raw.case, recorder_given),
         path,
         pwm_s,
     );
     let p2020 = p2020::p2020_options(&mut c, raw.p2020);
     let command = !role.is_sim && !role.captured;
+    let source_given = raw.source.is_some();
     let (source, source_failed) = source::source_table(&mut c, raw.source, command);
     let (levels, freqs, duties) = conditions(&mut c, light, grid, role.captured, pwm_s);
     let dut = dut::dut_table(&mut c, raw.dut, role.is_sim, path);
+    let (recorder, recorder_failed) = recorder::recorder_table(
+        &mut c,
+        raw.recorder,
+        recorder::RecorderContext {
+            command,
+            source_given,
+            source: source.as_ref(),
+            sequence: match (on_s, off_s, pwm_s) {
+                (Some(on_s), Some(off_s), Some(pwm_s)) => Some(Sequence { on_s, off_s, pwm_s }),
+                _ => None,
+            },
+            fps: dut.as_ref().map(|d| d.camera.fps),
+        },
+    );
+    // The recorder is the command the backend runs for each case.
+    if let (Some(rec), Some(cmd)) = (&recorder, capture.as_mut().and_then(|c| c.command.as_mut())) {
+        cmd.argv = rec.argv.clone();
+    }
     let rois = roi::rois(&mut c, raw.roi, dut.as_ref().map(|d| &d.camera), has_sensor);
     if let (true, Some(read), Some(cap), Some(rois)) =
         (role.captured, out.frame_size, &capture, &rois)
@@ -118,7 +139,7 @@ pub(super) fn validate(
         pwm_s: pwm_s?,
     };
     let dut = dut?;
-    if capture_failed || source_failed {
+    if capture_failed || source_failed || recorder_failed {
         return None;
     }
     sequence_fits(&mut c, &sequence, dut.camera.fps)?;
@@ -147,6 +168,7 @@ pub(super) fn validate(
         report: report?,
         display,
         source,
+        recorder,
         warnings: Vec::new(),
     })
 }
@@ -180,7 +202,7 @@ fn case_sources(
     c: &mut Checker<'_>,
     role: Role,
     present: (bool, bool),
-    (raw_capture, cases): (Option<RawCaptureTable>, Vec<RawCaseEntry>),
+    (raw_capture, cases, recorder): (Option<RawCaptureTable>, Vec<RawCaseEntry>, bool),
     path: &Path,
     pwm_s: Option<f64>,
 ) -> (Option<CaptureConfig>, bool) {
@@ -194,7 +216,14 @@ fn case_sources(
         }
     }
     if !role.is_sim {
-        let cap = capture::capture_config(c, raw_capture, cases, role.captured, path, pwm_s);
+        let cap = capture::capture_config(
+            c,
+            raw_capture,
+            cases,
+            (role.captured, recorder),
+            path,
+            pwm_s,
+        );
         let failed = cap.is_none();
         return (cap, failed);
     }
