@@ -134,14 +134,14 @@ pub(crate) fn sweep(n: usize) -> String {
 fn a_plan_over_the_memory_limit_names_the_flag_that_raises_it() {
     let dir = scratch("max-memory");
     let plan = dir.join("sweep.toml");
-    // 20000 cases: more than 1 GB by the estimate.
-    std::fs::write(&plan, sweep(2000)).unwrap();
+    // 100,000 cases: more than 1 GB by the estimate.
+    std::fs::write(&plan, sweep(10_000)).unwrap();
     let p = plan.to_str().unwrap();
     let o = ledflicker(&["validate", p]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     let err = stderr(&o);
     assert!(
-        err.contains("20000 cases") && err.contains("--max-memory raises it"),
+        err.contains("100000 cases") && err.contains("--max-memory raises it"),
         "{err}"
     );
     let estimate = estimated_memory(p, &["--max-memory", "100GB"]);

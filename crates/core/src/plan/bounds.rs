@@ -102,19 +102,22 @@ pub const CASE_PAGES_MAX: usize = 50;
 /// Memory of the process before the first case: code, the PDF engine's
 /// fonts, the thread pool, bytes (measured: 58 MB for 2 and 4 cases).
 const BASE_MEMORY_BYTES: f64 = 60.0e6;
-/// Memory every case costs until the report is written: its result read
-/// back from the store, its part of the model and results.json, its rows
-/// of summary.csv and junit.xml (measured: 0.12 MB a case beyond the
-/// first 500 of a sweep of a 16 x 12 sensor, 120 frames, 2 ROIs).
-const CASE_MEMORY_BYTES: f64 = 0.12e6;
-/// Memory every case costs per frame and ROI: its trace and trace CSV.
-const FRAME_ROI_MEMORY_BYTES: f64 = 100.0;
-/// Memory a case the report lists costs on top: its charts, its rows of
-/// the PDF's and the HTML's tables and its part of the PDF layout
-/// (fitted to daylight, grid-192 and sweeps of 1000 and 4000 cases).
-const LISTED_MEMORY_BYTES: f64 = 0.63e6;
-/// Memory a listed case costs per frame and ROI: its trace charts.
-const LISTED_FRAME_ROI_MEMORY_BYTES: f64 = 270.0;
+/// Memory every case costs until the report is written: its entry of the
+/// results model (what results.json says of it); its result, trace and
+/// files are read back from the case store a chunk at a time (measured:
+/// 11 to 17 kB a case of 2 ROIs beyond the listed ones, in sweeps of 1000
+/// to 23,460 cases).
+const CASE_MEMORY_BYTES: f64 = 16.0e3;
+/// Memory a case the report lists costs on top: its result read back for
+/// its pictures, its rows of the PDF's and the HTML's tables and their
+/// part of the PDF layout (fitted to sweeps of 1000 and 4000 cases, whose
+/// 500 listed cases cost about 200 MB).
+const LISTED_MEMORY_BYTES: f64 = 0.3e6;
+/// Memory a case with charts costs per frame and ROI: its trace, zoom and
+/// phase-fold charts and its pages (fitted to the shipped plans, which
+/// chart every case: 100 kB a case of daylight, 21 MB of a P2020 video of
+/// 36 ROIs).
+const CHARTED_FRAME_ROI_MEMORY_BYTES: f64 = 250.0;
 /// Memory per sensor pixel while the report draws the frame views, once
 /// per run: frames are held as runs of equal values, a view is a PNG of
 /// its pixels (measured: 46 MB for a 3840 x 2160 sensor).
@@ -264,9 +267,9 @@ impl WorkEstimate {
         let rois = plan.rois.len() as f64;
         let n = cases as f64;
         let frame_rois = trace_frames as f64 * rois;
-        // Every case is read back, modelled and exported; the report lists
-        // (tables, PDF layout) and charts at most its worst cases, unless it
-        // gives every case a page.
+        // Every case is modelled and exported, a chunk at a time from the
+        // case store; the report lists (tables, PDF layout) and charts at
+        // most its worst cases, unless it gives every case a page.
         let (listed, charted) = if every_case || cases <= LISTED_CASES_MAX {
             (n, n)
         } else {
@@ -276,8 +279,9 @@ impl WorkEstimate {
             + charted * (CHARTED_OUTPUT_BYTES + CHARTED_FRAME_ROI_OUTPUT_BYTES * frame_rois);
         // Frames are held as runs of equal values, so the sensor's size
         // costs memory only while a view is drawn.
-        let memory = n * (CASE_MEMORY_BYTES + FRAME_ROI_MEMORY_BYTES * frame_rois)
-            + listed * (LISTED_MEMORY_BYTES + LISTED_FRAME_ROI_MEMORY_BYTES * frame_rois);
+        let memory = n * CASE_MEMORY_BYTES
+            + listed * LISTED_MEMORY_BYTES
+            + charted * CHARTED_FRAME_ROI_MEMORY_BYTES * frame_rois;
         // The fine maps' condition is `analysis::fine_maps_note`'s, which
         // this layer cannot call.
         let fine_maps = sim
