@@ -144,22 +144,36 @@ fn a_plan_over_the_memory_limit_names_the_flag_that_raises_it() {
         err.contains("100000 cases") && err.contains("--max-memory raises it"),
         "{err}"
     );
-    let estimate = estimated_memory(p, &["--max-memory", "100GB"]);
+    let estimate = estimated_memory(p, &["--max-memory", "100GB", "--max-report", "100GB"]);
     assert!(estimate > 1e9, "{estimate}");
     // Above the estimate it validates, below it does not (the estimate
     // is printed to two digits).
     let above = format!("{}MB", (estimate * 1.1 / 1e6).ceil());
     let below = format!("{}MB", (estimate / 1.1 / 1e6).floor());
     assert_eq!(
-        ledflicker(&["validate", p, "--max-memory", &above])
-            .status
-            .code(),
+        ledflicker(&[
+            "validate",
+            p,
+            "--max-report",
+            "100GB",
+            "--max-memory",
+            &above
+        ])
+        .status
+        .code(),
         Some(0)
     );
     assert_eq!(
-        ledflicker(&["validate", p, "--max-memory", &below])
-            .status
-            .code(),
+        ledflicker(&[
+            "validate",
+            p,
+            "--max-report",
+            "100GB",
+            "--max-memory",
+            &below
+        ])
+        .status
+        .code(),
         Some(2)
     );
     let o = ledflicker(&["validate", p, "--max-memory", "4 parsecs"]);

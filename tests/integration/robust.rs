@@ -302,15 +302,15 @@ fn validate_refuses_plans_beyond_the_physical_bounds_and_the_work_limit() {
         (
             small_plan(
                 &sub("cases"),
-                "frequency-range-hz = { start = 50.0, stop = 2049.0, step = 1.0 }\nduty-cycle-range = { start = 0.1, stop = 1.0, step = 0.1 }",
+                "frequency-range-hz = { start = 50.0, stop = 10049.0, step = 1.0 }\nduty-cycle-range = { start = 0.1, stop = 1.0, step = 0.1 }",
             ),
-            vec!["20000 cases", "--max-memory raises it"],
+            vec!["100000 cases", "--max-memory raises it"],
         ),
         (
             {
                 let p = small_plan(
                     &sub("memory"),
-                    "frequency-range-hz = { start = 50.0, stop = 5049.0, step = 1.0 }\nduty-cycles = [0.5]",
+                    "frequency-range-hz = { start = 50.0, stop = 10049.0, step = 1.0 }\nduty-cycle-range = { start = 0.1, stop = 1.0, step = 0.1 }",
                 );
                 let t = std::fs::read_to_string(&p)
                     .unwrap()
@@ -322,7 +322,7 @@ fn validate_refuses_plans_beyond_the_physical_bounds_and_the_work_limit() {
             vec![
                 "too large to run",
                 "peak memory",
-                "estimated work: 5000 cases x 150 frames",
+                "estimated work: 100000 cases x 150 frames",
             ],
         ),
     ];
