@@ -74,11 +74,12 @@ fn lab_bench_plan_sends_the_templates_sequence_and_logs_the_step_times() {
         .map(|s| s["time_s"].as_f64().unwrap())
         .collect();
     // Held lead-in 0.5 s, ON 1 s, OFF 1 s, PWM 2 s, from the host clock;
-    // late by at most the answers' time on a loaded machine.
+    // off by at most what a loaded host's scheduler adds to a step's
+    // sending (20 ms, under a frame at 30 fps) and the answers' time.
     for (i, want) in [0.5, 1.0, 1.0, 2.0].into_iter().enumerate() {
         let held = t[i + 1] - t[i];
         assert!(
-            held >= want - 1e-3 && held < want + 0.5,
+            held >= want - 0.02 && held < want + 0.5,
             "step {i}: {held} s"
         );
     }

@@ -156,7 +156,9 @@ fn lab_bench_example_with_a_simulated_camera_gives_the_simulators_verdicts() {
     expected.sort();
     assert_eq!(seen, expected);
     // Each case's ON is held on-s, its OFF off-s and its PWM pwm-s, as
-    // the Unix times in the log show.
+    // the Unix times in the log show, within what a loaded host's
+    // scheduler may add to when a line is sent or logged (20 ms, under a
+    // frame at 30 fps).
     let at = |line: &str| -> Vec<f64> {
         logged
             .iter()
@@ -175,7 +177,7 @@ fn lab_bench_example_with_a_simulated_camera_gives_the_simulators_verdicts() {
             (on2 - off_step, 1.0),
             (end - on2, 2.0),
         ] {
-            assert!(held >= want - 1e-3 && held < want + 0.5, "{held} s");
+            assert!(held >= want - 0.02 && held < want + 0.5, "{held} s");
         }
     }
 }
