@@ -87,6 +87,49 @@ pub fn time_stepped_on_fraction(
     total / n
 }
 
+/// Duty cycles of every benchmark sweep ([`sweep_plan`]): 10 % to 100 % in
+/// steps of 10 %.
+pub const SWEEP_DUTIES: usize = 10;
+
+/// A sweep of `frequencies` x 10 duties (`frequencies` from 50 Hz in steps
+/// of 5 Hz) on a 16 x 12 sensor, 120 frames a case and 2 ROIs: the shipped
+/// 192-case grid's camera and scene, smaller.
+pub fn sweep_plan(frequencies: usize) -> String {
+    let grid = crate::plan::shipped::PLANS
+        .iter()
+        .find(|p| p.path == "test-plans/grid-192.toml")
+        .map_or("", |p| p.text);
+    let list = |xs: Vec<String>| format!("[{}]", xs.join(", "));
+    let freqs = list(
+        (0..frequencies)
+            .map(|i| format!("{}.0", 50 + 5 * i))
+            .collect(),
+    );
+    let duties = list(
+        (1..=SWEEP_DUTIES)
+            .map(|i| format!("{:.1}", i as f64 / 10.0))
+            .collect(),
+    );
+    let mut out = String::new();
+    for line in grid.lines() {
+        let line = match line.split(" = ").next().unwrap_or_default() {
+            "id" => format!("id = \"sweep-{}\"", frequencies * SWEEP_DUTIES),
+            "pwm-s" => "pwm-s = 3.0".to_string(),
+            "frequencies-hz" => format!("frequencies-hz = {freqs}"),
+            "duty-cycles" => format!("duty-cycles = {duties}"),
+            "sensor-rows" => "sensor-rows = 12".to_string(),
+            "sensor-columns" => "sensor-columns = 16".to_string(),
+            "x-px" => "x-px = 2".to_string(),
+            "y-px" => "y-px = 4".to_string(),
+            "width-px" => "width-px = 10".to_string(),
+            _ => line.to_string(),
+        };
+        out.push_str(&line);
+        out.push('\n');
+    }
+    out
+}
+
 /// Median of `xs` (the upper middle for an even count); NaN when empty.
 pub(crate) fn median(mut xs: Vec<f64>) -> f64 {
     xs.sort_by(f64::total_cmp);

@@ -29,6 +29,12 @@ pub(super) struct BenchArgs {
     /// OpenCV reference (scripts/opencv_bench.py) when Python has cv2.
     #[arg(long = "end-to-end")]
     end_to_end: bool,
+    /// Also run sweeps of 100, 1,000, 10,000 and 100,000 cases (`--quick`:
+    /// the first two) of a 16 x 12 sensor end to end as separate processes
+    /// (wall time, peak memory, the run stage's rate) beside the
+    /// simulator's own rate; the largest writes about 3.5 GB.
+    #[arg(long)]
+    sweeps: bool,
 }
 
 /// The numpy peer's figure on the exact-core grid, measured now, and the
@@ -124,6 +130,9 @@ pub(super) fn bench(a: BenchArgs) -> Result<i32, Failure> {
     }
     if a.end_to_end {
         super::endtoend::bench_end_to_end(a.quick)?;
+    }
+    if a.sweeps {
+        super::sweeps::bench_sweeps(a.quick)?;
     }
     Ok(EXIT_PASS)
 }

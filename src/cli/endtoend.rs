@@ -20,30 +20,39 @@ const RUN_TIMEOUT: Duration = Duration::from_secs(300);
 
 /// One finished child process.
 #[derive(Debug, Clone, Copy)]
-struct Finished {
-    wall_s: f64,
+pub(super) struct Finished {
+    /// Wall time, seconds.
+    pub(super) wall_s: f64,
     /// Peak resident set size, bytes (`ru_maxrss`).
-    peak_rss_bytes: f64,
+    pub(super) peak_rss_bytes: f64,
     /// Exit code; `None` when killed by a signal.
-    code: Option<i32>,
+    pub(super) code: Option<i32>,
 }
 
 /// Runs `program args` in its own process group with no input and its
-/// output discarded; kills the group after `timeout` ([`RUN_TIMEOUT`] for
-/// the benchmarks). Wall time and peak RSS come from `wait4`.
-fn run_timed(
+/// output discarded, or its standard error into the file `stderr`; kills
+/// the group after `timeout` ([`RUN_TIMEOUT`] for the benchmarks). Wall
+/// time and peak RSS come from `wait4`.
+pub(super) fn run_timed(
     program: &Path,
     args: &[&str],
     dir: &Path,
     timeout: Duration,
+    stderr: Option<&Path>,
 ) -> Result<Finished, String> {
     let name = program.display();
+    let stderr = match stderr {
+        Some(path) => std::fs::File::create(path)
+            .map(Stdio::from)
+            .map_err(|e| format!("cannot create {}: {e}", path.display()))?,
+        None => Stdio::null(),
+    };
     let child = Command::new(program)
         .args(args)
         .current_dir(dir)
         .stdin(Stdio::null())
         .stdout(Stdio::null())
-        .stderr(Stdio::null())
+        .stderr(stderr)
         .process_group(0)
         .spawn()
         .map_err(|e| format!("cannot start {name}: {e}"))?;
@@ -116,7 +125,7 @@ fn time_plan(
     }
     (0..reps)
         .map(|_| {
-            let run = run_timed(exe, &args, root, RUN_TIMEOUT)?;
+            let run = run_timed(exe, &args, root, RUN_TIMEOUT, None)?;
             match run.code {
                 Some(0 | 1) => Ok(run),
                 code => Err(format!("`ledflicker plan {plan}` exited with {code:?}")),
@@ -145,7 +154,7 @@ fn time_opencv(root: &Path, reps: usize) -> Result<Vec<Finished>, String> {
     let script = script.to_str().unwrap_or_default();
     (0..reps)
         .map(|_| {
-            let run = run_timed(&python, &[script], root, RUN_TIMEOUT)?;
+            let run = run_timed(&python, &[script], root, RUN_TIMEOUT, None)?;
             match run.code {
                 Some(0) => Ok(run),
                 code => Err(format!("scripts/opencv_bench.py exited with {code:?}")),
@@ -255,7 +264,13 @@ mod tests {
     use super::*;
 
     fn sh(script: &str, timeout: Duration) -> Result<Finished, String> {
-        run_timed(Path::new("sh"), &["-c", script], Path::new("."), timeout)
+        run_timed(
+            Path::new("sh"),
+            &["-c", script],
+            Path::new("."),
+            timeout,
+            None,
+        )
     }
 
     #[test]
@@ -278,6 +293,7 @@ mod tests {
             &[],
             Path::new("."),
             RUN_TIMEOUT,
+            None,
         )
         .unwrap_err();
         assert!(

@@ -47,6 +47,7 @@ mod sign;
 #[path = "sign_disabled.rs"]
 mod sign;
 mod simulate;
+mod sweeps;
 mod trend;
 mod validate;
 

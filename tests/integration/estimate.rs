@@ -79,7 +79,7 @@ fn the_memory_estimate_is_within_one_and_a_half_times_the_peak_of_every_shipped_
     assert!(plans.len() >= 7, "{plans:?}");
     // And a sweep beyond the cases a report lists (1000 cases).
     let sweep_plan = dir.join("sweep-1000.toml");
-    std::fs::write(&sweep_plan, sweep(100)).unwrap();
+    std::fs::write(&sweep_plan, ledflicker::bench::sweep_plan(100)).unwrap();
     plans.push(sweep_plan);
     let mut table = Vec::new();
     for plan in &plans {
@@ -105,37 +105,12 @@ fn the_memory_estimate_is_within_one_and_a_half_times_the_peak_of_every_shipped_
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// A grid of `n` x 10 cases on a 16 x 12 sensor (frequencies from 50 Hz
-/// in steps of 5 Hz, duties 10 % to 100 %), from the 192-case grid plan.
-pub(crate) fn sweep(n: usize) -> String {
-    let base = std::fs::read_to_string(root().join("test-plans/grid-192.toml")).unwrap();
-    let freqs: Vec<String> = (0..n).map(|i| format!("{}.0", 50 + 5 * i)).collect();
-    let mut out = String::new();
-    for line in base.lines() {
-        let line = match line.split(" = ").next().unwrap() {
-            "frequencies-hz" => format!("frequencies-hz = [{}]", freqs.join(", ")),
-            "duty-cycles" => {
-                "duty-cycles = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0]".into()
-            }
-            "sensor-rows" => "sensor-rows = 12".into(),
-            "sensor-columns" => "sensor-columns = 16".into(),
-            "x-px" => "x-px = 2".into(),
-            "y-px" => "y-px = 4".into(),
-            "width-px" => "width-px = 10".into(),
-            _ => line.to_string(),
-        };
-        out.push_str(&line);
-        out.push('\n');
-    }
-    out
-}
-
 #[test]
 fn a_plan_over_the_memory_limit_names_the_flag_that_raises_it() {
     let dir = scratch("max-memory");
     let plan = dir.join("sweep.toml");
     // 100,000 cases: more than 1 GB by the estimate.
-    std::fs::write(&plan, sweep(10_000)).unwrap();
+    std::fs::write(&plan, ledflicker::bench::sweep_plan(10_000)).unwrap();
     let p = plan.to_str().unwrap();
     let o = ledflicker(&["validate", p]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));

@@ -110,7 +110,7 @@ fn a_sweep_of_two_thousand_cases_in_two_shards_merges_to_the_single_run_byte_for
     // store, as the single run does, and both reports summarise alike.
     let dir = scratch("shard-sweep");
     let plan = dir.join("sweep-2100.toml");
-    std::fs::write(&plan, crate::estimate::sweep(210)).unwrap();
+    std::fs::write(&plan, ledflicker::bench::sweep_plan(210)).unwrap();
     single_and_merged(plan.to_str().unwrap(), 2, root(), &dir, &[]);
     for file in ["summary.csv", "junit.xml"] {
         let a = std::fs::read(dir.join("single").join(file)).unwrap();
