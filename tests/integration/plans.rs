@@ -278,14 +278,8 @@ fn shipped_plans_run_by_name_from_an_empty_directory() {
         assert_eq!(input["path"], format!("{path} (built in)"));
         assert_eq!(input["sha256"], sha(path));
     }
-    // Shipped plans that name files of the source tree say so away from it.
-    let ran = super::ledflicker_in(&["validate", "p2020-samples"], &dir);
-    assert_eq!(ran.status.code(), Some(2));
-    let err = super::stderr(&ran);
-    assert!(
-        err.contains("test-plans/p2020-samples.toml (built in)") && err.contains("does not exist"),
-        "{err}"
-    );
+    // A shipped rig plan runs its script from the plan's folder, which is
+    // not there.
     let ran = super::ledflicker_in(&["plan", "command-sim-rig", "--out", "rig", "-q"], &dir);
     assert_eq!(ran.status.code(), Some(3));
     let err = super::stderr(&ran);
@@ -308,4 +302,112 @@ fn shipped_plans_run_by_name_from_an_empty_directory() {
         "{}",
         super::stderr(&ran)
     );
+}
+
+/// The files of a report directory whose text a built-in run and a run of
+/// the checkout's file share, but for the built-in inputs' label; the
+/// PDF (compressed text) and the case store (binary) are left out.
+fn report_texts(dir: &std::path::Path) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            let name = path.strip_prefix(dir).unwrap().display().to_string();
+            if path.is_dir() {
+                stack.push(path);
+            } else if !matches!(name.as_str(), "report.pdf" | "cases.sqlite")
+                && !name.ends_with(".png")
+            {
+                let text = std::fs::read_to_string(&path).unwrap();
+                out.push((name, text.replace(" (built in)", "")));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// An installed binary, run where no checkout is (a temporary directory
+/// outside the source tree), gives the outputs of the checkout's own
+/// files: the simulated daylight plan, the P2020 sample videos (built
+/// into the binary), and `calibrate` on a frame named by its path. Only
+/// the inputs' label "(built in)" differs, and the PNGs byte for byte.
+#[test]
+fn built_in_plans_and_calibrate_away_from_the_checkout_give_the_checkouts_outputs() {
+    assert!(
+        ledflicker::capture::ffmpeg_available(),
+        "ffmpeg/ffprobe not found: run scripts/test.sh, which installs them"
+    );
+    let away = tempfile::tempdir().unwrap();
+    let here = super::scratch("checkout-runs");
+    for name in ["daylight", "p2020-samples"] {
+        let common = ["--date", "2026-01-01", "-q", "--threads", "2", "--out"];
+        let plan_file = format!("test-plans/{name}.toml");
+        let mut args = vec!["plan", name];
+        args.extend(common);
+        args.push("out");
+        let built_in = super::ledflicker_in(&args, away.path());
+        let out = here.join(name);
+        let mut args = vec!["plan", plan_file.as_str()];
+        args.extend(common);
+        args.push(out.to_str().unwrap());
+        let checkout = super::ledflicker(&args);
+        assert_eq!(
+            built_in.status.code(),
+            checkout.status.code(),
+            "{name}: {}{}",
+            super::stderr(&built_in),
+            super::stderr(&checkout)
+        );
+        assert!(matches!(checkout.status.code(), Some(0 | 1)), "{name}");
+        let (a, b) = (report_texts(&away.path().join("out")), report_texts(&out));
+        assert!(a.len() > 5, "{name}: {a:?}");
+        let names = |v: &[(String, String)]| v.iter().map(|f| f.0.clone()).collect::<Vec<_>>();
+        assert_eq!(names(&a), names(&b), "{name}");
+        for ((file, x), (_, y)) in a.iter().zip(&b) {
+            assert!(x == y, "{name}: {file} differs away from the checkout");
+        }
+        let results = std::fs::read_to_string(away.path().join("out/results.json")).unwrap();
+        assert!(results.contains(&format!("test-plans/{name}.toml (built in)")));
+        for png in ["charts", "frames"].map(|d| away.path().join("out").join(d)) {
+            for entry in std::fs::read_dir(&png).into_iter().flatten() {
+                let p = entry.unwrap().path();
+                let rel = p.strip_prefix(away.path().join("out")).unwrap();
+                assert_eq!(
+                    std::fs::read(&p).unwrap(),
+                    std::fs::read(out.join(rel)).unwrap()
+                );
+            }
+        }
+        std::fs::remove_dir_all(away.path().join("out")).unwrap();
+    }
+    let frame = root().join("reference-data/gyroflow-rs-banding/frame_example.png");
+    let args = [
+        "calibrate",
+        frame.to_str().unwrap(),
+        "--frequency-hz",
+        "1000",
+        "--json",
+        "--out",
+    ];
+    let profile = |dir: &std::path::Path| {
+        let mut a = args.to_vec();
+        let out = dir.join("profile.toml");
+        a.push(out.to_str().unwrap());
+        let ran = super::ledflicker_in(&a, dir);
+        assert!(ran.status.success(), "{}", super::stderr(&ran));
+        let written = std::fs::read_to_string(&out).unwrap();
+        (
+            String::from_utf8(ran.stdout).unwrap(),
+            written.replace(dir.to_str().unwrap(), "DIR"),
+        )
+    };
+    let (a, b) = (profile(away.path()), profile(&here));
+    assert!(a.0.contains("line_time"), "{}", a.0);
+    assert_eq!(
+        a.0.replace(away.path().to_str().unwrap(), "DIR"),
+        b.0.replace(here.to_str().unwrap(), "DIR")
+    );
+    assert_eq!(a.1, b.1);
 }

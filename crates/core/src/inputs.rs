@@ -128,8 +128,21 @@ fn capture_inputs(source: &Path, out: &mut Vec<InputFile>) -> Result<(), InputEr
         SourceKind::Video => Some("video"),
         SourceKind::Csv => Some("csv-trace"),
     };
-    if let Some(role) = role {
-        out.push(input(role, source)?);
+    // As the capture reader: a capture built into the binary is read when
+    // nothing is on disk at its path.
+    let built_in = std::fs::symlink_metadata(source)
+        .is_err()
+        .then(|| shipped::data_at(source))
+        .flatten();
+    match (role, built_in) {
+        (Some(role), Some(data)) => out.push(InputFile {
+            role: role.to_string(),
+            path: shipped::label(&source.display().to_string()),
+            sha256: crate::util::sha256_hex(data.bytes),
+            size: data.bytes.len() as u64,
+        }),
+        (Some(role), None) => out.push(input(role, source)?),
+        (None, _) => {}
     }
     // As the capture reader: whatever stands at the sidecar's name is an
     // input (a FIFO there is refused when hashed).

@@ -196,6 +196,32 @@ impl CaptureError {
 }
 
 impl CaptureError {
+    /// The capture the error names.
+    pub fn path(&self) -> &Path {
+        match self {
+            CaptureError::Read { path, .. }
+            | CaptureError::Frame { path, .. }
+            | CaptureError::RoiOutside { path, .. }
+            | CaptureError::Invalid { path, .. }
+            | CaptureError::Tool { path, .. }
+            | CaptureError::Interrupted { path, .. } => path,
+        }
+    }
+
+    /// The error naming `path` as the capture (a built-in capture read
+    /// through a temporary copy is named by its path in the plan).
+    pub(crate) fn at(mut self, path: &Path) -> CaptureError {
+        match &mut self {
+            CaptureError::Read { path: p, .. }
+            | CaptureError::Frame { path: p, .. }
+            | CaptureError::RoiOutside { path: p, .. }
+            | CaptureError::Invalid { path: p, .. }
+            | CaptureError::Tool { path: p, .. }
+            | CaptureError::Interrupted { path: p, .. } => *p = path.to_path_buf(),
+        }
+        self
+    }
+
     /// The error with its ROI named from `names` (the plan's ROI names,
     /// in the order of the ROIs read): readers know ROIs by index only.
     pub fn with_roi_names(self, names: &[String]) -> CaptureError {
@@ -323,6 +349,12 @@ pub fn source_kind(path: &Path) -> SourceKind {
 /// (its read at run time says why). Plan validation checks ROIs with it
 /// ([`crate::plan::FrameSize`]).
 pub fn frame_size(path: &Path) -> Option<(u32, u32)> {
+    with_built_in(path, |path| Ok(frame_size_on_disk(path)))
+        .ok()
+        .flatten()
+}
+
+fn frame_size_on_disk(path: &Path) -> Option<(u32, u32)> {
     // A FIFO or a device in a capture's place is never waited on.
     if !std::fs::metadata(path).is_ok_and(|m| m.is_file() || m.is_dir()) {
         return None;
@@ -344,6 +376,17 @@ pub fn read_capture(
     roi_names: &[String],
     opts: &ReadOptions,
 ) -> Result<CaptureTrace, CaptureError> {
+    with_built_in(path, |path| {
+        read_capture_on_disk(path, rois, roi_names, opts)
+    })
+}
+
+fn read_capture_on_disk(
+    path: &Path,
+    rois: &[RoiRect],
+    roi_names: &[String],
+    opts: &ReadOptions,
+) -> Result<CaptureTrace, CaptureError> {
     check_exists(path)?;
     let trace = match source_kind(path) {
         SourceKind::ImageDir => images::read_dir(path, rois, opts, None),
@@ -354,6 +397,48 @@ pub fn read_capture(
     }
     .map_err(|e| e.with_roi_names(roi_names))?;
     finish_trace(path, trace)
+}
+
+/// A private copy of the capture built into the binary at `path`
+/// ([`crate::plan::shipped::data_at`]) when nothing stands at `path`: a
+/// shipped plan's capture, read away from the source tree. The readers
+/// (and ffmpeg) take a file, so the bytes go to a temporary file of
+/// ledflicker's own, removed when the copy is dropped. `None` when `path`
+/// is on disk or names no built-in capture.
+pub(crate) fn built_in_copy(path: &Path) -> Result<Option<tempfile::TempPath>, CaptureError> {
+    if std::fs::symlink_metadata(path).is_ok() {
+        return Ok(None);
+    }
+    let Some(data) = crate::plan::shipped::data_at(path) else {
+        return Ok(None);
+    };
+    let suffix = path
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
+    let failed = |e: std::io::Error| CaptureError::Read {
+        path: path.to_path_buf(),
+        message: format!("cannot copy the built-in capture to a temporary file: {e}"),
+    };
+    let mut file = tempfile::Builder::new()
+        .prefix("ledflicker-built-in-")
+        .suffix(&suffix)
+        .tempfile()
+        .map_err(failed)?;
+    std::io::Write::write_all(&mut file, data.bytes).map_err(failed)?;
+    Ok(Some(file.into_temp_path()))
+}
+
+/// Runs `read` on the capture at `path`, or on its built-in copy
+/// ([`built_in_copy`]); errors name `path` either way.
+fn with_built_in<T>(
+    path: &Path,
+    read: impl FnOnce(&Path) -> Result<T, CaptureError>,
+) -> Result<T, CaptureError> {
+    match built_in_copy(path)? {
+        None => read(path),
+        Some(copy) => read(&copy).map_err(|e| e.at(path)),
+    }
 }
 
 /// The error of a capture `path` that does not exist.
@@ -551,6 +636,14 @@ pub(crate) type RgbTraces = Vec<Vec<[f64; 3]>>;
 /// `sink` as grey pixels; returns the capture's trace (frame times, scale,
 /// size) without ROIs. A CSV trace has no pixels and is refused.
 pub fn read_grey_frames(
+    path: &Path,
+    opts: &ReadOptions,
+    sink: &mut dyn FrameSink,
+) -> Result<CaptureTrace, CaptureError> {
+    with_built_in(path, |path| read_grey_frames_on_disk(path, opts, sink))
+}
+
+fn read_grey_frames_on_disk(
     path: &Path,
     opts: &ReadOptions,
     sink: &mut dyn FrameSink,

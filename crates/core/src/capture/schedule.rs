@@ -27,8 +27,8 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::{
-    CaptureError, CaptureTrace, ReadOptions, RoiRect, SourceKind, check_exists, finish_trace,
-    read_capture, source_kind, video,
+    CaptureError, CaptureTrace, ReadOptions, RoiRect, SourceKind, built_in_copy, check_exists,
+    finish_trace, read_capture, source_kind, video,
 };
 
 /// Most captures read at the same time.
@@ -43,6 +43,30 @@ pub const AT_ONCE: usize = 8;
 /// of the first failing capture in the order of `paths` among those
 /// started.
 pub fn read_captures(
+    paths: &[&Path],
+    rois: &[RoiRect],
+    roi_names: &[String],
+    opts: &ReadOptions,
+) -> Result<Vec<CaptureTrace>, CaptureError> {
+    let copies = paths
+        .iter()
+        .map(|p| built_in_copy(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let local: Vec<&Path> = paths
+        .iter()
+        .zip(&copies)
+        .map(|(&p, copy)| copy.as_deref().unwrap_or(p))
+        .collect();
+    read_captures_on_disk(&local, rois, roi_names, opts).map_err(|e| {
+        // Named by its path in the plan, not its temporary copy's.
+        match local.iter().position(|&l| l == e.path()) {
+            Some(i) => e.at(paths[i]),
+            None => e,
+        }
+    })
+}
+
+fn read_captures_on_disk(
     paths: &[&Path],
     rois: &[RoiRect],
     roi_names: &[String],

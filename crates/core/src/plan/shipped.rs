@@ -54,6 +54,54 @@ pub const PROFILES: &[Shipped] = shipped![
     "reference-data/cameras/split-pixel-lfm.toml",
 ];
 
+/// A data file compiled into the binary: a capture that a shipped plan
+/// names, so that the plan runs away from the source tree too.
+#[derive(Debug, PartialEq, Eq)]
+pub struct ShippedData {
+    /// Its path in the source tree, e.g.
+    /// `reference-data/p2020-flicker-videos/test_vid1.mp4`.
+    pub path: &'static str,
+    /// Its bytes.
+    pub bytes: &'static [u8],
+}
+
+macro_rules! shipped_data {
+    ($($path:literal),* $(,)?) => {
+        &[$(ShippedData { path: $path, bytes: include_bytes!(concat!("../../../../", $path)) }),*]
+    };
+}
+
+/// The captures of the shipped plans (`p2020-samples`: three H.264
+/// videos, 0.5 MB in all). The larger captures of reference-data/ are
+/// named by tests and examples, not by a shipped plan, and stay out.
+pub const DATA: &[ShippedData] = shipped_data![
+    "reference-data/p2020-flicker-videos/test_vid1.mp4",
+    "reference-data/p2020-flicker-videos/test_vid2.mp4",
+    "reference-data/p2020-flicker-videos/test_vid3.mp4",
+];
+
+/// The shipped data file at `path`: a relative path that leads to it
+/// from the source tree's root, directly or through a plan's folder
+/// (`test-plans/../reference-data/...`, as a shipped plan's capture is
+/// resolved). An absolute path, or one that climbs above the root, is
+/// the user's, never a shipped file.
+pub fn data_at(path: &std::path::Path) -> Option<&'static ShippedData> {
+    use std::path::Component;
+    let mut parts: Vec<&str> = Vec::new();
+    for c in path.components() {
+        match c {
+            Component::Normal(p) => parts.push(p.to_str()?),
+            Component::CurDir => {}
+            Component::ParentDir => {
+                parts.pop()?;
+            }
+            Component::RootDir | Component::Prefix(_) => return None,
+        }
+    }
+    let path = parts.join("/");
+    DATA.iter().find(|d| d.path == path)
+}
+
 /// The shipped plan named `name` (`daylight` or `daylight.toml`).
 pub fn plan(name: &str) -> Option<&'static Shipped> {
     let file = if name.ends_with(".toml") {
@@ -131,5 +179,35 @@ mod tests {
         assert!(profile("ideal-global.toml").is_none());
         assert!(profile("/etc/reference-data/cameras/ideal-global.toml").is_none());
         assert!(profile("../../reference-data/cameras/ideal-global.toml").is_none());
+    }
+
+    #[test]
+    fn shipped_captures_are_found_through_a_plans_folder_only_inside_the_tree() {
+        let root = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."));
+        for d in DATA {
+            assert_eq!(
+                std::fs::read(root.join(d.path)).unwrap(),
+                d.bytes,
+                "{}",
+                d.path
+            );
+        }
+        let want = "reference-data/p2020-flicker-videos/test_vid2.mp4";
+        for name in [
+            "test-plans/../reference-data/p2020-flicker-videos/test_vid2.mp4",
+            "./reference-data/p2020-flicker-videos/test_vid2.mp4",
+            want,
+        ] {
+            let found = data_at(std::path::Path::new(name)).map(|d| d.path);
+            assert_eq!(found, Some(want), "{name}");
+        }
+        for name in [
+            "../reference-data/p2020-flicker-videos/test_vid2.mp4",
+            "/reference-data/p2020-flicker-videos/test_vid2.mp4",
+            "test-plans/reference-data/p2020-flicker-videos/test_vid2.mp4",
+            "reference-data/p2020-flicker-videos/test.tiff",
+        ] {
+            assert!(data_at(std::path::Path::new(name)).is_none(), "{name}");
+        }
     }
 }

@@ -331,7 +331,9 @@ fn case_entry(
         "a capture: video, .y4m, a directory of PNG/TIFF frames, or a .csv trace",
     )?;
     let source = dir.join(&source_text);
-    if !source.exists() {
+    // A shipped plan's capture is built into the binary and read from
+    // there when it is not on disk.
+    if !source.exists() && crate::plan::shipped::data_at(&source).is_none() {
         c.error(
             &k("source"),
             format!("capture `{}` does not exist", source.display()),
