@@ -35,36 +35,43 @@ pub fn of_trace(text: &str, rois: &[&str]) -> Vec<Option<Noise>> {
     // Per ROI: (sum of squared steps, steps) of ON, then of OFF; OFF frames.
     let mut sums = vec![[(0.0f64, 0usize); 2]; rois.len()];
     let mut off_frames = 0;
-    let mut previous: Option<(String, Vec<Option<f64>>)> = None;
-    for row in reader.records() {
-        let Ok(row) = row else {
-            return vec![None; rois.len()];
+    // The previous row's segment and values; only steady rows are parsed
+    // (the PWM segment, most of a trace, is skipped unread).
+    let mut previous: Option<(usize, Vec<Option<f64>>)> = None;
+    let mut row = csv::ByteRecord::new();
+    loop {
+        match reader.read_byte_record(&mut row) {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(_) => return vec![None; rois.len()],
+        }
+        let which = match segment.and_then(|s| row.get(s)) {
+            Some(b"on") => 0,
+            Some(b"off") => 1,
+            _ => {
+                previous = None;
+                continue;
+            }
         };
-        let seg = segment.and_then(|s| row.get(s)).unwrap_or("").to_string();
         let values: Vec<Option<f64>> = columns
             .iter()
             .map(|c| {
                 c.and_then(|c| row.get(c))
+                    .and_then(|v| std::str::from_utf8(v).ok())
                     .and_then(|v| v.parse::<f64>().ok())
+                    .filter(|v| v.is_finite())
             })
-            .map(|v| v.filter(|v| v.is_finite()))
             .collect();
-        let which = match seg.as_str() {
-            "on" => Some(0),
-            "off" => Some(1),
-            _ => None,
-        };
-        off_frames += usize::from(which == Some(1));
-        let same = previous.as_ref().filter(|(s, _)| *s == seg);
-        if let (Some(w), Some((_, prev))) = (which, same) {
+        off_frames += usize::from(which == 1);
+        if let Some((_, prev)) = previous.as_ref().filter(|(w, _)| *w == which) {
             for (k, (a, b)) in prev.iter().zip(&values).enumerate() {
                 if let (Some(a), Some(b)) = (a, b) {
-                    sums[k][w].0 += (b - a) * (b - a);
-                    sums[k][w].1 += 1;
+                    sums[k][which].0 += (b - a) * (b - a);
+                    sums[k][which].1 += 1;
                 }
             }
         }
-        previous = Some((seg, values));
+        previous = Some((which, values));
     }
     let sigma = |(s, n): (f64, usize)| (n > 0).then(|| (s / n as f64 / 2.0).sqrt());
     sums.into_iter()

@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use rayon::prelude::*;
 use rusqlite::{Transaction, params};
 
 use super::{CampaignError, Db, noise, sqlite};
@@ -120,9 +121,11 @@ fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
         Err(e) => return Err(unreadable(&manifest, e)),
     };
+    // The traces are read and parsed in parallel: recording a run is on
+    // the wall time of every `plan`.
     let noise = results
         .cases
-        .iter()
+        .par_iter()
         .map(|case| {
             let names: Vec<&str> = case.rois.iter().map(|r| r.name.as_str()).collect();
             // A trace that is gone or unreadable leaves the noise unknown:
