@@ -81,6 +81,27 @@ fn the_memory_estimate_is_within_one_and_a_half_times_the_peak_of_every_shipped_
     let sweep_plan = dir.join("sweep-1000.toml");
     std::fs::write(&sweep_plan, ledflicker::bench::sweep_plan(100)).unwrap();
     plans.push(sweep_plan);
+    // And a front camera of 8 MP (3840 x 2160, rolling shutter), 56 cases:
+    // its sensor must not cost memory per case.
+    let front = dir.join("front-8mp.toml");
+    let daylight = std::fs::read_to_string(root().join("test-plans/daylight.toml")).unwrap();
+    let front_text = [
+        ("id = \"daylight\"", "id = \"front-8mp\""),
+        ("sensor-rows = 800", "sensor-rows = 2160"),
+        ("sensor-columns = 1280", "sensor-columns = 3840"),
+        ("line-time-us = 14.565", "line-time-us = 7.4"),
+        (
+            "duty-cycles = [0.05, 0.1, 0.2, 0.5, 1.0]",
+            "duty-cycles = [0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 0.9, 1.0]",
+        ),
+    ]
+    .iter()
+    .fold(daylight, |text, (from, to)| {
+        assert!(text.contains(from), "daylight.toml has no `{from}`");
+        text.replace(from, to)
+    });
+    std::fs::write(&front, front_text).unwrap();
+    plans.push(front);
     let mut table = Vec::new();
     for plan in &plans {
         let name = plan.file_stem().unwrap().to_str().unwrap();
@@ -92,6 +113,11 @@ fn the_memory_estimate_is_within_one_and_a_half_times_the_peak_of_every_shipped_
             estimate / 1e6,
             peak / 1e6
         ));
+        if name == "front-8mp" {
+            let o = ledflicker(&["validate", plan.to_str().unwrap()]);
+            assert!(text(&o).contains("56 cases"), "{}", text(&o));
+            assert!(peak < 1e9, "8 MP plan: peak {:.0} MB", peak / 1e6);
+        }
         let ratio = estimate / peak;
         assert!(
             (1.0 / 1.5..=1.5).contains(&ratio),
