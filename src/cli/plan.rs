@@ -106,6 +106,7 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
     }
     if let Some(spec) = &args.shard {
         let spec = crate::shard::ShardSpec::parse(spec, &|k| std::env::var(k).ok())?;
+        super::shard::check_share(&plan, spec, args.limits.limits(false))?;
         return super::shard::run_shard(&super::shard::ShardRun {
             plan: &plan,
             spec,
@@ -230,10 +231,14 @@ pub(super) fn exit_code(status: Status) -> i32 {
 /// The plan and the report date, checked with `--threads`.
 fn load(args: &PlanArgs) -> Result<(Plan, String), Failure> {
     let t = crate::timings::span("load and validate plan");
-    let mut plan = super::validate::load(
-        &args.plan,
-        args.limits.limits(matches!(args.detail, DetailArg::Full)),
-    )?;
+    // A shard is checked against its own share once its spec is read
+    // ([`super::shard::check_share`]), not against the whole plan.
+    let limits = if args.shard.is_some() {
+        plan::ResourceLimits::unbounded()
+    } else {
+        args.limits.limits(matches!(args.detail, DetailArg::Full))
+    };
+    let mut plan = super::validate::load(&args.plan, limits)?;
     if let Some(path) = &args.profile {
         let profile = plan::load_report_profile(path)?;
         plan.report = std::mem::take(&mut plan.report).overridden_by(profile);

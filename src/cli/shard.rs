@@ -29,6 +29,32 @@ pub(super) struct ShardRun<'a> {
     pub quiet: bool,
 }
 
+/// Refuses a shard whose own share of `plan`'s cases does not fit
+/// `limits` (a plan too large for one machine is split into shards, so
+/// each is held to what it runs), naming the figure and the flag.
+pub(super) fn check_share(
+    plan: &Plan,
+    spec: ShardSpec,
+    limits: plan::ResourceLimits,
+) -> Result<(), Failure> {
+    let all = plan::expand_cases(plan);
+    let mine = assign::cases_of(plan, &all, spec).len();
+    match plan::WorkEstimate::shard_too_large(plan, mine, limits) {
+        None => Ok(()),
+        Some(message) => Err(plan::PlanError::Invalid {
+            path: plan.source_label().into(),
+            diagnostics: vec![plan::Diagnostic {
+                file: None,
+                key: "grid".to_string(),
+                location: None,
+                message: format!("shard {spec} ({mine} of {} cases): {message}", all.len()),
+                hint: Some("split the plan into more shards, or raise the limit".to_string()),
+            }],
+        }
+        .into()),
+    }
+}
+
 /// Runs one shard and writes its directory. Exit 0 whatever the verdicts:
 /// the merge judges (a failing case must not stop a dependent merge job).
 pub(super) fn run_shard(r: &ShardRun<'_>) -> Result<i32, Failure> {

@@ -186,3 +186,34 @@ fn a_plan_over_the_memory_limit_names_the_flag_that_raises_it() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A plan too large for one process runs in shards, each held to its own
+/// share of the cases: 100,000 cases are refused whole and in halves, and
+/// a shard of 100 of them runs.
+#[test]
+fn a_shard_is_checked_against_its_own_share_of_the_plan() {
+    let dir = scratch("shard-share");
+    let plan = dir.join("sweep.toml");
+    std::fs::write(&plan, ledflicker::bench::sweep_plan(10_000)).unwrap();
+    let p = plan.to_str().unwrap();
+    let half = ledflicker(&["plan", p, "--shard", "0/2", "--out", "half", "-q"]);
+    assert_eq!(half.status.code(), Some(2), "{}", text(&half));
+    let err = stderr(&half);
+    assert!(
+        err.contains("shard 0/2 (50000 of 100000 cases)") && err.contains("--max-memory raises it"),
+        "{err}"
+    );
+    let out = dir.join("small");
+    let small = ledflicker(&[
+        "plan",
+        p,
+        "--shard",
+        "0/1000",
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(small.status.code(), Some(0), "{}", text(&small));
+    assert!(out.join("shard.json").is_file() || std::fs::read_dir(&out).unwrap().count() > 0);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -130,6 +130,11 @@ const PIXEL_MEMORY_BYTES: f64 = 6.0;
 const FINE_MAP_MEMORY_BYTES: f64 = 30.0e6;
 /// Size of the report that does not grow with cases, bytes.
 const BASE_OUTPUT_BYTES: f64 = 1.5e6;
+/// Memory a shard's case costs per frame and ROI while the shard holds
+/// it, on top of [`CASE_MEMORY_BYTES`]: its trace and analyses (measured:
+/// 264 MB for a shard of 10,000 cases of 120 frames and 2 ROIs, 79 MB for
+/// 2,500).
+const SHARD_FRAME_ROI_MEMORY_BYTES: f64 = 40.0;
 /// Report bytes every case costs: its frame and view, its results.json
 /// entry, its store row and table rows (measured: 32 kB a case of 120
 /// frames and 2 ROIs in a sweep of 4000).
@@ -244,29 +249,14 @@ impl WorkEstimate {
     /// case a page (`--detail full`).
     pub fn with_report(plan: &Plan, every_case: bool) -> WorkEstimate {
         let cases = super::expand_cases(plan).len();
-        let sim = plan.dut.backend == BackendKind::Simulator;
-        let frames = if sim {
-            super::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps).total()
-        } else {
-            0
-        };
-        // Captured and command runs read whatever frames they are given; the
-        // report part is estimated at the sequence's length.
-        let trace_frames = if sim {
-            frames
-        } else {
-            let s = &plan.sequence;
-            ((s.on_s + s.off_s + s.pwm_s) * plan.dut.camera.fps).ceil() as u64
-        };
-        let rows: u64 = plan.rois.iter().map(|r| u64::from(r.height_px)).sum();
-        let pixels = if sim {
-            u64::from(plan.dut.camera.sensor_rows) * u64::from(plan.dut.camera.sensor_columns)
-        } else {
-            0
-        };
-        let rois = plan.rois.len() as f64;
+        let Shape {
+            sim,
+            frames,
+            rows,
+            pixels,
+            frame_rois,
+        } = Shape::of(plan);
         let n = cases as f64;
-        let frame_rois = trace_frames as f64 * rois;
         // Every case is modelled and exported, a chunk at a time from the
         // case store; the report lists (tables, PDF layout) and charts at
         // most its worst cases, unless it gives every case a page.
@@ -302,6 +292,80 @@ impl WorkEstimate {
             memory_bytes: BASE_MEMORY_BYTES + PIXEL_MEMORY_BYTES * pixels as f64 + memory,
             output_bytes: BASE_OUTPUT_BYTES + output,
         }
+    }
+
+    /// The estimate for one shard of `plan` that runs `cases` of its
+    /// cases (`plan --shard K/N`): a shard holds its cases' results until
+    /// it writes its directory, and draws no report, so its memory and
+    /// disk grow with its own share, not with the plan.
+    pub fn of_shard(plan: &Plan, cases: usize) -> WorkEstimate {
+        let Shape {
+            frames,
+            rows,
+            pixels,
+            frame_rois,
+            ..
+        } = Shape::of(plan);
+        let n = cases as f64;
+        WorkEstimate {
+            cases,
+            frames_per_case: frames,
+            rows_per_frame: rows,
+            row_integrals: n * frames as f64 * rows as f64,
+            frame_pixels: pixels,
+            memory_bytes: BASE_MEMORY_BYTES
+                + PIXEL_MEMORY_BYTES * pixels as f64
+                + n * (CASE_MEMORY_BYTES + SHARD_FRAME_ROI_MEMORY_BYTES * frame_rois),
+            output_bytes: BASE_OUTPUT_BYTES
+                + n * (CASE_OUTPUT_BYTES + FRAME_ROI_OUTPUT_BYTES * frame_rois),
+        }
+    }
+
+    /// What the estimate exceeds of `limits`, one phrase each naming the
+    /// figure and the flag that raises it; empty when it fits.
+    fn over(&self, limits: ResourceLimits) -> Vec<String> {
+        [
+            (
+                self.row_integrals > MAX_ROW_INTEGRALS,
+                format!(
+                    "{:.3e} row integrals (at most {MAX_ROW_INTEGRALS:.0e})",
+                    self.row_integrals
+                ),
+            ),
+            (
+                self.memory_bytes > limits.memory_bytes,
+                format!(
+                    "peak memory {} (at most {}; --max-memory raises it)",
+                    bytes(self.memory_bytes),
+                    bytes(limits.memory_bytes)
+                ),
+            ),
+            (
+                self.output_bytes > limits.output_bytes,
+                format!(
+                    "a report of {} (at most {}; --max-report raises it)",
+                    bytes(self.output_bytes),
+                    bytes(limits.output_bytes)
+                ),
+            ),
+        ]
+        .into_iter()
+        .filter_map(|(over, m)| over.then_some(m))
+        .collect()
+    }
+
+    /// Why a shard of `cases` cases of `plan` does not fit `limits`
+    /// ([`WorkEstimate::of_shard`]), or `None` when it does.
+    pub fn shard_too_large(plan: &Plan, cases: usize, limits: ResourceLimits) -> Option<String> {
+        let e = WorkEstimate::of_shard(plan, cases);
+        let over = e.over(limits);
+        (!over.is_empty()).then(|| {
+            format!(
+                "the shard is too large to run: {}; {}",
+                over.join(", "),
+                e.summary()
+            )
+        })
     }
 
     /// One line for `ledflicker validate`.
@@ -349,6 +413,51 @@ fn error(index: &SpanIndex, diags: &mut Vec<Diagnostic>, key: &str, message: Str
     });
 }
 
+/// What a case of a plan is made of, for the estimates.
+struct Shape {
+    /// The simulator runs the cases.
+    sim: bool,
+    /// Frames a simulated case renders (0 for other backends).
+    frames: u64,
+    /// ROI rows integrated per frame.
+    rows: u64,
+    /// Sensor pixels of a simulated camera (0 for other backends).
+    pixels: u64,
+    /// Frames of a case's trace times its ROIs.
+    frame_rois: f64,
+}
+
+impl Shape {
+    fn of(plan: &Plan) -> Shape {
+        let sim = plan.dut.backend == BackendKind::Simulator;
+        let frames = if sim {
+            super::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps).total()
+        } else {
+            0
+        };
+        // Captured and command runs read whatever frames they are given; the
+        // report part is estimated at the sequence's length.
+        let trace_frames = if sim {
+            frames
+        } else {
+            let s = &plan.sequence;
+            ((s.on_s + s.off_s + s.pwm_s) * plan.dut.camera.fps).ceil() as u64
+        };
+        let pixels = if sim {
+            u64::from(plan.dut.camera.sensor_rows) * u64::from(plan.dut.camera.sensor_columns)
+        } else {
+            0
+        };
+        Shape {
+            sim,
+            frames,
+            rows: plan.rois.iter().map(|r| u64::from(r.height_px)).sum(),
+            pixels,
+            frame_rois: trace_frames as f64 * plan.rois.len() as f64,
+        }
+    }
+}
+
 /// Checks the physical bounds, the uniqueness of case ids and, with
 /// `work`, the work estimate of a validated plan against those limits.
 pub(super) fn check(
@@ -365,36 +474,7 @@ pub(super) fn check(
         return;
     };
     let e = WorkEstimate::with_report(plan, limits.every_case);
-    let over = [
-        (
-            e.row_integrals > MAX_ROW_INTEGRALS,
-            format!(
-                "{:.3e} row integrals (at most {MAX_ROW_INTEGRALS:.0e})",
-                e.row_integrals
-            ),
-        ),
-        (
-            e.memory_bytes > limits.memory_bytes,
-            format!(
-                "peak memory {} (at most {}; --max-memory raises it)",
-                bytes(e.memory_bytes),
-                bytes(limits.memory_bytes)
-            ),
-        ),
-        (
-            e.output_bytes > limits.output_bytes,
-            format!(
-                "a report of {} (at most {}; --max-report raises it)",
-                bytes(e.output_bytes),
-                bytes(limits.output_bytes)
-            ),
-        ),
-    ];
-    let problems: Vec<&str> = over
-        .iter()
-        .filter(|(o, _)| *o)
-        .map(|(_, m)| m.as_str())
-        .collect();
+    let problems = e.over(limits);
     if !problems.is_empty() {
         error(
             index,
