@@ -315,3 +315,37 @@ fn a_wrong_password_is_refused_without_showing_it() {
     assert_ne!(o.status.code(), Some(0), "{}", text(&o));
     assert!(stderr(&o).contains("password file"), "{}", stderr(&o));
 }
+
+#[test]
+fn a_run_that_cannot_be_recorded_whole_leaves_nothing_on_postgres() {
+    let Some(admin) = server() else { return };
+    let url = fresh_database(&admin, "atomic");
+    let dir = scratch("campaign-pg-atomic");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    assert_eq!(plan(&dir, &p, "r", &["--no-db"]).status.code(), Some(0));
+    // The last case names its ROI twice: the insert of its second copy
+    // fails after the run and three cases went in.
+    let path = dir.join("r/results.json");
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let rois = v["cases"][3]["rois"].as_array_mut().unwrap();
+    rois.push(rois[0].clone());
+    std::fs::write(&path, serde_json::to_vec(&v).unwrap()).unwrap();
+    let o = run(&dir, &["import", "r", "--db", &url]);
+    assert_eq!(o.status.code(), Some(3), "{}", text(&o));
+    assert!(stderr(&o).contains("duplicate key"), "{}", stderr(&o));
+    let mut c = ledflicker::campaign::pg::connect(&url).unwrap();
+    for table in ["runs", "cases", "rois", "metrics", "checks"] {
+        let n: i64 = c
+            .query_one(&format!("SELECT count(*) FROM {table}"), &[])
+            .unwrap()
+            .get(0);
+        assert_eq!(n, 0, "{table}");
+    }
+    // The database takes the next run whole.
+    assert_eq!(plan(&dir, &p, "r2", &["--db", &url]).status.code(), Some(0));
+    let n: i64 = c
+        .query_one("SELECT count(*) FROM cases", &[])
+        .unwrap()
+        .get(0);
+    assert_eq!(n, 4);
+}
