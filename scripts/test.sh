@@ -52,7 +52,10 @@ fi
 export INSTA_UPDATE="${INSTA_UPDATE:-no}"
 
 # --release: the tests share every dependency's build with the README's
-# `cargo run --release` (see [profile.bench] in Cargo.toml).
-cargo test --release --workspace --all-targets "$@"
+# `cargo run --release` (see [profile.bench] in Cargo.toml). The tests of
+# the results database on PostgreSQL (tests/integration/campaign_pg.rs)
+# need a server: scripts/pg-test-server.sh starts a throwaway one (and
+# installs Debian's postgresql when missing) for the length of the run.
+scripts/pg-test-server.sh cargo test --release --workspace --all-targets "$@"
 # Doc tests are not covered by --all-targets.
 cargo test --release --workspace --doc "$@"

@@ -1,6 +1,7 @@
 //! The results database: every finished run of `plan` and `merge`, and
 //! every report directory `import` reads, with its device, cases, ROIs,
-//! metrics and verdicts, in one SQLite file across runs (docs/campaigns.md).
+//! metrics and verdicts, in one SQLite file across runs, or on a lab's
+//! PostgreSQL server with the same schema (docs/campaigns.md).
 //! `history` lists the runs, `compare` gates one against another.
 //!
 //! ```text
@@ -13,7 +14,9 @@
 //! written, so recording never slows or endangers the report. A run is
 //! written in one transaction, so a run killed while it is recorded
 //! leaves nothing of itself; WAL and a busy timeout let several runs
-//! record into one file at once.
+//! record into one file at once. On PostgreSQL ([`pg`], feature
+//! `postgres`) the same statements run ([`sql`]), and the server's MVCC
+//! lets many clients record at once.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -25,9 +28,15 @@ pub mod noise;
 pub mod pages;
 pub mod query;
 pub mod record;
+pub mod server;
+pub mod sql;
 pub mod view;
 
-/// Name of the schema; its version is SQLite's `user_version`.
+#[cfg(feature = "postgres")]
+pub mod pg;
+
+/// Name of the schema; its version is SQLite's `user_version`, or on
+/// PostgreSQL the highest row of the table `schema_version`.
 pub const SCHEMA: &str = "ledflicker.db";
 /// The database's file name in its directory.
 pub const FILE: &str = "results.sqlite";
@@ -64,6 +73,15 @@ pub enum CampaignError {
         /// What is wrong, with a hint.
         message: String,
     },
+    /// The PostgreSQL server refused or failed; `url` and `message` never
+    /// hold the password.
+    #[error("results database `{url}`: {message}")]
+    Postgres {
+        /// The server's URL, password hidden.
+        url: String,
+        /// What went wrong.
+        message: String,
+    },
     /// A report directory cannot be recorded, or a run asked for is not
     /// there.
     #[error("{0}")]
@@ -94,13 +112,16 @@ pub enum Location {
     Off,
     /// This file.
     File(PathBuf),
+    /// The PostgreSQL server at this `postgres://` URL.
+    Server(String),
 }
 
 /// The database `--db`, `--no-db` and the environment ask for: `--no-db`,
 /// else `--db`, else `$LEDFLICKER_DB`, else `$XDG_DATA_HOME/ledflicker/
 /// results.sqlite` (an absolute `XDG_DATA_HOME` only, as the XDG base
 /// directory specification says), else `$HOME/.local/share/ledflicker/
-/// results.sqlite`. `None` when no rule gives a place (no `HOME`).
+/// results.sqlite`. `None` when no rule gives a place (no `HOME`). A
+/// `postgres://` or `postgresql://` URL names a server.
 pub fn locate(
     db: Option<&Path>,
     no_db: bool,
@@ -122,7 +143,64 @@ pub fn locate(
         .or_else(|| {
             set("HOME").map(|h| Path::new(&h).join(".local/share/ledflicker").join(FILE))
         })?;
-    Some(Location::File(file))
+    match file.to_str() {
+        Some(url) if server::is_url(url) => Some(Location::Server(url.to_string())),
+        _ => Some(Location::File(file)),
+    }
+}
+
+/// An open results database: an SQLite file or a PostgreSQL server.
+pub enum Database {
+    /// A file.
+    Sqlite(Db),
+    /// A server.
+    #[cfg(feature = "postgres")]
+    Postgres(Box<pg::PgDb>),
+}
+
+impl Database {
+    /// Opens (creating it if need be) the database at `at` and brings its
+    /// schema up to date.
+    pub fn open(at: &Location) -> Result<Database, CampaignError> {
+        match at {
+            Location::File(path) => Db::open(path).map(Database::Sqlite),
+            Location::Server(url) => open_server(url),
+            Location::Off => Err(CampaignError::Input(
+                "no results database (--no-db)".to_string(),
+            )),
+        }
+    }
+
+    /// Opens a database for reading: a file that is not there is an
+    /// error naming it, not an empty history.
+    pub fn open_existing(at: &Location) -> Result<Database, CampaignError> {
+        match at {
+            Location::File(path) => Db::open_existing(path).map(Database::Sqlite),
+            _ => Database::open(at),
+        }
+    }
+
+    /// The file, or the server's URL with its password hidden.
+    pub fn path(&self) -> &Path {
+        match self {
+            Database::Sqlite(db) => &db.path,
+            #[cfg(feature = "postgres")]
+            Database::Postgres(db) => &db.path,
+        }
+    }
+}
+
+#[cfg(feature = "postgres")]
+fn open_server(url: &str) -> Result<Database, CampaignError> {
+    pg::PgDb::open(url, pg::MIGRATIONS).map(|db| Database::Postgres(Box::new(db)))
+}
+
+#[cfg(not(feature = "postgres"))]
+fn open_server(url: &str) -> Result<Database, CampaignError> {
+    Err(CampaignError::Unusable {
+        path: PathBuf::from(server::redact(url)),
+        message: "a PostgreSQL server needs the `postgres` feature, which this ledflicker was built without\n    hint: build it with default features (or --features postgres), or pass an SQLite file to --db".to_string(),
+    })
 }
 
 /// An open results database, migrated to the current schema.

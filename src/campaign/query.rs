@@ -4,10 +4,10 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use rusqlite::{OptionalExtension, Row, params_from_iter};
 use serde::Serialize;
 
-use super::{CampaignError, Db, sqlite};
+use super::sql::{Mismatch, Row, Value, values};
+use super::{CampaignError, Database};
 
 /// One recorded run, as `history` lists it (`--json`: these fields).
 #[derive(Debug, Clone, Serialize)]
@@ -58,7 +58,7 @@ const RUN_COLUMNS: &str = "id, recorded_unix_s, source, date, plan_id, plan_hash
     supplier, model, serial, firmware, signer, signature, report_dir, results_sha256, \
     manifest_sha256, verdict, cases_total, cases_pass, cases_fail, cases_info, plan_title";
 
-fn run_row(r: &Row<'_>) -> rusqlite::Result<RunRow> {
+fn run_row(r: &Row) -> Result<RunRow, Mismatch> {
     Ok(RunRow {
         id: r.get(0)?,
         recorded_unix_s: r.get(1)?,
@@ -133,19 +133,17 @@ impl Filter {
 }
 
 /// The runs `filter` selects, oldest first.
-pub fn history(db: &Db, filter: &Filter) -> Result<Vec<RunRow>, CampaignError> {
-    let sql = sqlite(&db.path);
+pub fn history(db: &Database, filter: &Filter) -> Result<Vec<RunRow>, CampaignError> {
     let (clause, values) = filter.clause("");
-    let mut q = db
-        .conn
-        .prepare(&format!(
-            "SELECT {RUN_COLUMNS} FROM runs{clause} ORDER BY id"
-        ))
-        .map_err(&sql)?;
-    let rows = q
-        .query_map(params_from_iter(values), run_row)
-        .map_err(&sql)?;
-    rows.collect::<Result<_, _>>().map_err(sql)
+    db.query_map(
+        &format!("SELECT {RUN_COLUMNS} FROM runs{clause} ORDER BY id"),
+        &texts(values),
+        run_row,
+    )
+}
+
+fn texts(values: Vec<String>) -> Vec<Value> {
+    values.into_iter().map(Value::Text).collect()
 }
 
 /// One value of a KPI in a run: a point of `ledflicker trend`.
@@ -176,13 +174,12 @@ pub struct TrendPoint {
 /// The values of `metric` (of case `case` and ROI `roi` when given) in the
 /// runs `filter` selects, by run (oldest first) then plan order.
 pub fn trend(
-    db: &Db,
+    db: &Database,
     filter: &Filter,
     metric: &str,
     case: Option<&str>,
     roi: Option<&str>,
 ) -> Result<Vec<TrendPoint>, CampaignError> {
-    let sql = sqlite(&db.path);
     let (clause, mut values) = filter.clause("r.");
     let mut terms = vec![clause];
     for (column, v) in [("m.metric", Some(metric)), ("c.id", case), ("m.roi", roi)] {
@@ -196,18 +193,16 @@ pub fn trend(
             terms.push(format!("{join} {column} = ?{}", values.len()));
         }
     }
-    let mut q = db
-        .conn
-        .prepare(&format!(
-            "SELECT r.id, r.date, r.plan_id, r.model, r.serial, r.firmware, c.id, m.roi, m.metric, m.value \
+    let mut points = db.query_map(
+        &format!(
+            "SELECT r.id, r.date, r.plan_id, r.model, r.serial, r.firmware, c.id, m.roi, m.metric, m.value, c.idx \
              FROM metrics m JOIN cases c ON c.run_id = m.run_id AND c.idx = m.idx \
              JOIN runs r ON r.id = m.run_id{} ORDER BY r.id, c.idx, m.roi",
             terms.concat()
-        ))
-        .map_err(&sql)?;
-    let rows = q
-        .query_map(params_from_iter(values), |r| {
-            Ok(TrendPoint {
+        ),
+        &texts(values),
+        |r| {
+            let point = TrendPoint {
                 run: r.get(0)?,
                 date: r.get(1)?,
                 plan: r.get(2)?,
@@ -218,34 +213,35 @@ pub fn trend(
                 roi: r.get(7)?,
                 metric: r.get(8)?,
                 value: r.get(9)?,
-            })
-        })
-        .map_err(&sql)?;
-    rows.collect::<Result<_, _>>().map_err(sql)
+            };
+            Ok((r.get::<i64>(10)?, point))
+        },
+    )?;
+    // ROI names in byte order, as SQLite sorts text: a server's collation
+    // may sort them otherwise.
+    points.sort_by(|(i, a), (j, b)| (a.run, i, &a.roi).cmp(&(b.run, j, &b.roi)));
+    Ok(points.into_iter().map(|(_, p)| p).collect())
 }
 
 /// The run with id `id`.
-pub fn run(db: &Db, id: i64) -> Result<Option<RunRow>, CampaignError> {
-    db.conn
-        .query_row(
-            &format!("SELECT {RUN_COLUMNS} FROM runs WHERE id = ?1"),
-            [id],
-            run_row,
-        )
-        .optional()
-        .map_err(sqlite(&db.path))
+pub fn run(db: &Database, id: i64) -> Result<Option<RunRow>, CampaignError> {
+    db.query_row(
+        &format!("SELECT {RUN_COLUMNS} FROM runs WHERE id = ?1"),
+        &values![id],
+        run_row,
+    )
 }
 
 /// The newest run recorded of the report directory `dir`.
-pub fn run_of_dir(db: &Db, dir: &Path) -> Result<Option<i64>, CampaignError> {
+pub fn run_of_dir(db: &Database, dir: &Path) -> Result<Option<i64>, CampaignError> {
     let abs = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
-    db.conn
+    Ok(db
         .query_row(
             "SELECT max(id) FROM runs WHERE report_dir = ?1",
-            [abs.to_string_lossy()],
-            |r| r.get(0),
-        )
-        .map_err(sqlite(&db.path))
+            &values![abs.to_string_lossy().as_ref()],
+            |r| r.get::<Option<i64>>(0),
+        )?
+        .flatten())
 }
 
 /// One ROI of one case of a recorded run.
@@ -320,37 +316,28 @@ pub type Repeats = BTreeMap<(String, String, String), (usize, f64)>;
 /// the same device and firmware (`[dut]` model, serial, firmware), run
 /// `except` left out (the run compared with it): the sample standard
 /// deviation of each KPI's defined values, with how many there are.
-pub fn repeat_spread(db: &Db, run: &RunRow, except: i64) -> Result<Repeats, CampaignError> {
-    let sql = sqlite(&db.path);
-    let mut q = db
-        .conn
-        .prepare(
-            "SELECT c.id, m.roi, m.metric, m.value FROM metrics m \
-             JOIN cases c ON c.run_id = m.run_id AND c.idx = m.idx \
-             JOIN runs r ON r.id = m.run_id \
-             WHERE r.plan_id = ?1 AND r.model = ?2 AND r.serial = ?3 AND r.firmware = ?4 \
-             AND r.id != ?5 AND m.value IS NOT NULL",
-        )
-        .map_err(&sql)?;
-    let rows = q
-        .query_map(
-            rusqlite::params![run.plan_id, run.model, run.serial, run.firmware, except],
-            |r| {
-                Ok((
-                    (
-                        r.get::<_, String>(0)?,
-                        r.get::<_, String>(1)?,
-                        r.get::<_, String>(2)?,
-                    ),
-                    r.get::<_, f64>(3)?,
-                ))
-            },
-        )
-        .map_err(&sql)?;
+pub fn repeat_spread(db: &Database, run: &RunRow, except: i64) -> Result<Repeats, CampaignError> {
+    let rows = db.query_map(
+        "SELECT c.id, m.roi, m.metric, m.value FROM metrics m \
+         JOIN cases c ON c.run_id = m.run_id AND c.idx = m.idx \
+         JOIN runs r ON r.id = m.run_id \
+         WHERE r.plan_id = ?1 AND r.model = ?2 AND r.serial = ?3 AND r.firmware = ?4 \
+         AND r.id != ?5 AND m.value IS NOT NULL",
+        &values![run.plan_id, run.model, run.serial, run.firmware, except],
+        |r| {
+            Ok((
+                (
+                    r.get::<String>(0)?,
+                    r.get::<String>(1)?,
+                    r.get::<String>(2)?,
+                ),
+                r.get::<f64>(3)?,
+            ))
+        },
+    )?;
     // Welford's running mean and sum of squares, per KPI.
     let mut acc: BTreeMap<(String, String, String), (usize, f64, f64)> = BTreeMap::new();
-    for r in rows {
-        let (key, x) = r.map_err(&sql)?;
+    for (key, x) in rows {
         let e = acc.entry(key).or_default();
         e.0 += 1;
         let d = x - e.1;
@@ -365,26 +352,20 @@ pub fn repeat_spread(db: &Db, run: &RunRow, except: i64) -> Result<Repeats, Camp
 }
 
 /// Reads run `id` whole; an unknown id is an error naming it.
-pub fn load_run(db: &Db, id: i64) -> Result<RunData, CampaignError> {
-    let sql = sqlite(&db.path);
+pub fn load_run(db: &Database, id: i64) -> Result<RunData, CampaignError> {
     let row = run(db, id)?.ok_or_else(|| {
         CampaignError::Input(format!(
             "no run {id} in `{}`\n    hint: `ledflicker history` lists the runs",
-            db.path.display()
+            db.path().display()
         ))
     })?;
     let (mut order, mut ids, mut cases) = (Vec::new(), BTreeMap::new(), BTreeMap::new());
-    let mut q = db
-        .conn
-        .prepare("SELECT idx, id, verdict FROM cases WHERE run_id = ?1 ORDER BY idx")
-        .map_err(&sql)?;
-    let rows = q
-        .query_map([id], |r| {
-            Ok((r.get::<_, i64>(0)?, r.get::<_, String>(1)?, r.get(2)?))
-        })
-        .map_err(&sql)?;
-    for r in rows {
-        let (idx, case, verdict) = r.map_err(&sql)?;
+    let rows = db.query_map(
+        "SELECT idx, id, verdict FROM cases WHERE run_id = ?1 ORDER BY idx",
+        &values![id],
+        |r| Ok((r.get::<i64>(0)?, r.get::<String>(1)?, r.get(2)?)),
+    )?;
+    for (idx, case, verdict) in rows {
         order.push(case.clone());
         ids.insert(idx, case.clone());
         cases.insert(
@@ -396,18 +377,14 @@ pub fn load_run(db: &Db, id: i64) -> Result<RunData, CampaignError> {
         );
     }
     let case_of = |idx: i64| ids.get(&idx).cloned().unwrap_or_default();
-    let mut q = db
-        .conn
-        .prepare(
-            "SELECT idx, roi, kind, level_min, level_max, level_off, level_on, noise_on_dn, \
-             noise_off_dn, off_frames FROM rois WHERE run_id = ?1",
-        )
-        .map_err(&sql)?;
-    let rows = q
-        .query_map([id], |r| {
+    let rows = db.query_map(
+        "SELECT idx, roi, kind, level_min, level_max, level_off, level_on, noise_on_dn, \
+         noise_off_dn, off_frames FROM rois WHERE run_id = ?1",
+        &values![id],
+        |r| {
             Ok((
-                r.get::<_, i64>(0)?,
-                r.get::<_, String>(1)?,
+                r.get::<i64>(0)?,
+                r.get::<String>(1)?,
                 RoiData {
                     kind: r.get(2)?,
                     level_min: r.get(3)?,
@@ -416,34 +393,30 @@ pub fn load_run(db: &Db, id: i64) -> Result<RunData, CampaignError> {
                     level_on: r.get(6)?,
                     noise_on_dn: r.get(7)?,
                     noise_off_dn: r.get(8)?,
-                    off_frames: r.get::<_, i64>(9)?.max(0) as usize,
+                    off_frames: r.get::<i64>(9)?.max(0) as usize,
                     metrics: BTreeMap::new(),
                 },
             ))
-        })
-        .map_err(&sql)?;
-    for r in rows {
-        let (idx, roi, data) = r.map_err(&sql)?;
+        },
+    )?;
+    for (idx, roi, data) in rows {
         if let Some(c) = cases.get_mut(&case_of(idx)) {
             c.rois.insert(roi, data);
         }
     }
-    let mut q = db
-        .conn
-        .prepare("SELECT idx, roi, metric, value FROM metrics WHERE run_id = ?1")
-        .map_err(&sql)?;
-    let rows = q
-        .query_map([id], |r| {
+    let rows = db.query_map(
+        "SELECT idx, roi, metric, value FROM metrics WHERE run_id = ?1",
+        &values![id],
+        |r| {
             Ok((
-                r.get::<_, i64>(0)?,
-                r.get::<_, String>(1)?,
-                r.get::<_, String>(2)?,
-                r.get::<_, Option<f64>>(3)?,
+                r.get::<i64>(0)?,
+                r.get::<String>(1)?,
+                r.get::<String>(2)?,
+                r.get::<Option<f64>>(3)?,
             ))
-        })
-        .map_err(&sql)?;
-    for r in rows {
-        let (idx, roi, metric, value) = r.map_err(&sql)?;
+        },
+    )?;
+    for (idx, roi, metric, value) in rows {
         if let Some(d) = cases
             .get_mut(&case_of(idx))
             .and_then(|c| c.rois.get_mut(&roi))
@@ -451,16 +424,12 @@ pub fn load_run(db: &Db, id: i64) -> Result<RunData, CampaignError> {
             d.metrics.insert(metric, value);
         }
     }
-    let mut q = db
-        .conn
-        .prepare(
-            "SELECT idx, roi, metric, comparison, threshold, pass FROM checks WHERE run_id = ?1",
-        )
-        .map_err(&sql)?;
-    let rows = q
-        .query_map([id], |r| {
+    let mut rows = db.query_map(
+        "SELECT idx, roi, metric, comparison, threshold, pass FROM checks WHERE run_id = ?1",
+        &values![id],
+        |r| {
             Ok((
-                r.get::<_, i64>(0)?,
+                r.get::<i64>(0)?,
                 CheckData {
                     roi: r.get(1)?,
                     metric: r.get(2)?,
@@ -469,10 +438,14 @@ pub fn load_run(db: &Db, id: i64) -> Result<RunData, CampaignError> {
                     pass: r.get(5)?,
                 },
             ))
-        })
-        .map_err(&sql)?;
-    for r in rows {
-        let (idx, check) = r.map_err(&sql)?;
+        },
+    )?;
+    // In key order, as SQLite's table holds them, with text in byte
+    // order whatever a server's collation.
+    rows.sort_by(|(i, a), (j, b)| {
+        (i, &a.roi, &a.metric, &a.comparison).cmp(&(j, &b.roi, &b.metric, &b.comparison))
+    });
+    for (idx, check) in rows {
         if let Some(c) = cases.get_mut(&case_of(idx)) {
             c.checks.push(check);
         }

@@ -4,9 +4,9 @@
 use std::path::Path;
 
 use rayon::prelude::*;
-use rusqlite::{Transaction, params};
 
-use super::{CampaignError, Db, noise, sqlite};
+use super::sql::values;
+use super::{CampaignError, Database, noise};
 use crate::model::{CaseInfo, Results};
 
 /// Which command recorded a run.
@@ -88,24 +88,19 @@ struct Prepared {
 /// Records the report directory `dir`, whose results model is `results`;
 /// returns the new run's id.
 pub fn record(
-    db: &mut Db,
+    db: &mut Database,
     results: &Results,
     dir: &Path,
     provenance: &Provenance,
 ) -> Result<i64, CampaignError> {
     let prepared = prepare(results, dir)?;
-    let path = db.path.clone();
-    let sql = sqlite(&path);
-    let tx = db
-        .conn
-        .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)
-        .map_err(&sql)?;
-    let run_id = insert_run(&tx, results, &prepared, provenance).map_err(&sql)?;
-    for (idx, case) in results.cases.iter().enumerate() {
-        insert_case(&tx, run_id, idx, case, &prepared.noise[idx]).map_err(&sql)?;
-    }
-    tx.commit().map_err(&sql)?;
-    Ok(run_id)
+    db.write(|tx| {
+        let run_id = insert_run(tx, results, &prepared, provenance)?;
+        for (idx, case) in results.cases.iter().enumerate() {
+            insert_case(tx, run_id, idx, case, &prepared.noise[idx])?;
+        }
+        Ok(run_id)
+    })
 }
 
 fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
@@ -158,11 +153,11 @@ fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
 }
 
 fn insert_run(
-    tx: &Transaction<'_>,
+    tx: &Database,
     r: &Results,
     p: &Prepared,
     provenance: &Provenance,
-) -> rusqlite::Result<i64> {
+) -> Result<i64, CampaignError> {
     let date = p.meta.as_ref().map_or("", |m| m.date.as_str());
     let plan_hash = p
         .meta
@@ -172,13 +167,13 @@ fn insert_run(
     let now = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs() as i64);
-    tx.execute(
+    let id = tx.query_row(
         "INSERT INTO runs (recorded_unix_s, source, date, plan_id, plan_title, plan_hash, seed, \
          tool, backend, supplier, model, serial, firmware, signer, signature, report_dir, \
          results_sha256, manifest_sha256, verdict, cases_total, cases_pass, cases_fail, cases_info) \
          VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, \
-         ?19, ?20, ?21, ?22, ?23)",
-        params![
+         ?19, ?20, ?21, ?22, ?23) RETURNING id",
+        &values![
             now,
             provenance.source.as_str(),
             date,
@@ -204,23 +199,26 @@ fn insert_run(
             r.counts.fail as i64,
             r.counts.info as i64,
         ],
+        |row| row.get::<i64>(0),
     )?;
-    Ok(tx.last_insert_rowid())
+    id.ok_or_else(|| CampaignError::Unusable {
+        path: tx.path().to_path_buf(),
+        message: "the new run got no id".to_string(),
+    })
 }
 
 fn insert_case(
-    tx: &Transaction<'_>,
+    tx: &Database,
     run_id: i64,
     idx: usize,
     c: &CaseInfo,
     noise: &[Option<noise::Noise>],
-) -> rusqlite::Result<()> {
+) -> Result<(), CampaignError> {
     let idx = idx as i64;
-    tx.prepare_cached(
+    tx.execute(
         "INSERT INTO cases (run_id, idx, id, light_lux, frequency_hz, duty, verdict, not_judged, trace) \
          VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
-    )?
-    .execute(params![
+        &values![
         run_id,
         idx,
         c.id,
@@ -230,54 +228,56 @@ fn insert_case(
         c.verdict.as_str(),
         c.not_judged,
         c.trace
-    ])?;
-    let mut roi_row = tx.prepare_cached(
-        "INSERT INTO rois (run_id, idx, roi, kind, saturated, level_off, level_on, level_min, \
+    ],
+    )?;
+    let roi_row = "INSERT INTO rois (run_id, idx, roi, kind, saturated, level_off, level_on, level_min, \
          level_max, noise_on_dn, noise_off_dn, off_frames) \
-         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)",
-    )?;
-    let mut metric_row = tx.prepare_cached(
-        "INSERT INTO metrics (run_id, idx, roi, metric, value) VALUES (?1, ?2, ?3, ?4, ?5)",
-    )?;
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)";
+    let metric_row =
+        "INSERT INTO metrics (run_id, idx, roi, metric, value) VALUES (?1, ?2, ?3, ?4, ?5)";
     for (roi, n) in c.rois.iter().zip(noise) {
         let kind = match roi.kind {
             crate::model::RoiKind::Led => "led",
             crate::model::RoiKind::Background => "background",
         };
-        roi_row.execute(params![
-            run_id,
-            idx,
-            roi.name,
-            kind,
-            roi.saturated,
-            roi.levels.off,
-            roi.levels.on,
-            roi.levels.min,
-            roi.levels.max,
-            n.and_then(|n| n.on_dn),
-            n.and_then(|n| n.off_dn),
-            n.map_or(0, |n| n.off_frames) as i64,
-        ])?;
+        tx.execute(
+            roi_row,
+            &values![
+                run_id,
+                idx,
+                roi.name,
+                kind,
+                roi.saturated,
+                roi.levels.off,
+                roi.levels.on,
+                roi.levels.min,
+                roi.levels.max,
+                n.and_then(|n| n.on_dn),
+                n.and_then(|n| n.off_dn),
+                n.map_or(0, |n| n.off_frames) as i64,
+            ],
+        )?;
         for (metric, value) in &roi.metrics {
-            metric_row.execute(params![run_id, idx, roi.name, metric, value])?;
+            tx.execute(metric_row, &values![run_id, idx, roi.name, metric, value])?;
         }
     }
-    let mut check_row = tx.prepare_cached(
-        "INSERT INTO checks (run_id, idx, roi, metric, comparison, threshold, value, unbounded, pass) \
-         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
-    )?;
+    let check_row = "INSERT INTO checks (run_id, idx, roi, metric, comparison, threshold, value, unbounded, pass) \
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)";
     for k in &c.checks {
-        check_row.execute(params![
-            run_id,
-            idx,
-            k.roi,
-            k.metric,
-            k.comparison.as_str(),
-            k.threshold,
-            k.value,
-            k.unbounded,
-            k.pass
-        ])?;
+        tx.execute(
+            check_row,
+            &values![
+                run_id,
+                idx,
+                k.roi,
+                k.metric,
+                k.comparison.as_str(),
+                k.threshold,
+                k.value,
+                k.unbounded,
+                k.pass
+            ],
+        )?;
     }
     Ok(())
 }

@@ -10,15 +10,17 @@ use clap::Args;
 use super::{EXIT_PASS, Failure, UsageError};
 use crate::campaign::query::{self, Filter, RunRow};
 use crate::campaign::record::{Provenance, Signature, Source};
-use crate::campaign::{self, Db, Location};
+use crate::campaign::{self, Database, Location};
 
 /// `--db` and `--no-db` of `plan` and `merge`.
 #[derive(Args, Debug, Clone)]
 pub(super) struct RecordArgs {
-    /// Results database the run is recorded in [default: $LEDFLICKER_DB,
-    /// else $XDG_DATA_HOME/ledflicker/results.sqlite, else
+    /// Results database the run is recorded in: an SQLite file, or a
+    /// PostgreSQL server as postgres://USER@HOST:PORT/DATABASE (password in
+    /// PGPASSFILE or ~/.pgpass) [default: $LEDFLICKER_DB, else
+    /// $XDG_DATA_HOME/ledflicker/results.sqlite, else
     /// ~/.local/share/ledflicker/results.sqlite].
-    #[arg(long, value_name = "PATH")]
+    #[arg(long, value_name = "PATH|URL")]
     db: Option<PathBuf>,
     /// Record the run in no results database.
     #[arg(long, conflicts_with = "db")]
@@ -28,17 +30,19 @@ pub(super) struct RecordArgs {
 /// `--db` of the commands that read the database.
 #[derive(Args, Debug, Clone)]
 pub(super) struct DbArg {
-    /// Results database [default: as for `plan`].
-    #[arg(long, value_name = "PATH")]
+    /// Results database: a file, or a postgres:// URL [default: as for
+    /// `plan`].
+    #[arg(long, value_name = "PATH|URL")]
     db: Option<PathBuf>,
 }
 
 impl DbArg {
-    /// The database file asked for; no place at all is a usage error.
-    pub(super) fn path(&self) -> Result<PathBuf, Failure> {
+    /// The database asked for, a file or a server; no place at all is a
+    /// usage error.
+    pub(super) fn location(&self) -> Result<Location, Failure> {
         match campaign::locate(self.db.as_deref(), false, &|k| std::env::var(k).ok()) {
-            Some(Location::File(p)) => Ok(p),
-            _ => Err(no_place().into()),
+            Some(Location::Off) | None => Err(no_place().into()),
+            Some(at) => Ok(at),
         }
     }
 }
@@ -60,9 +64,9 @@ pub(super) fn record_finished(
     signer: Option<&str>,
 ) {
     let _t = crate::timings::span("record in the results database");
-    let path = match campaign::locate(args.db.as_deref(), args.no_db, &|k| std::env::var(k).ok()) {
+    let at = match campaign::locate(args.db.as_deref(), args.no_db, &|k| std::env::var(k).ok()) {
         Some(Location::Off) => return,
-        Some(Location::File(p)) => p,
+        Some(at) => at,
         None => {
             eprintln!("warning: the run was not recorded: {}", no_place().0);
             return;
@@ -77,7 +81,7 @@ pub(super) fn record_finished(
             Signature::Unsigned
         },
     };
-    let recorded = Db::open(&path)
+    let recorded = Database::open(&at)
         .and_then(|mut db| campaign::record::record(&mut db, results, dir, &provenance));
     if let Err(e) = recorded {
         let e = Failure::from(e);
@@ -103,8 +107,7 @@ pub(super) struct ImportArgs {
 /// Records each report directory; a signed one is verified first and
 /// recorded with what the check found (`intact` or `broken`).
 pub(super) fn import(a: ImportArgs) -> Result<i32, Failure> {
-    let path = a.db.path()?;
-    let mut db = Db::open(&path)?;
+    let mut db = Database::open(&a.db.location()?)?;
     for dir in &a.dirs {
         let results_path = dir.join("results.json");
         let text = crate::util::read_input_to_string(&results_path).map_err(|e| {
@@ -203,7 +206,7 @@ impl HistoryArgs {
 /// Lists the runs the filters select, oldest first.
 pub(super) fn history(a: HistoryArgs) -> Result<i32, Failure> {
     let filter = a.filter()?;
-    let db = Db::open_existing(&a.db.path()?)?;
+    let db = Database::open_existing(&a.db.location()?)?;
     let runs = query::history(&db, &filter)?;
     if let Some(path) = &a.html {
         write_page(path, &runs, db.path(), &filter)?;

@@ -13,7 +13,7 @@ use super::campaign::DbArg;
 use super::{EXIT_FAIL, EXIT_PASS, Failure, UsageError};
 use crate::campaign::compare::{ALPHA, Comparison, compare as compare_runs};
 use crate::campaign::query::{self, Filter};
-use crate::campaign::{CampaignError, Db};
+use crate::campaign::{CampaignError, Database};
 
 /// `ledflicker compare` arguments.
 #[derive(Args, Debug)]
@@ -55,7 +55,7 @@ pub(super) struct CompareArgs {
 
 /// Compares the runs; exit 1 when a KPI regressed beyond its noise.
 pub(super) fn compare(a: CompareArgs) -> Result<i32, Failure> {
-    let db = Db::open_existing(&a.db.path()?)?;
+    let db = Database::open_existing(&a.db.location()?)?;
     let (id_a, id_b) = pick(&db, &a)?;
     let mut run_a = query::load_run(&db, id_a)?;
     run_a.repeats = query::repeat_spread(&db, &run_a.run, id_b)?;
@@ -94,7 +94,7 @@ pub(super) fn compare(a: CompareArgs) -> Result<i32, Failure> {
 }
 
 /// The run ids of A and B.
-fn pick(db: &Db, a: &CompareArgs) -> Result<(i64, i64), Failure> {
+fn pick(db: &Database, a: &CompareArgs) -> Result<(i64, i64), Failure> {
     if !a.latest {
         let (Some(x), Some(y)) = (&a.a, &a.b) else {
             return Err(UsageError(
@@ -142,7 +142,7 @@ fn pick(db: &Db, a: &CompareArgs) -> Result<(i64, i64), Failure> {
 }
 
 /// A run id, or the newest run recorded of a report directory.
-fn resolve(db: &Db, spec: &str) -> Result<i64, Failure> {
+fn resolve(db: &Database, spec: &str) -> Result<i64, Failure> {
     if let Ok(id) = spec.parse::<i64>() {
         return Ok(id);
     }

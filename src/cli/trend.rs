@@ -8,7 +8,7 @@ use clap::Args;
 use super::campaign::DbArg;
 use super::output::{out, outln};
 use super::{EXIT_PASS, Failure, UsageError};
-use crate::campaign::Db;
+use crate::campaign::Database;
 use crate::campaign::query::{self, Filter, TrendPoint};
 
 /// `ledflicker trend` arguments.
@@ -45,7 +45,7 @@ pub(super) struct TrendArgs {
 
 /// Prints the KPI's values over the runs, oldest first.
 pub(super) fn trend(a: TrendArgs) -> Result<i32, Failure> {
-    let db = Db::open_existing(&a.db.path()?)?;
+    let db = Database::open_existing(&a.db.location()?)?;
     let filter = Filter {
         camera: a.camera.clone(),
         firmware: a.firmware.clone(),

@@ -9,7 +9,7 @@ use crate::{ledflicker_in, root, scratch, stderr, text};
 /// A small, fast simulator plan (4 cases: 60 and 150 Hz x 20 and 50 %
 /// duty, 16 x 12 sensor) of firmware `firmware` with exposure
 /// `exposure_ms`, written to `dir/name.toml`.
-fn small_plan(dir: &Path, name: &str, firmware: &str, exposure_ms: &str) -> PathBuf {
+pub(super) fn small_plan(dir: &Path, name: &str, firmware: &str, exposure_ms: &str) -> PathBuf {
     let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml"))
         .unwrap()
         .replace("sensor-rows = 800", "sensor-rows = 12")
@@ -32,7 +32,7 @@ fn run(dir: &Path, args: &[&str]) -> Output {
     ledflicker_in(args, dir)
 }
 
-fn plan(dir: &Path, plan: &Path, out: &str, db: &[&str]) -> Output {
+pub(super) fn plan(dir: &Path, plan: &Path, out: &str, db: &[&str]) -> Output {
     let mut args = vec![
         "plan",
         plan.to_str().unwrap(),

@@ -72,3 +72,26 @@ fn a_build_without_the_signoff_refuses_its_commands_with_a_hint() {
         );
     }
 }
+
+#[cfg(not(feature = "postgres"))]
+#[test]
+fn a_build_without_postgres_refuses_a_server_with_a_hint_and_hides_the_password() {
+    let dir = super::scratch("no-postgres");
+    let ran = super::ledflicker_in(
+        &[
+            "history",
+            "--db",
+            "postgres://lab:pw-8c1f@127.0.0.1:1/results",
+        ],
+        &dir,
+    );
+    assert_eq!(ran.status.code(), Some(2), "{}", super::text(&ran));
+    let err = super::stderr(&ran);
+    assert!(
+        err.contains("which this ledflicker was built without")
+            && err.contains("default features")
+            && err.contains("postgres://lab:***@127.0.0.1:1/results"),
+        "{err}"
+    );
+    assert!(!err.contains("pw-8c1f"), "{err}");
+}

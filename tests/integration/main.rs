@@ -8,6 +8,7 @@ mod beyond;
 mod calibrate;
 mod camera_model;
 mod campaign;
+mod campaign_pg;
 mod capture_inputs;
 mod captured;
 mod cli;
