@@ -24,6 +24,7 @@ mod physics;
 mod plans;
 mod profile;
 mod properties;
+mod pstlm;
 mod ranges;
 mod recgen;
 mod render;
