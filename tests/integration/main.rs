@@ -11,6 +11,7 @@ mod campaign;
 mod capture_inputs;
 mod captured;
 mod cli;
+mod colour;
 mod conditions;
 mod detect;
 mod estimate;
