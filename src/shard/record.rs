@@ -219,6 +219,7 @@ mod tests {
                         name: "led".into(),
                         luma: values.to_vec(),
                         phase_envelope: Some((values[0], values[1])),
+                        rgb: None,
                     }],
                     saturation_dn: 254.5,
                     capture: None,

@@ -10,7 +10,9 @@ use crate::backend::{Acquisition, Backend, BackendError, RenderedFrame};
 use crate::metrics::flicker::Segment;
 use crate::metrics::p2020::{self, P2020Metrics};
 use crate::metrics::verdict::{CaseConditions, RoiFigures, effective_basis};
-use crate::metrics::{Check, RoiMetrics, Verdict, evaluate_case, evaluate_roi, visibility};
+use crate::metrics::{
+    Check, RoiMetrics, Verdict, chromaticity, evaluate_case, evaluate_roi, visibility,
+};
 use crate::plan::RoiKind;
 use crate::plan::{Plan, TestCase};
 
@@ -360,6 +362,13 @@ pub fn run_case(
             .display
             .as_ref()
             .map(|d| visibility::of_trace(d, &acquisition.frames, &trace.luma, roi));
+        m.colour = plan
+            .colour
+            .as_ref()
+            .zip(trace.rgb.as_ref())
+            .map(|(c, rgb)| {
+                chromaticity::of_trace(c, rgb, &segments, plan.dut.camera.black_level_dn)
+            });
         metrics.push(m);
         p2020s.extend(p2020::evaluate(&trace.luma, &segments, &plan.p2020));
     }
@@ -528,6 +537,7 @@ mod tests {
                         name: format!("roi{k}"),
                         luma: luma.clone(),
                         phase_envelope: envelope,
+                        rgb: None,
                     })
                     .collect(),
                 saturation_dn: 250.0,

@@ -57,6 +57,10 @@ pub struct RoiTrace {
     /// Lowest and highest PWM-segment luma over every PWM phase, when the
     /// backend can compute it exactly (the simulator can, a capture cannot).
     pub phase_envelope: Option<(f64, f64)>,
+    /// Mean DN of each colour plane (R, G, B) per frame, for an LED ROI of
+    /// a plan with colour (`scene.led-chromaticity-xy`); `None` otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rgb: Option<Vec<[f64; 3]>>,
 }
 
 /// Frames and ROI traces for one case.

@@ -41,13 +41,24 @@ pub const CSV_LIMITS: [&str; 5] = [
 pub const CSV_VISIBILITY: ([&str; 2], &str) =
     (["visibility", "visibility_peak_hz"], "visibility_max");
 
+/// Metric columns added for a plan with colour (`scene.led-chromaticity-xy`).
+pub const CSV_COLOUR: [&str; 2] = ["delta_uv", "frames_outside_signal_colour"];
+
 /// The metric and limit columns of `model`'s CSV: the visibility ones only
-/// for a plan with `[display]`, so other plans keep their columns.
+/// for a plan with `[display]`, the colour ones only for a plan with
+/// colour, so other plans keep their columns.
 fn csv_columns(model: &Results) -> (Vec<&'static str>, Vec<&'static str>) {
     let (mut metrics, mut limits) = (CSV_METRICS.to_vec(), CSV_LIMITS.to_vec());
     if model.display.is_some() {
         metrics.extend(CSV_VISIBILITY.0);
         limits.push(CSV_VISIBILITY.1);
+    }
+    let coloured = model
+        .cases
+        .iter()
+        .any(|c| c.rois.iter().any(|r| r.metrics.contains_key(CSV_COLOUR[0])));
+    if coloured {
+        metrics.extend(CSV_COLOUR);
     }
     (metrics, limits)
 }
@@ -107,6 +118,7 @@ fn metric_lines(c: &CaseInfo) -> Vec<String> {
             let values: Vec<String> = CSV_METRICS
                 .iter()
                 .chain(&CSV_VISIBILITY.0)
+                .chain(&CSV_COLOUR)
                 .filter_map(|m| {
                     let v = if r.is_unbounded(m) {
                         "+inf".to_string()

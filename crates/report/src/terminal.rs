@@ -29,6 +29,14 @@ const VISIBILITY_COLUMN: (&str, &str, usize) = ("Visible", "visibility", 2);
 pub const VISIBILITY_LEGEND: &str = "Visible = visibility index of the flicker on the plan's \
 monitor for the standard observer (elaTCSF): 1 = at threshold, above 1 seen (docs/visibility.md)";
 
+/// The column of a plan with colour (`scene.led-chromaticity-xy`).
+const COLOUR_COLUMN: (&str, &str, usize) = ("Δu′v′", "delta_uv", 4);
+
+/// The legend line of that column.
+pub const COLOUR_LEGEND: &str = "Δu′v′ = largest distance of a PWM frame's colour from the \
+colour the frames fuse to (CIE 1976 u′v′); frames outside the signal-colour region in results.json \
+and the report (docs/visibility.md, section 6)";
+
 /// The legend printed under the table.
 pub const LEGEND: &str = "legend: roi = the case's worst LED ROI (least margin to its limits; \
 highest Percent Flicker when nothing was checked); worst = worst case over PWM phase (simulator only); \
@@ -129,7 +137,17 @@ pub fn summary(model: &Results, out: &Path) -> String {
     // The visibility column appears with `[display]` only, so a plan
     // without a monitor prints the table it always did.
     let visibility = model.display.is_some().then_some(VISIBILITY_COLUMN);
-    let columns: Vec<(&str, &str, usize)> = COLUMNS.into_iter().chain(visibility).collect();
+    let coloured = model.cases.iter().any(|c| {
+        c.rois
+            .iter()
+            .any(|r| r.metrics.contains_key(COLOUR_COLUMN.1))
+    });
+    let colour = coloured.then_some(COLOUR_COLUMN);
+    let columns: Vec<(&str, &str, usize)> = COLUMNS
+        .into_iter()
+        .chain(visibility)
+        .chain(colour)
+        .collect();
     for (h, _, _) in &columns {
         let _ = write!(s, "  {h:>9}");
     }
@@ -152,6 +170,9 @@ pub fn summary(model: &Results, out: &Path) -> String {
     let _ = writeln!(s, "{LEGEND}");
     if visibility.is_some() {
         let _ = writeln!(s, "{VISIBILITY_LEGEND}");
+    }
+    if coloured {
+        let _ = writeln!(s, "{COLOUR_LEGEND}");
     }
     if model.cases.iter().any(&detected) {
         let _ = writeln!(

@@ -168,6 +168,7 @@ pub fn to_acquisition(
             name: roi.name.clone(),
             luma: keep.iter().map(|&(k, _)| luma[k]).collect(),
             phase_envelope: None,
+            rgb: None,
         })
         .collect();
     Acquisition {

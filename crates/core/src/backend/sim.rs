@@ -31,6 +31,7 @@ use crate::physics::hdr::{HdrMode, merge};
 use crate::physics::pwm::{on_fraction, wrap_unit};
 use crate::physics::sensor::{CaptureSample, Rng};
 use crate::physics::{PwmDrive, Shutter};
+use crate::plan::colour::ColourConfig;
 use crate::plan::{
     CameraConfig, PhysicalCamera, Plan, Roi, RoiKind, Scene, Sequence, ShutterKind, TestCase,
 };
@@ -51,6 +52,9 @@ pub struct Simulator {
     scene: Scene,
     sequence: Sequence,
     rois: Vec<Roi>,
+    // Boxed: the simulator is a variant of the plan's backend enum, and
+    // most plans have no colour.
+    colour: Option<Box<ColourConfig>>,
 }
 
 pub use crate::plan::SegmentFrames;
@@ -93,6 +97,7 @@ impl Simulator {
             scene: plan.scene,
             sequence: plan.sequence,
             rois: plan.rois.clone(),
+            colour: plan.colour.clone().map(Box::new),
         }
     }
 
@@ -172,10 +177,17 @@ impl Simulator {
                     })
                     .collect();
                 let (lo, hi) = shutter.phase_envelope(pwm, roi.rows());
+                let rgb = match (&self.colour, roi.kind) {
+                    (Some(colour), RoiKind::Led) => {
+                        Some(self.colour_planes(case, pwm, roi, colour, &frames))
+                    }
+                    _ => None,
+                };
                 RoiTrace {
                     name: roi.name.clone(),
                     luma,
                     phase_envelope: Some((out(lo, led), out(hi, led))),
+                    rgb,
                 }
             })
             .collect();
@@ -185,6 +197,56 @@ impl Simulator {
             rois,
             saturation_dn: cam.saturation_dn,
         }
+    }
+
+    /// Mean DN of each colour plane of an LED ROI, frame by frame, through
+    /// the ideal camera: plane `p` sees the LED's camera RGB `led_rgb[p]`
+    /// (and the grey background's `white_rgb[p]`) per cd/m^2, over its own
+    /// exposure, which starts `plane_offsets_s[p]` after the frame's. A
+    /// later exposure sees the PWM's edges earlier: the same integral with
+    /// the first rise moved back by the offset.
+    fn colour_planes(
+        &self,
+        case: &TestCase,
+        pwm: &PwmDrive,
+        roi: &Roi,
+        colour: &ColourConfig,
+        frames: &[FrameInfo],
+    ) -> Vec<[f64; 3]> {
+        let cam = &self.camera;
+        let shutter = self.shutter();
+        let k = cam.response_dn_per_cd_m2_s * cam.exposure_s;
+        let background = k * self.scene.background_luminance_cd_m2(case.light_lux);
+        let led = k * self.scene.led_fill * self.scene.led_luminance_cd_m2;
+        let pwm_frames = pwm_frame_range(frames);
+        let planes: Vec<Vec<f64>> = (0..3)
+            .map(|p| {
+                // Finite inputs to a drive that was valid stay valid.
+                let shifted = PwmDrive::new(
+                    pwm.frequency_hz(),
+                    pwm.duty(),
+                    pwm.first_rise_s() - colour.plane_offsets_s[p],
+                )
+                .unwrap_or(*pwm);
+                let mut on = Vec::new();
+                shutter.frame_on_fractions(&shifted, pwm_frames.clone(), roi.rows(), &mut on);
+                let out = |s: f64| {
+                    let v = background * colour.white_rgb[p] + led * colour.led_rgb[p] * s;
+                    (cam.black_level_dn + v).min(cam.full_scale_dn)
+                };
+                frames
+                    .iter()
+                    .map(|f| match f.segment {
+                        Segment::On => out(case.duty),
+                        Segment::Off => out(0.0),
+                        Segment::Pwm => out(on[(f.index - pwm_frames.start) as usize]),
+                    })
+                    .collect()
+            })
+            .collect();
+        (0..frames.len())
+            .map(|i| [planes[0][i], planes[1][i], planes[2][i]])
+            .collect()
     }
 
     /// Start of capture `c` of row `row`, seconds after the frame starts.
@@ -482,6 +544,7 @@ impl Simulator {
                     phase_envelope: Some(
                         self.physical_envelope(p, state, pwm, roi, background, led_here),
                     ),
+                    rgb: None,
                 }
             })
             .collect();

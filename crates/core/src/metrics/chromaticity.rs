@@ -2,9 +2,14 @@
 //! by frame, from its camera RGB through a camera-to-XYZ matrix, its
 //! excursion in u'v', and the frames whose colour leaves a signal-colour
 //! region (docs/visibility.md, section 6). It sees per-frame RGB values
-//! only, never how they were made; no backend gives them to it yet.
-//! `analysis::colour` models the RGB LED's side (per-die duty and phase,
+//! only, never how they were made: the simulator gives them for an LED ROI
+//! of a plan with colour ([`of_trace`]). `analysis::colour` models the RGB LED's side (per-die duty and phase,
 //! hue over phase in BT.709 Cb/Cr) for `simulate --summary`.
+
+use serde::{Deserialize, Serialize};
+
+use crate::plan::colour::{ColourConfig, SignalColourName};
+use crate::trace::Segment;
 
 /// A 3 x 3 matrix from linear camera RGB to CIE 1931 XYZ, rows X, Y, Z.
 pub type CameraToXyz = [[f64; 3]; 3];
@@ -98,6 +103,71 @@ pub fn excursion(rgb: &[[f64; 3]], m: &CameraToXyz, region: SignalColour) -> Opt
         outside,
         dark,
     })
+}
+
+impl From<SignalColourName> for SignalColour {
+    fn from(name: SignalColourName) -> Self {
+        match name {
+            SignalColourName::Red => SignalColour::Red,
+            SignalColourName::Amber => SignalColour::Amber,
+        }
+    }
+}
+
+/// The colour figures of one LED ROI over the PWM segment, as results.json
+/// gives them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ColourFigures {
+    /// Largest distance in u'v' of a frame's colour from the segment's
+    /// mean colour; `None` when no frame has light.
+    pub delta_uv: Option<f64>,
+    /// `(u', v')` of the segment's mean colour; `None` without light.
+    pub mean_uv: Option<(f64, f64)>,
+    /// The signal colour the plan names (`"red"`, `"amber"`), if any.
+    pub region: Option<String>,
+    /// PWM frames with light whose colour is outside that region; `None`
+    /// without a region.
+    pub frames_outside: Option<u64>,
+    /// Indices (in the whole trace) of those frames, for the report.
+    pub outside_frames: Vec<u64>,
+    /// PWM frames.
+    pub frames: u64,
+}
+
+/// The colour of an LED ROI's PWM segment: the planes' DN less the black
+/// level (light only) of the frames whose segment is PWM, through the
+/// plan's camera-to-XYZ matrix, judged against its signal colour.
+pub fn of_trace(
+    colour: &ColourConfig,
+    rgb: &[[f64; 3]],
+    segments: &[Segment],
+    black_level_dn: f64,
+) -> ColourFigures {
+    let (index, light): (Vec<u64>, Vec<[f64; 3]>) = rgb
+        .iter()
+        .zip(segments)
+        .enumerate()
+        .filter(|(_, (_, s))| **s == Segment::Pwm)
+        .map(|(i, (c, _))| (i as u64, c.map(|v| (v - black_level_dn).max(0.0))))
+        .unzip();
+    let region = colour.signal.map(SignalColour::from);
+    let found = excursion(
+        &light,
+        &colour.camera_to_xyz,
+        region.unwrap_or(SignalColour::Red),
+    );
+    let outside_frames: Vec<u64> = match (&found, region) {
+        (Some(e), Some(_)) => e.outside.iter().map(|&i| index[i]).collect(),
+        _ => Vec::new(),
+    };
+    ColourFigures {
+        delta_uv: found.as_ref().map(|e| e.delta_uv),
+        mean_uv: found.as_ref().map(|e| e.mean_uv),
+        region: colour.signal.map(|s| s.as_str().to_string()),
+        frames_outside: region.map(|_| outside_frames.len() as u64),
+        outside_frames,
+        frames: light.len() as u64,
+    }
 }
 
 #[cfg(test)]

@@ -74,6 +74,10 @@ pub struct RoiMetrics {
     /// plan has no display.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub visibility: Option<super::visibility::Visibility>,
+    /// Colour of the light over the PWM segment, for an LED ROI of a plan
+    /// with colour; `None` otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub colour: Option<super::chromaticity::ColourFigures>,
 }
 
 /// FDI (2018) = `(min - L_OFF) / L_OFF`.
@@ -176,6 +180,7 @@ pub fn evaluate_roi(
         saturated,
         levels,
         visibility: None,
+        colour: None,
     };
     if saturated {
         let note = format!(

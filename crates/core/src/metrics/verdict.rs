@@ -373,6 +373,7 @@ mod tests {
             percent_flicker_worst_phase: None,
             saturated: false,
             visibility: None,
+            colour: None,
         }
     }
 

@@ -77,6 +77,21 @@ fn insert_visibility(roi: &mut RoiInfo, v: &crate::metrics::visibility::Visibili
     }
 }
 
+/// The colour figures of an LED ROI, under the names of results.json.
+fn insert_colour(roi: &mut RoiInfo, c: &crate::metrics::chromaticity::ColourFigures) {
+    roi.metrics.insert("delta_uv".to_string(), c.delta_uv);
+    if c.delta_uv.is_none() {
+        roi.reasons.insert(
+            "delta_uv".to_string(),
+            "no PWM frame has light: no colour".to_string(),
+        );
+    }
+    if let Some(n) = c.frames_outside {
+        roi.metrics
+            .insert("frames_outside_signal_colour".to_string(), Some(n as f64));
+    }
+}
+
 /// The model of the run's cases, analyses, fine maps and advice. The
 /// cases are read from `source` a chunk at a time, each analysed in
 /// parallel, so that only the model's own row of each case is kept.
@@ -222,6 +237,7 @@ fn roi_infos(plan: &Plan, r: &CaseResult, analyses: Vec<RoiAnalysis>) -> Vec<Roi
                 saturated: m.saturated,
                 contrast_unbounded: false,
                 analysis: ra,
+                signal_colour: m.colour.as_ref().and_then(|c| c.region.clone()),
             };
             insert(&mut info, "fdi_2018", &m.fdi_2018);
             insert(&mut info, "percent_flicker", &m.percent_flicker);
@@ -245,6 +261,9 @@ fn roi_infos(plan: &Plan, r: &CaseResult, analyses: Vec<RoiAnalysis>) -> Vec<Roi
             }
             if let Some(v) = &m.visibility {
                 insert_visibility(&mut info, v);
+            }
+            if let Some(c) = &m.colour {
+                insert_colour(&mut info, c);
             }
             if let Some(p) = r.p2020.get(i) {
                 insert(&mut info, "fmi", &p.fmi);

@@ -453,6 +453,11 @@ pub struct RoiInfo {
     pub contrast_unbounded: bool,
     /// Spectrum, hazard class and phase coverage of this ROI's trace.
     pub analysis: RoiAnalysis,
+    /// The signal colour (`"red"`, `"amber"`) an LED ROI's colour is
+    /// judged against, for a plan with colour that names one; its figures
+    /// are `delta_uv` and `frames_outside_signal_colour` in `metrics`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub signal_colour: Option<String>,
 }
 
 impl RoiInfo {

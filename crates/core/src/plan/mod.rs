@@ -8,6 +8,7 @@
 pub mod bounds;
 mod capture;
 mod check;
+pub mod colour;
 pub mod display;
 mod grid;
 mod p2020;
@@ -87,6 +88,10 @@ pub struct Plan {
     /// The CMS monitor (`[display]`); `None` when the plan has none, and
     /// then no visibility is computed.
     pub display: Option<display::Display>,
+    /// The LED's colour and the camera's colour planes; `None` when the
+    /// plan gives no `scene.led-chromaticity-xy`, and then no colour is
+    /// simulated or reported.
+    pub colour: Option<colour::ColourConfig>,
     /// The light source driven over SCPI (`[source]`); only a command
     /// plan has one.
     pub source: Option<source::SourceConfig>,

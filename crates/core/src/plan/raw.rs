@@ -152,6 +152,8 @@ pub struct RawCamera {
     pub hdr: Option<RawHdr>,
     pub tone: Option<RawTone>,
     pub auto_exposure: Option<RawAutoExposure>,
+    pub colour_plane_offset_ms: Option<Vec<f64>>,
+    pub camera_to_xyz: Option<Vec<Vec<f64>>>,
 }
 
 /// `[dut.camera.sensor]`: present for a physical sensor model.
@@ -219,6 +221,8 @@ pub struct RawScene {
     pub led_fill: Option<f64>,
     pub led_frame_fraction: Option<f64>,
     pub pwm_clock_offset_ppm: Option<f64>,
+    pub led_chromaticity_xy: Option<Vec<f64>>,
+    pub signal_colour: Option<String>,
 }
 
 /// `[thresholds]`

@@ -181,6 +181,8 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "hdr",
             "tone",
             "auto-exposure",
+            "colour-plane-offset-ms",
+            "camera-to-xyz",
         ],
     ),
     (
@@ -225,6 +227,8 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "led-fill",
             "led-frame-fraction",
             "pwm-clock-offset-ppm",
+            "led-chromaticity-xy",
+            "signal-colour",
         ],
     ),
     (

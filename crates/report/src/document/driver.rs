@@ -28,6 +28,28 @@ pub struct DriverView {
     pub reading: String,
     /// One row per listed case and LED ROI.
     pub rows: Vec<DriverRow>,
+    /// One row per listed case and LED ROI with a colour (a plan with
+    /// `scene.led-chromaticity-xy`); empty otherwise.
+    pub colour: Vec<ColourRow>,
+}
+
+/// The colour of one LED ROI of one case over the PWM segment.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ColourRow {
+    /// Case id.
+    pub case: String,
+    /// ROI name.
+    pub roi: String,
+    /// Δu'v', 4 decimals, or "n/a".
+    pub delta_uv: String,
+    /// The signal colour judged against, or "—".
+    pub region: String,
+    /// PWM frames outside the region, or "—" without a region.
+    pub outside: String,
+    /// Some frame's colour left the region.
+    pub over: bool,
+    /// The reading in plain words.
+    pub reading: String,
 }
 
 /// One LED ROI of one case.
@@ -105,13 +127,58 @@ pub fn driver_view(results: &Results, listed: impl Fn(&str) -> bool) -> Option<D
         .filter(|c| listed(&c.id))
         .flat_map(|c| rows_of(c, bound))
         .collect();
+    let colour = results
+        .cases
+        .iter()
+        .filter(|c| listed(&c.id))
+        .flat_map(colour_rows_of)
+        .collect();
     Some(DriverView {
         display,
         limit,
         limit_value,
         reading: overall(&rows, results),
         rows,
+        colour,
     })
+}
+
+/// The colour rows of a case's LED ROIs that have a colour.
+fn colour_rows_of(case: &CaseInfo) -> Vec<ColourRow> {
+    case.rois
+        .iter()
+        .filter(|r| r.kind == RoiKind::Led && r.metrics.contains_key("delta_uv"))
+        .map(|r| {
+            let delta = r.metrics.get("delta_uv").copied().flatten();
+            let outside = r
+                .metrics
+                .get("frames_outside_signal_colour")
+                .copied()
+                .flatten();
+            let region = r.signal_colour.clone();
+            let reading = match (delta, &region, outside) {
+                (None, _, _) => "no PWM frame has light: no colour".to_string(),
+                (Some(_), Some(name), Some(n)) if n > 0.0 => format!(
+                    "its colour leaves the {name} region in {n:.0} frames: a {name} light that does not always read as {name}"
+                ),
+                (Some(d), Some(name), _) => format!(
+                    "stays {name} in every frame{}",
+                    if d > 1e-6 { " though its colour moves" } else { "" }
+                ),
+                (Some(d), None, _) if d > 1e-6 => "its colour moves from frame to frame".to_string(),
+                (Some(_), None, _) => "one colour in every frame".to_string(),
+            };
+            ColourRow {
+                case: case.id.clone(),
+                roi: r.name.clone(),
+                delta_uv: delta.map_or("n/a".to_string(), |d| fixed(d, 4)),
+                region: region.clone().unwrap_or_else(|| "—".to_string()),
+                outside: outside.map_or("—".to_string(), |n| format!("{n:.0}")),
+                over: outside.is_some_and(|n| n > 0.0),
+                reading,
+            }
+        })
+        .collect()
 }
 
 fn rows_of(case: &CaseInfo, bound: f64) -> Vec<DriverRow> {

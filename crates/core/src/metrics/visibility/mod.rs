@@ -17,6 +17,7 @@
 //!    for the same pooling (Perz et al. 2015; CIE TN 006:2016). A single
 //!    sinusoid of modulation `m` at `f` gives `V = m S(f)`: 1 is threshold.
 
+pub mod pstlm;
 pub mod screen;
 pub mod svm;
 pub mod tcsf;

@@ -23,6 +23,7 @@
 mod ae;
 mod camera;
 mod capture;
+mod colour;
 mod display;
 mod dut;
 mod grid;
@@ -62,13 +63,14 @@ pub(super) struct Checked<'a> {
 /// plausibility warning into `out.warnings`. Returns `None` when something
 /// required is missing or invalid.
 pub(super) fn validate(
-    raw: RawPlan,
+    mut raw: RawPlan,
     index: &SpanIndex,
     out: Checked<'_>,
     path: &Path,
     sha256: String,
 ) -> Option<Plan> {
     let mut c = Checker::new(index, out.diags, out.warnings);
+    let raw_colour = take_colour(&mut raw);
     meta::format_version(&mut c, raw.format_version);
     let meta = meta::plan_table(&mut c, raw.plan);
     let (on_s, off_s, pwm_s) = meta::sequence_table(&mut c, raw.sequence);
@@ -143,7 +145,10 @@ pub(super) fn validate(
         return None;
     }
     sequence_fits(&mut c, &sequence, dut.camera.fps)?;
+    let ideal_sim = role.is_sim && dut.camera.physical.is_none();
+    let colour = colour::colour(&mut c, raw_colour, ideal_sim);
     let (thresholds, display) = (thresholds?, display?);
+    let colour = colour?;
     display::limit_needs_display(&mut c, &thresholds, display.as_ref())?;
     Some(Plan {
         id: meta.id?,
@@ -167,10 +172,30 @@ pub(super) fn validate(
         p2020: p2020?,
         report: report?,
         display,
+        colour,
         source,
         recorder,
         warnings: Vec::new(),
     })
+}
+
+/// The colour keys of `[scene]` and `[dut.camera]`, taken out of `raw`
+/// before those tables are validated.
+fn take_colour(raw: &mut RawPlan) -> colour::RawColour {
+    let scene = raw.scene.as_mut();
+    let camera = raw.dut.as_mut().and_then(|d| d.camera.as_mut());
+    let (led_xy, signal) = scene.map_or((None, None), |s| {
+        (s.led_chromaticity_xy.take(), s.signal_colour.take())
+    });
+    let (offsets_ms, camera_to_xyz) = camera.map_or((None, None), |c| {
+        (c.colour_plane_offset_ms.take(), c.camera_to_xyz.take())
+    });
+    colour::RawColour {
+        led_xy,
+        signal,
+        offsets_ms,
+        camera_to_xyz,
+    }
 }
 
 /// Which tables the backend named in `[dut]` reads.
