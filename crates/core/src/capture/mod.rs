@@ -12,6 +12,7 @@
 //! OpenCV's `COLOR_BGR2GRAY`, rounded to whole DN as an integer image would
 //! be), and the ROI mean is the mean of those grey pixels.
 
+mod built_in;
 mod csv_trace;
 mod grey;
 mod images;
@@ -31,6 +32,9 @@ pub use csv_trace::MAX_CSV_LUMA_DN;
 pub use progress::{decode_progress_text, frames_decoded};
 pub use schedule::read_captures;
 pub use video::ffmpeg_available;
+
+pub(crate) use built_in::built_in_copy;
+use built_in::with_built_in;
 
 // The plan's `[capture]` choices; defined with the plan, read here.
 pub use crate::plan::{LumaWeights, VideoDecode, VideoRange};
@@ -196,32 +200,6 @@ impl CaptureError {
 }
 
 impl CaptureError {
-    /// The capture the error names.
-    pub fn path(&self) -> &Path {
-        match self {
-            CaptureError::Read { path, .. }
-            | CaptureError::Frame { path, .. }
-            | CaptureError::RoiOutside { path, .. }
-            | CaptureError::Invalid { path, .. }
-            | CaptureError::Tool { path, .. }
-            | CaptureError::Interrupted { path, .. } => path,
-        }
-    }
-
-    /// The error naming `path` as the capture (a built-in capture read
-    /// through a temporary copy is named by its path in the plan).
-    pub(crate) fn at(mut self, path: &Path) -> CaptureError {
-        match &mut self {
-            CaptureError::Read { path: p, .. }
-            | CaptureError::Frame { path: p, .. }
-            | CaptureError::RoiOutside { path: p, .. }
-            | CaptureError::Invalid { path: p, .. }
-            | CaptureError::Tool { path: p, .. }
-            | CaptureError::Interrupted { path: p, .. } => *p = path.to_path_buf(),
-        }
-        self
-    }
-
     /// The error with its ROI named from `names` (the plan's ROI names,
     /// in the order of the ROIs read): readers know ROIs by index only.
     pub fn with_roi_names(self, names: &[String]) -> CaptureError {
@@ -397,48 +375,6 @@ fn read_capture_on_disk(
     }
     .map_err(|e| e.with_roi_names(roi_names))?;
     finish_trace(path, trace)
-}
-
-/// A private copy of the capture built into the binary at `path`
-/// ([`crate::plan::shipped::data_at`]) when nothing stands at `path`: a
-/// shipped plan's capture, read away from the source tree. The readers
-/// (and ffmpeg) take a file, so the bytes go to a temporary file of
-/// ledflicker's own, removed when the copy is dropped. `None` when `path`
-/// is on disk or names no built-in capture.
-pub(crate) fn built_in_copy(path: &Path) -> Result<Option<tempfile::TempPath>, CaptureError> {
-    if std::fs::symlink_metadata(path).is_ok() {
-        return Ok(None);
-    }
-    let Some(data) = crate::plan::shipped::data_at(path) else {
-        return Ok(None);
-    };
-    let suffix = path
-        .extension()
-        .map(|e| format!(".{}", e.to_string_lossy()))
-        .unwrap_or_default();
-    let failed = |e: std::io::Error| CaptureError::Read {
-        path: path.to_path_buf(),
-        message: format!("cannot copy the built-in capture to a temporary file: {e}"),
-    };
-    let mut file = tempfile::Builder::new()
-        .prefix("ledflicker-built-in-")
-        .suffix(&suffix)
-        .tempfile()
-        .map_err(failed)?;
-    std::io::Write::write_all(&mut file, data.bytes).map_err(failed)?;
-    Ok(Some(file.into_temp_path()))
-}
-
-/// Runs `read` on the capture at `path`, or on its built-in copy
-/// ([`built_in_copy`]); errors name `path` either way.
-fn with_built_in<T>(
-    path: &Path,
-    read: impl FnOnce(&Path) -> Result<T, CaptureError>,
-) -> Result<T, CaptureError> {
-    match built_in_copy(path)? {
-        None => read(path),
-        Some(copy) => read(&copy).map_err(|e| e.at(path)),
-    }
 }
 
 /// The error of a capture `path` that does not exist.
