@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use super::compare::{ALPHA, Comparison, Kpi};
 use super::query::{RunData, RunRow};
 use crate::report::comparison::{
-    ChartPoint, ComparisonView, FlipRow, KpiChange, KpiChart, PooledRow, RunSide,
+    ChartPoint, ComparisonView, FlipRow, KpiChange, KpiChart, PooledRow, RunSide, TraceOverlay,
 };
 
 /// Charts in a report at most: the regressed KPIs come first, so a long
@@ -149,6 +149,73 @@ fn charts(c: &Comparison, changes: &[KpiChange], b: &RunData) -> Vec<KpiChart> {
     out
 }
 
+/// Regressed cases whose traces a report overlays at most (worst first);
+/// the rest are named in a sentence.
+const MAX_OVERLAYS: usize = 6;
+
+/// `(time s, value)` of the column `roi` of the trace CSV at `path`
+/// (`frame,time_s,segment,<roi>...`), frames with no number left out;
+/// `None` when the file or the column is not there.
+fn trace_column(path: &std::path::Path, roi: &str) -> Option<Vec<(f64, f64)>> {
+    let mut reader = csv::Reader::from_path(path).ok()?;
+    let header = reader.headers().ok()?.clone();
+    let time = header.iter().position(|h| h == "time_s")?;
+    let column = header.iter().position(|h| h == roi)?;
+    let mut out = Vec::new();
+    for row in reader.records() {
+        let row = row.ok()?;
+        let number = |i: usize| row.get(i).and_then(|v| v.parse::<f64>().ok());
+        if let (Some(t), Some(v)) = (number(time), number(column)) {
+            out.push((t, v));
+        }
+    }
+    Some(out)
+}
+
+/// The overlays of the regressed cases, worst regression first, one per
+/// case (the ROI of its worst regression), read from each run's report
+/// directory; and a sentence on the cases left without one.
+fn overlays(c: &Comparison, regressions: &[KpiChange]) -> (Vec<TraceOverlay>, Option<String>) {
+    let mut seen = std::collections::BTreeSet::new();
+    let worst: Vec<&KpiChange> = regressions
+        .iter()
+        .filter(|k| seen.insert(k.case.clone()))
+        .collect();
+    let label = |side: &str, r: &super::query::RunRow| {
+        format!("{side}: run {}, firmware {}", r.id, r.firmware)
+    };
+    let (mut out, mut gone) = (Vec::new(), Vec::new());
+    for k in worst.iter().take(MAX_OVERLAYS) {
+        let trace = crate::model::trace_path(&k.case);
+        let read = |dir: &str| trace_column(&std::path::Path::new(dir).join(&trace), &k.roi);
+        match (read(&c.a.report_dir), read(&c.b.report_dir)) {
+            (Some(a), Some(b)) => out.push(TraceOverlay {
+                case: k.case.clone(),
+                roi: k.roi.clone(),
+                a_label: label("A", &c.a),
+                b_label: label("B", &c.b),
+                a,
+                b,
+            }),
+            _ => gone.push(k.case.as_str()),
+        }
+    }
+    let mut note = Vec::new();
+    if !gone.is_empty() {
+        note.push(format!(
+            "No traces to overlay for {} (a run's report directory or its trace file is gone).",
+            gone.join(", ")
+        ));
+    }
+    if worst.len() > MAX_OVERLAYS {
+        note.push(format!(
+            "The traces of the {} other regressed cases are in the two report directories.",
+            worst.len() - MAX_OVERLAYS
+        ));
+    }
+    (out, (!note.is_empty()).then(|| note.join(" ")))
+}
+
 /// The report's view of `c`, made on `date` (`YYYY-MM-DD`); `b` is run B
 /// whole (for its checks' limits).
 pub fn view(c: &Comparison, b: &RunData, date: &str) -> ComparisonView {
@@ -166,6 +233,7 @@ pub fn view(c: &Comparison, b: &RunData, date: &str) -> ComparisonView {
         .into_iter()
         .map(str::to_string)
         .collect();
+    let (overlays, overlay_note) = overlays(c, &regressions);
     ComparisonView {
         a: side(&c.a),
         b: side(&c.b),
@@ -201,5 +269,7 @@ pub fn view(c: &Comparison, b: &RunData, date: &str) -> ComparisonView {
         regressed_cases,
         regressions,
         gated_changes,
+        overlays,
+        overlay_note,
     }
 }

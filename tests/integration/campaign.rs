@@ -372,6 +372,18 @@ fn compare_writes_a_comparison_report_into_a_directory_of_its_own() {
     assert!(html[flips..].contains("2000lux-150hz-20pct"));
     assert!(html.contains("<svg"), "no chart");
     assert_eq!(html.matches("<tr class=\"regressed\">").count(), 2);
+    // Each regressed case's trace, A and B on one chart, before the flips.
+    let traces = html.find("<h2>Traces of the regressed cases</h2>").unwrap();
+    assert!(regressions < traces && traces < flips);
+    for case in ["2000lux-150hz-20pct", "2000lux-150hz-50pct"] {
+        assert!(
+            html[traces..flips].contains(&format!("<h3>{case}, ROI led</h3>")),
+            "{case}"
+        );
+    }
+    assert!(html[traces..flips].contains("A: run 1, firmware 1.0"));
+    assert!(html[traces..flips].contains("B: run 2, firmware 1.1"));
+    assert_eq!(html[traces..flips].matches("<svg").count(), 2);
     let xml = std::fs::read_to_string(dir.join("cmp/junit.xml")).unwrap();
     assert!(xml.contains("2000lux-150hz-20pct"));
     if cfg!(feature = "pdf") {

@@ -14,6 +14,7 @@ mod fold_grid;
 mod kpi_change;
 mod roi_map;
 mod trace;
+mod trace_overlay;
 mod trend;
 mod worst_phase;
 
@@ -21,6 +22,7 @@ pub use fold_grid::{FOLD_GRID_FROM, fold_grid_svg};
 pub use kpi_change::kpi_change_svg;
 pub use roi_map::{ROI_MAP_WIDTH, roi_map_svg};
 pub use trace::{luma_trace_svg, pwm_zoom_frames, trace_zoom_svg};
+pub use trace_overlay::trace_overlay_svg;
 pub use trend::{TrendSeries, trend_svg};
 pub use worst_phase::worst_phase_svg;
 

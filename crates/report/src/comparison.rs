@@ -9,14 +9,12 @@
 //! (templates/comparison.typ.j2), each with one chart per gated KPI
 //! ([`crate::charts::kpi_change_svg`]).
 
-use std::collections::BTreeMap;
-
 use minijinja::value::{Serde, Value};
 use minijinja::{Environment, UndefinedBehavior};
 use serde::Serialize;
 
 use super::ReportError;
-use super::charts::kpi_change_svg;
+use super::charts::{kpi_change_svg, trace_overlay_svg};
 
 const BASE: &str = include_str!("../../../templates/base.html.j2");
 const HTML: &str = include_str!("../../../templates/comparison.html.j2");
@@ -137,6 +135,26 @@ pub struct KpiChart {
     pub points: Vec<ChartPoint>,
 }
 
+/// A regressed case's trace of one ROI in both runs: `(time s, mean
+/// luma DN)` per frame.
+#[derive(Debug, Clone, Serialize)]
+pub struct TraceOverlay {
+    /// Case id.
+    pub case: String,
+    /// ROI name.
+    pub roi: String,
+    /// Legend of run A's line, e.g. `A: run 1, firmware ideal-1`.
+    pub a_label: String,
+    /// See `a_label`.
+    pub b_label: String,
+    /// Run A's frames; only the chart reads them.
+    #[serde(skip)]
+    pub a: Vec<(f64, f64)>,
+    /// See `a`.
+    #[serde(skip)]
+    pub b: Vec<(f64, f64)>,
+}
+
 /// Everything the comparison report shows.
 #[derive(Debug, Clone, Serialize)]
 pub struct ComparisonView {
@@ -172,21 +190,55 @@ pub struct ComparisonView {
     pub unmatched: Vec<String>,
     /// One chart per gated KPI and ROI, regressed ones first.
     pub charts: Vec<KpiChart>,
+    /// The traces of the regressed cases, worst first, A and B overlaid.
+    pub overlays: Vec<TraceOverlay>,
+    /// Why some regressed cases have no overlay (more than the report
+    /// draws, or a trace file gone from a run's report), one sentence.
+    pub overlay_note: Option<String>,
 }
 
 impl ComparisonView {
     /// File name of chart `i` (`charts/kpi-<i>.svg` in the PDF's world).
+    #[cfg(feature = "pdf")]
     fn chart_path(i: usize) -> String {
         format!("charts/kpi-{i}.svg")
     }
 
+    /// File name of overlay `i` (`charts/trace-<i>.svg`).
+    #[cfg(feature = "pdf")]
+    fn overlay_path(i: usize) -> String {
+        format!("charts/trace-{i}.svg")
+    }
+
+    /// The KPI charts' SVGs in the order of `charts`, then the overlays'
+    /// in the order of `overlays`.
+    fn chart_svgs(&self) -> Result<(Vec<String>, Vec<String>), ReportError> {
+        let kpis = self
+            .charts
+            .iter()
+            .map(kpi_change_svg)
+            .collect::<Result<Vec<_>, _>>()?;
+        let overlays = self
+            .overlays
+            .iter()
+            .map(trace_overlay_svg)
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok((kpis, overlays))
+    }
+
     /// Every chart's SVG by its path.
-    fn svgs(&self) -> Result<BTreeMap<String, String>, ReportError> {
-        let mut out = BTreeMap::new();
-        for (i, c) in self.charts.iter().enumerate() {
-            out.insert(Self::chart_path(i), kpi_change_svg(c)?);
-        }
-        Ok(out)
+    #[cfg(feature = "pdf")]
+    fn svgs(&self) -> Result<std::collections::BTreeMap<String, String>, ReportError> {
+        let (kpis, overlays) = self.chart_svgs()?;
+        let kpis = kpis
+            .into_iter()
+            .enumerate()
+            .map(|(i, svg)| (Self::chart_path(i), svg));
+        let overlays = overlays
+            .into_iter()
+            .enumerate()
+            .map(|(i, svg)| (Self::overlay_path(i), svg));
+        Ok(kpis.chain(overlays).collect())
     }
 }
 
@@ -220,13 +272,17 @@ pub fn html(view: &ComparisonView) -> Result<String, ReportError> {
     let err = template_error("comparison.html.j2");
     env.add_template("base.html.j2", BASE).map_err(&err)?;
     env.add_template("comparison.html.j2", HTML).map_err(&err)?;
-    let charts: Vec<Value> = view
-        .svgs()?
-        .into_values()
-        .map(Value::from_safe_string)
-        .collect();
+    let (kpis, overlays) = view.chart_svgs()?;
+    let safe = |svgs: Vec<String>| -> Vec<Value> {
+        svgs.into_iter().map(Value::from_safe_string).collect()
+    };
+    let (charts, overlays) = (safe(kpis), safe(overlays));
     env.get_template("comparison.html.j2")
-        .and_then(|t| t.render(minijinja::context! { v => Serde(view), charts => charts }))
+        .and_then(|t| {
+            t.render(
+                minijinja::context! { v => Serde(view), charts => charts, overlays => overlays },
+            )
+        })
         .map_err(err)
 }
 
@@ -240,8 +296,15 @@ pub fn typst_markup(view: &ComparisonView) -> Result<String, ReportError> {
     let charts: Vec<String> = (0..view.charts.len())
         .map(ComparisonView::chart_path)
         .collect();
+    let overlays: Vec<String> = (0..view.overlays.len())
+        .map(ComparisonView::overlay_path)
+        .collect();
     env.get_template("comparison.typ.j2")
-        .and_then(|t| t.render(minijinja::context! { v => Serde(view), charts => charts }))
+        .and_then(|t| {
+            t.render(
+                minijinja::context! { v => Serde(view), charts => charts, overlays => overlays },
+            )
+        })
         .map_err(err)
 }
 
@@ -328,6 +391,15 @@ mod tests {
                     regressed: true,
                 }],
             }],
+            overlays: vec![TraceOverlay {
+                case: "c<1>".to_string(),
+                roi: "led".to_string(),
+                a_label: "A: run 1".to_string(),
+                b_label: "B: run 2".to_string(),
+                a: vec![(0.0, 10.0), (1.0, 12.0)],
+                b: vec![(0.0, 10.0), (1.0, 2.0)],
+            }],
+            overlay_note: Some("Traces gone: c2.".to_string()),
         }
     }
 
@@ -340,6 +412,12 @@ mod tests {
         assert!(html.contains("0.8000") || html.contains("-0.8000"));
         assert!(html.contains("<svg"), "the chart is inline");
         assert!(html.contains("only-a"));
+        assert_eq!(
+            html.matches("<svg").count(),
+            2,
+            "a KPI chart and an overlay"
+        );
+        assert!(html.contains("A: run 1") && html.contains("Traces gone: c2."));
     }
 
     #[cfg(feature = "pdf")]
@@ -350,5 +428,6 @@ mod tests {
         assert!(pages >= 1);
         let markup = typst_markup(&view()).unwrap();
         assert!(markup.contains("\"1.1 \\\"beta\\\" #x\""), "{markup}");
+        assert!(markup.contains("charts/trace-0.svg"), "{markup}");
     }
 }
