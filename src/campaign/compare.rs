@@ -485,6 +485,7 @@ mod tests {
                     verdict: "pass".into(),
                     rois: [("led".to_string(), roi)].into(),
                     checks: vec![check],
+                    ..Default::default()
                 },
             );
         }

@@ -291,6 +291,12 @@ pub struct CaseData {
     pub rois: BTreeMap<String, RoiData>,
     /// Its checks.
     pub checks: Vec<CheckData>,
+    /// Its conditions: ambient lux, PWM frequency (Hz) and duty.
+    pub light_lux: f64,
+    /// See `light_lux`.
+    pub frequency_hz: f64,
+    /// See `light_lux`.
+    pub duty: f64,
 }
 
 /// A recorded run whole: its row and its cases by case id (in plan order
@@ -361,17 +367,24 @@ pub fn load_run(db: &Database, id: i64) -> Result<RunData, CampaignError> {
     })?;
     let (mut order, mut ids, mut cases) = (Vec::new(), BTreeMap::new(), BTreeMap::new());
     let rows = db.query_map(
-        "SELECT idx, id, verdict FROM cases WHERE run_id = ?1 ORDER BY idx",
+        "SELECT idx, id, verdict, light_lux, frequency_hz, duty FROM cases WHERE run_id = ?1 \
+         ORDER BY idx",
         &values![id],
-        |r| Ok((r.get::<i64>(0)?, r.get::<String>(1)?, r.get(2)?)),
+        |r| {
+            let head = (r.get::<i64>(0)?, r.get::<String>(1)?, r.get(2)?);
+            Ok((head, (r.get(3)?, r.get(4)?, r.get(5)?)))
+        },
     )?;
-    for (idx, case, verdict) in rows {
+    for ((idx, case, verdict), (light_lux, frequency_hz, duty)) in rows {
         order.push(case.clone());
         ids.insert(idx, case.clone());
         cases.insert(
             case,
             CaseData {
                 verdict,
+                light_lux,
+                frequency_hz,
+                duty,
                 ..Default::default()
             },
         );

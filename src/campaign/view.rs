@@ -8,7 +8,8 @@ use std::collections::BTreeMap;
 use super::compare::{ALPHA, Comparison, Kpi};
 use super::query::{RunData, RunRow};
 use crate::report::comparison::{
-    ChartPoint, ComparisonView, FlipRow, KpiChange, KpiChart, PooledRow, RunSide, TraceOverlay,
+    ChartPoint, ComparisonView, DeltaCell, DeltaMatrix, FlipRow, KpiChange, KpiChart, PooledRow,
+    RunSide, TraceOverlay,
 };
 
 /// Charts in a report at most: the regressed KPIs come first, so a long
@@ -149,6 +150,66 @@ fn charts(c: &Comparison, changes: &[KpiChange], b: &RunData) -> Vec<KpiChart> {
     out
 }
 
+/// Columns and rows of a grid matrix at most: a wider grid (a sweep) is
+/// left to the per-case rows, which stay readable at any size.
+const MAX_MATRIX_FREQUENCIES: usize = 12;
+/// See [`MAX_MATRIX_FREQUENCIES`].
+const MAX_MATRIX_DUTIES: usize = 20;
+
+/// The charted KPIs over the frequency x duty grid, one matrix per light
+/// level, with the conditions of run B's cases; none for a plan whose
+/// cases form no grid (one condition each way) or a grid too large for a
+/// page.
+fn matrices(charts: &[KpiChart], changes: &[KpiChange], b: &RunData) -> Vec<DeltaMatrix> {
+    let sorted = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        v
+    };
+    let mut out = Vec::new();
+    for chart in charts {
+        let cells: Vec<(&KpiChange, &super::query::CaseData)> = changes
+            .iter()
+            .filter(|k| k.roi == chart.roi && k.metric == chart.metric)
+            .filter_map(|k| b.cases.get(&k.case).map(|c| (k, c)))
+            .collect();
+        for lux in sorted(cells.iter().map(|(_, c)| c.light_lux).collect()) {
+            let here: Vec<_> = cells.iter().filter(|(_, c)| c.light_lux == lux).collect();
+            let frequencies = sorted(here.iter().map(|(_, c)| c.frequency_hz).collect());
+            let duties = sorted(here.iter().map(|(_, c)| c.duty).collect());
+            let grid = frequencies.len() * duties.len() > 1;
+            if !grid
+                || frequencies.len() > MAX_MATRIX_FREQUENCIES
+                || duties.len() > MAX_MATRIX_DUTIES
+            {
+                continue;
+            }
+            let cell = |f: f64, d: f64| {
+                here.iter()
+                    .find(|(_, c)| c.frequency_hz == f && c.duty == d)
+                    .map(|(k, _)| DeltaCell {
+                        a: k.a,
+                        b: k.b,
+                        delta: k.delta,
+                        regressed: k.regressed,
+                    })
+            };
+            out.push(DeltaMatrix {
+                roi: chart.roi.clone(),
+                metric: chart.metric.clone(),
+                light_lux: lux,
+                cells: duties
+                    .iter()
+                    .map(|&d| frequencies.iter().map(|&f| cell(f, d)).collect())
+                    .collect(),
+                frequencies,
+                duties,
+            });
+        }
+    }
+    out
+}
+
 /// Regressed cases whose traces a report overlays at most (worst first);
 /// the rest are named in a sentence.
 const MAX_OVERLAYS: usize = 6;
@@ -234,7 +295,9 @@ pub fn view(c: &Comparison, b: &RunData, date: &str) -> ComparisonView {
         .map(str::to_string)
         .collect();
     let (overlays, overlay_note) = overlays(c, &regressions);
+    let charts = charts(c, &changes, b);
     ComparisonView {
+        matrices: matrices(&charts, &changes, b),
         a: side(&c.a),
         b: side(&c.b),
         date: date.to_string(),
@@ -265,7 +328,7 @@ pub fn view(c: &Comparison, b: &RunData, date: &str) -> ComparisonView {
             })
             .collect(),
         unmatched: c.unmatched.clone(),
-        charts: charts(c, &changes, b),
+        charts,
         regressed_cases,
         regressions,
         gated_changes,

@@ -384,6 +384,20 @@ fn compare_writes_a_comparison_report_into_a_directory_of_its_own() {
     assert!(html[traces..flips].contains("A: run 1, firmware 1.0"));
     assert!(html[traces..flips].contains("B: run 2, firmware 1.1"));
     assert_eq!(html[traces..flips].matches("<svg").count(), 2);
+    // The 2 x 2 grid as a matrix: the regressed cells marked, the others not.
+    let grid = html.find("<h2>Across the grid</h2>").unwrap();
+    assert!(traces < grid && grid < flips);
+    assert!(
+        html[grid..flips].contains("<th>60 Hz</th><th>150 Hz</th>"),
+        "{}",
+        &html[grid..flips]
+    );
+    assert_eq!(
+        html[grid..flips]
+            .matches("<td class=\"regressed\">")
+            .count(),
+        2
+    );
     let xml = std::fs::read_to_string(dir.join("cmp/junit.xml")).unwrap();
     assert!(xml.contains("2000lux-150hz-20pct"));
     if cfg!(feature = "pdf") {

@@ -135,6 +135,37 @@ pub struct KpiChart {
     pub points: Vec<ChartPoint>,
 }
 
+/// One cell of a [`DeltaMatrix`]: a case's KPI in both runs.
+#[derive(Debug, Clone, Serialize)]
+pub struct DeltaCell {
+    /// Value in A and in B (`None`: undefined).
+    pub a: Option<f64>,
+    /// See `a`.
+    pub b: Option<f64>,
+    /// `b - a`.
+    pub delta: Option<f64>,
+    /// The case regressed on this KPI.
+    pub regressed: bool,
+}
+
+/// A gated KPI of one ROI over the plan's frequency x duty grid at one
+/// light level: A and B side by side in each cell, with the change.
+#[derive(Debug, Clone, Serialize)]
+pub struct DeltaMatrix {
+    /// ROI name.
+    pub roi: String,
+    /// Metric id.
+    pub metric: String,
+    /// Ambient light, lux.
+    pub light_lux: f64,
+    /// Columns: PWM frequencies, Hz, ascending.
+    pub frequencies: Vec<f64>,
+    /// Rows: duty cycles (0..1), ascending.
+    pub duties: Vec<f64>,
+    /// `cells[row][column]`; `None` where the grid has no case.
+    pub cells: Vec<Vec<Option<DeltaCell>>>,
+}
+
 /// A regressed case's trace of one ROI in both runs: `(time s, mean
 /// luma DN)` per frame.
 #[derive(Debug, Clone, Serialize)]
@@ -190,6 +221,9 @@ pub struct ComparisonView {
     pub unmatched: Vec<String>,
     /// One chart per gated KPI and ROI, regressed ones first.
     pub charts: Vec<KpiChart>,
+    /// Side-by-side and delta matrices of the charted KPIs, per light
+    /// level (plans whose cases form a frequency x duty grid).
+    pub matrices: Vec<DeltaMatrix>,
     /// The traces of the regressed cases, worst first, A and B overlaid.
     pub overlays: Vec<TraceOverlay>,
     /// Why some regressed cases have no overlay (more than the report
@@ -391,6 +425,22 @@ mod tests {
                     regressed: true,
                 }],
             }],
+            matrices: vec![DeltaMatrix {
+                roi: "led".to_string(),
+                metric: "fdi_2018".to_string(),
+                light_lux: 40.0,
+                frequencies: vec![90.0, 150.0],
+                duties: vec![0.1],
+                cells: vec![vec![
+                    Some(DeltaCell {
+                        a: Some(1.0),
+                        b: Some(0.2),
+                        delta: Some(-0.8),
+                        regressed: true,
+                    }),
+                    None,
+                ]],
+            }],
             overlays: vec![TraceOverlay {
                 case: "c<1>".to_string(),
                 roi: "led".to_string(),
@@ -418,6 +468,8 @@ mod tests {
             "a KPI chart and an overlay"
         );
         assert!(html.contains("A: run 1") && html.contains("Traces gone: c2."));
+        assert!(html.contains("40 lux") && html.contains("150 Hz"), "{html}");
+        assert!(html.contains("1.00 → 0.20"), "the matrix cell");
     }
 
     #[cfg(feature = "pdf")]
