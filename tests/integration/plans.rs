@@ -40,11 +40,21 @@ fn daylight_plan_covers_the_issue_grid() {
 
 #[test]
 fn invalid_plans_report_every_error_with_its_line() {
-    insta::glob!("../fixtures/plans", "err_*.toml", |path| {
-        let rel = path.strip_prefix(root()).unwrap();
-        let err = plan::load(rel).expect_err("fixture must be invalid");
-        insta::assert_snapshot!(err.to_string());
-    });
+    let dir = root().join("tests/fixtures/plans");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("err_") && n.ends_with(".toml"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 9, "fixtures in {}: {names:?}", dir.display());
+    for name in names {
+        let rel = std::path::PathBuf::from("tests/fixtures/plans").join(&name);
+        let err = plan::load(&rel).expect_err("fixture must be invalid");
+        insta::with_settings!({ snapshot_suffix => name.as_str(), input_file => &rel }, {
+            insta::assert_snapshot!(err.to_string());
+        });
+    }
 }
 
 #[test]
