@@ -334,16 +334,6 @@ impl Store {
     }
 }
 
-/// Writes the finished store of `results` (in case order) into `dir`, as a
-/// run would have: `merge` writes the store of the shards' cases so.
-pub fn write_all(dir: &Path, key: &RunKey, results: &[CaseResult]) -> Result<PathBuf, StoreError> {
-    let mut store = Store::create(dir, key)?;
-    for (i, r) in results.iter().enumerate() {
-        store.put(i, r.clone())?;
-    }
-    store.finish()
-}
-
 /// A case ready to insert.
 struct Encoded {
     result: CaseResult,

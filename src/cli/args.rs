@@ -29,7 +29,7 @@ impl From<DetailArg> for crate::model::Detail {
     }
 }
 
-/// `--max-memory` and `--max-report` of `validate` and `plan`: the limits
+/// `--max-memory` and `--max-report` of `validate`, `plan` and `merge`: the limits
 /// a plan's work estimate must fit.
 #[derive(Args, Debug, Clone, Copy)]
 pub struct LimitArgs {

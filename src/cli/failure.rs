@@ -125,6 +125,7 @@ impl Failure {
     /// The process exit code (the table in [`super`]).
     pub fn exit_code(&self) -> i32 {
         match self {
+            Failure::Shards(MergeError::Store(e)) => store(e),
             Failure::Plan(_) | Failure::Usage(_) | Failure::NotBuiltIn(_) | Failure::Shards(_) => {
                 EXIT_INVALID
             }
@@ -139,8 +140,7 @@ impl Failure {
             Failure::Signoff(e) => signoff(e),
             Failure::Pipeline(e) => pipeline(e),
             Failure::ShardWrite(e) => shard_write(e),
-            Failure::Store(crate::store::StoreError::Mismatch { .. }) => EXIT_INVALID,
-            Failure::Store(_) => EXIT_INTERNAL,
+            Failure::Store(e) => store(e),
             Failure::Campaign(e) if e.is_usage_error() => EXIT_INVALID,
             Failure::Campaign(_) => EXIT_INTERNAL,
             Failure::Profile(_) | Failure::Chart(_) | Failure::Json(_) | Failure::Internal(_) => {
@@ -302,6 +302,15 @@ fn shard_write(e: &WriteError) -> i32 {
     match e {
         WriteError::Encode(_) | WriteError::Manifest(_) => EXIT_INTERNAL,
         WriteError::Io { source, .. } => io(source),
+    }
+}
+
+/// A store that belongs to another run is the user's to sort out; any
+/// other store failure is the tool's.
+fn store(e: &crate::store::StoreError) -> i32 {
+    match e {
+        crate::store::StoreError::Mismatch { .. } => EXIT_INVALID,
+        _ => EXIT_INTERNAL,
     }
 }
 

@@ -39,29 +39,35 @@ pub(super) struct MergeArgs {
     #[arg(long, value_enum, default_value_t = DetailArg::Standard)]
     detail: DetailArg,
     #[command(flatten)]
+    limits: super::args::LimitArgs,
+    #[command(flatten)]
     record: super::campaign::RecordArgs,
 }
 
 /// Checks the shards, then writes the report of the whole plan.
 pub(super) fn merge(a: MergeArgs) -> Result<i32, Failure> {
     let date = report_date(a.date.as_deref())?;
-    let mut m = crate::shard::merge::gather(&a.shards, a.plan.as_deref())?;
+    let m = crate::shard::merge::gather(&a.shards, a.plan.as_deref())?;
+    let limits = a.limits.limits(matches!(a.detail, DetailArg::Full));
+    if let Some(message) =
+        crate::plan::WorkEstimate::merge_too_large(&m.plan, m.largest_shard(), limits)
+    {
+        return Err(crate::error::UsageError(format!(
+            "cannot merge the {} shards of plan `{}`: {message}\n    hint: raise the limit, or run the plan in more shards (the largest holds {} cases)",
+            m.shards,
+            m.plan.id,
+            m.largest_shard()
+        ))
+        .into());
+    }
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("reports").join(&m.plan.id));
     let generation = pipeline::begin_output(&out, a.force)?;
-    let key = crate::store::RunKey {
-        plan_id: m.plan.id.clone(),
-        plan_hash: m.manifest.plan_hash.clone(),
-        tool: m.manifest.tool.clone(),
-        backend: m.manifest.backend.clone(),
-        case_count: m.manifest.case_count,
-    };
-    let path = crate::store::write_all(generation.path(), &key, &m.results)?;
-    // The report stage reads the cases back from the store, as `plan`'s
-    // does, so that it need not hold them all.
-    drop(std::mem::take(&mut m.results));
+    // The cases go from the shards to the store one shard at a time, and
+    // the report stage reads them back from it, as `plan`'s does.
+    let path = m.store_cases(generation.path())?;
     let stored = crate::store::StoredCases::open(&path)?;
     let outcome = pipeline::report(
         pipeline::Run {

@@ -1,7 +1,8 @@
 //! Reading back a sharded run for `ledflicker merge`: the shard
-//! directories (globs expanded), their manifests checked against each other,
-//! every case result in case order and the plan they ran, checked against
-//! the plan hash. The CLI's `merge` then writes the report as `plan` does.
+//! directories (globs expanded), their manifests checked against each other
+//! and the plan they ran, checked against the plan hash; then every case
+//! result, one shard at a time, into the case store. The CLI's `merge` then
+//! writes the report from the store as `plan` does.
 
 use std::path::{Path, PathBuf};
 
@@ -22,9 +23,13 @@ pub enum MergeError {
     /// The plan the shards ran cannot be loaded.
     #[error(transparent)]
     Plan(#[from] PlanError),
+    /// The merged cases cannot be written to the case store.
+    #[error(transparent)]
+    Store(#[from] crate::store::StoreError),
 }
 
-/// A sharded run read back whole.
+/// A sharded run whose manifests were read and checked; its cases are read
+/// by [`Merged::store_cases`].
 pub struct Merged {
     /// The plan the shards ran (its path as the shards recorded it).
     pub plan: Plan,
@@ -32,14 +37,17 @@ pub struct Merged {
     pub shards: usize,
     /// The first shard's manifest (every shard agrees on what a report uses).
     pub manifest: Manifest,
-    /// Every case result, in case order.
-    pub results: Vec<CaseResult>,
+    /// The plan's cases, in case order.
+    all: Vec<crate::plan::TestCase>,
+    /// Each shard directory and its manifest.
+    read: Vec<(PathBuf, Manifest)>,
 }
 
 /// Reads and checks the shard directories `args` (globs allowed) and the
 /// plan (`plan`, else where the shards read it). Every shard file is input:
-/// its manifest is checked against the plan, and its cases are checked and
-/// evaluated again from their traces ([`super::check`]).
+/// its manifest is checked against the plan here, and its cases are checked
+/// and evaluated again from their traces ([`super::check`]) as
+/// [`Merged::store_cases`] reads them.
 pub fn gather(args: &[String], plan: Option<&Path>) -> Result<Merged, MergeError> {
     let dirs = expand_globs(args)?;
     let shards = dirs
@@ -56,13 +64,67 @@ pub fn gather(args: &[String], plan: Option<&Path>) -> Result<Merged, MergeError
     for (dir, m) in &shards {
         check_manifest(&plan, &all, &owners, &inputs, dir, m)?;
     }
-    let results = read_cases(&plan, &all, &shards)?;
     Ok(Merged {
         manifest: first.clone(),
         plan,
         shards: shards.len(),
-        results,
+        all,
+        read: shards,
     })
+}
+
+impl Merged {
+    /// The number of cases of the largest shard: the most the merge holds
+    /// at once.
+    pub fn largest_shard(&self) -> usize {
+        self.read.iter().map(|(_, m)| m.cases.len()).max().unwrap_or(0)
+    }
+
+    /// Reads every shard's cases into the finished case store in `dir` and
+    /// returns its path. One shard's cases are held at a time, so the merge
+    /// needs the memory of its largest shard, not of the whole plan (the
+    /// store's file does not depend on the order cases are put in).
+    pub fn store_cases(&self, dir: &Path) -> Result<PathBuf, MergeError> {
+        let key = crate::store::RunKey {
+            plan_id: self.plan.id.clone(),
+            plan_hash: self.manifest.plan_hash.clone(),
+            tool: self.manifest.tool.clone(),
+            backend: self.manifest.backend.clone(),
+            case_count: self.manifest.case_count,
+        };
+        let mut store = crate::store::Store::create(dir, &key)?;
+        let mut from: Vec<Option<&Path>> = vec![None; self.all.len()];
+        for (shard_dir, m) in &self.read {
+            for c in shard_cases_checked(&self.plan, &self.all, shard_dir, m)? {
+                let i = c.case.index;
+                if let Some(other) = from[i] {
+                    return Err(UsageError(format!(
+                        "case {i} (`{}`) is in both `{}` and `{}`",
+                        c.case.id,
+                        other.display(),
+                        shard_dir.display()
+                    ))
+                    .into());
+                }
+                from[i] = Some(shard_dir);
+                store.put(i, c)?;
+            }
+        }
+        let missing: Vec<String> = (0..from.len())
+            .filter(|&i| from[i].is_none())
+            .map(|i| i.to_string())
+            .collect();
+        if !missing.is_empty() {
+            return Err(UsageError(format!(
+                "no shard ran case{} {} of {}\n    hint: run every shard with the same plan and N",
+                if missing.len() == 1 { "" } else { "s" },
+                missing.join(", "),
+                from.len()
+            ))
+            .into());
+        }
+        Ok(store.finish()?)
+    }
 }
 
 /// What a manifest (of the shard directory `dir`) says that the report
@@ -303,62 +365,35 @@ fn check_shards(shards: &[(PathBuf, Manifest)]) -> Result<(), UsageError> {
     )))
 }
 
-/// Every case of every shard, in case order: each `cases.cbor` read as
-/// input, matched against its manifest's SHA-256 (which tells damage, not
-/// trust), then checked and evaluated again ([`super::check::shard_cases`]).
-fn read_cases(
+/// The cases of the shard in `dir`: its `cases.cbor` read as input,
+/// matched against its manifest's SHA-256 (which tells damage, not trust),
+/// then checked and evaluated again ([`super::check::shard_cases`]).
+fn shard_cases_checked(
     plan: &Plan,
     all: &[crate::plan::TestCase],
-    shards: &[(PathBuf, Manifest)],
+    dir: &Path,
+    m: &Manifest,
 ) -> Result<Vec<CaseResult>, MergeError> {
-    let total = all.len();
-    let mut slots: Vec<Option<(CaseResult, &Path)>> = vec![None; total];
-    for (dir, m) in shards {
-        let path = dir.join(CASES);
-        let bytes = crate::util::read_input(&path).map_err(|e| {
-            UsageError(format!(
-                "cannot read `{}`: {e}\n    hint: re-run shard {} with `ledflicker plan PLAN --shard {} --out DIR`",
-                path.display(),
-                m.shard,
-                m.shard
-            ))
-        })?;
-        if record::sha256(&bytes) != m.cases_sha256 {
-            return Err(UsageError(format!(
-                "`{}` does not match the SHA-256 in its {MANIFEST}: the file is damaged or from another run\n    hint: re-run shard {}",
-                path.display(),
-                m.shard
-            ))
-            .into());
-        }
-        let cases = super::check::shard_cases(plan, all, &m.cases, &bytes, &path, m.shard)?;
-        for c in cases {
-            let i = c.case.index;
-            if let Some((_, other)) = &slots[i] {
-                return Err(UsageError(format!(
-                    "case {i} (`{}`) is in both `{}` and `{}`",
-                    c.case.id,
-                    other.display(),
-                    dir.display()
-                ))
-                .into());
-            }
-            slots[i] = Some((c, dir));
-        }
-    }
-    let missing: Vec<String> = (0..total)
-        .filter(|&i| slots[i].is_none())
-        .map(|i| i.to_string())
-        .collect();
-    if !missing.is_empty() {
+    let path = dir.join(CASES);
+    let bytes = crate::util::read_input(&path).map_err(|e| {
+        UsageError(format!(
+            "cannot read `{}`: {e}\n    hint: re-run shard {} with `ledflicker plan PLAN --shard {} --out DIR`",
+            path.display(),
+            m.shard,
+            m.shard
+        ))
+    })?;
+    if record::sha256(&bytes) != m.cases_sha256 {
         return Err(UsageError(format!(
-            "no shard ran case{} {} of {total}\n    hint: run every shard with the same plan and N",
-            if missing.len() == 1 { "" } else { "s" },
-            missing.join(", ")
+            "`{}` does not match the SHA-256 in its {MANIFEST}: the file is damaged or from another run\n    hint: re-run shard {}",
+            path.display(),
+            m.shard
         ))
         .into());
     }
-    Ok(slots.into_iter().flatten().map(|(c, _)| c).collect())
+    Ok(super::check::shard_cases(
+        plan, all, &m.cases, &bytes, &path, m.shard,
+    )?)
 }
 
 /// The plan the shards ran, checked against their plan hash, and its

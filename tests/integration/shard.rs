@@ -265,8 +265,31 @@ fn a_missing_or_duplicated_shard_is_refused_and_named() {
     assert_eq!(code(&o), 2);
     assert!(text(&o).contains("s1-again"), "{}", text(&o));
 
-    // The glob form finds the three and merges.
+    // The merge's own estimate is held to --max-memory before anything
+    // is written.
     std::fs::remove_dir_all(&copy).unwrap();
+    let out = dir.join("merged");
+    let mut args = vec!["merge", "-q", "--max-memory", "1MB", "--out"];
+    args.push(out.to_str().unwrap());
+    args.extend(s.iter().map(|p| p.to_str().unwrap()));
+    let o = run(&args, &dir);
+    assert_eq!(code(&o), 2, "{}", text(&o));
+    let t = text(&o);
+    assert!(
+        t.contains("cannot merge the 3 shards of plan")
+            && t.contains("the merge is too large: peak memory")
+            && t.contains("at most 1 MB; --max-memory raises it"),
+        "{t}"
+    );
+    assert!(!out.exists());
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("ledflicker-new"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+
+    // The glob form finds the three and merges.
     let o = run(
         &["merge", "--date", DATE, "-q", "--out", "merged", "s*"],
         &dir,

@@ -321,6 +321,30 @@ impl WorkEstimate {
         }
     }
 
+    /// The estimate for `merge` of a sharded run of `plan` whose largest
+    /// shard holds `largest` cases: the shards' cases pass through memory
+    /// one shard at a time on their way to the case store, then the report
+    /// is drawn from the store as `plan`'s is (`every_case` as for
+    /// [`WorkEstimate::with_report`]). Nothing is simulated.
+    pub fn of_merge(plan: &Plan, largest: usize, every_case: bool) -> WorkEstimate {
+        let report = WorkEstimate::with_report(plan, every_case);
+        let shard = WorkEstimate::of_shard(plan, largest);
+        WorkEstimate {
+            row_integrals: 0.0,
+            memory_bytes: report.memory_bytes.max(shard.memory_bytes),
+            ..report
+        }
+    }
+
+    /// Why merging a sharded run of `plan` whose largest shard holds
+    /// `largest` cases does not fit `limits` ([`WorkEstimate::of_merge`]),
+    /// or `None` when it does.
+    pub fn merge_too_large(plan: &Plan, largest: usize, limits: ResourceLimits) -> Option<String> {
+        let e = WorkEstimate::of_merge(plan, largest, limits.every_case);
+        let over = e.over(limits);
+        (!over.is_empty()).then(|| format!("the merge is too large: {}", over.join(", ")))
+    }
+
     /// What the estimate exceeds of `limits`, one phrase each naming the
     /// figure and the flag that raises it; empty when it fits.
     fn over(&self, limits: ResourceLimits) -> Vec<String> {
