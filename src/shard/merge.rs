@@ -77,7 +77,11 @@ impl Merged {
     /// The number of cases of the largest shard: the most the merge holds
     /// at once.
     pub fn largest_shard(&self) -> usize {
-        self.read.iter().map(|(_, m)| m.cases.len()).max().unwrap_or(0)
+        self.read
+            .iter()
+            .map(|(_, m)| m.cases.len())
+            .max()
+            .unwrap_or(0)
     }
 
     /// Reads every shard's cases into the finished case store in `dir` and

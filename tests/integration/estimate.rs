@@ -68,7 +68,7 @@ fn measured_memory(plan: &str, out: &std::path::Path) -> (i32, f64) {
 }
 
 #[test]
-fn the_memory_estimate_is_within_one_and_a_half_times_the_peak_of_every_shipped_plan() {
+fn every_shipped_plan_runs_within_its_memory_estimate_and_the_estimate_is_at_most_twice_the_peak() {
     let dir = scratch("estimate");
     let mut plans: Vec<_> = std::fs::read_dir(root().join("test-plans"))
         .unwrap()
@@ -81,6 +81,23 @@ fn the_memory_estimate_is_within_one_and_a_half_times_the_peak_of_every_shipped_
     let sweep_plan = dir.join("sweep-1000.toml");
     std::fs::write(&sweep_plan, ledflicker::bench::sweep_plan(100)).unwrap();
     plans.push(sweep_plan);
+    // And the shipped dense sweep cut to 1000 cases at one light level: its
+    // many failing cases make its listed cases the costliest per case.
+    let dense = std::fs::read_to_string(root().join("test-plans/sweep-23k.toml")).unwrap();
+    let grid_start = dense.find("frequencies-hz = [").unwrap();
+    let grid_end = grid_start + dense[grid_start..].find(']').unwrap() + 1;
+    let frequencies: Vec<String> = (0..50).map(|i| format!("{}.0", 50 + 5 * i)).collect();
+    let dense_1k = format!(
+        "{}frequencies-hz = [{}]{}",
+        &dense[..grid_start],
+        frequencies.join(", "),
+        &dense[grid_end..]
+    )
+    .replace("id = \"sweep-23k\"", "id = \"dense-1k\"")
+    .replace("levels-lux = [40.0, 400.0, 2000.0]", "levels-lux = [40.0]");
+    let dense_plan = dir.join("dense-1k.toml");
+    std::fs::write(&dense_plan, dense_1k).unwrap();
+    plans.push(dense_plan);
     // And a front camera of 8 MP (3840 x 2160, rolling shutter), 56 cases:
     // its sensor must not cost memory per case.
     let front = dir.join("front-8mp.toml");
@@ -118,9 +135,11 @@ fn the_memory_estimate_is_within_one_and_a_half_times_the_peak_of_every_shipped_
             assert!(text(&o).contains("56 cases"), "{}", text(&o));
             assert!(peak < 1e9, "8 MP plan: peak {:.0} MB", peak / 1e6);
         }
+        // A plan that validates must run within its estimate; an estimate
+        // far above the peak would refuse plans that fit.
         let ratio = estimate / peak;
         assert!(
-            (1.0 / 1.5..=1.5).contains(&ratio),
+            (1.0..=2.0).contains(&ratio),
             "{name}: estimate {:.0} MB against a peak of {:.0} MB ({ratio:.2}x)\n{}",
             estimate / 1e6,
             peak / 1e6,
