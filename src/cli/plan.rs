@@ -164,10 +164,13 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
                 rig.keep_captures(generation.path().join(CAPTURES_DIR), CAPTURES_DIR);
             }
             _ => {
+                let kind = match plan.dut.backend {
+                    plan::BackendKind::Captured => "captured",
+                    _ => "simulator",
+                };
                 let e = UsageError(format!(
-                    "--keep-captures: plan `{}` records nothing to keep (its backend is {})\n    hint: only a command plan (`[dut] backend = \"command\"`) records captures",
-                    plan.id,
-                    backend.id()
+                    "--keep-captures: plan `{}` records nothing to keep (its backend is {kind})\n    hint: only a command plan (`[dut] backend = \"command\"`) records captures",
+                    plan.id
                 ));
                 return Err(stop(e.into(), generation));
             }

@@ -341,6 +341,26 @@ fn lab_bench_example_dry_run_prints_the_recorder_and_every_line() {
     ] {
         assert!(out.contains(want), "{want} not in\n{out}");
     }
+    // Only a command plan records anything to keep.
+    let out = dir.join("daylight");
+    let o = ledflicker_in(
+        &[
+            "plan",
+            "test-plans/daylight.toml",
+            "--keep-captures",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        root(),
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(
+            "--keep-captures: plan `daylight` records nothing to keep (its backend is simulator)"
+        ),
+        "{}",
+        stderr(&o)
+    );
     // A mistyped address is a usage error naming the variable.
     let (code, _, err) = dry_run("test-plans/bench-example.toml", "192.168.1.50");
     assert_eq!(code, Some(2), "{err}");
