@@ -298,6 +298,7 @@ fn processes_with(var: &str) -> Vec<u32> {
 fn lab_bench_example_dry_run_prints_the_recorder_and_every_line() {
     let dry_run = |plan: &str, address: &str| {
         let o = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+            .env("LEDFLICKER_DB", crate::test_db())
             .env("LEDFLICKER_SOURCE_ADDRESS", address)
             .args(["plan", plan, "--dry-run"])
             .current_dir(root())
