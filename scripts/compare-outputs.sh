@@ -10,6 +10,13 @@
 # commit before the change). Exit codes of the runs are kept in
 # OUT/exits.txt and compared too. Exits 1 when anything differs, but for
 # a junit.xml that holds the same XML in another layout (said so).
+#
+# A plan with a light source (`[source]`, test-plans/bench-example.toml)
+# runs against the SCPI instrument simulator (`BIN rig simulate`, on port
+# 5025 when free so that a binary without LEDFLICKER_SOURCE_ADDRESS
+# reaches it too) and its simulated camera. Its outputs hold host-clock
+# step times, and its frames follow them, so only its exit code and each
+# case's verdict (OUT/NAME.verdicts, from summary.csv) are compared.
 set -u
 if [ $# -lt 2 ]; then
   sed -n '2,12p' "$0"; exit 2
@@ -22,15 +29,39 @@ rm -rf "$out"; mkdir -p "$out"
 # (a binary older than the database ignores the variable).
 db_dir=$(mktemp -d); trap 'rm -rf "$db_dir"' EXIT
 export LEDFLICKER_DB="$db_dir/results.sqlite"
+timed=()
+if grep -l '^\[source\]' test-plans/*.toml >/dev/null; then
+  export LEDFLICKER_INSTRUMENT_LOG="$db_dir/instrument.log"
+  for port in 5025 0; do
+    "$bin" rig simulate --port "$port" --log "$LEDFLICKER_INSTRUMENT_LOG" >"$db_dir/sim.txt" 2>&1 &
+    sim=$!
+    for _ in $(seq 100); do
+      got=$(sed -n 's/^SCPI instrument simulator on 127.0.0.1:\([0-9]*\) .*/\1/p' "$db_dir/sim.txt")
+      [ -n "$got" ] || ! kill -0 "$sim" 2>/dev/null && break
+      sleep 0.05
+    done
+    [ -n "$got" ] && break
+    kill "$sim" 2>/dev/null; wait "$sim" 2>/dev/null
+  done
+  if [ -z "$got" ]; then echo "the instrument simulator did not start: $(cat "$db_dir/sim.txt")" >&2; exit 3; fi
+  export LEDFLICKER_SOURCE_ADDRESS="127.0.0.1:$got"
+  trap 'kill -INT "$sim" 2>/dev/null; wait "$sim"; rm -rf "$db_dir"' EXIT
+fi
 for p in test-plans/*.toml; do
   n=$(basename "$p" .toml)
   env -u SOURCE_DATE_EPOCH "$bin" plan "$p" --out "$out/$n" --date 2026-01-01 -q --threads 2 \
     >"$out/$n.stdout" 2>"$out/$n.stderr"
   echo "$n exit $?" >>"$out/exits.txt"
+  if grep -q '^\[source\]' "$p"; then
+    timed+=("$n")
+    cut -d, -f1,5 "$out/$n/summary.csv" >"$out/$n.verdicts" 2>/dev/null
+  fi
 done
 cat "$out/exits.txt"
 [ -z "$base" ] && exit 0
-diffs=$(diff -r -q "$base" "$out")
+excluded=()
+for n in "${timed[@]}"; do excluded+=(-x "$n" -x "$n.stdout" -x "$n.stderr"); done
+diffs=$(diff -r -q "${excluded[@]}" "$base" "$out")
 if [ -z "$diffs" ]; then echo "IDENTICAL"; exit 0; fi
 echo "$diffs"
 # A junit.xml whose bytes differ may still be the same XML: the same

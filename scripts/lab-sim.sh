@@ -1,18 +1,20 @@
 #!/usr/bin/env bash
 # The lab in the loop without hardware (docs/lab.md): runs
-# examples/lab/bench-example.toml against the SCPI instrument simulator
-# (`ledflicker rig simulate`) and the simulated camera
+# test-plans/bench-example.toml against the SCPI instrument simulator
+# (`ledflicker rig simulate`, at a free port) and its simulated camera
 # (examples/lab/sim-recorder.sh), then prints the instrument's log.
 #
 #   scripts/lab-sim.sh BIN OUT    # BIN: a ledflicker binary; OUT: a new folder
 #
-# OUT gets the plan as run (bench.toml), the report (report/), the
-# instrument's log (instrument.log) and the simulator's output. Exits
-# with the plan's exit code (0 all pass, 1 a case failed, as the example
-# has a failing case). The integration tests `lab_bench_*` check the same.
+# OUT gets the report (report/), the instrument's log (instrument.log)
+# and the simulator's output. The plan reaches the simulator through
+# LEDFLICKER_SOURCE_ADDRESS, the camera its log through
+# LEDFLICKER_INSTRUMENT_LOG. Exits with the plan's exit code (0 all
+# pass, 1 a case failed, as the example has a failing case). The
+# integration tests `lab_bench_*` check the same.
 set -u
 if [ $# -lt 2 ]; then
-  sed -n '2,12p' "$0"; exit 2
+  sed -n '2,14p' "$0"; exit 2
 fi
 bin=$(realpath "$1"); out=$2
 cd "$(dirname "$0")/.."
@@ -30,12 +32,8 @@ done
 if [ -z "$port" ]; then
   echo "the instrument simulator did not start: $(cat "$out/simulator.txt")" >&2; exit 3
 fi
-cp examples/lab/sim-recorder.sh "$out/"
-sed -e 's/"192.168.1.50"/"127.0.0.1"/' \
-    -e "s/^port = 5025 /port = $port /" \
-    -e "s|^gstreamer = .*|command = [\"sh\", \"sim-recorder.sh\", \"{out-dir}\", \"{duration-s}\", \"{fps}\", \"$log\"]|" \
-    examples/lab/bench-example.toml >"$out/bench.toml"
-"$bin" plan "$out/bench.toml" --out "$out/report" -q
+LEDFLICKER_SOURCE_ADDRESS="127.0.0.1:$port" LEDFLICKER_INSTRUMENT_LOG="$log" \
+  "$bin" plan test-plans/bench-example.toml --out "$out/report" -q
 code=$?
 echo "--- instrument log ($log)"
 cat "$log"

@@ -2,23 +2,33 @@
 # A simulated camera for a [recorder] (docs/lab.md), looking at the SCPI
 # instrument simulator's output instead of an LED:
 #
-#   sim-recorder.sh OUT_DIR DURATION_S FPS INSTRUMENT_LOG
+#   sim-recorder.sh OUT_DIR DURATION_S FPS [INSTRUMENT_LOG]
 #
+# INSTRUMENT_LOG defaults to $LEDFLICKER_INSTRUMENT_LOG (the file given to
+# `ledflicker rig simulate --log`), as test-plans/bench-example.toml runs it.
 # It "records" for DURATION_S seconds, as a camera started by ledflicker
 # would, then reads from INSTRUMENT_LOG (the simulator's log: Unix time,
 # connection, line) what the instrument was told while it recorded: when
 # the output went on and off, and the square wave's frequency and duty.
 # From those times and settings it renders the frames the camera would
 # have seen with the simulator (`ledflicker render`, the camera of
-# bench-example.toml), dark while the output was off, into OUT_DIR.
+# test-plans/bench-example.toml), dark while the output was off, into OUT_DIR.
 # Nothing comes from the case's plan values: a wrong line sent to the
 # instrument gives wrong frames. Reads the Keysight 33500B template's
 # lines on channel 1.
 set -eu
-out="$1" duration="$2" fps="$3" log="$4"
+out="$1" duration="$2" fps="$3" log="${4:-${LEDFLICKER_INSTRUMENT_LOG:-}}"
+if [ -z "$log" ]; then
+    echo "sim-recorder.sh: no instrument log: set LEDFLICKER_INSTRUMENT_LOG to the file of \`ledflicker rig simulate --log\` (scripts/lab-sim.sh does)" >&2
+    exit 2
+fi
 exe="${LEDFLICKER_EXE:-ledflicker}"
 start=$(date +%s.%N)
 sleep "$duration"
+if [ ! -f "$log" ]; then
+    echo "sim-recorder.sh: the instrument log $log does not exist: is \`ledflicker rig simulate --log $log\` the instrument?" >&2
+    exit 2
+fi
 steps=$(awk -v t0="$start" -v t1="$(date +%s.%N)" '
     $1 < t0 { next }
     { line = $0; sub(/^[^ ]+ [^ ]+ /, "", line) }

@@ -93,7 +93,16 @@ pub(super) struct PlanArgs {
     /// be sent, with the planned times; connect to nothing, run nothing.
     #[arg(long, conflicts_with_all = ["shard", "resume"])]
     dry_run: bool,
+    /// Keep each case's recording (a command plan's frames or capture
+    /// file) in the report directory's `captures/<case id>/`, named in
+    /// results.json; by default it is removed after the analysis.
+    #[arg(long, conflicts_with = "shard")]
+    keep_captures: bool,
 }
+
+/// The folder of the report directory that `--keep-captures` fills, one
+/// folder per case.
+const CAPTURES_DIR: &str = "captures";
 
 pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
     if args.timings {
@@ -145,10 +154,28 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
         };
         keep_for_resume(stopped, generation, &args, &out)
     };
-    let backend = match build_backend(&plan, args.quiet) {
+    let mut backend = match build_backend(&plan, args.quiet) {
         Ok(backend) => backend,
         Err(e) => return Err(stop(e, generation)),
     };
+    if args.keep_captures {
+        match &mut backend {
+            PlanBackend::Command(rig) => {
+                rig.keep_captures(generation.path().join(CAPTURES_DIR), CAPTURES_DIR);
+            }
+            _ => {
+                let kind = match plan.dut.backend {
+                    plan::BackendKind::Captured => "captured",
+                    _ => "simulator",
+                };
+                let e = UsageError(format!(
+                    "--keep-captures: plan `{}` records nothing to keep (its backend is {kind})\n    hint: only a command plan (`[dut] backend = \"command\"`) records captures",
+                    plan.id
+                ));
+                return Err(stop(e.into(), generation));
+            }
+        }
+    }
     // After the backend has checked that the captures exist.
     let inputs = match super::collect_inputs(&plan) {
         Ok(inputs) => inputs,
@@ -208,6 +235,18 @@ fn finish(
     );
     if !args.quiet {
         print_summary(&outcome.model, &outcome.dir)?;
+    }
+    let kept = outcome
+        .model
+        .cases
+        .iter()
+        .filter(|c| c.capture.as_ref().is_some_and(|s| s.kept.is_some()))
+        .count();
+    if kept > 0 {
+        eprintln!(
+            "kept {kept} recording(s) in `{}`",
+            outcome.dir.join(CAPTURES_DIR).display()
+        );
     }
     if let Some(cmp) = &outcome.golden {
         out!("{}", cmp.to_text())?;

@@ -44,8 +44,16 @@ pub(super) fn load(arg: &str, limits: plan::ResourceLimits) -> Result<plan::Plan
     // (in a process group of its own, which the terminal's signal does not
     // reach) rather than end ledflicker and leave ffprobe behind.
     crate::interrupt::install();
-    let plan = plan::find_and_load_with(arg, &crate::capture::frame_size, limits)?;
+    let mut plan = plan::find_and_load_with(arg, &crate::capture::frame_size, limits)?;
     crate::interrupt::check()?;
+    if let (Some(source), Ok(address)) = (
+        plan.source.as_mut(),
+        std::env::var(plan::source::ADDRESS_ENV),
+    ) {
+        source
+            .set_address(&address)
+            .map_err(crate::error::UsageError)?;
+    }
     eprint!("{}", plan.warnings_text());
     Ok(plan)
 }

@@ -50,15 +50,23 @@ fn run_in_process(path: &Path) -> (Results, BTreeMap<String, Frames>) {
 
 /// Runs `path` with the binary (a rig plan runs `ledflicker render`) and
 /// returns results.json read back, with each case's frames from its trace.
-fn run_cli(path: &Path, name: &str) -> (Results, BTreeMap<String, Frames>) {
-    let out = scratch(name).join("out");
-    let o = run_binary(&[
+/// A plan with a light source (`[source]`) runs against the SCPI
+/// instrument simulator and the simulated camera.
+fn run_cli(path: &Path, name: &str, light_source: bool) -> (Results, BTreeMap<String, Frames>) {
+    let dir = scratch(name);
+    let out = dir.join("out");
+    let args = [
         "plan",
         path.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
         "-q",
-    ]);
+    ];
+    let o = if light_source {
+        crate::lab_bench::SimulatedBench::start(&dir).run(&args, root())
+    } else {
+        run_binary(&args)
+    };
     assert!(matches!(o.status.code(), Some(0 | 1)), "{}", stderr(&o));
     let text = std::fs::read_to_string(out.join("results.json")).unwrap();
     let results = model::read_results(&text).unwrap();
@@ -360,7 +368,8 @@ fn every_shipped_plan_states_the_conditions_it_ran() {
         let name = path.file_stem().unwrap().to_string_lossy().to_string();
         let text = std::fs::read_to_string(&path).unwrap();
         let (r, frames) = if text.contains("backend = \"command\"") {
-            run_cli(&path, &format!("conditions-{name}"))
+            let light_source = text.contains("\n[source]\n");
+            run_cli(&path, &format!("conditions-{name}"), light_source)
         } else {
             run_in_process(&path)
         };

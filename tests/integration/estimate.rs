@@ -35,12 +35,25 @@ fn estimated_memory(plan: &str, extra: &[&str]) -> f64 {
 /// /proc/PID/status), read until it exits. A command plan's rig runs in
 /// processes of its own, which are not ledflicker's memory (wait4's
 /// maximum would count the largest of them).
+/// A plan with a light source (`[source]`) runs against the SCPI
+/// instrument simulator and its simulated camera.
 fn measured_memory(plan: &str, out: &std::path::Path) -> (i32, f64) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
-        .env("LEDFLICKER_DB", super::test_db())
-        .args(["plan", plan, "-q", "--out", out.to_str().unwrap()])
-        .current_dir(root())
-        .env_remove("SOURCE_DATE_EPOCH")
+    let args = ["plan", plan, "-q", "--out", out.to_str().unwrap()];
+    let light_source = std::fs::read_to_string(plan).is_ok_and(|t| t.contains("\n[source]\n"));
+    let bench =
+        light_source.then(|| crate::lab_bench::SimulatedBench::start(out.parent().unwrap()));
+    let mut command = match &bench {
+        Some(bench) => bench.command(&args, root()),
+        None => {
+            let mut c = Command::new(env!("CARGO_BIN_EXE_ledflicker"));
+            c.env("LEDFLICKER_DB", super::test_db())
+                .args(args)
+                .current_dir(root())
+                .env_remove("SOURCE_DATE_EPOCH");
+            c
+        }
+    };
+    let mut child = command
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()

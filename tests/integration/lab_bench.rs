@@ -1,12 +1,13 @@
-//! The lab in the loop with a camera recorder: `examples/lab/bench-example.toml`
-//! run against the SCPI instrument simulator on 127.0.0.1 and a simulated
-//! camera (`examples/lab/sim-recorder.sh`), which renders what the
-//! instrument's output looked like from the simulator's log file. Its
-//! verdicts against the same grid on the simulator backend, the log's
-//! sequence, and the output off after Ctrl-C (docs/lab.md).
+//! The lab in the loop with a camera recorder: the shipped
+//! `test-plans/bench-example.toml` run against the SCPI instrument
+//! simulator on 127.0.0.1 and a simulated camera
+//! (`examples/lab/sim-recorder.sh`), which renders what the instrument's
+//! output looked like from the simulator's log file. Its verdicts against
+//! the same grid on the simulator backend, the log's sequence, and the
+//! output off after Ctrl-C (docs/lab.md).
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use ledflicker::backend::scpi::simulator::{Faults, SimInstrument};
@@ -15,31 +16,63 @@ use ledflicker::plan;
 
 use crate::{ledflicker_in, root, scratch, stderr};
 
-/// The GStreamer recorder line of the example plan.
-const GSTREAMER_LINE: &str =
-    "gstreamer = \"v4l2src device=/dev/video0 ! video/x-raw,framerate=30/1\"";
+/// The SCPI instrument simulator at a free port, logging into a file: the
+/// bench of test-plans/bench-example.toml, which a run reaches through
+/// `LEDFLICKER_SOURCE_ADDRESS` (the instrument) and
+/// `LEDFLICKER_INSTRUMENT_LOG` (the simulated camera).
+pub struct SimulatedBench {
+    /// The simulator; stops when dropped.
+    pub sim: SimInstrument,
+    /// Its log: a line per line received, with its Unix time.
+    pub log: PathBuf,
+}
 
-/// The example plan in `dir`, pointed at the simulator on `port`, its
-/// camera the simulated one reading the simulator's `log`, with `on_s`
-/// seconds of ON.
-fn bench_example(dir: &Path, port: u16, log: &Path, on_s: f64) -> PathBuf {
-    let text = std::fs::read_to_string(root().join("examples/lab/bench-example.toml")).unwrap();
-    let camera = format!(
-        "command = [\"sh\", \"sim-recorder.sh\", \"{{out-dir}}\", \"{{duration-s}}\", \"{{fps}}\", \"{}\"]",
-        log.display()
-    );
+impl SimulatedBench {
+    /// Starts the simulator, its log in `dir`.
+    pub fn start(dir: &Path) -> Self {
+        let log = dir.join("instrument.log");
+        let sim = SimInstrument::start_at(0, Faults::default(), Some(&log)).unwrap();
+        Self { sim, log }
+    }
+
+    /// The binary with `args`, run in `dir`, pointed at this bench.
+    pub fn command(&self, args: &[&str], dir: &Path) -> Command {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_ledflicker"));
+        c.env("LEDFLICKER_DB", crate::test_db())
+            .env(
+                "LEDFLICKER_SOURCE_ADDRESS",
+                format!("127.0.0.1:{}", self.sim.port()),
+            )
+            .env("LEDFLICKER_INSTRUMENT_LOG", &self.log)
+            .env_remove("SOURCE_DATE_EPOCH")
+            .args(args)
+            .current_dir(dir);
+        c
+    }
+
+    /// Runs the binary with `args` in `dir` against this bench.
+    pub fn run(&self, args: &[&str], dir: &Path) -> Output {
+        self.command(args, dir).output().unwrap()
+    }
+}
+
+/// The shipped bench plan.
+fn bench_plan() -> PathBuf {
+    root().join("test-plans/bench-example.toml")
+}
+
+/// The shipped bench plan, copied into `dir` with `on_s` seconds of ON
+/// (its simulated camera named by its absolute path).
+fn bench_example(dir: &Path, on_s: f64) -> PathBuf {
+    let text = std::fs::read_to_string(bench_plan()).unwrap();
+    let camera = root().join("examples/lab/sim-recorder.sh");
     let text = text
-        .replace("\"192.168.1.50\"", "\"127.0.0.1\"")
-        .replace("port = 5025 ", &format!("port = {port} "))
-        .replace(GSTREAMER_LINE, &camera)
+        .replace(
+            "\"../examples/lab/sim-recorder.sh\"",
+            &format!("\"{}\"", camera.display()),
+        )
         .replace("on-s = 1.0", &format!("on-s = {on_s:?}"));
-    assert!(text.contains(&camera), "{text}");
-    assert!(text.contains(&format!("port = {port}")), "{text}");
-    std::fs::copy(
-        root().join("examples/lab/sim-recorder.sh"),
-        dir.join("sim-recorder.sh"),
-    )
-    .unwrap();
+    assert!(text.contains(&camera.display().to_string()), "{text}");
     let path = dir.join("bench.toml");
     std::fs::write(&path, text).unwrap();
     path
@@ -66,10 +99,13 @@ fn results(dir: &Path, out: &str) -> serde_json::Value {
 #[test]
 fn lab_bench_example_with_a_simulated_camera_gives_the_simulators_verdicts() {
     let dir = scratch("lab-bench");
-    let log = dir.join("instrument.log");
-    let sim = SimInstrument::start_at(0, Faults::default(), Some(&log)).unwrap();
-    let path = bench_example(&dir, sim.port(), &log, 1.0);
-    let o = ledflicker_in(&["plan", "bench.toml", "--out", "bench", "-q"], &dir);
+    let bench = SimulatedBench::start(&dir);
+    let (sim, log) = (&bench.sim, &bench.log);
+    let path = bench_plan();
+    let o = bench.run(
+        &["plan", path.to_str().unwrap(), "--out", "bench", "-q"],
+        &dir,
+    );
     assert!(matches!(o.status.code(), Some(0 | 1)), "{}", stderr(&o));
     assert!(!stderr(&o).contains("more than a frame"), "{}", stderr(&o));
     // The same grid on the simulator backend (no source, no recorder),
@@ -142,7 +178,7 @@ fn lab_bench_example_with_a_simulated_camera_gives_the_simulators_verdicts() {
             lines
         })
         .collect();
-    let logged = read_log(&log);
+    let logged = read_log(log);
     let lines: Vec<String> = logged.iter().map(|(_, l)| l.clone()).collect();
     assert_eq!(lines, sim.lines());
     assert_eq!(lines[..connect.len()], connect);
@@ -185,14 +221,12 @@ fn lab_bench_example_with_a_simulated_camera_gives_the_simulators_verdicts() {
 #[test]
 fn lab_bench_example_ctrl_c_leaves_the_output_off_and_stops_the_camera() {
     let dir = scratch("lab-bench-sigint");
-    let log = dir.join("instrument.log");
-    let sim = SimInstrument::start_at(0, Faults::default(), Some(&log)).unwrap();
+    let bench = SimulatedBench::start(&dir);
+    let log = bench.log.clone();
     // A long ON step to send the signal in; the camera records through it.
-    bench_example(&dir, sim.port(), &log, 30.0);
-    let mut child = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
-        .env("LEDFLICKER_DB", crate::test_db())
-        .args(["plan", "bench.toml", "--out", "out", "-q"])
-        .current_dir(&dir)
+    bench_example(&dir, 30.0);
+    let mut child = bench
+        .command(&["plan", "bench.toml", "--out", "out", "-q"], &dir)
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -203,9 +237,17 @@ fn lab_bench_example_ctrl_c_leaves_the_output_off_and_stops_the_camera() {
         assert!(started.elapsed() < Duration::from_secs(60), "no ON step");
         std::thread::sleep(Duration::from_millis(20));
     }
-    // The camera is recording: its command line names the log.
-    let log_arg = log.display().to_string();
-    assert!(!processes_naming(&log_arg).is_empty(), "no camera running");
+    // The camera is recording: its environment names the log, as the
+    // run's does.
+    let log_var = format!("LEDFLICKER_INSTRUMENT_LOG={}", log.display());
+    let run = child.id();
+    let camera = || -> Vec<u32> {
+        processes_with(&log_var)
+            .into_iter()
+            .filter(|&p| p != run)
+            .collect()
+    };
+    assert!(!camera().is_empty(), "no camera running");
     // SAFETY: kill(2) on the child this test started.
     assert_eq!(
         unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) },
@@ -233,22 +275,19 @@ fn lab_bench_example_ctrl_c_leaves_the_output_off_and_stops_the_camera() {
     // Off long before the 30 s ON step would have ended.
     let first_on = logged.iter().find(|(_, l)| l == "OUTP1 ON").unwrap();
     assert!(last.0 - first_on.0 < 20.0, "{logged:?}");
-    assert_eq!(
-        processes_naming(&log_arg),
-        Vec::<u32>::new(),
-        "the camera outlived the run"
-    );
+    assert_eq!(camera(), Vec::<u32>::new(), "the camera outlived the run");
 }
 
-/// Pids of the processes whose command line holds `text`.
-fn processes_naming(text: &str) -> Vec<u32> {
+/// Pids of the processes whose environment holds the variable `var`
+/// (`NAME=value`).
+fn processes_with(var: &str) -> Vec<u32> {
     let mut pids = Vec::new();
     for p in std::fs::read_dir("/proc").unwrap().flatten() {
         let Some(pid) = p.file_name().to_str().and_then(|n| n.parse::<u32>().ok()) else {
             continue;
         };
-        let cmdline = std::fs::read(p.path().join("cmdline")).unwrap_or_default();
-        if String::from_utf8_lossy(&cmdline).contains(text) {
+        let environ = std::fs::read(p.path().join("environ")).unwrap_or_default();
+        if environ.split(|&b| b == 0).any(|v| v == var.as_bytes()) {
             pids.push(pid);
         }
     }
@@ -257,24 +296,79 @@ fn processes_naming(text: &str) -> Vec<u32> {
 
 #[test]
 fn lab_bench_example_dry_run_prints_the_recorder_and_every_line() {
-    let o = ledflicker_in(
-        &["plan", "examples/lab/bench-example.toml", "--dry-run"],
-        root(),
-    );
-    let out = String::from_utf8_lossy(&o.stdout).into_owned();
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let dry_run = |plan: &str, address: &str| {
+        let o = Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+            .env("LEDFLICKER_DB", crate::test_db())
+            .env("LEDFLICKER_SOURCE_ADDRESS", address)
+            .args(["plan", plan, "--dry-run"])
+            .current_dir(root())
+            .output()
+            .unwrap();
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            stderr(&o),
+        )
+    };
+    // The shipped plan, pointed at a bench's generator.
+    let (code, out, err) = dry_run("test-plans/bench-example.toml", "192.168.1.50:5025");
+    assert_eq!(code, Some(0), "{err}");
     for want in [
         "dry run of plan `bench-example`: 2 cases; nothing is connected or sent",
+        "light source: keysight-33500b at 192.168.1.50:5025, channel 1",
         // 0.5 s lead-in, 4 s of sequence, 0.5 s tail at 30 fps.
         "camera recorder: 150 frames (5 s at 30 fps), 0.5 s after the end",
-        "  gst-launch-1.0 -q -e v4l2src device=/dev/video0 ! video/x-raw,framerate=30/1 ! identity eos-after=150 !",
-        "filesink location={out-dir}/camera.y4m",
+        "  sh ../examples/lab/sim-recorder.sh {out-dir} 5 30\n",
         "case 2000lux-50hz-10pct:",
         "SOUR1:FREQ 50",
         "      4.500 s  end      OUTP1 OFF",
     ] {
         assert!(out.contains(want), "{want} not in\n{out}");
     }
+    // With a V4L2 camera through GStreamer.
+    let dir = scratch("lab-bench-dry-run");
+    let text = std::fs::read_to_string(bench_plan()).unwrap();
+    let (head, tail) = text.split_once("[recorder]\n").unwrap();
+    let tail = &tail[tail.find("tail-s").unwrap()..];
+    let v4l2 = "gstreamer = \"v4l2src device=/dev/video0 ! video/x-raw,framerate=30/1\"\n";
+    let plan = dir.join("v4l2.toml");
+    std::fs::write(&plan, format!("{head}[recorder]\n{v4l2}{tail}")).unwrap();
+    let (code, out, err) = dry_run(plan.to_str().unwrap(), "10.0.0.7:5025");
+    assert_eq!(code, Some(0), "{err}");
+    for want in [
+        "light source: keysight-33500b at 10.0.0.7:5025, channel 1",
+        "  gst-launch-1.0 -q -e v4l2src device=/dev/video0 ! video/x-raw,framerate=30/1 ! identity eos-after=151 !",
+        "filesink location={out-dir}/camera.y4m",
+    ] {
+        assert!(out.contains(want), "{want} not in\n{out}");
+    }
+    // Only a command plan records anything to keep.
+    let out = dir.join("daylight");
+    let o = ledflicker_in(
+        &[
+            "plan",
+            "test-plans/daylight.toml",
+            "--keep-captures",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        root(),
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(
+            "--keep-captures: plan `daylight` records nothing to keep (its backend is simulator)"
+        ),
+        "{}",
+        stderr(&o)
+    );
+    // A mistyped address is a usage error naming the variable.
+    let (code, _, err) = dry_run("test-plans/bench-example.toml", "192.168.1.50");
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("LEDFLICKER_SOURCE_ADDRESS: `192.168.1.50` is not HOST:PORT"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -20,6 +20,7 @@ mod exact;
 mod features;
 mod lab;
 mod lab_bench;
+mod lab_gst;
 mod legible;
 mod mutate;
 mod physics;

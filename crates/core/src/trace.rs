@@ -385,6 +385,38 @@ pub struct CaptureSummary {
     /// (`[source]`); absent without one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub light_source: Option<SourceLog>,
+    /// The camera settings a `[recorder]` applied, and the frame rate its
+    /// recording states; absent when it sets none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<CameraLog>,
+    /// Where the recording was kept (`--keep-captures`), relative to the
+    /// report directory; absent when it was removed after the analysis.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kept: Option<String>,
+}
+
+/// The camera settings of a `[recorder]` for one case: what was set, and
+/// what the recording shows of it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CameraLog {
+    /// Exposure time set, microseconds; `null` when left to the camera.
+    pub exposure_us: Option<f64>,
+    /// Gain set, decibels; `null` when left to the camera.
+    pub gain_db: Option<f64>,
+    /// Frame rate set, frames/s; `null` when left to the camera.
+    pub frame_rate_fps: Option<f64>,
+    /// The frame rate the recording states (a Y4M header's), frames/s:
+    /// the camera's rate as read back; `null` when it states none.
+    pub frame_rate_read_fps: Option<f64>,
+    /// The exposure the camera reports after the recording, microseconds
+    /// (an Aravis camera's `ExposureTime` or `ExposureTimeAbs`); `null`
+    /// when it was not read.
+    #[serde(default)]
+    pub exposure_read_us: Option<f64>,
+    /// The gain the camera reports after the recording, decibels (an
+    /// Aravis camera's `Gain`); `null` when it was not read.
+    #[serde(default)]
+    pub gain_read_db: Option<f64>,
 }
 
 /// What the light source was sent for one case, and when.

@@ -222,6 +222,8 @@ impl Captured {
                     time_base_s: trace.time_base_s,
                     stated_frame_rate_fps: trace.stated_fps,
                     light_source: None,
+                    camera: None,
+                    kept: None,
                 });
                 Ok((c.id.clone(), acq))
             })

@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
+use super::aravis;
 use super::captured::{
     CaptureSummary, find_segments_with, read_options, roi_rects, to_acquisition,
 };
@@ -24,8 +25,9 @@ use super::scpi::sequence;
 use super::segments::Detection;
 use super::{Acquisition, Backend, BackendError};
 use crate::capture::{self, SourceKind};
+use crate::plan::recorder::{CameraSettings, RecorderKind, pipeline_args};
 use crate::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Sequence, Span, TestCase};
-use crate::trace::SourceLog;
+use crate::trace::{CameraLog, Ratio, SourceLog};
 use std::sync::atomic::AtomicBool;
 
 /// Name prefix of the rigs' scratch directories in the temporary
@@ -137,6 +139,31 @@ fn stop_processes_of(scratch: &Path) -> Vec<(u32, String)> {
     stopped
 }
 
+/// Moves the directory `from` to `to` (which must not exist): a rename,
+/// or across file systems (the scratch directory is in the temporary
+/// directory, the report anywhere) a copy of every file, then removal.
+fn move_dir(from: &Path, to: &Path) -> std::io::Result<()> {
+    if std::fs::rename(from, to).is_ok() {
+        return Ok(());
+    }
+    copy_dir(from, to)?;
+    std::fs::remove_dir_all(from)
+}
+
+fn copy_dir(from: &Path, to: &Path) -> std::io::Result<()> {
+    std::fs::create_dir(to)?;
+    for e in std::fs::read_dir(from)? {
+        let e = e?;
+        let target = to.join(e.file_name());
+        if e.file_type()?.is_dir() {
+            copy_dir(&e.path(), &target)?;
+        } else {
+            std::fs::copy(e.path(), target)?;
+        }
+    }
+    Ok(())
+}
+
 /// Runs a lab-rig command per case.
 #[derive(Debug, Clone)]
 pub struct CommandRig {
@@ -156,6 +183,15 @@ pub struct CommandRig {
     /// The command is the plan's `[recorder]`, whose arguments name the
     /// case's output directory as `{out-dir}`.
     recorder: bool,
+    /// The camera settings of the plan's `[recorder]`, when it sets any.
+    camera: Option<CameraSettings>,
+    /// The Aravis camera an `aravissrc` recorder records (`None` inside:
+    /// Aravis' first), whose settings are read back after each recording.
+    aravis: Option<Option<String>>,
+    /// Where each case's recording is moved after the analysis
+    /// (`--keep-captures`), as `<dir>/<case id>/`, and the name it is
+    /// reported under (relative to the report directory); `None`: removed.
+    keep: Option<(PathBuf, String)>,
 }
 
 impl CommandRig {
@@ -193,6 +229,70 @@ impl CommandRig {
                 .map(|cfg| Box::new(LightSource::new(cfg, plan.sequence))),
             detection: Detection::for_plan(plan),
             recorder: plan.recorder.is_some(),
+            camera: plan
+                .recorder
+                .as_ref()
+                .map(|r| r.settings)
+                .filter(|s| !s.is_empty()),
+            keep: None,
+            aravis: match plan.recorder.as_ref().map(|r| &r.kind) {
+                Some(RecorderKind::GStreamer(pipeline)) => {
+                    aravis::camera_of(&pipeline_args(pipeline).unwrap_or_default())
+                }
+                _ => None,
+            },
+        })
+    }
+
+    /// Keeps each case's recording in `dir/<case id>/` after the analysis
+    /// instead of removing it; `label` is `dir` as results.json names it
+    /// (relative to the report directory, e.g. `captures`).
+    pub fn keep_captures(&mut self, dir: PathBuf, label: &str) {
+        self.keep = Some((dir, label.to_string()));
+    }
+
+    /// Moves the recording in `out` to the keep folder, when captures are
+    /// kept; returns its name for results.json.
+    fn keep_recording(&self, case: &TestCase, out: &Path) -> Result<Option<String>, BackendError> {
+        let Some((dir, label)) = &self.keep else {
+            return Ok(None);
+        };
+        let to = dir.join(&case.id);
+        std::fs::create_dir_all(dir)
+            .and_then(|()| move_dir(out, &to))
+            .map_err(|e| {
+                self.fail(
+                    case,
+                    format!("cannot keep the recording in `{}`: {e}", to.display()),
+                )
+            })?;
+        Ok(Some(format!("{label}/{}", case.id)))
+    }
+
+    /// What the recorder set, and the frame rate its recording states;
+    /// warns when that rate is not the one set.
+    fn camera_log(&self, case: &TestCase, stated: Option<Ratio>) -> Option<CameraLog> {
+        let set = self.camera?;
+        let read = stated.map(Ratio::value);
+        let (exposure_read_us, gain_read_db) = match &self.aravis {
+            Some(camera) => aravis::read_back(camera.as_deref()),
+            None => (None, None),
+        };
+        if let (Some(want), Some(got)) = (set.frame_rate_fps, read)
+            && (want - got).abs() > 1e-3 * want
+        {
+            eprintln!(
+                "warning: case `{}`: the camera was set to {want} fps and its recording states {got:.3} fps: the camera did not take the rate",
+                case.id
+            );
+        }
+        Some(CameraLog {
+            exposure_us: set.exposure_us,
+            gain_db: set.gain_db,
+            frame_rate_fps: set.frame_rate_fps,
+            frame_rate_read_fps: read,
+            exposure_read_us,
+            gain_read_db,
         })
     }
 
@@ -461,6 +561,8 @@ impl Backend for CommandRig {
                 }
             }
             let mut acq = to_acquisition(&trace, &found, &self.rois, self.capture.saturation_dn);
+            let camera = self.camera_log(case, trace.stated_fps);
+            let kept = self.keep_recording(case, &out)?;
             acq.capture = Some(CaptureSummary {
                 source: format!("command: {}", self.argv.join(" ")),
                 format: trace.format.clone(),
@@ -469,6 +571,8 @@ impl Backend for CommandRig {
                 time_base_s: trace.time_base_s,
                 stated_frame_rate_fps: trace.stated_fps,
                 light_source,
+                camera,
+                kept,
             });
             Ok(acq)
         })();

@@ -6,6 +6,7 @@
 //! captured data and lab rigs plug in through the same trait, and
 //! [`for_plan`] builds the one a plan names.
 
+pub mod aravis;
 pub mod captured;
 pub mod command;
 pub mod factory;

@@ -386,4 +386,7 @@ pub struct RawRecorder {
     pub gstreamer: Option<String>,
     pub command: Option<Vec<String>>,
     pub tail_s: Option<f64>,
+    pub exposure_us: Option<f64>,
+    pub gain_db: Option<f64>,
+    pub frame_rate_fps: Option<f64>,
 }

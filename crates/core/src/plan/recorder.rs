@@ -17,8 +17,42 @@ pub const GST_LAUNCH: &str = "gst-launch-1.0";
 
 /// Placeholders a recorder's arguments may hold. `{out-dir}` is the
 /// case's output directory, filled when the case starts; the others are
-/// the same for every case and are filled when the plan is loaded.
-pub const PLACEHOLDERS: &[&str] = &["out-dir", "frames", "duration-s", "fps"];
+/// the same for every case and are filled when the plan is loaded
+/// (`{exposure-us}` and `{gain-db}` only when `[recorder]` sets them).
+pub const PLACEHOLDERS: &[&str] = &[
+    "out-dir",
+    "frames",
+    "duration-s",
+    "fps",
+    "exposure-us",
+    "gain-db",
+];
+
+/// The GStreamer source elements whose exposure and gain ledflicker sets,
+/// with their property names: Aravis' `aravissrc` takes the exposure in
+/// microseconds and the gain in decibels (its element's documentation,
+/// `gst-inspect-1.0 aravissrc`). V4L2 drivers give the gain no unit, so
+/// `v4l2src` gets its controls in the pipeline (`extra-controls`).
+pub const SETTABLE_SOURCES: &[(&str, &str, &str)] = &[("aravissrc", "exposure", "gain")];
+
+/// The camera settings `[recorder]` asks for; each `None` when the plan
+/// leaves it to the camera.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CameraSettings {
+    /// Exposure time, microseconds (> 0).
+    pub exposure_us: Option<f64>,
+    /// Gain, decibels (>= 0).
+    pub gain_db: Option<f64>,
+    /// Frame rate, frames/s (> 0); equal to `[dut.camera] frame-rate-fps`.
+    pub frame_rate_fps: Option<f64>,
+}
+
+impl CameraSettings {
+    /// True when nothing is set.
+    pub fn is_empty(&self) -> bool {
+        self.exposure_us.is_none() && self.gain_db.is_none() && self.frame_rate_fps.is_none()
+    }
+}
 
 /// What the camera is recorded with.
 #[derive(Debug, Clone, PartialEq)]
@@ -46,23 +80,60 @@ pub struct RecorderConfig {
     /// Frames one recording holds: `duration_s` at the camera's frame
     /// rate, rounded up (>= 1).
     pub frames: u64,
+    /// The camera settings it applies.
+    pub settings: CameraSettings,
 }
 
 /// The `gst-launch-1.0` command that records `frames` frames of `source`
-/// (a source pipeline, its elements apart at white space) into
-/// `{out-dir}/camera.y4m`. `identity eos-after` ends the stream after the
-/// last frame whatever the source (a live camera never ends by itself;
-/// `num-buffers` is not a property of every source, e.g. `rtspsrc`), and
-/// `-e` turns the end of stream into a complete file. The frames are
-/// converted to I420, which `y4menc` writes and the Y4M reader reads.
-pub fn gstreamer_argv(source: &str, frames: u64) -> Vec<String> {
+/// (a source pipeline) into `{out-dir}/camera.y4m`, with `settings`
+/// applied. `identity eos-after` ends the stream after the last frame
+/// whatever the source (a live camera never ends by itself; `num-buffers`
+/// is not a property of every source, e.g. `rtspsrc`), and `-e` turns the
+/// end of stream into a complete file. `identity` ends the stream in
+/// place of its `eos-after`-th buffer (GStreamer 1.22 writes 149 frames
+/// with `eos-after=150`), so it is given one more than `frames`. The
+/// frames are converted to I420, which `y4menc` writes and the Y4M reader
+/// reads.
+///
+/// The exposure and gain become properties of the first element (an
+/// element of [`SETTABLE_SOURCES`]; validation refuses others), and the
+/// frame rate caps after the source pipeline, which a camera source
+/// negotiates its rate from: added to the pipeline's last caps when it
+/// ends with caps (two caps in a row are not a pipeline), else a caps
+/// filter of their own.
+pub fn gstreamer_argv(source: &str, frames: u64, settings: &CameraSettings) -> Vec<String> {
     let mut argv: Vec<String> = [GST_LAUNCH, "-q", "-e"].map(String::from).to_vec();
-    argv.extend(source.split_whitespace().map(String::from));
+    let mut args = pipeline_args(source).unwrap_or_default();
+    let end_of_first = args.iter().position(|a| a == "!").unwrap_or(args.len());
+    if let Some((_, exposure, gain)) = args
+        .first()
+        .and_then(|first| SETTABLE_SOURCES.iter().find(|s| s.0 == first))
+    {
+        let mut props = Vec::new();
+        if let Some(us) = settings.exposure_us {
+            props.push(format!("{exposure}={}", plain(us)));
+        }
+        if let Some(db) = settings.gain_db {
+            props.push(format!("{gain}={}", plain(db)));
+        }
+        args.splice(end_of_first..end_of_first, props);
+    }
+    if let Some(fps) = settings.frame_rate_fps {
+        let (num, den) = fraction(fps);
+        match args.last_mut() {
+            Some(last) if is_caps(last) => last.push_str(&format!(",framerate={num}/{den}")),
+            _ => args.extend([
+                "!".to_string(),
+                format!("video/x-raw,framerate={num}/{den}"),
+            ]),
+        }
+    }
+    argv.extend(args);
     argv.extend(
         [
             "!",
             "identity",
-            &format!("eos-after={frames}"),
+            &format!("eos-after={}", frames + 1),
             "!",
             "videoconvert",
             "!",
@@ -76,6 +147,56 @@ pub fn gstreamer_argv(source: &str, frames: u64) -> Vec<String> {
         .map(String::from),
     );
     argv
+}
+
+/// True when a pipeline argument is caps (`video/x-raw,width=64`): its
+/// media type holds a `/`, which no element name or property does.
+pub fn is_caps(arg: &str) -> bool {
+    let media = arg.split(',').next().unwrap_or_default();
+    media.contains('/') && !media.contains('=')
+}
+
+/// A source pipeline's arguments for `gst-launch-1.0`: apart at white
+/// space, except inside double quotes, which are removed, as a shell does
+/// with `features="ExposureAuto=Off GainAuto=Off"` (gst-launch keeps the spaces of
+/// one argument in one property value). `Err` names an unclosed quote.
+pub fn pipeline_args(source: &str) -> Result<Vec<String>, String> {
+    let mut args = Vec::new();
+    let mut current: Option<String> = None;
+    let mut quoted = false;
+    for ch in source.chars() {
+        match ch {
+            '"' => {
+                quoted = !quoted;
+                current.get_or_insert_with(String::new);
+            }
+            c if c.is_whitespace() && !quoted => {
+                if let Some(a) = current.take() {
+                    args.push(a);
+                }
+            }
+            c => current.get_or_insert_with(String::new).push(c),
+        }
+    }
+    if quoted {
+        return Err("a double quote is not closed".to_string());
+    }
+    args.extend(current);
+    Ok(args)
+}
+
+/// `fps` as a GStreamer fraction: whole rates over 1, others in
+/// thousandths, reduced (29.97 -> 2997/100).
+fn fraction(fps: f64) -> (u64, u64) {
+    let milli = (fps * 1000.0).round() as u64;
+    let gcd = |mut a: u64, mut b: u64| {
+        while b != 0 {
+            (a, b) = (b, a % b);
+        }
+        a.max(1)
+    };
+    let g = gcd(milli, 1000);
+    (milli / g, 1000 / g)
 }
 
 /// The placeholders in `text` that are not in [`PLACEHOLDERS`].
@@ -97,11 +218,26 @@ pub fn unknown_placeholders(text: &str) -> Vec<String> {
 }
 
 /// `text` with the per-plan placeholders filled: `{frames}`,
-/// `{duration-s}` (at most 6 decimals, no exponent) and `{fps}`.
-pub fn fill_plan_placeholders(text: &str, frames: u64, duration_s: f64, fps: f64) -> String {
-    text.replace("{frames}", &frames.to_string())
+/// `{duration-s}` (at most 6 decimals, no exponent), `{fps}`, and the
+/// settings that are set (`{exposure-us}`, `{gain-db}`).
+pub fn fill_plan_placeholders(
+    text: &str,
+    frames: u64,
+    duration_s: f64,
+    fps: f64,
+    settings: &CameraSettings,
+) -> String {
+    let mut text = text
+        .replace("{frames}", &frames.to_string())
         .replace("{duration-s}", &plain(duration_s))
-        .replace("{fps}", &plain(fps))
+        .replace("{fps}", &plain(fps));
+    if let Some(us) = settings.exposure_us {
+        text = text.replace("{exposure-us}", &plain(us));
+    }
+    if let Some(db) = settings.gain_db {
+        text = text.replace("{gain-db}", &plain(db));
+    }
+    text
 }
 
 /// A number with at most 6 decimals and no exponent: `30`, `4.5`.
@@ -119,13 +255,56 @@ mod tests {
         let argv = gstreamer_argv(
             "v4l2src device=/dev/video0 ! video/x-raw,framerate=30/1",
             165,
+            &CameraSettings::default(),
         );
         assert_eq!(argv[..3], ["gst-launch-1.0", "-q", "-e"]);
         // Each element and `!` is its own argument: gst-launch escapes the
         // white space inside one argument.
         assert_eq!(argv[3..6], ["v4l2src", "device=/dev/video0", "!"]);
-        assert!(argv.contains(&"eos-after=165".to_string()), "{argv:?}");
+        assert!(argv.contains(&"eos-after=166".to_string()), "{argv:?}");
         assert_eq!(argv.last().unwrap(), "location={out-dir}/camera.y4m");
+    }
+
+    #[test]
+    fn aravis_gets_exposure_and_gain_and_every_source_the_frame_rate_caps() {
+        let settings = CameraSettings {
+            exposure_us: Some(2500.0),
+            gain_db: Some(6.5),
+            frame_rate_fps: Some(29.97),
+        };
+        let argv = gstreamer_argv(
+            "aravissrc camera-name=Fake \"features=Width=64 Height=48\" ! video/x-raw,format=GRAY8",
+            10,
+            &settings,
+        );
+        assert_eq!(
+            argv[3..13],
+            [
+                "aravissrc",
+                "camera-name=Fake",
+                "features=Width=64 Height=48",
+                "exposure=2500",
+                "gain=6.5",
+                "!",
+                "video/x-raw,format=GRAY8,framerate=2997/100",
+                "!",
+                "identity",
+                "eos-after=11"
+            ]
+        );
+        // Another source gets the frame rate only (validation refuses
+        // exposure and gain for it), as caps of their own.
+        let argv = gstreamer_argv("v4l2src", 10, &settings);
+        assert_eq!(
+            argv[3..6],
+            ["v4l2src", "!", "video/x-raw,framerate=2997/100"]
+        );
+        assert!(is_caps("image/png,framerate=30/1"));
+        assert!(!is_caps("location=/tmp/f_%06d.png"));
+        assert_eq!(fraction(30.0), (30, 1));
+        assert_eq!(fraction(12.5), (25, 2));
+        assert_eq!(pipeline_args("a \"b c\"d  e").unwrap(), ["a", "b cd", "e"]);
+        assert!(pipeline_args("a \"b").is_err());
     }
 
     #[test]
@@ -135,9 +314,19 @@ mod tests {
                 "{frames} {duration-s} {fps} {out-dir}",
                 91,
                 3.0000001,
-                29.97
+                29.97,
+                &CameraSettings::default()
             ),
             "91 3 29.97 {out-dir}"
+        );
+        let set = CameraSettings {
+            exposure_us: Some(10000.0),
+            gain_db: Some(0.0),
+            frame_rate_fps: None,
+        };
+        assert_eq!(
+            fill_plan_placeholders("{exposure-us} {gain-db}", 1, 1.0, 30.0, &set),
+            "10000 0"
         );
         assert_eq!(
             unknown_placeholders("a {fps} {frame} {out_dir} {"),
@@ -173,7 +362,7 @@ mod tests {
         let cmd = plan.capture.unwrap().command.unwrap();
         assert_eq!(cmd.argv, rec.argv);
         assert_eq!(cmd.argv[3..5], ["aravissrc", "camera-name=Fake_1"]);
-        assert!(cmd.argv.contains(&"eos-after=138".to_string()));
+        assert!(cmd.argv.contains(&"eos-after=139".to_string()));
         assert!((cmd.timeout_s - 30.0).abs() < 1e-12);
         let plan = plan_with(
             "",
@@ -224,5 +413,73 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.contains("`recorder.camera`: unknown key"), "{e}");
+    }
+
+    #[test]
+    fn camera_settings_reach_the_recorder_or_are_errors_at_their_keys() {
+        let plan = plan_with(
+            "",
+            &format!("{SOURCE}[recorder]\ngstreamer = \"aravissrc camera-name=C\"\nexposure-us = 8000.0\ngain-db = 3.0\nframe-rate-fps = 25.0\n"),
+        )
+        .unwrap();
+        let rec = plan.recorder.unwrap();
+        assert_eq!(rec.settings.exposure_us, Some(8000.0));
+        assert!(
+            rec.argv.contains(&"exposure=8000".to_string()),
+            "{:?}",
+            rec.argv
+        );
+        assert!(rec.argv.contains(&"gain=3".to_string()), "{:?}", rec.argv);
+        assert!(rec.argv.contains(&"video/x-raw,framerate=25/1".to_string()));
+        let e = plan_with(
+            "",
+            &format!("{SOURCE}[recorder]\ngstreamer = \"v4l2src ! video/x-raw,framerate=30/1\"\nframe-rate-fps = 25.0\n"),
+        )
+        .unwrap_err();
+        assert!(
+            e.contains(
+                "`recorder.frame-rate-fps`: the pipeline's last caps give a frame rate already"
+            ),
+            "{e}"
+        );
+        let plan = plan_with(
+            "",
+            &format!("{SOURCE}[recorder]\ncommand = [\"rec\", \"{{exposure-us}}\"]\nexposure-us = 250.5\n"),
+        )
+        .unwrap();
+        assert_eq!(plan.recorder.unwrap().argv, ["rec", "250.5"]);
+        let e = plan_with(
+            "",
+            &format!("{SOURCE}[recorder]\ngstreamer = \"v4l2src\"\nexposure-us = 0.5\ngain-db = 1.0\nframe-rate-fps = 30.0\n"),
+        )
+        .unwrap_err();
+        for want in [
+            "`recorder.exposure-us`: 0.5 us is below the 1 us limit",
+            "`recorder.gain-db`: ledflicker sets the exposure and gain of aravissrc only, and the pipeline starts with `v4l2src`",
+            "`recorder.frame-rate-fps`: the camera would be set to 30 fps, and the analysis runs at [dut.camera] frame-rate-fps = 25",
+        ] {
+            assert!(e.contains(want), "{want} not in {e}");
+        }
+        let e = plan_with(
+            "",
+            &format!(
+                "{SOURCE}[recorder]\ncommand = [\"rec\", \"{{gain-db}}\"]\nexposure-us = 100.0\n"
+            ),
+        )
+        .unwrap_err();
+        assert!(
+            e.contains("`recorder.exposure-us`: the recorder command takes no `{exposure-us}`"),
+            "{e}"
+        );
+        assert!(e.contains("`recorder.command`: the command takes `{gain-db}`, and [recorder] sets no `gain-db`"), "{e}");
+        let e = plan_with(
+            "",
+            &format!("{SOURCE}[recorder]\ngstreamer = \"aravissrc \\\"features=Width=64\"\n"),
+        )
+        .unwrap_err();
+        assert!(
+            e.contains("`recorder.gstreamer`: a double quote is not closed"),
+            "{e}"
+        );
     }
 }

@@ -35,6 +35,7 @@ macro_rules! shipped {
 
 /// The shipped test plans.
 pub const PLANS: &[Shipped] = shipped![
+    "test-plans/bench-example.toml",
     "test-plans/cms-colour.toml",
     "test-plans/cms-night.toml",
     "test-plans/command-sim-rig.toml",

@@ -172,7 +172,33 @@ impl SourceConfig {
     pub fn low_v(&self) -> f64 {
         self.offset_v - self.amplitude_vpp / 2.0
     }
+
+    /// Points the source at `address` (`HOST:PORT`, the value of
+    /// [`ADDRESS_ENV`]), for a plan that runs on another bench or against
+    /// a simulator at a free port; the error names the variable.
+    pub fn set_address(&mut self, address: &str) -> Result<(), String> {
+        let bad = || {
+            format!(
+                "{ADDRESS_ENV}: `{address}` is not HOST:PORT\n    hint: e.g. 192.168.1.50:5025 or 127.0.0.1:5025, a port in 1..=65535"
+            )
+        };
+        let (host, port) = address.rsplit_once(':').ok_or_else(bad)?;
+        let port: u16 = port.parse().map_err(|_| bad())?;
+        if host.is_empty() || port == 0 || host.contains(char::is_whitespace) || host.contains('/')
+        {
+            return Err(bad());
+        }
+        self.host = host.to_string();
+        self.port = port;
+        Ok(())
+    }
 }
+
+/// Environment variable that, when set, gives the light source's address
+/// (`HOST:PORT`) in place of the plan's `[source] host` and `port`: the
+/// same plan on another bench, or against `ledflicker rig simulate` at a
+/// free port. The address used is the one results.json records.
+pub const ADDRESS_ENV: &str = "LEDFLICKER_SOURCE_ADDRESS";
 
 #[cfg(test)]
 mod tests {
@@ -185,6 +211,25 @@ mod tests {
         );
         crate::plan::parse(&text, std::path::Path::new("s.toml"), String::new())
             .map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn an_address_from_the_environment_replaces_host_and_port() {
+        let plan =
+            plan_with("[source]\ninstrument = \"keysight-33500b\"\nhost = \"10.0.0.7\"\n").unwrap();
+        let mut s = plan.source.unwrap();
+        s.set_address("127.0.0.1:40123").unwrap();
+        assert_eq!((s.host.as_str(), s.port), ("127.0.0.1", 40123));
+        for bad in ["127.0.0.1", "h:0", ":5025", "h:65536", "h:x", "a b:1"] {
+            let e = s.set_address(bad).unwrap_err();
+            assert!(
+                e.starts_with(&format!(
+                    "LEDFLICKER_SOURCE_ADDRESS: `{bad}` is not HOST:PORT"
+                )),
+                "{e}"
+            );
+        }
+        assert_eq!((s.host.as_str(), s.port), ("127.0.0.1", 40123));
     }
 
     #[test]

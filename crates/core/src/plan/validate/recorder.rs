@@ -4,8 +4,8 @@
 use crate::plan::check::{Checker, approx};
 use crate::plan::raw::RawRecorder;
 use crate::plan::recorder::{
-    PLACEHOLDERS, RecorderConfig, RecorderKind, fill_plan_placeholders, gstreamer_argv,
-    unknown_placeholders,
+    CameraSettings, PLACEHOLDERS, RecorderConfig, RecorderKind, SETTABLE_SOURCES,
+    fill_plan_placeholders, gstreamer_argv, is_caps, pipeline_args, unknown_placeholders,
 };
 use crate::plan::{Sequence, source::SourceConfig};
 
@@ -14,6 +14,11 @@ const TAIL_S_RANGE: (f64, f64) = (0.0, 600.0);
 /// Default of `tail-s`: a second keeps the last PWM frames clear of a
 /// camera that starts late.
 const DEFAULT_TAIL_S: f64 = 1.0;
+/// Exposure a camera may be set to, microseconds (aravissrc takes up to
+/// 1e8; no flicker test exposes a frame for more than 10 s).
+const EXPOSURE_US_RANGE: (f64, f64) = (1.0, 1e7);
+/// Gain a camera may be set to, decibels.
+const GAIN_DB_RANGE: (f64, f64) = (0.0, 100.0);
 
 /// Where `[recorder]` stands in the plan: the command backend drives the
 /// light, the source's lead-in, the sequence and the camera's frame rate.
@@ -77,6 +82,15 @@ fn recorder_config(
         "seconds recorded after the sequence's end; default 1",
     );
     ok &= tail_s.is_some();
+    let settings = camera_settings(c, &raw, ctx.fps);
+    ok &= settings.is_some();
+    let settings = settings.unwrap_or_default();
+    // Whether each setting is given, valid or not: where it may go.
+    let given = CameraSettings {
+        exposure_us: raw.exposure_us,
+        gain_db: raw.gain_db,
+        frame_rate_fps: raw.frame_rate_fps,
+    };
     let hint_one = "give `gstreamer = \"v4l2src device=/dev/video0\"` (a GStreamer source pipeline) or `command = [...]`";
     let (kind, argv, key) = match (raw.gstreamer, raw.command) {
         (Some(_), Some(_)) => {
@@ -104,6 +118,7 @@ fn recorder_config(
                 );
                 return None;
             }
+            ok &= gstreamer_settable(c, &pipeline, &given);
             (
                 RecorderKind::GStreamer(pipeline),
                 Vec::new(),
@@ -119,31 +134,14 @@ fn recorder_config(
                 );
                 return None;
             }
+            ok &= command_uses_settings(c, &argv, &given);
             (RecorderKind::Command, argv, "recorder.command")
         }
     };
     // A GStreamer pipeline holds no placeholders of the plan's, and its
     // caps may hold braces of their own (`format={I420,NV12}`).
-    let unknown: Vec<String> = match kind {
-        RecorderKind::GStreamer(_) => Vec::new(),
-        RecorderKind::Command => argv.iter().flat_map(|a| unknown_placeholders(a)).collect(),
-    };
-    if !unknown.is_empty() {
-        let known: Vec<String> = PLACEHOLDERS.iter().map(|p| format!("{{{p}}}")).collect();
-        c.error(
-            key,
-            format!(
-                "unknown placeholder{} {}",
-                if unknown.len() == 1 { "" } else { "s" },
-                unknown
-                    .iter()
-                    .map(|u| format!("`{{{u}}}`"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-            Some(&format!("the placeholders are {}", known.join(", "))),
-        );
-        ok = false;
+    if kind == RecorderKind::Command {
+        ok &= placeholders_known(c, key, &argv);
     }
     let (tail_s, sequence, fps) = (tail_s?, ctx.sequence?, ctx.fps?);
     let lead_in_s = ctx.source?.lead_in_s;
@@ -155,10 +153,10 @@ fn recorder_config(
         return None;
     }
     let argv = match &kind {
-        RecorderKind::GStreamer(pipeline) => gstreamer_argv(pipeline, frames),
+        RecorderKind::GStreamer(pipeline) => gstreamer_argv(pipeline, frames, &settings),
         RecorderKind::Command => argv
             .iter()
-            .map(|a| fill_plan_placeholders(a, frames, duration_s, fps))
+            .map(|a| fill_plan_placeholders(a, frames, duration_s, fps, &settings))
             .collect(),
     };
     if frames > 1_000_000 {
@@ -179,5 +177,160 @@ fn recorder_config(
         tail_s,
         duration_s,
         frames,
+        settings,
     })
+}
+
+/// True when every placeholder of a recorder command is known; else an
+/// error at `key` naming the unknown ones.
+fn placeholders_known(c: &mut Checker<'_>, key: &str, argv: &[String]) -> bool {
+    let unknown: Vec<String> = argv.iter().flat_map(|a| unknown_placeholders(a)).collect();
+    if unknown.is_empty() {
+        return true;
+    }
+    let known: Vec<String> = PLACEHOLDERS.iter().map(|p| format!("{{{p}}}")).collect();
+    c.error(
+        key,
+        format!(
+            "unknown placeholder{} {}",
+            if unknown.len() == 1 { "" } else { "s" },
+            unknown
+                .iter()
+                .map(|u| format!("`{{{u}}}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        Some(&format!("the placeholders are {}", known.join(", "))),
+    );
+    false
+}
+
+/// `exposure-us`, `gain-db` and `frame-rate-fps`, each in range; the
+/// frame rate must be the one the analysis uses. `None` after an error.
+fn camera_settings(
+    c: &mut Checker<'_>,
+    raw: &RawRecorder,
+    fps: Option<f64>,
+) -> Option<CameraSettings> {
+    let mut ok = true;
+    let mut check = |c: &mut Checker<'_>, v: Option<f64>, key, range, unit, hint| {
+        let v = v.map(|v| c.within(v, key, range, unit, hint));
+        ok &= !matches!(v, Some(None));
+        v.flatten()
+    };
+    let exposure_us = check(
+        c,
+        raw.exposure_us,
+        "recorder.exposure-us",
+        EXPOSURE_US_RANGE,
+        " us",
+        "the camera's exposure time in microseconds, e.g. 10000 for 10 ms",
+    );
+    let gain_db = check(
+        c,
+        raw.gain_db,
+        "recorder.gain-db",
+        GAIN_DB_RANGE,
+        " dB",
+        "the camera's gain in decibels, 0 for none",
+    );
+    let frame_rate_fps = raw.frame_rate_fps;
+    if let (Some(set), Some(fps)) = (frame_rate_fps, fps)
+        && (set - fps).abs() > 1e-9 * fps
+    {
+        c.error(
+            "recorder.frame-rate-fps",
+            format!(
+                "the camera would be set to {} fps, and the analysis runs at [dut.camera] frame-rate-fps = {}",
+                approx(set),
+                approx(fps)
+            ),
+            Some("give both the camera's frame rate"),
+        );
+        ok = false;
+    }
+    ok.then_some(CameraSettings {
+        exposure_us,
+        gain_db,
+        frame_rate_fps,
+    })
+}
+
+/// True when the pipeline's quotes close and its first element takes the
+/// exposure and gain asked for; else an error at the setting's key.
+fn gstreamer_settable(c: &mut Checker<'_>, pipeline: &str, settings: &CameraSettings) -> bool {
+    let args = match pipeline_args(pipeline) {
+        Ok(args) => args,
+        Err(e) => {
+            c.error(
+                "recorder.gstreamer",
+                e,
+                Some("quote a property value with spaces whole: features=\"Width=640 Height=480\""),
+            );
+            return false;
+        }
+    };
+    let mut ok = true;
+    if settings.frame_rate_fps.is_some()
+        && args
+            .last()
+            .is_some_and(|a| is_caps(a) && a.contains("framerate="))
+    {
+        c.error(
+            "recorder.frame-rate-fps",
+            "the pipeline's last caps give a frame rate already",
+            Some("give the frame rate once: remove `framerate=` from the caps, or frame-rate-fps"),
+        );
+        ok = false;
+    }
+    let first = args.first().map_or("", String::as_str);
+    if SETTABLE_SOURCES.iter().any(|s| s.0 == first) {
+        return ok;
+    }
+    for (key, set) in [
+        ("recorder.exposure-us", settings.exposure_us.is_some()),
+        ("recorder.gain-db", settings.gain_db.is_some()),
+    ] {
+        if set {
+            c.error(
+                key,
+                format!("ledflicker sets the exposure and gain of aravissrc only, and the pipeline starts with `{first}`"),
+                Some("set it in the pipeline (v4l2src: extra-controls=\"c,exposure_time_absolute=...\"), or remove the key"),
+            );
+            ok = false;
+        }
+    }
+    ok
+}
+
+/// True when a recorder command takes each setting the plan gives, as its
+/// placeholder, and names no placeholder of a setting the plan leaves out.
+fn command_uses_settings(c: &mut Checker<'_>, argv: &[String], settings: &CameraSettings) -> bool {
+    let mut ok = true;
+    for (name, key, set) in [
+        (
+            "exposure-us",
+            "recorder.exposure-us",
+            settings.exposure_us.is_some(),
+        ),
+        ("gain-db", "recorder.gain-db", settings.gain_db.is_some()),
+    ] {
+        let used = argv.iter().any(|a| a.contains(&format!("{{{name}}}")));
+        if set && !used {
+            c.error(
+                key,
+                format!("the recorder command takes no `{{{name}}}`: the setting would not reach the camera"),
+                Some(&format!("pass `{{{name}}}` to the command, or remove `{name}`")),
+            );
+            ok = false;
+        } else if used && !set {
+            c.error(
+                "recorder.command",
+                format!("the command takes `{{{name}}}`, and [recorder] sets no `{name}`"),
+                Some(&format!("add `{name} = ...` to [recorder]")),
+            );
+            ok = false;
+        }
+    }
+    ok
 }
