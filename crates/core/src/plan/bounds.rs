@@ -594,3 +594,43 @@ fn unique_ids(cases: &[TestCase], index: &SpanIndex, diags: &mut Vec<Diagnostic>
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sweep() -> Plan {
+        let path = std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../test-plans/sweep-23k.toml"
+        ));
+        crate::plan::load(path).unwrap()
+    }
+
+    #[test]
+    fn a_merge_needs_the_larger_of_its_largest_shard_and_the_report_stage() {
+        let plan = sweep();
+        let report = WorkEstimate::of(&plan);
+        let merge = |largest| WorkEstimate::of_merge(&plan, largest, false);
+        // Nothing is simulated, whatever the shards held.
+        assert_eq!(merge(100).row_integrals, 0.0);
+        assert_eq!(merge(100).output_bytes, report.output_bytes);
+        // Small shards: the report stage is the peak.
+        assert_eq!(merge(100).memory_bytes, report.memory_bytes);
+        // One shard of every case holds them all at once.
+        let whole = WorkEstimate::of_shard(&plan, report.cases).memory_bytes;
+        assert!(whole > report.memory_bytes, "{whole} {}", report.memory_bytes);
+        assert_eq!(merge(report.cases).memory_bytes, whole);
+        let limits = ResourceLimits {
+            memory_bytes: report.memory_bytes * 1.01,
+            ..ResourceLimits::default()
+        };
+        assert_eq!(WorkEstimate::merge_too_large(&plan, 100, limits), None);
+        let refused = WorkEstimate::merge_too_large(&plan, report.cases, limits).unwrap();
+        assert!(
+            refused.contains("the merge is too large: peak memory")
+                && refused.contains("--max-memory raises it"),
+            "{refused}"
+        );
+    }
+}
