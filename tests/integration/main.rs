@@ -21,6 +21,7 @@ mod features;
 mod lab;
 mod lab_bench;
 mod legible;
+mod light;
 mod mutate;
 mod physics;
 mod plans;
