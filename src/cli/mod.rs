@@ -1,5 +1,5 @@
 //! Command-line interface: `plan`, `merge`, `validate`, `simulate`, `advise`,
-//! `bench`, `linetime`, `render`, `rig`, `roi`, `bands`, `calibrate`, `keygen`, `sign`,
+//! `bench`, `linetime`, `render`, `rig`, `roi`, `bands`, `calibrate`, `light`, `keygen`, `sign`,
 //! `verify`, `import`, `history` and `compare`, one module each (`linetime`, `bands` and `calibrate` share
 //! `calibrate`; `keygen`, `sign` and `verify` share `sign`; `import` and `history`
 //! share `campaign`; `plan --shard`
@@ -34,6 +34,7 @@ mod compare;
 mod compare_report;
 mod endtoend;
 mod failure;
+mod light;
 mod merge;
 pub(crate) mod output;
 mod plan;
@@ -130,6 +131,10 @@ enum Command {
     /// writes a camera profile with --out. Exit code 4 when the frames give
     /// no confident estimate.
     Calibrate(calibrate::CalibrateArgs),
+    /// A light source's flicker from a photodiode or oscilloscope record
+    /// (CSV: time in seconds, intensity): IEEE 1789 risk, fundamental,
+    /// Percent Flicker, Flicker Index, SVM and PstLM.
+    Light(light::LightArgs),
     /// Make an ECDSA P-256 private key (FILE, PKCS#8 PEM, mode 0600) and a
     /// self-signed X.509 certificate (FILE with `.crt`, PEM) for signing.
     Keygen(sign::KeygenArgs),
@@ -215,6 +220,7 @@ fn run(cli: Cli, version: &'static str) -> Result<i32, Failure> {
         Command::Roi(args) => roi::roi(args),
         Command::Bands(args) => calibrate::bands(args),
         Command::Calibrate(args) => calibrate::calibrate(args),
+        Command::Light(args) => light::light(args),
         Command::Keygen(args) => sign::keygen(args),
         Command::Sign(args) => sign::sign(args),
         Command::Verify(args) => sign::verify(args),

@@ -22,6 +22,7 @@ mod lab;
 mod lab_bench;
 mod lab_gst;
 mod legible;
+mod light;
 mod mutate;
 mod physics;
 mod plans;

@@ -10,6 +10,7 @@
 //! - [`apparent`]: beat frequency, from the physics and from the spectrum;
 //! - [`hazard`]: what the flicker may be taken for (turn indicator, beacon, ...);
 //! - [`drive`]: IEEE 1789 risk region and IES Flicker Index of the PWM;
+//! - [`light`]: a light source's own waveform (`ledflicker light`): IEEE 1789, SVM, PstLM;
 //! - [`phase_fold`]: the flicker signal folded by phase, phase coverage;
 //! - [`banding`]: band period, contrast and velocity of a rolling shutter;
 //! - [`finemap`]: worst-phase FDI and Percent Flicker over frequency x duty;
@@ -25,6 +26,7 @@ pub mod colour;
 pub mod drive;
 pub mod finemap;
 pub mod hazard;
+pub mod light;
 pub mod phase_fold;
 pub mod roi;
 pub mod summary;

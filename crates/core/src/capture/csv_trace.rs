@@ -19,7 +19,7 @@ const ROWS_PER_CHECK: usize = 1 << 14;
 
 /// The file as text. Binary junk (bytes that are not UTF-8, or control
 /// characters) is an error naming its line, and is never echoed.
-fn text_of(path: &Path, bytes: Vec<u8>) -> Result<String, CaptureError> {
+pub(super) fn text_of(path: &Path, bytes: Vec<u8>) -> Result<String, CaptureError> {
     let junk = |bytes: &[u8], at: usize| {
         let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
         CaptureError::Invalid {
@@ -38,7 +38,7 @@ fn text_of(path: &Path, bytes: Vec<u8>) -> Result<String, CaptureError> {
 }
 
 /// A field or header for a message: quoted, at most 40 characters.
-fn shown(s: &str) -> String {
+pub(super) fn shown(s: &str) -> String {
     let mut out: String = s.chars().take(40).collect();
     if out.len() < s.len() {
         out.push_str("...");
@@ -64,8 +64,14 @@ pub(super) struct Rows<'a> {
 
 impl<'a> Rows<'a> {
     pub(super) fn new(text: &'a str) -> Self {
+        Self::with_delimiter(text, b',')
+    }
+
+    /// Rows whose fields are separated by `delimiter` (`,`, `;`, tab).
+    pub(super) fn with_delimiter(text: &'a str, delimiter: u8) -> Self {
         let reader = csv::ReaderBuilder::new()
             .has_headers(false)
+            .delimiter(delimiter)
             .comment(Some(b'#'))
             .flexible(true)
             .from_reader(text.as_bytes());

@@ -22,6 +22,7 @@ mod progress;
 mod schedule;
 mod video;
 mod watch;
+mod waveform;
 mod y4m;
 
 pub use grey::{FrameSink, GreyFrame};
@@ -32,6 +33,7 @@ pub use csv_trace::MAX_CSV_LUMA_DN;
 pub use progress::{decode_progress_text, frames_decoded};
 pub use schedule::read_captures;
 pub use video::ffmpeg_available;
+pub use waveform::{Column, Waveform, read_waveform};
 
 pub(crate) use built_in::built_in_copy;
 use built_in::with_built_in;

@@ -36,11 +36,13 @@ pub fn threshold(f_hz: f64) -> f64 {
 
 /// The SVM of Fourier components `(f, C)`: relative amplitude `C >= 0`
 /// (amplitude over the mean) at `f` Hz. Components at 0 Hz or above
-/// [`MAX_FREQUENCY_HZ`] are left out.
+/// [`MAX_FREQUENCY_HZ`] are left out; one at it within rounding (1e-9,
+/// relative) is in, so that a harmonic at 2 kHz stays in when the
+/// sampling rate is measured from time stamps, one ulp off.
 pub fn of_components(components: impl IntoIterator<Item = (f64, f64)>) -> f64 {
     components
         .into_iter()
-        .filter(|&(f, _)| f > 0.0 && f <= MAX_FREQUENCY_HZ)
+        .filter(|&(f, _)| f > 0.0 && f <= MAX_FREQUENCY_HZ * (1.0 + 1e-9))
         .map(|(f, c)| (c / threshold(f)).powf(POOLING_EXPONENT))
         .sum::<f64>()
         .powf(1.0 / POOLING_EXPONENT)
