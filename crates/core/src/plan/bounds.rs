@@ -619,7 +619,11 @@ mod tests {
         assert_eq!(merge(100).memory_bytes, report.memory_bytes);
         // One shard of every case holds them all at once.
         let whole = WorkEstimate::of_shard(&plan, report.cases).memory_bytes;
-        assert!(whole > report.memory_bytes, "{whole} {}", report.memory_bytes);
+        assert!(
+            whole > report.memory_bytes,
+            "{whole} {}",
+            report.memory_bytes
+        );
         assert_eq!(merge(report.cases).memory_bytes, whole);
         let limits = ResourceLimits {
             memory_bytes: report.memory_bytes * 1.01,
