@@ -125,7 +125,6 @@ impl Failure {
     /// The process exit code (the table in [`super`]).
     pub fn exit_code(&self) -> i32 {
         match self {
-            Failure::Shards(MergeError::Store(e)) => store(e),
             Failure::Plan(_) | Failure::Usage(_) | Failure::NotBuiltIn(_) | Failure::Shards(_) => {
                 EXIT_INVALID
             }

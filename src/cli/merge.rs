@@ -67,7 +67,16 @@ pub(super) fn merge(a: MergeArgs) -> Result<i32, Failure> {
     let generation = pipeline::begin_output(&out, a.force)?;
     // The cases go from the shards to the store one shard at a time, and
     // the report stage reads them back from it, as `plan`'s does.
-    let path = m.store_cases(generation.path())?;
+    let key = crate::store::RunKey {
+        plan_id: m.plan.id.clone(),
+        plan_hash: m.manifest.plan_hash.clone(),
+        tool: m.manifest.tool.clone(),
+        backend: m.manifest.backend.clone(),
+        case_count: m.manifest.case_count,
+    };
+    let mut store = crate::store::Store::create(generation.path(), &key)?;
+    m.read_cases(|c| store.put(c.case.index, c).map_err(Failure::from))?;
+    let path = store.finish()?;
     let stored = crate::store::StoredCases::open(&path)?;
     let outcome = pipeline::report(
         pipeline::Run {

@@ -1,8 +1,8 @@
 //! Reading back a sharded run for `ledflicker merge`: the shard
 //! directories (globs expanded), their manifests checked against each other
 //! and the plan they ran, checked against the plan hash; then every case
-//! result, one shard at a time, into the case store. The CLI's `merge` then
-//! writes the report from the store as `plan` does.
+//! result, one shard at a time. The CLI's `merge` puts them into the case
+//! store and writes the report from it as `plan` does.
 
 use std::path::{Path, PathBuf};
 
@@ -23,13 +23,10 @@ pub enum MergeError {
     /// The plan the shards ran cannot be loaded.
     #[error(transparent)]
     Plan(#[from] PlanError),
-    /// The merged cases cannot be written to the case store.
-    #[error(transparent)]
-    Store(#[from] crate::store::StoreError),
 }
 
 /// A sharded run whose manifests were read and checked; its cases are read
-/// by [`Merged::store_cases`].
+/// by [`Merged::read_cases`].
 pub struct Merged {
     /// The plan the shards ran (its path as the shards recorded it).
     pub plan: Plan,
@@ -47,7 +44,7 @@ pub struct Merged {
 /// plan (`plan`, else where the shards read it). Every shard file is input:
 /// its manifest is checked against the plan here, and its cases are checked
 /// and evaluated again from their traces ([`super::check`]) as
-/// [`Merged::store_cases`] reads them.
+/// [`Merged::read_cases`] reads them.
 pub fn gather(args: &[String], plan: Option<&Path>) -> Result<Merged, MergeError> {
     let dirs = expand_globs(args)?;
     let shards = dirs
@@ -84,34 +81,29 @@ impl Merged {
             .unwrap_or(0)
     }
 
-    /// Reads every shard's cases into the finished case store in `dir` and
-    /// returns its path. One shard's cases are held at a time, so the merge
-    /// needs the memory of its largest shard, not of the whole plan (the
-    /// store's file does not depend on the order cases are put in).
-    pub fn store_cases(&self, dir: &Path) -> Result<PathBuf, MergeError> {
-        let key = crate::store::RunKey {
-            plan_id: self.plan.id.clone(),
-            plan_hash: self.manifest.plan_hash.clone(),
-            tool: self.manifest.tool.clone(),
-            backend: self.manifest.backend.clone(),
-            case_count: self.manifest.case_count,
-        };
-        let mut store = crate::store::Store::create(dir, &key)?;
+    /// Reads every shard's cases and hands each to `put` (the merge puts
+    /// them into its case store). One shard's cases are held at a time, so
+    /// the merge needs the memory of its largest shard, not of the whole
+    /// plan. Duplicated and missing cases are refused.
+    pub fn read_cases<E: From<MergeError>>(
+        &self,
+        mut put: impl FnMut(CaseResult) -> Result<(), E>,
+    ) -> Result<(), E> {
         let mut from: Vec<Option<&Path>> = vec![None; self.all.len()];
         for (shard_dir, m) in &self.read {
             for c in shard_cases_checked(&self.plan, &self.all, shard_dir, m)? {
                 let i = c.case.index;
                 if let Some(other) = from[i] {
-                    return Err(UsageError(format!(
+                    return Err(MergeError::from(UsageError(format!(
                         "case {i} (`{}`) is in both `{}` and `{}`",
                         c.case.id,
                         other.display(),
                         shard_dir.display()
-                    ))
+                    )))
                     .into());
                 }
                 from[i] = Some(shard_dir);
-                store.put(i, c)?;
+                put(c)?;
             }
         }
         let missing: Vec<String> = (0..from.len())
@@ -119,15 +111,15 @@ impl Merged {
             .map(|i| i.to_string())
             .collect();
         if !missing.is_empty() {
-            return Err(UsageError(format!(
+            return Err(MergeError::from(UsageError(format!(
                 "no shard ran case{} {} of {}\n    hint: run every shard with the same plan and N",
                 if missing.len() == 1 { "" } else { "s" },
                 missing.join(", "),
                 from.len()
-            ))
+            )))
             .into());
         }
-        Ok(store.finish()?)
+        Ok(())
     }
 }
 
