@@ -616,22 +616,27 @@ mod tests {
         // Nothing is simulated, whatever the shards held.
         assert_eq!(merge(100).row_integrals, 0.0);
         assert_eq!(merge(100).output_bytes, report.output_bytes);
-        // Small shards: the report stage is the peak.
-        assert_eq!(merge(100).memory_bytes, report.memory_bytes);
-        // One shard of every case holds them all at once.
-        let whole = WorkEstimate::of_shard(&plan, report.cases).memory_bytes;
+        // The larger of the two stages, for small shards and for one shard
+        // of every case; the shard's term grows with its cases.
+        for largest in [100, report.cases] {
+            let shard = WorkEstimate::of_shard(&plan, largest).memory_bytes;
+            assert_eq!(merge(largest).memory_bytes, shard.max(report.memory_bytes));
+        }
         assert!(
-            whole > report.memory_bytes,
-            "{whole} {}",
-            report.memory_bytes
+            WorkEstimate::of_shard(&plan, report.cases).memory_bytes
+                > WorkEstimate::of_shard(&plan, 100).memory_bytes
         );
-        assert_eq!(merge(report.cases).memory_bytes, whole);
-        let limits = ResourceLimits {
-            memory_bytes: report.memory_bytes * 1.01,
-            ..ResourceLimits::default()
+        let need = merge(report.cases).memory_bytes;
+        let limits = |memory_bytes| ResourceLimits {
+            memory_bytes,
+            ..ResourceLimits::unbounded()
         };
-        assert_eq!(WorkEstimate::merge_too_large(&plan, 100, limits), None);
-        let refused = WorkEstimate::merge_too_large(&plan, report.cases, limits).unwrap();
+        assert_eq!(
+            WorkEstimate::merge_too_large(&plan, report.cases, limits(need * 1.01)),
+            None
+        );
+        let refused =
+            WorkEstimate::merge_too_large(&plan, report.cases, limits(need * 0.99)).unwrap();
         assert!(
             refused.contains("the merge is too large: peak memory")
                 && refused.contains("--max-memory raises it"),
