@@ -261,12 +261,11 @@ pub fn report(
     });
     let t = crate::timings::span("report model (analyses)");
     let mut model =
-        crate::model::assemble_from(run.plan, run.backend_id, run.results).map_err(|e| {
-            PipelineError::Write {
+        crate::model::assemble_from(run.plan, run.backend_id, run.results, options.detail)
+            .map_err(|e| PipelineError::Write {
                 out: generation.out().to_path_buf(),
                 source: e.into(),
-            }
-        })?;
+            })?;
     crate::model::listing::drop_undrawn(&mut model, options.detail);
     drop(t);
     crate::interrupt::check()?;

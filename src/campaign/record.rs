@@ -109,7 +109,7 @@ fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
     };
     let abs = std::fs::canonicalize(dir).map_err(|e| unreadable(dir, e))?;
     let results_path = dir.join("results.json");
-    let bytes = std::fs::read(&results_path).map_err(|e| unreadable(&results_path, e))?;
+    let (results_sha256, stored_meta) = read_results_file(&results_path, results.report.is_none())?;
     let manifest = dir.join("manifest.txt");
     let manifest_sha256 = match std::fs::read(&manifest) {
         Ok(m) => Some(crate::util::sha256_hex(&m)),
@@ -131,25 +131,63 @@ fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
             }
         })
         .collect();
-    let meta = match &results.report {
-        Some(m) => Some(m.clone()),
-        None => {
-            #[derive(serde::Deserialize)]
-            struct Head {
-                report: Option<crate::model::ReportMeta>,
-            }
-            serde_json::from_slice::<Head>(&bytes)
-                .map_err(|e| CampaignError::Input(format!("`{}`: {e}", results_path.display())))?
-                .report
-        }
-    };
+    let meta = results.report.clone().or(stored_meta);
     Ok(Prepared {
         dir: abs.to_string_lossy().into_owned(),
         meta,
-        results_sha256: crate::util::sha256_hex(&bytes),
+        results_sha256,
         manifest_sha256,
         noise,
     })
+}
+
+/// Reads results.json once, as a stream: its SHA-256 and, when `want_meta`,
+/// its `report` object. A large run's results.json is hundreds of MB, so
+/// it is never held whole: that would add its size to the run's peak
+/// memory after the report is written.
+fn read_results_file(
+    path: &Path,
+    want_meta: bool,
+) -> Result<(String, Option<crate::model::ReportMeta>), CampaignError> {
+    use sha2::Digest;
+    use std::io::Read;
+
+    /// Hashes what is read through it.
+    struct Hashing<R> {
+        inner: R,
+        hasher: sha2::Sha256,
+    }
+    impl<R: Read> Read for Hashing<R> {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let n = self.inner.read(buf)?;
+            self.hasher.update(&buf[..n]);
+            Ok(n)
+        }
+    }
+    #[derive(serde::Deserialize)]
+    struct Head {
+        report: Option<crate::model::ReportMeta>,
+    }
+
+    let unreadable =
+        |e: std::io::Error| CampaignError::Input(format!("cannot read `{}`: {e}", path.display()));
+    let file = std::fs::File::open(path).map_err(unreadable)?;
+    let mut reader = Hashing {
+        inner: std::io::BufReader::new(file),
+        hasher: sha2::Sha256::new(),
+    };
+    let meta = match want_meta {
+        true => {
+            serde_json::from_reader::<_, Head>(&mut reader)
+                .map_err(|e| CampaignError::Input(format!("`{}`: {e}", path.display())))?
+                .report
+        }
+        false => None,
+    };
+    // The rest (all of it when the `report` object was not wanted) goes
+    // into the hash only.
+    std::io::copy(&mut reader, &mut std::io::sink()).map_err(unreadable)?;
+    Ok((crate::util::hex(&reader.hasher.finalize()), meta))
 }
 
 fn insert_run(

@@ -28,6 +28,10 @@ pub struct Span {
     pub depth: usize,
     /// Wall time in seconds.
     pub seconds: f64,
+    /// The process's peak resident memory when the span ended (Linux's
+    /// `VmHWM`), bytes; `None` where the system does not say. Read in
+    /// order, the spans show which stage raised the peak.
+    pub peak_rss_bytes: Option<u64>,
 }
 
 /// Switches recording on for the rest of the process.
@@ -81,15 +85,25 @@ impl Drop for Guard {
         if let Some((name, depth, start, outer)) = self.0.take() {
             DEPTH.with(|d| d.set(outer));
             let seconds = start.elapsed().as_secs_f64();
+            let peak_rss_bytes = peak_rss_bytes();
             if let Ok(mut spans) = SPANS.lock() {
                 spans.push(Span {
                     name,
                     depth,
                     seconds,
+                    peak_rss_bytes,
                 });
             }
         }
     }
+}
+
+/// The process's peak resident memory so far, from `/proc/self/status`.
+pub fn peak_rss_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 /// The spans recorded so far, in the order they finished.
@@ -102,10 +116,13 @@ pub fn take() -> Vec<Span> {
 
 /// The spans as an indented table, children above their parent.
 pub fn table(spans: &[Span]) -> String {
-    let mut out = String::from("timings (wall, seconds):\n");
+    let mut out = String::from("timings (wall, seconds; peak memory so far, MB):\n");
     for s in spans {
+        let peak = s
+            .peak_rss_bytes
+            .map_or(String::new(), |b| format!(" {:>8.1}", b as f64 / 1e6));
         out.push_str(&format!(
-            "  {:indent$}{:<width$} {:>8.3}\n",
+            "  {:indent$}{:<width$} {:>8.3}{peak}\n",
             "",
             s.name,
             s.seconds,

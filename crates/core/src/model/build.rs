@@ -95,7 +95,12 @@ fn insert_colour(roi: &mut RoiInfo, c: &crate::metrics::chromaticity::ColourFigu
 /// The model of the run's cases, analyses, fine maps and advice. The
 /// cases are read from `source` a chunk at a time, each analysed in
 /// parallel, so that only the model's own row of each case is kept.
-fn build(plan: &Plan, backend_id: &str, source: &dyn CaseSource) -> Result<Results, CaseReadError> {
+fn build(
+    plan: &Plan,
+    backend_id: &str,
+    source: &dyn CaseSource,
+    detail: Detail,
+) -> Result<Results, CaseReadError> {
     let mut counts = Counts {
         total: source.len(),
         ..Counts::default()
@@ -108,9 +113,11 @@ fn build(plan: &Plan, backend_id: &str, source: &dyn CaseSource) -> Result<Resul
             use rayon::prelude::*;
             let _t = crate::timings::span_at("analyses: cases and sample frames", depth);
             let mut cases = Vec::with_capacity(source.len());
-            crate::runner::for_each_chunk(source, |_, chunk| {
+            let mut chart_data = super::listing::ChartData::new(source.len(), detail);
+            crate::runner::for_each_chunk(source, |first, chunk| {
                 let infos = chunk.par_iter().map(|r| analysed_case(plan, r));
                 cases.par_extend(infos);
+                chart_data.prune(&mut cases, first);
                 Ok::<(), CaseReadError>(())
             })?;
             Ok::<Vec<CaseInfo>, CaseReadError>(cases)
@@ -199,7 +206,7 @@ fn analysed_case(plan: &Plan, r: &CaseResult) -> CaseInfo {
 /// summaries of captured and rig runs (from each case's acquisition), then
 /// the method section and the notes.
 pub fn assemble(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Results {
-    match assemble_from(plan, backend_id, &results) {
+    match assemble_from(plan, backend_id, &results, Detail::Full) {
         Ok(model) => model,
         // A slice reads every range asked of it.
         Err(e) => unreachable!("cases in memory: {e}"),
@@ -207,13 +214,16 @@ pub fn assemble(plan: &Plan, backend_id: &str, results: &[CaseResult]) -> Result
 }
 
 /// [`assemble`] of the cases `source` reads back (the case store of a
-/// run), which may fail where a read fails.
+/// run), which may fail where a read fails, for a report at `detail`: the
+/// chart data of cases that report will not draw is dropped as the cases
+/// are analysed ([`super::listing::ChartData`]).
 pub fn assemble_from(
     plan: &Plan,
     backend_id: &str,
     source: &dyn CaseSource,
+    detail: Detail,
 ) -> Result<Results, CaseReadError> {
-    let mut model = build(plan, backend_id, source)?;
+    let mut model = build(plan, backend_id, source, detail)?;
     super::method::describe(&mut model, plan);
     model.notes = super::method::notes(&model, plan);
     Ok(model)

@@ -62,9 +62,63 @@ pub fn drop_undrawn(model: &mut Results, detail: Detail) {
         return;
     }
     for c in (model.cases.iter_mut()).filter(|c| !listing.charts_case(&c.id)) {
-        for roi in &mut c.rois {
-            roi.analysis.folded_bins = Vec::new();
+        drop_chart_data(c);
+    }
+}
+
+fn drop_chart_data(c: &mut CaseInfo) {
+    for roi in &mut c.rois {
+        roi.analysis.folded_bins = Vec::new();
+    }
+}
+
+/// [`drop_undrawn`] while the cases are still being analysed, a chunk at a
+/// time, so that a sweep's model never holds every case's chart data at
+/// once. It keeps the data of the cases that can still get a page: those
+/// the report at `detail` pages, best [`CASE_PAGES_MAX`] so far by the
+/// listing's order. A case pushed out never comes back (the cases kept only
+/// get worse), so every case [`listing`] finally pages keeps its data.
+#[derive(Debug)]
+pub struct ChartData {
+    detail: Detail,
+    /// Whether anything is dropped: a run within [`LISTED_CASES_MAX`]
+    /// charts every case, and `--detail full` gives every case a page.
+    drops: bool,
+    /// Indices of the cases kept, best first.
+    kept: Vec<usize>,
+}
+
+impl ChartData {
+    /// For a run of `cases` cases reported at `detail`.
+    pub fn new(cases: usize, detail: Detail) -> ChartData {
+        ChartData {
+            detail,
+            drops: detail != Detail::Full && cases > LISTED_CASES_MAX,
+            kept: Vec::new(),
         }
+    }
+
+    /// Drops the chart data of the cases from `first` on (just analysed)
+    /// and of those now beyond the best [`CASE_PAGES_MAX`].
+    pub fn prune(&mut self, cases: &mut [CaseInfo], first: usize) {
+        if !self.drops {
+            return;
+        }
+        for (i, c) in cases.iter_mut().enumerate().skip(first) {
+            match self.detail.shows_case(c.verdict.as_str()) {
+                true => self.kept.push(i),
+                false => drop_chart_data(c),
+            }
+        }
+        let by_rank = |&a: &usize, &b: &usize| {
+            let ((ca, ma), (cb, mb)) = (rank(&cases[a]), rank(&cases[b]));
+            ca.cmp(&cb).then(ma.total_cmp(&mb)).then(a.cmp(&b))
+        };
+        self.kept.sort_by(by_rank);
+        for &i in self.kept.iter().skip(CASE_PAGES_MAX) {
+            drop_chart_data(&mut cases[i]);
+        }
+        self.kept.truncate(CASE_PAGES_MAX);
     }
 }
 
@@ -164,6 +218,61 @@ mod tests {
         assert!(all.iter().all(|c| l.charts_case(&c.id)));
         assert!(listing_of(&all, Detail::Summary).pages.is_empty());
         assert_eq!(listing_of(&all, Detail::Full).pages.len(), all.len());
+    }
+
+    /// An LED ROI named as the checks of [`cases`] name it.
+    fn led_roi() -> super::super::RoiInfo {
+        serde_json::from_value(serde_json::json!({
+            "name": "led", "kind": "led", "metrics": {}, "reasons": {},
+            "levels": {"off": 0.0, "on": 1.0, "min": 0.0, "max": 2.0, "mean": 1.0},
+            "saturated": false, "contrast_unbounded": false,
+            "analysis": {"apparent_frequency_spectrum_hz": 10.0, "spectrum_reason": null,
+                "apparent_frequency_hz": 10.0, "apparent_method": "frame-times",
+                "hazard_class": "peak-annoyance", "hazard_matches": [],
+                "phase_coverage": {"bins": 64, "covered_bins": 3, "coverage": 0.05,
+                    "capture_s": 3.0, "needed_capture_s": null, "worst_case_seen": false,
+                    "warning": null}}
+        }))
+        .unwrap()
+    }
+
+    #[test]
+    fn chart_data_dropped_chunk_by_chunk_is_kept_for_exactly_the_paged_cases() {
+        let n = 3 * LISTED_CASES_MAX + 7;
+        // Failing cases spread over the run, the worst (lowest FDI) late
+        // and early alike, so that the best so far changes chunk by chunk.
+        let fails = |i: usize| !i.is_multiple_of(3);
+        for detail in Detail::ALL {
+            let mut all = cases(n, fails);
+            for (i, c) in all.iter_mut().enumerate() {
+                let mut roi = led_roi();
+                roi.analysis.folded_bins = vec![Some((0.0, 1.0))];
+                c.rois = vec![roi];
+                // Reverse the margins in the second half: later cases worse.
+                if i > n / 2 {
+                    for k in &mut c.checks {
+                        k.value = k.value.map(|v| v - 1.0);
+                    }
+                }
+            }
+            let mut data = ChartData::new(n, detail);
+            for first in (0..n).step_by(61) {
+                let end = (first + 61).min(n);
+                data.prune(&mut all[..end], first);
+            }
+            let kept: BTreeSet<String> = all
+                .iter()
+                .filter(|c| c.rois.iter().any(|r| !r.analysis.folded_bins.is_empty()))
+                .map(|c| c.id.clone())
+                .collect();
+            let l = listing_of(&all, detail);
+            let charted: BTreeSet<String> = all
+                .iter()
+                .filter(|c| l.charts_case(&c.id))
+                .map(|c| c.id.clone())
+                .collect();
+            assert_eq!(kept, charted, "{detail:?}");
+        }
     }
 
     #[test]

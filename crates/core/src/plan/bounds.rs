@@ -95,9 +95,9 @@ pub const TIMEOUT_S_RANGE: (f64, f64) = (1.0e-3, 86_400.0);
 
 /// Most cases a report lists in its per-case tables; a run of more cases
 /// lists its worst ones (`model::listing`, docs/report.md "Large runs").
-pub const LISTED_CASES_MAX: usize = 500;
+pub const LISTED_CASES_MAX: usize = 200;
 /// Most case pages a report gives at `--detail standard`.
-pub const CASE_PAGES_MAX: usize = 50;
+pub const CASE_PAGES_MAX: usize = 20;
 
 /// Memory of the process before the first case: code, the PDF engine's
 /// fonts, the thread pool, bytes (measured: 58 MB for 2 and 4 cases; 66 MB
@@ -105,17 +105,22 @@ pub const CASE_PAGES_MAX: usize = 50;
 /// one plan's peak was seen to vary between runs).
 const BASE_MEMORY_BYTES: f64 = 85.0e6;
 /// Memory every case costs until the report is written: its entry of the
-/// results model (what results.json says of it); its result, trace and
-/// files are read back from the case store a chunk at a time (measured:
-/// 11 to 17 kB a case of 2 ROIs beyond the listed ones, in sweeps of 1000
-/// to 23,460 cases).
-const CASE_MEMORY_BYTES: f64 = 16.0e3;
+/// results model (what results.json says of it; the phase folds' bins only
+/// for the cases that get a page); its result, trace and files are read
+/// back from the case store a chunk at a time (measured: 9.9 to 10.1 kB a
+/// case of 2 ROIs beyond the listed ones, between sweeps of 3,000, 15,640
+/// and 23,460 cases).
+const CASE_MEMORY_BYTES: f64 = 10.5e3;
+/// Memory a shard holds per case, on top of its frames and ROIs
+/// ([`SHARD_FRAME_ROI_MEMORY_BYTES`]): its result until the shard's
+/// directory is written.
+const SHARD_CASE_MEMORY_BYTES: f64 = 16.0e3;
 /// Memory a case the report lists costs on top: its result read back for
 /// its pictures, its rows of the PDF's and the HTML's tables and their
-/// part of the PDF layout (fitted as an upper bound to sweeps of 1000 to
-/// 23,460 cases, whose 500 listed cases cost 250 to 370 MB: the most where
+/// part of the PDF layout (fitted as an upper bound: the 200 listed cases
+/// of sweeps of 1,000 and 3,000 cases cost about 120 MB, the most where
 /// many cases fail, as in the shipped 23,460-case sweep).
-const LISTED_MEMORY_BYTES: f64 = 0.8e6;
+const LISTED_MEMORY_BYTES: f64 = 0.85e6;
 /// Memory a case with charts costs per frame and ROI: its trace, zoom and
 /// phase-fold charts and its pages (fitted as an upper bound to the
 /// shipped plans, which chart every case: the P2020 videos of 36 ROIs are
@@ -134,7 +139,7 @@ const FINE_MAP_MEMORY_BYTES: f64 = 30.0e6;
 /// Size of the report that does not grow with cases, bytes.
 const BASE_OUTPUT_BYTES: f64 = 1.5e6;
 /// Memory a shard's case costs per frame and ROI while the shard holds
-/// it, on top of [`CASE_MEMORY_BYTES`]: its trace and analyses (measured:
+/// it, on top of [`SHARD_CASE_MEMORY_BYTES`]: its trace and analyses (measured:
 /// 264 MB for a shard of 10,000 cases of 120 frames and 2 ROIs, 79 MB for
 /// 2,500).
 const SHARD_FRAME_ROI_MEMORY_BYTES: f64 = 40.0;
@@ -318,7 +323,7 @@ impl WorkEstimate {
             frame_pixels: pixels,
             memory_bytes: BASE_MEMORY_BYTES
                 + PIXEL_MEMORY_BYTES * pixels as f64
-                + n * (CASE_MEMORY_BYTES + SHARD_FRAME_ROI_MEMORY_BYTES * frame_rois),
+                + n * (SHARD_CASE_MEMORY_BYTES + SHARD_FRAME_ROI_MEMORY_BYTES * frame_rois),
             output_bytes: BASE_OUTPUT_BYTES
                 + n * (CASE_OUTPUT_BYTES + FRAME_ROI_OUTPUT_BYTES * frame_rois),
         }
