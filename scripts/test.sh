@@ -52,16 +52,19 @@ fi
 # `gst-launch-1.0` (Debian's gstreamer1.0-tools, -plugins-base for
 # videoconvert, -plugins-good for multifilesrc, pngdec and y4menc) and
 # from Aravis' fake GigE Vision camera (aravis-tools:
-# arv-fake-gv-camera-0.8 and arv-tool-0.8; its library libaravis-0.8-0
-# holds the `aravissrc` element). They fail, never skip, without them.
+# arv-fake-gv-camera-0.8, whose library libaravis-0.8-0 holds the
+# `aravissrc` element; aravis-tools-cli: arv-tool-0.8). They fail, never
+# skip, without them.
 if ! command -v gst-launch-1.0 >/dev/null || ! command -v arv-fake-gv-camera-0.8 >/dev/null \
+    || ! command -v arv-tool-0.8 >/dev/null \
     || ! gst-inspect-1.0 y4menc >/dev/null 2>&1 || ! gst-inspect-1.0 aravissrc >/dev/null 2>&1; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
         echo "--- installing GStreamer and Aravis (apt-get)"
         apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
-            gstreamer1.0-tools gstreamer1.0-plugins-base gstreamer1.0-plugins-good aravis-tools >/dev/null
+            gstreamer1.0-tools gstreamer1.0-plugins-base gstreamer1.0-plugins-good aravis-tools \
+            aravis-tools-cli >/dev/null
     else
-        echo "error: gst-launch-1.0, its y4menc or aravissrc element, or arv-fake-gv-camera-0.8 not found; install them (e.g. sudo apt-get install gstreamer1.0-tools gstreamer1.0-plugins-base gstreamer1.0-plugins-good aravis-tools)" >&2
+        echo "error: gst-launch-1.0, its y4menc or aravissrc element, arv-fake-gv-camera-0.8 or arv-tool-0.8 not found; install them (e.g. sudo apt-get install gstreamer1.0-tools gstreamer1.0-plugins-base gstreamer1.0-plugins-good aravis-tools aravis-tools-cli)" >&2
         exit 2
     fi
 fi

@@ -267,6 +267,8 @@ pub fn report(
                 source: e.into(),
             })?;
     crate::model::listing::drop_undrawn(&mut model, options.detail);
+    // The cases read back for the analyses are freed on the workers' threads.
+    crate::util::release_free_memory();
     drop(t);
     crate::interrupt::check()?;
     let t = crate::timings::span("write report");

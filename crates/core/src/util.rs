@@ -10,6 +10,21 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
     hex(&Sha256::digest(bytes))
 }
 
+/// Gives the memory freed since the last call back to the system, where
+/// the allocator keeps it otherwise: glibc keeps freed memory in the arena
+/// of the thread that used it, so memory one stage freed on the PDF
+/// engine's or the analyses' threads is not reused by the next stage on
+/// another thread, and the process's peak would be the sum of the stages
+/// instead of the largest.
+pub fn release_free_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: malloc_trim only walks the allocator's own free lists and
+    // is safe to call from any thread at any time.
+    unsafe {
+        libc::malloc_trim(0);
+    }
+}
+
 /// `bytes` as lowercase hex, e.g. a digest.
 pub fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()

@@ -431,6 +431,7 @@ fn write_documents(
             })
         });
         let pdf = render_pdf(&layout_doc, (&charts, &views), depth);
+        crate::util::release_free_memory();
         let others = beside
             .join()
             .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
@@ -450,10 +451,11 @@ fn write_documents(
     Ok(())
 }
 
-/// The run's cases whose pictures the document shows: the listed cases
-/// (every case of a run within [`crate::model::listing::LISTED_CASES_MAX`])
-/// and those of the ROI map (the first case with a frame; every one of a
-/// capture), in case order.
+/// The run's cases whose pictures the document shows: every case of a run
+/// within [`crate::model::listing::EVERY_CASE_LISTED_MAX`], else the cases with
+/// a page (only a case page shows a case's charts and frame), and those of
+/// the ROI map (the first case with a frame; every one of a capture), in
+/// case order.
 fn shown_cases(
     model: &Results,
     listing: &crate::model::listing::Listing,
@@ -468,7 +470,7 @@ fn shown_cases(
     for (k, c) in model.cases.iter().enumerate() {
         let map = c.sample_frame.is_some() && (each_capture || framed == 0);
         framed += usize::from(c.sample_frame.is_some());
-        if map || listing.listed.contains(&c.id) {
+        if map || listing.pages.contains(&c.id) {
             shown.extend(cases.read(k..k + 1)?);
         }
     }

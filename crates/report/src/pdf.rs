@@ -494,6 +494,11 @@ fn lay_out(world: &ReportWorld<'_>, ident: String) -> Result<(Vec<u8>, usize), R
     let document = compiled
         .output
         .map_err(|errors| diagnostics("typst could not lay out the report", &errors, world))?;
+    // Typst keeps every memoised layout result for a later compile of the
+    // same world; the report is laid out once, so the cache (the larger
+    // part of the PDF stage's memory) is freed before the PDF is written
+    // and the next stages allocate their own.
+    typst::comemo::evict(0);
     let options = typst_pdf::PdfOptions {
         // A stable identifier: the same report gives the same PDF bytes.
         ident: typst::foundations::Smart::Custom(ident),

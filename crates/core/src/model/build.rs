@@ -196,7 +196,7 @@ fn analysed_case(plan: &Plan, r: &CaseResult) -> CaseInfo {
         if plan.dut.backend == BackendKind::Captured {
             case.source = Some(s.source.clone());
         }
-        case.capture = Some(s.clone());
+        case.capture = Some(Box::new(s.clone()));
     }
     case
 }
@@ -317,10 +317,10 @@ fn case_info(
         beat: a.beat,
         drive: a.drive,
         banding: a.banding,
-        frame_timing: a.timing,
+        frame_timing: a.timing.map(Box::new),
         worst_phase: a
             .worst_phase
-            .map(|w| super::evidence::worst_phase_info(&r.case.id, w, &plan.rois)),
+            .map(|w| Box::new(super::evidence::worst_phase_info(&r.case.id, w, &plan.rois))),
     }
 }
 

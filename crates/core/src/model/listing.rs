@@ -12,11 +12,12 @@ use std::collections::BTreeSet;
 use super::{CaseInfo, Detail, Results, Verdict};
 
 /// Most case pages a report gives at `--detail standard` (failing cases,
-/// worst first); `--detail full` gives every case a page. Most cases a
-/// report lists in its per-case tables (failing cases, informational
-/// cases, case seeds, Appendix A): a run of more cases lists its worst ones
-/// and says where the rest are. The plan's work estimate counts on both.
-pub use crate::plan::bounds::{CASE_PAGES_MAX, LISTED_CASES_MAX};
+/// worst first); `--detail full` gives every case a page. The per-case
+/// tables (failing cases, informational cases, case seeds, Appendix A) of
+/// a run of at most [`EVERY_CASE_LISTED_MAX`] cases list every case; a
+/// larger run's list its worst [`LISTED_CASES_MAX`] and say where the rest
+/// are. The plan's work estimate counts on these.
+pub use crate::plan::bounds::{CASE_PAGES_MAX, EVERY_CASE_LISTED_MAX, LISTED_CASES_MAX};
 
 /// The cases a report shows, by id.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -81,7 +82,7 @@ fn drop_chart_data(c: &mut CaseInfo) {
 #[derive(Debug)]
 pub struct ChartData {
     detail: Detail,
-    /// Whether anything is dropped: a run within [`LISTED_CASES_MAX`]
+    /// Whether anything is dropped: a run within [`EVERY_CASE_LISTED_MAX`]
     /// charts every case, and `--detail full` gives every case a page.
     drops: bool,
     /// Indices of the cases kept, best first.
@@ -93,7 +94,7 @@ impl ChartData {
     pub fn new(cases: usize, detail: Detail) -> ChartData {
         ChartData {
             detail,
-            drops: detail != Detail::Full && cases > LISTED_CASES_MAX,
+            drops: detail != Detail::Full && cases > EVERY_CASE_LISTED_MAX,
             kept: Vec::new(),
         }
     }
@@ -162,7 +163,7 @@ fn listing_of(cases: &[CaseInfo], detail: Detail) -> Listing {
         _ => paged.len().min(CASE_PAGES_MAX),
     };
     let pages: BTreeSet<String> = paged[..keep].iter().map(|c| c.id.clone()).collect();
-    let listed: BTreeSet<String> = if cases.len() <= LISTED_CASES_MAX {
+    let listed: BTreeSet<String> = if cases.len() <= EVERY_CASE_LISTED_MAX {
         cases.iter().map(|c| c.id.clone()).collect()
     } else {
         let mut listed = pages.clone();
@@ -208,11 +209,11 @@ mod tests {
 
     #[test]
     fn a_run_within_the_list_limit_lists_every_case_and_pages_its_failures() {
-        let all = cases(LISTED_CASES_MAX, |i| i % 13 == 1);
+        let all = cases(EVERY_CASE_LISTED_MAX, |i| i % 13 == 1);
         let failing = all.iter().filter(|c| c.verdict == Verdict::Fail).count();
         assert!(failing > 0 && failing <= CASE_PAGES_MAX, "{failing}");
         let l = listing_of(&all, Detail::Standard);
-        assert_eq!(l.listed.len(), LISTED_CASES_MAX);
+        assert_eq!(l.listed.len(), EVERY_CASE_LISTED_MAX);
         assert_eq!((l.unlisted, l.pages_omitted), (0, 0));
         assert_eq!(l.pages.len(), failing);
         assert!(all.iter().all(|c| l.charts_case(&c.id)));
@@ -238,7 +239,7 @@ mod tests {
 
     #[test]
     fn chart_data_dropped_chunk_by_chunk_is_kept_for_exactly_the_paged_cases() {
-        let n = 3 * LISTED_CASES_MAX + 7;
+        let n = EVERY_CASE_LISTED_MAX + 3 * LISTED_CASES_MAX + 7;
         // Failing cases spread over the run, the worst (lowest FDI) late
         // and early alike, so that the best so far changes chunk by chunk.
         let fails = |i: usize| !i.is_multiple_of(3);
@@ -277,7 +278,7 @@ mod tests {
 
     #[test]
     fn a_sweep_pages_and_lists_its_worst_cases_only() {
-        let n = 4 * LISTED_CASES_MAX;
+        let n = EVERY_CASE_LISTED_MAX + 4 * LISTED_CASES_MAX;
         // Every third case fails, furthest beyond the limit at low i.
         let all = cases(n, |i| i % 3 == 2);
         let failing: Vec<&CaseInfo> = all.iter().filter(|c| c.verdict == Verdict::Fail).collect();

@@ -313,7 +313,7 @@ pub struct CaseInfo {
     /// What was read from the capture and the segments used (captured and
     /// command backends).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub capture: Option<CaptureSummary>,
+    pub capture: Option<Box<CaptureSummary>>,
     /// Case seed.
     pub seed: u64,
     /// pass, fail or info.
@@ -353,11 +353,11 @@ pub struct CaseInfo {
     /// fitted to a captured or rig case's PWM frame times (absent for the
     /// simulator).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub frame_timing: Option<FrameTiming>,
+    pub frame_timing: Option<Box<FrameTiming>>,
     /// The trace and frame at the worst PWM phase that a failing or
     /// informational worst-phase verdict rests on (simulator only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub worst_phase: Option<evidence::WorstPhaseInfo>,
+    pub worst_phase: Option<Box<evidence::WorstPhaseInfo>>,
 }
 
 impl CaseInfo {

@@ -93,9 +93,13 @@ pub const CAPTURE_FPS_RANGE: (f64, f64) = (MIN_FPS, 1.0e5);
 /// (exit code 3), as documented for the command backend.
 pub const TIMEOUT_S_RANGE: (f64, f64) = (1.0e-3, 86_400.0);
 
-/// Most cases a report lists in its per-case tables; a run of more cases
-/// lists its worst ones (`model::listing`, docs/report.md "Large runs").
-pub const LISTED_CASES_MAX: usize = 200;
+/// Most cases a run may have for its report to list every case in its
+/// per-case tables; a larger run, a sweep, lists its worst
+/// [`LISTED_CASES_MAX`] (`model::listing`, docs/report.md "Large runs").
+pub const EVERY_CASE_LISTED_MAX: usize = 200;
+/// Cases a report of a run larger than [`EVERY_CASE_LISTED_MAX`] lists
+/// in its per-case tables: its worst.
+pub const LISTED_CASES_MAX: usize = 100;
 /// Most case pages a report gives at `--detail standard`.
 pub const CASE_PAGES_MAX: usize = 20;
 
@@ -107,9 +111,9 @@ const BASE_MEMORY_BYTES: f64 = 85.0e6;
 /// Memory every case costs until the report is written: its entry of the
 /// results model (what results.json says of it; the phase folds' bins only
 /// for the cases that get a page); its result, trace and files are read
-/// back from the case store a chunk at a time (measured: 9.9 to 10.1 kB a
-/// case of 2 ROIs beyond the listed ones, between sweeps of 3,000, 15,640
-/// and 23,460 cases).
+/// back from the case store a chunk at a time (measured: 7.7 kB a case of
+/// 2 ROIs in the model of the 23,460-case sweep; the rest is room for the
+/// report stage's copies of its figures).
 const CASE_MEMORY_BYTES: f64 = 10.5e3;
 /// Memory a shard holds per case, on top of its frames and ROIs
 /// ([`SHARD_FRAME_ROI_MEMORY_BYTES`]): its result until the shard's
@@ -117,10 +121,10 @@ const CASE_MEMORY_BYTES: f64 = 10.5e3;
 const SHARD_CASE_MEMORY_BYTES: f64 = 16.0e3;
 /// Memory a case the report lists costs on top: its result read back for
 /// its pictures, its rows of the PDF's and the HTML's tables and their
-/// part of the PDF layout (fitted as an upper bound: the 200 listed cases
-/// of sweeps of 1,000 and 3,000 cases cost about 120 MB, the most where
-/// many cases fail, as in the shipped 23,460-case sweep).
-const LISTED_MEMORY_BYTES: f64 = 0.85e6;
+/// part of the PDF layout (fitted as an upper bound: the shipped
+/// 23,460-case sweep cut to 1,000 cases, whose many failing cases make its
+/// 100 listed cases the costliest, peaks at 195 MB).
+const LISTED_MEMORY_BYTES: f64 = 0.9e6;
 /// Memory a case with charts costs per frame and ROI: its trace, zoom and
 /// phase-fold charts and its pages (fitted as an upper bound to the
 /// shipped plans, which chart every case: the P2020 videos of 36 ROIs are
@@ -268,7 +272,7 @@ impl WorkEstimate {
         // Every case is modelled and exported, a chunk at a time from the
         // case store; the report lists (tables, PDF layout) and charts at
         // most its worst cases, unless it gives every case a page.
-        let (listed, charted) = if every_case || cases <= LISTED_CASES_MAX {
+        let (listed, charted) = if every_case || cases <= EVERY_CASE_LISTED_MAX {
             (n, n)
         } else {
             (LISTED_CASES_MAX as f64, CASE_PAGES_MAX as f64)
