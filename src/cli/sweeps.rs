@@ -46,12 +46,16 @@ fn simulator_rate(plan_path: &Path) -> Result<f64, String> {
     Ok(cases.len() as f64 / started.elapsed().as_secs_f64())
 }
 
-/// The "run cases" seconds of a `--timings` table.
+/// The "run cases" seconds of a `--timings` table: the first figure after
+/// the name (the peak memory may follow it).
 fn run_stage_s(timings: &str) -> Option<f64> {
-    let line = timings
+    timings
         .lines()
-        .find(|l| l.trim_start().starts_with("run cases"))?;
-    line.split_whitespace().last()?.parse().ok()
+        .find_map(|l| l.trim_start().strip_prefix("run cases"))?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
 }
 
 /// Runs each sweep once and prints a row each, then the simulator's own
@@ -126,4 +130,29 @@ pub(super) fn bench_sweeps(quick: bool) -> Result<(), Failure> {
         )?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::timings::{Span, table};
+
+    #[test]
+    fn the_run_stage_is_read_from_the_timings_table_with_or_without_the_memory_column() {
+        let span = |name, seconds, peak_rss_bytes| Span {
+            name,
+            depth: 0,
+            seconds,
+            peak_rss_bytes,
+        };
+        for peak in [Some(486_100_000), None] {
+            let text = table(&[
+                span("load and validate plan", 0.002, peak),
+                span("run cases", 0.074, peak),
+                span("total", 1.604, peak),
+            ]);
+            assert_eq!(run_stage_s(&text), Some(0.074), "{text}");
+        }
+        assert_eq!(run_stage_s("timings (wall, seconds):\n"), None);
+    }
 }
