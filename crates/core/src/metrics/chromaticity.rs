@@ -8,6 +8,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::flicker::Metric;
+use super::p2020::{self, P2020Metrics, P2020Options};
 use crate::plan::colour::{ColourConfig, SignalColourName};
 use crate::trace::Segment;
 
@@ -132,6 +134,44 @@ pub struct ColourFigures {
     pub outside_frames: Vec<u64>,
     /// PWM frames.
     pub frames: u64,
+    /// FMI, FDI (P2020) and MMP of each colour plane's trace (R, G, B), by
+    /// the luma's definitions; empty when not computed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub planes: Vec<P2020Metrics>,
+}
+
+/// Why an LED ROI has no Δu′v′.
+pub const NO_COLOUR: &str = "no PWM frame has light: no colour";
+
+/// Names of the colour planes in metric ids (`fmi_r`, `mmp_b`).
+pub const PLANE_SUFFIXES: [&str; 3] = ["r", "g", "b"];
+
+impl ColourFigures {
+    /// Δu′v′ as a metric to check against `delta-uv-max`.
+    pub fn delta_uv_metric(&self) -> Metric {
+        Metric {
+            value: self.delta_uv,
+            unbounded: false,
+            reason: self.delta_uv.is_none().then(|| NO_COLOUR.to_string()),
+        }
+    }
+}
+
+/// FMI, FDI (P2020) and MMP of each colour plane of an ROI: the plane's DN
+/// frame by frame (black level included, as the luma's) through the very
+/// code of the luma's KPIs. Empty when the trace has no PWM frames.
+pub fn plane_kpis(
+    rgb: &[[f64; 3]],
+    segments: &[Segment],
+    opts: &P2020Options,
+) -> Vec<P2020Metrics> {
+    (0..3)
+        .map(|p| {
+            let plane: Vec<f64> = rgb.iter().map(|c| c[p]).collect();
+            p2020::evaluate(&plane, segments, opts)
+        })
+        .collect::<Option<Vec<_>>>()
+        .unwrap_or_default()
 }
 
 /// The colour of an LED ROI's PWM segment: the planes' DN less the black
@@ -167,6 +207,7 @@ pub fn of_trace(
         frames_outside: region.map(|_| outside_frames.len() as u64),
         outside_frames,
         frames: light.len() as u64,
+        planes: Vec::new(),
     }
 }
 
