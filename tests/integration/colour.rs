@@ -103,6 +103,23 @@ fn a_red_pwm_lamp_with_a_chroma_shift_is_reported_with_its_delta_uv_and_violatio
         "{row:?}"
     );
     assert!(row.reading.contains("leaves the red region"), "{row:?}");
+    // Its u'v' diagram: one cross per frame outside the region (plus the
+    // legend's), in both panels where they fall, and the report shows it.
+    let svg = &doc.charts[&row.chart];
+    assert!(svg.contains("UN R48 red") && svg.contains("UN R48 amber"));
+    assert!(
+        svg.contains("a frame outside the red region"),
+        "the legend names the crosses"
+    );
+    let fmi: Vec<f64> = row
+        .planes_fmi
+        .split(" / ")
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert_eq!(fmi.len(), 3, "{row:?}");
+    assert!((fmi[0] - lamp.metrics["fmi_r"].unwrap()).abs() < 1e-3);
+    let html = ledflicker::report::html::render_document(&doc).unwrap();
+    assert!(html.contains("each PWM frame's colour in the CIE 1976"));
     let csv = ledflicker::report::export::summary_csv(&model).unwrap();
     let header = csv.lines().next().unwrap();
     assert!(
