@@ -274,7 +274,7 @@ fn panel(
     for run in inside_runs(path, (u, v)) {
         c.draw_series(LineSeries::new(run, PATH.mix(0.35).stroke_width(1)))?;
     }
-    let seen = |&(_, a, b): &&(u64, f64, f64)| (u.0..=u.1).contains(&a) && (v.0..=v.1).contains(&b);
+    let seen = |p: &&(u64, f64, f64)| (u.0..=u.1).contains(&p.1) && (v.0..=v.1).contains(&p.2);
     let outside: std::collections::BTreeSet<u64> = colour.outside_frames.iter().copied().collect();
     let (inside, out): (Vec<_>, Vec<_>) = colour
         .path
