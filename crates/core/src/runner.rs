@@ -367,7 +367,10 @@ pub fn run_case(
             .as_ref()
             .zip(trace.rgb.as_ref())
             .map(|(c, rgb)| {
-                chromaticity::of_trace(c, rgb, &segments, plan.dut.camera.black_level_dn)
+                let mut figures =
+                    chromaticity::of_trace(c, rgb, &segments, plan.dut.camera.black_level_dn);
+                figures.planes = chromaticity::plane_kpis(rgb, &segments, &plan.p2020);
+                figures
             });
         metrics.push(m);
         p2020s.extend(p2020::evaluate(&trace.luma, &segments, &plan.p2020));

@@ -16,6 +16,7 @@ mod roi_map;
 mod trace;
 mod trace_overlay;
 mod trend;
+mod uv;
 mod worst_phase;
 
 pub use fold_grid::{FOLD_GRID_FROM, fold_grid_svg};
@@ -24,6 +25,7 @@ pub use roi_map::{ROI_MAP_WIDTH, roi_map_svg};
 pub use trace::{luma_trace_svg, pwm_zoom_frames, trace_zoom_svg};
 pub use trace_overlay::trace_overlay_svg;
 pub use trend::{TrendSeries, trend_svg};
+pub use uv::{UV_CHART_SIZE, uv_diagram_svg};
 pub use worst_phase::worst_phase_svg;
 
 /// Font family named in every chart.

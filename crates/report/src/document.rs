@@ -85,6 +85,12 @@ pub fn roi_map_chart_path(case_id: &str) -> String {
 /// Common prefix of the ROI maps' paths.
 pub const ROI_MAP_PREFIX: &str = "charts/rois-";
 
+/// The u′v′ diagram of the `k`-th ROI of one case (an LED ROI of a plan
+/// with colour).
+pub fn uv_chart_path(case_id: &str, k: usize) -> String {
+    format!("{CHARTS_DIR}/uv-{case_id}-{k:02}.svg")
+}
+
 /// Chart of the exposure advice.
 pub const ADVICE_CHART: &str = "charts/advice.svg";
 

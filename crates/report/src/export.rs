@@ -44,6 +44,22 @@ pub const CSV_VISIBILITY: ([&str; 2], &str) =
 /// Metric columns added for a plan with colour (`scene.led-chromaticity-xy`).
 pub const CSV_COLOUR: [&str; 2] = ["delta_uv", "frames_outside_signal_colour"];
 
+/// The P2020 KPIs of each colour plane, added for a plan with colour.
+pub const CSV_PLANES: [&str; 9] = [
+    "fmi_r",
+    "fmi_g",
+    "fmi_b",
+    "fdi_p2020_r",
+    "fdi_p2020_g",
+    "fdi_p2020_b",
+    "mmp_r",
+    "mmp_g",
+    "mmp_b",
+];
+
+/// The limit column added for a plan with colour.
+pub const CSV_COLOUR_LIMIT: &str = "delta_uv_max";
+
 /// The metric and limit columns of `model`'s CSV: the visibility ones only
 /// for a plan with `[display]`, the colour ones only for a plan with
 /// colour, so other plans keep their columns.
@@ -59,6 +75,8 @@ fn csv_columns(model: &Results) -> (Vec<&'static str>, Vec<&'static str>) {
         .any(|c| c.rois.iter().any(|r| r.metrics.contains_key(CSV_COLOUR[0])));
     if coloured {
         metrics.extend(CSV_COLOUR);
+        metrics.extend(CSV_PLANES);
+        limits.push(CSV_COLOUR_LIMIT);
     }
     (metrics, limits)
 }
@@ -119,6 +137,7 @@ fn metric_lines(c: &CaseInfo) -> Vec<String> {
                 .iter()
                 .chain(&CSV_VISIBILITY.0)
                 .chain(&CSV_COLOUR)
+                .chain(&CSV_PLANES)
                 .filter_map(|m| {
                     let v = if r.is_unbounded(m) {
                         "+inf".to_string()
@@ -281,15 +300,19 @@ pub fn summary_csv(model: &Results) -> Result<String, csv::Error> {
     for c in &model.cases {
         let lux = (c.light_lux > 0.0).then_some(c.light_lux);
         let lim = model.thresholds.limits_for(lux);
-        let limits = [
-            lim.fdi_2018_min,
-            lim.percent_flicker_max,
-            lim.fmi_max,
-            lim.fdi_p2020_min,
-            lim.mmp_min,
-            lim.visibility_max,
-        ];
-        let limits = &limits[..limit_columns.len()];
+        let limits: Vec<Option<f64>> = limit_columns
+            .iter()
+            .map(|&name| match name {
+                "fdi_2018_min" => lim.fdi_2018_min,
+                "percent_flicker_max" => lim.percent_flicker_max,
+                "fmi_max" => lim.fmi_max,
+                "fdi_p2020_min" => lim.fdi_p2020_min,
+                "mmp_min" => lim.mmp_min,
+                "visibility_max" => lim.visibility_max,
+                "delta_uv_max" => lim.delta_uv_max,
+                _ => None,
+            })
+            .collect();
         for r in &c.rois {
             let kind = match r.kind {
                 crate::model::RoiKind::Led => "led",

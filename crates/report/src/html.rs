@@ -243,6 +243,13 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             })
         })
         .collect();
+    // The u'v' diagrams of the driver section, by path.
+    let uv_charts: BTreeMap<String, Value> = doc
+        .charts
+        .range("charts/uv-".to_string()..)
+        .take_while(|(path, _)| path.starts_with("charts/uv-"))
+        .map(|(path, svg)| (path.clone(), Value::from_safe_string(svg.clone())))
+        .collect();
     let advice_chart = inline(ADVICE_CHART);
     let results = doc.json()?;
     let error = |e: minijinja::Error| template_error(&e, "report.html.j2", &doc.look);
@@ -267,6 +274,7 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
             advice_chart => advice_chart,
             matrices => matrices(doc, inline),
             driver => Serde(doc.driver()),
+            uv_charts => uv_charts,
             roi_maps => roi_maps(doc, inline),
             signatories => Serde(&doc.signatories),
             zooms => zooms,

@@ -302,6 +302,13 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
                 .then(|| minijinja::context! { fdi => fdi, pf => pf })
         })
         .collect();
+    // The u'v' diagrams of the driver section, by path.
+    let uv_charts: Vec<String> = doc
+        .charts
+        .range("charts/uv-".to_string()..)
+        .take_while(|(path, _)| path.starts_with("charts/uv-"))
+        .map(|(path, _)| path.clone())
+        .collect();
     let advice_chart = doc
         .charts
         .contains_key(super::document::ADVICE_CHART)
@@ -319,6 +326,7 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
             charts => traces,
             matrices => super::html::matrices(doc, |p: &str| Value::from(p)),
             driver => Serde(doc.driver()),
+            uv_charts => uv_charts,
             roi_maps => super::html::roi_maps(doc, |p: &str| Value::from(p)),
             signatories => Serde(&doc.signatories),
             zooms => zooms,

@@ -19,6 +19,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::metrics::visibility::svm;
+
 /// IEEE 1789-2015 region of a light source.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -46,6 +48,11 @@ pub struct DriveFlicker {
     pub ieee1789_noel_max_percent: Option<f64>,
     /// The region the drive falls in.
     pub ieee1789_region: Ieee1789Region,
+    /// Stroboscopic visibility measure of the drive (CIE TN 006:2016; 1 =
+    /// at threshold), exact from its harmonics (`svm::of_pwm`); `None`
+    /// when the frequency or the duty is unknown.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub svm: Option<f64>,
 }
 
 /// IEEE 1789 low-risk limit on modulation (%) at `frequency_hz`; `None` when exempt.
@@ -85,10 +92,22 @@ pub fn region(frequency_hz: f64, percent: f64) -> Ieee1789Region {
 }
 
 /// Flicker of an ideal PWM drive (LED fully off between pulses) at
-/// `frequency_hz` (> 0) with `duty` in (0, 1].
+/// `frequency_hz` (> 0) with `duty` in (0, 1]. A frequency or duty of 0
+/// (unknown, as for a capture without conditions) has no SVM.
 pub fn drive_flicker(frequency_hz: f64, duty: f64) -> DriveFlicker {
     let percent_flicker = if duty >= 1.0 { 0.0 } else { 100.0 };
+    let known = frequency_hz > 0.0 && duty > 0.0 && duty <= 1.0;
+    // A steady light (duty 1) has no harmonics: exactly 0, where the sum
+    // of sin(pi k) would leave rounding noise.
+    let svm = known.then(|| {
+        if duty >= 1.0 {
+            0.0
+        } else {
+            svm::of_pwm(frequency_hz, duty)
+        }
+    });
     DriveFlicker {
+        svm,
         percent_flicker,
         flicker_index: (1.0 - duty).clamp(0.0, 1.0),
         ieee1789_low_risk_max_percent: low_risk_limit_percent(frequency_hz),
@@ -100,6 +119,49 @@ pub fn drive_flicker(frequency_hz: f64, duty: f64) -> DriveFlicker {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The SVM of a PWM drive from the TN's formula written again here,
+    /// each harmonic's amplitude by the midpoint rule over one period.
+    fn svm_brute(f: f64, duty: f64) -> f64 {
+        let n = 20_000;
+        let t = |f_hz: f64| {
+            1.0 / (1.0 + (-0.00518 * (f_hz - 306.6)).exp()) + 20.0 * (-f_hz / 10.0).exp()
+        };
+        let mut sum = 0.0;
+        let mut k = 1;
+        while k as f64 * f <= 2000.0 {
+            let (mut re, mut im) = (0.0, 0.0);
+            for i in 0..n {
+                let u = (i as f64 + 0.5) / n as f64;
+                let x = if u < duty { 1.0 } else { 0.0 };
+                let a = 2.0 * std::f64::consts::PI * k as f64 * u;
+                re += x * a.cos();
+                im += x * a.sin();
+            }
+            // Amplitude over the mean (duty): 2 |X_k| / (N D).
+            let c = 2.0 * re.hypot(im) / (n as f64 * duty);
+            sum += (c / t(k as f64 * f)).powf(3.7);
+            k += 1;
+        }
+        sum.powf(1.0 / 3.7)
+    }
+
+    #[test]
+    fn the_drive_has_the_svm_of_its_pwm_and_none_when_unknown() {
+        for (f, duty) in [(90.0, 0.2), (100.0, 0.05), (500.0, 0.5), (1000.0, 0.1)] {
+            let svm = drive_flicker(f, duty).svm.unwrap();
+            let brute = svm_brute(f, duty);
+            assert!(
+                (svm - brute).abs() < 1e-6 * brute,
+                "{f} Hz {duty}: {svm} vs {brute}"
+            );
+        }
+        assert_eq!(drive_flicker(90.0, 1.0).svm, Some(0.0));
+        assert_eq!(drive_flicker(0.0, 0.5).svm, None);
+        assert_eq!(drive_flicker(90.0, 0.0).svm, None);
+        // Above 2 kHz no harmonic is summed: nothing is seen.
+        assert_eq!(drive_flicker(2500.0, 0.5).svm, Some(0.0));
+    }
 
     /// Flicker Index of a sampled waveform, from its definition.
     fn flicker_index_brute(duty: f64, steps: usize) -> f64 {

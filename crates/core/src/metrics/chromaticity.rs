@@ -8,6 +8,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::metric::Metric;
+use super::p2020::{self, P2020Metrics, P2020Options};
 use crate::plan::colour::{ColourConfig, SignalColourName};
 use crate::trace::Segment;
 
@@ -61,6 +63,104 @@ impl SignalColour {
             SignalColour::Amber => (0.398..=0.429).contains(&y) && z <= 0.007,
         }
     }
+}
+
+impl SignalColour {
+    /// The region's boundary lines of UN R48 paragraph 2.30 as half-planes
+    /// `a x + b y <= c` in CIE 1931 `(x, y)`; the spectrum locus closes it.
+    pub fn half_planes(self) -> &'static [(f64, f64, f64)] {
+        match self {
+            // y <= 0.335; z <= 0.008, i.e. -x - y <= -0.992.
+            SignalColour::Red => &[(0.0, 1.0, 0.335), (-1.0, -1.0, -0.992)],
+            // y <= 0.429; y >= 0.398; z <= 0.007.
+            SignalColour::Amber => &[(0.0, 1.0, 0.429), (0.0, -1.0, -0.398), (-1.0, -1.0, -0.993)],
+        }
+    }
+
+    /// The region as a polygon in `(x, y)`: the spectrum locus closed by
+    /// the purple line ([`SPECTRUM_LOCUS`]), clipped by each boundary line
+    /// (Sutherland-Hodgman), vertices in order.
+    pub fn polygon_xy(self) -> Vec<(f64, f64)> {
+        let mut poly: Vec<(f64, f64)> = SPECTRUM_LOCUS.iter().map(|&(_, x, y)| (x, y)).collect();
+        for &(a, b, c) in self.half_planes() {
+            let inside = |p: (f64, f64)| a * p.0 + b * p.1 <= c;
+            let cut = |p: (f64, f64), q: (f64, f64)| {
+                let (fp, fq) = (a * p.0 + b * p.1 - c, a * q.0 + b * q.1 - c);
+                let t = fp / (fp - fq);
+                (p.0 + t * (q.0 - p.0), p.1 + t * (q.1 - p.1))
+            };
+            let mut out = Vec::with_capacity(poly.len() + 2);
+            for (i, &q) in poly.iter().enumerate() {
+                let p = poly[(i + poly.len() - 1) % poly.len()];
+                match (inside(p), inside(q)) {
+                    (true, true) => out.push(q),
+                    (true, false) => out.push(cut(p, q)),
+                    (false, true) => {
+                        out.push(cut(p, q));
+                        out.push(q);
+                    }
+                    (false, false) => {}
+                }
+            }
+            poly = out;
+        }
+        poly
+    }
+}
+
+/// The spectrum locus of the CIE 1931 standard colorimetric observer
+/// (2°): wavelength (nm) and chromaticity `(x, y)` of monochromatic light
+/// (CIE 15:2004, from the colour-matching functions at 5 to 20 nm steps;
+/// finer where the locus bends). The polygon closes with the purple line
+/// from 700 nm back to 380 nm; beyond 700 nm the locus stays at 700 nm's
+/// chromaticity to four decimals.
+pub const SPECTRUM_LOCUS: &[(u32, f64, f64)] = &[
+    (380, 0.1741, 0.0050),
+    (420, 0.1714, 0.0051),
+    (440, 0.1644, 0.0109),
+    (450, 0.1566, 0.0177),
+    (460, 0.1440, 0.0297),
+    (470, 0.1241, 0.0578),
+    (475, 0.1096, 0.0868),
+    (480, 0.0913, 0.1327),
+    (485, 0.0687, 0.2007),
+    (490, 0.0454, 0.2950),
+    (495, 0.0235, 0.4127),
+    (500, 0.0082, 0.5384),
+    (505, 0.0039, 0.6548),
+    (510, 0.0139, 0.7502),
+    (515, 0.0389, 0.8120),
+    (520, 0.0743, 0.8338),
+    (525, 0.1142, 0.8262),
+    (530, 0.1547, 0.8059),
+    (540, 0.2296, 0.7543),
+    (550, 0.3016, 0.6923),
+    (560, 0.3731, 0.6245),
+    (570, 0.4441, 0.5547),
+    (575, 0.4788, 0.5202),
+    (580, 0.5125, 0.4866),
+    (585, 0.5448, 0.4544),
+    (590, 0.5752, 0.4242),
+    (595, 0.6029, 0.3965),
+    (600, 0.6270, 0.3725),
+    (605, 0.6482, 0.3514),
+    (610, 0.6658, 0.3340),
+    (615, 0.6801, 0.3197),
+    (620, 0.6915, 0.3083),
+    (625, 0.7006, 0.2993),
+    (630, 0.7079, 0.2920),
+    (635, 0.7140, 0.2859),
+    (640, 0.7190, 0.2809),
+    (650, 0.7260, 0.2740),
+    (660, 0.7300, 0.2700),
+    (680, 0.7334, 0.2666),
+    (700, 0.7347, 0.2653),
+];
+
+/// CIE 1976 `(u', v')` of the chromaticity `(x, y)`.
+pub fn uv_of_xy((x, y): (f64, f64)) -> (f64, f64) {
+    let d = -2.0 * x + 12.0 * y + 3.0;
+    (4.0 * x / d, 9.0 * y / d)
 }
 
 /// The colour of one ROI over the PWM segment.
@@ -132,6 +232,57 @@ pub struct ColourFigures {
     pub outside_frames: Vec<u64>,
     /// PWM frames.
     pub frames: u64,
+    /// FMI, FDI (P2020) and MMP of each colour plane's trace (R, G, B), by
+    /// the luma's definitions; empty when not computed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub planes: Vec<P2020Metrics>,
+    /// Each PWM frame with light: its index in the whole trace and its
+    /// `(u', v')`, for the report's diagram.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub path: Vec<(u64, f64, f64)>,
+}
+
+/// Why an LED ROI has no Δu′v′.
+pub const NO_COLOUR: &str = "no PWM frame has light: no colour";
+
+/// Names of the colour planes in metric ids (`fmi_r`, `mmp_b`).
+pub const PLANE_SUFFIXES: [&str; 3] = ["r", "g", "b"];
+
+impl ColourFigures {
+    /// The region the plan names, as [`SignalColour`].
+    pub fn signal_colour(&self) -> Option<SignalColour> {
+        match self.region.as_deref()? {
+            "red" => Some(SignalColour::Red),
+            "amber" => Some(SignalColour::Amber),
+            _ => None,
+        }
+    }
+
+    /// Δu′v′ as a metric to check against `delta-uv-max`.
+    pub fn delta_uv_metric(&self) -> Metric {
+        Metric {
+            value: self.delta_uv,
+            unbounded: false,
+            reason: self.delta_uv.is_none().then(|| NO_COLOUR.to_string()),
+        }
+    }
+}
+
+/// FMI, FDI (P2020) and MMP of each colour plane of an ROI: the plane's DN
+/// frame by frame (black level included, as the luma's) through the very
+/// code of the luma's KPIs. Empty when the trace has no PWM frames.
+pub fn plane_kpis(
+    rgb: &[[f64; 3]],
+    segments: &[Segment],
+    opts: &P2020Options,
+) -> Vec<P2020Metrics> {
+    (0..3)
+        .map(|p| {
+            let plane: Vec<f64> = rgb.iter().map(|c| c[p]).collect();
+            p2020::evaluate(&plane, segments, opts)
+        })
+        .collect::<Option<Vec<_>>>()
+        .unwrap_or_default()
 }
 
 /// The colour of an LED ROI's PWM segment: the planes' DN less the black
@@ -160,13 +311,20 @@ pub fn of_trace(
         (Some(e), Some(_)) => e.outside.iter().map(|&i| index[i]).collect(),
         _ => Vec::new(),
     };
+    let path = index
+        .iter()
+        .zip(&light)
+        .filter_map(|(&i, &c)| uv(xyz(&colour.camera_to_xyz, c)).map(|(u, v)| (i, u, v)))
+        .collect();
     ColourFigures {
+        path,
         delta_uv: found.as_ref().map(|e| e.delta_uv),
         mean_uv: found.as_ref().map(|e| e.mean_uv),
         region: colour.signal.map(|s| s.as_str().to_string()),
         frames_outside: region.map(|_| outside_frames.len() as u64),
         outside_frames,
         frames: light.len() as u64,
+        planes: Vec::new(),
     }
 }
 
@@ -228,6 +386,85 @@ mod tests {
         assert!(SignalColour::Amber.contains((0.58, 0.415)));
         assert!(!SignalColour::Amber.contains((0.69, 0.30)));
         assert_eq!(uv([0.0; 3]), None);
+    }
+
+    /// The distance of `p` from the line `a x + b y = c`.
+    fn off_line(p: (f64, f64), (a, b, c): (f64, f64, f64)) -> f64 {
+        (a * p.0 + b * p.1 - c).abs() / a.hypot(b)
+    }
+
+    #[test]
+    fn the_region_polygons_are_bounded_by_the_standards_lines_and_the_locus() {
+        // The corners where two of UN R48's lines meet, by hand: red's
+        // y = 0.335 and z = 0.008 at x = 1 - 0.008 - 0.335; amber's
+        // z = 0.007 at y = 0.398 and y = 0.429.
+        let corners = [
+            (SignalColour::Red, vec![(0.657, 0.335)]),
+            (SignalColour::Amber, vec![(0.595, 0.398), (0.564, 0.429)]),
+        ];
+        for (region, expected) in corners {
+            let poly = region.polygon_xy();
+            assert!(poly.len() >= 4, "{region:?}: {poly:?}");
+            for c in expected {
+                assert!(
+                    poly.iter().any(|p| (p.0 - c.0).hypot(p.1 - c.1) < 1e-12),
+                    "{region:?} has no corner {c:?}: {poly:?}"
+                );
+            }
+            for &p in &poly {
+                // Every vertex is in the region (on its edge), and lies on
+                // a boundary line or on the locus (a tabulated point or the
+                // segment between two).
+                let within = region
+                    .half_planes()
+                    .iter()
+                    .all(|&(a, b, c)| a * p.0 + b * p.1 <= c + 1e-12);
+                assert!(within, "{region:?}: {p:?} outside");
+                let on_line = region.half_planes().iter().any(|&l| off_line(p, l) < 1e-12);
+                let on_locus = SPECTRUM_LOCUS.windows(2).any(|w| {
+                    let (a, b) = ((w[0].1, w[0].2), (w[1].1, w[1].2));
+                    let cross = (b.0 - a.0) * (p.1 - a.1) - (b.1 - a.1) * (p.0 - a.0);
+                    let within = (p.0 - a.0) * (p.0 - b.0) <= 1e-15;
+                    cross.abs() < 1e-12 && within
+                });
+                assert!(on_line || on_locus, "{region:?}: {p:?} on no boundary");
+            }
+            // The half-planes are the lines `contains` judges by: the two
+            // agree on a grid over the diagram (points on a line aside).
+            for i in 0..=200 {
+                for j in 0..=200 {
+                    let p = (
+                        0.5 + 0.25 * f64::from(i) / 200.0,
+                        0.25 + 0.2 * f64::from(j) / 200.0,
+                    );
+                    let margin = region
+                        .half_planes()
+                        .iter()
+                        .map(|&(a, b, c)| c - a * p.0 - b * p.1)
+                        .fold(f64::INFINITY, f64::min);
+                    if margin.abs() > 1e-9 {
+                        assert_eq!(region.contains(p), margin > 0.0, "{region:?} {p:?}");
+                    }
+                }
+            }
+            let n = poly.len() as f64;
+            let mid = poly
+                .iter()
+                .fold((0.0, 0.0), |s, p| (s.0 + p.0 / n, s.1 + p.1 / n));
+            assert!(region.contains(mid), "{region:?}: centroid {mid:?}");
+        }
+        // Red stops where the locus crosses y = 0.335 (between 605 and
+        // 610 nm); amber spans the locus from about 586 to 591 nm.
+        let red = SignalColour::Red.polygon_xy();
+        let top = red.iter().filter(|p| (p.1 - 0.335).abs() < 1e-12).count();
+        assert_eq!(top, 2, "{red:?}");
+        assert!(red.iter().any(|p| (p.0 - 0.7347).abs() < 1e-12), "700 nm");
+        // u'v' of a tabulated point, by hand: 610 nm.
+        let (u, v) = uv_of_xy((0.6658, 0.3340));
+        let d = -2.0 * 0.6658 + 12.0 * 0.3340 + 3.0;
+        assert!((u - 4.0 * 0.6658 / d).abs() < 1e-15 && (v - 9.0 * 0.334 / d).abs() < 1e-15);
+        let via_xyz = super::uv([0.6658, 0.3340, 1.0 - 0.6658 - 0.3340]).unwrap();
+        assert!((via_xyz.0 - u).abs() < 1e-12 && (via_xyz.1 - v).abs() < 1e-12);
     }
 
     #[test]

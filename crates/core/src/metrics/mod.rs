@@ -7,6 +7,7 @@
 pub mod chromaticity;
 pub mod flicker;
 pub mod glossary;
+pub mod metric;
 pub mod p2020;
 pub mod verdict;
 pub mod visibility;

@@ -12,7 +12,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::flicker::{Metric, Segment};
+use super::metric::Metric;
+use crate::trace::Segment;
 
 pub use crate::plan::{MmpReference, P2020Options};
 

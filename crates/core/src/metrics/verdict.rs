@@ -255,6 +255,12 @@ fn roi_checks(
             None => skip("visibility", "no display to see it on"),
         }
     }
+    if let Some(max) = lim.delta_uv_max {
+        match &m.colour {
+            Some(c) => checks.push(check(name, "delta_uv", &c.delta_uv_metric(), max, false)),
+            None => skip("delta_uv", "no colour planes for this ROI"),
+        }
+    }
 }
 
 /// Checks every LED ROI of a case against its limits (per light level, else
@@ -340,6 +346,7 @@ mod tests {
             fdi_p2020_min: None,
             mmp_min: None,
             visibility_max: None,
+            delta_uv_max: None,
             light_levels: Vec::new(),
             mitigation_min_hz: 90.0,
             mitigation_max_hz: None,

@@ -79,16 +79,16 @@ fn insert_visibility(roi: &mut RoiInfo, v: &crate::metrics::visibility::Visibili
 
 /// The colour figures of an LED ROI, under the names of results.json.
 fn insert_colour(roi: &mut RoiInfo, c: &crate::metrics::chromaticity::ColourFigures) {
-    roi.metrics.insert("delta_uv".to_string(), c.delta_uv);
-    if c.delta_uv.is_none() {
-        roi.reasons.insert(
-            "delta_uv".to_string(),
-            "no PWM frame has light: no colour".to_string(),
-        );
-    }
+    use crate::metrics::chromaticity::PLANE_SUFFIXES;
+    insert(roi, "delta_uv", &c.delta_uv_metric());
     if let Some(n) = c.frames_outside {
         roi.metrics
             .insert("frames_outside_signal_colour".to_string(), Some(n as f64));
+    }
+    for (p, suffix) in c.planes.iter().zip(PLANE_SUFFIXES) {
+        insert(roi, &format!("fmi_{suffix}"), &p.fmi);
+        insert(roi, &format!("fdi_p2020_{suffix}"), &p.fdi);
+        insert(roi, &format!("mmp_{suffix}"), &p.mmp);
     }
 }
 

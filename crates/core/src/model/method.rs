@@ -35,6 +35,7 @@ pub fn limits_text(l: &Limits) -> String {
         ("FDI (P2020) >=", l.fdi_p2020_min, ""),
         ("MMP >=", l.mmp_min, ""),
         ("visibility on the monitor <=", l.visibility_max, ""),
+        ("Δu′v′ <=", l.delta_uv_max, ""),
     ]
     .into_iter()
     .filter_map(|(name, v, unit)| v.map(|v| format!("{name} {v}{unit}")))

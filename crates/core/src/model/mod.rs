@@ -46,6 +46,7 @@ pub use crate::analysis::{
     Banding, Beat, DriveFlicker, FineMapInfo, FrameBanding, FrameTiming, HazardClass, RoiAnalysis,
 };
 pub use crate::inputs::InputFile;
+pub use crate::metrics::chromaticity::{ColourFigures, SPECTRUM_LOCUS, SignalColour, uv_of_xy};
 pub use crate::metrics::verdict::{Comparison, VERDICT_TOLERANCE};
 pub use crate::metrics::{
     Check, GLOSSARY, Levels, Metric, MetricName, VISIBILITY_GLOSSARY, Verdict, human_name,

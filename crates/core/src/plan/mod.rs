@@ -348,6 +348,10 @@ pub struct Limits {
     /// observer's threshold) must be <= this (>= 0); needs `[display]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub visibility_max: Option<f64>,
+    /// Chromaticity excursion of an LED ROI over the PWM segment (Δu′v′,
+    /// CIE 1976) must be <= this (>= 0); needs `scene.led-chromaticity-xy`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delta_uv_max: Option<f64>,
 }
 
 impl Limits {
@@ -360,6 +364,7 @@ impl Limits {
             fdi_p2020_min: self.fdi_p2020_min.or(base.fdi_p2020_min),
             mmp_min: self.mmp_min.or(base.mmp_min),
             visibility_max: self.visibility_max.or(base.visibility_max),
+            delta_uv_max: self.delta_uv_max.or(base.delta_uv_max),
         }
     }
 }
@@ -391,6 +396,9 @@ pub struct Thresholds {
     /// The visibility index must be <= this; needs `[display]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub visibility_max: Option<f64>,
+    /// Δu′v′ must be <= this; needs `scene.led-chromaticity-xy`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delta_uv_max: Option<f64>,
     /// Per light level overrides (`[[thresholds.light-level]]`), in plan order.
     pub light_levels: Vec<LevelLimits>,
     /// Lowest frequency (Hz) at which the camera claims mitigation.
@@ -411,6 +419,7 @@ impl Thresholds {
             fdi_p2020_min: self.fdi_p2020_min,
             mmp_min: self.mmp_min,
             visibility_max: self.visibility_max,
+            delta_uv_max: self.delta_uv_max,
         }
     }
 

@@ -235,6 +235,7 @@ pub struct RawThresholds {
     pub fdi_p2020_min: Option<f64>,
     pub mmp_min: Option<f64>,
     pub visibility_max: Option<f64>,
+    pub delta_uv_max: Option<f64>,
     pub mitigation_min_hz: Option<f64>,
     pub mitigation_max_hz: Option<f64>,
     pub basis: Option<String>,
@@ -253,6 +254,7 @@ pub struct RawLevelThresholds {
     pub fdi_p2020_min: Option<f64>,
     pub mmp_min: Option<f64>,
     pub visibility_max: Option<f64>,
+    pub delta_uv_max: Option<f64>,
 }
 
 /// `[capture]`

@@ -240,6 +240,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "fdi-p2020-min",
             "mmp-min",
             "visibility-max",
+            "delta-uv-max",
             "mitigation-min-hz",
             "mitigation-max-hz",
             "basis",
@@ -256,6 +257,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "fdi-p2020-min",
             "mmp-min",
             "visibility-max",
+            "delta-uv-max",
         ],
     ),
     (

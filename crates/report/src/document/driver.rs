@@ -50,6 +50,11 @@ pub struct ColourRow {
     pub over: bool,
     /// The reading in plain words.
     pub reading: String,
+    /// FMI of the R, G and B planes, 3 decimals each, "R / G / B"; "—"
+    /// when not computed.
+    pub planes_fmi: String,
+    /// Path of the ROI's u′v′ diagram in the report's charts.
+    pub chart: String,
 }
 
 /// One LED ROI of one case.
@@ -147,8 +152,9 @@ pub fn driver_view(results: &Results, listed: impl Fn(&str) -> bool) -> Option<D
 fn colour_rows_of(case: &CaseInfo) -> Vec<ColourRow> {
     case.rois
         .iter()
-        .filter(|r| r.kind == RoiKind::Led && r.metrics.contains_key("delta_uv"))
-        .map(|r| {
+        .enumerate()
+        .filter(|(_, r)| r.kind == RoiKind::Led && r.metrics.contains_key("delta_uv"))
+        .map(|(k, r)| {
             let delta = r.metrics.get("delta_uv").copied().flatten();
             let outside = r
                 .metrics
@@ -176,9 +182,24 @@ fn colour_rows_of(case: &CaseInfo) -> Vec<ColourRow> {
                 outside: outside.map_or("—".to_string(), |n| format!("{n:.0}")),
                 over: outside.is_some_and(|n| n > 0.0),
                 reading,
+                planes_fmi: planes_fmi(r),
+                chart: crate::document::uv_chart_path(&case.id, k),
             }
         })
         .collect()
+}
+
+/// The FMI of each colour plane of `r`, "R / G / B".
+fn planes_fmi(r: &crate::model::RoiInfo) -> String {
+    let values: Option<Vec<String>> = ["fmi_r", "fmi_g", "fmi_b"]
+        .iter()
+        .map(|k| {
+            r.metrics
+                .get(*k)
+                .map(|v| v.map_or("n/a".to_string(), |v| fixed(v, 3)))
+        })
+        .collect();
+    values.map_or("—".to_string(), |v| v.join(" / "))
 }
 
 fn rows_of(case: &CaseInfo, bound: f64) -> Vec<DriverRow> {

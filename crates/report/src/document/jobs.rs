@@ -19,8 +19,8 @@ use super::super::charts::{self, ChartError};
 use super::super::matrix;
 use super::{
     ADVICE_CHART, finemap_chart_path, fold_chart_path, frame_image_path, matrix_chart_path,
-    roi_map_chart_path, trace_chart_path, worst_phase_chart_path, worst_phase_image_path,
-    zoom_chart_path,
+    roi_map_chart_path, trace_chart_path, uv_chart_path, worst_phase_chart_path,
+    worst_phase_image_path, zoom_chart_path,
 };
 use crate::model::listing::listing;
 use crate::model::{CaseInfo, CaseResult, Results, RoiKind};
@@ -118,6 +118,19 @@ impl<'a> ChartJobs<'a> {
             jobs.add(zoom_chart_path(&r.case.id), move || {
                 charts::trace_zoom_svg(r, apparent_hz)
             });
+            // The colour of each LED ROI of a plan with colour: the frames'
+            // path is in the case result, not in results.json.
+            let coloured = r.metrics.iter().enumerate().filter_map(|(k, m)| {
+                let c = m.colour.as_ref().filter(|c| !c.path.is_empty())?;
+                Some((k, c, r.acquisition.rois.get(k)?.name.as_str()))
+            });
+            for (k, c, roi) in coloured {
+                let region = c.signal_colour();
+                let title = format!("Colour of {roi} over the PWM segment, {}", r.case.id);
+                jobs.add(uv_chart_path(&r.case.id, k), move || {
+                    charts::uv_diagram_svg(&title, c, region)
+                });
+            }
             // The worst-phase trace is not in results.json: a model read
             // back from it has the sentence but no chart.
             if let Some(w) = case

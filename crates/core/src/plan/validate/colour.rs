@@ -160,3 +160,32 @@ fn camera_matrix(c: &mut Checker<'_>, rows: Option<Vec<Vec<f64>>>) -> Option<[[f
         }
     }
 }
+
+/// A `delta-uv-max` needs the colour the excursion is computed from:
+/// without `scene.led-chromaticity-xy` it is an error, not a limit
+/// silently never checked.
+pub(super) fn limit_needs_colour(
+    c: &mut Checker<'_>,
+    t: &crate::plan::Thresholds,
+    colour: Option<&ColourConfig>,
+) -> Option<()> {
+    if colour.is_some() {
+        return Some(());
+    }
+    let levels = t.light_levels.iter().enumerate();
+    let mut keys: Vec<String> = levels
+        .filter(|(_, l)| l.limits.delta_uv_max.is_some())
+        .map(|(i, _)| format!("thresholds.light-level[{i}].delta-uv-max"))
+        .collect();
+    if t.delta_uv_max.is_some() {
+        keys.insert(0, "thresholds.delta-uv-max".to_string());
+    }
+    for key in &keys {
+        c.error(
+            key,
+            "needs scene.led-chromaticity-xy: the excursion is of the LED's colour",
+            Some("give the LED's chromaticity (e.g. led-chromaticity-xy = [0.69, 0.30]), or remove the limit"),
+        );
+    }
+    keys.is_empty().then_some(())
+}

@@ -150,6 +150,7 @@ pub(super) fn validate(
     let (thresholds, display) = (thresholds?, display?);
     let colour = colour?;
     display::limit_needs_display(&mut c, &thresholds, display.as_ref())?;
+    colour::limit_needs_colour(&mut c, &thresholds, colour.as_ref())?;
     Some(Plan {
         id: meta.id?,
         title: meta.title?,

@@ -3,7 +3,8 @@
 //!
 //! Limits on the Deegan 2018 metrics (`fdi-2018-min`, `percent-flicker-max`)
 //! and the IEEE P2020 KPIs (`fmi-max`, `fdi-p2020-min`, `mmp-min`), and on the
-//! visibility of the displayed flicker (`visibility-max`, with `[display]`), are set
+//! visibility of the displayed flicker (`visibility-max`, with `[display]`)
+//! and on the chromaticity excursion (`delta-uv-max`, with colour), are set
 //! globally and may be overridden per light level. Every problem is reported
 //! with its key, line and a hint, as for the rest of the plan.
 
@@ -22,6 +23,7 @@ fn defaults() -> Thresholds {
         fdi_p2020_min: None,
         mmp_min: None,
         visibility_max: None,
+        delta_uv_max: None,
         light_levels: Vec::new(),
         mitigation_min_hz: 0.0,
         mitigation_max_hz: None,
@@ -37,6 +39,7 @@ struct RawLimits {
     fdi_p2020_min: Option<f64>,
     mmp_min: Option<f64>,
     visibility_max: Option<f64>,
+    delta_uv_max: Option<f64>,
 }
 
 /// Checks one limit: finite, and inside `range` when given.
@@ -140,6 +143,14 @@ fn limits(c: &mut Checker<'_>, raw: RawLimits, prefix: &str, ok: &mut bool) -> L
             "1 is the standard observer's threshold; e.g. 1.0",
             ok,
         ),
+        delta_uv_max: limit(
+            c,
+            raw.delta_uv_max,
+            &k("delta-uv-max"),
+            Some((0.0, f64::INFINITY)),
+            "a distance in CIE 1976 u'v', >= 0; e.g. 0.01",
+            ok,
+        ),
     };
     warn_fraction_of_percent(c, &pf_key, limits.percent_flicker_max);
     limits
@@ -169,6 +180,7 @@ fn level(
             fdi_p2020_min: raw.fdi_p2020_min,
             mmp_min: raw.mmp_min,
             visibility_max: raw.visibility_max,
+            delta_uv_max: raw.delta_uv_max,
         },
         &prefix,
         ok,
@@ -233,6 +245,7 @@ pub(super) fn thresholds(
             fdi_p2020_min: t.fdi_p2020_min,
             mmp_min: t.mmp_min,
             visibility_max: t.visibility_max,
+            delta_uv_max: t.delta_uv_max,
         },
         "thresholds",
         &mut ok,
@@ -244,6 +257,7 @@ pub(super) fn thresholds(
     th.fdi_p2020_min = global.fdi_p2020_min;
     th.mmp_min = global.mmp_min;
     th.visibility_max = global.visibility_max;
+    th.delta_uv_max = global.delta_uv_max;
     let mut seen = Vec::new();
     for (i, raw) in t.light_level.into_iter().enumerate() {
         if let Some(l) = level(c, raw, i, known_lux, &mut seen, &mut ok) {
