@@ -67,7 +67,8 @@ pub(super) struct PlanArgs {
     /// Per-metric tolerance, METRIC=VALUE (repeatable), e.g. fdi_2018=0.05.
     #[arg(long = "golden-tolerance", requires = "golden")]
     golden_tolerance: Vec<String>,
-    /// Print where the wall time went (plan, run, report parts) to stderr.
+    /// Print where the wall time went (plan, run, report parts), each part
+    /// with the process's peak memory so far, to stderr.
     #[arg(long)]
     timings: bool,
     /// Run only shard K of N (numbered from 0) and write a shard directory
