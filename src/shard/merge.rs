@@ -379,7 +379,7 @@ fn shard_cases_checked(
             m.shard
         ))
     })?;
-    if record::sha256(&bytes) != m.cases_sha256 {
+    if crate::util::sha256_hex(&bytes) != m.cases_sha256 {
         return Err(UsageError(format!(
             "`{}` does not match the SHA-256 in its {MANIFEST}: the file is damaged or from another run\n    hint: re-run shard {}",
             path.display(),

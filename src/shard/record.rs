@@ -136,12 +136,7 @@ pub fn plan_hash(inputs: &[InputFile]) -> String {
     for i in inputs {
         h.update(format!("{}\0{}\0{}\n", i.role, i.sha256, i.size).as_bytes());
     }
-    hex(&h.finalize())
-}
-
-/// Lowercase hex of bytes.
-pub fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
+    crate::util::hex(&h.finalize())
 }
 
 /// CBOR bytes of `cases`.
@@ -165,11 +160,6 @@ pub fn decode_cases(bytes: &[u8], path: &Path) -> Result<Vec<ShardCase>, String>
         }
     }
     Ok(cases)
-}
-
-/// SHA-256 of bytes, lowercase hex.
-pub fn sha256(bytes: &[u8]) -> String {
-    hex(&Sha256::digest(bytes))
 }
 
 #[cfg(test)]

@@ -86,7 +86,7 @@ pub fn write_dir(dir: &Path, out: ShardOutput<'_>) -> Result<Manifest, WriteErro
         case_count: out.case_count,
         cases: out.cases,
         inputs: out.inputs.iter().map(Into::into).collect(),
-        cases_sha256: record::sha256(&bytes),
+        cases_sha256: crate::util::sha256_hex(&bytes),
     };
     write_files(dir, &manifest, &bytes, &traces)?;
     Ok(manifest)

@@ -77,7 +77,7 @@ fn tamper(shard: &Path, edit: impl FnOnce(&mut Vec<ShardCase>)) {
     let bytes = record::encode_cases(&cases).unwrap();
     std::fs::write(&path, &bytes).unwrap();
     edit_manifest(shard, |m| {
-        m["cases_sha256"] = record::sha256(&bytes).into();
+        m["cases_sha256"] = ledflicker::util::sha256_hex(&bytes).into();
     });
 }
 
@@ -166,7 +166,7 @@ fn empty_frames_or_rois_are_invalid_input_not_a_tool_failure() {
     let restore = || {
         std::fs::write(s[0].join(record::CASES), &original).unwrap();
         edit_manifest(&s[0], |m| {
-            m["cases_sha256"] = record::sha256(&original).into();
+            m["cases_sha256"] = ledflicker::util::sha256_hex(&original).into();
         });
     };
     tamper(&s[0], |cases| {
@@ -194,7 +194,7 @@ fn a_simulated_case_without_its_picture_or_with_a_broken_one_is_refused() {
     let restore = || {
         std::fs::write(s[1].join(record::CASES), &original).unwrap();
         edit_manifest(&s[1], |m| {
-            m["cases_sha256"] = record::sha256(&original).into();
+            m["cases_sha256"] = ledflicker::util::sha256_hex(&original).into();
         });
     };
     tamper(&s[1], |cases| cases[0].result.sample_frame = None);
@@ -308,7 +308,7 @@ fn a_captured_case_at_odds_with_its_own_segments_is_refused() {
     let restore = || {
         std::fs::write(s[0].join(record::CASES), &original).unwrap();
         edit_manifest(&s[0], |m| {
-            m["cases_sha256"] = record::sha256(&original).into();
+            m["cases_sha256"] = ledflicker::util::sha256_hex(&original).into();
         });
     };
     // A PWM frame relabelled OFF.

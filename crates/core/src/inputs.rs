@@ -61,12 +61,7 @@ pub fn hash_file(path: &Path) -> std::io::Result<(String, u64)> {
         size += n as u64;
         hasher.update(&buf[..n]);
     }
-    let hex = hasher
-        .finalize()
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect();
-    Ok((hex, size))
+    Ok((crate::util::hex(&hasher.finalize()), size))
 }
 
 fn input(role: &str, path: &Path) -> Result<InputFile, InputError> {
