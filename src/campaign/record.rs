@@ -97,10 +97,20 @@ pub fn record(
     db.write(|tx| {
         let run_id = insert_run(tx, results, &prepared, provenance)?;
         for (idx, case) in results.cases.iter().enumerate() {
-            insert_case(tx, run_id, idx, case, &prepared.noise[idx])?;
+            insert_case(tx, run_id, idx, &case, &prepared.noise[idx])?;
         }
+        // A case that could not be read back leaves the run unrecorded.
+        spill_read(results)?;
         Ok(run_id)
     })
+}
+
+/// A large run's case that could not be read back from its spill file.
+fn spill_read(results: &Results) -> Result<(), CampaignError> {
+    match results.cases.read_error() {
+        Some(why) => Err(CampaignError::Input(why)),
+        None => Ok(()),
+    }
 }
 
 fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
@@ -118,10 +128,12 @@ fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
     };
     // The traces are read and parsed in parallel: recording a run is on
     // the wall time of every `plan`.
-    let noise = results
-        .cases
-        .par_iter()
-        .map(|case| {
+    let noise = (0..results.cases.len())
+        .into_par_iter()
+        .map(|i| {
+            let Some(case) = results.cases.get(i) else {
+                return Vec::new();
+            };
             let names: Vec<&str> = case.rois.iter().map(|r| r.name.as_str()).collect();
             // A trace that is gone or unreadable leaves the noise unknown:
             // `compare` then says it cannot judge that case's changes.
@@ -131,6 +143,7 @@ fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
             }
         })
         .collect();
+    spill_read(results)?;
     let meta = results.report.clone().or(stored_meta);
     Ok(Prepared {
         dir: abs.to_string_lossy().into_owned(),

@@ -130,7 +130,7 @@ fn check(plan_name: &str, r: &Results, frames: &BTreeMap<String, Frames>) {
             let (Some(first), Some(last)) = (mine.first(), mine.last()) else {
                 continue;
             };
-            let period = 1.0 / fps_of(case);
+            let period = 1.0 / fps_of(&case);
             spans.push((
                 first.1,
                 last.1 + 1,
@@ -196,7 +196,7 @@ fn check(plan_name: &str, r: &Results, frames: &BTreeMap<String, Frames>) {
     }
 
     // Frame rate: the cases' own.
-    let rates: Vec<f64> = r.cases.iter().map(fps_of).collect();
+    let rates: Vec<f64> = r.cases.iter().map(|c| fps_of(&c)).collect();
     let rate = c.frame_rate_fps.expect("a frame rate");
     let lo = rates.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = rates.iter().copied().fold(0.0, f64::max);

@@ -164,17 +164,42 @@ fn every_shipped_plan_runs_within_its_memory_estimate_and_the_estimate_is_at_mos
 }
 
 #[test]
+fn a_sweep_estimate_does_not_grow_with_its_cases_beyond_those_listed() {
+    // A run larger than its report lists holds 121 model entries and a few
+    // figures of every other case (its spill file has the rest).
+    let dir = scratch("estimate-flat");
+    let at = |frequencies: usize| {
+        let plan = dir.join(format!("sweep-{frequencies}.toml"));
+        std::fs::write(&plan, ledflicker::bench::sweep_plan(frequencies)).unwrap();
+        let limits = ["--max-memory", "100GB", "--max-report", "100GB"];
+        estimated_memory(plan.to_str().unwrap(), &limits)
+    };
+    let (small, large) = (at(100), at(10_000));
+    // 99,000 more cases at 200 bytes each, not 10.5 kB.
+    let grown = large - small;
+    assert!(
+        (0.0..99_000.0 * 300.0).contains(&grown),
+        "{small} -> {large}"
+    );
+    assert!(large < 300e6, "{large}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn a_plan_over_the_memory_limit_names_the_flag_that_raises_it() {
     let dir = scratch("max-memory");
     let plan = dir.join("sweep.toml");
-    // 100,000 cases: more than 1 GB by the estimate.
-    std::fs::write(&plan, ledflicker::bench::sweep_plan(10_000)).unwrap();
+    // 200 cases of 10 minutes at 30 fps: every case is listed and charted,
+    // more than 1 GB by the estimate.
+    let long = ledflicker::bench::sweep_plan(20).replace("pwm-s = 3.0", "pwm-s = 600.0");
+    assert!(long.contains("pwm-s = 600.0"));
+    std::fs::write(&plan, long).unwrap();
     let p = plan.to_str().unwrap();
     let o = ledflicker(&["validate", p]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     let err = stderr(&o);
     assert!(
-        err.contains("100000 cases") && err.contains("--max-memory raises it"),
+        err.contains("200 cases") && err.contains("--max-memory raises it"),
         "{err}"
     );
     let estimate = estimated_memory(p, &["--max-memory", "100GB", "--max-report", "100GB"]);

@@ -21,6 +21,7 @@ mod features;
 mod lab;
 mod lab_bench;
 mod lab_gst;
+mod large_runs;
 mod legible;
 mod light;
 mod mutate;

@@ -201,16 +201,22 @@ impl Document {
             return Ok(serde_json::to_value(&*self.results)?);
         }
         let mut shown = self.results.without_cases();
-        shown.cases = (self.results.cases.iter())
+        // Every listed case is among those the model keeps in memory.
+        shown.cases = (self.results.cases.resident())
             .filter(|c| listing.listed.contains(&c.id))
             .cloned()
             .collect();
         Ok(serde_json::to_value(&shown)?)
     }
 
-    /// Case ids in plan order.
+    /// Ids of the cases the templates see (the listed ones, [`Self::json`]),
+    /// in plan order.
     pub fn case_ids(&self) -> Vec<String> {
-        self.results.cases.iter().map(|c| c.id.clone()).collect()
+        let listing = self.listing();
+        (self.results.cases.resident())
+            .filter(|c| listing.listed.contains(&c.id))
+            .map(|c| c.id.clone())
+            .collect()
     }
 
     /// The `--detail` the report was written with (results.json
@@ -257,7 +263,7 @@ impl Document {
         let listing = self.listing();
         self.results
             .cases
-            .iter()
+            .resident()
             .filter(|c| !listing.pages.contains(&c.id) && listing.listed.contains(&c.id))
             .filter_map(info_row)
             .collect()
@@ -275,7 +281,7 @@ impl Document {
         };
         self.results
             .cases
-            .iter()
+            .resident()
             .filter(|c| c.verdict == crate::model::Verdict::Fail)
             .filter(|c| tabled(&c.id))
             .map(|c| (c.id.clone(), c.limit_table()))
@@ -289,7 +295,7 @@ impl Document {
         const NAME: &str = "\u{0}";
         let mut out = BTreeMap::new();
         let listing = self.listing();
-        for c in (self.results.cases.iter()).filter(|c| listing.listed.contains(&c.id)) {
+        for c in (self.results.cases.resident()).filter(|c| listing.listed.contains(&c.id)) {
             let frequency_known = c.frequency_hz > 0.0;
             // Sentence with a placeholder name -> the ROIs it stands for.
             let mut notes: Vec<(String, Vec<&str>)> = Vec::new();
@@ -324,7 +330,7 @@ impl Document {
     pub fn caveats(&self) -> BTreeMap<String, Vec<String>> {
         let mut out = BTreeMap::new();
         let listing = self.listing();
-        for c in (self.results.cases.iter()).filter(|c| listing.listed.contains(&c.id)) {
+        for c in (self.results.cases.resident()).filter(|c| listing.listed.contains(&c.id)) {
             // Reason text -> (ROIs, metrics), in order of first appearance.
             let mut seen: Vec<(&str, Vec<&str>, Vec<&str>)> = Vec::new();
             for roi in &c.rois {

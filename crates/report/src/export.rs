@@ -241,6 +241,15 @@ pub fn worst_phase_trace(
 /// failed metric, its value and its threshold; informational cases are
 /// `<skipped>`. The counts are the verdicts of the cases.
 pub fn junit_xml(model: &Results) -> Result<String, quick_junit::SerializeError> {
+    let mut suite = junit_suite(model);
+    suite.add_test_cases(model.cases.iter().map(|c| testcase(&model.plan.id, &c)));
+    let mut report = Report::new("ledflicker");
+    report.add_test_suite(suite);
+    report.to_string()
+}
+
+/// The suite of junit.xml without its test cases: the plan's properties.
+fn junit_suite(model: &Results) -> TestSuite {
     let mut suite = TestSuite::new(xml_text(&model.plan.id));
     for (name, value) in [
         ("plan.title", model.plan.title.as_str()),
@@ -251,11 +260,69 @@ pub fn junit_xml(model: &Results) -> Result<String, quick_junit::SerializeError>
     ] {
         suite.add_property((name.to_string(), xml_text(value)));
     }
-    suite.add_test_cases(model.cases.iter().map(|c| testcase(&model.plan.id, c)));
-    let mut report = Report::new("ledflicker");
-    report.add_test_suite(suite);
-    report.to_string()
+    suite
 }
+
+/// Test cases serialised at a time by [`write_junit_xml`].
+const JUNIT_CHUNK: usize = 256;
+
+/// [`junit_xml`] into `out`, a chunk of test cases at a time, so that a
+/// sweep's report is never held whole. quick_junit serialises the report's
+/// frame (the suite's properties and counts: a case that fails is a
+/// failure, one not judged is skipped) and each chunk's test cases in a
+/// suite of their own; the chunks' test-case lines go between the frame's
+/// properties and its closing tags. The bytes are [`junit_xml`]'s (test).
+pub fn write_junit_xml(
+    model: &Results,
+    mut out: impl std::io::Write,
+) -> Result<(), quick_junit::SerializeError> {
+    let broken = |what: &str| {
+        let why = format!("junit.xml: quick_junit's {what} is not as expected");
+        quick_junit::SerializeError::from(std::io::Error::other(why))
+    };
+    let mut frame = junit_suite(model);
+    frame.tests = model.counts.total;
+    frame.failures = model.counts.fail;
+    frame.skipped = model.counts.info;
+    let mut report = Report::new("ledflicker");
+    report.add_test_suite(frame);
+    let frame = report.to_string()?;
+    let end = frame
+        .find(SUITE_END)
+        .ok_or_else(|| broken("report frame"))?;
+    out.write_all(&frame.as_bytes()[..end])?;
+    let mut chunk = Vec::with_capacity(JUNIT_CHUNK);
+    let mut cases = model.cases.iter().peekable();
+    while cases.peek().is_some() {
+        chunk.clear();
+        chunk.extend(
+            cases
+                .by_ref()
+                .take(JUNIT_CHUNK)
+                .map(|c| testcase(&model.plan.id, &c)),
+        );
+        let mut suite = TestSuite::new("chunk");
+        suite.add_test_cases(chunk.drain(..));
+        let mut report = Report::new("ledflicker");
+        report.add_test_suite(suite);
+        let text = report.to_string()?;
+        // The lines after the suite's start tag, up to its end tag.
+        let start = text
+            .find("<testsuite ")
+            .and_then(|i| text[i..].find('\n').map(|j| i + j + 1))
+            .ok_or_else(|| broken("test suite"))?;
+        let end = text.rfind(SUITE_END).ok_or_else(|| broken("test suite"))?;
+        out.write_all(&text.as_bytes()[start..end])?;
+    }
+    if let Some(why) = model.cases.read_error() {
+        return Err(std::io::Error::other(why).into());
+    }
+    out.write_all(&frame.as_bytes()[end..])?;
+    Ok(())
+}
+
+/// The end tag of junit.xml's suite, as quick_junit indents it.
+const SUITE_END: &str = "    </testsuite>";
 
 /// A CSV writer into memory, `capacity` bytes reserved: a field is quoted
 /// when it holds a comma, a quote or a line end (RFC 4180), and a row ends
@@ -280,6 +347,23 @@ pub(crate) fn csv_text(out: csv::Writer<Vec<u8>>) -> Result<String, csv::Error> 
 /// the ROI's failed checks.
 pub fn summary_csv(model: &Results) -> Result<String, csv::Error> {
     let mut out = csv_writer(0);
+    write_summary_rows(model, &mut out)?;
+    csv_text(out)
+}
+
+/// [`summary_csv`] into `out` as it is made, row by row: a sweep's table
+/// is never held whole.
+pub fn write_summary_csv(model: &Results, out: impl std::io::Write) -> Result<(), csv::Error> {
+    let mut out = csv::WriterBuilder::new().from_writer(out);
+    write_summary_rows(model, &mut out)?;
+    out.flush()?;
+    Ok(())
+}
+
+fn write_summary_rows<W: std::io::Write>(
+    model: &Results,
+    out: &mut csv::Writer<W>,
+) -> Result<(), csv::Error> {
     let (metric_columns, limit_columns) = csv_columns(model);
     out.write_record(
         [
@@ -353,7 +437,7 @@ pub fn summary_csv(model: &Results) -> Result<String, csv::Error> {
             out.write_record(&row)?;
         }
     }
-    csv_text(out)
+    Ok(())
 }
 
 #[cfg(test)]

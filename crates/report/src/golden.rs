@@ -190,9 +190,11 @@ fn metric_value(roi: &crate::model::RoiInfo, metric: &str) -> Option<f64> {
 /// Compares `current` with `golden` (a results.json, see [`load`]).
 pub fn compare(golden: &Results, current: &Results, tol: &Tolerances) -> Comparison {
     let mut out = Comparison::default();
-    let golden_cases: BTreeMap<&str, &crate::model::CaseInfo> =
-        golden.cases.iter().map(|c| (c.id.as_str(), c)).collect();
+    let golden_cases: BTreeMap<String, std::borrow::Cow<'_, crate::model::CaseInfo>> =
+        golden.cases.iter().map(|c| (c.id.clone(), c)).collect();
+    let mut seen = std::collections::BTreeSet::new();
     for case in &current.cases {
+        seen.insert(case.id.clone());
         let Some(g) = golden_cases.get(case.id.as_str()) else {
             out.added.push(case.id.clone());
             continue;
@@ -233,7 +235,7 @@ pub fn compare(golden: &Results, current: &Results, tol: &Tolerances) -> Compari
         }
     }
     for id in golden_cases.keys() {
-        if !current.cases.iter().any(|c| c.id == *id) {
+        if !seen.contains(id) {
             out.missing.push(id.to_string());
         }
     }

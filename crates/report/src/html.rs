@@ -151,9 +151,10 @@ pub(crate) fn matrices(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec
 /// `{case, frame, chart}`, where `chart` is what `chart_for` makes of the
 /// map's chart path and `frame` the frame number shown.
 pub(crate) fn roi_maps(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec<Value> {
+    // The mapped cases are among those the model keeps in memory.
     doc.results
         .cases
-        .iter()
+        .resident()
         .filter_map(|c| {
             let path = super::document::roi_map_chart_path(&c.id);
             doc.charts.contains_key(&path).then(|| {

@@ -204,7 +204,7 @@ fn write_case_files(
         let made: Vec<CaseFiles> = chunk
             .par_iter()
             .enumerate()
-            .map(|(k, r)| case_files(model.cases.get(first + k), r, doc))
+            .map(|(k, r)| case_files(model.cases.get(first + k).as_deref(), r, doc))
             .collect::<Result<_, ReportError>>()?;
         for files in made {
             for (name, bytes) in &files.traces {
@@ -326,17 +326,18 @@ fn write_beside_pdf(
     let path = dir.join("report.html");
     write_atomic(&path, html.as_bytes()).map_err(io_err(&path))?;
     let _t = crate::timings::span("report: exports and results.json");
-    let files = [
-        (export::JUNIT_FILE, export::junit_xml(model)?),
-        (export::CSV_FILE, export::summary_csv(model)?),
-    ];
-    let mut staged = files
-        .into_iter()
-        .map(|(name, text)| {
-            let path = dir.join(name);
-            crate::util::Staged::write(&path, text.as_bytes()).map_err(io_err(&path))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    // junit.xml and summary.csv, streamed to their files rather than built
+    // as strings.
+    let path = dir.join(export::JUNIT_FILE);
+    let junit = crate::util::Staged::write_with(&path, |out| {
+        export::write_junit_xml(model, out).map_err(std::io::Error::other)
+    });
+    let mut staged = vec![junit.map_err(io_err(&path))?];
+    let path = dir.join(export::CSV_FILE);
+    let csv = crate::util::Staged::write_with(&path, |out| {
+        export::write_summary_csv(model, out).map_err(std::io::Error::other)
+    });
+    staged.push(csv.map_err(io_err(&path))?);
     // The document's model is the run's model with its `report` metadata:
     // results.json, streamed to the file rather than built as one string.
     let path = dir.join("results.json");
@@ -438,6 +439,11 @@ fn write_documents(
         (pdf, others)
     });
     let staged = others?;
+    // A large run's case that could not be read back from its spill file
+    // left some file short: nothing is committed.
+    if let Some(why) = model.cases.read_error() {
+        return Err(ReportError::Cases(why.into()));
+    }
     // report.pdf, then the exports, then results.json: its presence means
     // the report is complete. Their flushes to disk ran beside Typst.
     if let Some(pdf) = pdf? {

@@ -8,14 +8,17 @@
 //! is drawn over it: below the line an exposure can fall entirely in the
 //! OFF part of a period, so the light can appear OFF.
 
+mod merge;
+
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::charts::{ChartError, FONT};
+use crate::model::Results;
 use crate::model::Verdict;
-use crate::model::plane::{Eq1, LevelPlane};
-use crate::model::{CaseInfo, Results};
-use crate::model::{RoiKind, VerdictBasis};
+use crate::model::VerdictBasis;
+use crate::model::plane::{Eq1, LevelPlane, PlaneCell};
+use merge::merged_cells;
 
 /// Which metric a matrix shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -99,21 +102,6 @@ fn colour(t: f64) -> RGBColor {
     } else {
         lerp(yellow, green, (t - 0.5) * 2.0)
     }
-}
-
-/// The value shown for a case (first LED ROI, else first ROI), and whether
-/// it is +infinity.
-fn case_value(case: &CaseInfo, metric: &str) -> (Option<f64>, bool) {
-    let Some(roi) = case
-        .rois
-        .iter()
-        .find(|r| r.kind == RoiKind::Led)
-        .or(case.rois.first())
-    else {
-        return (None, false);
-    };
-    let unbounded = roi.contrast_unbounded && metric.starts_with("fdi");
-    (roi.metrics.get(metric).copied().flatten(), unbounded)
 }
 
 /// Canvas width of a matrix, pixels.
@@ -419,23 +407,23 @@ fn draw_eq1(area: &Area<'_>, grid: &Grid, eq1: &Eq1) -> Result<(), String> {
 fn draw_cell(
     area: &Area<'_>,
     grid: &Grid,
-    (i, j): (usize, usize),
-    case: &CaseInfo,
-    (kind, metric, threshold): (Shown, &str, f64),
+    (cell, columns): (&PlaneCell, std::ops::Range<usize>),
+    (kind, threshold): (Shown, f64),
 ) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
-    let (value, unbounded) = case_value(case, metric);
+    let (j, value, unbounded) = (cell.row, cell.value, cell.unbounded);
     let fill = match (value, unbounded) {
         (_, true) => colour(1.0),
         (Some(v), false) => colour(scale(kind, v, threshold)),
         (None, false) => RGBColor(200, 200, 200),
     };
-    let fill = if case.verdict == Verdict::Info {
+    let fill = if cell.verdict == Verdict::Info {
         fill.mix(0.45)
     } else {
         fill.mix(1.0)
     };
-    let (x0, x1, y0, y1) = (grid.x(i), grid.x(i + 1), grid.y(j + 1), grid.y(j));
+    let (x0, x1) = (grid.x(columns.start), grid.x(columns.end));
+    let (y0, y1) = (grid.y(j + 1), grid.y(j));
     area.draw(&Rectangle::new([(x0, y0), (x1, y1)], fill.filled()))
         .map_err(e)?;
     // Cells narrower than a few pixels (a dense sweep) join into a heat
@@ -449,14 +437,14 @@ fn draw_cell(
         ))
         .map_err(e)?;
     }
-    if case.verdict == Verdict::Fail && grid.cell_w >= 8.0 && grid.cell_h >= 8.0 {
+    if cell.verdict == Verdict::Fail && grid.cell_w >= 8.0 && grid.cell_h >= 8.0 {
         area.draw(&Rectangle::new(
             [(x0 + 2, y0 + 2), (x1 - 2, y1 - 2)],
             RGBColor(120, 0, 0).stroke_width(2),
         ))
         .map_err(e)?;
     }
-    let mark = match case.verdict {
+    let mark = match cell.verdict {
         Verdict::Pass => "\u{2714}",
         Verdict::Fail => "\u{2718}",
         Verdict::Info => "info",
@@ -509,7 +497,7 @@ fn draw_matrix(
         chart: format!("matrix {light_lux} lux"),
         message: e.to_string(),
     };
-    let Some(plane) = model.plane(light_lux) else {
+    let Some(plane) = model.plane(light_lux, &metric) else {
         return Err(err(&"no case at this light level"));
     };
     let LevelPlane {
@@ -538,15 +526,8 @@ fn draw_matrix(
             text_style(LABEL_SIZE + 2.0, Pos::new(HPos::Center, VPos::Top)),
         ))
         .map_err(|e| err(&e))?;
-        for cell in &plane.cells {
-            draw_cell(
-                &root,
-                &grid,
-                (cell.column, cell.row),
-                cell.case,
-                (kind, &metric, th),
-            )
-            .map_err(|e| err(&e))?;
+        for (columns, cell) in merged_cells(&plane.cells, &grid, kind) {
+            draw_cell(&root, &grid, (&cell, columns), (kind, th)).map_err(|e| err(&e))?;
         }
         draw_axes(&root, &grid, freqs, duties).map_err(|e| err(&e))?;
         draw_colour_bar(&root, &grid, kind, title, th).map_err(|e| err(&e))?;

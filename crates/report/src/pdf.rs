@@ -367,7 +367,7 @@ fn appendix_page_values(doc: &Document) -> Vec<Value> {
     let listed: Vec<_> = doc
         .results
         .cases
-        .iter()
+        .resident()
         .filter(|c| listing.listed.contains(&c.id))
         .collect();
     appendix_pages(listed.iter().map(|c| c.rois.len()))
@@ -615,7 +615,7 @@ mod tests {
         assert!(pages >= 1);
         assert_eq!(rows(&doc), pages, "short ids: every page's rows are given");
         // A case id that may wrap: its page's rows are measured.
-        std::sync::Arc::make_mut(&mut doc.results).cases[0].id =
+        std::sync::Arc::make_mut(&mut doc.results).cases.to_mut()[0].id =
             "a-case-id-long-enough-to-wrap-in-its-column".to_string();
         assert_eq!(rows(&doc), pages - 1);
     }

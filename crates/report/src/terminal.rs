@@ -121,7 +121,7 @@ pub fn summary(model: &Results, out: &Path) -> String {
     let roi_w = model
         .cases
         .iter()
-        .flat_map(|c| c.rois.iter().map(|r| r.name.len()))
+        .filter_map(|c| c.rois.iter().map(|r| r.name.len()).max())
         .max()
         .unwrap_or(3)
         .max(3);
@@ -131,7 +131,7 @@ pub fn summary(model: &Results, out: &Path) -> String {
             .as_ref()
             .is_some_and(|s| s.segments.method == SegmentMethod::Detected)
     };
-    let id_w = id_w + usize::from(model.cases.iter().any(&detected));
+    let id_w = id_w + usize::from(model.cases.iter().any(|c| detected(&c)));
     let mut s = String::new();
     let _ = write!(s, "{:<id_w$}  {:<7}  {:<roi_w$}", "case", "verdict", "roi");
     // The visibility column appears with `[display]` only, so a plan
@@ -157,7 +157,7 @@ pub fn summary(model: &Results, out: &Path) -> String {
         let _ = write!(
             s,
             "{:<id_w$}  {:<7}  {:<roi_w$}",
-            format!("{}{}", c.id, if detected(c) { "*" } else { "" }),
+            format!("{}{}", c.id, if detected(&c) { "*" } else { "" }),
             c.verdict.as_str(),
             roi.map_or("-", |r| r.name.as_str())
         );
@@ -165,7 +165,7 @@ pub fn summary(model: &Results, out: &Path) -> String {
             let v = roi.map_or("n/a".to_string(), |r| cell(r, name, digits));
             let _ = write!(s, "  {v:>9}");
         }
-        let _ = writeln!(s, "  {}", criterion(c, roi));
+        let _ = writeln!(s, "  {}", criterion(&c, roi));
     }
     let _ = writeln!(s, "{LEGEND}");
     if visibility.is_some() {
@@ -174,7 +174,7 @@ pub fn summary(model: &Results, out: &Path) -> String {
     if coloured {
         let _ = writeln!(s, "{COLOUR_LEGEND}");
     }
-    if model.cases.iter().any(&detected) {
+    if model.cases.iter().any(|c| detected(&c)) {
         let _ = writeln!(
             s,
             "* segments detected from the luma; the report shows where (trace charts, capture text)"

@@ -15,6 +15,10 @@ use crate::runner::{CaseReadError, CaseSource};
 /// so that a report stays quick to build.
 const ADVICE_STEP_HZ: f64 = 5.0;
 const ADVICE_STEP_DUTY: f64 = 0.01;
+/// Most frequency steps of the report's advice grid: a wider range than
+/// 10 kHz takes coarser steps, so that its memory and time stay those of
+/// a 10 kHz range.
+const ADVICE_FREQUENCY_STEPS_MAX: f64 = 2000.0;
 
 fn plan_advice(plan: &Plan) -> Option<PlanAdvice> {
     let fold = |xs: &[f64]| {
@@ -30,7 +34,7 @@ fn plan_advice(plan: &Plan) -> Option<PlanAdvice> {
     let req = crate::advise::AdviseRequest {
         frequency_hz: (f0, f1),
         duty,
-        frequency_step_hz: ADVICE_STEP_HZ,
+        frequency_step_hz: ADVICE_STEP_HZ.max((f1 - f0) / ADVICE_FREQUENCY_STEPS_MAX),
         duty_step: ADVICE_STEP_DUTY,
         speed_px_per_s: None,
         hdr_ratios: Vec::new(),
@@ -112,15 +116,25 @@ fn build(
         || {
             use rayon::prelude::*;
             let _t = crate::timings::span_at("analyses: cases and sample frames", depth);
-            let mut cases = Vec::with_capacity(source.len());
-            let mut chart_data = super::listing::ChartData::new(source.len(), detail);
-            crate::runner::for_each_chunk(source, |first, chunk| {
-                let infos = chunk.par_iter().map(|r| analysed_case(plan, r));
-                cases.par_extend(infos);
-                chart_data.prune(&mut cases, first);
-                Ok::<(), CaseReadError>(())
+            // The report maps the ROIs on a frame of each capture, or on
+            // one simulated frame.
+            let every_framed = plan.dut.backend == BackendKind::Captured;
+            let mut cases =
+                CasesBuilder::new(source.len(), detail, every_framed).map_err(spill_error)?;
+            let counts = &mut counts;
+            crate::runner::for_each_chunk(source, |_, chunk| {
+                let infos: Vec<CaseInfo> =
+                    chunk.par_iter().map(|r| analysed_case(plan, r)).collect();
+                for c in &infos {
+                    match c.verdict {
+                        Verdict::Pass => counts.pass += 1,
+                        Verdict::Fail => counts.fail += 1,
+                        Verdict::Info => counts.info += 1,
+                    }
+                }
+                cases.extend(infos).map_err(spill_error)
             })?;
-            Ok::<Vec<CaseInfo>, CaseReadError>(cases)
+            cases.finish().map_err(spill_error)
         },
         || {
             rayon::join(
@@ -136,13 +150,6 @@ fn build(
         },
     );
     let cases = cases?;
-    for c in &cases {
-        match c.verdict {
-            Verdict::Pass => counts.pass += 1,
-            Verdict::Fail => counts.fail += 1,
-            Verdict::Info => counts.info += 1,
-        }
-    }
     let Sequence { on_s, off_s, pwm_s } = plan.sequence;
     let mut thresholds = plan.thresholds.clone();
     thresholds.basis = effective_basis(plan.dut.backend, &plan.thresholds);
@@ -169,7 +176,7 @@ fn build(
         method: super::method::method(plan),
         p2020: plan.p2020,
         display: plan.display,
-        verdict: overall(cases.iter().map(|c| c.verdict)),
+        verdict: overall(counts.verdicts()),
         counts,
         cases,
         fine_maps,
@@ -179,6 +186,12 @@ fn build(
         notes: Vec::new(),
     };
     Ok(model)
+}
+
+/// A failure of the spill file of a large run's cases, as a read error of
+/// the analysis stage.
+fn spill_error(e: std::io::Error) -> CaseReadError {
+    format!("the spill file of the run's cases (in the temporary directory): {e}").into()
 }
 
 /// One case of the model: its analyses (and its sample frame's, beside
@@ -198,6 +211,7 @@ fn analysed_case(plan: &Plan, r: &CaseResult) -> CaseInfo {
         }
         case.capture = Some(Box::new(s.clone()));
     }
+    case.acquisition = super::method::case_acquisition(plan, &case);
     case
 }
 

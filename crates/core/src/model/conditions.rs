@@ -183,6 +183,61 @@ fn stated(label: &str, text: String) -> Stated {
 }
 
 /// The distinct values of `xs` (> 0), rising.
+/// Of every case, what [`conditions`] states.
+#[derive(Default)]
+struct Seen {
+    light_lux: Vec<f64>,
+    frequencies_hz: Vec<f64>,
+    duty_cycles: Vec<f64>,
+    /// The fitted frame rates of the cases that have one.
+    rates: Vec<f64>,
+    segments_given: usize,
+    segments_detected: usize,
+}
+
+impl Seen {
+    /// What the conditions need of each case, and each segment's spans, in
+    /// one pass: a large run's cases are read back from disk for each pass.
+    fn gather(model: &Results, plan: &Plan, simulated: bool) -> (Seen, [Vec<Found>; 3]) {
+        let mut seen = Seen::default();
+        let mut per: [Vec<Found>; 3] = Default::default();
+        for c in &model.cases {
+            if let Some(cap) = &c.capture {
+                let s = &cap.segments;
+                let mut add = |i: usize, f: Option<(u64, u64)>, t: Option<(f64, f64)>| {
+                    if let (Some((a, b)), Some((ta, tb))) = (f, t) {
+                        per[i].push((a, b, ta, tb));
+                    }
+                };
+                add(0, s.on, s.on_time_s);
+                add(1, s.off, s.off_time_s);
+                add(2, Some(s.pwm), Some(s.pwm_time_s));
+            } else if simulated {
+                let fps = plan.dut.camera.fps;
+                let n = SegmentFrames::new(&plan.sequence, fps);
+                let mut start = 0;
+                for (i, count) in [n.on, n.off, n.pwm].into_iter().enumerate() {
+                    if count > 0 {
+                        let end = start + count;
+                        per[i].push((start, end, start as f64 / fps, end as f64 / fps));
+                    }
+                    start += count;
+                }
+            }
+            seen.light_lux.push(c.light_lux);
+            seen.frequencies_hz.push(c.frequency_hz);
+            seen.duty_cycles.push(c.duty);
+            seen.rates.extend(c.frame_timing.as_ref().map(|t| t.fps));
+            match c.capture.as_ref().map(|k| k.segments.method) {
+                Some(SegmentMethod::Plan) => seen.segments_given += 1,
+                Some(SegmentMethod::Detected) => seen.segments_detected += 1,
+                _ => {}
+            }
+        }
+        (seen, per)
+    }
+}
+
 fn distinct(xs: impl Iterator<Item = f64>) -> Vec<f64> {
     let mut out: Vec<f64> = xs.filter(|x| *x > 0.0).collect();
     out.sort_by(f64::total_cmp);
@@ -190,37 +245,15 @@ fn distinct(xs: impl Iterator<Item = f64>) -> Vec<f64> {
     out
 }
 
-/// The segments of every case: the simulator's from the plan's sequence
-/// at the camera's rate (ON, OFF, PWM back to back from frame 0), a
-/// capture's or a rig's as found in it.
-fn segments(model: &Results, plan: &Plan) -> Vec<SegmentSpan> {
-    type Found = (u64, u64, f64, f64);
-    let mut per: [Vec<Found>; 3] = Default::default();
-    let simulated = model.method.backend == BackendName::Simulator;
-    for case in &model.cases {
-        if let Some(cap) = &case.capture {
-            let s = &cap.segments;
-            let mut add = |i: usize, f: Option<(u64, u64)>, t: Option<(f64, f64)>| {
-                if let (Some((a, b)), Some((ta, tb))) = (f, t) {
-                    per[i].push((a, b, ta, tb));
-                }
-            };
-            add(0, s.on, s.on_time_s);
-            add(1, s.off, s.off_time_s);
-            add(2, Some(s.pwm), Some(s.pwm_time_s));
-        } else if simulated {
-            let fps = plan.dut.camera.fps;
-            let n = SegmentFrames::new(&plan.sequence, fps);
-            let mut start = 0;
-            for (i, count) in [n.on, n.off, n.pwm].into_iter().enumerate() {
-                if count > 0 {
-                    let end = start + count;
-                    per[i].push((start, end, start as f64 / fps, end as f64 / fps));
-                }
-                start += count;
-            }
-        }
-    }
+/// A segment's frames and seconds in one case: first frame, end frame,
+/// start and end time.
+type Found = (u64, u64, f64, f64);
+
+/// The ON, OFF and PWM segments over every case, from each case's spans
+/// ([`conditions`] gathers them: the simulator's from the plan's sequence
+/// at the camera's rate, ON, OFF, PWM back to back from frame 0; a
+/// capture's or a rig's as found in it).
+fn segments(per: [Vec<Found>; 3]) -> Vec<SegmentSpan> {
     [Segment::On, Segment::Off, Segment::Pwm]
         .into_iter()
         .zip(per)
@@ -445,7 +478,7 @@ pub fn conditions(model: &Results, plan: &Plan) -> Conditions {
     let backend = model.method.backend;
     let simulated = backend == BackendName::Simulator;
     let total = model.cases.len();
-    let sequence = segments(model, plan);
+    let (seen, per) = Seen::gather(model, plan, simulated);
     let cam = &plan.dut.camera;
     let (frame_rate_fps, frame_rate_unknown_cases) = if simulated {
         (
@@ -456,11 +489,7 @@ pub fn conditions(model: &Results, plan: &Plan) -> Conditions {
             0,
         )
     } else {
-        let rates: Vec<f64> = model
-            .cases
-            .iter()
-            .filter_map(|c| c.frame_timing.as_ref().map(|t| t.fps))
-            .collect();
+        let rates = &seen.rates;
         (Span::of(rates.iter().copied()), total - rates.len())
     };
     let (exposure_ms, auto_exposure) = if simulated {
@@ -483,10 +512,10 @@ pub fn conditions(model: &Results, plan: &Plan) -> Conditions {
         }
         _ => Vec::new(),
     };
-    let light_lux = distinct(model.cases.iter().map(|c| c.light_lux));
-    let light_unknown_cases = model.cases.iter().filter(|c| c.light_lux <= 0.0).count();
-    let frequencies_hz = distinct(model.cases.iter().map(|c| c.frequency_hz));
-    let duty_cycles = distinct(model.cases.iter().map(|c| c.duty));
+    let light_unknown_cases = seen.light_lux.iter().filter(|&&lux| lux <= 0.0).count();
+    let light_lux = distinct(seen.light_lux.into_iter());
+    let frequencies_hz = distinct(seen.frequencies_hz.into_iter());
+    let duty_cycles = distinct(seen.duty_cycles.into_iter());
     let pwm_clock = simulated.then(|| pwm_clock(plan, &frequencies_hz));
     let scene = simulated.then(|| SceneSetup {
         led_luminance_cd_m2: plan.scene.led_luminance_cd_m2,
@@ -514,17 +543,10 @@ pub fn conditions(model: &Results, plan: &Plan) -> Conditions {
             },
         })
         .collect();
-    let method_count = |m: SegmentMethod| {
-        model
-            .cases
-            .iter()
-            .filter(|c| c.capture.as_ref().is_some_and(|k| k.segments.method == m))
-            .count()
-    };
     let mut c = Conditions {
-        sequence,
-        segments_given: method_count(SegmentMethod::Plan),
-        segments_detected: method_count(SegmentMethod::Detected),
+        sequence: segments(per),
+        segments_given: seen.segments_given,
+        segments_detected: seen.segments_detected,
         frame_rate_fps,
         frame_rate_unknown_cases,
         exposure_ms,

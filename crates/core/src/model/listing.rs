@@ -9,7 +9,7 @@
 
 use std::collections::BTreeSet;
 
-use super::{CaseInfo, Detail, Results, Verdict};
+use super::{CaseInfo, Cases, Detail, Results, Verdict};
 
 /// Most case pages a report gives at `--detail standard` (failing cases,
 /// worst first); `--detail full` gives every case a page. The per-case
@@ -57,76 +57,28 @@ impl Results {
 /// the cases whose charts a report at `detail` does not draw
 /// ([`Listing::charts_case`]): a large run's model then holds what
 /// results.json says of each case, not the data of pictures never drawn.
+/// (A spilled run's builder, [`super::CasesBuilder`], drops them as the
+/// cases are analysed; this covers the cases kept in memory.)
 pub fn drop_undrawn(model: &mut Results, detail: Detail) {
     let listing = listing(model, detail);
     if listing.unlisted == 0 {
         return;
     }
-    for c in (model.cases.iter_mut()).filter(|c| !listing.charts_case(&c.id)) {
+    for c in (model.cases.resident_mut()).filter(|c| !listing.charts_case(&c.id)) {
         drop_chart_data(c);
     }
 }
 
-fn drop_chart_data(c: &mut CaseInfo) {
+pub(super) fn drop_chart_data(c: &mut CaseInfo) {
     for roi in &mut c.rois {
         roi.analysis.folded_bins = Vec::new();
-    }
-}
-
-/// [`drop_undrawn`] while the cases are still being analysed, a chunk at a
-/// time, so that a sweep's model never holds every case's chart data at
-/// once. It keeps the data of the cases that can still get a page: those
-/// the report at `detail` pages, best [`CASE_PAGES_MAX`] so far by the
-/// listing's order. A case pushed out never comes back (the cases kept only
-/// get worse), so every case [`listing`] finally pages keeps its data.
-#[derive(Debug)]
-pub struct ChartData {
-    detail: Detail,
-    /// Whether anything is dropped: a run within [`EVERY_CASE_LISTED_MAX`]
-    /// charts every case, and `--detail full` gives every case a page.
-    drops: bool,
-    /// Indices of the cases kept, best first.
-    kept: Vec<usize>,
-}
-
-impl ChartData {
-    /// For a run of `cases` cases reported at `detail`.
-    pub fn new(cases: usize, detail: Detail) -> ChartData {
-        ChartData {
-            detail,
-            drops: detail != Detail::Full && cases > EVERY_CASE_LISTED_MAX,
-            kept: Vec::new(),
-        }
-    }
-
-    /// Drops the chart data of the cases from `first` on (just analysed)
-    /// and of those now beyond the best [`CASE_PAGES_MAX`].
-    pub fn prune(&mut self, cases: &mut [CaseInfo], first: usize) {
-        if !self.drops {
-            return;
-        }
-        for (i, c) in cases.iter_mut().enumerate().skip(first) {
-            match self.detail.shows_case(c.verdict.as_str()) {
-                true => self.kept.push(i),
-                false => drop_chart_data(c),
-            }
-        }
-        let by_rank = |&a: &usize, &b: &usize| {
-            let ((ca, ma), (cb, mb)) = (rank(&cases[a]), rank(&cases[b]));
-            ca.cmp(&cb).then(ma.total_cmp(&mb)).then(a.cmp(&b))
-        };
-        self.kept.sort_by(by_rank);
-        for &i in self.kept.iter().skip(CASE_PAGES_MAX) {
-            drop_chart_data(&mut cases[i]);
-        }
-        self.kept.truncate(CASE_PAGES_MAX);
     }
 }
 
 /// How far a case is from failing, worst first: failing cases before
 /// informational ones before passing ones, each by the smallest margin of
 /// its checks ([`crate::metrics::Check::margin`]).
-fn rank(c: &CaseInfo) -> (u8, f64) {
+pub(super) fn rank(c: &CaseInfo) -> (u8, f64) {
     let class = match c.verdict {
         Verdict::Fail => 0,
         Verdict::Info => 1,
@@ -145,33 +97,36 @@ pub fn listing(results: &Results, detail: Detail) -> Listing {
     listing_of(&results.cases, detail)
 }
 
-fn listing_of(cases: &[CaseInfo], detail: Detail) -> Listing {
-    let mut order: Vec<&CaseInfo> = cases.iter().collect();
-    // A stable sort: equal ranks keep plan order.
-    order.sort_by(|a, b| {
-        let (ca, ma) = rank(a);
-        let (cb, mb) = rank(b);
-        ca.cmp(&cb).then(ma.total_cmp(&mb))
-    });
-    let paged: Vec<&CaseInfo> = order
+fn listing_of(cases: &Cases, detail: Detail) -> Listing {
+    cases.listing_with(detail, || compute_listing(cases, detail))
+}
+
+fn compute_listing(cases: &Cases, detail: Detail) -> Listing {
+    // Each case's rank and whether the detail pages it, in plan order; the
+    // ids only of the cases shown.
+    let mut order: Vec<(usize, (u8, f64), bool)> = cases
         .iter()
-        .copied()
-        .filter(|c| detail.shows_case(c.verdict.as_str()))
+        .enumerate()
+        .map(|(i, c)| (i, rank(&c), detail.shows_case(c.verdict.as_str())))
         .collect();
+    // A stable sort: equal ranks keep plan order.
+    order.sort_by(|(_, (ca, ma), _), (_, (cb, mb), _)| ca.cmp(cb).then(ma.total_cmp(mb)));
+    let id = |i: usize| cases.get(i).map(|c| c.id.clone()).unwrap_or_default();
+    let paged: Vec<usize> = order.iter().filter(|o| o.2).map(|o| o.0).collect();
     let keep = match detail {
         Detail::Full => paged.len(),
         _ => paged.len().min(CASE_PAGES_MAX),
     };
-    let pages: BTreeSet<String> = paged[..keep].iter().map(|c| c.id.clone()).collect();
+    let pages: BTreeSet<String> = paged[..keep].iter().map(|&i| id(i)).collect();
     let listed: BTreeSet<String> = if cases.len() <= EVERY_CASE_LISTED_MAX {
         cases.iter().map(|c| c.id.clone()).collect()
     } else {
         let mut listed = pages.clone();
-        for c in &order {
+        for &(i, _, _) in &order {
             if listed.len() >= LISTED_CASES_MAX.max(pages.len()) {
                 break;
             }
-            listed.insert(c.id.clone());
+            listed.insert(id(i));
         }
         listed
     };
@@ -185,6 +140,7 @@ fn listing_of(cases: &[CaseInfo], detail: Detail) -> Listing {
 
 #[cfg(test)]
 mod tests {
+    use super::super::CasesBuilder;
     use super::super::limits::tests::{case, check};
     use super::*;
 
@@ -212,13 +168,20 @@ mod tests {
         let all = cases(EVERY_CASE_LISTED_MAX, |i| i % 13 == 1);
         let failing = all.iter().filter(|c| c.verdict == Verdict::Fail).count();
         assert!(failing > 0 && failing <= CASE_PAGES_MAX, "{failing}");
-        let l = listing_of(&all, Detail::Standard);
+        let l = listing_of(&all.clone().into(), Detail::Standard);
         assert_eq!(l.listed.len(), EVERY_CASE_LISTED_MAX);
         assert_eq!((l.unlisted, l.pages_omitted), (0, 0));
         assert_eq!(l.pages.len(), failing);
         assert!(all.iter().all(|c| l.charts_case(&c.id)));
-        assert!(listing_of(&all, Detail::Summary).pages.is_empty());
-        assert_eq!(listing_of(&all, Detail::Full).pages.len(), all.len());
+        assert!(
+            listing_of(&all.clone().into(), Detail::Summary)
+                .pages
+                .is_empty()
+        );
+        assert_eq!(
+            listing_of(&all.clone().into(), Detail::Full).pages.len(),
+            all.len()
+        );
     }
 
     /// An LED ROI named as the checks of [`cases`] name it.
@@ -238,7 +201,7 @@ mod tests {
     }
 
     #[test]
-    fn chart_data_dropped_chunk_by_chunk_is_kept_for_exactly_the_paged_cases() {
+    fn a_spilled_run_reads_back_every_case_and_keeps_chart_data_for_exactly_the_paged_cases() {
         let n = EVERY_CASE_LISTED_MAX + 3 * LISTED_CASES_MAX + 7;
         // Failing cases spread over the run, the worst (lowest FDI) late
         // and early alike, so that the best so far changes chunk by chunk.
@@ -256,17 +219,30 @@ mod tests {
                     }
                 }
             }
-            let mut data = ChartData::new(n, detail);
-            for first in (0..n).step_by(61) {
-                let end = (first + 61).min(n);
-                data.prune(&mut all[..end], first);
+            let mut built = CasesBuilder::new(n, detail, false).unwrap();
+            for chunk in all.chunks(61) {
+                built.extend(chunk.to_vec()).unwrap();
             }
-            let kept: BTreeSet<String> = all
+            let built = built.finish().unwrap();
+            assert_eq!(built.is_spilled(), detail != Detail::Full);
+            assert_eq!(built.len(), n);
+            // Every case reads back as results.json holds it, in order.
+            let json = |c: &CaseInfo| serde_json::to_string(c).unwrap();
+            assert_eq!(built.iter().count(), n);
+            for (i, (c, b)) in all.iter().zip(&built).enumerate() {
+                assert_eq!(json(&b), json(c), "{i}");
+            }
+            assert_eq!(built.read_error(), None);
+            assert_eq!(
+                listing_of(&built, detail),
+                listing_of(&all.clone().into(), detail)
+            );
+            let kept: BTreeSet<String> = built
                 .iter()
                 .filter(|c| c.rois.iter().any(|r| !r.analysis.folded_bins.is_empty()))
                 .map(|c| c.id.clone())
                 .collect();
-            let l = listing_of(&all, detail);
+            let l = listing_of(&all.clone().into(), detail);
             let charted: BTreeSet<String> = all
                 .iter()
                 .filter(|c| l.charts_case(&c.id))
@@ -282,7 +258,7 @@ mod tests {
         // Every third case fails, furthest beyond the limit at low i.
         let all = cases(n, |i| i % 3 == 2);
         let failing: Vec<&CaseInfo> = all.iter().filter(|c| c.verdict == Verdict::Fail).collect();
-        let l = listing_of(&all, Detail::Standard);
+        let l = listing_of(&all.clone().into(), Detail::Standard);
         assert_eq!(l.pages.len(), CASE_PAGES_MAX);
         assert_eq!(l.pages_omitted, failing.len() - CASE_PAGES_MAX);
         // The pages are the failing cases furthest beyond the limit: the
@@ -304,7 +280,7 @@ mod tests {
         );
         assert!(!l.charts_case("c0000") && l.charts_case(&failing[0].id));
         // Full detail pages every case, and lists every paged case.
-        let full = listing_of(&all, Detail::Full);
+        let full = listing_of(&all.clone().into(), Detail::Full);
         assert_eq!(full.pages.len(), n);
         assert_eq!(full.pages_omitted, 0);
         assert!(full.pages.is_subset(&full.listed));

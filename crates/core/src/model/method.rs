@@ -196,13 +196,10 @@ pub fn case_acquisition(plan: &Plan, case: &CaseInfo) -> String {
     }
 }
 
-/// Fills `method` and every case's `acquisition`; call again after the
-/// captures' summaries are attached to the cases.
+/// Fills `method` and the conditions (each case's `acquisition` is
+/// filled as the case is analysed).
 pub fn describe(model: &mut Results, plan: &Plan) {
     model.method = method(plan);
-    for case in &mut model.cases {
-        case.acquisition = case_acquisition(plan, case);
-    }
     model.conditions = super::conditions::conditions(model, plan);
 }
 
@@ -243,22 +240,15 @@ pub fn notes(model: &Results, plan: &Plan) -> Vec<String> {
             model.dut.backend
         ));
     }
-    let saturated: Vec<&str> = model
-        .cases
-        .iter()
-        .filter(|c| c.rois.iter().any(|r| r.saturated))
-        .map(|c| c.id.as_str())
-        .collect();
-    if !saturated.is_empty() {
-        out.push(format!(
-            "{} case(s) have a saturated ROI (e.g. {}): their metrics understate the modulation.",
-            saturated.len(),
-            saturated[0]
-        ));
-    }
+    // Saturated ROIs and undefined metrics in one pass over the cases.
+    let (mut saturated, mut saturated_example) = (0, None);
     let mut undefined = 0;
     let mut example = None;
     for c in &model.cases {
+        if c.rois.iter().any(|r| r.saturated) {
+            saturated += 1;
+            saturated_example.get_or_insert_with(|| c.id.clone());
+        }
         for r in &c.rois {
             for (metric, reason) in &r.reasons {
                 undefined += 1;
@@ -266,6 +256,11 @@ pub fn notes(model: &Results, plan: &Plan) -> Vec<String> {
                     .get_or_insert_with(|| format!("{} / {} / {metric}: {reason}", c.id, r.name));
             }
         }
+    }
+    if let Some(example) = saturated_example {
+        out.push(format!(
+            "{saturated} case(s) have a saturated ROI (e.g. {example}): their metrics understate the modulation."
+        ));
     }
     if let Some(example) = example {
         out.push(format!(

@@ -28,6 +28,7 @@
 //! `stated_frame_rate_fps`.
 
 pub mod build;
+pub mod cases;
 pub mod conditions;
 pub mod evidence;
 pub mod frame;
@@ -60,6 +61,7 @@ pub use crate::trace::{
     SegmentMethod, SegmentsFound, StepKind, StepSource, TRACE_COLUMNS, TimestampSource,
 };
 pub use build::{assemble, assemble_from};
+pub use cases::{Cases, CasesBuilder};
 
 /// Schema id of results.json.
 pub const RESULTS_SCHEMA: &str = "ledflicker.results/4";
@@ -96,8 +98,9 @@ pub struct Results {
     pub verdict: Verdict,
     /// Number of cases per verdict.
     pub counts: Counts,
-    /// Every case, in plan order.
-    pub cases: Vec<CaseInfo>,
+    /// Every case, in plan order (a large run's spilled to disk:
+    /// [`cases`]).
+    pub cases: Cases,
     /// Worst-phase FDI and Percent Flicker over the frequency x duty plane,
     /// one per light level, for the plan's camera and first LED ROI.
     pub fine_maps: Vec<FineMapInfo>,
@@ -158,7 +161,7 @@ impl Results {
             display: *display,
             verdict: *verdict,
             counts: counts.clone(),
-            cases: Vec::new(),
+            cases: Cases::default(),
             fine_maps: fine_maps.clone(),
             fine_maps_note: fine_maps_note.clone(),
             advice: advice.clone(),
@@ -292,6 +295,20 @@ pub struct Counts {
     pub fail: usize,
     /// Informational.
     pub info: usize,
+}
+
+impl Counts {
+    /// Each verdict that some case has.
+    pub fn verdicts(&self) -> impl Iterator<Item = Verdict> + use<> {
+        [
+            (self.fail, Verdict::Fail),
+            (self.pass, Verdict::Pass),
+            (self.info, Verdict::Info),
+        ]
+        .into_iter()
+        .filter(|(n, _)| *n > 0)
+        .map(|(_, v)| v)
+    }
 }
 
 /// One case.

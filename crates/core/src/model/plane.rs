@@ -6,11 +6,11 @@
 //! gives the same plane. The report's matrix draws it
 //! (`ledflicker_report::matrix`) and computes nothing of its own.
 
-use super::{CaseInfo, Results};
+use super::{CaseInfo, Results, RoiKind, Verdict};
 
 /// One light level's cases on the frequency x duty plane.
 #[derive(Debug, Clone)]
-pub struct LevelPlane<'a> {
+pub struct LevelPlane {
     /// Illuminance, lux (> 0).
     pub light_lux: f64,
     /// PWM frequencies of the cases, Hz, ascending and distinct: the
@@ -20,21 +20,45 @@ pub struct LevelPlane<'a> {
     /// row 0 the lowest.
     pub duties_percent: Vec<f64>,
     /// Every case at this light level, in plan order, with its cell.
-    pub cells: Vec<PlaneCell<'a>>,
+    pub cells: Vec<PlaneCell>,
     /// Deegan 2018 Eq. (1) for the simulated camera's exposure; `None`
     /// without a camera or with a zero exposure.
     pub eq1: Option<Eq1>,
 }
 
-/// A case and its cell of a [`LevelPlane`].
-#[derive(Debug, Clone, Copy)]
-pub struct PlaneCell<'a> {
+/// A case's cell of a [`LevelPlane`]: what its matrix shows of it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlaneCell {
     /// Column: index into `frequencies_hz`.
     pub column: usize,
     /// Row: index into `duties_percent`.
     pub row: usize,
-    /// The case.
-    pub case: &'a CaseInfo,
+    /// The case's PWM frequency, Hz.
+    pub frequency_hz: f64,
+    /// The case's duty cycle, 0..1.
+    pub duty: f64,
+    /// The case's verdict.
+    pub verdict: Verdict,
+    /// The plane's metric ([`shown_value`]).
+    pub value: Option<f64>,
+    /// Whether the value is +infinity ([`shown_value`]).
+    pub unbounded: bool,
+}
+
+/// The value a matrix shows for a case: `metric` of its first LED ROI
+/// (else its first ROI), and whether it is +infinity (an FDI whose
+/// contrast is unbounded).
+pub fn shown_value(case: &CaseInfo, metric: &str) -> (Option<f64>, bool) {
+    let Some(roi) = case
+        .rois
+        .iter()
+        .find(|r| r.kind == RoiKind::Led)
+        .or(case.rois.first())
+    else {
+        return (None, false);
+    };
+    let unbounded = roi.contrast_unbounded && metric.starts_with("fdi");
+    (roi.metrics.get(metric).copied().flatten(), unbounded)
 }
 
 /// Deegan 2018 Eq. (1) on a plane: an exposure `T_exp` can fall entirely
@@ -97,33 +121,41 @@ impl Results {
         out
     }
 
-    /// The plane of the cases at `light_lux`; `None` when no case with
-    /// known conditions is at that level.
-    pub fn plane(&self, light_lux: f64) -> Option<LevelPlane<'_>> {
-        let cases: Vec<&CaseInfo> = self
-            .cases
-            .iter()
-            .filter(|c| known(c) && c.light_lux == light_lux)
-            .collect();
-        if cases.is_empty() {
+    /// The plane of the cases at `light_lux`, showing `metric`; `None`
+    /// when no case with known conditions is at that level.
+    pub fn plane(&self, light_lux: f64, metric: &str) -> Option<LevelPlane> {
+        // One pass over the cases, keeping only what a cell shows.
+        let mut cells: Vec<PlaneCell> = Vec::new();
+        for case in self.cases.iter() {
+            if !known(&case) || case.light_lux != light_lux {
+                continue;
+            }
+            let (value, unbounded) = shown_value(&case, metric);
+            cells.push(PlaneCell {
+                column: 0,
+                row: 0,
+                frequency_hz: case.frequency_hz,
+                duty: case.duty,
+                verdict: case.verdict,
+                value,
+                unbounded,
+            });
+        }
+        if cells.is_empty() {
             return None;
         }
-        let frequencies_hz = distinct(cases.iter().map(|c| c.frequency_hz).collect());
-        let duties_percent = distinct(cases.iter().map(|c| c.duty * 100.0).collect());
-        let cells = cases
-            .into_iter()
-            .filter_map(|case| {
-                Some(PlaneCell {
-                    column: frequencies_hz
-                        .iter()
-                        .position(|&f| f == case.frequency_hz)?,
-                    row: duties_percent
-                        .iter()
-                        .position(|&d| d == case.duty * 100.0)?,
-                    case,
-                })
-            })
-            .collect();
+        let frequencies_hz = distinct(cells.iter().map(|c| c.frequency_hz).collect());
+        let duties_percent = distinct(cells.iter().map(|c| c.duty * 100.0).collect());
+        cells.retain_mut(|cell| {
+            let at = |xs: &[f64], x: f64| xs.binary_search_by(|y| y.total_cmp(&x)).ok();
+            let column = at(&frequencies_hz, cell.frequency_hz);
+            let row = at(&duties_percent, cell.duty * 100.0);
+            let (Some(column), Some(row)) = (column, row) else {
+                return false;
+            };
+            (cell.column, cell.row) = (column, row);
+            true
+        });
         let eq1 = self
             .dut
             .camera
@@ -178,42 +210,42 @@ mod tests {
     fn every_known_case_has_one_cell_and_eq1_uses_the_camera_exposure() {
         let model = small_model();
         assert_eq!(model.light_levels(), vec![2000.0]);
-        let plane = model.plane(2000.0).unwrap();
+        let plane = model.plane(2000.0, "fdi_2018").unwrap();
         assert_eq!(plane.frequencies_hz, vec![60.0, 150.0]);
         assert_eq!(plane.duties_percent, vec![20.0, 50.0]);
         assert_eq!(plane.cells.len(), model.cases.len());
         for cell in &plane.cells {
-            assert_eq!(plane.frequencies_hz[cell.column], cell.case.frequency_hz);
-            assert!((plane.duties_percent[cell.row] - 100.0 * cell.case.duty).abs() < 1e-12);
+            assert_eq!(plane.frequencies_hz[cell.column], cell.frequency_hz);
+            assert!((plane.duties_percent[cell.row] - 100.0 * cell.duty).abs() < 1e-12);
+        }
+        // Each cell shows its case's value and verdict, in plan order.
+        for (cell, case) in plane.cells.iter().zip(&model.cases) {
+            assert_eq!(cell.verdict, case.verdict);
+            assert_eq!(cell.value, case.rois[0].metrics["fdi_2018"]);
         }
         // 60 Hz: D < 1 - 60 x 11.111 ms = 33.3 %, the 20 % row; 150 Hz: none.
         let eq1 = plane.eq1.unwrap();
         assert!((eq1.exposure_ms - 11.111).abs() < 1e-9);
         assert_eq!(eq1.off_rows, vec![1, 0]);
         assert!(eq1.any_off());
-        assert!(model.plane(40.0).is_none());
+        assert!(model.plane(40.0, "fdi_2018").is_none());
     }
 
     #[test]
     fn the_plane_of_a_model_read_back_is_the_same() {
         let mut model = small_model();
         let back = super::super::read_results(&serde_json::to_string(&model).unwrap()).unwrap();
-        let (a, b) = (model.plane(2000.0).unwrap(), back.plane(2000.0).unwrap());
+        let plane = |m: &Results| m.plane(2000.0, "percent_flicker").unwrap();
+        let (a, b) = (plane(&model), plane(&back));
         assert_eq!(a.frequencies_hz, b.frequencies_hz);
         assert_eq!(a.duties_percent, b.duties_percent);
         assert_eq!(a.eq1, b.eq1);
-        let ids = |p: &LevelPlane<'_>| -> Vec<(usize, usize, String)> {
-            p.cells
-                .iter()
-                .map(|c| (c.column, c.row, c.case.id.clone()))
-                .collect()
-        };
-        assert_eq!(ids(&a), ids(&b));
+        assert_eq!(a.cells, b.cells);
         // Without a camera (a capture) there is no Eq. (1); a case of
         // unknown conditions is on no plane.
         model.dut.camera = None;
-        model.cases[0].light_lux = 0.0;
-        let plane = model.plane(2000.0).unwrap();
+        model.cases.to_mut()[0].light_lux = 0.0;
+        let plane = plane(&model);
         assert_eq!(plane.eq1, None);
         assert_eq!(plane.cells.len(), model.cases.len() - 1);
     }

@@ -108,13 +108,25 @@ pub const CASE_PAGES_MAX: usize = 20;
 /// for the 9 cases of the command rig plan; with room for the 7 % by which
 /// one plan's peak was seen to vary between runs).
 const BASE_MEMORY_BYTES: f64 = 85.0e6;
-/// Memory every case costs until the report is written: its entry of the
-/// results model (what results.json says of it; the phase folds' bins only
-/// for the cases that get a page); its result, trace and files are read
-/// back from the case store a chunk at a time (measured: 7.7 kB a case of
-/// 2 ROIs in the model of the 23,460-case sweep; the rest is room for the
-/// report stage's copies of its figures).
+/// Memory every case the results model holds costs until the report is
+/// written: its entry (what results.json says of it; the phase folds' bins
+/// only for the cases that get a page); its result, trace and files are
+/// read back from the case store a chunk at a time (measured: 7.7 kB a case
+/// of 2 ROIs; the rest is room for the report stage's copies of its
+/// figures). A run of at most [`EVERY_CASE_LISTED_MAX`] cases, or one
+/// reported at `--detail full`, holds every case; a larger one spills its
+/// cases to disk and holds only [`MODEL_CASES_HELD`].
 const CASE_MEMORY_BYTES: f64 = 10.5e3;
+/// The model entries a spilled run holds: its listed cases, its paged
+/// ones and the one its ROI map is drawn from (its cases with a worst-phase
+/// run are held too; they are among the listed ones unless more than
+/// [`LISTED_CASES_MAX`] fail).
+const MODEL_CASES_HELD: f64 = (LISTED_CASES_MAX + CASE_PAGES_MAX + 1) as f64;
+/// Memory every case of a spilled run costs while the report is written:
+/// the few figures of it that the passes over every case gather at once
+/// (its rank for the listing, its conditions and segments, its matrix
+/// cell), and its offset in the spill file.
+const SPILLED_CASE_MEMORY_BYTES: f64 = 200.0;
 /// Memory a shard holds per case, on top of its frames and ROIs
 /// ([`SHARD_FRAME_ROI_MEMORY_BYTES`]): its result until the shard's
 /// directory is written.
@@ -282,7 +294,12 @@ impl WorkEstimate {
             + charted * (CHARTED_OUTPUT_BYTES + CHARTED_FRAME_ROI_OUTPUT_BYTES * frame_rois);
         // Frames are held as runs of equal values, so the sensor's size
         // costs memory only while a view is drawn.
-        let memory = n * CASE_MEMORY_BYTES
+        let held = if every_case || cases <= EVERY_CASE_LISTED_MAX {
+            n * CASE_MEMORY_BYTES
+        } else {
+            MODEL_CASES_HELD * CASE_MEMORY_BYTES + n * SPILLED_CASE_MEMORY_BYTES
+        };
+        let memory = held
             + listed * LISTED_MEMORY_BYTES
             + charted * CHARTED_FRAME_ROI_MEMORY_BYTES * frame_rois;
         // The fine maps' condition is `analysis::fine_maps_note`'s, which

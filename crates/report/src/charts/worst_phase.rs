@@ -235,7 +235,7 @@ mod tests {
         let (plan, results, model) = daylight_at_5_ms();
         let failing: Vec<(&CaseInfo, &CaseResult)> = model
             .cases
-            .iter()
+            .resident()
             .zip(&results)
             .filter(|(c, _)| fails_on_an_unseen_worst_phase(c))
             .collect();
@@ -297,7 +297,7 @@ mod tests {
         // Cases that pass, and those whose trace shows their worst case,
         // carry no such run.
         for c in &model.cases {
-            if !fails_on_an_unseen_worst_phase(c) {
+            if !fails_on_an_unseen_worst_phase(&c) {
                 assert!(c.worst_phase.is_none(), "{}", c.id);
             }
         }

@@ -128,13 +128,13 @@ pub fn driver_view(results: &Results, listed: impl Fn(&str) -> bool) -> Option<D
     };
     let rows: Vec<DriverRow> = results
         .cases
-        .iter()
+        .resident()
         .filter(|c| listed(&c.id))
         .flat_map(|c| rows_of(c, bound))
         .collect();
     let colour = results
         .cases
-        .iter()
+        .resident()
         .filter(|c| listed(&c.id))
         .flat_map(colour_rows_of)
         .collect();

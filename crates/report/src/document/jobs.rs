@@ -53,8 +53,9 @@ impl<'a> ViewJobs<'a> {
         let mut jobs = Jobs {
             jobs: BTreeMap::new(),
         };
+        // The shown cases are those the model keeps in memory.
         let cases: BTreeMap<&str, &CaseInfo> =
-            model.cases.iter().map(|c| (c.id.as_str(), c)).collect();
+            model.cases.resident().map(|c| (c.id.as_str(), c)).collect();
         for r in results {
             let info = cases.get(r.case.id.as_str()).copied();
             let Some(frame) = r.sample_frame.as_ref() else {
@@ -72,7 +73,7 @@ impl<'a> ViewJobs<'a> {
                 })
             });
         }
-        for c in &model.cases {
+        for c in model.cases.resident() {
             let Some(w) = c.worst_phase.as_ref() else {
                 continue;
             };
@@ -103,8 +104,9 @@ impl<'a> ChartJobs<'a> {
             jobs: BTreeMap::new(),
         };
         let listing = listing(model, model.report_detail());
+        // The charted cases are those the model keeps in memory.
         let cases: BTreeMap<&str, &CaseInfo> =
-            model.cases.iter().map(|c| (c.id.as_str(), c)).collect();
+            model.cases.resident().map(|c| (c.id.as_str(), c)).collect();
         for r in results {
             if !listing.charts_case(&r.case.id) {
                 continue;
@@ -163,7 +165,11 @@ impl<'a> ChartJobs<'a> {
                 });
             }
         }
-        for c in model.cases.iter().filter(|c| listing.charts_case(&c.id)) {
+        for c in model
+            .cases
+            .resident()
+            .filter(|c| listing.charts_case(&c.id))
+        {
             let drawn = c.rois.iter().filter(|roi| {
                 roi.kind == RoiKind::Led
                     && roi.analysis.phase_coverage.covered_bins >= charts::MIN_FOLD_PHASES
