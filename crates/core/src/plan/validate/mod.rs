@@ -145,12 +145,7 @@ pub(super) fn validate(
         return None;
     }
     sequence_fits(&mut c, &sequence, dut.camera.fps)?;
-    let planes = match (role.is_sim, role.captured, &capture) {
-        (true, _, _) if dut.camera.physical.is_none() => colour::Planes::Simulated,
-        (false, true, Some(cap)) => colour::Planes::Captured(cap.video_decode),
-        _ => colour::Planes::Unavailable,
-    };
-    let colour = colour::colour(&mut c, raw_colour, planes);
+    let colour = colour::colour(&mut c, raw_colour, role.planes(&dut, capture.as_ref()));
     let (thresholds, display) = (thresholds?, display?);
     let colour = colour?;
     display::limit_needs_display(&mut c, &thresholds, display.as_ref())?;
@@ -228,6 +223,15 @@ impl Role {
         Role {
             captured: backend == Some("captured"),
             is_sim: !matches!(backend, Some("captured" | "command")),
+        }
+    }
+
+    /// Where the plan's colour planes would come from.
+    fn planes(self, dut: &super::Dut, capture: Option<&CaptureConfig>) -> colour::Planes {
+        match (self.is_sim, self.captured, capture) {
+            (true, _, _) if dut.camera.physical.is_none() => colour::Planes::Simulated,
+            (false, true, Some(cap)) => colour::Planes::Captured(cap.video_decode),
+            _ => colour::Planes::Unavailable,
         }
     }
 }
