@@ -13,6 +13,7 @@ mod capture_inputs;
 mod captured;
 mod cli;
 mod colour;
+mod colour_captured;
 mod conditions;
 mod detect;
 mod estimate;

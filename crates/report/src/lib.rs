@@ -118,10 +118,12 @@ pub struct WriteOptions {
 }
 
 /// One case's trace as CSV: `frame,time_s,segment,<one luma column per ROI>`
-/// ([`TRACE_COLUMNS`], then the ROIs). Written by hand, not with the `csv`
-/// crate: its writer costs 50 % more instructions here (docs/speed.md),
-/// and no field needs quoting (numbers, segment names, ROI names of
-/// letters, digits, `-` and `_`).
+/// ([`TRACE_COLUMNS`], then the ROIs), then, for each ROI with colour
+/// planes (an LED ROI of a plan with colour), its columns `<roi>.r`,
+/// `<roi>.g` and `<roi>.b`. Written by hand, not with the `csv` crate: its
+/// writer costs 50 % more instructions here (docs/speed.md), and no field
+/// needs quoting (numbers, segment names, ROI names of letters, digits,
+/// `-` and `_`; `.` is in no ROI name, so a plane's column names no ROI).
 pub fn trace_csv(result: &CaseResult) -> String {
     let acq = &result.acquisition;
     let mut out = TRACE_COLUMNS.join(",");
@@ -129,17 +131,34 @@ pub fn trace_csv(result: &CaseResult) -> String {
         out.push(',');
         out.push_str(&roi.name);
     }
+    let planes: Vec<(&str, &[[f64; 3]])> = acq
+        .rois
+        .iter()
+        .filter_map(|r| Some((r.name.as_str(), r.rgb.as_deref()?)))
+        .filter(|(_, rgb)| rgb.len() == acq.frames.len())
+        .collect();
+    for (name, _) in &planes {
+        for p in ["r", "g", "b"] {
+            let _ = write!(out, ",{name}.{p}");
+        }
+    }
     out.push('\n');
     // A ROI's luma takes few distinct values (a steady segment repeats
     // one, a locked PWM phase cycles a few), so each column remembers the
     // text of its recent values: the output is the same as `{}` of each.
-    let mut recent: Vec<RecentValues> = acq.rois.iter().map(|_| RecentValues::default()).collect();
-    out.reserve(acq.frames.len() * (24 + 20 * acq.rois.len()));
+    let columns = acq.rois.len() + 3 * planes.len();
+    let mut recent: Vec<RecentValues> = (0..columns).map(|_| RecentValues::default()).collect();
+    out.reserve(acq.frames.len() * (24 + 20 * columns));
     for (i, f) in acq.frames.iter().enumerate() {
         let _ = write!(out, "{},{},{}", f.index, f.time_s, f.segment.as_str());
-        for (roi, recent) in acq.rois.iter().zip(&mut recent) {
+        let values = acq
+            .rois
+            .iter()
+            .map(|roi| roi.luma[i])
+            .chain(planes.iter().flat_map(|(_, rgb)| rgb[i]));
+        for (v, recent) in values.zip(&mut recent) {
             out.push(',');
-            out.push_str(recent.text(roi.luma[i]));
+            out.push_str(recent.text(v));
         }
         out.push('\n');
     }
@@ -487,12 +506,16 @@ fn shown_cases(
 mod tests {
     use super::*;
 
-    /// The trace CSV as `{}` of every value, written plainly.
+    /// The trace CSV as `{}` of every value, written plainly: each ROI's
+    /// luma, then the R, G and B of each ROI with colour planes.
     fn plain_csv(result: &CaseResult) -> String {
         let acq = &result.acquisition;
         let mut out = String::from("frame,time_s,segment");
         for roi in &acq.rois {
             out.push_str(&format!(",{}", roi.name));
+        }
+        for roi in acq.rois.iter().filter(|r| r.rgb.is_some()) {
+            out.push_str(&format!(",{0}.r,{0}.g,{0}.b", roi.name));
         }
         out.push('\n');
         for (i, f) in acq.frames.iter().enumerate() {
@@ -500,9 +523,41 @@ mod tests {
             for roi in &acq.rois {
                 out.push_str(&format!(",{}", roi.luma[i]));
             }
+            for rgb in acq.rois.iter().filter_map(|r| r.rgb.as_ref()) {
+                out.push_str(&format!(",{},{},{}", rgb[i][0], rgb[i][1], rgb[i][2]));
+            }
             out.push('\n');
         }
         out
+    }
+
+    #[test]
+    fn trace_csv_gives_colour_planes_columns_after_every_luma_column() {
+        let (mut results, _) = document::small_run();
+        let r = &mut results[0];
+        // A second ROI, with colour, after the fixture's own.
+        let mut lamp = r.acquisition.rois[0].clone();
+        lamp.name = "lamp".to_string();
+        r.acquisition.rois.push(lamp);
+        let plain = trace_csv(r);
+        let n = r.acquisition.frames.len();
+        let name = "lamp";
+        r.acquisition.rois[1].rgb = Some(
+            (0..n)
+                .map(|i| [i as f64 * 0.5, 3.0, (i % 7) as f64 + 0.25])
+                .collect(),
+        );
+        let coloured = trace_csv(r);
+        assert_eq!(coloured, plain_csv(r));
+        let header = coloured.lines().next().unwrap();
+        assert!(
+            header.ends_with(&format!(",{name}.r,{name}.g,{name}.b")),
+            "{header}"
+        );
+        // The luma columns are those of the trace without colour.
+        for (a, b) in plain.lines().zip(coloured.lines()) {
+            assert!(b.starts_with(a) && b.matches(',').count() == a.matches(',').count() + 3);
+        }
     }
 
     #[test]

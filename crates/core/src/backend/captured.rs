@@ -17,7 +17,7 @@ use super::segments::{self, Detection};
 use super::{Acquisition, Backend, BackendError, FrameInfo, RoiTrace};
 use crate::capture::{self, CaptureError, CaptureTrace, ReadOptions, RoiRect};
 use crate::metrics::flicker::Segment;
-use crate::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Span, TestCase};
+use crate::plan::{CaptureConfig, Plan, Roi, RoiKind, SegmentSpec, Span, TestCase};
 use crate::trace::RenderedFrame;
 
 /// Turns the plan's ROIs into pixel rectangles.
@@ -179,6 +179,49 @@ pub fn to_acquisition(
     }
 }
 
+/// Gives each LED ROI of `acq` its R, G and B means, frame by frame, from
+/// `trace`: the colour planes of a plan with colour. A capture without
+/// colour is refused, naming it: its colour figures cannot be made.
+pub fn keep_colour_planes(
+    acq: &mut Acquisition,
+    trace: &CaptureTrace,
+    rois: &[Roi],
+    path: &Path,
+) -> Result<(), CaptureError> {
+    let Some(rgb) = &trace.rgb else {
+        return Err(CaptureError::Invalid {
+            path: path.to_path_buf(),
+            message: format!(
+                "the plan has colour (scene.led-chromaticity-xy) but this capture has no R, G and B: {}",
+                grey_reason(&trace.format)
+            ),
+            hint: "record RGB frames (RGB PNG or TIFF, or a colour video with capture.video-decode = \"rgb\"), or remove the colour keys from the plan".to_string(),
+        });
+    };
+    for ((out, roi), planes) in acq.rois.iter_mut().zip(rois).zip(rgb) {
+        if roi.kind == RoiKind::Led {
+            out.rgb = Some(
+                acq.frames
+                    .iter()
+                    .map(|f| planes[f.index as usize])
+                    .collect(),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Why a capture of `format` has no colour planes.
+fn grey_reason(format: &str) -> &'static str {
+    if format.starts_with("csv") {
+        "a CSV trace holds luma only"
+    } else if format.starts_with("y4m") {
+        "a Y4M file is read as its Y' plane only"
+    } else {
+        "its frames are greyscale"
+    }
+}
+
 pub use crate::trace::CaptureSummary;
 
 /// The captured backend: every case's capture, read.
@@ -214,6 +257,9 @@ impl Captured {
             .map(|(c, trace)| {
                 let found = find_segments_with(&c.segments, &trace, &c.source, &detection)?;
                 let mut acq = to_acquisition(&trace, &found, &plan.rois, cap.saturation_dn);
+                if plan.colour.is_some() {
+                    keep_colour_planes(&mut acq, &trace, &plan.rois, &c.source)?;
+                }
                 acq.capture = Some(CaptureSummary {
                     source: c.source_text.clone(),
                     format: trace.format.clone(),

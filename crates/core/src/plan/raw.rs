@@ -156,6 +156,38 @@ pub struct RawCamera {
     pub camera_to_xyz: Option<Vec<Vec<f64>>>,
 }
 
+impl RawCamera {
+    /// True when no key is set: what is left of a captured plan's
+    /// `[dut.camera]` that held only the colour keys.
+    pub fn is_empty(&self) -> bool {
+        let numbers = [
+            self.line_time_us,
+            self.exposure_ms,
+            self.frame_rate_fps,
+            self.pwm_delay_ms,
+            self.response_dn_per_cd_m2_s,
+            self.black_level_dn,
+            self.full_scale_dn,
+            self.saturation_dn,
+            self.analog_gain,
+            self.digital_gain,
+        ];
+        self.name.is_none()
+            && self.description.is_none()
+            && self.shutter.is_none()
+            && self.sensor_rows.is_none()
+            && self.sensor_columns.is_none()
+            && numbers.iter().all(Option::is_none)
+            && self.sensor.is_none()
+            && self.capture.is_empty()
+            && self.hdr.is_none()
+            && self.tone.is_none()
+            && self.auto_exposure.is_none()
+            && self.colour_plane_offset_ms.is_none()
+            && self.camera_to_xyz.is_none()
+    }
+}
+
 /// `[dut.camera.sensor]`: present for a physical sensor model.
 #[derive(Debug, Deserialize)]
 #[serde(rename_all = "kebab-case")]

@@ -3,6 +3,7 @@
 //! `dut.camera.camera-to-xyz` (the camera's planes). All optional; without
 //! a chromaticity the plan has no colour and the camera keys are refused.
 
+use crate::plan::VideoDecode;
 use crate::plan::check::Checker;
 use crate::plan::colour::{ColourConfig, DEFAULT_CAMERA_TO_XYZ, SignalColourName, apply, invert};
 
@@ -17,13 +18,23 @@ pub(super) struct RawColour {
 
 const HINT: &str = "see docs/plan-format.md, \"Colour\"";
 
+/// Where a plan's colour planes come from.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Planes {
+    /// The simulator's ideal camera (no `[sensor]` table) makes them.
+    Simulated,
+    /// A captured plan reads them from RGB frames, its video decoded so.
+    Captured(VideoDecode),
+    /// Any other backend or camera: no colour planes.
+    Unavailable,
+}
+
 /// Validates the colour keys: `Some(None)` without them, `None` after an
-/// error. `ideal_sim`: the simulator with the ideal camera (no `[sensor]`
-/// table), the one backend that makes colour planes.
+/// error.
 pub(super) fn colour(
     c: &mut Checker<'_>,
     raw: RawColour,
-    ideal_sim: bool,
+    planes: Planes,
 ) -> Option<Option<ColourConfig>> {
     let Some(xy) = raw.led_xy else {
         for (given, key) in [
@@ -49,13 +60,35 @@ pub(super) fn colour(
         };
     };
     let mut ok = true;
-    if !ideal_sim {
-        c.error(
-            "scene.led-chromaticity-xy",
-            "colour planes are simulated for the simulator's ideal camera only",
-            Some("use backend = \"simulator\" without [dut.camera.sensor], or remove the colour keys"),
-        );
-        ok = false;
+    match planes {
+        Planes::Simulated => {}
+        Planes::Captured(decode) => {
+            // The recording carries its planes' timing: nothing to simulate.
+            if raw.offsets_ms.is_some() {
+                c.error(
+                    "dut.camera.colour-plane-offset-ms",
+                    "is simulated, not read: a captured plan's planes are as recorded",
+                    Some("remove it; the recording's own chroma shift is measured"),
+                );
+                ok = false;
+            }
+            if decode == VideoDecode::LumaPlane {
+                c.error(
+                    "capture.video-decode",
+                    "\"luma-plane\" reads no R, G, B, and the plan has colour (scene.led-chromaticity-xy)",
+                    Some("use video-decode = \"rgb\" (the default), or remove the colour keys"),
+                );
+                ok = false;
+            }
+        }
+        Planes::Unavailable => {
+            c.error(
+                "scene.led-chromaticity-xy",
+                "colour planes come from the simulator's ideal camera or from captured RGB frames only",
+                Some("use backend = \"simulator\" without [dut.camera.sensor], or backend = \"captured\", or remove the colour keys"),
+            );
+            ok = false;
+        }
     }
     let led_xy = match xy.as_slice() {
         &[x, y] if x > 0.0 && y > 0.0 && x + y < 1.0 => Some([x, y]),

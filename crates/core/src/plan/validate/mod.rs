@@ -70,11 +70,11 @@ pub(super) fn validate(
     sha256: String,
 ) -> Option<Plan> {
     let mut c = Checker::new(index, out.diags, out.warnings);
-    let raw_colour = take_colour(&mut raw);
+    let role = Role::of(raw.dut.as_ref());
+    let raw_colour = take_colour(&mut raw, role.captured);
     meta::format_version(&mut c, raw.format_version);
     let meta = meta::plan_table(&mut c, raw.plan);
     let (on_s, off_s, pwm_s) = meta::sequence_table(&mut c, raw.sequence);
-    let role = Role::of(raw.dut.as_ref());
     // The default ROI sits in the middle of the camera's sensor; a plan
     // whose frames come from files or a rig has a sensor only when it
     // describes the camera.
@@ -145,8 +145,7 @@ pub(super) fn validate(
         return None;
     }
     sequence_fits(&mut c, &sequence, dut.camera.fps)?;
-    let ideal_sim = role.is_sim && dut.camera.physical.is_none();
-    let colour = colour::colour(&mut c, raw_colour, ideal_sim);
+    let colour = colour::colour(&mut c, raw_colour, role.planes(&dut, capture.as_ref()));
     let (thresholds, display) = (thresholds?, display?);
     let colour = colour?;
     display::limit_needs_display(&mut c, &thresholds, display.as_ref())?;
@@ -181,16 +180,25 @@ pub(super) fn validate(
 }
 
 /// The colour keys of `[scene]` and `[dut.camera]`, taken out of `raw`
-/// before those tables are validated.
-fn take_colour(raw: &mut RawPlan) -> colour::RawColour {
+/// before those tables are validated. A captured plan's `[dut.camera]`
+/// that held nothing else goes with them: such a plan describes no
+/// camera, only its colour matrix.
+fn take_colour(raw: &mut RawPlan, captured: bool) -> colour::RawColour {
     let scene = raw.scene.as_mut();
-    let camera = raw.dut.as_mut().and_then(|d| d.camera.as_mut());
+    let dut = raw.dut.as_mut();
     let (led_xy, signal) = scene.map_or((None, None), |s| {
         (s.led_chromaticity_xy.take(), s.signal_colour.take())
     });
-    let (offsets_ms, camera_to_xyz) = camera.map_or((None, None), |c| {
-        (c.colour_plane_offset_ms.take(), c.camera_to_xyz.take())
-    });
+    let (mut offsets_ms, mut camera_to_xyz) = (None, None);
+    if let Some(d) = dut
+        && let Some(c) = d.camera.as_mut()
+    {
+        offsets_ms = c.colour_plane_offset_ms.take();
+        camera_to_xyz = c.camera_to_xyz.take();
+        if captured && (offsets_ms.is_some() || camera_to_xyz.is_some()) && c.is_empty() {
+            d.camera = None;
+        }
+    }
     colour::RawColour {
         led_xy,
         signal,
@@ -215,6 +223,15 @@ impl Role {
         Role {
             captured: backend == Some("captured"),
             is_sim: !matches!(backend, Some("captured" | "command")),
+        }
+    }
+
+    /// Where the plan's colour planes would come from.
+    fn planes(self, dut: &super::Dut, capture: Option<&CaptureConfig>) -> colour::Planes {
+        match (self.is_sim, self.captured, capture) {
+            (true, _, _) if dut.camera.physical.is_none() => colour::Planes::Simulated,
+            (false, true, Some(cap)) => colour::Planes::Captured(cap.video_decode),
+            _ => colour::Planes::Unavailable,
         }
     }
 }
