@@ -10,14 +10,16 @@ use ledflicker::model::listing::{CASE_PAGES_MAX, LISTED_CASES_MAX, listing};
 use ledflicker::model::{self, Detail, Results};
 use ledflicker::{plan, report, runner};
 
-/// The benchmark sweep of 310 cases (31 frequencies from 50 Hz x 10
-/// duties) with a 5 ms exposure: below `(1 - D) / f` the LED can be OFF in
-/// a frame, so low duties fail and are run again at their worst phase.
+/// The benchmark sweep of 31 frequencies from 50 Hz x 10 duties at 40
+/// and 2000 lux (620 cases) with a 5 ms exposure: below `(1 - D) / f` the
+/// LED can be OFF in a frame, so low duties fail and are run again at
+/// their worst phase.
 fn sweep() -> (plan::Plan, Vec<runner::CaseResult>) {
-    let text =
-        ledflicker::bench::sweep_plan(31).replace("exposure-ms = 11.111", "exposure-ms = 5.0");
-    assert!(text.contains("exposure-ms = 5.0"));
-    let p = plan::parse_within(&text, Path::new("sweep-310.toml"), String::new(), false).unwrap();
+    let text = ledflicker::bench::sweep_plan(31)
+        .replace("exposure-ms = 11.111", "exposure-ms = 5.0")
+        .replace("levels-lux = [2000.0]", "levels-lux = [40.0, 2000.0]");
+    assert!(text.contains("exposure-ms = 5.0") && text.contains("[40.0, 2000.0]"));
+    let p = plan::parse_within(&text, Path::new("sweep-620.toml"), String::new(), false).unwrap();
     let cases = plan::expand_cases(&p);
     let results = runner::run(&p, &cases, &Simulator::new(&p), Some(2), &|_| {}).unwrap();
     (p, results)
@@ -30,7 +32,7 @@ fn json<T: serde::Serialize>(x: &T) -> String {
 #[test]
 fn a_spilled_model_writes_what_the_same_model_in_memory_writes() {
     let (p, results) = sweep();
-    assert_eq!(results.len(), 310);
+    assert_eq!(results.len(), 620);
     // `--detail full` pages every case, so its model holds every case.
     let memory = model::assemble(&p, "sim-ideal", &results);
     let spilled: Results =
@@ -63,6 +65,7 @@ fn a_spilled_model_writes_what_the_same_model_in_memory_writes() {
     assert_eq!(json(&spilled.conditions), json(&memory.conditions));
     assert_eq!(spilled.notes, memory.notes);
     assert_eq!(spilled.light_levels(), memory.light_levels());
+    assert_eq!(memory.light_levels().len(), 2);
     for lux in memory.light_levels() {
         for metric in ["fdi_2018", "percent_flicker"] {
             let (a, b) = (spilled.plane(lux, metric), memory.plane(lux, metric));

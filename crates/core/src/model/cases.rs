@@ -20,7 +20,6 @@ use std::sync::{Arc, Mutex};
 
 use serde::{Deserialize, Serialize};
 
-use super::listing::Listing;
 use super::listing::{CASE_PAGES_MAX, EVERY_CASE_LISTED_MAX, LISTED_CASES_MAX, rank};
 use super::{CaseInfo, Detail};
 
@@ -57,9 +56,9 @@ struct Spill {
     end: u64,
     /// The first read that failed.
     failed: Mutex<Option<String>>,
-    /// The listing last computed, and for which detail: each costs a pass
-    /// over the spill, and the report asks for it many times.
-    listing: Mutex<Option<(Detail, Listing)>>,
+    /// What [`Cases::memo`] computed, by key: each costs a pass over the
+    /// spill, and the report asks for some of them many times.
+    memo: Mutex<std::collections::HashMap<String, Arc<dyn std::any::Any + Send + Sync>>>,
 }
 
 impl Spill {
@@ -220,23 +219,24 @@ impl std::ops::Index<usize> for Cases {
 }
 
 impl Cases {
-    /// The listing at `detail`, from the spill's memo when it has one, else
-    /// from `compute` (and memoised when spilled).
-    pub(super) fn listing_with(
+    /// `compute`'s value, a figure of every case: for spilled cases, which
+    /// never change, computed once per `key` and kept; for cases in memory,
+    /// which are cheap to go over and may change, computed each time.
+    pub(super) fn memo<T: Clone + Send + Sync + 'static>(
         &self,
-        detail: Detail,
-        compute: impl FnOnce() -> Listing,
-    ) -> Listing {
+        key: &str,
+        compute: impl FnOnce() -> T,
+    ) -> T {
         let Repr::Spilled { spill, .. } = &self.repr else {
             return compute();
         };
-        let lock = || spill.listing.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some((_, l)) = lock().as_ref().filter(|(d, _)| *d == detail) {
-            return l.clone();
+        let lock = || spill.memo.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(v) = lock().get(key).and_then(|v| v.downcast_ref::<T>()) {
+            return v.clone();
         }
-        let l = compute();
-        *lock() = Some((detail, l.clone()));
-        l
+        let v = compute();
+        lock().insert(key.to_string(), Arc::new(v.clone()));
+        v
     }
 }
 
@@ -495,7 +495,7 @@ impl CasesBuilder {
                         starts,
                         end: at,
                         failed: Mutex::new(None),
-                        listing: Mutex::new(None),
+                        memo: Mutex::default(),
                     }),
                 }
             }

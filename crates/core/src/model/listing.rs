@@ -98,7 +98,8 @@ pub fn listing(results: &Results, detail: Detail) -> Listing {
 }
 
 fn listing_of(cases: &Cases, detail: Detail) -> Listing {
-    cases.listing_with(detail, || compute_listing(cases, detail))
+    let key = format!("listing/{}", detail.as_str());
+    cases.memo(&key, || compute_listing(cases, detail))
 }
 
 fn compute_listing(cases: &Cases, detail: Detail) -> Listing {

@@ -112,35 +112,43 @@ impl Results {
     /// Light levels of the cases with known conditions, lux, in plan order
     /// of first appearance: one [`LevelPlane`] each.
     pub fn light_levels(&self) -> Vec<f64> {
-        let mut out: Vec<f64> = Vec::new();
-        for c in self.cases.iter().filter(|c| known(c)) {
-            if !out.contains(&c.light_lux) {
-                out.push(c.light_lux);
+        self.cases.memo("light levels", || {
+            let mut out: Vec<f64> = Vec::new();
+            for c in self.cases.iter().filter(|c| known(c)) {
+                if !out.contains(&c.light_lux) {
+                    out.push(c.light_lux);
+                }
             }
-        }
-        out
+            out
+        })
     }
 
     /// The plane of the cases at `light_lux`, showing `metric`; `None`
     /// when no case with known conditions is at that level.
     pub fn plane(&self, light_lux: f64, metric: &str) -> Option<LevelPlane> {
-        // One pass over the cases, keeping only what a cell shows.
-        let mut cells: Vec<PlaneCell> = Vec::new();
-        for case in self.cases.iter() {
-            if !known(&case) || case.light_lux != light_lux {
-                continue;
+        // What a cell shows of each case at every level, in one pass (kept
+        // for the other levels of a spilled run).
+        let every_level = self.cases.memo(&format!("cells/{metric}"), || {
+            let mut cells: Vec<(f64, PlaneCell)> = Vec::new();
+            for case in self.cases.iter().filter(|c| known(c)) {
+                let (value, unbounded) = shown_value(&case, metric);
+                let cell = PlaneCell {
+                    column: 0,
+                    row: 0,
+                    frequency_hz: case.frequency_hz,
+                    duty: case.duty,
+                    verdict: case.verdict,
+                    value,
+                    unbounded,
+                };
+                cells.push((case.light_lux, cell));
             }
-            let (value, unbounded) = shown_value(&case, metric);
-            cells.push(PlaneCell {
-                column: 0,
-                row: 0,
-                frequency_hz: case.frequency_hz,
-                duty: case.duty,
-                verdict: case.verdict,
-                value,
-                unbounded,
-            });
-        }
+            std::sync::Arc::new(cells)
+        });
+        let mut cells: Vec<PlaneCell> = (every_level.iter())
+            .filter(|(lux, _)| *lux == light_lux)
+            .map(|(_, c)| *c)
+            .collect();
         if cells.is_empty() {
             return None;
         }
