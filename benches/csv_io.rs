@@ -43,6 +43,7 @@ fn read_csv_trace_144000_frames_8_rois(bencher: divan::Bencher) {
         luma: LumaWeights::Bt601,
         video_decode: VideoDecode::Rgb,
         range: VideoRange::Auto,
+        colour_transfer: ledflicker::capture::ColourTransfer::Linear,
         fps: None,
         decoder_threads: None,
     };

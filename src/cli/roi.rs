@@ -166,6 +166,7 @@ fn detect_rois(capture: &Path, a: &RoiArgs) -> Result<i32, Failure> {
             luma: LumaWeights::Bt601,
             video_decode: VideoDecode::LumaPlane,
             range: VideoRange::Auto,
+            colour_transfer: crate::capture::ColourTransfer::Linear,
             fps: a.fps,
             decoder_threads: None,
         },

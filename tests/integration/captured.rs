@@ -65,6 +65,7 @@ fn opts(decode: VideoDecode) -> ReadOptions {
         luma: LumaWeights::Bt601,
         video_decode: decode,
         range: VideoRange::Auto,
+        colour_transfer: ledflicker::capture::ColourTransfer::Linear,
         fps: None,
         decoder_threads: None,
     }

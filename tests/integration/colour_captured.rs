@@ -117,6 +117,7 @@ backend = "captured"
 {camera}
 
 [capture]
+colour-transfer = "linear"
 frame-rate-fps = {fps}
 off-frames = [{}, {}]
 on-frames = [{}, {}]
@@ -235,6 +236,48 @@ fn expected() -> Expected {
         outside,
         fmi,
     }
+}
+
+/// IEC 61966-2-1's encoding of linear light `l` (0..1), and its decoding.
+fn srgb_encode(l: f64) -> f64 {
+    if l <= 0.0031308 {
+        12.92 * l
+    } else {
+        1.055 * l.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+fn srgb_decode(v: f64) -> f64 {
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// The lamp's 8-bit sRGB codes in frame `k`, and the light they decode to
+/// (DN on the 0-255 scale).
+fn srgb_lamp(k: usize) -> ([u8; 3], [f64; 3]) {
+    let codes = lamp_rgb(k).map(|l| (255.0 * srgb_encode(l / 255.0)).round() as u8);
+    (
+        codes,
+        codes.map(|c| 255.0 * srgb_decode(f64::from(c) / 255.0)),
+    )
+}
+
+/// Δu′v′ and the frames outside the red region of PWM frames `planes`.
+fn colour_of(planes: &[[f64; 3]]) -> (f64, usize) {
+    let n = planes.len() as f64;
+    let mean = [0, 1, 2].map(|p| planes.iter().map(|c| c[p]).sum::<f64>() / n);
+    let (u0, v0) = uv(mean);
+    let delta = planes
+        .iter()
+        .map(|&c| {
+            let (u, v) = uv(c);
+            (u - u0).hypot(v - v0)
+        })
+        .fold(0.0, f64::max);
+    (delta, planes.iter().filter(|&&c| !is_signal_red(c)).count())
 }
 
 /// Checks the lamp's and the road's figures in a run's outputs.
@@ -409,4 +452,84 @@ fn colour_keys_a_captured_plan_cannot_use_are_refused_at_their_line() {
     ] {
         assert!(err.contains(needle), "`{needle}` not in: {err}");
     }
+}
+
+#[test]
+fn an_srgb_recording_is_decoded_to_light_before_its_colour_is_computed() {
+    let dir = scratch("captured-colour-srgb");
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for k in 0..FRAMES {
+        let lamp = image::Rgb(srgb_lamp(k).0);
+        let road = image::Rgb([ROAD_DN; 3]);
+        image::RgbImage::from_fn(16, 8, |x, _| if x < 8 { lamp } else { road })
+            .save(frames.join(format!("f{k:03}.png")))
+            .unwrap();
+    }
+    let plan = colour_plan(&dir, "frames", &matrix_camera());
+    let linear = std::fs::read_to_string(&plan).unwrap();
+    let delta_of = |transfer: &str| {
+        let text = linear.replace(
+            "colour-transfer = \"linear\"",
+            &format!("colour-transfer = \"{transfer}\""),
+        );
+        std::fs::write(&plan, text).unwrap();
+        let json = run(&plan, &dir);
+        let m = &json["cases"][0]["rois"][0]["metrics"];
+        let outside = m["frames_outside_signal_colour"].as_f64().unwrap();
+        (m["delta_uv"].as_f64().unwrap(), outside as usize)
+    };
+    // The light the codes stand for, decoded here.
+    let light: Vec<[f64; 3]> = (ON.1..FRAMES).map(|k| srgb_lamp(k).1).collect();
+    let (want, want_outside) = colour_of(&light);
+    let (got, outside) = delta_of("srgb");
+    assert!((got - want).abs() < 1e-9, "{got} vs {want}");
+    assert_eq!(outside, want_outside);
+    // Read as if the codes were light, the same recording gives another
+    // colour excursion: the encoding must be stated.
+    let codes: Vec<[f64; 3]> = (ON.1..FRAMES)
+        .map(|k| srgb_lamp(k).0.map(f64::from))
+        .collect();
+    let (as_codes, _) = colour_of(&codes);
+    let (got_linear, _) = delta_of("linear");
+    assert!(
+        (got_linear - as_codes).abs() < 1e-9,
+        "{got_linear} vs {as_codes}"
+    );
+    assert!(
+        (got_linear - want).abs() > 0.05 * want,
+        "{got_linear} vs {want}"
+    );
+}
+
+#[test]
+fn a_captured_colour_plan_must_state_how_its_codes_encode_light() {
+    let dir = scratch("captured-colour-transfer");
+    write_frames(&dir.join("frames"));
+    let plan = colour_plan(&dir, "frames", &matrix_camera());
+    let text = std::fs::read_to_string(&plan).unwrap();
+    std::fs::write(&plan, text.replace("colour-transfer = \"linear\"\n", "")).unwrap();
+    let o = ledflicker(&["validate", plan.to_str().unwrap()], &dir);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for needle in [
+        "capture.colour-transfer",
+        "is needed",
+        "\"bt709\" for most video",
+    ] {
+        assert!(err.contains(needle), "`{needle}` not in: {err}");
+    }
+    // Without colour the key would do nothing: it is refused too.
+    let grey = text
+        .replace("led-chromaticity-xy = [0.6931, 0.3003]\n", "")
+        .replace("signal-colour = \"red\"\n", "")
+        .replace(&matrix_camera(), "");
+    std::fs::write(&plan, grey).unwrap();
+    let o = ledflicker(&["validate", plan.to_str().unwrap()], &dir);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("capture.colour-transfer") && err.contains("needs the LED's colour"),
+        "{err}"
+    );
 }

@@ -247,6 +247,7 @@ fn options() -> ReadOptions {
         luma: LumaWeights::Bt601,
         video_decode: VideoDecode::Rgb,
         range: VideoRange::Auto,
+        colour_transfer: ledflicker::capture::ColourTransfer::Linear,
         fps: Some(30.0),
         decoder_threads: None,
     }

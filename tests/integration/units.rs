@@ -376,6 +376,7 @@ fn a_reader_names_the_roi_off_its_frame() {
         luma: LumaWeights::Bt601,
         video_decode: VideoDecode::Rgb,
         range: VideoRange::Auto,
+        colour_transfer: ledflicker::capture::ColourTransfer::Linear,
         fps: Some(30.0),
         decoder_threads: None,
     };

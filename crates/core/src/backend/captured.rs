@@ -15,7 +15,7 @@ use rayon::prelude::*;
 pub use super::segments::SegmentsFound;
 use super::segments::{self, Detection};
 use super::{Acquisition, Backend, BackendError, FrameInfo, RoiTrace};
-use crate::capture::{self, CaptureError, CaptureTrace, ReadOptions, RoiRect};
+use crate::capture::{self, CaptureError, CaptureTrace, ColourTransfer, ReadOptions, RoiRect};
 use crate::metrics::flicker::Segment;
 use crate::plan::{CaptureConfig, Plan, Roi, RoiKind, SegmentSpec, Span, TestCase};
 use crate::trace::RenderedFrame;
@@ -38,6 +38,8 @@ pub fn read_options(cap: &CaptureConfig) -> ReadOptions {
         luma: cap.luma,
         video_decode: cap.video_decode,
         range: cap.video_range,
+        // Linear when the plan has no colour: its planes are then unused.
+        colour_transfer: cap.colour_transfer.unwrap_or(ColourTransfer::Linear),
         fps: cap.frame_rate_fps,
         decoder_threads: None,
     }

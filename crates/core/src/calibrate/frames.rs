@@ -367,6 +367,7 @@ fn read_sequence(path: &Path, roi: Option<RoiRect>) -> Result<ReadOut, FrameErro
         luma: LumaWeights::Bt601,
         video_decode: VideoDecode::Rgb,
         range: VideoRange::Auto,
+        colour_transfer: crate::capture::ColourTransfer::Linear,
         fps: Some(30.0),
         decoder_threads: None,
     };

@@ -275,6 +275,7 @@ mod tests {
             luma: LumaWeights::Bt601,
             video_decode: VideoDecode::Rgb,
             range: VideoRange::Auto,
+            colour_transfer: crate::capture::ColourTransfer::Linear,
             fps: None,
             decoder_threads: None,
         };

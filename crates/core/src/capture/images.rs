@@ -73,7 +73,9 @@ pub(super) fn read_files(
     opts: &ReadOptions,
     sink: Option<&mut dyn FrameSink>,
 ) -> Result<CaptureTrace, CaptureError> {
-    let mut acc = Accumulator::new(rois, opts.luma).with_sink(sink);
+    let mut acc = Accumulator::new(rois, opts.luma)
+        .linearising(opts.colour_transfer)
+        .with_sink(sink);
     let mut first: Option<(u32, u32, image::ColorType)> = None;
     let mut full_scale = 255.0;
     for (k, file) in files.iter().enumerate() {

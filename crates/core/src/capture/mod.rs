@@ -12,6 +12,7 @@
 //! OpenCV's `COLOR_BGR2GRAY`, rounded to whole DN as an integer image would
 //! be), and the ROI mean is the mean of those grey pixels.
 
+mod accumulate;
 mod built_in;
 mod csv_trace;
 mod grey;
@@ -25,6 +26,7 @@ mod watch;
 mod waveform;
 mod y4m;
 
+pub(crate) use accumulate::Accumulator;
 pub use grey::{FrameSink, GreyFrame};
 
 use std::path::{Path, PathBuf};
@@ -39,7 +41,7 @@ pub(crate) use built_in::built_in_copy;
 use built_in::with_built_in;
 
 // The plan's `[capture]` choices; defined with the plan, read here.
-pub use crate::plan::{LumaWeights, VideoDecode, VideoRange};
+pub use crate::plan::{ColourTransfer, LumaWeights, VideoDecode, VideoRange};
 pub use crate::trace::Ratio;
 
 /// A rectangle of pixels, 0-based from the top-left corner.
@@ -80,6 +82,9 @@ pub struct ReadOptions {
     pub video_decode: VideoDecode,
     /// Y' range of video and Y4M.
     pub range: VideoRange,
+    /// How R, G and B codes encode light: the colour planes' ROI means are
+    /// of the codes decoded with it (the luma's are of the codes).
+    pub colour_transfer: ColourTransfer,
     /// Frame rate used for timestamps when the source has none, frames/s.
     pub fps: Option<f64>,
     /// Threads of each FFmpeg video decoder; `None` leaves FFmpeg's choice
@@ -603,116 +608,6 @@ fn read_grey_frames_on_disk(
         }
     };
     finish_trace(path, trace)
-}
-
-/// Accumulates ROI means frame by frame, and hands each frame to a
-/// [`FrameSink`] when one is given.
-pub(crate) struct Accumulator<'r> {
-    rois: &'r [RoiRect],
-    weights: LumaWeights,
-    /// Map from Y' code to full-range grey, for limited-range luma planes.
-    pub expand: Option<Vec<u32>>,
-    luma: Vec<Vec<f64>>,
-    rgb: Vec<Vec<[f64; 3]>>,
-    colour: bool,
-    frames: usize,
-    sink: Option<&'r mut dyn FrameSink>,
-}
-
-impl<'r> Accumulator<'r> {
-    pub fn new(rois: &'r [RoiRect], weights: LumaWeights) -> Self {
-        Self {
-            rois,
-            weights,
-            expand: None,
-            luma: vec![Vec::new(); rois.len()],
-            rgb: vec![Vec::new(); rois.len()],
-            colour: false,
-            frames: 0,
-            sink: None,
-        }
-    }
-
-    /// The accumulator that also hands every frame to `sink`; its views
-    /// must then hold whole frames.
-    pub fn with_sink<'s: 'r>(mut self, sink: Option<&'r mut (dyn FrameSink + 's)>) -> Self {
-        self.sink = sink.map(|s| s as &'r mut (dyn FrameSink + 'r));
-        self
-    }
-
-    /// Adds one frame. The view must cover every ROI.
-    pub fn push(&mut self, view: &FrameView<'_>) {
-        progress::count_frame();
-        if let Some(sink) = self.sink.as_deref_mut() {
-            sink.frame(&GreyFrame {
-                view,
-                weights: self.weights,
-                expand: self.expand.as_deref(),
-                index: self.frames as u64,
-            });
-        }
-        self.frames += 1;
-        let w = self.weights;
-        let stride = view.width as usize;
-        for (i, r) in self.rois.iter().enumerate() {
-            let n = (r.width as u64 * r.height as u64) as f64;
-            let x0 = (r.x - view.origin.0) as usize;
-            let (mut sy, mut sr, mut sg, mut sb) = (0u64, 0u64, 0u64, 0u64);
-            for row in r.y..r.y + r.height {
-                let base = (row - view.origin.1) as usize * stride + x0;
-                let cols = base..base + r.width as usize;
-                match &view.pixels {
-                    Pixels::Grey8(p) => match &self.expand {
-                        Some(lut) => {
-                            sy += p[cols].iter().map(|&v| lut[v as usize] as u64).sum::<u64>()
-                        }
-                        None => sy += p[cols].iter().map(|&v| v as u64).sum::<u64>(),
-                    },
-                    Pixels::Grey16(p) => match &self.expand {
-                        Some(lut) => {
-                            sy += p[cols].iter().map(|&v| lut[v as usize] as u64).sum::<u64>()
-                        }
-                        None => sy += p[cols].iter().map(|&v| v as u64).sum::<u64>(),
-                    },
-                    Pixels::Rgb8(p, c) => {
-                        for px in p[cols.start * c..cols.end * c].chunks_exact(*c) {
-                            let (r_, g_, b_) = (px[0] as u32, px[1] as u32, px[2] as u32);
-                            sy += w.luma(r_, g_, b_) as u64;
-                            sr += r_ as u64;
-                            sg += g_ as u64;
-                            sb += b_ as u64;
-                        }
-                    }
-                    Pixels::Rgb16(p, c) => {
-                        for px in p[cols.start * c..cols.end * c].chunks_exact(*c) {
-                            let (r_, g_, b_) = (px[0] as u32, px[1] as u32, px[2] as u32);
-                            sy += w.luma(r_, g_, b_) as u64;
-                            sr += r_ as u64;
-                            sg += g_ as u64;
-                            sb += b_ as u64;
-                        }
-                    }
-                }
-            }
-            self.luma[i].push(sy as f64 / n);
-            if matches!(view.pixels, Pixels::Rgb8(..) | Pixels::Rgb16(..)) {
-                self.colour = true;
-                self.rgb[i].push([sr as f64 / n, sg as f64 / n, sb as f64 / n]);
-            }
-        }
-    }
-
-    /// Frames pushed so far.
-    pub fn frames(&self) -> usize {
-        self.frames
-    }
-
-    /// The luma traces and, when every frame had colour, the RGB traces.
-    pub fn finish(self) -> (Vec<Vec<f64>>, Option<RgbTraces>) {
-        let n = self.frames();
-        let rgb = (self.colour && self.rgb.iter().all(|t| t.len() == n)).then_some(self.rgb);
-        (self.luma, rgb)
-    }
 }
 
 /// Lookup table from limited-range Y' (`bits` bits) to full-range grey,

@@ -301,6 +301,7 @@ mod tests {
             luma: super::super::LumaWeights::Bt601,
             video_decode: super::super::VideoDecode::Rgb,
             range: super::super::VideoRange::Auto,
+            colour_transfer: super::super::ColourTransfer::Linear,
             fps: None,
             decoder_threads: None,
         };
@@ -421,6 +422,7 @@ mod tests {
             luma: super::super::LumaWeights::Bt601,
             video_decode: super::super::VideoDecode::Rgb,
             range: super::super::VideoRange::Auto,
+            colour_transfer: super::super::ColourTransfer::Linear,
             fps: None,
             decoder_threads: None,
         }

@@ -213,7 +213,9 @@ impl Decoder {
         sink: Option<&mut dyn FrameSink>,
     ) -> Result<CaptureTrace, CaptureError> {
         let (_, bpp, _) = pixel_format(opts.video_decode);
-        let mut acc = Accumulator::new(&self.layout.rois, opts.luma).with_sink(sink);
+        let mut acc = Accumulator::new(&self.layout.rois, opts.luma)
+            .linearising(opts.colour_transfer)
+            .with_sink(sink);
         let full = match opts.range {
             VideoRange::Full => true,
             VideoRange::Limited => false,
@@ -480,6 +482,7 @@ mod tests {
                 luma: LumaWeights::Bt601,
                 video_decode,
                 range: VideoRange::Auto,
+                colour_transfer: super::super::ColourTransfer::Linear,
                 fps: None,
                 decoder_threads: None,
             };
@@ -521,6 +524,7 @@ mod tests {
             luma: LumaWeights::Bt601,
             video_decode: VideoDecode::Rgb,
             range: VideoRange::Auto,
+            colour_transfer: super::super::ColourTransfer::Linear,
             fps: None,
             decoder_threads: Some(1),
         }

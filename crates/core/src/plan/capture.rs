@@ -37,6 +37,35 @@ pub enum VideoDecode {
     LumaPlane,
 }
 
+/// How a recording's R, G and B codes encode light: the transfer function
+/// its colour planes are decoded with before their ROI means (the luma
+/// trace is always the codes' own).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ColourTransfer {
+    /// The codes are linear in light (raw or linear sensor output).
+    Linear,
+    /// IEC 61966-2-1 (sRGB): most still images.
+    Srgb,
+    /// ITU-R BT.709's camera transfer, inverted: most video.
+    Bt709,
+}
+
+impl ColourTransfer {
+    /// Linear light of a code at `v` of full scale (0..1), 0..1.
+    pub fn linear(self, v: f64) -> f64 {
+        match self {
+            ColourTransfer::Linear => v,
+            // IEC 61966-2-1, section 5.2.
+            ColourTransfer::Srgb if v <= 0.04045 => v / 12.92,
+            ColourTransfer::Srgb => ((v + 0.055) / 1.055).powf(2.4),
+            // ITU-R BT.709-6, item 1.2, inverted.
+            ColourTransfer::Bt709 if v < 0.081 => v / 4.5,
+            ColourTransfer::Bt709 => ((v + 0.099) / 1.099).powf(1.0 / 0.45),
+        }
+    }
+}
+
 /// Signal range of Y' in video and Y4M.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -106,6 +135,9 @@ pub struct CaptureConfig {
     pub video_decode: VideoDecode,
     /// Y' range of video and Y4M.
     pub video_range: VideoRange,
+    /// How the R, G and B codes encode light (`colour-transfer`); `None`
+    /// when not given (a colour plan must give it).
+    pub colour_transfer: Option<ColourTransfer>,
     /// Frame rate for sources without timestamps, frames/s.
     pub frame_rate_fps: Option<f64>,
     /// Saturation flag level, DN; `None`: 240/255 of the source's full scale.
@@ -141,4 +173,43 @@ pub struct CaptureCase {
     pub segments: SegmentSpec,
     /// `informative = true`: measured and reported, never judged.
     pub informative: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The standards' encodings (IEC 61966-2-1; ITU-R BT.709-6, item 1.2),
+    /// written forwards, which the decoding inverts.
+    fn encode(t: ColourTransfer, l: f64) -> f64 {
+        match t {
+            ColourTransfer::Linear => l,
+            ColourTransfer::Srgb if l <= 0.0031308 => 12.92 * l,
+            ColourTransfer::Srgb => 1.055 * l.powf(1.0 / 2.4) - 0.055,
+            ColourTransfer::Bt709 if l < 0.018 => 4.5 * l,
+            ColourTransfer::Bt709 => 1.099 * l.powf(0.45) - 0.099,
+        }
+    }
+
+    #[test]
+    fn each_colour_transfer_inverts_its_standards_encoding() {
+        let all = [
+            ColourTransfer::Linear,
+            ColourTransfer::Srgb,
+            ColourTransfer::Bt709,
+        ];
+        for t in all {
+            for i in 0..=1000 {
+                let l = f64::from(i) / 1000.0;
+                let back = t.linear(encode(t, l));
+                assert!((back - l).abs() < 1e-12, "{t:?} {l}: {back}");
+            }
+            assert_eq!(t.linear(0.0), 0.0);
+            assert!((t.linear(1.0) - 1.0).abs() < 1e-12, "{t:?}");
+        }
+        // Mid grey, worked by hand: ((0.5 + 0.055) / 1.055)^2.4 and
+        // ((0.5 + 0.099) / 1.099)^(1 / 0.45).
+        assert!((ColourTransfer::Srgb.linear(0.5) - 0.214_041_140_5).abs() < 1e-9);
+        assert!((ColourTransfer::Bt709.linear(0.5) - 0.259_589_400_5).abs() < 1e-9);
+    }
 }

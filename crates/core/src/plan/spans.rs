@@ -266,6 +266,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "luma",
             "video-decode",
             "video-range",
+            "colour-transfer",
             "frame-rate-fps",
             "saturation-dn",
             "off-frames",

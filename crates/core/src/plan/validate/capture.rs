@@ -9,7 +9,7 @@ use crate::plan::capture::{CaptureCase, CaptureConfig, CommandSpec, SegmentSpec,
 use crate::plan::check::Checker;
 use crate::plan::grid::condition_id;
 use crate::plan::raw::{RawCaptureTable, RawCaseEntry, RawSegments};
-use crate::plan::{DEFAULT_SETTLE_S, LumaWeights, VideoDecode, VideoRange};
+use crate::plan::{ColourTransfer, DEFAULT_SETTLE_S, LumaWeights, VideoDecode, VideoRange};
 
 fn span_frames(c: &mut Checker<'_>, v: Vec<i64>, key: &str) -> Option<Span> {
     let hint = "[start] or [start, end]: frame indices from 0, end exclusive";
@@ -112,6 +112,21 @@ pub(super) fn capture_config(
 ) -> Option<CaptureConfig> {
     let mut raw = raw.unwrap_or_default();
     let (luma, video_decode, video_range) = decoding(c, &mut raw);
+    let colour_transfer = match raw.colour_transfer.take() {
+        None => Some(None),
+        Some(v) => c
+            .choice(
+                Some(v),
+                "capture.colour-transfer",
+                ColourTransfer::Linear,
+                &[
+                    ("linear", ColourTransfer::Linear),
+                    ("srgb", ColourTransfer::Srgb),
+                    ("bt709", ColourTransfer::Bt709),
+                ],
+            )
+            .map(Some),
+    };
     let mut ok = true;
     let fps = raw.frame_rate_fps.and_then(|v| {
         let fps = c.within(
@@ -160,6 +175,7 @@ pub(super) fn capture_config(
         luma: luma?,
         video_decode: video_decode?,
         video_range: video_range?,
+        colour_transfer: colour_transfer?,
         frame_rate_fps: fps,
         saturation_dn,
         segments: base?,

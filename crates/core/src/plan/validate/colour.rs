@@ -3,9 +3,9 @@
 //! `dut.camera.camera-to-xyz` (the camera's planes). All optional; without
 //! a chromaticity the plan has no colour and the camera keys are refused.
 
-use crate::plan::VideoDecode;
 use crate::plan::check::Checker;
 use crate::plan::colour::{ColourConfig, DEFAULT_CAMERA_TO_XYZ, SignalColourName, apply, invert};
+use crate::plan::{ColourTransfer, VideoDecode};
 
 /// The colour keys as read, before validation.
 #[derive(Debug, Default)]
@@ -23,10 +23,51 @@ const HINT: &str = "see docs/plan-format.md, \"Colour\"";
 pub(super) enum Planes {
     /// The simulator's ideal camera (no `[sensor]` table) makes them.
     Simulated,
-    /// A captured plan reads them from RGB frames, its video decoded so.
-    Captured(VideoDecode),
+    /// A captured plan reads them from RGB frames, its video decoded so,
+    /// its codes decoded with the transfer the plan gives (if it does).
+    Captured(VideoDecode, Option<ColourTransfer>),
     /// Any other backend or camera: no colour planes.
     Unavailable,
+}
+
+/// The colour keys of a captured plan, whose planes are read from its
+/// frames decoded as `decode` (`offsets`: whether the plan gives
+/// `colour-plane-offset-ms`): false after an error.
+fn captured(
+    c: &mut Checker<'_>,
+    offsets: bool,
+    decode: VideoDecode,
+    transfer: Option<ColourTransfer>,
+) -> bool {
+    let mut ok = true;
+    // A recording's codes are rarely linear; a chromaticity of
+    // encoded codes is wrong, so the plan must say which they are.
+    if transfer.is_none() {
+        c.error(
+            "capture.colour-transfer",
+            "is needed in a captured plan with colour (scene.led-chromaticity-xy): the R, G and B codes must be turned into light before their chromaticity is computed",
+            Some("\"srgb\" for most still images, \"bt709\" for most video, \"linear\" for raw or linear sensor output"),
+        );
+        ok = false;
+    }
+    // The recording carries its planes' timing: nothing to simulate.
+    if offsets {
+        c.error(
+            "dut.camera.colour-plane-offset-ms",
+            "is simulated, not read: a captured plan's planes are as recorded",
+            Some("remove it; the recording's own chroma shift is measured"),
+        );
+        ok = false;
+    }
+    if decode == VideoDecode::LumaPlane {
+        c.error(
+            "capture.video-decode",
+            "\"luma-plane\" reads no R, G, B, and the plan has colour (scene.led-chromaticity-xy)",
+            Some("use video-decode = \"rgb\" (the default), or remove the colour keys"),
+        );
+        ok = false;
+    }
+    ok
 }
 
 /// Validates the colour keys: `Some(None)` without them, `None` after an
@@ -37,7 +78,9 @@ pub(super) fn colour(
     planes: Planes,
 ) -> Option<Option<ColourConfig>> {
     let Some(xy) = raw.led_xy else {
+        let transfer = matches!(planes, Planes::Captured(_, Some(_)));
         for (given, key) in [
+            (transfer, "capture.colour-transfer"),
             (raw.signal.is_some(), "scene.signal-colour"),
             (
                 raw.offsets_ms.is_some(),
@@ -53,7 +96,11 @@ pub(super) fn colour(
                 );
             }
         }
-        return if raw.signal.is_some() || raw.offsets_ms.is_some() || raw.camera_to_xyz.is_some() {
+        return if transfer
+            || raw.signal.is_some()
+            || raw.offsets_ms.is_some()
+            || raw.camera_to_xyz.is_some()
+        {
             None
         } else {
             Some(None)
@@ -62,24 +109,8 @@ pub(super) fn colour(
     let mut ok = true;
     match planes {
         Planes::Simulated => {}
-        Planes::Captured(decode) => {
-            // The recording carries its planes' timing: nothing to simulate.
-            if raw.offsets_ms.is_some() {
-                c.error(
-                    "dut.camera.colour-plane-offset-ms",
-                    "is simulated, not read: a captured plan's planes are as recorded",
-                    Some("remove it; the recording's own chroma shift is measured"),
-                );
-                ok = false;
-            }
-            if decode == VideoDecode::LumaPlane {
-                c.error(
-                    "capture.video-decode",
-                    "\"luma-plane\" reads no R, G, B, and the plan has colour (scene.led-chromaticity-xy)",
-                    Some("use video-decode = \"rgb\" (the default), or remove the colour keys"),
-                );
-                ok = false;
-            }
+        Planes::Captured(decode, transfer) => {
+            ok &= captured(c, raw.offsets_ms.is_some(), decode, transfer)
         }
         Planes::Unavailable => {
             c.error(

@@ -22,6 +22,7 @@ fn opts() -> DetectOptions {
             luma: LumaWeights::Bt601,
             video_decode: VideoDecode::Rgb,
             range: VideoRange::Auto,
+            colour_transfer: crate::capture::ColourTransfer::Linear,
             fps: None,
             decoder_threads: None,
         },
