@@ -215,17 +215,7 @@ struct Expected {
 
 fn expected() -> Expected {
     let pwm: Vec<[f64; 3]> = (ON.1..FRAMES).map(|k| PWM_CYCLE[(k - ON.1) % 4]).collect();
-    let n = pwm.len() as f64;
-    let mean = [0, 1, 2].map(|p| pwm.iter().map(|c| c[p]).sum::<f64>() / n);
-    let (u0, v0) = uv(mean);
-    let delta_uv = pwm
-        .iter()
-        .map(|&c| {
-            let (u, v) = uv(c);
-            (u - u0).hypot(v - v0)
-        })
-        .fold(0.0, f64::max);
-    let outside = pwm.iter().filter(|&&c| !is_signal_red(c)).count();
+    let (delta_uv, outside) = colour_of(&pwm);
     let fmi = [0, 1, 2].map(|p| {
         let hi = pwm.iter().map(|c| c[p]).fold(f64::MIN, f64::max);
         let lo = pwm.iter().map(|c| c[p]).fold(f64::MAX, f64::min);
