@@ -71,7 +71,8 @@ fn opts(decode: VideoDecode) -> ReadOptions {
     }
 }
 
-fn run_plan(plan: &Path, dir: &Path) -> Value {
+/// Runs `plan` into `dir/out` (exit 0 or 1); its results.json.
+pub(crate) fn run_plan(plan: &Path, dir: &Path) -> Value {
     let out = dir.join("out");
     let o = ledflicker(
         &[

@@ -12,6 +12,7 @@ use std::process::Command;
 
 use serde_json::Value;
 
+use crate::captured::run_plan;
 use crate::{ledflicker_in as ledflicker, scratch, stderr};
 
 /// The camera's linear R, G, B to X, Y, Z: sRGB's with a red primary deep
@@ -170,23 +171,6 @@ fn matrix_camera() -> String {
         .map(|r| format!("  [{:?}, {:?}, {:?}],", r[0], r[1], r[2]))
         .collect();
     format!("[dut.camera]\ncamera-to-xyz = [\n{}\n]", rows.join("\n"))
-}
-
-/// Runs `plan` into `dir/out`; results.json.
-fn run(plan: &Path, dir: &Path) -> Value {
-    let out = dir.join("out");
-    let o = ledflicker(
-        &[
-            "plan",
-            plan.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "-q",
-        ],
-        dir,
-    );
-    assert!(matches!(o.status.code(), Some(0 | 1)), "{}", stderr(&o));
-    serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap()
 }
 
 /// CIE 1976 u′v′ of camera `rgb` through the matrix.
@@ -352,7 +336,7 @@ fn a_captured_red_pwm_lamp_with_a_chroma_shift_gives_the_closed_form_colour_figu
     let dir = scratch("captured-colour");
     write_frames(&dir.join("frames"));
     let plan = colour_plan(&dir, "frames", &matrix_camera());
-    let json = run(&plan, &dir);
+    let json = run_plan(&plan, &dir);
     check_outputs(&json, &dir.join("out"));
 }
 
@@ -376,7 +360,7 @@ fn a_lossless_rgb_video_of_the_lamp_gives_the_same_figures() {
         .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let plan = colour_plan(&dir, "lamp.mkv", &matrix_camera());
-    let json = run(&plan, &dir);
+    let json = run_plan(&plan, &dir);
     assert!(
         json["cases"][0]["capture"]["format"]
             .as_str()
@@ -464,7 +448,7 @@ fn an_srgb_recording_is_decoded_to_light_before_its_colour_is_computed() {
             &format!("colour-transfer = \"{transfer}\""),
         );
         std::fs::write(&plan, text).unwrap();
-        let json = run(&plan, &dir);
+        let json = run_plan(&plan, &dir);
         let m = &json["cases"][0]["rois"][0]["metrics"];
         let outside = m["frames_outside_signal_colour"].as_f64().unwrap();
         (m["delta_uv"].as_f64().unwrap(), outside as usize)
