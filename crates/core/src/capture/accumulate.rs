@@ -76,7 +76,7 @@ impl<'r> Accumulator<'r> {
         for (i, r) in self.rois.iter().enumerate() {
             let n = (r.width as u64 * r.height as u64) as f64;
             let x0 = (r.x - view.origin.0) as usize;
-            let (mut sy, mut sr, mut sg, mut sb) = (0u64, 0u64, 0u64, 0u64);
+            let (mut sy, mut planes) = (0u64, [0u64; 3]);
             // The planes' sums of linear light, when the codes are not.
             let mut lin = [0.0f64; 3];
             for row in r.y..r.y + r.height {
@@ -96,43 +96,25 @@ impl<'r> Accumulator<'r> {
                         None => sy += p[cols].iter().map(|&v| v as u64).sum::<u64>(),
                     },
                     Pixels::Rgb8(p, c) => {
-                        for px in p[cols.start * c..cols.end * c].chunks_exact(*c) {
-                            let (r_, g_, b_) = (px[0] as u32, px[1] as u32, px[2] as u32);
-                            sy += w.luma(r_, g_, b_) as u64;
-                            sr += r_ as u64;
-                            sg += g_ as u64;
-                            sb += b_ as u64;
-                            if let Some((lut, _)) = &self.linear {
-                                for (s, &v) in lin.iter_mut().zip(&px[..3]) {
-                                    *s += lut[v as usize];
-                                }
-                            }
-                        }
+                        let lut = self.linear.as_ref().map(|l| &l.0[..]);
+                        let row = &p[cols.start * c..cols.end * c];
+                        add_rgb(row, *c, w, (&mut sy, &mut planes), (lut, &mut lin));
                     }
                     Pixels::Rgb16(p, c) => {
-                        for px in p[cols.start * c..cols.end * c].chunks_exact(*c) {
-                            let (r_, g_, b_) = (px[0] as u32, px[1] as u32, px[2] as u32);
-                            sy += w.luma(r_, g_, b_) as u64;
-                            sr += r_ as u64;
-                            sg += g_ as u64;
-                            sb += b_ as u64;
-                            if let Some((_, lut)) = &self.linear {
-                                for (s, &v) in lin.iter_mut().zip(&px[..3]) {
-                                    *s += lut[v as usize];
-                                }
-                            }
-                        }
+                        let lut = self.linear.as_ref().map(|l| &l.1[..]);
+                        let row = &p[cols.start * c..cols.end * c];
+                        add_rgb(row, *c, w, (&mut sy, &mut planes), (lut, &mut lin));
                     }
                 }
             }
             self.luma[i].push(sy as f64 / n);
             if matches!(view.pixels, Pixels::Rgb8(..) | Pixels::Rgb16(..)) {
                 self.colour = true;
-                let planes = match self.linear {
+                let means = match self.linear {
                     Some(_) => lin.map(|s| s / n),
-                    None => [sr as f64 / n, sg as f64 / n, sb as f64 / n],
+                    None => planes.map(|s| s as f64 / n),
                 };
-                self.rgb[i].push(planes);
+                self.rgb[i].push(means);
             }
         }
     }
@@ -147,5 +129,29 @@ impl<'r> Accumulator<'r> {
         let n = self.frames();
         let rgb = (self.colour && self.rgb.iter().all(|t| t.len() == n)).then_some(self.rgb);
         (self.luma, rgb)
+    }
+}
+
+/// Adds a row of RGB pixels (`c` samples each, R, G, B first) to the luma
+/// sum and the planes' code sums, and, when the codes are not linear, the
+/// planes' light through `lut` to `lin`.
+fn add_rgb<T: Copy + Into<u32>>(
+    row: &[T],
+    c: usize,
+    w: LumaWeights,
+    (sy, planes): (&mut u64, &mut [u64; 3]),
+    (lut, lin): (Option<&[f64]>, &mut [f64; 3]),
+) {
+    for px in row.chunks_exact(c) {
+        let [r, g, b]: [u32; 3] = [px[0].into(), px[1].into(), px[2].into()];
+        *sy += w.luma(r, g, b) as u64;
+        for (s, v) in planes.iter_mut().zip([r, g, b]) {
+            *s += u64::from(v);
+        }
+        if let Some(lut) = lut {
+            for (s, v) in lin.iter_mut().zip([r, g, b]) {
+                *s += lut[v as usize];
+            }
+        }
     }
 }
