@@ -7,7 +7,7 @@
 
 use ledflicker::plan::{self, Plan, TestCase};
 use ledflicker::runner::{self, CaseResult, CaseSink, RunError, RunOptions};
-use ledflicker::store::{RunKey, Store, StoreError};
+use ledflicker::store::{Encoded, RunKey, Store, StoreError};
 
 fn main() {
     divan::main();
@@ -76,9 +76,14 @@ impl From<StoreError> for Failed {
 
 impl CaseSink for Storing {
     type Error = Failed;
+    type Item = Encoded;
 
-    fn put(&mut self, position: usize, result: CaseResult) -> Result<(), Failed> {
-        Ok(self.0.put(position, result)?)
+    fn prepare(result: CaseResult) -> Encoded {
+        Encoded::new(result)
+    }
+
+    fn put(&mut self, position: usize, case: Encoded) -> Result<(), Failed> {
+        Ok(self.0.put_encoded(position, case)?)
     }
 }
 

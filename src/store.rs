@@ -23,10 +23,11 @@ use std::time::{Duration, Instant};
 use rusqlite::{Connection, OptionalExtension, params};
 
 use crate::runner::{CaseReadError, CaseResult, CaseSource};
-use crate::shard::record::ShardCase;
+
+mod record;
 
 /// Schema of the store, in its `run` table under `schema`.
-pub const SCHEMA: &str = "ledflicker.store/1";
+pub const SCHEMA: &str = "ledflicker.store/2";
 /// The finished store's file name in a report directory.
 pub const FILE: &str = "cases.sqlite";
 /// The store's file name while its run works.
@@ -248,27 +249,38 @@ impl Store {
 
     /// Stores the case at position `idx` of the run.
     pub fn put(&mut self, idx: usize, result: CaseResult) -> Result<(), StoreError> {
-        let record = encode(&self.path, idx, result)?;
+        self.put_encoded(idx, Encoded::new(result))
+    }
+
+    /// Stores the case at position `idx` of the run, encoded by
+    /// [`Encoded::new`] (in its worker, while the run goes on).
+    pub fn put_encoded(&mut self, idx: usize, case: Encoded) -> Result<(), StoreError> {
+        let row = case.0.map_err(|message| StoreError::Record {
+            path: self.path.clone(),
+            idx,
+            message,
+        })?;
         let sql = sqlite(&self.path);
         if self.pending == 0 {
             self.conn.execute_batch("BEGIN").map_err(&sql)?;
             self.opened = Instant::now();
         }
-        let c = &record.result.case;
         self.conn
-            .execute(
+            .prepare_cached(
                 "INSERT INTO cases (idx, id, light_lux, frequency_hz, duty, verdict, result) \
                  VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
-                params![
-                    idx as i64,
-                    c.id,
-                    c.light_lux,
-                    c.frequency_hz,
-                    c.duty,
-                    record.result.verdict.as_str(),
-                    record.bytes
-                ],
             )
+            .and_then(|mut q| {
+                q.execute(params![
+                    idx as i64,
+                    row.id,
+                    row.light_lux,
+                    row.frequency_hz,
+                    row.duty,
+                    row.verdict,
+                    row.bytes
+                ])
+            })
             .map_err(&sql)?;
         let mut m = self
             .conn
@@ -276,7 +288,7 @@ impl Store {
                 "INSERT INTO roi_metrics (idx, roi, metric, value) VALUES (?1, ?2, ?3, ?4)",
             )
             .map_err(&sql)?;
-        for (roi, metric, value) in &record.metrics {
+        for (roi, metric, value) in &row.metrics {
             m.execute(params![idx as i64, roi, metric, value])
                 .map_err(&sql)?;
         }
@@ -334,32 +346,44 @@ impl Store {
     }
 }
 
-/// A case ready to insert.
-struct Encoded {
-    result: CaseResult,
+/// A case encoded for the store: its record and its columns, or why it
+/// could not be encoded.
+pub struct Encoded(Result<Row, String>);
+
+struct Row {
+    id: String,
+    light_lux: f64,
+    frequency_hz: f64,
+    duty: f64,
+    verdict: &'static str,
     bytes: Vec<u8>,
-    metrics: Vec<(String, String, Option<f64>)>,
+    metrics: Vec<(String, &'static str, Option<f64>)>,
 }
 
-fn encode(path: &Path, idx: usize, result: CaseResult) -> Result<Encoded, StoreError> {
-    let metrics = roi_metrics(&result);
-    let record = ShardCase::from_result(result);
-    let mut bytes = Vec::new();
-    ciborium::into_writer(&record, &mut bytes).map_err(|e| StoreError::Record {
-        path: path.to_path_buf(),
-        idx,
-        message: format!("cannot encode: {e}"),
-    })?;
-    Ok(Encoded {
-        result: record.result,
-        bytes,
-        metrics,
-    })
+impl Encoded {
+    /// Encodes `result`: the work of storing a case that needs no
+    /// database, so that a run's workers can do it in parallel.
+    pub fn new(result: CaseResult) -> Encoded {
+        let metrics = roi_metrics(&result);
+        let c = &result.case;
+        let (id, light_lux, frequency_hz, duty) =
+            (c.id.clone(), c.light_lux, c.frequency_hz, c.duty);
+        let verdict = result.verdict.as_str();
+        Encoded(record::encode(result).map(|bytes| Row {
+            id,
+            light_lux,
+            frequency_hz,
+            duty,
+            verdict,
+            bytes,
+            metrics,
+        }))
+    }
 }
 
 /// The `roi_metrics` rows of a case: each ROI's metrics by their
 /// results.json names; an undefined metric is NULL.
-fn roi_metrics(result: &CaseResult) -> Vec<(String, String, Option<f64>)> {
+fn roi_metrics(result: &CaseResult) -> Vec<(String, &'static str, Option<f64>)> {
     let mut rows = Vec::new();
     for (i, (trace, m)) in result
         .acquisition
@@ -386,7 +410,7 @@ fn roi_metrics(result: &CaseResult) -> Vec<(String, String, Option<f64>)> {
         }
         for (name, metric) in named {
             if let Some(metric) = metric {
-                rows.push((trace.name.clone(), name.to_string(), metric.value));
+                rows.push((trace.name.clone(), name, metric.value));
             }
         }
     }
@@ -477,13 +501,12 @@ impl StoredCases {
                     message: "missing".to_string(),
                 });
             }
-            let record: ShardCase =
-                ciborium::from_reader(bytes.as_slice()).map_err(|e| StoreError::Record {
-                    path: path.to_path_buf(),
-                    idx: want,
-                    message: format!("cannot decode: {e}"),
-                })?;
-            cases.push(record.into_result());
+            let case = record::decode(&bytes).map_err(|message| StoreError::Record {
+                path: path.to_path_buf(),
+                idx: want,
+                message,
+            })?;
+            cases.push(case);
         }
         if cases.len() != range.len() {
             return Err(StoreError::Record {

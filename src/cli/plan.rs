@@ -446,9 +446,14 @@ struct Storing {
 
 impl runner::CaseSink for Storing {
     type Error = Failure;
+    type Item = crate::store::Encoded;
 
-    fn put(&mut self, position: usize, result: CaseResult) -> Result<(), Failure> {
-        self.store.put(self.positions[position], result)?;
+    fn prepare(result: CaseResult) -> crate::store::Encoded {
+        crate::store::Encoded::new(result)
+    }
+
+    fn put(&mut self, position: usize, case: crate::store::Encoded) -> Result<(), Failure> {
+        self.store.put_encoded(self.positions[position], case)?;
         self.stored = true;
         Ok(())
     }

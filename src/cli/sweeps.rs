@@ -24,8 +24,11 @@ struct Discard;
 
 impl CaseSink for Discard {
     type Error = RunError;
+    type Item = ();
 
-    fn put(&mut self, _position: usize, _result: crate::model::CaseResult) -> Result<(), RunError> {
+    fn prepare(_result: crate::model::CaseResult) {}
+
+    fn put(&mut self, _position: usize, _item: ()) -> Result<(), RunError> {
         Ok(())
     }
 }

@@ -109,6 +109,11 @@ struct InOrder(Vec<Option<CaseResult>>);
 
 impl CaseSink for InOrder {
     type Error = RunError;
+    type Item = CaseResult;
+
+    fn prepare(result: CaseResult) -> CaseResult {
+        result
+    }
 
     fn put(&mut self, position: usize, result: CaseResult) -> Result<(), RunError> {
         self.0[position] = Some(result);
@@ -129,8 +134,14 @@ pub struct RunOptions {
 pub trait CaseSink {
     /// The sink's error; a run error becomes one.
     type Error: From<RunError>;
+    /// What a case's worker hands the sink.
+    type Item: Send;
+    /// Turns a finished case into the sink's item, in the case's worker:
+    /// work done here (encoding a case for the store, say) runs on every
+    /// core, while [`CaseSink::put`] runs on one thread for the whole run.
+    fn prepare(result: CaseResult) -> Self::Item;
     /// Takes the case at `position` of the run's cases.
-    fn put(&mut self, position: usize, result: CaseResult) -> Result<(), Self::Error>;
+    fn put(&mut self, position: usize, item: Self::Item) -> Result<(), Self::Error>;
     /// No case has finished for [`IDLE`]: a moment to flush.
     fn idle(&mut self) -> Result<(), Self::Error> {
         Ok(())
@@ -257,7 +268,8 @@ pub fn run_streaming<S: CaseSink>(
                         });
                         // A closed channel means the sink failed: stop quietly,
                         // the sink's error is the one reported.
-                        tx.send((i, result)).map_err(|_| None::<RunError>)
+                        tx.send((i, S::prepare(result)))
+                            .map_err(|_| None::<RunError>)
                     })
             };
             match &pool {

@@ -1,0 +1,252 @@
+//! The `result` column of the case store: a case result in CBOR, its
+//! per-frame data packed in columns (docs/store.md, "The case record").
+//!
+//! A case's frames and luma traces are most of its bytes. As CBOR structs
+//! each frame repeats its three field names and each double is tried at
+//! half and single width before it is written; packed, a frame is nine
+//! bytes of time and segment and a luma value is eight, copied. The store
+//! encodes every case of a run and the report stage decodes each several
+//! times, so for small cases this is most of what the store costs.
+
+use serde::de::{self, Deserializer, Visitor};
+use serde::{Deserialize, Serialize, Serializer};
+
+use crate::runner::CaseResult;
+use crate::shard::record::ShardCase;
+use crate::trace::{FrameInfo, Segment};
+
+/// A case as the store holds it.
+#[derive(Serialize, Deserialize)]
+struct Record {
+    /// The case as a shard holds it, less its frames and its ROIs' luma.
+    case: ShardCase,
+    /// Each frame's `time_s`.
+    time_s: Doubles,
+    /// Each frame's segment, one byte: `n` ON, `f` OFF, `p` PWM.
+    segments: Bytes,
+    /// Each frame's index, when the frames are not numbered 0, 1, 2, ...
+    index: Option<Vec<u64>>,
+    /// Each ROI's luma, in ROI order.
+    luma: Vec<Doubles>,
+}
+
+/// Encodes `result` as the store's `result` column.
+pub(super) fn encode(result: CaseResult) -> Result<Vec<u8>, String> {
+    let mut case = ShardCase::from_result(result);
+    let acquisition = &mut case.result.acquisition;
+    let frames = std::mem::take(&mut acquisition.frames);
+    let numbered = frames.iter().zip(0u64..).all(|(f, i)| f.index == i);
+    let luma = acquisition
+        .rois
+        .iter_mut()
+        .map(|r| Doubles(std::mem::take(&mut r.luma)))
+        .collect();
+    let record = Record {
+        time_s: Doubles(frames.iter().map(|f| f.time_s).collect()),
+        segments: Bytes(frames.iter().map(|f| segment_byte(f.segment)).collect()),
+        index: (!numbered).then(|| frames.iter().map(|f| f.index).collect()),
+        luma,
+        case,
+    };
+    let mut bytes = Vec::new();
+    ciborium::into_writer(&record, &mut bytes).map_err(|e| format!("cannot encode: {e}"))?;
+    Ok(bytes)
+}
+
+/// Decodes the store's `result` column.
+pub(super) fn decode(bytes: &[u8]) -> Result<CaseResult, String> {
+    let record: Record = ciborium::from_reader(bytes).map_err(|e| format!("cannot decode: {e}"))?;
+    let Record {
+        mut case,
+        time_s,
+        segments,
+        index,
+        luma,
+    } = record;
+    let n = time_s.0.len();
+    if segments.0.len() != n || index.as_ref().is_some_and(|i| i.len() != n) {
+        return Err(format!(
+            "cannot decode: {n} frame times but {} segments",
+            segments.0.len()
+        ));
+    }
+    let acquisition = &mut case.result.acquisition;
+    if luma.len() != acquisition.rois.len() || luma.iter().any(|l| l.0.len() != n) {
+        return Err(format!(
+            "cannot decode: {} luma traces for {} ROIs of {n} frames",
+            luma.len(),
+            acquisition.rois.len()
+        ));
+    }
+    acquisition.frames = time_s
+        .0
+        .into_iter()
+        .zip(segments.0)
+        .enumerate()
+        .map(|(i, (time_s, segment))| {
+            Ok(FrameInfo {
+                index: index.as_ref().map_or(i as u64, |index| index[i]),
+                time_s,
+                segment: byte_segment(segment)?,
+            })
+        })
+        .collect::<Result<_, String>>()?;
+    for (roi, luma) in acquisition.rois.iter_mut().zip(luma) {
+        roi.luma = luma.0;
+    }
+    Ok(case.into_result())
+}
+
+fn segment_byte(segment: Segment) -> u8 {
+    match segment {
+        Segment::On => b'n',
+        Segment::Off => b'f',
+        Segment::Pwm => b'p',
+    }
+}
+
+fn byte_segment(byte: u8) -> Result<Segment, String> {
+    match byte {
+        b'n' => Ok(Segment::On),
+        b'f' => Ok(Segment::Off),
+        b'p' => Ok(Segment::Pwm),
+        other => Err(format!("cannot decode: segment byte {other}")),
+    }
+}
+
+/// Doubles as one CBOR byte string, little-endian: every bit kept.
+struct Doubles(Vec<f64>);
+
+impl Serialize for Doubles {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let bytes: Vec<u8> = self.0.iter().flat_map(|x| x.to_le_bytes()).collect();
+        s.serialize_bytes(&bytes)
+    }
+}
+
+impl<'de> Deserialize<'de> for Doubles {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let Bytes(bytes) = Bytes::deserialize(d)?;
+        if bytes.len() % 8 != 0 {
+            return Err(de::Error::invalid_length(
+                bytes.len(),
+                &"a multiple of 8 bytes",
+            ));
+        }
+        Ok(Doubles(
+            bytes
+                .chunks_exact(8)
+                .map(|b| f64::from_le_bytes(b.try_into().unwrap_or_default()))
+                .collect(),
+        ))
+    }
+}
+
+/// Bytes as one CBOR byte string (serde writes a `Vec<u8>` as an array of
+/// integers).
+struct Bytes(Vec<u8>);
+
+impl Serialize for Bytes {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_bytes(&self.0)
+    }
+}
+
+impl<'de> Deserialize<'de> for Bytes {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visit;
+        impl Visitor<'_> for Visit {
+            type Value = Bytes;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a byte string")
+            }
+            fn visit_bytes<E: de::Error>(self, v: &[u8]) -> Result<Bytes, E> {
+                Ok(Bytes(v.to_vec()))
+            }
+            fn visit_byte_buf<E: de::Error>(self, v: Vec<u8>) -> Result<Bytes, E> {
+                Ok(Bytes(v))
+            }
+        }
+        d.deserialize_byte_buf(Visit)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A case with every frame field and luma value set to odd bit
+    /// patterns, frames not numbered from 0.
+    fn odd_case() -> CaseResult {
+        let plan = crate::plan::find_and_load("daylight").unwrap();
+        let cases = crate::plan::expand_cases(&plan);
+        let backend = crate::backend::for_plan(&plan, None).unwrap();
+        let mut result = crate::runner::run(&plan, &cases[..1], &backend, Some(1), &|_| {})
+            .unwrap()
+            .remove(0);
+        let odd = [
+            f64::NAN,
+            -0.0,
+            f64::MIN_POSITIVE / 3.0,
+            f64::INFINITY,
+            1e300,
+        ];
+        let acquisition = &mut result.acquisition;
+        for (i, f) in acquisition.frames.iter_mut().enumerate() {
+            f.index = 7 + 2 * i as u64;
+            f.time_s = odd[i % odd.len()];
+        }
+        for roi in &mut acquisition.rois {
+            for (i, v) in roi.luma.iter_mut().enumerate() {
+                *v = odd[(i + 1) % odd.len()];
+            }
+        }
+        result
+    }
+
+    fn bits(xs: impl Iterator<Item = f64>) -> Vec<u64> {
+        xs.map(f64::to_bits).collect()
+    }
+
+    #[test]
+    fn a_record_gives_back_every_frame_and_luma_bit_for_bit() {
+        let plain = odd_case();
+        let mut numbered = plain.clone();
+        for (i, f) in numbered.acquisition.frames.iter_mut().enumerate() {
+            f.index = i as u64;
+        }
+        for case in [plain, numbered] {
+            let back = decode(&encode(case.clone()).unwrap()).unwrap();
+            let (a, b) = (&case.acquisition, &back.acquisition);
+            assert_eq!(a.frames.len(), b.frames.len());
+            for (x, y) in a.frames.iter().zip(&b.frames) {
+                assert_eq!((x.index, x.segment), (y.index, y.segment));
+                assert_eq!(x.time_s.to_bits(), y.time_s.to_bits());
+            }
+            for (x, y) in a.rois.iter().zip(&b.rois) {
+                assert_eq!(x.name, y.name);
+                assert_eq!(bits(x.luma.iter().copied()), bits(y.luma.iter().copied()));
+            }
+            assert_eq!(format!("{:?}", case.metrics), format!("{:?}", back.metrics));
+        }
+    }
+
+    #[test]
+    fn a_damaged_record_is_an_error_not_a_panic() {
+        let bytes = encode(odd_case()).unwrap();
+        for cut in [0, 1, bytes.len() / 2, bytes.len() - 1] {
+            assert!(decode(&bytes[..cut]).is_err(), "cut at {cut}");
+        }
+        let mut record: Record = ciborium::from_reader(bytes.as_slice()).unwrap();
+        record.segments.0[0] = b'x';
+        let mut bad = Vec::new();
+        ciborium::into_writer(&record, &mut bad).unwrap();
+        let e = decode(&bad).unwrap_err();
+        assert!(e.contains("segment byte 120"), "{e}");
+        record.segments.0.pop();
+        let mut short = Vec::new();
+        ciborium::into_writer(&record, &mut short).unwrap();
+        let e = decode(&short).unwrap_err();
+        assert!(e.contains("segments"), "{e}");
+    }
+}
