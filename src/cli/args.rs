@@ -49,9 +49,27 @@ impl LimitArgs {
         crate::plan::ResourceLimits {
             memory_bytes: self.max_memory.unwrap_or(d.memory_bytes),
             output_bytes: self.max_report.unwrap_or(d.output_bytes),
+            scratch_free_bytes: free_bytes(&std::env::temp_dir()).unwrap_or(f64::INFINITY),
             every_case,
         }
     }
+}
+
+/// Bytes an unprivileged process may still write on the filesystem of
+/// `dir`; `None` when it cannot be read.
+fn free_bytes(dir: &std::path::Path) -> Option<f64> {
+    use std::os::unix::ffi::OsStrExt;
+    let path = std::ffi::CString::new(dir.as_os_str().as_bytes()).ok()?;
+    let mut st = std::mem::MaybeUninit::<libc::statvfs>::uninit();
+    // SAFETY: `path` is NUL-terminated and `st` is written by statvfs
+    // before it is read, which happens only when the call succeeded.
+    let st = unsafe {
+        if libc::statvfs(path.as_ptr(), st.as_mut_ptr()) != 0 {
+            return None;
+        }
+        st.assume_init()
+    };
+    Some(st.f_bavail as f64 * st.f_frsize as f64)
 }
 
 fn parse_size(text: &str) -> Result<f64, String> {

@@ -30,6 +30,28 @@ fn estimated_memory(plan: &str, extra: &[&str]) -> f64 {
     size(words.next().unwrap(), words.next().unwrap())
 }
 
+/// The temporary files `validate` estimates for `plan`, bytes (0 when it
+/// names none).
+fn estimated_scratch(plan: &str) -> f64 {
+    let out = text(&ledflicker(&["validate", plan]));
+    out.split("temporary files ").nth(1).map_or(0.0, |after| {
+        let mut words = after.split([' ', ';', '\n']);
+        size(words.next().unwrap(), words.next().unwrap())
+    })
+}
+
+/// Bytes of a run's spill file: each case's results.json entry, compact.
+fn spilled_bytes(results: &std::path::Path) -> f64 {
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(results).unwrap()).unwrap();
+    doc["cases"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| serde_json::to_string(c).unwrap().len() as f64)
+        .sum()
+}
+
 /// Runs `plan` and returns its exit code and peak resident memory, bytes:
 /// the high-water mark the kernel keeps for that process alone (VmHWM in
 /// /proc/PID/status), read until it exits. A command plan's rig runs in
@@ -143,6 +165,17 @@ fn every_shipped_plan_runs_within_its_memory_estimate_and_the_estimate_is_at_mos
             estimate / 1e6,
             peak / 1e6
         ));
+        // A spilled run's temporary files, against the entries it spilled.
+        let scratch = estimated_scratch(plan.to_str().unwrap());
+        if ["sweep-1000", "dense-1k", "sweep-23k"].contains(&name) {
+            let spilled = spilled_bytes(&dir.join(name).join("results.json"));
+            assert!(
+                (spilled..=1.5 * spilled).contains(&scratch),
+                "{name}: temporary files estimated {scratch}, spilled {spilled}"
+            );
+        } else {
+            assert_eq!(scratch, 0.0, "{name} holds its cases in memory");
+        }
         if name == "front-8mp" {
             let o = ledflicker(&["validate", plan.to_str().unwrap()]);
             assert!(text(&o).contains("56 cases"), "{}", text(&o));

@@ -173,6 +173,14 @@ const FRAME_ROI_OUTPUT_BYTES: f64 = 30.0;
 const CHARTED_OUTPUT_BYTES: f64 = 55.0e3;
 /// Report bytes a charted case costs per frame and ROI: its trace charts.
 const CHARTED_FRAME_ROI_OUTPUT_BYTES: f64 = 35.0;
+/// Bytes of the temporary directory a spilled run's case costs: its
+/// results.json entry, compact (measured on a 1,000-case sweep of 2 ROIs
+/// with failing cases: 2.4 kB on average and 3.6 kB at most, besides
+/// 1.2 kB on average and 1.5 kB at most per ROI; the spill is the sum, so
+/// the averages with some room).
+const SPILL_CASE_BYTES: f64 = 3.0e3;
+/// Bytes of the temporary directory a spilled run's case costs per ROI.
+const SPILL_ROI_BYTES: f64 = 1.3e3;
 
 /// The resources a run may use; `validate` refuses a plan whose estimate
 /// exceeds them. The defaults suit a 2-core machine with a few GB;
@@ -183,6 +191,9 @@ pub struct ResourceLimits {
     pub memory_bytes: f64,
     /// Size of the report directory, bytes.
     pub output_bytes: f64,
+    /// Free space of the temporary directory, where a large run spills its
+    /// cases' model entries, bytes (infinite: not checked).
+    pub scratch_free_bytes: f64,
     /// The report gives every case a page (`--detail full`): every case
     /// is listed and charted, which the estimate counts.
     pub every_case: bool,
@@ -196,6 +207,7 @@ impl ResourceLimits {
         ResourceLimits {
             memory_bytes: f64::INFINITY,
             output_bytes: f64::INFINITY,
+            scratch_free_bytes: f64::INFINITY,
             every_case: false,
         }
     }
@@ -206,6 +218,7 @@ impl Default for ResourceLimits {
         ResourceLimits {
             memory_bytes: MAX_MEMORY_BYTES,
             output_bytes: MAX_OUTPUT_BYTES,
+            scratch_free_bytes: f64::INFINITY,
             every_case: false,
         }
     }
@@ -262,6 +275,10 @@ pub struct WorkEstimate {
     pub memory_bytes: f64,
     /// Size of the report directory, bytes.
     pub output_bytes: f64,
+    /// Bytes the run writes to the temporary directory (`TMPDIR`) and
+    /// removes when it ends: the spill of a run whose report does not hold
+    /// every case (docs/report.md, "Large runs"); 0 for other runs.
+    pub scratch_bytes: f64,
 }
 
 impl WorkEstimate {
@@ -294,10 +311,16 @@ impl WorkEstimate {
             + charted * (CHARTED_OUTPUT_BYTES + CHARTED_FRAME_ROI_OUTPUT_BYTES * frame_rois);
         // Frames are held as runs of equal values, so the sensor's size
         // costs memory only while a view is drawn.
-        let held = if every_case || cases <= EVERY_CASE_LISTED_MAX {
-            n * CASE_MEMORY_BYTES
-        } else {
+        let spilled = !(every_case || cases <= EVERY_CASE_LISTED_MAX);
+        let held = if spilled {
             MODEL_CASES_HELD * CASE_MEMORY_BYTES + n * SPILLED_CASE_MEMORY_BYTES
+        } else {
+            n * CASE_MEMORY_BYTES
+        };
+        let scratch = if spilled {
+            n * (SPILL_CASE_BYTES + SPILL_ROI_BYTES * plan.rois.len() as f64)
+        } else {
+            0.0
         };
         let memory = held
             + listed * LISTED_MEMORY_BYTES
@@ -321,6 +344,7 @@ impl WorkEstimate {
             frame_pixels: pixels,
             memory_bytes: BASE_MEMORY_BYTES + PIXEL_MEMORY_BYTES * pixels as f64 + memory,
             output_bytes: BASE_OUTPUT_BYTES + output,
+            scratch_bytes: scratch,
         }
     }
 
@@ -348,6 +372,7 @@ impl WorkEstimate {
                 + n * (SHARD_CASE_MEMORY_BYTES + SHARD_FRAME_ROI_MEMORY_BYTES * frame_rois),
             output_bytes: BASE_OUTPUT_BYTES
                 + n * (CASE_OUTPUT_BYTES + FRAME_ROI_OUTPUT_BYTES * frame_rois),
+            scratch_bytes: 0.0,
         }
     }
 
@@ -402,6 +427,16 @@ impl WorkEstimate {
                     bytes(limits.output_bytes)
                 ),
             ),
+            (
+                self.scratch_bytes > limits.scratch_free_bytes,
+                format!(
+                    "{} of cases spilled to the temporary directory `{}` ({} free there; \
+                     TMPDIR names another)",
+                    bytes(self.scratch_bytes),
+                    std::env::temp_dir().display(),
+                    bytes(limits.scratch_free_bytes)
+                ),
+            ),
         ]
         .into_iter()
         .filter_map(|(over, m)| over.then_some(m))
@@ -424,8 +459,12 @@ impl WorkEstimate {
 
     /// One line for `ledflicker validate`.
     pub fn summary(&self) -> String {
+        let scratch = match self.scratch_bytes > 0.0 {
+            true => format!("; temporary files {}", bytes(self.scratch_bytes)),
+            false => String::new(),
+        };
         format!(
-            "estimated work: {} cases x {} frames x {} rows = {:.3e} row integrals; peak memory {}; report {}",
+            "estimated work: {} cases x {} frames x {} rows = {:.3e} row integrals; peak memory {}; report {}{scratch}",
             self.cases,
             self.frames_per_case,
             self.rows_per_frame,
@@ -633,6 +672,32 @@ mod tests {
             "/../../test-plans/sweep-23k.toml"
         ));
         crate::plan::load(path).unwrap()
+    }
+
+    #[test]
+    fn a_spilled_run_is_refused_when_its_temporary_files_do_not_fit() {
+        let plan = sweep();
+        let e = WorkEstimate::of(&plan);
+        let free = |scratch_free_bytes| ResourceLimits {
+            scratch_free_bytes,
+            ..ResourceLimits::unbounded()
+        };
+        assert!(e.over(free(e.scratch_bytes * 1.01)).is_empty());
+        let over = e.over(free(e.scratch_bytes * 0.99));
+        assert_eq!(over.len(), 1, "{over:?}");
+        assert!(over[0].contains("TMPDIR"), "{over:?}");
+        // At --detail full nothing is spilled; nor is a run of 200 cases.
+        assert_eq!(WorkEstimate::with_report(&plan, true).scratch_bytes, 0.0);
+        let daylight = crate::plan::find_and_load("daylight").unwrap();
+        let small = WorkEstimate::of(&daylight);
+        assert_eq!(small.scratch_bytes, 0.0);
+        assert!(small.over(free(0.0)).is_empty());
+        assert!(!small.summary().contains("temporary"));
+        assert!(
+            e.summary().contains("temporary files 131 MB"),
+            "{}",
+            e.summary()
+        );
     }
 
     #[test]
