@@ -1,6 +1,7 @@
 //! The work estimate `validate` prints against what a run takes: peak
-//! memory within 1.5 times the measured peak for every shipped plan, and
-//! limits a user can raise.
+//! memory at or above the measured peak whether a plan's cases pass or
+//! fail, and within 1.5 times the higher of the two, for every shipped
+//! plan; and limits a user can raise.
 
 use super::{ledflicker, root, scratch, stderr, text};
 use std::process::Command;
@@ -50,6 +51,31 @@ fn spilled_bytes(results: &std::path::Path) -> f64 {
         .iter()
         .map(|c| serde_json::to_string(c).unwrap().len() as f64)
         .sum()
+}
+
+/// `plan` with every case it judges made to fail (an FDI of at least 100,
+/// and a Percent Flicker of at most 0.001 %), written into `dir`: a
+/// failing case gets a page of charts in
+/// report.pdf, so this is a plan's costliest outcome. Paths in the plan
+/// are made absolute, as it no longer sits in test-plans/.
+fn failing_variant(plan: &std::path::Path, dir: &std::path::Path) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(plan).unwrap();
+    let mut out = String::new();
+    for line in text.lines() {
+        if line.starts_with("percent-flicker-max = ") || line.starts_with("fdi-2018-min = ") {
+            continue;
+        }
+        out.push_str(&line.replace("\"../", &format!("\"{}/", root().display())));
+        out.push('\n');
+        if line == "[thresholds]" {
+            out.push_str("percent-flicker-max = 0.001\nfdi-2018-min = 100.0\n");
+        }
+    }
+    assert!(out.contains("percent-flicker-max = 0.001"), "{plan:?}");
+    let name = plan.file_stem().unwrap().to_str().unwrap();
+    let path = dir.join(format!("{name}-failing.toml"));
+    std::fs::write(&path, out).unwrap();
+    path
 }
 
 /// Runs `plan` and returns its exit code and peak resident memory, bytes:
@@ -103,7 +129,8 @@ fn measured_memory(plan: &str, out: &std::path::Path) -> (i32, f64) {
 }
 
 #[test]
-fn every_shipped_plan_runs_within_its_memory_estimate_and_the_estimate_is_at_most_twice_the_peak() {
+fn every_shipped_plan_runs_within_its_memory_estimate_passing_or_failing_and_the_estimate_is_within_1_5_times_the_higher_peak()
+ {
     let dir = scratch("estimate");
     let mut plans: Vec<_> = std::fs::read_dir(root().join("test-plans"))
         .unwrap()
@@ -160,10 +187,24 @@ fn every_shipped_plan_runs_within_its_memory_estimate_and_the_estimate_is_at_mos
         let estimate = estimated_memory(plan.to_str().unwrap(), &[]);
         let (code, peak) = measured_memory(plan.to_str().unwrap(), &dir.join(name));
         assert!(matches!(code, 0 | 1 | 4), "{name} exited {code}");
+        // The shipped dense sweep already fails more cases than get a page.
+        let failing_peak = match name {
+            "sweep-23k" => None,
+            _ => {
+                let failing = failing_variant(plan, &dir);
+                assert_eq!(estimated_memory(failing.to_str().unwrap(), &[]), estimate);
+                let out = dir.join(format!("{name}-failing"));
+                let (code, peak) = measured_memory(failing.to_str().unwrap(), &out);
+                assert_eq!(code, 1, "{name}, every case failing, exited {code}");
+                Some(peak)
+            }
+        };
+        let highest = failing_peak.map_or(peak, |f| f.max(peak));
         table.push(format!(
-            "{name}: estimate {:.0} MB, peak {:.0} MB",
+            "{name}: estimate {:.0} MB, peak {:.0} MB, failing {}",
             estimate / 1e6,
-            peak / 1e6
+            peak / 1e6,
+            failing_peak.map_or("-".to_string(), |f| format!("{:.0} MB", f / 1e6))
         ));
         // A spilled run's temporary files, against the entries it spilled.
         let scratch = estimated_scratch(plan.to_str().unwrap());
@@ -179,16 +220,17 @@ fn every_shipped_plan_runs_within_its_memory_estimate_and_the_estimate_is_at_mos
         if name == "front-8mp" {
             let o = ledflicker(&["validate", plan.to_str().unwrap()]);
             assert!(text(&o).contains("56 cases"), "{}", text(&o));
-            assert!(peak < 1e9, "8 MP plan: peak {:.0} MB", peak / 1e6);
+            assert!(highest < 1e9, "8 MP plan: peak {:.0} MB", highest / 1e6);
         }
-        // A plan that validates must run within its estimate; an estimate
-        // far above the peak would refuse plans that fit.
-        let ratio = estimate / peak;
+        // A plan that validates must run within its estimate, whatever its
+        // cases' verdicts; an estimate far above the peak would refuse
+        // plans that fit.
+        let ratio = estimate / highest;
         assert!(
-            (1.0..=2.0).contains(&ratio),
+            (1.0..=1.5).contains(&ratio),
             "{name}: estimate {:.0} MB against a peak of {:.0} MB ({ratio:.2}x)\n{}",
             estimate / 1e6,
-            peak / 1e6,
+            highest / 1e6,
             table.join("\n")
         );
     }

@@ -104,10 +104,16 @@ pub const LISTED_CASES_MAX: usize = 100;
 pub const CASE_PAGES_MAX: usize = 20;
 
 /// Memory of the process before the first case: code, the PDF engine's
-/// fonts, the thread pool, bytes (measured: 58 MB for 2 and 4 cases; 66 MB
-/// for the 9 cases of the command rig plan; with room for the 7 % by which
-/// one plan's peak was seen to vary between runs).
-const BASE_MEMORY_BYTES: f64 = 85.0e6;
+/// fonts, the thread pool, bytes.
+///
+/// The memory constants below were fitted together to the peaks of every
+/// shipped plan run twice, as shipped and with every case made to fail
+/// (a `percent-flicker-max` of 0.001): a failing case gets a page of
+/// charts in report.pdf, so a plan's peak is highest when all its cases
+/// fail (daylight: 109 MB as shipped, 205 MB failing). Each estimate is
+/// 1.1 to 1.35 times the higher of the two peaks (docs/plan-format.md,
+/// "ResourceLimits").
+const BASE_MEMORY_BYTES: f64 = 79.0e6;
 /// Memory every case the results model holds costs until the report is
 /// written: its entry (what results.json says of it; the phase folds' bins
 /// only for the cases that get a page); its result, trace and files are
@@ -133,26 +139,26 @@ const SPILLED_CASE_MEMORY_BYTES: f64 = 200.0;
 const SHARD_CASE_MEMORY_BYTES: f64 = 16.0e3;
 /// Memory a case the report lists costs on top: its result read back for
 /// its pictures, its rows of the PDF's and the HTML's tables and their
-/// part of the PDF layout (fitted as an upper bound: the shipped
-/// 23,460-case sweep cut to 1,000 cases, whose many failing cases make its
-/// 100 listed cases the costliest, peaks at 195 MB).
-const LISTED_MEMORY_BYTES: f64 = 0.9e6;
+/// part of the PDF layout.
+const LISTED_MEMORY_BYTES: f64 = 1.0e6;
 /// Memory a case with charts costs per frame and ROI: its trace, zoom and
-/// phase-fold charts and its pages (fitted as an upper bound to the
-/// shipped plans, which chart every case: the P2020 videos of 36 ROIs are
-/// the most per frame and ROI; the PDF engine's memo cache is freed after
-/// the layout, so the stages after it no longer add to the peak).
-const CHARTED_FRAME_ROI_MEMORY_BYTES: f64 = 350.0;
+/// phase-fold charts in report.html (the PDF engine's memo cache is freed
+/// after the layout, so the stages after it no longer add to the peak).
+const CHARTED_FRAME_ROI_MEMORY_BYTES: f64 = 310.0;
+/// Memory a case page of report.pdf costs (a failing case's, or every
+/// case's at `--detail full`): its charts parsed and laid out by the PDF
+/// engine. A plan is estimated as if every case it could page failed.
+const PAGE_MEMORY_BYTES: f64 = 2.5e6;
+/// Memory a case page costs per ROI: each ROI's charts on it.
+const PAGE_ROI_MEMORY_BYTES: f64 = 0.42e6;
 /// Memory per sensor pixel while the report draws the frame views, once
 /// per run: frames are held as runs of equal values, a view is a PNG of
 /// its pixels (measured: 46 MB for a 3840 x 2160 sensor).
 const PIXEL_MEMORY_BYTES: f64 = 6.0;
 /// Memory of each light level's fine map (simulated ideal cameras only):
 /// its 1951 x 100 cells, and their copies in results.json and in the
-/// HTML's and the PDF's template data (measured: a 2-case plan of the
-/// ideal camera peaks 31 MB above the same plan of the paper-like HDR
-/// camera, which has none).
-const FINE_MAP_MEMORY_BYTES: f64 = 30.0e6;
+/// HTML's and the PDF's template data.
+const FINE_MAP_MEMORY_BYTES: f64 = 20.0e6;
 /// Size of the report that does not grow with cases, bytes.
 const BASE_OUTPUT_BYTES: f64 = 1.5e6;
 /// Memory a shard's case costs per frame and ROI while the shard holds
@@ -322,9 +328,15 @@ impl WorkEstimate {
         } else {
             0.0
         };
+        let pages = if every_case {
+            n
+        } else {
+            n.min(CASE_PAGES_MAX as f64)
+        };
         let memory = held
             + listed * LISTED_MEMORY_BYTES
-            + charted * CHARTED_FRAME_ROI_MEMORY_BYTES * frame_rois;
+            + charted * CHARTED_FRAME_ROI_MEMORY_BYTES * frame_rois
+            + pages * (PAGE_MEMORY_BYTES + PAGE_ROI_MEMORY_BYTES * plan.rois.len() as f64);
         // The fine maps' condition is `analysis::fine_maps_note`'s, which
         // this layer cannot call.
         let fine_maps = sim
