@@ -257,7 +257,9 @@ pub fn closed_loop_plan(cal: &Calibration, profile: &Path, fps: f64) -> String {
 pub fn closed_loop(cal: &Calibration, profile: &Path, fps: f64) -> Result<(Vec<f64>, f64), String> {
     let text = closed_loop_plan(cal, profile, fps);
     let plan_path = profile.with_extension("closed-loop.toml");
-    let plan = crate::plan::parse(&text, &plan_path, String::new())
+    // One case, simulated and never reported: a report's work limits (a
+    // case page per ROI of its thousands of rows) do not apply.
+    let plan = crate::plan::parse_within(&text, &plan_path, String::new(), false)
         .map_err(|e| format!("the fitted profile does not validate: {e}"))?;
     let cases = crate::plan::expand_cases(&plan);
     let case = cases.first().ok_or("the closed-loop plan has no case")?;
