@@ -429,6 +429,26 @@ fn colour_keys_a_captured_plan_cannot_use_are_refused_at_their_line() {
 }
 
 #[test]
+fn an_led_of_dies_is_refused_in_a_captured_plan() {
+    // The dies' duties and phases are simulated; a recording carries the
+    // lamp's own colour and timing.
+    let dir = scratch("captured-colour-dies");
+    write_frames(&dir.join("frames"));
+    let plan = colour_plan(&dir, "frames", &matrix_camera());
+    let text = std::fs::read_to_string(&plan).unwrap().replace(
+        "led-chromaticity-xy = [0.6931, 0.3003]\nsignal-colour = \"red\"\n",
+        "signal-colour = \"red\"\n\n[[scene.led-die]]\nchromaticity-xy = [0.6931, 0.3003]\nluminance-share = 1.0\nduty-cycle = 1.0\n",
+    );
+    std::fs::write(&plan, text).unwrap();
+    let o = ledflicker(&["validate", plan.to_str().unwrap()], &dir);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for needle in ["scene.led-die", "is simulated", "led-chromaticity-xy"] {
+        assert!(err.contains(needle), "`{needle}` not in: {err}");
+    }
+}
+
+#[test]
 fn an_srgb_recording_is_decoded_to_light_before_its_colour_is_computed() {
     let dir = scratch("captured-colour-srgb");
     let frames = dir.join("frames");

@@ -30,7 +30,7 @@ use crate::physics::extremes::extremes;
 use crate::physics::hdr::{HdrMode, merge};
 use crate::physics::pwm::{on_fraction, wrap_unit};
 use crate::physics::sensor::{CaptureSample, Rng};
-use crate::physics::{PwmDrive, Shutter};
+use crate::physics::{PwmDrive, Shutter, ShutterModel};
 use crate::plan::colour::ColourConfig;
 use crate::plan::{
     CameraConfig, PhysicalCamera, Plan, Roi, RoiKind, Scene, Sequence, ShutterKind, TestCase,
@@ -83,6 +83,20 @@ enum Light<'a> {
     Pwm(&'a PwmDrive),
 }
 
+/// One source of the LED's light: the whole LED, or one of its dies
+/// (`[[scene.led-die]]`), each on its own PWM waveform.
+#[derive(Debug, Clone, Copy)]
+struct Emitter {
+    /// Its PWM: the case's frequency, its own duty and rising edge.
+    drive: PwmDrive,
+    /// Its rising edge after the LED's common one, cycles.
+    lag_cycles: f64,
+    /// Its share of the LED's luminance while ON (the shares sum to 1).
+    share: f64,
+    /// Its camera RGB per cd/m^2 of its own luminance.
+    rgb: [f64; 3],
+}
+
 /// One ROI row of one frame through the physical camera.
 struct RowOutput {
     luma: f64,
@@ -133,6 +147,39 @@ impl Simulator {
         })
     }
 
+    /// The sources of the LED's light for the case's drive `pwm`: the LED
+    /// itself, or each of its dies at the case's duty times its own and
+    /// its rising edge its phase after the common one.
+    fn emitters(&self, pwm: &PwmDrive) -> Vec<Emitter> {
+        let colour = self.colour.as_deref();
+        match colour.filter(|c| !c.dies.is_empty()) {
+            None => vec![Emitter {
+                drive: *pwm,
+                lag_cycles: 0.0,
+                share: 1.0,
+                rgb: colour.map_or([0.0; 3], |c| c.led_rgb),
+            }],
+            Some(c) => c
+                .dies
+                .iter()
+                .map(|d| {
+                    let f = pwm.frequency_hz();
+                    let duty = (pwm.duty() * d.duty).max(f64::MIN_POSITIVE);
+                    // A valid drive's frequency with a duty in (0, 1] and a
+                    // finite rise is valid; fall back rather than panic.
+                    let drive = PwmDrive::new(f, duty, pwm.first_rise_s() + d.phase_cycles / f)
+                        .unwrap_or(*pwm);
+                    Emitter {
+                        drive,
+                        lag_cycles: d.phase_cycles,
+                        share: d.share,
+                        rgb: d.rgb,
+                    }
+                })
+                .collect(),
+        }
+    }
+
     /// Every frame of a case, as [`Backend::acquire`] lists them: frame
     /// `k` at `k / fps` seconds, labelled by the plan's sequence. The same
     /// for every case of the plan.
@@ -156,6 +203,8 @@ impl Simulator {
         let led_peak = k * self.scene.led_fill * self.scene.led_luminance_cd_m2;
         let out =
             |s: f64, led: f64| (cam.black_level_dn + background + led * s).min(cam.full_scale_dn);
+        let emitters = self.emitters(pwm);
+        let steady = steady_fraction(&emitters);
         let rois = self
             .rois
             .iter()
@@ -166,17 +215,23 @@ impl Simulator {
                     0.0
                 };
                 let pwm_frames = pwm_frame_range(&frames);
-                let mut on = Vec::new();
-                shutter.frame_on_fractions(pwm, pwm_frames.clone(), roi.rows(), &mut on);
+                let per_source =
+                    mixed_on_fractions(&shutter, &emitters, pwm_frames.clone(), roi, 0.0);
+                let on: Vec<f64> = (0..pwm_frames.end - pwm_frames.start)
+                    .map(|i| weighted(&emitters, |j| per_source[j][i as usize], |e| e.share))
+                    .collect();
                 let luma = frames
                     .iter()
                     .map(|f| match f.segment {
-                        Segment::On => out(case.duty, led),
+                        Segment::On => out(steady, led),
                         Segment::Off => out(0.0, led),
                         Segment::Pwm => out(on[(f.index - pwm_frames.start) as usize], led),
                     })
                     .collect();
-                let (lo, hi) = shutter.phase_envelope(pwm, roi.rows());
+                let (lo, hi) = match emitters.as_slice() {
+                    [one] => shutter.phase_envelope(&one.drive, roi.rows()),
+                    dies => mixed_envelope(&shutter, dies, roi.rows()),
+                };
                 let rgb = match (&self.colour, roi.kind) {
                     (Some(colour), RoiKind::Led) => {
                         Some(self.colour_planes(case, pwm, roi, colour, &frames))
@@ -200,8 +255,9 @@ impl Simulator {
     }
 
     /// Mean DN of each colour plane of an LED ROI, frame by frame, through
-    /// the ideal camera: plane `p` sees the LED's camera RGB `led_rgb[p]`
-    /// (and the grey background's `white_rgb[p]`) per cd/m^2, over its own
+    /// the ideal camera: plane `p` sees each source of the LED's light
+    /// (the LED, or each die) through its camera RGB per cd/m^2 times its
+    /// share (and the grey background's `white_rgb[p]`), over its own
     /// exposure, which starts `plane_offsets_s[p]` after the frame's. A
     /// later exposure sees the PWM's edges earlier: the same integral with
     /// the first rise moved back by the offset.
@@ -219,27 +275,30 @@ impl Simulator {
         let background = k * self.scene.background_luminance_cd_m2(case.light_lux);
         let led = k * self.scene.led_fill * self.scene.led_luminance_cd_m2;
         let pwm_frames = pwm_frame_range(frames);
+        let emitters = self.emitters(pwm);
         let planes: Vec<Vec<f64>> = (0..3)
             .map(|p| {
-                // Finite inputs to a drive that was valid stay valid.
-                let shifted = PwmDrive::new(
-                    pwm.frequency_hz(),
-                    pwm.duty(),
-                    pwm.first_rise_s() - colour.plane_offsets_s[p],
-                )
-                .unwrap_or(*pwm);
-                let mut on = Vec::new();
-                shutter.frame_on_fractions(&shifted, pwm_frames.clone(), roi.rows(), &mut on);
-                let out = |s: f64| {
-                    let v = background * colour.white_rgb[p] + led * colour.led_rgb[p] * s;
+                let on = mixed_on_fractions(
+                    &shutter,
+                    &emitters,
+                    pwm_frames.clone(),
+                    roi,
+                    colour.plane_offsets_s[p],
+                );
+                let out = |fraction: &dyn Fn(usize) -> f64| {
+                    let v = background * colour.white_rgb[p]
+                        + weighted(&emitters, fraction, |e| led * (e.share * e.rgb[p]));
                     (cam.black_level_dn + v).min(cam.full_scale_dn)
                 };
                 frames
                     .iter()
                     .map(|f| match f.segment {
-                        Segment::On => out(case.duty),
-                        Segment::Off => out(0.0),
-                        Segment::Pwm => out(on[(f.index - pwm_frames.start) as usize]),
+                        Segment::On => out(&|j| emitters[j].drive.duty()),
+                        Segment::Off => out(&|_| 0.0),
+                        Segment::Pwm => {
+                            let i = (f.index - pwm_frames.start) as usize;
+                            out(&|j| on[j][i])
+                        }
                     })
                     .collect()
             })
@@ -595,12 +654,15 @@ impl Simulator {
                 let out = |s: f64, l: f64| {
                     (cam.black_level_dn + k * (background + l * s)).min(cam.full_scale_dn)
                 };
+                let emitters = self.emitters(&pwm);
                 (0..cam.sensor_rows)
                     .map(|r| {
                         let s = match segment {
-                            Segment::On => case.duty,
+                            Segment::On => steady_fraction(&emitters),
                             Segment::Off => 0.0,
-                            Segment::Pwm => shutter.frame_on_fraction(&pwm, frame, r..r + 1),
+                            Segment::Pwm => emitters.iter().fold(0.0, |sum, e| {
+                                sum + e.share * shutter.frame_on_fraction(&e.drive, frame, r..r + 1)
+                            }),
                         };
                         (out(s, led), out(0.0, 0.0))
                     })
@@ -683,6 +745,110 @@ impl Backend for Simulator {
     ) -> Option<Result<RenderedFrame, BackendError>> {
         Some(self.render(case, frame))
     }
+}
+
+/// The LED's light as a fraction of its all-ON luminance when it shines
+/// steadily at its PWM average (the ON segment): each source's share times
+/// its duty.
+fn steady_fraction(emitters: &[Emitter]) -> f64 {
+    emitters
+        .iter()
+        .fold(0.0, |sum, e| sum + e.share * e.drive.duty())
+}
+
+/// `sum_j weight(source j) x fraction(j)`, summed from 0 in the sources'
+/// order: for the LED alone, `weight x fraction` exactly.
+fn weighted(
+    emitters: &[Emitter],
+    fraction: impl Fn(usize) -> f64,
+    weight: impl Fn(&Emitter) -> f64,
+) -> f64 {
+    emitters
+        .iter()
+        .enumerate()
+        .fold(0.0, |sum, (j, e)| sum + weight(e) * fraction(j))
+}
+
+/// Each PWM frame's ON fraction of each source over the ROI rows, for an
+/// exposure starting `offset_s` after the frame's: `[source][frame]`.
+fn mixed_on_fractions(
+    shutter: &Shutter,
+    emitters: &[Emitter],
+    frames: std::ops::Range<u64>,
+    roi: &Roi,
+    offset_s: f64,
+) -> Vec<Vec<f64>> {
+    emitters
+        .iter()
+        .map(|e| {
+            // A later exposure sees the edges earlier: the same drive with
+            // its first rise moved back by the offset (finite inputs to a
+            // drive that was valid stay valid).
+            let shifted = if offset_s == 0.0 {
+                e.drive
+            } else {
+                PwmDrive::new(
+                    e.drive.frequency_hz(),
+                    e.drive.duty(),
+                    e.drive.first_rise_s() - offset_s,
+                )
+                .unwrap_or(e.drive)
+            };
+            let mut on = Vec::new();
+            shutter.frame_on_fractions(&shifted, frames.clone(), roi.rows(), &mut on);
+            on
+        })
+        .collect()
+}
+
+/// Lowest and highest share-weighted ON fraction of several sources at
+/// one frequency (an LED's dies), mean over the ROI rows `rows`, over
+/// every phase of the common PWM: each source's ON fraction is piecewise
+/// linear in the phase with corners where an exposure edge meets one of
+/// its PWM edges, so the sum's extremes are at the union of those corners.
+fn mixed_envelope(
+    shutter: &Shutter,
+    emitters: &[Emitter],
+    rows: std::ops::Range<u32>,
+) -> (f64, f64) {
+    let Some(first) = emitters.first() else {
+        return (0.0, 0.0);
+    };
+    let f = first.drive.frequency_hz();
+    let width = shutter.exposure_s * f;
+    let rows: Vec<u32> = match shutter.model {
+        ShutterModel::Global | ShutterModel::Rolling { line_time_s: 0.0 } => vec![rows.start],
+        ShutterModel::Rolling { .. } => rows.collect(),
+    };
+    let offsets: Vec<f64> = rows
+        .iter()
+        .map(|&r| wrap_unit(shutter.row_offset_s(r) * f))
+        .collect();
+    let n = offsets.len() as f64;
+    // `phi`: the phase of row 0's exposure start after the common rise.
+    let light = |phi: f64| {
+        emitters.iter().fold(0.0, |sum, e| {
+            let d = e.drive.duty();
+            let rows: f64 = offsets
+                .iter()
+                .map(|o| on_fraction(wrap_unit(phi + o - e.lag_cycles), width, d))
+                .sum();
+            sum + e.share * rows / n
+        })
+    };
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    for e in emitters {
+        let d = e.drive.duty();
+        for o in &offsets {
+            for c in [0.0, d, -width, d - width] {
+                let v = light(wrap_unit(c + e.lag_cycles - o));
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+    }
+    (lo, hi)
 }
 
 /// The frame indices of the PWM segment, which is one contiguous run (the

@@ -255,6 +255,18 @@ pub struct RawScene {
     pub pwm_clock_offset_ppm: Option<f64>,
     pub led_chromaticity_xy: Option<Vec<f64>>,
     pub signal_colour: Option<String>,
+    #[serde(default)]
+    pub led_die: Vec<RawLedDie>,
+}
+
+/// `[[scene.led-die]]`: one die of an RGB (multi-die) LED.
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawLedDie {
+    pub chromaticity_xy: Option<Vec<f64>>,
+    pub luminance_share: Option<f64>,
+    pub duty_cycle: Option<f64>,
+    pub phase_deg: Option<f64>,
 }
 
 /// `[thresholds]`
