@@ -936,4 +936,73 @@ mod tests {
             "largest Percent Flicker shortfall against 16 384 phases: envelope {short:.6} points, a 1024-phase grid alone {old_short:.5} points"
         );
     }
+
+    /// The dies' worst case over phase bounds a dense sweep of phases,
+    /// each computed by the shutter's own per-frame integral of each die's
+    /// drive, and the sweep comes within its step of both ends: global and
+    /// rolling shutters, dies overlapping or not.
+    #[test]
+    fn the_dies_envelope_bounds_a_dense_phase_sweep_and_is_attained() {
+        let mut rng = Rng::new(49);
+        for case in 0..40 {
+            let f = 90.0 + rng.uniform() * 900.0;
+            let shutter = Shutter {
+                model: if case % 2 == 0 {
+                    ShutterModel::Global
+                } else {
+                    ShutterModel::Rolling {
+                        line_time_s: 20e-6 + rng.uniform() * 40e-6,
+                    }
+                },
+                exposure_s: 2e-4 + rng.uniform() * 4e-3,
+                fps: 30.0,
+            };
+            let n = 2 + case % 3;
+            let shares: Vec<f64> = (0..n).map(|_| 0.1 + rng.uniform()).collect();
+            let total: f64 = shares.iter().sum();
+            let dies: Vec<Emitter> = shares
+                .iter()
+                .map(|s| {
+                    let duty = 0.05 + 0.9 * rng.uniform();
+                    let lag = rng.uniform();
+                    Emitter {
+                        drive: PwmDrive::new(f, duty, lag / f).unwrap(),
+                        lag_cycles: lag,
+                        share: s / total,
+                        rgb: [0.0; 3],
+                    }
+                })
+                .collect();
+            let rows = 10..26;
+            let (lo, hi) = mixed_envelope(&shutter, &dies, rows.clone());
+            // Row 0 of frame 0 at phase `phi` after the common rise: the
+            // common rise at -phi / f, each die's its lag later.
+            let light = |phi: f64| {
+                dies.iter()
+                    .map(|e| {
+                        let drive =
+                            PwmDrive::new(f, e.drive.duty(), (e.lag_cycles - phi) / f).unwrap();
+                        e.share * shutter.frame_on_fraction(&drive, 0, rows.clone())
+                    })
+                    .sum::<f64>()
+            };
+            let steps = 20_000;
+            let (mut seen_lo, mut seen_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for i in 0..steps {
+                let v = light(i as f64 / steps as f64);
+                assert!(
+                    v >= lo - 1e-12 && v <= hi + 1e-12,
+                    "case {case}: {v} outside [{lo}, {hi}]"
+                );
+                seen_lo = seen_lo.min(v);
+                seen_hi = seen_hi.max(v);
+            }
+            // Each die's ON fraction changes by at most 1 / width per cycle
+            // of phase; the sweep's step is 1 / steps cycles.
+            let width = shutter.exposure_s * f;
+            let slack = 1.0 / (width * steps as f64);
+            assert!(seen_lo - lo <= slack, "case {case}: {seen_lo} vs {lo}");
+            assert!(hi - seen_hi <= slack, "case {case}: {seen_hi} vs {hi}");
+        }
+    }
 }
