@@ -307,8 +307,22 @@ pub fn plane_kpis(
         .unwrap_or_default()
 }
 
+/// Each colour plane's mean over the OFF frames (`capture.black-level =
+/// "off-segment"`): the black a recording's planes sit on; `None` without
+/// OFF frames.
+pub fn off_segment_black(rgb: &[[f64; 3]], segments: &[Segment]) -> Option<[f64; 3]> {
+    let off: Vec<&[f64; 3]> = rgb
+        .iter()
+        .zip(segments)
+        .filter(|(_, s)| **s == Segment::Off)
+        .map(|(c, _)| c)
+        .collect();
+    let n = off.len() as f64;
+    (!off.is_empty()).then(|| [0, 1, 2].map(|p| off.iter().map(|c| c[p]).sum::<f64>() / n))
+}
+
 /// The colour of an LED ROI's PWM segment: the planes' DN less the black
-/// level (light only) of the frames whose segment is PWM, through the
+/// level `black` (light only) of the frames whose segment is PWM, through the
 /// plan's camera-to-XYZ matrix, judged against its signal colour. For an
 /// LED of dies, Δu′v′ is measured from the ON segment's colour, where the
 /// LED shines steadily at its PWM average (every die at its duty): the
@@ -317,21 +331,22 @@ pub fn of_trace(
     colour: &ColourConfig,
     rgb: &[[f64; 3]],
     segments: &[Segment],
-    black_level_dn: f64,
+    black: [f64; 3],
 ) -> ColourFigures {
+    let light_of = |c: &[f64; 3]| [0, 1, 2].map(|p| (c[p] - black[p]).max(0.0));
     let (index, light): (Vec<u64>, Vec<[f64; 3]>) = rgb
         .iter()
         .zip(segments)
         .enumerate()
         .filter(|(_, (_, s))| **s == Segment::Pwm)
-        .map(|(i, (c, _))| (i as u64, c.map(|v| (v - black_level_dn).max(0.0))))
+        .map(|(i, (c, _))| (i as u64, light_of(c)))
         .unzip();
     let region = colour.signal.map(SignalColour::from);
     let steady: Vec<[f64; 3]> = rgb
         .iter()
         .zip(segments)
         .filter(|(_, s)| **s == Segment::On)
-        .map(|(c, _)| c.map(|v| (v - black_level_dn).max(0.0)))
+        .map(|(c, _)| light_of(c))
         .collect();
     let reference = (!colour.dies.is_empty() && !steady.is_empty()).then(|| {
         let n = steady.len() as f64;

@@ -309,6 +309,7 @@ pub struct RawCaptureTable {
     pub video_decode: Option<String>,
     pub video_range: Option<String>,
     pub colour_transfer: Option<String>,
+    pub black_level: Option<String>,
     pub frame_rate_fps: Option<f64>,
     pub saturation_dn: Option<f64>,
     pub off_frames: Option<Vec<i64>>,

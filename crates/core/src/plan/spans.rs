@@ -277,6 +277,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "video-decode",
             "video-range",
             "colour-transfer",
+            "black-level",
             "frame-rate-fps",
             "saturation-dn",
             "off-frames",

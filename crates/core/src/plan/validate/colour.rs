@@ -9,7 +9,7 @@ use crate::plan::colour::{
     ColourConfig, DEFAULT_CAMERA_TO_XYZ, LedDie, SignalColourName, apply, invert,
 };
 use crate::plan::raw::RawLedDie;
-use crate::plan::{ColourTransfer, VideoDecode};
+use crate::plan::{BlackLevel, CaptureConfig, ColourTransfer, VideoDecode};
 
 /// The colour keys as read, before validation.
 #[derive(Debug, Default)]
@@ -465,4 +465,23 @@ pub(super) fn limit_needs_colour(
         );
     }
     keys.is_empty().then_some(())
+}
+
+/// `capture.black-level = "off-segment"` sets the black of the colour
+/// planes: without colour it would change nothing, so it is an error.
+pub(super) fn black_level_needs_colour(
+    c: &mut Checker<'_>,
+    capture: Option<&CaptureConfig>,
+    colour: Option<&ColourConfig>,
+) -> Option<()> {
+    let asked = capture.is_some_and(|cap| cap.black_level == BlackLevel::OffSegment);
+    if asked && colour.is_none() {
+        c.error(
+            "capture.black-level",
+            "\"off-segment\" sets the black of the colour planes, and the plan has no colour (scene.led-chromaticity-xy)",
+            Some("give the lamp's colour, or remove the key: the luma's figures take no black level"),
+        );
+        return None;
+    }
+    Some(())
 }

@@ -150,6 +150,7 @@ pub(super) fn validate(
     let colour = colour?;
     display::limit_needs_display(&mut c, &thresholds, display.as_ref())?;
     colour::limit_needs_colour(&mut c, &thresholds, colour.as_ref())?;
+    colour::black_level_needs_colour(&mut c, capture.as_ref(), colour.as_ref())?;
     Some(Plan {
         id: meta.id?,
         title: meta.title?,
