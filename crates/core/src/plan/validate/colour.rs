@@ -283,69 +283,9 @@ fn dies_colour(
     };
     let mut dies = Vec::with_capacity(raw.dies.len());
     for (i, d) in raw.dies.into_iter().enumerate() {
-        let key = |k: &str| format!("scene.led-die[{i}].{k}");
-        let xy = c
-            .required(
-                d.chromaticity_xy,
-                &key("chromaticity-xy"),
-                "the die's CIE 1931 [x, y], e.g. [0.70, 0.295] for a red die",
-            )
-            .and_then(|xy| match xy.as_slice() {
-                &[x, y] if x > 0.0 && y > 0.0 && x + y < 1.0 => Some([x, y]),
-                _ => {
-                    c.error(
-                        &key("chromaticity-xy"),
-                        format!("{xy:?} is not a chromaticity"),
-                        Some("two numbers [x, y], each > 0 and x + y < 1 (CIE 1931)"),
-                    );
-                    None
-                }
-            });
-        let share = c
-            .required(
-                d.luminance_share,
-                &key("luminance-share"),
-                "the die's share of led-luminance-cd-m2 while every die is ON, e.g. 0.5; the shares sum to 1",
-            )
-            .and_then(|v| {
-                c.positive(
-                    v,
-                    &key("luminance-share"),
-                    "a die that gives no light is no die: remove its table",
-                )
-            });
-        let duty = c
-            .required(
-                d.duty_cycle,
-                &key("duty-cycle"),
-                "the die's duty at a case duty of 1, in (0, 1], e.g. 0.5",
-            )
-            .and_then(|v| c.duty(v, &key("duty-cycle")));
-        let phase = match d.phase_deg {
-            None => Some(0.0),
-            Some(v) if v.is_finite() && (0.0..360.0).contains(&v) => Some(v),
-            Some(v) => {
-                c.error(
-                    &key("phase-deg"),
-                    format!("{} is not a phase in [0, 360) degrees", number(v)),
-                    Some("the die's rising edge after the LED's common one, in degrees of the PWM period: 180 is half a period late"),
-                );
-                None
-            }
-        };
-        let rgb = match (xy, inverse.as_ref()) {
-            (Some(xy), Some(inv)) => in_gamut(c, &key("chromaticity-xy"), xy, inv),
-            _ => None,
-        };
-        match (xy, share, duty, phase, rgb) {
-            (Some(xy), Some(share), Some(duty), Some(phase), Some(rgb)) => dies.push(LedDie {
-                xy,
-                share,
-                duty,
-                phase_cycles: phase / 360.0,
-                rgb,
-            }),
-            _ => ok = false,
+        match die(c, i, d, inverse.as_ref()) {
+            Some(d) => dies.push(d),
+            None => ok = false,
         }
     }
     let (offsets, matrix, inverse) = (offsets?, matrix?, inverse?);
@@ -392,6 +332,77 @@ fn dies_colour(
         white_rgb: white_rgb(&inverse),
         dies,
     }))
+}
+
+/// One `[[scene.led-die]]` table, the `i`th: `None` after an error (the
+/// gamut is checked when the camera's `inverse` matrix is known).
+fn die(
+    c: &mut Checker<'_>,
+    i: usize,
+    d: RawLedDie,
+    inverse: Option<&[[f64; 3]; 3]>,
+) -> Option<LedDie> {
+    let key = |k: &str| format!("scene.led-die[{i}].{k}");
+    let xy = c
+        .required(
+            d.chromaticity_xy,
+            &key("chromaticity-xy"),
+            "the die's CIE 1931 [x, y], e.g. [0.70, 0.295] for a red die",
+        )
+        .and_then(|xy| match xy.as_slice() {
+            &[x, y] if x > 0.0 && y > 0.0 && x + y < 1.0 => Some([x, y]),
+            _ => {
+                c.error(
+                    &key("chromaticity-xy"),
+                    format!("{xy:?} is not a chromaticity"),
+                    Some("two numbers [x, y], each > 0 and x + y < 1 (CIE 1931)"),
+                );
+                None
+            }
+        });
+    let share = c
+        .required(
+            d.luminance_share,
+            &key("luminance-share"),
+            "the die's share of led-luminance-cd-m2 while every die is ON, e.g. 0.5; the shares sum to 1",
+        )
+        .and_then(|v| {
+            c.positive(
+                v,
+                &key("luminance-share"),
+                "a die that gives no light is no die: remove its table",
+            )
+        });
+    let duty = c
+        .required(
+            d.duty_cycle,
+            &key("duty-cycle"),
+            "the die's duty at a case duty of 1, in (0, 1], e.g. 0.5",
+        )
+        .and_then(|v| c.duty(v, &key("duty-cycle")));
+    let phase = match d.phase_deg {
+        None => Some(0.0),
+        Some(v) if v.is_finite() && (0.0..360.0).contains(&v) => Some(v),
+        Some(v) => {
+            c.error(
+                &key("phase-deg"),
+                format!("{} is not a phase in [0, 360) degrees", number(v)),
+                Some("the die's rising edge after the LED's common one, in degrees of the PWM period: 180 is half a period late"),
+            );
+            None
+        }
+    };
+    let rgb = match (xy, inverse) {
+        (Some(xy), Some(inv)) => in_gamut(c, &key("chromaticity-xy"), xy, inv),
+        _ => None,
+    };
+    Some(LedDie {
+        xy: xy?,
+        share: share?,
+        duty: duty?,
+        phase_cycles: phase? / 360.0,
+        rgb: rgb?,
+    })
 }
 
 /// `dut.camera.colour-plane-offset-ms`: three offsets, ms, as seconds.
