@@ -87,6 +87,12 @@ const PWM_CYCLE: [[f64; 3]; 4] = [
 
 /// Writes the recording's frames as 8-bit RGB PNG files into `dir`.
 fn write_frames(dir: &Path) {
+    write_frames_on(dir, [0; 3]);
+}
+
+/// [`write_frames`] with every pixel's R, G and B on a pedestal of
+/// `pedestal` DN: a camera's black level.
+fn write_frames_on(dir: &Path, pedestal: [u8; 3]) {
     std::fs::create_dir_all(dir).unwrap();
     for k in 0..FRAMES {
         let rgb = lamp_rgb(k);
@@ -96,8 +102,8 @@ fn write_frames(dir: &Path) {
         if k >= ON.1 {
             assert_eq!(rgb, PWM_CYCLE[(k - ON.1) % 4], "frame {k}");
         }
-        let lamp = image::Rgb(rgb.map(|v| v as u8));
-        let road = image::Rgb([ROAD_DN; 3]);
+        let lamp = image::Rgb([0, 1, 2].map(|p| rgb[p] as u8 + pedestal[p]));
+        let road = image::Rgb(pedestal.map(|b| ROAD_DN + b));
         image::RgbImage::from_fn(16, 8, |x, _| if x < 8 { lamp } else { road })
             .save(dir.join(format!("f{k:03}.png")))
             .unwrap();
@@ -424,6 +430,118 @@ fn colour_keys_a_captured_plan_cannot_use_are_refused_at_their_line() {
         "capture.video-decode",
         "reads no R, G, B",
     ] {
+        assert!(err.contains(needle), "`{needle}` not in: {err}");
+    }
+}
+
+/// A recording on a pedestal of 12, 9 and 15 DN (R, G, B): read with the
+/// camera's black level (0 here) every frame's colour is greyed by it;
+/// with `capture.black-level = "off-segment"` the planes are measured
+/// from their OFF frames, the pedestal, and give the pedestal-free
+/// figures.
+#[test]
+fn a_pedestal_is_taken_from_the_off_segment_when_the_plan_asks() {
+    const PEDESTAL: [u8; 3] = [12, 9, 15];
+    let on_pedestal: Vec<[f64; 3]> = (ON.1..FRAMES)
+        .map(|k| {
+            let c = PWM_CYCLE[(k - ON.1) % 4];
+            [0, 1, 2].map(|p| c[p] + f64::from(PEDESTAL[p]))
+        })
+        .collect();
+    let (greyed, greyed_outside) = colour_of(&on_pedestal);
+    let want = expected();
+    assert!((greyed - want.delta_uv).abs() > 1e-3, "{greyed}");
+    let figures = |json: &Value| {
+        let m = &json["cases"][0]["rois"][0]["metrics"];
+        (
+            m["delta_uv"].as_f64().unwrap(),
+            m["frames_outside_signal_colour"].as_f64().unwrap(),
+            m["fmi_r"].as_f64().unwrap(),
+        )
+    };
+
+    let dir = scratch("captured-colour-pedestal");
+    write_frames_on(&dir.join("frames"), PEDESTAL);
+    let plan = colour_plan(&dir, "frames", &matrix_camera());
+    let (delta, outside, fmi_r) = figures(&run_plan(&plan, &dir));
+    assert!((delta - greyed).abs() < 1e-12, "{delta} vs {greyed}");
+    assert_eq!(outside, greyed_outside as f64);
+
+    let dir = scratch("captured-colour-pedestal-off");
+    write_frames_on(&dir.join("frames"), PEDESTAL);
+    let plan = colour_plan(&dir, "frames", &matrix_camera());
+    let text = std::fs::read_to_string(&plan)
+        .unwrap()
+        .replace("[capture]\n", "[capture]\nblack-level = \"off-segment\"\n");
+    std::fs::write(&plan, text).unwrap();
+    let (delta, outside, fmi_r_off) = figures(&run_plan(&plan, &dir));
+    assert!(
+        (delta - want.delta_uv).abs() < 1e-12,
+        "{delta} vs {}",
+        want.delta_uv
+    );
+    assert_eq!(outside, want.outside as f64);
+    // The plane KPIs take no black level: the same either way.
+    assert_eq!(fmi_r, fmi_r_off);
+    println!("delta u'v': {delta} measured from the OFF frames, {greyed} on the pedestal");
+}
+
+#[test]
+fn off_segment_black_needs_colour_and_off_frames() {
+    let dir = scratch("captured-colour-black-refused");
+    write_frames(&dir.join("frames"));
+    let plan = colour_plan(&dir, "frames", &matrix_camera());
+    let text = std::fs::read_to_string(&plan)
+        .unwrap()
+        .replace("[capture]\n", "[capture]\nblack-level = \"off-segment\"\n");
+    // Without colour the key would change nothing.
+    let no_colour = text
+        .replace("led-chromaticity-xy = [0.6931, 0.3003]\n", "")
+        .replace("signal-colour = \"red\"\n", "")
+        .replace("colour-transfer = \"linear\"\n", "");
+    let start = no_colour.find("[dut.camera]").unwrap();
+    let end = start + no_colour[start..].find("\n]\n").unwrap() + 3;
+    let no_colour = format!("{}{}", &no_colour[..start], &no_colour[end..]);
+    std::fs::write(&plan, &no_colour).unwrap();
+    let o = ledflicker(&["validate", plan.to_str().unwrap()], &dir);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("capture.black-level") && err.contains("no colour") && err.contains("hint"),
+        "{err}"
+    );
+    // A case with no OFF frames has no black to take.
+    let no_off = text.replace(&format!("off-frames = [{}, {}]\n", OFF.0, OFF.1), "");
+    assert_ne!(no_off, text);
+    std::fs::write(&plan, &no_off).unwrap();
+    let o = ledflicker(
+        &["plan", plan.to_str().unwrap(), "--out", "out", "-q"],
+        &dir,
+    );
+    let err = stderr(&o);
+    assert_ne!(o.status.code(), Some(0), "{err}");
+    assert!(
+        err.contains("black-level") && err.contains("OFF frames"),
+        "{err}"
+    );
+}
+
+#[test]
+fn an_led_of_dies_is_refused_in_a_captured_plan() {
+    // The dies' duties and phases are simulated; a recording carries the
+    // lamp's own colour and timing.
+    let dir = scratch("captured-colour-dies");
+    write_frames(&dir.join("frames"));
+    let plan = colour_plan(&dir, "frames", &matrix_camera());
+    let text = std::fs::read_to_string(&plan).unwrap().replace(
+        "led-chromaticity-xy = [0.6931, 0.3003]\nsignal-colour = \"red\"\n",
+        "signal-colour = \"red\"\n\n[[scene.led-die]]\nchromaticity-xy = [0.6931, 0.3003]\nluminance-share = 1.0\nduty-cycle = 1.0\n",
+    );
+    std::fs::write(&plan, text).unwrap();
+    let o = ledflicker(&["validate", plan.to_str().unwrap()], &dir);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for needle in ["scene.led-die", "is simulated", "led-chromaticity-xy"] {
         assert!(err.contains(needle), "`{needle}` not in: {err}");
     }
 }

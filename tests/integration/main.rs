@@ -14,6 +14,7 @@ mod captured;
 mod cli;
 mod colour;
 mod colour_captured;
+mod colour_dies;
 mod conditions;
 mod detect;
 mod estimate;

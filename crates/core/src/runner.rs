@@ -14,7 +14,7 @@ use crate::metrics::{
     Check, RoiMetrics, Verdict, chromaticity, evaluate_case, evaluate_roi, visibility,
 };
 use crate::plan::RoiKind;
-use crate::plan::{Plan, TestCase};
+use crate::plan::{BlackLevel, Plan, TestCase};
 
 /// Everything known about one finished case. Serialisable so that a
 /// shard can hand it to `ledflicker merge` unchanged ([`crate::shard`]).
@@ -374,16 +374,24 @@ pub fn run_case(
             .display
             .as_ref()
             .map(|d| visibility::of_trace(d, &acquisition.frames, &trace.luma, roi));
-        m.colour = plan
-            .colour
-            .as_ref()
-            .zip(trace.rgb.as_ref())
-            .map(|(c, rgb)| {
-                let mut figures =
-                    chromaticity::of_trace(c, rgb, &segments, plan.dut.camera.black_level_dn);
+        m.colour = match plan.colour.as_ref().zip(trace.rgb.as_ref()) {
+            None => None,
+            Some((c, rgb)) => {
+                let black = match plan.capture.as_ref().map(|c| c.black_level) {
+                    Some(BlackLevel::OffSegment) => chromaticity::off_segment_black(rgb, &segments)
+                        .ok_or_else(|| {
+                            bad(format!(
+                                "ROI `{}`: capture.black-level = \"off-segment\" takes each colour plane's black from the OFF frames, and this case has none; give its OFF segment (off-frames or off-time-s), or use black-level = \"camera\"",
+                                trace.name
+                            ))
+                        })?,
+                    _ => [plan.dut.camera.black_level_dn; 3],
+                };
+                let mut figures = chromaticity::of_trace(c, rgb, &segments, black);
                 figures.planes = chromaticity::plane_kpis(rgb, &segments, &plan.p2020);
-                figures
-            });
+                Some(figures)
+            }
+        };
         metrics.push(m);
         p2020s.extend(p2020::evaluate(&trace.luma, &segments, &plan.p2020));
     }

@@ -483,6 +483,8 @@ pub fn fine_maps_note(plan: &Plan) -> Option<String> {
         ))
     } else if !plan.rois.iter().any(|r| r.kind == RoiKind::Led) {
         Some("no fine maps: the plan has no LED ROI".to_string())
+    } else if plan.colour.as_ref().is_some_and(|c| !c.dies.is_empty()) {
+        Some("no fine maps: they model one PWM waveform, and the LED's dies ([[scene.led-die]]) each have their own duty and phase; the per-case worst case over phase covers them".to_string())
     } else {
         None
     }

@@ -101,9 +101,13 @@ fn shown_as_run(r: &CaseResult, k: &Check) -> bool {
 
 /// The case `r` of `plan` run again at the worst phase of the ROI its
 /// worst-phase verdict rests on; `None` when the case needs no such run
-/// ([`failing_check`]), or the backend is not the ideal simulated camera.
+/// ([`failing_check`]), or the backend is not the ideal simulated camera,
+/// or the LED has dies of their own duty and phase (the darkest phase of
+/// one PWM waveform is not theirs).
 pub fn worst_phase_run(plan: &Plan, r: &CaseResult) -> Option<WorstPhaseRun> {
-    if plan.dut.backend != BackendKind::Simulator {
+    if plan.dut.backend != BackendKind::Simulator
+        || plan.colour.as_ref().is_some_and(|c| !c.dies.is_empty())
+    {
         return None;
     }
     let check = failing_check(r)?;

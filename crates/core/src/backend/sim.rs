@@ -37,6 +37,9 @@ use crate::plan::{
 };
 use crate::trace::Run;
 
+mod dies;
+use dies::{mixed_envelope, mixed_on_fractions, steady_fraction, weighted};
+
 /// Phases evaluated, beside the exact corners, when searching a physical
 /// camera's worst case over phase.
 pub const PHASE_GRID: usize = 1024;
@@ -156,6 +159,8 @@ impl Simulator {
         let led_peak = k * self.scene.led_fill * self.scene.led_luminance_cd_m2;
         let out =
             |s: f64, led: f64| (cam.black_level_dn + background + led * s).min(cam.full_scale_dn);
+        let emitters = dies::emitters(self.colour.as_deref(), pwm);
+        let steady = steady_fraction(&emitters);
         let rois = self
             .rois
             .iter()
@@ -166,17 +171,23 @@ impl Simulator {
                     0.0
                 };
                 let pwm_frames = pwm_frame_range(&frames);
-                let mut on = Vec::new();
-                shutter.frame_on_fractions(pwm, pwm_frames.clone(), roi.rows(), &mut on);
+                let per_source =
+                    mixed_on_fractions(&shutter, &emitters, pwm_frames.clone(), roi, 0.0);
+                let on: Vec<f64> = (0..pwm_frames.end - pwm_frames.start)
+                    .map(|i| weighted(&emitters, |j| per_source[j][i as usize], |e| e.share))
+                    .collect();
                 let luma = frames
                     .iter()
                     .map(|f| match f.segment {
-                        Segment::On => out(case.duty, led),
+                        Segment::On => out(steady, led),
                         Segment::Off => out(0.0, led),
                         Segment::Pwm => out(on[(f.index - pwm_frames.start) as usize], led),
                     })
                     .collect();
-                let (lo, hi) = shutter.phase_envelope(pwm, roi.rows());
+                let (lo, hi) = match emitters.as_slice() {
+                    [one] => shutter.phase_envelope(&one.drive, roi.rows()),
+                    dies => mixed_envelope(&shutter, dies, roi.rows()),
+                };
                 let rgb = match (&self.colour, roi.kind) {
                     (Some(colour), RoiKind::Led) => {
                         Some(self.colour_planes(case, pwm, roi, colour, &frames))
@@ -200,8 +211,9 @@ impl Simulator {
     }
 
     /// Mean DN of each colour plane of an LED ROI, frame by frame, through
-    /// the ideal camera: plane `p` sees the LED's camera RGB `led_rgb[p]`
-    /// (and the grey background's `white_rgb[p]`) per cd/m^2, over its own
+    /// the ideal camera: plane `p` sees each source of the LED's light
+    /// (the LED, or each die) through its camera RGB per cd/m^2 times its
+    /// share (and the grey background's `white_rgb[p]`), over its own
     /// exposure, which starts `plane_offsets_s[p]` after the frame's. A
     /// later exposure sees the PWM's edges earlier: the same integral with
     /// the first rise moved back by the offset.
@@ -219,27 +231,30 @@ impl Simulator {
         let background = k * self.scene.background_luminance_cd_m2(case.light_lux);
         let led = k * self.scene.led_fill * self.scene.led_luminance_cd_m2;
         let pwm_frames = pwm_frame_range(frames);
+        let emitters = dies::emitters(self.colour.as_deref(), pwm);
         let planes: Vec<Vec<f64>> = (0..3)
             .map(|p| {
-                // Finite inputs to a drive that was valid stay valid.
-                let shifted = PwmDrive::new(
-                    pwm.frequency_hz(),
-                    pwm.duty(),
-                    pwm.first_rise_s() - colour.plane_offsets_s[p],
-                )
-                .unwrap_or(*pwm);
-                let mut on = Vec::new();
-                shutter.frame_on_fractions(&shifted, pwm_frames.clone(), roi.rows(), &mut on);
-                let out = |s: f64| {
-                    let v = background * colour.white_rgb[p] + led * colour.led_rgb[p] * s;
+                let on = mixed_on_fractions(
+                    &shutter,
+                    &emitters,
+                    pwm_frames.clone(),
+                    roi,
+                    colour.plane_offsets_s[p],
+                );
+                let out = |fraction: &dyn Fn(usize) -> f64| {
+                    let v = background * colour.white_rgb[p]
+                        + weighted(&emitters, fraction, |e| led * (e.share * e.rgb[p]));
                     (cam.black_level_dn + v).min(cam.full_scale_dn)
                 };
                 frames
                     .iter()
                     .map(|f| match f.segment {
-                        Segment::On => out(case.duty),
-                        Segment::Off => out(0.0),
-                        Segment::Pwm => out(on[(f.index - pwm_frames.start) as usize]),
+                        Segment::On => out(&|j| emitters[j].drive.duty()),
+                        Segment::Off => out(&|_| 0.0),
+                        Segment::Pwm => {
+                            let i = (f.index - pwm_frames.start) as usize;
+                            out(&|j| on[j][i])
+                        }
                     })
                     .collect()
             })
@@ -595,12 +610,15 @@ impl Simulator {
                 let out = |s: f64, l: f64| {
                     (cam.black_level_dn + k * (background + l * s)).min(cam.full_scale_dn)
                 };
+                let emitters = dies::emitters(self.colour.as_deref(), &pwm);
                 (0..cam.sensor_rows)
                     .map(|r| {
                         let s = match segment {
-                            Segment::On => case.duty,
+                            Segment::On => steady_fraction(&emitters),
                             Segment::Off => 0.0,
-                            Segment::Pwm => shutter.frame_on_fraction(&pwm, frame, r..r + 1),
+                            Segment::Pwm => emitters.iter().fold(0.0, |sum, e| {
+                                sum + e.share * shutter.frame_on_fraction(&e.drive, frame, r..r + 1)
+                            }),
                         };
                         (out(s, led), out(0.0, 0.0))
                     })

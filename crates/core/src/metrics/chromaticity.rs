@@ -179,9 +179,24 @@ pub struct Excursion {
 /// The chromaticity excursion of frames of linear camera `rgb` seen through `m`,
 /// judged against `region`; `None` when no frame has light.
 pub fn excursion(rgb: &[[f64; 3]], m: &CameraToXyz, region: SignalColour) -> Option<Excursion> {
+    excursion_from(rgb, m, region, None)
+}
+
+/// [`excursion`] measured from `reference` (linear camera RGB) instead of
+/// the frames' mean when it is given: the colour the light fuses to when
+/// the frames, sampling a few phases, may not.
+pub fn excursion_from(
+    rgb: &[[f64; 3]],
+    m: &CameraToXyz,
+    region: SignalColour,
+    reference: Option<[f64; 3]>,
+) -> Option<Excursion> {
     let frames: Vec<[f64; 3]> = rgb.iter().map(|&c| xyz(m, c)).collect();
     let n = frames.len() as f64;
-    let mean = [0, 1, 2].map(|i| frames.iter().map(|f| f[i]).sum::<f64>() / n);
+    let mean = match reference {
+        Some(c) => xyz(m, c),
+        None => [0, 1, 2].map(|i| frames.iter().map(|f| f[i]).sum::<f64>() / n),
+    };
     let mean_uv = uv(mean)?;
     let mut delta_uv: f64 = 0.0;
     let mut outside = Vec::new();
@@ -221,8 +236,15 @@ pub struct ColourFigures {
     /// Largest distance in u'v' of a frame's colour from the segment's
     /// mean colour; `None` when no frame has light.
     pub delta_uv: Option<f64>,
-    /// `(u', v')` of the segment's mean colour; `None` without light.
+    /// `(u', v')` of the segment's mean colour; `None` without light. For
+    /// an LED of dies, the colour the light fuses to over time instead
+    /// ([`ColourFigures::mean_is_time_average`]).
     pub mean_uv: Option<(f64, f64)>,
+    /// `mean_uv` is the light's time average (the ON segment's steady
+    /// colour, each die at its duty), not the PWM frames' mean: an LED of
+    /// dies (`[[scene.led-die]]`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub mean_is_time_average: bool,
     /// The signal colour the plan names (`"red"`, `"amber"`), if any.
     pub region: Option<String>,
     /// PWM frames with light whose colour is outside that region; `None`
@@ -285,27 +307,56 @@ pub fn plane_kpis(
         .unwrap_or_default()
 }
 
+/// Each colour plane's mean over the OFF frames (`capture.black-level =
+/// "off-segment"`): the black a recording's planes sit on; `None` without
+/// OFF frames.
+pub fn off_segment_black(rgb: &[[f64; 3]], segments: &[Segment]) -> Option<[f64; 3]> {
+    let off: Vec<&[f64; 3]> = rgb
+        .iter()
+        .zip(segments)
+        .filter(|(_, s)| **s == Segment::Off)
+        .map(|(c, _)| c)
+        .collect();
+    let n = off.len() as f64;
+    (!off.is_empty()).then(|| [0, 1, 2].map(|p| off.iter().map(|c| c[p]).sum::<f64>() / n))
+}
+
 /// The colour of an LED ROI's PWM segment: the planes' DN less the black
-/// level (light only) of the frames whose segment is PWM, through the
-/// plan's camera-to-XYZ matrix, judged against its signal colour.
+/// level `black` (light only) of the frames whose segment is PWM, through the
+/// plan's camera-to-XYZ matrix, judged against its signal colour. For an
+/// LED of dies, Δu′v′ is measured from the ON segment's colour, where the
+/// LED shines steadily at its PWM average (every die at its duty): the
+/// colour the eye fuses, which the PWM frames' mean only approaches.
 pub fn of_trace(
     colour: &ColourConfig,
     rgb: &[[f64; 3]],
     segments: &[Segment],
-    black_level_dn: f64,
+    black: [f64; 3],
 ) -> ColourFigures {
+    let light_of = |c: &[f64; 3]| [0, 1, 2].map(|p| (c[p] - black[p]).max(0.0));
     let (index, light): (Vec<u64>, Vec<[f64; 3]>) = rgb
         .iter()
         .zip(segments)
         .enumerate()
         .filter(|(_, (_, s))| **s == Segment::Pwm)
-        .map(|(i, (c, _))| (i as u64, c.map(|v| (v - black_level_dn).max(0.0))))
+        .map(|(i, (c, _))| (i as u64, light_of(c)))
         .unzip();
     let region = colour.signal.map(SignalColour::from);
-    let found = excursion(
+    let steady: Vec<[f64; 3]> = rgb
+        .iter()
+        .zip(segments)
+        .filter(|(_, s)| **s == Segment::On)
+        .map(|(c, _)| light_of(c))
+        .collect();
+    let reference = (!colour.dies.is_empty() && !steady.is_empty()).then(|| {
+        let n = steady.len() as f64;
+        [0, 1, 2].map(|i| steady.iter().map(|c| c[i]).sum::<f64>() / n)
+    });
+    let found = excursion_from(
         &light,
         &colour.camera_to_xyz,
         region.unwrap_or(SignalColour::Red),
+        reference,
     );
     let outside_frames: Vec<u64> = match (&found, region) {
         (Some(e), Some(_)) => e.outside.iter().map(|&i| index[i]).collect(),
@@ -320,6 +371,7 @@ pub fn of_trace(
         path,
         delta_uv: found.as_ref().map(|e| e.delta_uv),
         mean_uv: found.as_ref().map(|e| e.mean_uv),
+        mean_is_time_average: reference.is_some() && found.is_some(),
         region: colour.signal.map(|s| s.as_str().to_string()),
         frames_outside: region.map(|_| outside_frames.len() as u64),
         outside_frames,

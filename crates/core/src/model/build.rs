@@ -262,6 +262,11 @@ fn roi_infos(plan: &Plan, r: &CaseResult, analyses: Vec<RoiAnalysis>) -> Vec<Roi
                 contrast_unbounded: false,
                 analysis: ra,
                 signal_colour: m.colour.as_ref().and_then(|c| c.region.clone()),
+                delta_uv_reference: m
+                    .colour
+                    .as_ref()
+                    .filter(|c| c.mean_is_time_average)
+                    .map(|_| "time-average".to_string()),
             };
             insert(&mut info, "fdi_2018", &m.fdi_2018);
             insert(&mut info, "percent_flicker", &m.percent_flicker);

@@ -476,6 +476,11 @@ pub struct RoiInfo {
     /// are `delta_uv` and `frames_outside_signal_colour` in `metrics`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub signal_colour: Option<String>,
+    /// What `delta_uv` is measured from when it is not the PWM frames'
+    /// mean colour: `"time-average"`, the colour an LED of dies
+    /// (`[[scene.led-die]]`) fuses to over time.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delta_uv_reference: Option<String>,
 }
 
 impl RoiInfo {

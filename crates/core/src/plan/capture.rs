@@ -126,6 +126,19 @@ pub struct CommandSpec {
     pub timeout_s: f64,
 }
 
+/// What a captured colour plan subtracts from its colour planes before
+/// their chromaticity (`capture.black-level`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BlackLevel {
+    /// `"camera"`: `dut.camera.black-level-dn` (0 without it), the same
+    /// for every plane.
+    Camera,
+    /// `"off-segment"`: each plane's own mean over the case's OFF frames:
+    /// the recording's pedestal (and any steady light in the ROI), per
+    /// plane and per case.
+    OffSegment,
+}
+
 /// `[capture]`, validated.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CaptureConfig {
@@ -138,6 +151,8 @@ pub struct CaptureConfig {
     /// How the R, G and B codes encode light (`colour-transfer`); `None`
     /// when not given (a colour plan must give it).
     pub colour_transfer: Option<ColourTransfer>,
+    /// What the colour planes are measured from (`black-level`).
+    pub black_level: BlackLevel,
     /// Frame rate for sources without timestamps, frames/s.
     pub frame_rate_fps: Option<f64>,
     /// Saturation flag level, DN; `None`: 240/255 of the source's full scale.

@@ -1,7 +1,8 @@
-//! A coloured LED on a colour camera: the light's chromaticity, the signal
-//! colour it must keep, and the camera's colour planes (their exposure
-//! offsets, their matrix to XYZ). Optional: a plan without
-//! `led-chromaticity-xy` has no colour, and its outputs are the luma ones
+//! A coloured LED on a colour camera: the light's chromaticity (one colour,
+//! or dies of their own colour, duty and phase), the signal colour it must
+//! keep, and the camera's colour planes (their exposure offsets, their
+//! matrix to XYZ). Optional: a plan without `led-chromaticity-xy` or
+//! `[[scene.led-die]]` has no colour, and its outputs are the luma ones
 //! alone (docs/visibility.md, section 6).
 
 /// A signal colour of a vehicle lamp (UN R48 paragraph 2.30), as a plan
@@ -32,10 +33,30 @@ pub const DEFAULT_CAMERA_TO_XYZ: [[f64; 3]; 3] = [
     [0.0193, 0.1192, 0.9505],
 ];
 
+/// One die of a multi-die (RGB) LED, validated (`[[scene.led-die]]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LedDie {
+    /// CIE 1931 `(x, y)` of the die's light, inside the camera's gamut.
+    pub xy: [f64; 2],
+    /// The die's share of the LED's luminance while every die is ON
+    /// (> 0; the dies' shares sum to 1).
+    pub share: f64,
+    /// The die's duty at a case duty of 1, in (0, 1]: a case of duty `D`
+    /// drives it at `D x duty`.
+    pub duty: f64,
+    /// Its rising edge after the LED's common one, in PWM cycles, [0, 1).
+    pub phase_cycles: f64,
+    /// Its camera RGB per cd/m^2 (its XYZ at `Y = 1` through the matrix's
+    /// inverse): each >= 0.
+    pub rgb: [f64; 3],
+}
+
 /// The colour of the LED and of the camera's planes, validated.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ColourConfig {
-    /// CIE 1931 `(x, y)` of the LED's light (`x, y > 0`, `x + y < 1`).
+    /// CIE 1931 `(x, y)` of the LED's light (`x, y > 0`, `x + y < 1`); for
+    /// an LED of dies, the colour they fuse to (each die's XYZ weighted by
+    /// its share and duty).
     pub led_xy: [f64; 2],
     /// The region its colour must stay in; `None`: Δu'v' only.
     pub signal: Option<SignalColourName>,
@@ -50,6 +71,9 @@ pub struct ColourConfig {
     pub led_rgb: [f64; 3],
     /// The grey background's camera RGB per cd/m^2 (D65 white, Y = 1).
     pub white_rgb: [f64; 3],
+    /// The LED's dies, each with its own colour, duty and phase; empty for
+    /// an LED of one colour whose light follows the case's PWM as a whole.
+    pub dies: Vec<LedDie>,
 }
 
 /// The inverse of `m`; `None` when it is singular.

@@ -25,8 +25,8 @@ use std::path::{Path, PathBuf};
 
 pub use bounds::{ResourceLimits, WorkEstimate};
 pub use capture::{
-    CaptureCase, CaptureConfig, ColourTransfer, CommandSpec, DEFAULT_SETTLE_S, LumaWeights,
-    SegmentSpec, Span, VideoDecode, VideoRange,
+    BlackLevel, CaptureCase, CaptureConfig, ColourTransfer, CommandSpec, DEFAULT_SETTLE_S,
+    LumaWeights, SegmentSpec, Span, VideoDecode, VideoRange,
 };
 pub use grid::{TestCase, expand_cases};
 pub use p2020::{MmpReference, P2020Options};

@@ -255,6 +255,18 @@ pub struct RawScene {
     pub pwm_clock_offset_ppm: Option<f64>,
     pub led_chromaticity_xy: Option<Vec<f64>>,
     pub signal_colour: Option<String>,
+    #[serde(default)]
+    pub led_die: Vec<RawLedDie>,
+}
+
+/// `[[scene.led-die]]`: one die of an RGB (multi-die) LED.
+#[derive(Debug, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub struct RawLedDie {
+    pub chromaticity_xy: Option<Vec<f64>>,
+    pub luminance_share: Option<f64>,
+    pub duty_cycle: Option<f64>,
+    pub phase_deg: Option<f64>,
 }
 
 /// `[thresholds]`
@@ -297,6 +309,7 @@ pub struct RawCaptureTable {
     pub video_decode: Option<String>,
     pub video_range: Option<String>,
     pub colour_transfer: Option<String>,
+    pub black_level: Option<String>,
     pub frame_rate_fps: Option<f64>,
     pub saturation_dn: Option<f64>,
     pub off_frames: Option<Vec<i64>>,

@@ -45,6 +45,7 @@ pub const PLANS: &[Shipped] = shipped![
     "test-plans/hdr-example.toml",
     "test-plans/lowlight.toml",
     "test-plans/p2020-samples.toml",
+    "test-plans/rgb-signal.toml",
     "test-plans/sweep-23k.toml",
 ];
 

@@ -229,6 +229,16 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "pwm-clock-offset-ppm",
             "led-chromaticity-xy",
             "signal-colour",
+            "led-die",
+        ],
+    ),
+    (
+        "scene.led-die",
+        &[
+            "chromaticity-xy",
+            "luminance-share",
+            "duty-cycle",
+            "phase-deg",
         ],
     ),
     (
@@ -267,6 +277,7 @@ pub(crate) const KNOWN_KEYS: &[(&str, &[&str])] = &[
             "video-decode",
             "video-range",
             "colour-transfer",
+            "black-level",
             "frame-rate-fps",
             "saturation-dn",
             "off-frames",

@@ -306,7 +306,11 @@ fn panel(
     }
     if let Some(m) = colour.mean_uv {
         c.draw_series(std::iter::once(TriangleMarker::new(m, 8, MEAN.filled())))?
-            .label("the colour the frames fuse to")
+            .label(if colour.mean_is_time_average {
+                "the colour the dies fuse to"
+            } else {
+                "the colour the frames fuse to"
+            })
             .legend(|(x, y)| TriangleMarker::new((x + 9, y), 6, MEAN.filled()));
     }
     if legend {
@@ -328,6 +332,7 @@ mod tests {
         ColourFigures {
             delta_uv: Some(0.05),
             mean_uv: Some((0.55, 0.52)),
+            mean_is_time_average: false,
             region: Some("red".to_string()),
             frames_outside: Some(outside.len() as u64),
             outside_frames: outside,

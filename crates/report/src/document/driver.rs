@@ -55,6 +55,9 @@ pub struct ColourRow {
     pub planes_fmi: String,
     /// Path of the ROI's u′v′ diagram in the report's charts.
     pub chart: String,
+    /// What Δu′v′ is measured from, in words: "the colour the frames fuse
+    /// to", or for an LED of dies "the colour the dies fuse to".
+    pub reference: String,
 }
 
 /// One LED ROI of one case.
@@ -184,6 +187,11 @@ fn colour_rows_of(case: &CaseInfo) -> Vec<ColourRow> {
                 reading,
                 planes_fmi: planes_fmi(r),
                 chart: crate::document::uv_chart_path(&case.id, k),
+                reference: match r.delta_uv_reference.as_deref() {
+                    Some("time-average") => "the colour the dies fuse to",
+                    _ => "the colour the frames fuse to",
+                }
+                .to_string(),
             }
         })
         .collect()

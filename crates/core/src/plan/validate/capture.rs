@@ -5,7 +5,9 @@ use std::path::Path;
 
 use super::grid;
 use crate::plan::bounds::{CAPTURE_FPS_RANGE, TIMEOUT_S_RANGE};
-use crate::plan::capture::{CaptureCase, CaptureConfig, CommandSpec, SegmentSpec, Span};
+use crate::plan::capture::{
+    BlackLevel, CaptureCase, CaptureConfig, CommandSpec, SegmentSpec, Span,
+};
 use crate::plan::check::Checker;
 use crate::plan::grid::condition_id;
 use crate::plan::raw::{RawCaptureTable, RawCaseEntry, RawSegments};
@@ -127,6 +129,15 @@ pub(super) fn capture_config(
             )
             .map(Some),
     };
+    let black_level = c.choice(
+        raw.black_level.take(),
+        "capture.black-level",
+        BlackLevel::Camera,
+        &[
+            ("camera", BlackLevel::Camera),
+            ("off-segment", BlackLevel::OffSegment),
+        ],
+    );
     let mut ok = true;
     let fps = raw.frame_rate_fps.and_then(|v| {
         let fps = c.within(
@@ -176,6 +187,7 @@ pub(super) fn capture_config(
         video_decode: video_decode?,
         video_range: video_range?,
         colour_transfer: colour_transfer?,
+        black_level: black_level?,
         frame_rate_fps: fps,
         saturation_dn,
         segments: base?,

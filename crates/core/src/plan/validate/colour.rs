@@ -1,11 +1,15 @@
-//! The colour keys: `scene.led-chromaticity-xy` and `scene.signal-colour`
-//! (the light), `dut.camera.colour-plane-offset-ms` and
-//! `dut.camera.camera-to-xyz` (the camera's planes). All optional; without
-//! a chromaticity the plan has no colour and the camera keys are refused.
+//! The colour keys: `scene.led-chromaticity-xy` or `[[scene.led-die]]`,
+//! and `scene.signal-colour` (the light), `dut.camera.colour-plane-offset-ms`
+//! and `dut.camera.camera-to-xyz` (the camera's planes). All optional;
+//! without a chromaticity or dies the plan has no colour and the camera
+//! keys are refused.
 
-use crate::plan::check::Checker;
-use crate::plan::colour::{ColourConfig, DEFAULT_CAMERA_TO_XYZ, SignalColourName, apply, invert};
-use crate::plan::{ColourTransfer, VideoDecode};
+use crate::plan::check::{Checker, number};
+use crate::plan::colour::{
+    ColourConfig, DEFAULT_CAMERA_TO_XYZ, LedDie, SignalColourName, apply, invert,
+};
+use crate::plan::raw::RawLedDie;
+use crate::plan::{BlackLevel, CaptureConfig, ColourTransfer, VideoDecode};
 
 /// The colour keys as read, before validation.
 #[derive(Debug, Default)]
@@ -14,7 +18,15 @@ pub(super) struct RawColour {
     pub signal: Option<String>,
     pub offsets_ms: Option<Vec<f64>>,
     pub camera_to_xyz: Option<Vec<Vec<f64>>>,
+    pub dies: Vec<RawLedDie>,
 }
+
+/// Most dies an LED may have: an RGB or RGBW package has three or four.
+pub const MAX_DIES: usize = 8;
+
+/// How far the dies' luminance shares may sum from 1 (their rounding to
+/// a few decimals); they are then scaled to sum to 1 exactly.
+const SHARE_SUM_TOLERANCE: f64 = 1e-3;
 
 const HINT: &str = "see docs/plan-format.md, \"Colour\"";
 
@@ -77,6 +89,17 @@ pub(super) fn colour(
     raw: RawColour,
     planes: Planes,
 ) -> Option<Option<ColourConfig>> {
+    if raw.led_xy.is_some() && !raw.dies.is_empty() {
+        c.error(
+            "scene.led-die",
+            "and scene.led-chromaticity-xy both give the LED's colour",
+            Some("give one colour (led-chromaticity-xy) or the dies' own colours ([[scene.led-die]]), not both"),
+        );
+        return None;
+    }
+    if !raw.dies.is_empty() {
+        return dies_colour(c, raw, planes);
+    }
     let Some(xy) = raw.led_xy else {
         let transfer = matches!(planes, Planes::Captured(_, Some(_)));
         for (given, key) in [
@@ -154,31 +177,232 @@ pub(super) fn colour(
         c.error("dut.camera.camera-to-xyz", "is singular", Some(HINT));
         return None;
     };
-    let [x, y] = led_xy;
-    let led_rgb = apply(&inverse, [x / y, 1.0, (1.0 - x - y) / y]);
-    // A plane may come out a little below 0 from the rounding of `(x, y)`
-    // for an LED on the gamut's edge (a saturated primary).
-    let largest = led_rgb.iter().fold(0.0f64, |m, v| m.max(*v));
-    if led_rgb.iter().any(|v| *v < -1e-3 * largest) {
-        c.error(
-            "scene.led-chromaticity-xy",
-            format!("({x}, {y}) is outside the camera's gamut: its planes would see {led_rgb:.3?}"),
-            Some("give the camera's own matrix, dut.camera.camera-to-xyz, whose primaries enclose the LED's colour"),
-        );
-        return None;
-    }
-    let white_rgb = apply(
-        &inverse,
-        [0.3127 / 0.3290, 1.0, (1.0 - 0.3127 - 0.3290) / 0.3290],
-    );
+    let led_rgb = in_gamut(c, "scene.led-chromaticity-xy", led_xy, &inverse)?;
     ok.then_some(Some(ColourConfig {
         led_xy,
         signal,
         plane_offsets_s: offsets,
         camera_to_xyz: matrix,
-        led_rgb: led_rgb.map(|v| v.max(0.0)),
-        white_rgb,
+        led_rgb,
+        white_rgb: white_rgb(&inverse),
+        dies: Vec::new(),
     }))
+}
+
+/// D65 white's camera RGB at `Y = 1` through `inverse`.
+fn white_rgb(inverse: &[[f64; 3]; 3]) -> [f64; 3] {
+    apply(
+        inverse,
+        [0.3127 / 0.3290, 1.0, (1.0 - 0.3127 - 0.3290) / 0.3290],
+    )
+}
+
+/// The camera RGB at `Y = 1` of the chromaticity `xy` given at `key`:
+/// `None` (an error) when it is outside the camera's gamut.
+fn in_gamut(
+    c: &mut Checker<'_>,
+    key: &str,
+    [x, y]: [f64; 2],
+    inverse: &[[f64; 3]; 3],
+) -> Option<[f64; 3]> {
+    let rgb = apply(inverse, [x / y, 1.0, (1.0 - x - y) / y]);
+    // A plane may come out a little below 0 from the rounding of `(x, y)`
+    // for an LED on the gamut's edge (a saturated primary).
+    let largest = rgb.iter().fold(0.0f64, |m, v| m.max(*v));
+    if rgb.iter().any(|v| *v < -1e-3 * largest) {
+        c.error(
+            key,
+            format!("({x}, {y}) is outside the camera's gamut: its planes would see {rgb:.3?}"),
+            Some("give the camera's own matrix, dut.camera.camera-to-xyz, whose primaries enclose the LED's colour"),
+        );
+        return None;
+    }
+    Some(rgb.map(|v| v.max(0.0)))
+}
+
+/// The colour of an LED of dies (`[[scene.led-die]]`), each with its own
+/// chromaticity, luminance share, duty and phase. Simulated only: a
+/// captured plan's frames carry the lamp's own colour.
+fn dies_colour(
+    c: &mut Checker<'_>,
+    raw: RawColour,
+    planes: Planes,
+) -> Option<Option<ColourConfig>> {
+    let mut ok = true;
+    match planes {
+        Planes::Simulated => {}
+        Planes::Captured(..) => {
+            c.error(
+                "scene.led-die",
+                "is simulated: a captured plan's frames carry the lamp's own colour and timing",
+                Some("give the lamp's stated colour as scene.led-chromaticity-xy instead"),
+            );
+            ok = false;
+        }
+        Planes::Unavailable => {
+            c.error(
+                "scene.led-die",
+                "colour planes come from the simulator's ideal camera only for an LED of dies",
+                Some("use backend = \"simulator\" without [dut.camera.sensor], or remove the [[scene.led-die]] tables"),
+            );
+            ok = false;
+        }
+    }
+    if raw.dies.len() > MAX_DIES {
+        c.error(
+            "scene.led-die",
+            format!("{} dies; at most {MAX_DIES}", raw.dies.len()),
+            Some("an RGB LED has three dies, an RGBW one four"),
+        );
+        return None;
+    }
+    let signal = raw.signal.and_then(|s| {
+        c.choice(
+            Some(s),
+            "scene.signal-colour",
+            SignalColourName::Red,
+            &[
+                ("red", SignalColourName::Red),
+                ("amber", SignalColourName::Amber),
+            ],
+        )
+        .or_else(|| {
+            ok = false;
+            None
+        })
+    });
+    let offsets = plane_offsets(c, raw.offsets_ms.as_deref());
+    let matrix = camera_matrix(c, raw.camera_to_xyz);
+    let inverse = match matrix.map(|m| invert(&m)) {
+        Some(None) => {
+            c.error("dut.camera.camera-to-xyz", "is singular", Some(HINT));
+            None
+        }
+        Some(inv) => inv,
+        None => None,
+    };
+    let mut dies = Vec::with_capacity(raw.dies.len());
+    for (i, d) in raw.dies.into_iter().enumerate() {
+        match die(c, i, d, inverse.as_ref()) {
+            Some(d) => dies.push(d),
+            None => ok = false,
+        }
+    }
+    let (offsets, matrix, inverse) = (offsets?, matrix?, inverse?);
+    if !ok {
+        return None;
+    }
+    let sum: f64 = dies.iter().map(|d| d.share).sum();
+    if (sum - 1.0).abs() > SHARE_SUM_TOLERANCE {
+        c.error(
+            "scene.led-die",
+            format!(
+                "the dies' luminance-share values sum to {}, not 1",
+                number(sum)
+            ),
+            Some("each share is the die's fraction of led-luminance-cd-m2 while every die is ON: e.g. 0.6 and 0.4"),
+        );
+        return None;
+    }
+    for d in &mut dies {
+        d.share /= sum;
+    }
+    // The colour the dies fuse to: their XYZ (at Y = 1 each) weighted by
+    // share and duty; its camera RGB at Y = 1 follows by linearity.
+    let weight: f64 = dies.iter().map(|d| d.share * d.duty).sum();
+    let mut xyz = [0.0; 3];
+    let mut rgb = [0.0; 3];
+    for d in &dies {
+        let [x, y] = d.xy;
+        let w = d.share * d.duty / weight;
+        for (t, v) in xyz.iter_mut().zip([x / y, 1.0, (1.0 - x - y) / y]) {
+            *t += w * v;
+        }
+        for (t, v) in rgb.iter_mut().zip(d.rgb) {
+            *t += w * v;
+        }
+    }
+    let total = xyz[0] + xyz[1] + xyz[2];
+    Some(Some(ColourConfig {
+        led_xy: [xyz[0] / total, xyz[1] / total],
+        signal,
+        plane_offsets_s: offsets,
+        camera_to_xyz: matrix,
+        led_rgb: rgb,
+        white_rgb: white_rgb(&inverse),
+        dies,
+    }))
+}
+
+/// One `[[scene.led-die]]` table, the `i`th: `None` after an error (the
+/// gamut is checked when the camera's `inverse` matrix is known).
+fn die(
+    c: &mut Checker<'_>,
+    i: usize,
+    d: RawLedDie,
+    inverse: Option<&[[f64; 3]; 3]>,
+) -> Option<LedDie> {
+    let key = |k: &str| format!("scene.led-die[{i}].{k}");
+    let xy = c
+        .required(
+            d.chromaticity_xy,
+            &key("chromaticity-xy"),
+            "the die's CIE 1931 [x, y], e.g. [0.70, 0.295] for a red die",
+        )
+        .and_then(|xy| match xy.as_slice() {
+            &[x, y] if x > 0.0 && y > 0.0 && x + y < 1.0 => Some([x, y]),
+            _ => {
+                c.error(
+                    &key("chromaticity-xy"),
+                    format!("{xy:?} is not a chromaticity"),
+                    Some("two numbers [x, y], each > 0 and x + y < 1 (CIE 1931)"),
+                );
+                None
+            }
+        });
+    let share = c
+        .required(
+            d.luminance_share,
+            &key("luminance-share"),
+            "the die's share of led-luminance-cd-m2 while every die is ON, e.g. 0.5; the shares sum to 1",
+        )
+        .and_then(|v| {
+            c.positive(
+                v,
+                &key("luminance-share"),
+                "a die that gives no light is no die: remove its table",
+            )
+        });
+    let duty = c
+        .required(
+            d.duty_cycle,
+            &key("duty-cycle"),
+            "the die's duty at a case duty of 1, in (0, 1], e.g. 0.5",
+        )
+        .and_then(|v| c.duty(v, &key("duty-cycle")));
+    let phase = match d.phase_deg {
+        None => Some(0.0),
+        Some(v) if v.is_finite() && (0.0..360.0).contains(&v) => Some(v),
+        Some(v) => {
+            c.error(
+                &key("phase-deg"),
+                format!("{} is not a phase in [0, 360) degrees", number(v)),
+                Some("the die's rising edge after the LED's common one, in degrees of the PWM period: 180 is half a period late"),
+            );
+            None
+        }
+    };
+    let rgb = match (xy, inverse) {
+        (Some(xy), Some(inv)) => in_gamut(c, &key("chromaticity-xy"), xy, inv),
+        _ => None,
+    };
+    Some(LedDie {
+        xy: xy?,
+        share: share?,
+        duty: duty?,
+        phase_cycles: phase? / 360.0,
+        rgb: rgb?,
+    })
 }
 
 /// `dut.camera.colour-plane-offset-ms`: three offsets, ms, as seconds.
@@ -252,4 +476,23 @@ pub(super) fn limit_needs_colour(
         );
     }
     keys.is_empty().then_some(())
+}
+
+/// `capture.black-level = "off-segment"` sets the black of the colour
+/// planes: without colour it would change nothing, so it is an error.
+pub(super) fn black_level_needs_colour(
+    c: &mut Checker<'_>,
+    capture: Option<&CaptureConfig>,
+    colour: Option<&ColourConfig>,
+) -> Option<()> {
+    let asked = capture.is_some_and(|cap| cap.black_level == BlackLevel::OffSegment);
+    if asked && colour.is_none() {
+        c.error(
+            "capture.black-level",
+            "\"off-segment\" sets the black of the colour planes, and the plan has no colour (scene.led-chromaticity-xy)",
+            Some("give the lamp's colour, or remove the key: the luma's figures take no black level"),
+        );
+        return None;
+    }
+    Some(())
 }

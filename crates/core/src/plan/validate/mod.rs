@@ -150,6 +150,7 @@ pub(super) fn validate(
     let colour = colour?;
     display::limit_needs_display(&mut c, &thresholds, display.as_ref())?;
     colour::limit_needs_colour(&mut c, &thresholds, colour.as_ref())?;
+    colour::black_level_needs_colour(&mut c, capture.as_ref(), colour.as_ref())?;
     Some(Plan {
         id: meta.id?,
         title: meta.title?,
@@ -186,8 +187,12 @@ pub(super) fn validate(
 fn take_colour(raw: &mut RawPlan, captured: bool) -> colour::RawColour {
     let scene = raw.scene.as_mut();
     let dut = raw.dut.as_mut();
-    let (led_xy, signal) = scene.map_or((None, None), |s| {
-        (s.led_chromaticity_xy.take(), s.signal_colour.take())
+    let (led_xy, signal, dies) = scene.map_or((None, None, Vec::new()), |s| {
+        (
+            s.led_chromaticity_xy.take(),
+            s.signal_colour.take(),
+            std::mem::take(&mut s.led_die),
+        )
     });
     let (mut offsets_ms, mut camera_to_xyz) = (None, None);
     if let Some(d) = dut
@@ -204,6 +209,7 @@ fn take_colour(raw: &mut RawPlan, captured: bool) -> colour::RawColour {
         signal,
         offsets_ms,
         camera_to_xyz,
+        dies,
     }
 }
 
