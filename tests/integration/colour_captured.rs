@@ -261,7 +261,7 @@ fn colour_of(planes: &[[f64; 3]]) -> (f64, usize) {
 }
 
 /// Checks the lamp's and the road's figures in a run's outputs.
-fn check_outputs(json: &Value, out: &Path) {
+fn check_outputs(json: &Value, out: &Path, trace_csv: &str) {
     let want = expected();
     // The cycle's last frame is the one that leaves the region: its green
     // plane saw a whole pulse, its red one half.
@@ -303,7 +303,7 @@ fn check_outputs(json: &Value, out: &Path) {
     assert!(road.get("delta_uv").is_none() && road.get("fmi_r").is_none());
 
     // The trace CSV gains the lamp's planes, after the luma columns.
-    let trace = std::fs::read_to_string(out.join("traces/lamp.csv")).unwrap();
+    let trace = std::fs::read_to_string(out.join("traces").join(trace_csv)).unwrap();
     let mut lines = trace.lines();
     assert_eq!(
         lines.next(),
@@ -343,7 +343,37 @@ fn a_captured_red_pwm_lamp_with_a_chroma_shift_gives_the_closed_form_colour_figu
     write_frames(&dir.join("frames"));
     let plan = colour_plan(&dir, "frames", &matrix_camera());
     let json = run_plan(&plan, &dir);
-    check_outputs(&json, &dir.join("out"));
+    check_outputs(&json, &dir.join("out"), "lamp.csv");
+}
+
+#[test]
+fn a_rigs_rgb_recording_gives_the_same_figures_as_the_captured_frames() {
+    // The command backend reads what a rig records as a captured plan
+    // reads its files: the same frames, handed over by a rig that copies
+    // them into its output directory, give the same colour figures.
+    let dir = scratch("command-colour");
+    let frames = dir.join("frames");
+    write_frames(&frames);
+    let captured = std::fs::read_to_string(colour_plan(&dir, "frames", &matrix_camera())).unwrap();
+    let head = captured.split("[[case]]").next().unwrap();
+    let rest = &captured[captured.find("[[roi]]").unwrap()..];
+    let rig = format!("cp {}/*.png \"$LEDFLICKER_OUT_DIR\"/", frames.display());
+    let text = format!(
+        "{}command = [\"sh\", \"-c\", {rig:?}]\ntimeout-s = 60.0\n\n[sequence]\non-s = 0.272\noff-s = 0.272\npwm-s = 1.36\n\n[light]\nlevels-lux = [2000.0]\n\n[grid]\nfrequencies-hz = [125.0]\nduty-cycles = [0.75]\n\n{rest}",
+        head.replace("backend = \"captured\"", "backend = \"command\"")
+            .replace(
+                "[dut.camera]\n",
+                &format!(
+                    "[dut.camera]\nshutter = \"global\"\nsensor-rows = 8\nsensor-columns = 16\nframe-rate-fps = {}\nexposure-ms = {EXPOSURE_MS}\nresponse-dn-per-cd-m2-s = 1.0\n",
+                    1000.0 / FRAME_MS
+                )
+            )
+    );
+    let plan = dir.join("command.toml");
+    std::fs::write(&plan, text).unwrap();
+    let json = run_plan(&plan, &dir);
+    let id = json["cases"][0]["id"].as_str().unwrap().to_string();
+    check_outputs(&json, &dir.join("out"), &format!("{id}.csv"));
 }
 
 #[test]
@@ -374,7 +404,7 @@ fn a_lossless_rgb_video_of_the_lamp_gives_the_same_figures() {
         "{}",
         json["cases"][0]["capture"]
     );
-    check_outputs(&json, &dir.join("out"));
+    check_outputs(&json, &dir.join("out"), "lamp.csv");
 }
 
 #[test]

@@ -17,7 +17,7 @@ use std::time::Duration;
 
 use super::aravis;
 use super::captured::{
-    CaptureSummary, find_segments_with, read_options, roi_rects, to_acquisition,
+    CaptureSummary, find_segments_with, keep_colour_planes, read_options, roi_rects, to_acquisition,
 };
 use super::rig::{self, RigError};
 use super::scpi::light::LightSource;
@@ -192,6 +192,8 @@ pub struct CommandRig {
     /// (`--keep-captures`), as `<dir>/<case id>/`, and the name it is
     /// reported under (relative to the report directory); `None`: removed.
     keep: Option<(PathBuf, String)>,
+    /// The plan has colour: each LED ROI keeps the recording's R, G and B.
+    colour: bool,
 }
 
 impl CommandRig {
@@ -235,6 +237,7 @@ impl CommandRig {
                 .map(|r| r.settings)
                 .filter(|s| !s.is_empty()),
             keep: None,
+            colour: plan.colour.is_some(),
             aravis: match plan.recorder.as_ref().map(|r| &r.kind) {
                 Some(RecorderKind::GStreamer(pipeline)) => {
                     aravis::camera_of(&pipeline_args(pipeline).unwrap_or_default())
@@ -561,6 +564,10 @@ impl Backend for CommandRig {
                 }
             }
             let mut acq = to_acquisition(&trace, &found, &self.rois, self.capture.saturation_dn);
+            if self.colour {
+                keep_colour_planes(&mut acq, &trace, &self.rois, &source)
+                    .map_err(|e| self.fail(case, format!("the command's frames: {e}")))?;
+            }
             let camera = self.camera_log(case, trace.stated_fps);
             let kept = self.keep_recording(case, &out)?;
             acq.capture = Some(CaptureSummary {

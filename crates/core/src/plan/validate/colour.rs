@@ -138,8 +138,8 @@ pub(super) fn colour(
         Planes::Unavailable => {
             c.error(
                 "scene.led-chromaticity-xy",
-                "colour planes come from the simulator's ideal camera or from captured RGB frames only",
-                Some("use backend = \"simulator\" without [dut.camera.sensor], or backend = \"captured\", or remove the colour keys"),
+                "colour planes come from the simulator's ideal camera or from recorded RGB frames only",
+                Some("use backend = \"simulator\" without [dut.camera.sensor], or backend = \"captured\" or \"command\", or remove the colour keys"),
             );
             ok = false;
         }

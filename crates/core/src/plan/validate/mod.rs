@@ -236,7 +236,8 @@ impl Role {
     fn planes(self, dut: &super::Dut, capture: Option<&CaptureConfig>) -> colour::Planes {
         match (self.is_sim, self.captured, capture) {
             (true, _, _) if dut.camera.physical.is_none() => colour::Planes::Simulated,
-            (false, true, Some(cap)) => {
+            // A rig's recording is read as a captured plan's is.
+            (false, _, Some(cap)) => {
                 colour::Planes::Captured(cap.video_decode, cap.colour_transfer)
             }
             _ => colour::Planes::Unavailable,
