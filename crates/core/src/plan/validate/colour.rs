@@ -82,6 +82,30 @@ fn captured(
     ok
 }
 
+/// `scene.signal-colour`, when given; `ok` turns false when it is not a
+/// region the tool knows.
+fn signal_colour(
+    c: &mut Checker<'_>,
+    given: Option<String>,
+    ok: &mut bool,
+) -> Option<SignalColourName> {
+    given.and_then(|s| {
+        c.choice(
+            Some(s),
+            "scene.signal-colour",
+            SignalColourName::Red,
+            &[
+                ("red", SignalColourName::Red),
+                ("amber", SignalColourName::Amber),
+            ],
+        )
+        .or_else(|| {
+            *ok = false;
+            None
+        })
+    })
+}
+
 /// Validates the colour keys: `Some(None)` without them, `None` after an
 /// error.
 pub(super) fn colour(
@@ -155,21 +179,7 @@ pub(super) fn colour(
             None
         }
     };
-    let signal = raw.signal.and_then(|s| {
-        c.choice(
-            Some(s),
-            "scene.signal-colour",
-            SignalColourName::Red,
-            &[
-                ("red", SignalColourName::Red),
-                ("amber", SignalColourName::Amber),
-            ],
-        )
-        .or_else(|| {
-            ok = false;
-            None
-        })
-    });
+    let signal = signal_colour(c, raw.signal, &mut ok);
     let offsets = plane_offsets(c, raw.offsets_ms.as_deref());
     let matrix = camera_matrix(c, raw.camera_to_xyz);
     let (led_xy, offsets, matrix) = (led_xy?, offsets?, matrix?);
@@ -256,21 +266,7 @@ fn dies_colour(
         );
         return None;
     }
-    let signal = raw.signal.and_then(|s| {
-        c.choice(
-            Some(s),
-            "scene.signal-colour",
-            SignalColourName::Red,
-            &[
-                ("red", SignalColourName::Red),
-                ("amber", SignalColourName::Amber),
-            ],
-        )
-        .or_else(|| {
-            ok = false;
-            None
-        })
-    });
+    let signal = signal_colour(c, raw.signal, &mut ok);
     let offsets = plane_offsets(c, raw.offsets_ms.as_deref());
     let matrix = camera_matrix(c, raw.camera_to_xyz);
     let inverse = match matrix.map(|m| invert(&m)) {
