@@ -29,6 +29,7 @@ pub mod pages;
 pub mod query;
 pub mod record;
 pub mod server;
+pub mod setup;
 pub mod sql;
 pub mod view;
 
@@ -51,7 +52,7 @@ const BUSY_TIMEOUT: Duration = Duration::from_secs(30);
 /// The schema's migrations, in order: migration `i` takes the database
 /// from version `i` to `i + 1`. Version 0 is an empty file (or none).
 /// A step is never edited once shipped; a change is a new step.
-pub const MIGRATIONS: &[&str] = &[include_str!("schema_1.sql")];
+pub const MIGRATIONS: &[&str] = &[include_str!("schema_1.sql"), include_str!("schema_2.sql")];
 
 /// Why the database could not be used.
 #[derive(Debug, thiserror::Error)]

@@ -19,7 +19,10 @@ use super::{CampaignError, SCHEMA};
 
 /// The schema's steps for PostgreSQL, the same tables and columns as
 /// [`super::MIGRATIONS`] for SQLite, step for step.
-pub const MIGRATIONS: &[&str] = &[include_str!("schema_1.pg.sql")];
+pub const MIGRATIONS: &[&str] = &[
+    include_str!("schema_1.pg.sql"),
+    include_str!("schema_2.pg.sql"),
+];
 
 /// Key of the advisory lock a client holds while it reads and raises the
 /// schema version, so that two clients starting together migrate once

@@ -6,6 +6,8 @@ use std::path::Path;
 
 use serde::Serialize;
 
+use super::compare::{Key, Repeats};
+use super::setup::Setup;
 use super::sql::{Mismatch, Row, Value, values};
 use super::{CampaignError, Database};
 
@@ -26,6 +28,8 @@ pub struct RunRow {
     pub plan_title: String,
     /// Hash of the plan and its inputs.
     pub plan_hash: String,
+    /// The plan's seed (all 64 bits).
+    pub seed: u64,
     /// `ledflicker <version>`.
     pub tool: String,
     /// Backend id.
@@ -52,11 +56,17 @@ pub struct RunRow {
     pub verdict: String,
     /// Cases, and how many passed, failed and were not judged.
     pub cases: [i64; 4],
+    /// What the run was (docs/campaigns.md, "Like with like"); `None` for
+    /// a run recorded before the database kept it.
+    pub setup: Option<Setup>,
+    /// SHA-256 of the set-up's test keys; `None` as `setup`.
+    pub test_hash: Option<String>,
 }
 
 const RUN_COLUMNS: &str = "id, recorded_unix_s, source, date, plan_id, plan_hash, tool, backend, \
     supplier, model, serial, firmware, signer, signature, report_dir, results_sha256, \
-    manifest_sha256, verdict, cases_total, cases_pass, cases_fail, cases_info, plan_title";
+    manifest_sha256, verdict, cases_total, cases_pass, cases_fail, cases_info, plan_title, seed, \
+    setup, test_hash";
 
 fn run_row(r: &Row) -> Result<RunRow, Mismatch> {
     Ok(RunRow {
@@ -80,6 +90,12 @@ fn run_row(r: &Row) -> Result<RunRow, Mismatch> {
         verdict: r.get(17)?,
         cases: [r.get(18)?, r.get(19)?, r.get(20)?, r.get(21)?],
         plan_title: r.get(22)?,
+        // Stored as SQL's signed integer, bit for bit.
+        seed: r.get::<i64>(23)? as u64,
+        setup: r
+            .get::<Option<String>>(24)?
+            .and_then(|s| serde_json::from_str(&s).ok()),
+        test_hash: r.get(25)?,
     })
 }
 
@@ -309,52 +325,56 @@ pub struct RunData {
     pub order: Vec<String>,
     /// Case id -> case.
     pub cases: BTreeMap<String, CaseData>,
-    /// The spread of each KPI over repeated runs of the same plan on the
-    /// same device (see [`repeat_spread`]); empty unless filled.
-    pub repeats: Repeats,
 }
 
-/// (case, ROI, metric) -> (runs, sample standard deviation of the KPI over
-/// them).
-pub type Repeats = BTreeMap<(String, String, String), (usize, f64)>;
-
-/// The run-to-run spread of every KPI over the runs of `run`'s plan id on
-/// the same device and firmware (`[dut]` model, serial, firmware), run
-/// `except` left out (the run compared with it): the sample standard
-/// deviation of each KPI's defined values, with how many there are.
-pub fn repeat_spread(db: &Database, run: &RunRow, except: i64) -> Result<Repeats, CampaignError> {
-    let rows = db.query_map(
-        "SELECT c.id, m.roi, m.metric, m.value FROM metrics m \
-         JOIN cases c ON c.run_id = m.run_id AND c.idx = m.idx \
-         JOIN runs r ON r.id = m.run_id \
-         WHERE r.plan_id = ?1 AND r.model = ?2 AND r.serial = ?3 AND r.firmware = ?4 \
-         AND r.id != ?5 AND m.value IS NOT NULL",
-        &values![run.plan_id, run.model, run.serial, run.firmware, except],
-        |r| {
-            Ok((
-                (
-                    r.get::<String>(0)?,
-                    r.get::<String>(1)?,
-                    r.get::<String>(2)?,
-                ),
-                r.get::<f64>(3)?,
-            ))
-        },
-    )?;
-    // Welford's running mean and sum of squares, per KPI.
-    let mut acc: BTreeMap<(String, String, String), (usize, f64, f64)> = BTreeMap::new();
-    for (key, x) in rows {
-        let e = acc.entry(key).or_default();
-        e.0 += 1;
-        let d = x - e.1;
-        e.1 += d / e.0 as f64;
-        e.2 += d * (x - e.1);
+/// The repeated runs of A's test on A's device and firmware (group 0)
+/// and of B's on B's (group 1; the same group when A and B are of one
+/// device and firmware): runs of the same plan id, `[dut]` model, serial
+/// and firmware, and the same test (set-up hash), with each KPI's
+/// defined values. A and B themselves are left out, so that the spread
+/// is independent of the change it judges (with A and B alone, their
+/// own difference would be its measure). A run without a recorded
+/// set-up has no repeats.
+pub fn repeats(db: &Database, a: &RunRow, b: &RunRow) -> Result<Repeats, CampaignError> {
+    let same = |x: &RunRow, y: &RunRow| {
+        (&x.plan_id, &x.model, &x.serial, &x.firmware, &x.test_hash)
+            == (&y.plan_id, &y.model, &y.serial, &y.firmware, &y.test_hash)
+    };
+    let groups: Vec<&RunRow> = if same(a, b) { vec![a] } else { vec![a, b] };
+    let mut out = Repeats::default();
+    for (g, run) in groups.into_iter().enumerate() {
+        let Some(hash) = &run.test_hash else { continue };
+        let rows = db.query_map(
+            "SELECT r.id, c.id, m.roi, m.metric, m.value FROM metrics m \
+             JOIN cases c ON c.run_id = m.run_id AND c.idx = m.idx \
+             JOIN runs r ON r.id = m.run_id \
+             WHERE r.plan_id = ?1 AND r.model = ?2 AND r.serial = ?3 AND r.firmware = ?4 \
+             AND r.test_hash = ?5 AND m.value IS NOT NULL",
+            &values![run.plan_id, run.model, run.serial, run.firmware, hash],
+            |r| {
+                Ok((
+                    r.get::<i64>(0)?,
+                    (
+                        r.get::<String>(1)?,
+                        r.get::<String>(2)?,
+                        r.get::<String>(3)?,
+                    ),
+                    r.get::<f64>(4)?,
+                ))
+            },
+        )?;
+        let mut by_run: BTreeMap<i64, BTreeMap<Key, f64>> = BTreeMap::new();
+        for (id, key, value) in rows {
+            by_run.entry(id).or_default().insert(key, value);
+        }
+        out.runs.extend(
+            by_run
+                .into_iter()
+                .filter(|(id, _)| *id != a.id && *id != b.id)
+                .map(|(id, values)| (g, id, values)),
+        );
     }
-    Ok(acc
-        .into_iter()
-        .filter(|(_, (n, _, _))| *n >= 2)
-        .map(|(k, (n, _, m2))| (k, (n, (m2 / (n - 1) as f64).max(0.0).sqrt())))
-        .collect())
+    Ok(out)
 }
 
 /// Reads run `id` whole; an unknown id is an error naming it.
@@ -467,6 +487,5 @@ pub fn load_run(db: &Database, id: i64) -> Result<RunData, CampaignError> {
         run: row,
         order,
         cases,
-        repeats: Repeats::new(),
     })
 }

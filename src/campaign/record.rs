@@ -5,6 +5,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
+use super::setup::Setup;
 use super::sql::values;
 use super::{CampaignError, Database, noise};
 use crate::model::{CaseInfo, Results};
@@ -83,6 +84,8 @@ struct Prepared {
     manifest_sha256: Option<String>,
     /// Per case, per ROI (in the case's order): the trace's noise.
     noise: Vec<Vec<Option<noise::Noise>>>,
+    /// What the run was: its test, device and inputs.
+    setup: Setup,
 }
 
 /// Records the report directory `dir`, whose results model is `results`;
@@ -145,7 +148,23 @@ fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
         .collect();
     spill_read(results)?;
     let meta = results.report.clone().or(stored_meta);
+    let mut setup = Setup::of(results);
+    if results.report.is_none() {
+        // The inputs are in the `report` object read from the file.
+        let with_meta = Results {
+            report: meta.clone(),
+            ..results.without_cases()
+        };
+        let inputs = Setup::of(&with_meta);
+        setup.0.extend(
+            inputs
+                .0
+                .into_iter()
+                .filter(|(k, _)| k.starts_with("input.")),
+        );
+    }
     Ok(Prepared {
+        setup,
         dir: abs.to_string_lossy().into_owned(),
         meta,
         results_sha256,
@@ -218,12 +237,16 @@ fn insert_run(
     let now = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs() as i64);
+    let setup = &p.setup;
+    let setup_json =
+        serde_json::to_string(setup).map_err(|e| CampaignError::Input(e.to_string()))?;
     let id = tx.query_row(
         "INSERT INTO runs (recorded_unix_s, source, date, plan_id, plan_title, plan_hash, seed, \
          tool, backend, supplier, model, serial, firmware, signer, signature, report_dir, \
-         results_sha256, manifest_sha256, verdict, cases_total, cases_pass, cases_fail, cases_info) \
+         results_sha256, manifest_sha256, verdict, cases_total, cases_pass, cases_fail, cases_info, \
+         setup, test_hash) \
          VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, \
-         ?19, ?20, ?21, ?22, ?23) RETURNING id",
+         ?19, ?20, ?21, ?22, ?23, ?24, ?25) RETURNING id",
         &values![
             now,
             provenance.source.as_str(),
@@ -249,6 +272,8 @@ fn insert_run(
             r.counts.pass as i64,
             r.counts.fail as i64,
             r.counts.info as i64,
+            setup_json,
+            setup.test_hash(),
         ],
         |row| row.get::<i64>(0),
     )?;

@@ -5,11 +5,11 @@
 
 use std::collections::BTreeMap;
 
-use super::compare::{ALPHA, Comparison, Kpi};
+use super::compare::{ALPHA, Comparability, Comparison, Kpi, PoolMethod, Source, TRACE_INFLATION};
 use super::query::{RunData, RunRow};
 use crate::report::comparison::{
-    ChartPoint, ComparisonView, DeltaCell, DeltaMatrix, FlipRow, KpiChange, KpiChart, PooledRow,
-    RunSide, TraceOverlay,
+    ChartPoint, ComparisonView, DeltaCell, DeltaMatrix, DifferenceRow, FlipRow, KpiChange,
+    KpiChart, PooledRow, RunSide, TraceOverlay,
 };
 
 /// Charts in a report at most: the regressed KPIs come first, so a long
@@ -32,6 +32,7 @@ fn side(r: &RunRow) -> RunSide {
         cases: r.cases,
         signature: r.signature.clone(),
         report_dir: r.report_dir.clone(),
+        as_run: r.setup.as_ref().and_then(|s| s.device_label()),
     }
 }
 
@@ -51,6 +52,7 @@ fn change(k: &Kpi) -> KpiChange {
             _ => "",
         }
         .to_string(),
+        k: k.k,
         regressed: k.regressed,
     }
 }
@@ -70,38 +72,55 @@ fn by_concern(a: &KpiChange, b: &KpiChange) -> std::cmp::Ordering {
         .unwrap_or(std::cmp::Ordering::Equal)
 }
 
-/// The sentence saying where the gate's sigma came from.
+/// The sentences saying where the gate's sigma came from.
 fn noise_source(c: &Comparison) -> String {
     let gated: Vec<&Kpi> = c.kpis.iter().filter(|k| k.worse != 0).collect();
-    let noisy = gated
-        .iter()
-        .filter(|k| k.sigma.is_some_and(|s| s > 0.0))
-        .count();
-    let unknown = gated.iter().filter(|k| k.sigma.is_none()).count();
-    let mut s = if noisy == 0 {
-        "Both runs' traces are free of noise (a simulator without a noise model): every change beyond floating-point rounding is real.".to_string()
-    } else {
-        format!(
-            "The noise σ of {noisy} of the {} gated KPIs comes from each run's trace: its ROI's frame-to-frame noise in the steady ON and OFF segments, propagated through the KPI's formula.",
+    let count = |f: &dyn Fn(&Kpi) -> bool| gated.iter().filter(|k| f(k)).count();
+    let noiseless = count(&|k| k.sigma == Some(0.0));
+    let trace = count(&|k| k.source == Source::Trace && k.sigma.is_some_and(|s| s > 0.0));
+    let unknown = count(&|k| k.source == Source::Unknown);
+    let (repeats, df_lo, df_hi) = c.from_repeats();
+    let mut s = Vec::new();
+    if repeats > 0 {
+        let df = if df_lo == df_hi {
+            df_lo.to_string()
+        } else {
+            format!("{df_lo} to {df_hi}")
+        };
+        let runs = if c.repeats.1 == 0 {
+            format!(
+                "{} other runs of this test on this device and firmware",
+                c.repeats.0
+            )
+        } else {
+            format!("{} other runs like A, {} like B", c.repeats.0, c.repeats.1)
+        };
+        s.push(format!(
+            "For {repeats} of the {} gated KPIs σ is the run-to-run spread measured over the repeated runs of the same test in the database ({runs}; A and B left out), times √2 for two runs; the gate is Student's t at {df} degrees of freedom.",
             gated.len()
-        )
-    };
-    if c.from_repeats.0 > 0 {
-        s.push_str(&format!(
-            " The database holds up to {} repeated runs of A's plan on the same camera, serial and firmware: for {} KPIs σ is their spread over those runs instead (times √2, for two runs).",
-            c.from_repeats.1, c.from_repeats.0
+        ));
+    }
+    if trace > 0 {
+        s.push(format!(
+            "For {trace}, with no repeated runs to measure it from, σ is each run's frame-to-frame noise propagated through the KPI's formula, times {TRACE_INFLATION} (the most by which the real run-to-run spread exceeded it in our measurements)."
+        ));
+    }
+    if noiseless > 0 {
+        s.push(format!(
+            "For {noiseless} the runs are free of noise (σ = 0): every change beyond the floor is real."
         ));
     }
     if unknown > 0 {
-        s.push_str(&format!(
-            " For {unknown}, a trace was not readable when its run was recorded: any change towards worse counts."
+        s.push(format!(
+            "For {unknown}, a trace was not readable when its run was recorded: any change towards worse beyond the floor counts."
         ));
     }
-    s
+    s.push("A change smaller than its floor (by default 1 % of the KPI's limit) is never a regression.".to_string());
+    s.join(" ")
 }
 
 /// One chart per gated ROI and metric, regressed ones first.
-fn charts(c: &Comparison, changes: &[KpiChange], b: &RunData) -> Vec<KpiChart> {
+fn charts(changes: &[KpiChange], b: &RunData) -> Vec<KpiChart> {
     let mut groups: BTreeMap<(String, String), Vec<&KpiChange>> = BTreeMap::new();
     for k in changes.iter().filter(|k| !k.worse.is_empty()) {
         groups
@@ -136,7 +155,7 @@ fn charts(c: &Comparison, changes: &[KpiChange], b: &RunData) -> Vec<KpiChart> {
                         case: p.case.clone(),
                         a: p.a,
                         b: p.b,
-                        band: p.sigma.map(|s| s * c.k),
+                        band: p.sigma.map(|s| s * p.k),
                         regressed: p.regressed,
                     })
                     .collect(),
@@ -295,7 +314,7 @@ pub fn view(c: &Comparison, b: &RunData, date: &str) -> ComparisonView {
         .map(str::to_string)
         .collect();
     let (overlays, overlay_note) = overlays(c, &regressions);
-    let charts = charts(c, &changes, b);
+    let charts = charts(&changes, b);
     ComparisonView {
         matrices: matrices(&charts, &changes, b),
         a: side(&c.a),
@@ -303,8 +322,25 @@ pub fn view(c: &Comparison, b: &RunData, date: &str) -> ComparisonView {
         date: date.to_string(),
         compared: c.kpis.len(),
         gated: c.gated(),
-        k: c.k,
-        k_pooled: c.k_pooled,
+        k: c.gate_words(),
+        differences: c
+            .differences
+            .iter()
+            .map(|d| {
+                let v = |x: &Option<String>| x.clone().unwrap_or_else(|| "(absent)".to_string());
+                DifferenceRow {
+                    key: d.key.clone(),
+                    kind: d.kind.to_string(),
+                    a: v(&d.a),
+                    b: v(&d.b),
+                }
+            })
+            .collect(),
+        not_comparable: match &c.comparability {
+            Comparability::Not(why) => Some(why.replace("\n    hint: ", " Hint: ")),
+            _ => None,
+        },
+        accepted: c.comparability == Comparability::Accepted,
         alpha: ALPHA,
         noise_source: noise_source(c),
         flips: c
@@ -315,16 +351,24 @@ pub fn view(c: &Comparison, b: &RunData, date: &str) -> ComparisonView {
                 from: f.from.clone(),
                 to: f.to.clone(),
                 regressed: regressed_cases.contains(&f.case),
+                cause: f.cause.describe(),
             })
             .collect(),
         pooled: c
             .pooled
             .iter()
-            .map(|(metric, score, n)| PooledRow {
-                metric: metric.clone(),
-                score: *score,
-                n: *n,
-                regressed: *score > c.k_pooled,
+            .map(|p| PooledRow {
+                metric: p.metric.clone(),
+                score: p.score,
+                gate: p.gate,
+                n: p.n,
+                method: match p.method {
+                    PoolMethod::RunSums(df) => {
+                        format!("each run's sum over the cases, its spread over the repeats ({df} degrees of freedom)")
+                    }
+                    PoolMethod::MeanZ => "the mean of the cases' changes in σ (valid however the cases are correlated)".to_string(),
+                },
+                regressed: p.regressed,
             })
             .collect(),
         unmatched: c.unmatched.clone(),

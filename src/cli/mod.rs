@@ -71,6 +71,10 @@ pub const EXIT_IDENTITY_UNCHECKED: i32 = 4;
 /// `linetime`, `bands`, `calibrate`: the input gives no confident estimate.
 /// Same number as [`EXIT_NOT_JUDGED`]: each command documents its own use.
 pub const EXIT_NO_CONFIDENCE: i32 = 4;
+/// `compare`: the two runs are different tests (a plan setting differs,
+/// unaccepted), or share no case or no gated KPI: no verdict on the
+/// camera can be given.
+pub const EXIT_NOT_COMPARABLE: i32 = 5;
 
 #[derive(Parser, Debug)]
 #[command(

@@ -301,7 +301,9 @@ fn compare_gates_a_shorter_exposure_as_a_regression_and_names_the_case() {
         .map(|c| c.name.as_str())
         .collect();
     assert!(failed.contains(&"2000lux-150hz-20pct"), "{xml}");
-    assert_eq!(report.test_suites[0].test_cases.len(), 4);
+    // The set-up, then the four cases.
+    assert_eq!(report.test_suites[0].test_cases.len(), 5);
+    assert_eq!(report.test_suites[0].test_cases[0].name.as_str(), "set-up");
     // The same run against itself, and the latest of firmware 1.1 against
     // the run before it, by id and by --latest.
     let o = run(&dir, &["compare", "1", "1", "--db", "c.sqlite"]);

@@ -15,6 +15,7 @@ mod cli;
 mod colour;
 mod colour_captured;
 mod colour_dies;
+mod compare_gate;
 mod conditions;
 mod detect;
 mod estimate;

@@ -52,6 +52,22 @@ pub struct RunSide {
     pub signature: String,
     /// The run's report directory.
     pub report_dir: String,
+    /// The device as run, from the recorded set-up (e.g. the simulated
+    /// camera's exposure), whatever the model's free text says.
+    pub as_run: Option<String>,
+}
+
+/// One set-up key that differs between the runs.
+#[derive(Debug, Clone, Serialize)]
+pub struct DifferenceRow {
+    /// The key, as the plan names it.
+    pub key: String,
+    /// `test`, `device` or `run`.
+    pub kind: String,
+    /// Its value in A and in B (`(absent)` where a run lacks it).
+    pub a: String,
+    /// See `a`.
+    pub b: String,
 }
 
 /// One KPI of one ROI of one case in both runs.
@@ -75,6 +91,8 @@ pub struct KpiChange {
     pub z: Option<f64>,
     /// Which way is worse: `rise`, `fall`, or empty when not gated.
     pub worse: String,
+    /// The gate in standard deviations for this KPI.
+    pub k: f64,
     /// The gate called it a regression.
     pub regressed: bool,
 }
@@ -90,15 +108,22 @@ pub struct FlipRow {
     pub to: String,
     /// The case regressed (else the flip is within the noise, or better).
     pub regressed: bool,
+    /// Why the verdict flipped, in words (a changed limit, a regression,
+    /// the noise).
+    pub cause: String,
 }
 
-/// One metric's changes pooled over the cases (Stouffer).
+/// One metric's changes pooled over the cases.
 #[derive(Debug, Clone, Serialize)]
 pub struct PooledRow {
     /// Metric id.
     pub metric: String,
     /// Pooled change towards worse, standard deviations.
     pub score: f64,
+    /// Its gate.
+    pub gate: f64,
+    /// How the cases were pooled, in words.
+    pub method: String,
     /// Cases pooled.
     pub n: usize,
     /// Beyond the pooled gate.
@@ -199,10 +224,16 @@ pub struct ComparisonView {
     pub compared: usize,
     /// See `compared`.
     pub gated: usize,
-    /// Gate of one KPI and of a pooled metric, standard deviations.
-    pub k: f64,
-    /// See `k`.
-    pub k_pooled: f64,
+    /// The gate of one KPI in standard deviations, in words: one number,
+    /// or a range when KPIs have sigmas from different numbers of repeats.
+    pub k: String,
+    /// What differs between the runs' set-ups: test keys first, then the
+    /// device's, then the run's.
+    pub differences: Vec<DifferenceRow>,
+    /// Why the runs are not comparable, when they are not.
+    pub not_comparable: Option<String>,
+    /// The tests differ and the user accepted it (`--accept-changes`).
+    pub accepted: bool,
     /// False-alarm rate of the whole comparison.
     pub alpha: f64,
     /// Where the noise came from, one sentence.
@@ -375,6 +406,7 @@ mod tests {
             cases: [2, 1, 1, 0],
             signature: "unsigned".to_string(),
             report_dir: "/r/#a [b]".to_string(),
+            as_run: Some("exposure 11.111 ms".to_string()),
         }
     }
 
@@ -389,6 +421,7 @@ mod tests {
             sigma: Some(0.1),
             z: Some(8.0),
             worse: "fall".to_string(),
+            k: 2.24,
             regressed: true,
         };
         ComparisonView {
@@ -397,8 +430,15 @@ mod tests {
             date: "2026-01-03".to_string(),
             compared: 2,
             gated: 1,
-            k: 2.24,
-            k_pooled: 1.96,
+            k: "2.24".to_string(),
+            differences: vec![DifferenceRow {
+                key: "dut.camera.exposure-ms".to_string(),
+                kind: "device".to_string(),
+                a: "11.111".to_string(),
+                b: "5.0 <x>".to_string(),
+            }],
+            not_comparable: None,
+            accepted: false,
             alpha: 0.05,
             noise_source: "From the traces.".to_string(),
             regressed_cases: vec!["c<1>".to_string()],
@@ -409,6 +449,7 @@ mod tests {
                 from: "pass".to_string(),
                 to: "fail".to_string(),
                 regressed: true,
+                cause: "a KPI regressed".to_string(),
             }],
             pooled: Vec::new(),
             unmatched: vec!["only-a".to_string()],
