@@ -304,8 +304,14 @@ pub enum Comparability {
     Same,
     /// The tests differ, and the user accepted the differences.
     Accepted,
-    /// Not comparable, and why (with a hint).
-    Not(String),
+    /// Not comparable: why, and what the user can do (for the terminal;
+    /// the customer's report shows the reason only).
+    Not {
+        /// The reason, one sentence.
+        why: String,
+        /// The hint.
+        hint: String,
+    },
 }
 
 /// The whole comparison.
@@ -395,7 +401,7 @@ impl Comparison {
     /// The runs may be compared (the same test, or differences accepted)
     /// and share a gated KPI.
     pub fn is_comparable(&self) -> bool {
-        !matches!(self.comparability, Comparability::Not(_))
+        !matches!(self.comparability, Comparability::Not { .. })
     }
 }
 
@@ -593,16 +599,23 @@ fn comparability(
     opts: &GateOptions,
 ) -> Comparability {
     if matched == 0 {
-        return Comparability::Not(format!(
-            "runs {} and {} share no case (the same id under the same conditions)\n    hint: compare runs of the same plan; `ledflicker history --plan ID` lists them",
-            a.run.id, b.run.id
-        ));
+        return Comparability::Not {
+            why: format!(
+                "runs {} and {} share no case (the same id under the same conditions)",
+                a.run.id, b.run.id
+            ),
+            hint: "compare runs of the same plan; `ledflicker history --plan ID` lists them"
+                .to_string(),
+        };
     }
     if !kpis.iter().any(|k| k.worse != 0) {
-        return Comparability::Not(format!(
-            "runs {} and {} share no KPI that a check judges in either run: there is nothing to gate",
-            a.run.id, b.run.id
-        ));
+        return Comparability::Not {
+            why: format!(
+                "runs {} and {} share no KPI that a check judges in either run: there is nothing to gate",
+                a.run.id, b.run.id
+            ),
+            hint: "a KPI is gated when a plan threshold checks it in a judged case".to_string(),
+        };
     }
     let unknown: Vec<String> = [&a.run, &b.run]
         .iter()
@@ -619,17 +632,16 @@ fn comparability(
             unknown.join(" and run ")
         )
     } else if tests > 0 {
-        format!(
-            "{tests} setting(s) of the test differ (listed above): the runs are different tests"
-        )
+        format!("{tests} setting(s) of the test differ: the runs are different tests")
     } else {
         return Comparability::Same;
     };
     match opts.accept_changes {
         true => Comparability::Accepted,
-        false => Comparability::Not(format!(
-            "{why}\n    hint: pass --accept-changes to compare them anyway; verdict flips caused by a changed limit are then named as such"
-        )),
+        false => Comparability::Not {
+            why,
+            hint: "pass --accept-changes to compare them anyway; verdict flips caused by a changed limit are then named as such".to_string(),
+        },
     }
 }
 
@@ -1380,7 +1392,7 @@ mod tests {
         other.order = vec!["x".into()];
         other.cases = [("x".to_string(), a.cases["c0"].clone())].into();
         assert!(
-            matches!(gate(&a, &other).comparability, Comparability::Not(w) if w.contains("share no case"))
+            matches!(gate(&a, &other).comparability, Comparability::Not { why, .. } if why.contains("share no case"))
         );
         // A limit changed: not comparable unless accepted, and the flips
         // it causes are named as such.
@@ -1400,7 +1412,7 @@ mod tests {
         b.run.setup = Some(with("thresholds.fdi-2018-min", "0.6"));
         let c = gate(&a2, &b);
         assert!(
-            matches!(&c.comparability, Comparability::Not(w) if w.contains("--accept-changes"))
+            matches!(&c.comparability, Comparability::Not { hint, .. } if hint.contains("--accept-changes"))
         );
         assert_eq!(c.differences.len(), 1);
         let opts = GateOptions {
@@ -1418,7 +1430,7 @@ mod tests {
         let mut old = run(5, &[1.0; 3]);
         old.run.setup = None;
         assert!(
-            matches!(gate(&old, &a).comparability, Comparability::Not(w) if w.contains("not recorded"))
+            matches!(gate(&old, &a).comparability, Comparability::Not { why, .. } if why.contains("not recorded"))
         );
     }
 }

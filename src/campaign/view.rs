@@ -337,7 +337,7 @@ pub fn view(c: &Comparison, b: &RunData, date: &str) -> ComparisonView {
             })
             .collect(),
         not_comparable: match &c.comparability {
-            Comparability::Not(why) => Some(why.replace("\n    hint: ", " Hint: ")),
+            Comparability::Not { why, .. } => Some(format!("{why}.")),
             _ => None,
         },
         accepted: c.comparability == Comparability::Accepted,

@@ -371,8 +371,8 @@ fn text(c: &Comparison, why: &[String]) -> String {
         s.push_str(&format!("only in one run: {u}\n"));
     }
     let cases = c.regressed_cases();
-    if let Comparability::Not(why) = &c.comparability {
-        s.push_str(&format!("NOT COMPARABLE: {why}\n"));
+    if let Comparability::Not { why, hint } = &c.comparability {
+        s.push_str(&format!("NOT COMPARABLE: {why}\n    hint: {hint}\n"));
     } else if cases.is_empty() {
         s.push_str("no regression\n");
     } else {
@@ -459,7 +459,7 @@ fn junit(c: &Comparison) -> Result<String, quick_junit::SerializeError> {
         ));
     }
     let setup = match &c.comparability {
-        Comparability::Not(why) => {
+        Comparability::Not { why, .. } => {
             let mut s = TestCaseStatus::non_success(NonSuccessKind::Failure);
             s.set_message(format!("not comparable: {why}"));
             s
