@@ -21,13 +21,14 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use rusqlite::{Connection, OptionalExtension, TransactionBehavior};
+use rusqlite::{Connection, OpenFlags, OptionalExtension, TransactionBehavior};
 
 pub mod compare;
 pub mod noise;
 pub mod pages;
 pub mod query;
 pub mod record;
+pub mod rejudge;
 pub mod server;
 pub mod setup;
 pub mod sql;
@@ -218,7 +219,11 @@ impl Db {
     }
 
     /// Opens an existing database for reading; a missing file is an error
-    /// naming it, not an empty history.
+    /// naming it, not an empty history. A current database is opened read
+    /// only, so that `history`, `compare` and `trend` work on a file they
+    /// may not write (a read-only mount, another user's file) and never
+    /// change one: not its journal mode, not its schema. Only a database
+    /// of an older schema is opened for writing, to be migrated.
     pub fn open_existing(path: &Path) -> Result<Db, CampaignError> {
         if !path.is_file() {
             return Err(CampaignError::Unusable {
@@ -226,7 +231,50 @@ impl Db {
                 message: "no such file\n    hint: runs are recorded by `ledflicker plan` and `ledflicker import`; pass the database with --db or $LEDFLICKER_DB".to_string(),
             });
         }
-        Db::open(path)
+        let sql = sqlite(path);
+        let flags = OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX;
+        let conn = match Connection::open_with_flags(path, flags) {
+            Ok(c) => c,
+            Err(e) => return Err(not_a_database(path, e)),
+        };
+        conn.busy_timeout(BUSY_TIMEOUT).map_err(&sql)?;
+        // A database in WAL mode whose directory may not be written cannot
+        // make its shared-memory file: read it as immutable then (nobody
+        // writes a file on a read-only mount).
+        let conn = match schema_state(&conn, path, MIGRATIONS.len()) {
+            Err(CampaignError::Sqlite { .. }) => {
+                let uri = format!("file:{}?immutable=1", uri_path(path));
+                let flags = flags | OpenFlags::SQLITE_OPEN_URI;
+                let c = Connection::open_with_flags(uri, flags).map_err(&sql)?;
+                schema_state(&c, path, MIGRATIONS.len())?;
+                c
+            }
+            other => {
+                other?;
+                conn
+            }
+        };
+        if schema_state(&conn, path, MIGRATIONS.len())? < MIGRATIONS.len() {
+            drop(conn);
+            return Db::open(path).map_err(|e| match e {
+                CampaignError::Sqlite { source, .. }
+                    if source.sqlite_error_code() == Some(rusqlite::ErrorCode::ReadOnly) =>
+                {
+                    CampaignError::Unusable {
+                        path: path.to_path_buf(),
+                        message: format!(
+                            "its schema is older than this ledflicker's {SCHEMA}/{} and must be migrated, which needs write permission\n    hint: run `ledflicker history --db FILE` once as a user who may write it",
+                            MIGRATIONS.len()
+                        ),
+                    }
+                }
+                e => e,
+            });
+        }
+        Ok(Db {
+            conn,
+            path: path.to_path_buf(),
+        })
     }
 
     /// [`Db::open`] with the given migrations (tests give fewer, to make a
@@ -241,6 +289,9 @@ impl Db {
         let sql = sqlite(path);
         let conn = Connection::open(path).map_err(&sql)?;
         conn.busy_timeout(BUSY_TIMEOUT).map_err(&sql)?;
+        // Refuse a file that is not a results database before anything is
+        // written to it: switching to WAL rewrites the file's header.
+        schema_state(&conn, path, migrations.len())?;
         // WAL: readers never block the writer, and a commit is one append.
         conn.pragma_update(None, "journal_mode", "WAL")
             .map_err(|e| not_a_database(path, e))?;
@@ -308,6 +359,46 @@ impl Db {
             tx.commit().map_err(&sql)?;
         }
     }
+}
+
+/// The schema version of an open file, read without writing: an SQLite
+/// file that is not a results database, or of a newer schema, is refused.
+fn schema_state(conn: &Connection, path: &Path, known: usize) -> Result<usize, CampaignError> {
+    let version: i64 = conn
+        .query_row("PRAGMA user_version", [], |r| r.get(0))
+        .map_err(|e| not_a_database(path, e))?;
+    let version = version.max(0) as usize;
+    if version > known {
+        return Err(CampaignError::Unusable {
+            path: path.to_path_buf(),
+            message: format!(
+                "its schema is {SCHEMA}/{version}, newer than this ledflicker's {SCHEMA}/{known}\n    hint: use a newer ledflicker, or another --db"
+            ),
+        });
+    }
+    if version == 0 && !is_empty(conn).map_err(|e| not_a_database(path, e))? {
+        return Err(CampaignError::Unusable {
+            path: path.to_path_buf(),
+            message: "it is an SQLite database, but not a ledflicker results database\n    hint: pass another file with --db".to_string(),
+        });
+    }
+    Ok(version)
+}
+
+/// `path` for an SQLite `file:` URI: absolute, with `%`, `?` and `#`
+/// escaped.
+fn uri_path(path: &Path) -> String {
+    let abs = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut out = String::new();
+    for c in abs.to_string_lossy().chars() {
+        match c {
+            '%' => out.push_str("%25"),
+            '?' => out.push_str("%3f"),
+            '#' => out.push_str("%23"),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 /// The database holds no table.

@@ -39,8 +39,14 @@ pub enum Signature {
     Unsigned,
     /// Signed by the run that recorded it.
     Signed,
-    /// Imported, and every hash and signature matched (`verify`).
+    /// Imported, every hash and signature matched, and every signer holds
+    /// a certificate that chains to one the user trusts (`--trust`), as
+    /// `verify --trust` checks.
     Intact,
+    /// Imported, every hash and signature matched, but no trusted
+    /// certificate vouched for the signers: anyone can sign under any
+    /// name, so the signature proves nothing about who signed.
+    Untrusted,
     /// Imported, and a hash or signature did not match: the files may
     /// not be the ones signed.
     Broken,
@@ -55,6 +61,7 @@ impl Signature {
             Signature::Unsigned => "unsigned",
             Signature::Signed => "signed",
             Signature::Intact => "intact",
+            Signature::Untrusted => "untrusted",
             Signature::Broken => "broken",
             Signature::Unchecked => "unchecked",
         }
@@ -124,7 +131,7 @@ fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
     let results_path = dir.join("results.json");
     let (results_sha256, stored_meta) = read_results_file(&results_path, results.report.is_none())?;
     let manifest = dir.join("manifest.txt");
-    let manifest_sha256 = match std::fs::read(&manifest) {
+    let manifest_sha256 = match crate::util::read_input(&manifest) {
         Ok(m) => Some(crate::util::sha256_hex(&m)),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
         Err(e) => return Err(unreadable(&manifest, e)),
@@ -140,7 +147,7 @@ fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
             let names: Vec<&str> = case.rois.iter().map(|r| r.name.as_str()).collect();
             // A trace that is gone or unreadable leaves the noise unknown:
             // `compare` then says it cannot judge that case's changes.
-            match std::fs::read_to_string(dir.join(&case.trace)) {
+            match read_trace(&abs, &case.trace) {
                 Ok(text) => noise::of_trace(&text, &names),
                 Err(_) => vec![None; names.len()],
             }
@@ -173,6 +180,37 @@ fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
     })
 }
 
+/// The largest trace read for its noise: a trace of a case of a minute at
+/// 240 fps with a dozen ROIs is a few MB.
+const MAX_TRACE_BYTES: u64 = 256 << 20;
+
+/// The trace `rel` (as results.json names it) of the report directory
+/// `dir` (absolute, links resolved): only a relative path of plain names
+/// that stays inside the directory, only a regular file (never a FIFO or
+/// a device, which would hang or never end), at most
+/// [`MAX_TRACE_BYTES`]. A report directory is input: its results.json
+/// may name anything.
+fn read_trace(dir: &Path, rel: &str) -> std::io::Result<String> {
+    use std::io::Read;
+    use std::path::Component;
+    let refuse = |why: &str| std::io::Error::new(std::io::ErrorKind::InvalidInput, why.to_string());
+    let path = Path::new(rel);
+    if rel.is_empty() || !path.components().all(|c| matches!(c, Component::Normal(_))) {
+        return Err(refuse(
+            "a trace path must be relative, inside the report directory",
+        ));
+    }
+    let full = std::fs::canonicalize(dir.join(path))?;
+    if !full.starts_with(dir) {
+        return Err(refuse("the trace leads out of the report directory"));
+    }
+    let mut text = String::new();
+    crate::util::open_input(&full)?
+        .take(MAX_TRACE_BYTES)
+        .read_to_string(&mut text)?;
+    Ok(text)
+}
+
 /// Reads results.json once, as a stream: its SHA-256 and, when `want_meta`,
 /// its `report` object. A large run's results.json is hundreds of MB, so
 /// it is never held whole: that would add its size to the run's peak
@@ -203,7 +241,7 @@ fn read_results_file(
 
     let unreadable =
         |e: std::io::Error| CampaignError::Input(format!("cannot read `{}`: {e}", path.display()));
-    let file = std::fs::File::open(path).map_err(unreadable)?;
+    let file = crate::util::open_input(path).map_err(unreadable)?;
     let mut reader = Hashing {
         inner: std::io::BufReader::new(file),
         hasher: sha2::Sha256::new(),

@@ -27,6 +27,58 @@ pub(super) struct RecordArgs {
     no_db: bool,
 }
 
+impl RecordArgs {
+    /// Refuses a database file inside the report directory `out`: it
+    /// would be swapped away with the old report, or become part of the
+    /// new one after it is signed (and break its `verify`).
+    pub(super) fn check_outside(&self, out: &Path) -> Result<(), Failure> {
+        let at = campaign::locate(self.db.as_deref(), self.no_db, &|k| std::env::var(k).ok());
+        let Some(Location::File(db)) = at else {
+            return Ok(());
+        };
+        let (db_abs, out_abs) = (absolute(&db), absolute(out));
+        if db_abs.starts_with(&out_abs) {
+            return Err(UsageError(format!(
+                "the results database `{}` is inside the report directory `{}`, which a run replaces whole\n    hint: keep the database outside it, e.g. --db results.sqlite beside the reports",
+                db.display(),
+                out.display()
+            ))
+            .into());
+        }
+        Ok(())
+    }
+}
+
+/// `path` made absolute and free of symbolic links as far as it exists
+/// (the rest is appended as given, `.` and `..` resolved by name).
+fn absolute(path: &Path) -> PathBuf {
+    let joined = std::env::current_dir()
+        .map(|d| d.join(path))
+        .unwrap_or_else(|_| path.to_path_buf());
+    let mut base = joined.clone();
+    let mut rest = Vec::new();
+    while !base.exists() {
+        match (base.file_name(), base.parent()) {
+            (Some(name), Some(parent)) => {
+                rest.push(name.to_os_string());
+                base = parent.to_path_buf();
+            }
+            _ => break,
+        }
+    }
+    let mut out = std::fs::canonicalize(&base).unwrap_or(base);
+    for part in rest.into_iter().rev() {
+        match part.to_str() {
+            Some("..") => {
+                out.pop();
+            }
+            Some(".") => {}
+            _ => out.push(part),
+        }
+    }
+    out
+}
+
 /// `--db` of the commands that read the database.
 #[derive(Args, Debug, Clone)]
 pub(super) struct DbArg {
@@ -100,13 +152,21 @@ pub(super) struct ImportArgs {
     /// Report directories written by `plan` or `merge`.
     #[arg(required = true)]
     dirs: Vec<PathBuf>,
+    /// Trusted certificate (PEM or DER), or a directory of them;
+    /// repeatable. A signed report is recorded as `intact` only when every
+    /// signer's certificate chains to one of them (else `untrusted`).
+    #[arg(long = "trust", value_name = "CERT")]
+    trust: Vec<PathBuf>,
     #[command(flatten)]
     db: DbArg,
 }
 
-/// Records each report directory; a signed one is verified first and
-/// recorded with what the check found (`intact` or `broken`).
+/// Records each report directory: its verdicts judged again from its
+/// values and limits (a report whose conclusions do not follow is
+/// refused); a signed one verified first and recorded with what the
+/// check found (`intact` with a trusted signer, `untrusted`, `broken`).
 pub(super) fn import(a: ImportArgs) -> Result<i32, Failure> {
+    let trusted = super::sign::trusted(&a.trust)?;
     let mut db = Database::open(&a.db.location()?)?;
     for dir in &a.dirs {
         let results_path = dir.join("results.json");
@@ -118,7 +178,16 @@ pub(super) fn import(a: ImportArgs) -> Result<i32, Failure> {
         })?;
         let results = crate::model::read_results(&text)
             .map_err(|e| UsageError(format!("`{}`: {e}", results_path.display())))?;
-        let (signature, signer) = super::sign::signature_of(dir);
+        let problems = campaign::rejudge::mismatches(&results);
+        if !problems.is_empty() {
+            return Err(UsageError(format!(
+                "`{}`: its verdicts do not follow from its own values and limits, so it is not recorded:\n  {}\n    hint: the report was edited after it was written; import the report as ledflicker wrote it, or run the plan again",
+                dir.display(),
+                problems.join("\n  ")
+            ))
+            .into());
+        }
+        let (signature, signer) = super::sign::signature_of(dir, &trusted);
         if signature == Signature::Broken {
             eprintln!(
                 "warning: `{}`: a hash or signature does not match (see `ledflicker verify {}`); recorded as broken",

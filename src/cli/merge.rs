@@ -64,6 +64,7 @@ pub(super) fn merge(a: MergeArgs) -> Result<i32, Failure> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("reports").join(&m.plan.id));
+    a.record.check_outside(&out)?;
     let generation = pipeline::begin_output(&out, a.force)?;
     // The cases go from the shards to the store one shard at a time, and
     // the report stage reads them back from it, as `plan`'s does.

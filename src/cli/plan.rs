@@ -131,6 +131,7 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
         .clone()
         .or_else(|| args.out.clone())
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
+    args.record.check_outside(&out)?;
     let generation = match &args.resume {
         None => pipeline::begin_output(&out, args.force)?,
         Some(dir) => pipeline::resume_output(dir, args.force)?,

@@ -219,20 +219,36 @@ pub(super) fn signing(
     })
 }
 
+/// The certificates of `import --trust`, loaded as `verify --trust` loads
+/// them.
+pub(super) fn trusted(paths: &[PathBuf]) -> Result<Trusted, Failure> {
+    Ok(Trusted(crate::signoff::verify::load_trusted(paths)?))
+}
+
+/// Certificates the user trusts to vouch for signers.
+pub(super) struct Trusted(Vec<crate::signoff::Certificate>);
+
 /// What `import` records of a report's signature: none, or the result of
-/// [`crate::signoff::verify`] with the first signer it names.
-pub(super) fn signature_of(dir: &Path) -> (crate::campaign::record::Signature, Option<String>) {
+/// [`crate::signoff::verify`] against the trusted certificates, with the
+/// first signer it names: `intact` only when every signer's certificate
+/// chains to one of them, as `verify --trust` says "verified".
+pub(super) fn signature_of(
+    dir: &Path,
+    trusted: &Trusted,
+) -> (crate::campaign::record::Signature, Option<String>) {
     use crate::campaign::record::Signature;
     if !dir.join(crate::signoff::SIGNATURE_FILE).is_file() {
         return (Signature::Unsigned, None);
     }
-    match crate::signoff::verify(dir, &[], None) {
+    match crate::signoff::verify(dir, &trusted.0, None) {
         Ok(v) => {
             let signer = v.signatures.first().map(|s| s.signer.clone());
-            let state = if v.ok() {
-                Signature::Intact
-            } else {
-                Signature::Broken
+            let vouched =
+                v.identity_checked && v.signatures.iter().all(|s| s.trusted == Some(true));
+            let state = match (v.ok(), vouched) {
+                (false, _) => Signature::Broken,
+                (true, true) => Signature::Intact,
+                (true, false) => Signature::Untrusted,
             };
             (state, signer)
         }

@@ -498,6 +498,13 @@ fn a_signed_run_is_recorded_with_its_signer_and_an_import_verifies_it() {
         runs[0]["manifest_sha256"],
         ledflicker::util::sha256_hex(&manifest).as_str()
     );
+    // Intact only with the signer's certificate as a trust anchor; without
+    // one, anyone could have signed under that name.
+    let o = run(
+        &dir,
+        &["import", "r", "--db", "db.sqlite", "--trust", "ada.crt"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let o = run(&dir, &["import", "r", "--db", "db.sqlite"]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     // A report changed after signing is still recorded, marked broken.
@@ -510,7 +517,7 @@ fn a_signed_run_is_recorded_with_its_signer_and_an_import_verifies_it() {
         .iter()
         .map(|r| r["signature"].as_str().unwrap())
         .collect();
-    assert_eq!(states, ["signed", "intact", "broken"]);
+    assert_eq!(states, ["signed", "intact", "untrusted", "broken"]);
     assert_eq!(runs[1]["signer"], "Ada Tester, Tested by");
 }
 

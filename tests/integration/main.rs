@@ -9,6 +9,7 @@ mod calibrate;
 mod camera_model;
 mod campaign;
 mod campaign_pg;
+mod campaign_trust;
 mod capture_inputs;
 mod captured;
 mod cli;

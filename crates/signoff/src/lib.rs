@@ -39,6 +39,8 @@ use crate::util::write_atomic;
 
 pub use keys::SignerKey;
 pub use verify::{Verification, verify};
+/// A certificate, as `verify` takes the trusted ones.
+pub use x509_cert::Certificate;
 
 /// The current manifest, in `sha256sum` format.
 pub const MANIFEST_FILE: &str = "manifest.txt";

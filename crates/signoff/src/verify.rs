@@ -92,7 +92,7 @@ pub fn signatories(dir: &Path) -> Vec<Signatory> {
     }
     chain(dir)
         .into_iter()
-        .filter_map(|(m, _)| std::fs::read_to_string(m).ok())
+        .filter_map(|(m, _)| crate::util::read_input_to_string(&m).ok())
         .filter_map(|t| Manifest::parse(&t).ok())
         .map(|m| Signatory {
             signer: m.signer,
@@ -152,7 +152,9 @@ fn rel(dir: &Path, p: &Path) -> String {
 
 /// Reads and checks one (manifest, signature) pair.
 fn check_pair(dir: &Path, manifest: &Path, signature: &Path) -> Result<Checked, String> {
-    let read = |p: &Path| std::fs::read(p).map_err(|e| format!("`{}` {e}", rel(dir, p)));
+    // Through `read_input`: a FIFO or device in the place of a manifest
+    // or signature is refused at once, never waited on.
+    let read = |p: &Path| crate::util::read_input(p).map_err(|e| format!("`{}` {e}", rel(dir, p)));
     let sig = read(signature)?;
     let text = read(manifest)?;
     let sig = std::str::from_utf8(&sig)
