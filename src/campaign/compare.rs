@@ -51,6 +51,12 @@ const NUMERIC_FLOOR: f64 = 1e-9;
 /// this many standard deviations (and its floor).
 const SYSTEMATIC_Z: f64 = 1.0;
 
+/// The fewest degrees of freedom for which the repeats' spread is used:
+/// below it Student's t is so wide (25 sigma at 2 degrees of freedom and
+/// 8 gated KPIs, 7 at 6) that a third baseline run would make the gate
+/// blind to a change the traces show; the traces are used instead.
+pub const MIN_REPEAT_DF: usize = 6;
+
 /// A KPI: (case id, ROI, metric).
 pub type Key = (String, String, String);
 
@@ -85,6 +91,8 @@ pub struct Repeats {
     /// (group, run id, KPI -> value) of every run in the groups, A and B
     /// left out.
     pub runs: Vec<(usize, i64, BTreeMap<Key, f64>)>,
+    /// A and B are of one device and firmware: one group.
+    pub one_group: bool,
 }
 
 impl Repeats {
@@ -106,9 +114,16 @@ impl Repeats {
         }
         let (mut ss, mut df, mut residuals) = (0.0, 0usize, Vec::new());
         for xs in groups.values().filter(|xs| xs.len() >= 2) {
+            df += xs.len() - 1;
+            // Equal values spread by exactly 0: their computed mean may
+            // differ from them in the last bit, and a noiseless KPI would
+            // get a sigma of 1e-15 and a change of 1e13 sigma.
+            if xs.iter().all(|x| x.to_bits() == xs[0].to_bits()) {
+                residuals.extend(xs.iter().map(|_| 0.0));
+                continue;
+            }
             let mean = xs.iter().sum::<f64>() / xs.len() as f64;
             ss += xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>();
-            df += xs.len() - 1;
             residuals.extend(xs.iter().map(|x| x - mean));
         }
         if df == 0 {
@@ -203,6 +218,10 @@ pub struct Kpi {
     pub worse: i8,
     /// The change is beyond the gate, in the worse direction.
     pub regressed: bool,
+    /// Regressed only as a case of a metric whose pooled change is beyond
+    /// its gate (its own change is beyond 1 sigma and its floor, not
+    /// beyond `k`).
+    pub by_pool: bool,
 }
 
 impl Kpi {
@@ -340,6 +359,9 @@ pub struct Comparison {
     /// (one group, counted as like A, when A and B are of one device and
     /// firmware).
     pub repeats: (usize, usize),
+    /// A and B are of one device and firmware: their repeats are one
+    /// group.
+    pub one_group: bool,
 }
 
 impl Comparison {
@@ -416,7 +438,8 @@ fn same_conditions(a: &CaseData, b: &CaseData) -> bool {
 /// Compares run B with the baseline A; `repeats` holds the runs of the
 /// same test on A's and on B's device and firmware.
 pub fn compare(a: &RunData, b: &RunData, repeats: &Repeats, opts: &GateOptions) -> Comparison {
-    let excess = tails_by_metric(repeats);
+    // Per KPI with enough repeats: its spread, for the tails below.
+    let mut spreads: Vec<Option<Spread>> = Vec::new();
     let differences = match (&a.run.setup, &b.run.setup) {
         (Some(x), Some(y)) => setup::differences(x, y),
         _ => Vec::new(),
@@ -463,15 +486,16 @@ pub fn compare(a: &RunData, b: &RunData, repeats: &Repeats, opts: &GateOptions) 
                     (Some(x), Some(y)) => Some(x.hypot(y)),
                     _ => None,
                 };
-                let (sigma, source) = match repeats.spread(|v| v.get(&key).copied()) {
-                    Some(sp) => {
-                        let tails = excess.get(metric.as_str()).copied().unwrap_or(0.0);
-                        let runs = sp.residuals.len();
-                        (
-                            Some(sp.sd * std::f64::consts::SQRT_2),
-                            Source::Repeats(effective_df(sp.df, runs, tails), tails),
-                        )
-                    }
+                let spread = repeats
+                    .spread(|v| v.get(&key).copied())
+                    .filter(|sp| sp.df >= MIN_REPEAT_DF);
+                let (sigma, source) = match &spread {
+                    // The degrees of freedom and tails are settled below,
+                    // once every KPI's residuals are known.
+                    Some(sp) => (
+                        Some(sp.sd * std::f64::consts::SQRT_2),
+                        Source::Repeats(sp.df, 0.0),
+                    ),
                     None => match trace_sigma {
                         Some(t) => (Some(TRACE_INFLATION * t), Source::Trace),
                         None => (None, Source::Unknown),
@@ -495,8 +519,17 @@ pub fn compare(a: &RunData, b: &RunData, repeats: &Repeats, opts: &GateOptions) 
                     floor,
                     worse,
                     regressed: false,
+                    by_pool: false,
                 });
+                spreads.push(spread);
             }
+        }
+    }
+    let excess = tails_by_metric(&kpis, &spreads);
+    for (kpi, sp) in kpis.iter_mut().zip(&spreads) {
+        if let Some(sp) = sp {
+            let tails = excess.get(kpi.metric.as_str()).copied().unwrap_or(0.0);
+            kpi.source = Source::Repeats(effective_df(sp.df, sp.residuals.len(), tails), tails);
         }
     }
     unmatched.extend(
@@ -524,7 +557,9 @@ pub fn compare(a: &RunData, b: &RunData, repeats: &Repeats, opts: &GateOptions) 
         let systematic = shifted
             && kpi.z().is_some_and(|z| z > SYSTEMATIC_Z)
             && kpi.worse_change().is_some_and(|c| c > kpi.floor);
-        kpi.regressed = regressed(kpi, b.cases.get(&kpi.case)) || systematic;
+        let alone = regressed(kpi, b.cases.get(&kpi.case));
+        kpi.regressed = alone || systematic;
+        kpi.by_pool = systematic && !alone;
     }
     let regressed_cases: BTreeSet<&str> = kpis
         .iter()
@@ -555,6 +590,7 @@ pub fn compare(a: &RunData, b: &RunData, repeats: &Repeats, opts: &GateOptions) 
         flips,
         unmatched,
         repeats: (repeats.count(0), repeats.count(1)),
+        one_group: repeats.one_group,
     }
 }
 
@@ -569,18 +605,19 @@ fn repeats_gate(p: f64, df: usize, tails: f64) -> f64 {
     t_quantile(p, df) + (z.powi(3) - 3.0 * z).max(0.0) * (tails / 2.0) / 24.0
 }
 
-/// Per metric, the excess kurtosis of every KPI's standardised residuals
-/// over the repeats, pooled over the metric's cases and ROIs (one KPI's
-/// few runs say little about its tails).
-fn tails_by_metric(repeats: &Repeats) -> BTreeMap<String, f64> {
-    let keys: BTreeSet<&Key> = repeats.runs.iter().flat_map(|(_, _, v)| v.keys()).collect();
+/// Per metric, the excess kurtosis of the standardised residuals over the
+/// repeats of its gated KPIs with a spread (a KPI with none, and an
+/// ungated one such as a background ROI's, says nothing of the gated
+/// values' tails), pooled over its cases and ROIs: one KPI's few runs say
+/// little about its tails.
+fn tails_by_metric(kpis: &[Kpi], spreads: &[Option<Spread>]) -> BTreeMap<String, f64> {
     let mut residuals: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
-    for key in keys {
-        if let Some(sp) = repeats.spread(|v| v.get(key).copied()) {
+    for (kpi, sp) in kpis.iter().zip(spreads) {
+        if let Some(sp) = sp.as_ref().filter(|sp| sp.sd > 0.0 && kpi.worse != 0) {
             residuals
-                .entry(key.2.as_str())
+                .entry(kpi.metric.as_str())
                 .or_default()
-                .extend(sp.residuals);
+                .extend(&sp.residuals);
         }
     }
     residuals
@@ -796,7 +833,9 @@ fn run_sums(
     };
     let sa = sum(&|key| value(a, key))?;
     let sb = sum(&|key| value(b, key))?;
-    let sp = repeats.spread(|v| sum(&|key| v.get(key).copied()))?;
+    let sp = repeats
+        .spread(|v| sum(&|key| v.get(key).copied()))
+        .filter(|sp| sp.df >= MIN_REPEAT_DF)?;
     let tails = excess_kurtosis(&sp.residuals).max(metric_tails);
     let df = effective_df(sp.df, sp.residuals.len(), tails);
     (sp.sd > 0.0).then(|| ((sb - sa) / (sp.sd * std::f64::consts::SQRT_2), df, tails))
@@ -1311,6 +1350,28 @@ mod tests {
         // Far beyond the run-to-run effect: a regression.
         let c = compare(&a, &run(3, &[1.0 - 0.5; 16]), &reps, &opts);
         assert_eq!(c.regressed_cases().len(), 16);
+    }
+
+    #[test]
+    fn too_few_repeats_leave_the_traces_and_equal_values_spread_by_exactly_zero() {
+        let a = run(1, &[1.0; 4]);
+        let opts = GateOptions::default();
+        // MIN_REPEAT_DF - 1 degrees of freedom: the traces.
+        let few = correlated_repeats(MIN_REPEAT_DF, 4, 0.05, 0.01);
+        let c = compare(&a, &a, &few, &opts);
+        assert_eq!(c.from_repeats().0, 0);
+        assert!(c.kpis.iter().all(|k| k.source == Source::Trace));
+        let enough = correlated_repeats(MIN_REPEAT_DF + 1, 4, 0.05, 0.01);
+        assert_eq!(compare(&a, &a, &enough, &opts).from_repeats().0, 4);
+        // Ten runs of one value whose computed mean is off in the last bit.
+        let key: Key = ("c0".into(), "led".into(), "fdi_2018".into());
+        let mut same = Repeats::default();
+        for r in 0..10 {
+            same.runs.push((0, r, [(key.clone(), 0.1 + 0.2)].into()));
+        }
+        let sp = same.spread(|v| v.get(&key).copied()).unwrap();
+        assert_eq!(sp.sd, 0.0);
+        assert_eq!(sp.df, 9);
     }
 
     #[test]

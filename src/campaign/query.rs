@@ -341,7 +341,10 @@ pub fn repeats(db: &Database, a: &RunRow, b: &RunRow) -> Result<Repeats, Campaig
             == (&y.plan_id, &y.model, &y.serial, &y.firmware, &y.test_hash)
     };
     let groups: Vec<&RunRow> = if same(a, b) { vec![a] } else { vec![a, b] };
-    let mut out = Repeats::default();
+    let mut out = Repeats {
+        one_group: groups.len() == 1,
+        ..Repeats::default()
+    };
     for (g, run) in groups.into_iter().enumerate() {
         let Some(hash) = &run.test_hash else { continue };
         let rows = db.query_map(

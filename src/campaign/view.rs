@@ -87,7 +87,7 @@ fn noise_source(c: &Comparison) -> String {
         } else {
             format!("{df_lo} to {df_hi}")
         };
-        let runs = if c.repeats.1 == 0 {
+        let runs = if c.one_group {
             format!(
                 "{} other runs of this test on this device and firmware",
                 c.repeats.0

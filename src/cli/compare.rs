@@ -318,13 +318,20 @@ fn text(c: &Comparison, why: &[String]) -> String {
     if c.comparability == Comparability::Accepted {
         s.push_str("the tests differ; compared as --accept-changes asks\n");
     }
-    s.push_str(&format!(
+    if c.gated() == 0 {
+        s.push_str(&format!(
+            "{} KPIs compared, none gated by a check\n",
+            c.kpis.len()
+        ));
+    } else {
+        s.push_str(&format!(
         "{} KPIs compared, {} gated by a check; gate: a change towards worse beyond its floor and beyond {} standard deviations of its run-to-run noise, or a metric's pooled change beyond its gate (false-alarm rate at most {:.0} % per comparison)\n",
         c.kpis.len(),
         c.gated(),
         c.gate_words(),
         crate::campaign::compare::ALPHA * 100.0
     ));
+    }
     s.push_str(&noise_line(c));
     for p in &c.pooled {
         let verdict = if p.regressed {
@@ -346,7 +353,7 @@ fn text(c: &Comparison, why: &[String]) -> String {
         s.push_str("REGRESSED:\n");
         for k in regressed {
             s.push_str(&format!(
-                "  {} {} {}: {} -> {} (change {}, noise sd {}{})\n",
+                "  {} {} {}: {} -> {} (change {}, noise sd {}{}{})\n",
                 k.case,
                 k.roi,
                 k.metric,
@@ -354,7 +361,12 @@ fn text(c: &Comparison, why: &[String]) -> String {
                 value(k.b),
                 value(k.delta()),
                 value(k.sigma),
-                k.z().map_or(String::new(), |z| format!(", {z:.1} sd"))
+                k.z().map_or(String::new(), |z| format!(", {z:.1} sd")),
+                if k.by_pool {
+                    "; named with its metric's pooled change"
+                } else {
+                    ""
+                }
             ));
         }
     }
@@ -416,8 +428,17 @@ fn noise_line(c: &Comparison) -> String {
         ));
     }
     if trace > 0 {
+        let why = if c.repeats.0 + c.repeats.1 == 0 {
+            "no repeated runs in the database".to_string()
+        } else {
+            format!(
+                "the database's {} other runs of these tests give fewer than the {} degrees of freedom the spread needs",
+                c.repeats.0 + c.repeats.1,
+                crate::campaign::compare::MIN_REPEAT_DF
+            )
+        };
         parts.push(format!(
-            "{trace} from the runs' traces times {} (no repeated runs in the database)",
+            "{trace} from the runs' traces times {} ({why})",
             crate::campaign::compare::TRACE_INFLATION
         ));
     }
@@ -484,12 +505,17 @@ fn junit(c: &Comparison) -> Result<String, quick_junit::SerializeError> {
             .filter(|k| k.case == case && k.regressed)
             .map(|k| {
                 format!(
-                    "{} {}: {} -> {} (noise sd {})",
+                    "{} {}: {} -> {} (noise sd {}{})",
                     k.roi,
                     k.metric,
                     value(k.a),
                     value(k.b),
-                    value(k.sigma)
+                    value(k.sigma),
+                    if k.by_pool {
+                        "; named with its metric's pooled change"
+                    } else {
+                        ""
+                    }
                 )
             })
             .collect();
