@@ -186,7 +186,7 @@ impl PgDb {
 /// else from the password file; errors name the URL without password.
 pub fn connect(url: &str) -> Result<Client, CampaignError> {
     let path = PathBuf::from(server::redact(url));
-    let secrets = server::secrets_in(url);
+    let mut secrets = server::secrets_in(url);
     let unusable = |message: String| CampaignError::Unusable {
         path: path.clone(),
         message,
@@ -202,16 +202,82 @@ pub fn connect(url: &str) -> Result<Client, CampaignError> {
     {
         config.password(pw);
     }
-    config.connect(NoTls).map_err(|e| {
+    if let Some(pw) = config.get_password() {
+        // The password as the client understood it, however it was written.
+        let pw = String::from_utf8_lossy(pw).into_owned();
+        secrets.push(pw);
+    }
+    bound(&mut config);
+    let failed = |message: String| CampaignError::Postgres {
+        url: path.display().to_string(),
+        message,
+    };
+    // The connection is made on a thread of its own, so that a server
+    // that takes the connection and never answers, or a stop asked for
+    // meanwhile (Ctrl-C, `timeout`'s SIGTERM), cannot hold the command.
+    let (tx, rx) = std::sync::mpsc::channel();
+    let attempt = config.clone();
+    std::thread::spawn(move || {
+        let _ = tx.send(attempt.connect(NoTls));
+    });
+    let started = std::time::Instant::now();
+    let client = loop {
+        match rx.recv_timeout(std::time::Duration::from_millis(50)) {
+            Ok(result) => break result,
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                return Err(failed(
+                    "the connection attempt ended without an answer".to_string(),
+                ));
+            }
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                if let Err(stop) = crate::interrupt::check() {
+                    return Err(failed(format!("not connected: {stop}")));
+                }
+                if started.elapsed() >= CONNECT_TIMEOUT {
+                    return Err(failed(format!(
+                        "the server did not complete the connection within {} s\n    hint: check the host and port, and that a PostgreSQL server answers there",
+                        CONNECT_TIMEOUT.as_secs()
+                    )));
+                }
+            }
+        }
+    };
+    client.map_err(|e| {
         let mut message = chain(&e, &secrets);
         if config.get_password().is_none() && message.contains("password") {
             message.push_str("\n    hint: put the password in a password file (PGPASSFILE, else ~/.pgpass, mode 0600), not on the command line");
         }
-        CampaignError::Postgres {
-            url: path.display().to_string(),
-            message,
-        }
+        failed(message)
     })
+}
+
+/// The longest a connection may take, start-up and authentication
+/// included.
+pub const CONNECT_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(15);
+
+/// The longest one statement may run on the server (`statement_timeout`;
+/// recording a run of 100,000 cases takes seconds), and may wait for a
+/// lock (`lock_timeout`).
+pub const STATEMENT_TIMEOUT_MS: u64 = 120_000;
+
+/// Bounds on the connection's every wait: the TCP connect, a peer that
+/// vanishes (keepalives after 15 s idle; unacknowledged data for 30 s),
+/// and each statement and lock on the server. The user's own `options`
+/// come first; these are added to them.
+fn bound(config: &mut Config) {
+    use std::time::Duration;
+    config.connect_timeout(Duration::from_secs(10));
+    config.keepalives(true);
+    config.keepalives_idle(Duration::from_secs(15));
+    config.tcp_user_timeout(Duration::from_secs(30));
+    let ours = format!(
+        "-c statement_timeout={STATEMENT_TIMEOUT_MS} -c lock_timeout={STATEMENT_TIMEOUT_MS}"
+    );
+    let options = match config.get_options() {
+        Some(theirs) if !theirs.is_empty() => format!("{theirs} {ours}"),
+        _ => ours,
+    };
+    config.options(&options);
 }
 
 fn has_version_table(c: &mut impl postgres::GenericClient) -> Result<bool, postgres::Error> {
@@ -288,7 +354,7 @@ fn password_from_file(config: &Config) -> Result<Option<String>, String> {
     let Some(file) = server::passfile(&env) else {
         return Ok(None);
     };
-    let text = match std::fs::read_to_string(&file) {
+    let text = match crate::util::read_input_to_string(&file) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => {

@@ -11,38 +11,56 @@ pub fn is_url(db: &str) -> bool {
     db.starts_with("postgres://") || db.starts_with("postgresql://")
 }
 
+/// The parts of a server URL as libpq reads them: the scheme with its
+/// `://`, the user part (before an `@` met before any `/`; it may hold a
+/// `?`), the host and path, and the parameters after the first `?` of
+/// the host and path.
+fn split(url: &str) -> Option<(&str, Option<&str>, &str, Option<&str>)> {
+    let scheme_end = url.find("://")? + 3;
+    let rest = &url[scheme_end..];
+    let user_end = rest
+        .find(['@', '/'])
+        .filter(|&i| rest.as_bytes()[i] == b'@');
+    let (user, after) = match user_end {
+        Some(at) => (Some(&rest[..at]), &rest[at + 1..]),
+        None => (None, rest),
+    };
+    let (host, query) = match after.find('?') {
+        Some(q) => (&after[..q], Some(&after[q + 1..])),
+        None => (after, None),
+    };
+    Some((&url[..scheme_end], user, host, query))
+}
+
+/// Whether a URL parameter's key, percent-decoded, is `password`.
+fn is_password_key(key: &str) -> bool {
+    percent_decode(key) == "password"
+}
+
 /// `url` with the password, of the user part or of a `password=`
-/// parameter, replaced by `***`: the only form of the URL a message or
-/// a page shows.
+/// parameter (its key percent-encoded or not), replaced by `***`: the only
+/// form of the URL a message or a page shows.
 pub fn redact(url: &str) -> String {
-    let Some(scheme_end) = url.find("://").map(|i| i + 3) else {
+    let Some((scheme, user, host, query)) = split(url) else {
         return url.to_string();
     };
-    let (head, query) = match url[scheme_end..].find('?') {
-        Some(q) => url.split_at(scheme_end + q),
-        None => (url, ""),
-    };
-    let mut out = url[..scheme_end].to_string();
-    let rest = &head[scheme_end..];
-    match rest.rfind('@') {
-        Some(at) => {
-            let user = &rest[..at];
-            match user.find(':') {
-                Some(colon) => {
-                    out.push_str(&user[..colon]);
-                    out.push_str(":***");
-                }
-                None => out.push_str(user),
+    let mut out = scheme.to_string();
+    if let Some(user) = user {
+        match user.split_once(':') {
+            Some((name, _)) => {
+                out.push_str(name);
+                out.push_str(":***");
             }
-            out.push_str(&rest[at..]);
+            None => out.push_str(user),
         }
-        None => out.push_str(rest),
+        out.push('@');
     }
-    if let Some(params) = query.strip_prefix('?') {
+    out.push_str(host);
+    if let Some(params) = query {
         let params: Vec<String> = params
             .split('&')
             .map(|p| match p.split_once('=') {
-                Some((k, _)) if k == "password" => format!("{k}=***"),
+                Some((k, _)) if is_password_key(k) => format!("{k}=***"),
                 _ => p.to_string(),
             })
             .collect();
@@ -56,21 +74,16 @@ pub fn redact(url: &str) -> String {
 /// the strings a message must never show.
 pub fn secrets_in(url: &str) -> Vec<String> {
     let mut found = Vec::new();
-    let Some(scheme_end) = url.find("://").map(|i| i + 3) else {
+    let Some((_, user, _, query)) = split(url) else {
         return found;
     };
-    let (head, query) = match url[scheme_end..].find('?') {
-        Some(q) => url.split_at(scheme_end + q),
-        None => (url, ""),
-    };
-    let rest = &head[scheme_end..];
-    if let Some(user) = rest.rfind('@').map(|at| &rest[..at])
-        && let Some((_, pw)) = user.split_once(':')
-    {
+    if let Some((_, pw)) = user.and_then(|u| u.split_once(':')) {
         found.push(pw.to_string());
     }
-    for p in query.trim_start_matches('?').split('&') {
-        if let Some(("password", pw)) = p.split_once('=') {
+    for p in query.unwrap_or("").split('&') {
+        if let Some((k, pw)) = p.split_once('=')
+            && is_password_key(k)
+        {
             found.push(pw.to_string());
         }
     }
@@ -199,6 +212,22 @@ mod tests {
             "postgresql://lab@db/x?password=***&sslmode=disable"
         );
         assert_eq!(redact("postgres://db/x"), "postgres://db/x");
+        // A `?` in the password, and the key percent-encoded: both are
+        // passwords to the client, and hidden.
+        let url = "postgres://lab:pa?ss@db:5432/x";
+        assert_eq!(redact(url), "postgres://lab:***@db:5432/x");
+        assert_eq!(secrets_in(url), ["pa?ss"]);
+        let url = "postgres://lab@db/x?pass%77ord=hun%3Fter&sslmode=disable";
+        assert_eq!(
+            redact(url),
+            "postgres://lab@db/x?pass%77ord=***&sslmode=disable"
+        );
+        assert_eq!(secrets_in(url), ["hun%3Fter", "hun?ter"]);
+        // An `@` in a parameter is not a user part.
+        assert_eq!(
+            redact("postgres://db/x?application_name=a@b&password=p"),
+            "postgres://db/x?application_name=a@b&password=***"
+        );
         assert_eq!(
             secrets_in("postgres://lab:s3cr%40t@db/x?password=p2"),
             ["p2", "s3cr%40t", "s3cr@t"]

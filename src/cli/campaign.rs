@@ -348,6 +348,14 @@ fn table(runs: &[RunRow]) -> String {
     text
 }
 
+/// The first bytes of a page `history --html` writes: the doctype, then
+/// its title before the end of its head.
+fn is_history_page(head: &[u8]) -> bool {
+    let text = String::from_utf8_lossy(head);
+    let head_part = text.split("</head>").next().unwrap_or("");
+    text.starts_with("<!DOCTYPE html>") && head_part.contains("<title>ledflicker history:")
+}
+
 /// The filters of `history` in words, for the page.
 fn in_words(filter: &Filter) -> String {
     [
@@ -366,16 +374,34 @@ fn in_words(filter: &Filter) -> String {
 }
 
 /// Writes the history page of `runs` to `path`. A file there that is not
-/// such a page is the user's and is left alone.
+/// such a page is the user's and is left alone: only a regular file that
+/// starts as the page does (its doctype, then its title within its head)
+/// is replaced; a FIFO, a device, a directory or a link is refused unread.
 fn write_page(path: &Path, runs: &[RunRow], db: &Path, filter: &Filter) -> Result<(), Failure> {
-    if let Ok(old) = std::fs::read(path)
-        && !String::from_utf8_lossy(&old).contains("<title>ledflicker history:")
-    {
-        return Err(UsageError(format!(
-            "`{}` exists and is not a page `ledflicker history --html` wrote; refusing to replace it\n    hint: give another file name",
+    let refuse = |why: &str| {
+        UsageError(format!(
+            "`{}` {why}; refusing to replace it\n    hint: give another file name",
             path.display()
         ))
-        .into());
+    };
+    match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(refuse(&format!("cannot be examined ({e})")).into()),
+        Ok(m) if !m.file_type().is_file() => {
+            return Err(refuse("exists and is not a regular file").into());
+        }
+        Ok(_) => {
+            use std::io::Read;
+            let mut head = Vec::new();
+            crate::util::open_input(path)
+                .and_then(|f| f.take(4096).read_to_end(&mut head))
+                .map_err(|e| refuse(&format!("cannot be read ({e})")))?;
+            if !is_history_page(&head) {
+                return Err(
+                    refuse("exists and is not a page `ledflicker history --html` wrote").into(),
+                );
+            }
+        }
     }
     let date = super::args::report_date(None)?;
     let view = crate::campaign::pages::history_view(runs, db, &in_words(filter), &date);

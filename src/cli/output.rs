@@ -34,7 +34,14 @@ impl Write for Stdout {
         if CLOSED.load(Ordering::Relaxed) {
             return Ok(buf.len());
         }
-        Stdout::absorb(std::io::stdout().lock().write(buf), buf.len())
+        let safe = terminal_safe(buf);
+        Stdout::absorb(
+            std::io::stdout()
+                .lock()
+                .write_all(&safe)
+                .map(|()| buf.len()),
+            buf.len(),
+        )
     }
 
     fn flush(&mut self) -> std::io::Result<()> {
@@ -43,6 +50,39 @@ impl Write for Stdout {
         }
         Stdout::absorb(std::io::stdout().lock().flush().map(|()| 0), 0).map(|_| ())
     }
+}
+
+/// `bytes` with every control character but newline and tab written out
+/// as `\xHH` (C0 and DEL) or `\u{HH}` (C1, U+0080 to U+009F): what the
+/// commands print includes strings from plans, imported reports, the
+/// results database and instruments, and an ESC, OSC, CR or BEL among
+/// them would drive the operator's terminal (rewrite the screen, set the
+/// title, hide a line).
+pub fn terminal_safe(bytes: &[u8]) -> std::borrow::Cow<'_, [u8]> {
+    let is_c1 =
+        |i: usize| bytes[i] == 0xc2 && bytes.get(i + 1).is_some_and(|b| (0x80..=0x9f).contains(b));
+    let unsafe_at = |i: usize| {
+        let b = bytes[i];
+        (b < 0x20 && b != b'\n' && b != b'\t') || b == 0x7f || is_c1(i)
+    };
+    if !(0..bytes.len()).any(unsafe_at) {
+        return std::borrow::Cow::Borrowed(bytes);
+    }
+    let mut out = Vec::with_capacity(bytes.len() + 16);
+    let mut i = 0;
+    while i < bytes.len() {
+        if is_c1(i) {
+            out.extend_from_slice(format!("\\u{{{:02x}}}", bytes[i + 1]).as_bytes());
+            i += 2;
+        } else if unsafe_at(i) {
+            out.extend_from_slice(format!("\\x{:02x}", bytes[i]).as_bytes());
+            i += 1;
+        } else {
+            out.push(bytes[i]);
+            i += 1;
+        }
+    }
+    std::borrow::Cow::Owned(out)
 }
 
 /// `print!` to [`Stdout`]; evaluates to `std::io::Result<()>`.
@@ -66,6 +106,21 @@ pub(crate) use {out, outln};
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn control_characters_are_written_out_and_text_is_left_alone() {
+        let raw = "EX-1\u{1b}]0;owned\u{7}\r\u{9b}2J ü\tok\n";
+        let safe = terminal_safe(raw.as_bytes());
+        assert_eq!(
+            String::from_utf8(safe.into_owned()).unwrap(),
+            "EX-1\\x1b]0;owned\\x07\\x0d\\u{9b}2J ü\tok\n"
+        );
+        let plain = "run 1  2026-01-01  δ ✓\n";
+        assert!(matches!(
+            terminal_safe(plain.as_bytes()),
+            std::borrow::Cow::Borrowed(_)
+        ));
+    }
 
     #[test]
     fn a_broken_pipe_is_absorbed_and_other_errors_are_not() {

@@ -225,3 +225,184 @@ fn import_reads_no_path_outside_the_report_and_waits_on_no_fifo() {
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(stderr(&o).contains("FIFO"), "{}", text(&o));
 }
+
+#[test]
+fn recorded_strings_reach_the_terminal_with_their_control_characters_written_out() {
+    let dir = scratch("trust-escapes");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    // A hostile plan: OSC set-title, BEL, CR, and a C1 CSI in the [dut].
+    let plan_text = std::fs::read_to_string(&p).unwrap().replace(
+        "model = \"EX-1\"",
+        "model = \"EX\\u001b]0;owned\\u0007\\r\\u009b2J\"",
+    );
+    std::fs::write(&p, plan_text).unwrap();
+    for out in ["a", "b"] {
+        assert_eq!(
+            plan(&dir, &p, out, &["--db", "e.sqlite"]).status.code(),
+            Some(0)
+        );
+    }
+    for args in [
+        &["history", "--db", "e.sqlite"][..],
+        &["compare", "1", "2", "--db", "e.sqlite"][..],
+        &["trend", "--kpi", "fdi_2018", "--db", "e.sqlite"][..],
+        &["import", "a", "--db", "e.sqlite"][..],
+    ] {
+        let o = run(&dir, args);
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", text(&o));
+        let raw = &o.stdout;
+        assert!(
+            !raw.iter().any(|b| matches!(b, 0x1b | 0x07 | b'\r'))
+                && !raw.windows(2).any(|w| w == [0xc2, 0x9b]),
+            "{args:?} printed a control character"
+        );
+        assert!(
+            String::from_utf8_lossy(raw).contains("EX\\x1b]0;owned\\x07\\x0d\\u{9b}2J"),
+            "{args:?}: {}",
+            text(&o)
+        );
+    }
+}
+
+#[test]
+fn a_nul_in_a_plan_string_is_refused_at_its_line() {
+    let dir = scratch("trust-nul");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    let plan_text = std::fs::read_to_string(&p)
+        .unwrap()
+        .replace("model = \"EX-1\"", "model = \"EX\\u0000\"");
+    std::fs::write(&p, plan_text).unwrap();
+    let o = run(&dir, &["validate", p.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        stderr(&o).contains("`dut.model`: the string holds a NUL character"),
+        "{}",
+        text(&o)
+    );
+    assert!(stderr(&o).contains("line "), "{}", text(&o));
+}
+
+#[test]
+fn the_history_page_replaces_only_its_own_page_and_refuses_a_fifo() {
+    let dir = scratch("trust-page");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    assert_eq!(
+        plan(&dir, &p, "a", &["--db", "h.sqlite"]).status.code(),
+        Some(0)
+    );
+    // A user's page that merely mentions the title in its body.
+    let mine = "<!DOCTYPE html><html><head><title>Notes</title></head><body>&lt;title&gt;ledflicker history: is what the tool writes</body></html>";
+    std::fs::write(dir.join("notes.html"), mine).unwrap();
+    let o = run(
+        &dir,
+        &["history", "--db", "h.sqlite", "--html", "notes.html"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert_eq!(
+        std::fs::read_to_string(dir.join("notes.html")).unwrap(),
+        mine
+    );
+    // Its own page is replaced.
+    let o = run(&dir, &["history", "--db", "h.sqlite", "--html", "h.html"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = run(&dir, &["history", "--db", "h.sqlite", "--html", "h.html"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // A FIFO is refused at once.
+    mkfifo(&dir.join("pipe.html"));
+    let start = Instant::now();
+    let o = run(
+        &dir,
+        &["history", "--db", "h.sqlite", "--html", "pipe.html"],
+    );
+    assert!(start.elapsed() < Duration::from_secs(20));
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(stderr(&o).contains("not a regular file"), "{}", text(&o));
+}
+
+#[test]
+fn a_server_that_never_answers_holds_no_command_past_its_timeout_or_a_stop() {
+    let dir = scratch("trust-pg-hang");
+    // Accepts connections and never says a word.
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    std::thread::spawn(move || {
+        let mut held = Vec::new();
+        for c in listener.incoming().flatten() {
+            held.push(c);
+        }
+    });
+    let url = format!("postgres://lab@127.0.0.1:{port}/ledflicker");
+    // A FIFO as the password file is refused, not waited on.
+    mkfifo(&dir.join("pgpass"));
+    let start = Instant::now();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
+        .args(["history", "--db", &url])
+        .env("PGPASSFILE", dir.join("pgpass"))
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        start.elapsed() < Duration::from_secs(5),
+        "{:?}",
+        start.elapsed()
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(stderr(&o).contains("FIFO"), "{}", text(&o));
+    // The connection times out.
+    let start = Instant::now();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
+        .args(["history", "--db", &url])
+        .env("PGPASSFILE", dir.join("none"))
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let took = start.elapsed();
+    assert!(took < Duration::from_secs(25), "{took:?}");
+    assert_eq!(o.status.code(), Some(3), "{}", text(&o));
+    assert!(
+        stderr(&o).contains("did not complete the connection within 15 s"),
+        "{}",
+        text(&o)
+    );
+    // A run whose recording hangs is stopped by the first SIGTERM.
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", crate::test_db())
+        .args([
+            "plan",
+            p.to_str().unwrap(),
+            "--out",
+            "r",
+            "-q",
+            "--db",
+            &url,
+        ])
+        .env("PGPASSFILE", dir.join("none"))
+        .current_dir(&dir)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The report is written quickly; then the recording waits.
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while !dir.join("r/results.json").exists() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    let stopped_at = Instant::now();
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            stopped_at.elapsed() < Duration::from_secs(5),
+            "SIGTERM did not stop it"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert!(status.code().is_some(), "{status:?}");
+    assert!(dir.join("r/results.json").is_file());
+}

@@ -294,3 +294,32 @@ fn bad_waveforms_are_refused_naming_the_file_and_line() {
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(text(&o).contains("missing.csv"));
 }
+
+#[test]
+fn a_record_of_levels_near_the_largest_double_is_analysed_as_the_same_light() {
+    let dir = crate::scratch("light-huge");
+    let mut small = String::from("time_s,light\n");
+    let mut huge = String::from("time_s,light\n");
+    for i in 0..4000 {
+        let t = i as f64 / 40_000.0;
+        let on = (t * 120.0).fract() < 0.4;
+        let v = if on { 1.0 } else { 0.25 };
+        small.push_str(&format!("{t},{v}\n"));
+        huge.push_str(&format!("{t},{:e}\n", v * 1.7e308));
+    }
+    std::fs::write(dir.join("small.csv"), small).unwrap();
+    std::fs::write(dir.join("huge.csv"), huge).unwrap();
+    let json = |f: &str| {
+        let o = crate::ledflicker_in(&["light", f, "--json"], &dir);
+        assert_eq!(o.status.code(), Some(0), "{}", crate::text(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    let (a, b) = (json("small.csv"), json("huge.csv"));
+    for key in ["percent_flicker", "flicker_index"] {
+        let (x, y) = (a[key].as_f64().unwrap(), b[key].as_f64().unwrap());
+        assert!((x - y).abs() < 1e-9 * x.abs().max(1.0), "{key}: {x} vs {y}");
+    }
+    assert_eq!(a["ieee1789"]["region"], b["ieee1789"]["region"]);
+    let f = b["fundamental_hz"]["value"].as_f64().unwrap();
+    assert!((f - 120.0).abs() < 0.5, "{f}");
+}

@@ -214,9 +214,27 @@ fn flicker(x: &[f64]) -> (f64, f64) {
     (100.0 * (max - min) / (max + min), above / total)
 }
 
+/// Levels above this are scaled before the analysis: a sum of a million
+/// squares of them stays far below f64::MAX.
+const HUGE: f64 = 1e100;
+
 /// The figures of the waveform `x` (the light's level, each finite and
 /// >= 0, at least 8 samples, not all zero) sampled at `rate_hz` (> 0).
 pub fn analyse(x: &[f64], rate_hz: f64) -> LightFigures {
+    // Finite values near f64::MAX overflow the sums and squares below
+    // (a mean of +inf, a fundamental of NaN). Every figure but the
+    // levels is a ratio, so such a record is scaled by a power of two
+    // (exactly), and its levels scaled back.
+    let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if peak > HUGE {
+        let scale = 2f64.powi(peak.log2().floor() as i32);
+        let scaled: Vec<f64> = x.iter().map(|v| v / scale).collect();
+        let mut f = analyse(&scaled, rate_hz);
+        f.mean *= scale;
+        f.min *= scale;
+        f.max *= scale;
+        return f;
+    }
     let n = x.len();
     let fundamental = fundamental(x, rate_hz);
     // Whole periods, so that the record is one period of the light as the
@@ -292,6 +310,24 @@ pub fn analyse(x: &[f64], rate_hz: f64) -> LightFigures {
 mod tests {
     use super::*;
     use std::f64::consts::PI;
+
+    #[test]
+    fn levels_near_the_largest_double_give_the_figures_of_the_same_light_scaled() {
+        let x = square(0.3, 40, 10, 0);
+        let big: Vec<f64> = x.iter().map(|v| v * 1.5e308).collect();
+        let (a, b) = (analyse(&x, 4000.0), analyse(&big, 4000.0));
+        // The same light, to the rounding of multiplying by 1.5e308.
+        let close = |p: f64, q: f64| (p - q).abs() <= 1e-12 * p.abs().max(1.0);
+        assert!(close(b.percent_flicker, a.percent_flicker));
+        assert!(close(b.flicker_index, a.flicker_index));
+        assert!(close(
+            b.fundamental_hz.value.unwrap(),
+            a.fundamental_hz.value.unwrap()
+        ));
+        assert_eq!(b.ieee1789.region, a.ieee1789.region);
+        assert!(b.max.is_finite() && (b.max / 1.5e308 - a.max).abs() < 1e-12);
+        assert!(b.mean.is_finite());
+    }
 
     /// A PWM light of `duty`, `samples_per_period` samples a period, over
     /// `periods` periods and `extra` samples more.
