@@ -29,9 +29,11 @@ pub mod pages;
 pub mod query;
 pub mod record;
 pub mod rejudge;
+pub mod repeats;
 pub mod server;
 pub mod setup;
 pub mod sql;
+pub mod stats;
 pub mod view;
 
 #[cfg(feature = "postgres")]

@@ -9,6 +9,8 @@
 //! (auto exposure settling, warm-up) barely enters it, unlike the spread
 //! about the segment's mean.
 
+use super::query::RoiData;
+
 /// The noise of one ROI's trace, per steady segment: with shot noise a
 /// bright frame is noisier than a dark one.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -84,6 +86,59 @@ pub fn of_trace(text: &str, rois: &[&str]) -> Vec<Option<Noise>> {
             })
         })
         .collect()
+}
+
+/// Standard deviation of one run's KPI from its ROI's frame noise,
+/// propagated to first order through the KPI's formula
+/// (docs/campaigns.md, "Where sigma comes from"). The PWM extremes `min`
+/// and `max` are single frames, each as noisy as a frame at its level; the
+/// OFF reference is the mean of the OFF frames.
+pub fn sigma_of(metric: &str, roi: &RoiData, value: Option<f64>) -> Option<f64> {
+    let (min, max) = (roi.level_min, roi.level_max);
+    let at_min = frame_noise(roi, min)?;
+    let at_max = frame_noise(roi, max)?;
+    let out = match metric {
+        // PF = 100 (max - min) / (max + min)
+        "percent_flicker" | "percent_flicker_worst_phase" => {
+            let sum = max + min;
+            (sum > 0.0).then(|| 200.0 * (max * at_min).hypot(min * at_max) / (sum * sum))
+        }
+        // FDI = (min - off) / off
+        "fdi_2018" | "fdi_2018_worst_phase" => {
+            let off = roi.level_off.filter(|off| *off > 0.0)?;
+            let off_mean = roi.noise_off_dn? / (roi.off_frames.max(1) as f64).sqrt();
+            Some((at_min / off).hypot(min * off_mean / (off * off)))
+        }
+        // A contrast of levels near `max`: its relative uncertainty is
+        // about that of the difference of two frames.
+        _ => value.map(|v| {
+            v.abs() * std::f64::consts::SQRT_2 * at_max / max.abs().max(f64::MIN_POSITIVE)
+        }),
+    };
+    out.filter(|v| v.is_finite())
+}
+
+/// Noise of one frame at luma `level`: shot noise makes the variance grow
+/// linearly with the light, so it is interpolated (and extrapolated) in
+/// variance between the OFF and the ON segment's, by level. With one
+/// segment's noise only, that noise.
+pub(super) fn frame_noise(roi: &RoiData, level: f64) -> Option<f64> {
+    match (
+        roi.noise_off_dn,
+        roi.noise_on_dn,
+        roi.level_off,
+        roi.level_on,
+    ) {
+        (Some(s_off), Some(s_on), Some(off), Some(on)) if on != off => {
+            let t = (level - off) / (on - off);
+            Some(
+                (s_off * s_off + (s_on * s_on - s_off * s_off) * t)
+                    .max(0.0)
+                    .sqrt(),
+            )
+        }
+        (a, b, _, _) => a.or(b),
+    }
 }
 
 #[cfg(test)]

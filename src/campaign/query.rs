@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::compare::{Key, Repeats};
+use super::repeats::{Key, Repeats};
 use super::setup::Setup;
 use super::sql::{Mismatch, Row, Value, values};
 use super::{CampaignError, Database};

@@ -155,38 +155,7 @@ fn judge(case: &CaseInfo, t: &Thresholds, out: &mut Vec<String>) -> Verdict {
         }
         all_pass &= pass;
     }
-    // Every LED ROI carries a check for each limit that applies, unless the
-    // report says why it could not (`not_checked`).
-    for r in case.rois.iter().filter(|r| r.kind == RoiKind::Led) {
-        for family in [
-            "fdi_2018",
-            "percent_flicker",
-            "fmi",
-            "fdi_p2020",
-            "mmp",
-            "visibility",
-            "delta_uv",
-        ] {
-            let Some((Some(_), _)) = limit_of(family, &lim) else {
-                continue;
-            };
-            let checked = case.checks.iter().any(|c| {
-                c.roi == r.name
-                    && c.metric.starts_with(family)
-                    && limit_of(&c.metric, &lim).is_some()
-            });
-            let excused = case
-                .not_checked
-                .iter()
-                .any(|n| n.starts_with(&format!("{}: ", r.name)));
-            if !checked && !excused && case.not_judged.is_none() {
-                out.push(format!(
-                    "case `{}`: ROI `{}` has no check of the plan's {family} limit",
-                    case.id, r.name
-                ));
-            }
-        }
-    }
+    missing_checks(case, &lim, out);
     let outside = case.frequency_hz > 0.0
         && !crate::metrics::verdict::in_mitigation_range(case.frequency_hz, t);
     match &case.not_judged {
@@ -210,5 +179,40 @@ fn judge(case: &CaseInfo, t: &Thresholds, out: &mut Vec<String>) -> Verdict {
         None if case.checks.is_empty() => Verdict::Info,
         None if all_pass => Verdict::Pass,
         None => Verdict::Fail,
+    }
+}
+
+/// Every LED ROI carries a check for each limit that applies, unless the
+/// report says why it could not (`not_checked`) or the case is not judged.
+fn missing_checks(case: &CaseInfo, lim: &crate::plan::Limits, out: &mut Vec<String>) {
+    for r in case.rois.iter().filter(|r| r.kind == RoiKind::Led) {
+        for family in [
+            "fdi_2018",
+            "percent_flicker",
+            "fmi",
+            "fdi_p2020",
+            "mmp",
+            "visibility",
+            "delta_uv",
+        ] {
+            let Some((Some(_), _)) = limit_of(family, lim) else {
+                continue;
+            };
+            let checked = case.checks.iter().any(|c| {
+                c.roi == r.name
+                    && c.metric.starts_with(family)
+                    && limit_of(&c.metric, lim).is_some()
+            });
+            let excused = case
+                .not_checked
+                .iter()
+                .any(|n| n.starts_with(&format!("{}: ", r.name)));
+            if !checked && !excused && case.not_judged.is_none() {
+                out.push(format!(
+                    "case `{}`: ROI `{}` has no check of the plan's {family} limit",
+                    case.id, r.name
+                ));
+            }
+        }
     }
 }

@@ -25,7 +25,7 @@ pub(super) fn write(
     view: &ComparisonView,
     junit: &str,
 ) -> Result<Vec<&'static str>, Failure> {
-    if let DirKind::Report { owned } = classify(dir)?
+    if let DirKind::Report { owned, .. } = classify(dir)?
         && owned.contains("results.json")
         && dir.join("results.json").exists()
     {

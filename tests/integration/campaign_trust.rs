@@ -406,3 +406,37 @@ fn a_server_that_never_answers_holds_no_command_past_its_timeout_or_a_stop() {
     assert!(status.code().is_some(), "{status:?}");
     assert!(dir.join("r/results.json").is_file());
 }
+
+#[test]
+fn a_rerun_refuses_to_lose_a_users_file_saved_inside_a_report_folder() {
+    let dir = scratch("trust-subfolder");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    assert_eq!(plan(&dir, &p, "r", &["--no-db"]).status.code(), Some(0));
+    // What the run wrote is listed in the marker, folders' files included.
+    let marker = std::fs::read_to_string(dir.join("r/.ledflicker")).unwrap();
+    assert!(
+        marker
+            .lines()
+            .any(|l| l.starts_with("traces/") && l.ends_with(".csv")),
+        "{marker}"
+    );
+    // A re-run replaces its own files.
+    assert_eq!(plan(&dir, &p, "r", &["--no-db"]).status.code(), Some(0));
+    for folder in ["traces", "charts", "frames"] {
+        if !dir.join("r").join(folder).is_dir() {
+            continue;
+        }
+        let mine = dir.join("r").join(folder).join("my-notes.txt");
+        std::fs::write(&mine, "mine").unwrap();
+        let o = plan(&dir, &p, "r", &["--no-db"]);
+        assert_eq!(o.status.code(), Some(2), "{folder}: {}", text(&o));
+        assert!(
+            stderr(&o).contains(&format!("{folder}/my-notes.txt")),
+            "{}",
+            text(&o)
+        );
+        assert_eq!(std::fs::read_to_string(&mine).unwrap(), "mine");
+        std::fs::remove_file(&mine).unwrap();
+    }
+    assert_eq!(plan(&dir, &p, "r", &["--no-db"]).status.code(), Some(0));
+}

@@ -136,6 +136,9 @@ pub struct Generation {
     /// Top-level entries the earlier report wrote (empty when there was
     /// none): everything else in `out` is a user's.
     owned: BTreeSet<String>,
+    /// The files the earlier report wrote inside its folders, when its
+    /// marker lists them: any other file there is a user's.
+    owned_files: Option<BTreeSet<String>>,
     /// Whether `out` holds an earlier report (see [`Generation::previous`]).
     has_previous: bool,
     committed: bool,
@@ -152,6 +155,9 @@ pub enum DirKind {
     Report {
         /// Top-level entries ledflicker wrote.
         owned: BTreeSet<String>,
+        /// Every file it wrote inside those folders (`traces/a.csv`), when
+        /// its marker lists them (markers of older versions do not).
+        files: Option<BTreeSet<String>>,
     },
     /// Something else.
     Foreign,
@@ -204,10 +210,23 @@ pub fn classify(dir: &Path) -> Result<DirKind, OutDirError> {
             .filter(|l| !l.is_empty() && !l.contains('/') && *l != "." && *l != "..")
             .map(str::to_string)
             .collect();
+        let files: BTreeSet<String> = rest
+            .lines()
+            .map(str::trim)
+            .filter(|l| {
+                l.contains('/')
+                    && !l.starts_with('/')
+                    && !l
+                        .split('/')
+                        .any(|part| part.is_empty() || part == "." || part == "..")
+            })
+            .map(str::to_string)
+            .collect();
         owned.insert(MARKER.to_string());
         // `ledflicker sign` adds these after the marker was written.
         owned.extend(SIGNOFF_FILES.iter().map(|s| s.to_string()));
-        return Ok(DirKind::Report { owned });
+        let files = (!files.is_empty()).then_some(files);
+        return Ok(DirKind::Report { owned, files });
     }
     if results_schema_is_ours(&dir.join("results.json")) {
         // Written before the marker existed: what a report has held.
@@ -217,7 +236,7 @@ pub fn classify(dir: &Path) -> Result<DirKind, OutDirError> {
             .chain(&[MARKER])
             .map(|s| s.to_string())
             .collect();
-        return Ok(DirKind::Report { owned });
+        return Ok(DirKind::Report { owned, files: None });
     }
     Ok(DirKind::Foreign)
 }
@@ -415,11 +434,13 @@ impl Generation {
             staging,
             carried: BTreeSet::new(),
             owned: BTreeSet::new(),
+            owned_files: None,
             has_previous: false,
             committed: false,
         };
-        if let DirKind::Report { owned } = kind {
+        if let DirKind::Report { owned, files } = kind {
             generation.owned = owned;
+            generation.owned_files = files;
             generation.carry_foreign()?;
             generation.has_previous = true;
         }
@@ -446,6 +467,31 @@ impl Generation {
     /// Links every entry of the old report that ledflicker did not write
     /// into the staging directory.
     fn carry_foreign(&mut self) -> Result<(), OutDirError> {
+        // A user's file saved inside a folder the report writes (notes in
+        // `traces/`) would go with the old generation: refused, named.
+        if let Some(files) = &self.owned_files {
+            for name in self
+                .owned
+                .iter()
+                .filter(|n| REPORT_ENTRIES.contains(&n.as_str()))
+            {
+                let mut found = Vec::new();
+                list_files(&self.out.join(name), name, &mut found)
+                    .map_err(|e| io_err(&self.out, "list", &self.out.join(name), e))?;
+                if let Some(theirs) = found.iter().find(|f| !files.contains(*f)) {
+                    return Err(OutDirError::Refused {
+                        dir: self.out.clone(),
+                        message: format!(
+                            "holds `{theirs}`, which ledflicker did not write there (its {MARKER} marker does not list it), in a folder the report replaces; refusing to lose it"
+                        ),
+                        hint: format!(
+                            "move `{}` out of the report directory, then run again",
+                            self.out.join(theirs).display()
+                        ),
+                    });
+                }
+            }
+        }
         for (name, from) in self.foreign_entries()? {
             if REPORT_ENTRIES.contains(&name.as_str()) {
                 // A user's file or folder under a name the report writes
@@ -568,8 +614,16 @@ impl Generation {
             .filter(|n| !self.carried.contains(n) && n != MARKER)
             .collect();
         names.sort();
-        for n in names {
-            text.push_str(&n);
+        // Then every file written inside the folders, so that a file a
+        // user saves there later is known for theirs.
+        let mut inside = Vec::new();
+        for n in &names {
+            list_files(&self.staging.join(n), n, &mut inside)
+                .map_err(|e| io_err(&self.out, "list", &self.staging.join(n), e))?;
+        }
+        inside.sort();
+        for n in names.iter().chain(&inside) {
+            text.push_str(n);
             text.push('\n');
         }
         let marker = self.staging.join(MARKER);
@@ -667,56 +721,6 @@ fn aside_name(out: &Path, what: &str) -> PathBuf {
     path
 }
 
-/// Whether `a` and `b` are the same tree: the same files (by inode: the
-/// carried copies are hard links), symbolic links to the same target, and
-/// folders of the same names, recursively. A copy (where a link failed)
-/// compares by its bytes.
-fn same_tree(a: &Path, b: &Path) -> bool {
-    use std::os::unix::fs::MetadataExt;
-    let (Ok(ma), Ok(mb)) = (std::fs::symlink_metadata(a), std::fs::symlink_metadata(b)) else {
-        return false;
-    };
-    let (ta, tb) = (ma.file_type(), mb.file_type());
-    if ta.is_symlink() || tb.is_symlink() {
-        return ta.is_symlink()
-            && tb.is_symlink()
-            && std::fs::read_link(a).ok() == std::fs::read_link(b).ok();
-    }
-    if ta.is_dir() || tb.is_dir() {
-        if !(ta.is_dir() && tb.is_dir()) {
-            return false;
-        }
-        let names = |d: &Path| -> Option<BTreeSet<std::ffi::OsString>> {
-            std::fs::read_dir(d)
-                .ok()
-                .map(|it| it.flatten().map(|e| e.file_name()).collect())
-        };
-        let (Some(na), Some(nb)) = (names(a), names(b)) else {
-            return false;
-        };
-        return na == nb && na.iter().all(|n| same_tree(&a.join(n), &b.join(n)));
-    }
-    if (ma.dev(), ma.ino()) == (mb.dev(), mb.ino()) {
-        return true;
-    }
-    ma.len() == mb.len()
-        && ta.is_file()
-        && tb.is_file()
-        && std::fs::read(a)
-            .ok()
-            .is_some_and(|x| std::fs::read(b).ok() == Some(x))
-}
-
-/// Removes a file, a symbolic link or a whole folder.
-fn remove_tree(path: &Path) -> std::io::Result<()> {
-    match std::fs::symlink_metadata(path) {
-        Ok(m) if m.is_dir() => std::fs::remove_dir_all(path),
-        Ok(_) => std::fs::remove_file(path),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-        Err(e) => Err(e),
-    }
-}
-
 impl Drop for Generation {
     fn drop(&mut self) {
         if !self.committed {
@@ -725,68 +729,8 @@ impl Drop for Generation {
     }
 }
 
-/// Swaps two directories atomically (Linux `renameat2(RENAME_EXCHANGE)`).
-fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
-    use std::os::unix::ffi::OsStrExt;
-    let c = |p: &Path| {
-        std::ffi::CString::new(p.as_os_str().as_bytes())
-            .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidInput, e))
-    };
-    let (a, b) = (c(a)?, c(b)?);
-    // SAFETY: two NUL-terminated paths that live across the call.
-    let r = unsafe {
-        libc::renameat2(
-            libc::AT_FDCWD,
-            a.as_ptr(),
-            libc::AT_FDCWD,
-            b.as_ptr(),
-            libc::RENAME_EXCHANGE,
-        )
-    };
-    if r == 0 {
-        Ok(())
-    } else {
-        Err(std::io::Error::last_os_error())
-    }
-}
-
-/// Hard-links the file or tree `from` to `to`; copies where links fail.
-fn link_tree(from: &Path, to: &Path) -> std::io::Result<()> {
-    let meta = std::fs::symlink_metadata(from)?;
-    if meta.file_type().is_symlink() {
-        let target = std::fs::read_link(from)?;
-        return std::os::unix::fs::symlink(target, to);
-    }
-    if meta.is_dir() {
-        std::fs::create_dir(to)?;
-        std::fs::set_permissions(to, meta.permissions())?;
-        for e in std::fs::read_dir(from)? {
-            let e = e?;
-            link_tree(&e.path(), &to.join(e.file_name()))?;
-        }
-        return Ok(());
-    }
-    if std::fs::hard_link(from, to).is_err() {
-        std::fs::copy(from, to)?;
-    }
-    Ok(())
-}
-
-fn sync_dir(dir: &Path) {
-    if let Ok(f) = std::fs::File::open(dir) {
-        let _ = f.sync_all();
-    }
-}
-
-fn sync_parent(path: &Path) {
-    if let Some(p) = path.parent() {
-        sync_dir(if p.as_os_str().is_empty() {
-            Path::new(".")
-        } else {
-            p
-        });
-    }
-}
+mod fs;
+use fs::{exchange, link_tree, list_files, remove_tree, same_tree, sync_dir, sync_parent};
 
 #[cfg(test)]
 mod tests;

@@ -723,30 +723,6 @@ pub fn parse_within(
     )
 }
 
-/// The keys (as the diagnostics name them: `a.b`, `a[0].b`) of every
-/// string under `v` that holds a NUL.
-fn nul_strings(key: &str, v: &toml::Value, out: &mut Vec<String>) {
-    match v {
-        toml::Value::String(s) if s.contains('\0') => out.push(key.to_string()),
-        toml::Value::Table(t) => {
-            for (k, x) in t {
-                let key = if key.is_empty() {
-                    k.clone()
-                } else {
-                    format!("{key}.{k}")
-                };
-                nul_strings(&key, x, out);
-            }
-        }
-        toml::Value::Array(items) => {
-            for (i, x) in items.iter().enumerate() {
-                nul_strings(&format!("{key}[{i}]"), x, out);
-            }
-        }
-        _ => {}
-    }
-}
-
 fn parse_inner(
     text: &str,
     path: &Path,
@@ -780,7 +756,7 @@ fn parse_inner(
     // it, so the two would disagree on the same run.
     if let Ok(doc) = text.parse::<toml::Table>() {
         let mut with_nul = Vec::new();
-        nul_strings("", &toml::Value::Table(doc), &mut with_nul);
+        spans::nul_strings("", &toml::Value::Table(doc), &mut with_nul);
         diags.extend(with_nul.into_iter().map(|key| Diagnostic {
             file: None,
             location: index.location(&key),

@@ -498,3 +498,27 @@ mod tests {
         assert!(hint.starts_with("did you mean `width-px`?"), "{hint}");
     }
 }
+
+/// The keys (as the diagnostics name them: `a.b`, `a[0].b`) of every
+/// string under `v` that holds a NUL.
+pub(super) fn nul_strings(key: &str, v: &toml::Value, out: &mut Vec<String>) {
+    match v {
+        toml::Value::String(s) if s.contains('\0') => out.push(key.to_string()),
+        toml::Value::Table(t) => {
+            for (k, x) in t {
+                let key = if key.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{key}.{k}")
+                };
+                nul_strings(&key, x, out);
+            }
+        }
+        toml::Value::Array(items) => {
+            for (i, x) in items.iter().enumerate() {
+                nul_strings(&format!("{key}[{i}]"), x, out);
+            }
+        }
+        _ => {}
+    }
+}
