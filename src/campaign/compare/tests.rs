@@ -1,8 +1,6 @@
 use super::*;
 use crate::campaign::noise::{frame_noise, sigma_of};
 use crate::campaign::query::{CheckData, RoiData};
-use crate::campaign::repeats::Spread;
-use crate::campaign::stats::*;
 
 #[test]
 fn the_normal_quantile_matches_tabulated_values() {

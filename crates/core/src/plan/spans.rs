@@ -477,28 +477,6 @@ fn edit_distance(a: &str, b: &str) -> usize {
     prev[b.len()]
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn locations_are_one_based_and_reach_array_tables() {
-        let text = "[plan]\nid = \"x\"\n\n[[roi]]\nname = \"a\"\n[[roi]]\nx-px = 5\n";
-        let index = SpanIndex::build(text).unwrap();
-        assert_eq!(index.location("plan.id"), Some((2, 1)));
-        assert_eq!(index.location("roi[1].x-px"), Some((7, 1)));
-        assert_eq!(index.location("nope"), None);
-    }
-
-    #[test]
-    fn unknown_key_hint_suggests_the_nearest_key() {
-        let hint = unknown_key_hint("dut.camera.exposure-us");
-        assert!(hint.starts_with("did you mean `exposure-ms`?"), "{hint}");
-        let hint = unknown_key_hint("roi[2].widht-px");
-        assert!(hint.starts_with("did you mean `width-px`?"), "{hint}");
-    }
-}
-
 /// The keys (as the diagnostics name them: `a.b`, `a[0].b`) of every
 /// string under `v` that holds a NUL.
 pub(super) fn nul_strings(key: &str, v: &toml::Value, out: &mut Vec<String>) {
@@ -520,5 +498,27 @@ pub(super) fn nul_strings(key: &str, v: &toml::Value, out: &mut Vec<String>) {
             }
         }
         _ => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn locations_are_one_based_and_reach_array_tables() {
+        let text = "[plan]\nid = \"x\"\n\n[[roi]]\nname = \"a\"\n[[roi]]\nx-px = 5\n";
+        let index = SpanIndex::build(text).unwrap();
+        assert_eq!(index.location("plan.id"), Some((2, 1)));
+        assert_eq!(index.location("roi[1].x-px"), Some((7, 1)));
+        assert_eq!(index.location("nope"), None);
+    }
+
+    #[test]
+    fn unknown_key_hint_suggests_the_nearest_key() {
+        let hint = unknown_key_hint("dut.camera.exposure-us");
+        assert!(hint.starts_with("did you mean `exposure-ms`?"), "{hint}");
+        let hint = unknown_key_hint("roi[2].widht-px");
+        assert!(hint.starts_with("did you mean `width-px`?"), "{hint}");
     }
 }
