@@ -276,7 +276,7 @@ impl Store {
             message,
         })?;
         let sql = sqlite(&self.path);
-        if self.pending == 0 {
+        if self.conn.is_autocommit() {
             self.conn.execute_batch("BEGIN").map_err(&sql)?;
             self.opened = Instant::now();
         }
@@ -324,11 +324,85 @@ impl Store {
     }
 
     fn commit(&mut self) -> Result<(), StoreError> {
-        if self.pending > 0 {
+        if !self.conn.is_autocommit() {
             self.conn
                 .execute_batch("COMMIT")
                 .map_err(sqlite(&self.path))?;
             self.pending = 0;
+        }
+        Ok(())
+    }
+
+    /// Judges every stored case again with `judge` (its position in the
+    /// run and the case as stored) and stores what it gives in its place:
+    /// a partial store is input, which anyone could have edited, so a
+    /// resumed run takes its data (the acquisitions), never its
+    /// conclusions. Returns how many cases were kept. A case `judge`
+    /// refuses is an error naming it.
+    pub fn rejudge(
+        &mut self,
+        judge: &(dyn Fn(usize, CaseResult) -> Result<CaseResult, String> + Sync),
+    ) -> Result<usize, StoreError> {
+        use rayon::prelude::*;
+        /// Cases decoded and judged at once: bounded memory on a store of
+        /// a large sweep.
+        const CHUNK: usize = 256;
+        let positions: Vec<usize> = self.positions()?.into_iter().collect();
+        for chunk in positions.chunks(CHUNK) {
+            let stored = self.read_stored(chunk)?;
+            let judged: Vec<(usize, Result<Encoded, String>)> = stored
+                .into_par_iter()
+                .map(|(idx, case)| (idx, judge(idx, case).map(Encoded::new)))
+                .collect();
+            for (idx, judged) in judged {
+                let encoded = judged.map_err(|message| StoreError::Record {
+                    path: self.path.clone(),
+                    idx,
+                    message,
+                })?;
+                self.remove(idx)?;
+                self.put_encoded(idx, encoded)?;
+            }
+        }
+        self.commit()?;
+        Ok(positions.len())
+    }
+
+    /// The stored cases at `positions`, decoded.
+    fn read_stored(&self, positions: &[usize]) -> Result<Vec<(usize, CaseResult)>, StoreError> {
+        let sql = sqlite(&self.path);
+        let mut q = self
+            .conn
+            .prepare_cached("SELECT result FROM cases WHERE idx = ?1")
+            .map_err(&sql)?;
+        let mut out = Vec::with_capacity(positions.len());
+        for &idx in positions {
+            let bytes: Vec<u8> = q
+                .query_row(params![idx as i64], |r| r.get(0))
+                .map_err(&sql)?;
+            let case = record::decode(&bytes).map_err(|message| StoreError::Record {
+                path: self.path.clone(),
+                idx,
+                message,
+            })?;
+            out.push((idx, case));
+        }
+        Ok(out)
+    }
+
+    /// Deletes the stored case at `idx` and its metric rows, in the open
+    /// batch.
+    fn remove(&mut self, idx: usize) -> Result<(), StoreError> {
+        let sql = sqlite(&self.path);
+        if self.conn.is_autocommit() {
+            self.conn.execute_batch("BEGIN").map_err(&sql)?;
+            self.opened = Instant::now();
+        }
+        for table in ["roi_metrics", "cases"] {
+            self.conn
+                .prepare_cached(&format!("DELETE FROM {table} WHERE idx = ?1"))
+                .and_then(|mut q| q.execute(params![idx as i64]))
+                .map_err(&sql)?;
         }
         Ok(())
     }

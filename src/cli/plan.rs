@@ -389,10 +389,29 @@ fn run_cases(
         backend: backend.id().to_string(),
         case_count: cases.len(),
     };
-    let (store, done) = match args.resume {
+    let (mut store, done) = match args.resume {
         None => crate::store::Store::create(dir, &key).map(|s| (s, Default::default())),
         Some(_) => crate::store::Store::resume(dir, &key),
     }?;
+    if args.resume.is_some() {
+        // The stored cases are data: each is judged again from its
+        // acquisition, as the plan's own case at its position.
+        let judge = |idx: usize, mut stored: runner::CaseResult| {
+            let case = cases.get(idx).ok_or_else(|| {
+                format!("position {idx} is beyond the plan's {} cases", cases.len())
+            })?;
+            stored.case = case.clone();
+            crate::shard::check::evaluate_again(plan, stored)
+        };
+        let kept = store.rejudge(&judge)?;
+        if !args.quiet {
+            eprintln!(
+                "resumed: {kept} of {} cases kept from the partial store (judged again from their data); {} to run",
+                cases.len(),
+                cases.len() - kept
+            );
+        }
+    }
     let (positions, todo): (Vec<usize>, Vec<_>) = cases
         .iter()
         .enumerate()

@@ -413,9 +413,10 @@ impl Backend for Replay {
 }
 
 /// The case evaluated again from its acquisition by [`runner::run_case`],
-/// the evaluation `plan` runs: the shard's metrics, KPIs, checks and
-/// verdict are replaced. The sample frame (a picture, checked) is kept.
-fn evaluate_again(plan: &Plan, shard: CaseResult) -> Result<CaseResult, String> {
+/// the evaluation `plan` runs: the shard's (or a partial store's)
+/// metrics, KPIs, checks and verdict are replaced. The sample frame (a
+/// picture, checked) is kept.
+pub fn evaluate_again(plan: &Plan, shard: CaseResult) -> Result<CaseResult, String> {
     let replay = Replay {
         acquisition: Mutex::new(Some(shard.acquisition)),
     };

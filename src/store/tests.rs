@@ -113,3 +113,50 @@ fn resuming_without_a_partial_store_or_from_a_foreign_file_is_a_clear_error() {
     let e = Store::resume(dir.path(), &key()).err().unwrap();
     assert!(!e.to_string().is_empty());
 }
+
+#[test]
+fn a_resumed_store_judges_its_cases_again_so_a_forged_verdict_does_not_survive() {
+    let plan = crate::plan::find_and_load("daylight").unwrap();
+    let cases = crate::plan::expand_cases(&plan);
+    let backend = crate::backend::for_plan(&plan, None).unwrap();
+    let idx = cases
+        .iter()
+        .position(|c| c.id == "2000lux-90hz-50pct")
+        .unwrap();
+    let genuine = crate::runner::run(&plan, &cases[idx..=idx], &backend, Some(1), &|_| {})
+        .unwrap()
+        .remove(0);
+    assert_eq!(genuine.verdict, crate::metrics::verdict::Verdict::Pass);
+    // The partial store edited: the case failed, its check too, its
+    // figure lowered.
+    let mut forged = genuine.clone();
+    forged.verdict = crate::metrics::verdict::Verdict::Fail;
+    for c in &mut forged.checks {
+        c.pass = false;
+        c.value = Some(0.0);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut store = Store::create(dir.path(), &key()).unwrap();
+    store.put(idx, forged).unwrap();
+    store.close().unwrap();
+    let (mut store, done) = Store::resume(dir.path(), &key()).unwrap();
+    assert_eq!(done.into_iter().collect::<Vec<_>>(), [idx]);
+    let judge = |i: usize, mut stored: CaseResult| {
+        stored.case = cases[i].clone();
+        crate::shard::check::evaluate_again(&plan, stored)
+    };
+    assert_eq!(store.rejudge(&judge).unwrap(), 1);
+    let back = store.read_stored(&[idx]).unwrap().remove(0).1;
+    assert_eq!(back.verdict, genuine.verdict);
+    assert_eq!(back.checks, genuine.checks);
+    // The store's own columns follow the record.
+    let verdict: String = store
+        .conn
+        .query_row(
+            "SELECT verdict FROM cases WHERE idx = ?1",
+            [idx as i64],
+            |r| r.get(0),
+        )
+        .unwrap();
+    assert_eq!(verdict, "pass");
+}

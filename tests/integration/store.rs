@@ -22,7 +22,10 @@ echo "$n" > "{d}/calls"
 if [ "$n" -gt 4 ] && [ ! -e "{d}/go" ]; then
   touch "{d}/blocked"
   i=0
-  while [ ! -e "{d}/go" ] && [ "$i" -lt 600 ]; do sleep 0.1; i=$((i + 1)); done
+  while [ ! -e "{d}/go" ] && [ "$i" -lt 600 ]; do
+    [ -e "{d}/stop" ] && exit 1
+    sleep 0.1; i=$((i + 1))
+  done
 fi
 cat > "$LEDFLICKER_OUT_DIR.json"
 exec "$LEDFLICKER_EXE" render \
@@ -36,6 +39,23 @@ exec "$LEDFLICKER_EXE" render \
     let path = dir.join("rig.sh");
     std::fs::write(&path, script).unwrap();
     path
+}
+
+/// Stops a run and its stalled rig when a test ends, passed or failed: no
+/// process of the test is left to print into the terminal later.
+struct Stop<'a> {
+    dir: &'a Path,
+    child: Option<std::process::Child>,
+}
+
+impl Drop for Stop<'_> {
+    fn drop(&mut self) {
+        let _ = std::fs::write(self.dir.join("stop"), "");
+        if let Some(child) = &mut self.child {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
 }
 
 /// The shipped rig plan with eight cases, on [`rig`].
@@ -117,19 +137,24 @@ fn a_run_killed_half_way_resumes_to_the_bytes_of_an_uninterrupted_run() {
 
     std::fs::remove_file(dir.join("go")).unwrap();
     std::fs::remove_file(dir.join("calls")).unwrap();
-    let mut child = plan_command(&dir, &["--out", "killed"]).spawn().unwrap();
+    let mut stop = Stop {
+        dir: &dir,
+        child: Some(plan_command(&dir, &["--out", "killed"]).spawn().unwrap()),
+    };
     let start = Instant::now();
-    // Four cases stored (the fifth is stalled in the rig), then SIGKILL.
-    while stored_cases(&dir, "killed") != Some(4) {
+    // Four cases stored and the fifth stalled in the rig, whichever of the
+    // two happens first, then SIGKILL.
+    while stored_cases(&dir, "killed") != Some(4) || !dir.join("blocked").exists() {
         assert!(
             start.elapsed() < Duration::from_secs(120),
-            "the run did not store four cases: {:?}",
+            "the run did not store four cases and stall on the fifth: {:?} stored",
             stored_cases(&dir, "killed")
         );
+        let child = stop.child.as_mut().unwrap();
         assert!(child.try_wait().unwrap().is_none(), "the run ended early");
         std::thread::sleep(Duration::from_millis(50));
     }
-    assert!(dir.join("blocked").exists());
+    let mut child = stop.child.take().unwrap();
     child.kill().unwrap();
     child.wait().unwrap();
     std::fs::write(dir.join("go"), "").unwrap();
