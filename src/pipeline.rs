@@ -96,6 +96,8 @@ pub fn resume_output(out: &Path, force: bool) -> Result<Generation, OutDirError>
             crate::store::PARTIAL,
             crate::store::PARTIAL_WAL,
             crate::store::PARTIAL_SHM,
+            // A run stopped in its report stage: its finished store.
+            crate::store::FILE,
         ],
     )?;
     crate::interrupt::install();
@@ -128,6 +130,10 @@ pub struct ReportOptions {
     pub signing: Option<Signing>,
     /// Compare the model with stored results.
     pub golden: Option<Golden>,
+    /// When set, a stop in this stage keeps the run's finished case store
+    /// in the staging directory for `plan --resume` and prints this hint;
+    /// otherwise the staging directory is removed.
+    pub resume_hint: Option<String>,
 }
 
 /// Who signs the report, with what key, and when; the key was loaded and
@@ -250,12 +256,55 @@ impl Outcome {
 pub fn report(
     run: Run<'_>,
     generation: Generation,
-    options: ReportOptions,
+    mut options: ReportOptions,
     on_progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<Outcome, PipelineError> {
+    let hint = options.resume_hint.take();
+    let cases = run.results.len();
+    let written = write_stage(run, &generation, &mut options, hint.clone(), on_progress);
+    let (model, signed) = match written {
+        Ok(done) => done,
+        Err(e) => {
+            // A stop in this stage keeps the finished case store, so that
+            // `--resume` goes straight to the report.
+            if crate::interrupt::requested().is_some()
+                && let Some(hint) = hint
+                && generation.path().join(crate::store::FILE).is_file()
+            {
+                crate::interrupt::prune(generation.path(), crate::store::FILE);
+                generation.keep_for_resume();
+                eprintln!("{hint}");
+            }
+            return Err(e);
+        }
+    };
+    let dir = generation.out().to_path_buf();
+    let warning = generation.commit()?.warning();
+    let golden = options
+        .golden
+        .map(|g| report::golden::compare(&g.results, &model, &g.tolerances));
+    Ok(Outcome {
+        model,
+        dir,
+        cases,
+        signed,
+        golden,
+        warning,
+    })
+}
+
+/// The report stage up to the swap: the model, the files, the signature.
+fn write_stage(
+    run: Run<'_>,
+    generation: &Generation,
+    options: &mut ReportOptions,
+    hint: Option<String>,
+    on_progress: &(dyn Fn(Progress) + Sync),
+) -> Result<(Results, Option<SignedBy>), PipelineError> {
     // Ctrl-C acts within a fraction of a second in the analyses and the
     // PDF layout too, where no loop of ours looks at it.
-    let prompt = crate::interrupt::Prompt::start(generation.path().to_path_buf());
+    let keep = hint.map(|h| (crate::store::FILE, h));
+    let prompt = crate::interrupt::Prompt::start(generation.path().to_path_buf(), keep);
     on_progress(Progress::Analysing {
         cases: run.results.len(),
     });
@@ -281,28 +330,16 @@ pub fn report(
         reuse_from: generation.previous().map(Path::to_path_buf),
         profile: run.plan.report.clone(),
     };
-    let model = write_files(&generation, model, run.results, write, on_progress)?;
+    let model = write_files(generation, model, run.results, write, on_progress)?;
     drop(t);
     drop(prompt);
-    let signed = match options.signing {
-        Some(s) => Some(sign(&generation, &options.date, s)?),
+    let signed = match options.signing.take() {
+        Some(s) => Some(sign(generation, &options.date, s)?),
         None => None,
     };
     on_progress(Progress::Written);
     crate::interrupt::check()?;
-    let dir = generation.out().to_path_buf();
-    let warning = generation.commit()?.warning();
-    let golden = options
-        .golden
-        .map(|g| report::golden::compare(&g.results, &model, &g.tolerances));
-    Ok(Outcome {
-        model,
-        dir,
-        cases: run.results.len(),
-        signed,
-        golden,
-        warning,
-    })
+    Ok((model, signed))
 }
 
 /// The report's files into the new generation, with [`Progress::Pictures`]
@@ -385,6 +422,7 @@ mod tests {
             detail: Detail::default(),
             signing: None,
             golden: None,
+            resume_hint: None,
         }
     }
 

@@ -183,6 +183,14 @@ impl Store {
     /// cases it holds.
     pub fn resume(dir: &Path, key: &RunKey) -> Result<(Store, BTreeSet<usize>), StoreError> {
         let path = dir.join(PARTIAL);
+        let finished = dir.join(FILE);
+        if !path.is_file() && finished.is_file() {
+            // A run stopped in its report stage: every case is stored in
+            // the finished store. They go into a new partial store, as a
+            // run stores them (so that the finished store made again is
+            // the same file, byte for byte), then are judged again.
+            return Store::resume_finished(dir, &finished, key);
+        }
         if !path.is_file() {
             return Err(StoreError::Mismatch {
                 path,
@@ -209,6 +217,51 @@ impl Store {
                 });
             }
         }
+        let done = store.positions()?;
+        Ok((store, done))
+    }
+
+    /// [`Store::resume`] of a run stopped after its run stage: the cases of
+    /// the finished store `finished` (of a run of `key`) moved into a new
+    /// partial store, the finished one removed.
+    fn resume_finished(
+        dir: &Path,
+        finished: &Path,
+        key: &RunKey,
+    ) -> Result<(Store, BTreeSet<usize>), StoreError> {
+        let old = StoredCases::open(finished)?;
+        {
+            let conn = old.conn.lock().unwrap_or_else(|p| p.into_inner());
+            let sql = sqlite(finished);
+            for (k, want) in key.rows() {
+                let have: Option<String> = conn
+                    .query_row("SELECT value FROM run WHERE key = ?1", [k], |r| r.get(0))
+                    .optional()
+                    .map_err(&sql)?;
+                if have.as_deref() != Some(want.as_str()) {
+                    return Err(StoreError::Mismatch {
+                        path: finished.to_path_buf(),
+                        message: format!(
+                            "its {k} is {}, this run's is `{want}`",
+                            have.map_or("missing".to_string(), |h| format!("`{h}`"))
+                        ),
+                    });
+                }
+            }
+        }
+        let mut store = Store::create(dir, key)?;
+        let count = old.len;
+        let mut start = 0;
+        while start < count {
+            let end = (start + 256).min(count);
+            for (i, case) in (start..end).zip(old.read_range(start..end)?) {
+                store.put(i, case)?;
+            }
+            start = end;
+        }
+        store.commit()?;
+        drop(old);
+        remove_file(finished)?;
         let done = store.positions()?;
         Ok((store, done))
     }

@@ -1,27 +1,39 @@
 //! The verdicts of an imported report, judged again from its data:
 //! `import` records what the values and the plan's limits say, never what
-//! results.json concludes (docs/campaigns.md, "What import trusts").
+//! results.json concludes (docs/campaigns.md, "`ledflicker import`").
 //!
 //! Each case's checks are rebuilt from its ROIs' recorded values and the
-//! limits of its light level (`thresholds`), with the tolerance and the
-//! rules of the run itself (an undefined value fails; a case outside the
-//! mitigation range, or with no limit that applies, is not judged); then
-//! the case verdicts, the counts and the overall verdict. A report whose
+//! limits of its light level (`thresholds`), with the rules of the run
+//! itself: the verdict basis (worst phase or as captured) picks the
+//! metric a limit checks, the tolerance 1e-9, an undefined value fails, an
+//! FDI is unbounded only where the ROI's contrast is, a limit may go
+//! unchecked only where the data lacks what it needs (FDI: the OFF level;
+//! the P2020 KPIs, visibility, colour: their values), a case outside the
+//! mitigation range or with no limit that applies is not judged. Then the
+//! case verdicts, the counts and the overall verdict. A report whose
 //! conclusions differ from its own data was edited, or written by a tool
 //! that judged otherwise: it is refused, naming the case.
 
-use crate::model::{CaseInfo, Comparison, Results, RoiKind, VERDICT_TOLERANCE};
-use crate::model::{Thresholds, Verdict};
+use std::collections::BTreeSet;
+
+use crate::model::{BackendName, CaseInfo, Comparison, Results, RoiInfo, RoiKind};
+use crate::model::{VERDICT_TOLERANCE, Verdict, VerdictBasis};
+
+/// Mismatches listed at most; the rest are counted.
+const MAX: usize = 8;
 
 /// The mismatches between what `r` concludes and what its data says, at
-/// most `MAX` of them, one line each; empty when they agree.
+/// most [`MAX`] of them and a count of the others, one line each; empty
+/// when they agree.
 pub fn mismatches(r: &Results) -> Vec<String> {
-    const MAX: usize = 8;
     let mut out = Vec::new();
     let mut verdicts = Vec::new();
     let mut counts = [0usize; 3];
+    // Captures and rigs are judged as captured whatever `basis` says.
+    let worst_phase = r.method.backend == BackendName::Simulator
+        && r.thresholds.basis == VerdictBasis::WorstPhase;
     for case in r.cases.iter() {
-        let verdict = judge(&case, &r.thresholds, &mut out);
+        let verdict = judge(&case, r, worst_phase, &mut out);
         if verdict != case.verdict {
             out.push(format!(
                 "case `{}`: results.json says {}, its checks and limits say {}",
@@ -36,70 +48,122 @@ pub fn mismatches(r: &Results) -> Vec<String> {
             Verdict::Info => 2,
         }] += 1;
         verdicts.push(verdict);
-        if out.len() >= MAX {
-            break;
-        }
     }
-    if out.is_empty() {
-        let overall = crate::metrics::verdict::overall(verdicts);
-        if overall != r.verdict {
-            out.push(format!(
-                "the overall verdict: results.json says {}, its cases say {}",
-                r.verdict.as_str(),
-                overall.as_str()
-            ));
-        }
-        let said = [r.counts.pass, r.counts.fail, r.counts.info];
-        if said != counts || r.counts.total != r.cases.len() {
-            out.push(format!(
-                "the counts: results.json says {} pass, {} fail, {} not judged of {}; its cases say {} pass, {} fail, {} not judged of {}",
-                said[0],
-                said[1],
-                said[2],
-                r.counts.total,
-                counts[0],
-                counts[1],
-                counts[2],
-                r.cases.len()
-            ));
-        }
+    let overall = crate::metrics::verdict::overall(verdicts);
+    if overall != r.verdict {
+        out.push(format!(
+            "the overall verdict: results.json says {}, its cases say {}",
+            r.verdict.as_str(),
+            overall.as_str()
+        ));
     }
-    out.truncate(MAX);
+    let said = [r.counts.pass, r.counts.fail, r.counts.info];
+    if said != counts || r.counts.total != r.cases.len() {
+        out.push(format!(
+            "the counts: results.json says {} pass, {} fail, {} not judged of {}; its cases say {} pass, {} fail, {} not judged of {}",
+            said[0],
+            said[1],
+            said[2],
+            r.counts.total,
+            counts[0],
+            counts[1],
+            counts[2],
+            r.cases.len()
+        ));
+    }
+    if out.len() > MAX {
+        let more = out.len() - MAX;
+        out.truncate(MAX);
+        out.push(format!("and {more} more"));
+    }
     out
 }
 
-/// The limit a check on `metric` takes from `lim`, and whether it is a
-/// minimum; `None` for a metric no limit names.
-fn limit_of(metric: &str, lim: &crate::plan::Limits) -> Option<(Option<f64>, bool)> {
-    Some(match metric {
-        "fdi_2018" | "fdi_2018_worst_phase" => (lim.fdi_2018_min, true),
-        "percent_flicker" | "percent_flicker_worst_phase" => (lim.percent_flicker_max, false),
+/// The limit families, each with the metric a check of it names (before
+/// the basis's suffix for the first two).
+const FAMILIES: [&str; 7] = [
+    "fdi_2018",
+    "percent_flicker",
+    "fmi",
+    "fdi_p2020",
+    "mmp",
+    "visibility",
+    "delta_uv",
+];
+
+/// The family of a checked metric, and the metric the family's check must
+/// name on `roi` (the worst-phase figures where the basis takes them).
+fn family_of<'a>(metric: &str, roi: &RoiInfo, worst_phase: bool) -> Option<(&'a str, String)> {
+    let family = FAMILIES
+        .into_iter()
+        .find(|f| metric == *f || metric.strip_prefix(f) == Some("_worst_phase"))?;
+    let suffix = if worst_phase
+        && matches!(family, "fdi_2018" | "percent_flicker")
+        && roi.metrics.contains_key("fdi_2018_worst_phase")
+        && roi.metrics.contains_key("percent_flicker_worst_phase")
+    {
+        "_worst_phase"
+    } else {
+        ""
+    };
+    Some((family, format!("{family}{suffix}")))
+}
+
+/// The limit of `family` in `lim`, and whether it is a minimum.
+fn limit_of(family: &str, lim: &crate::plan::Limits) -> (Option<f64>, bool) {
+    match family {
+        "fdi_2018" => (lim.fdi_2018_min, true),
+        "percent_flicker" => (lim.percent_flicker_max, false),
         "fmi" => (lim.fmi_max, false),
         "fdi_p2020" => (lim.fdi_p2020_min, true),
         "mmp" => (lim.mmp_min, true),
         "visibility" => (lim.visibility_max, false),
-        "delta_uv" => (lim.delta_uv_max, false),
-        _ => return None,
-    })
+        _ => (lim.delta_uv_max, false),
+    }
 }
 
 /// The case's verdict from its data; what does not add up goes to `out`.
-fn judge(case: &CaseInfo, t: &Thresholds, out: &mut Vec<String>) -> Verdict {
+fn judge(case: &CaseInfo, r: &Results, worst_phase: bool, out: &mut Vec<String>) -> Verdict {
     let lux = (case.light_lux > 0.0).then_some(case.light_lux);
-    let lim = t.limits_for(lux);
+    let lim = r.thresholds.limits_for(lux);
     let mut all_pass = true;
+    let mut seen = BTreeSet::new();
+    let mut bad = |what: String| out.push(format!("case `{}`: {what}", case.id));
     for c in &case.checks {
-        let Some((limit, min)) = limit_of(&c.metric, &lim) else {
-            out.push(format!(
-                "case `{}`: a check on `{}`, which no limit of the plan names",
-                case.id, c.metric
+        if !seen.insert((c.roi.as_str(), c.metric.as_str())) {
+            bad(format!(
+                "the check of {} on `{}` appears twice",
+                c.metric, c.roi
+            ));
+            continue;
+        }
+        let Some(roi) = case.rois.iter().find(|x| x.name == c.roi) else {
+            bad(format!(
+                "a check on `{}`, which is not one of its ROIs",
+                c.roi
             ));
             continue;
         };
+        if roi.kind != RoiKind::Led {
+            bad(format!("a check on the background ROI `{}`", c.roi));
+        }
+        let Some((family, expected)) = family_of(&c.metric, roi, worst_phase) else {
+            bad(format!(
+                "a check on `{}`, which no limit of the plan names",
+                c.metric
+            ));
+            continue;
+        };
+        if c.metric != expected {
+            bad(format!(
+                "the limit of {family} on `{}` checks {}, the verdict basis says {expected}",
+                c.roi, c.metric
+            ));
+        }
+        let (limit, min) = limit_of(family, &lim);
         if limit != Some(c.threshold) || min != (c.comparison == Comparison::AtLeast) {
-            out.push(format!(
-                "case `{}`: the check of {} on `{}` has the limit {} {}, the plan's limits say {}",
-                case.id,
+            bad(format!(
+                "the check of {} on `{}` has the limit {} {}, the plan's limits say {}",
                 c.metric,
                 c.roi,
                 c.comparison.as_str(),
@@ -110,29 +174,23 @@ fn judge(case: &CaseInfo, t: &Thresholds, out: &mut Vec<String>) -> Verdict {
                 ))
             ));
         }
-        let roi = case.rois.iter().find(|r| r.name == c.roi);
-        match roi {
-            Some(r) if r.kind != RoiKind::Led => out.push(format!(
-                "case `{}`: a check on the background ROI `{}`",
-                case.id, c.roi
-            )),
-            None => out.push(format!(
-                "case `{}`: a check on `{}`, which is not one of its ROIs",
-                case.id, c.roi
-            )),
-            Some(r) => {
-                if let Some(Some(v)) = r.metrics.get(&c.metric)
-                    && c.value.is_some_and(|x| x.to_bits() != v.to_bits())
-                {
-                    out.push(format!(
-                        "case `{}`: the check of {} on `{}` compares {}, the ROI's value is {v}",
-                        case.id,
-                        c.metric,
-                        c.roi,
-                        c.value.unwrap_or(f64::NAN)
-                    ));
-                }
-            }
+        let recorded = roi.metrics.get(&c.metric).copied().flatten();
+        if c.value.map(f64::to_bits) != recorded.map(f64::to_bits) {
+            bad(format!(
+                "the check of {} on `{}` compares {}, the ROI's value is {}",
+                c.metric,
+                c.roi,
+                c.value.map_or("none".to_string(), |v| v.to_string()),
+                recorded.map_or("none".to_string(), |v| v.to_string())
+            ));
+        }
+        if c.unbounded != roi.is_unbounded(&c.metric) || (c.unbounded && c.value.is_some()) {
+            bad(format!(
+                "the check of {} on `{}` is marked {}unbounded, its ROI's data says otherwise",
+                c.metric,
+                c.roi,
+                if c.unbounded { "" } else { "not " }
+            ));
         }
         let pass = if min {
             c.unbounded
@@ -144,9 +202,8 @@ fn judge(case: &CaseInfo, t: &Thresholds, out: &mut Vec<String>) -> Verdict {
                     .is_some_and(|v| v <= c.threshold + VERDICT_TOLERANCE)
         };
         if pass != c.pass {
-            out.push(format!(
-                "case `{}`: the check of {} on `{}` says {}, its value and limit say {}",
-                case.id,
+            bad(format!(
+                "the check of {} on `{}` says {}, its value and limit say {}",
                 c.metric,
                 c.roi,
                 if c.pass { "pass" } else { "fail" },
@@ -155,9 +212,18 @@ fn judge(case: &CaseInfo, t: &Thresholds, out: &mut Vec<String>) -> Verdict {
         }
         all_pass &= pass;
     }
-    missing_checks(case, &lim, out);
     let outside = case.frequency_hz > 0.0
-        && !crate::metrics::verdict::in_mitigation_range(case.frequency_hz, t);
+        && !crate::metrics::verdict::in_mitigation_range(case.frequency_hz, &r.thresholds);
+    let informative = case
+        .not_judged
+        .as_deref()
+        .is_some_and(|why| why.contains("informative"));
+    // Outside the range or informative, a case is not judged whatever its
+    // checks; else every limit that applies must be checked or excused
+    // ("no threshold applies" included).
+    if !outside && !informative {
+        missing_checks(case, &lim, out);
+    }
     match &case.not_judged {
         Some(why) if outside || case.checks.is_empty() || why.contains("informative") => {
             Verdict::Info
@@ -182,34 +248,35 @@ fn judge(case: &CaseInfo, t: &Thresholds, out: &mut Vec<String>) -> Verdict {
     }
 }
 
-/// Every LED ROI carries a check for each limit that applies, unless the
-/// report says why it could not (`not_checked`) or the case is not judged.
+/// Every LED ROI carries a check for each limit that applies, unless its
+/// data lacks what the limit needs and `not_checked` says so: FDI (2018)
+/// needs the OFF level; Percent Flicker can always be checked; the P2020
+/// KPIs, visibility and colour need their values.
 fn missing_checks(case: &CaseInfo, lim: &crate::plan::Limits, out: &mut Vec<String>) {
     for r in case.rois.iter().filter(|r| r.kind == RoiKind::Led) {
-        for family in [
-            "fdi_2018",
-            "percent_flicker",
-            "fmi",
-            "fdi_p2020",
-            "mmp",
-            "visibility",
-            "delta_uv",
-        ] {
-            let Some((Some(_), _)) = limit_of(family, lim) else {
+        for family in FAMILIES {
+            if limit_of(family, lim).0.is_none() {
                 continue;
-            };
+            }
             let checked = case.checks.iter().any(|c| {
                 c.roi == r.name
-                    && c.metric.starts_with(family)
-                    && limit_of(&c.metric, lim).is_some()
+                    && (c.metric == family || c.metric.strip_prefix(family) == Some("_worst_phase"))
             });
-            let excused = case
+            if checked {
+                continue;
+            }
+            let cannot = match family {
+                "fdi_2018" => r.levels.off.is_none(),
+                "percent_flicker" => false,
+                other => r.metrics.get(other).copied().flatten().is_none(),
+            };
+            let said = case
                 .not_checked
                 .iter()
                 .any(|n| n.starts_with(&format!("{}: ", r.name)));
-            if !checked && !excused && case.not_judged.is_none() {
+            if !(cannot && said) {
                 out.push(format!(
-                    "case `{}`: ROI `{}` has no check of the plan's {family} limit",
+                    "case `{}`: ROI `{}` has no check of the plan's {family} limit, though its data allows one",
                     case.id, r.name
                 ));
             }

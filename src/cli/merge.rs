@@ -93,6 +93,7 @@ pub(super) fn merge(a: MergeArgs) -> Result<i32, Failure> {
             detail: a.detail.into(),
             signing: None,
             golden: None,
+            resume_hint: None,
         },
         &|_| {},
     )?;

@@ -205,6 +205,13 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
             detail: args.detail.into(),
             signing,
             golden,
+            resume_hint: Some(format!(
+                "the {} cases of the run are kept beside `{}`; continue with `ledflicker plan {} --resume {}` (it goes straight to the report)",
+                runner::CaseSource::len(&results),
+                out.display(),
+                args.plan,
+                out.display()
+            )),
         },
         &|p| show_progress(&stage, p),
     )?;

@@ -240,18 +240,32 @@ pub(super) fn signature_of(
     if !dir.join(crate::signoff::SIGNATURE_FILE).is_file() {
         return (Signature::Unsigned, None);
     }
-    match crate::signoff::verify(dir, &trusted.0, None) {
+    // Whether the files are the ones signed, then, apart from it, whether
+    // a trusted certificate vouches for every signer: a signature by
+    // someone else's key is intact but untrusted, not broken.
+    let v = match crate::signoff::verify(dir, &[], None) {
+        Ok(v) if v.ok() => v,
         Ok(v) => {
-            let signer = v.signatures.first().map(|s| s.signer.clone());
-            let vouched =
-                v.identity_checked && v.signatures.iter().all(|s| s.trusted == Some(true));
-            let state = match (v.ok(), vouched) {
-                (false, _) => Signature::Broken,
-                (true, true) => Signature::Intact,
-                (true, false) => Signature::Untrusted,
-            };
-            (state, signer)
+            return (
+                Signature::Broken,
+                v.signatures.first().map(|s| s.signer.clone()),
+            );
         }
-        Err(_) => (Signature::Broken, None),
+        Err(_) => return (Signature::Broken, None),
+    };
+    let signer = v.signatures.first().map(|s| s.signer.clone());
+    if trusted.0.is_empty() {
+        return (Signature::Untrusted, signer);
     }
+    let vouched = crate::signoff::verify(dir, &trusted.0, None).is_ok_and(|t| {
+        t.identity_checked
+            && !t.signatures.is_empty()
+            && t.signatures.iter().all(|s| s.trusted == Some(true))
+    });
+    let state = if vouched {
+        Signature::Intact
+    } else {
+        Signature::Untrusted
+    };
+    (state, signer)
 }

@@ -133,7 +133,16 @@ fn import_judges_the_verdicts_again_and_refuses_a_report_edited_to_pass() {
     let dir = scratch("trust-rejudge");
     // 1.0 ms exposure: the 150 Hz cases fail.
     let p = small_plan(&dir, "p", "1.1", "1.0");
-    for out in ["genuine", "verdicts", "checks", "limits"] {
+    let forgeries = [
+        "verdicts",
+        "checks",
+        "limits",
+        "basis",
+        "unbounded",
+        "dropped",
+        "duplicate",
+    ];
+    for out in std::iter::once("genuine").chain(forgeries) {
         assert_eq!(plan(&dir, &p, out, &["--no-db"]).status.code(), Some(1));
     }
     let o = run(&dir, &["import", "genuine", "--db", "i.sqlite"]);
@@ -172,7 +181,54 @@ fn import_judges_the_verdicts_again_and_refuses_a_report_edited_to_pass() {
             }
         }
     });
-    for forged in ["verdicts", "checks", "limits"] {
+    // The failing worst-phase check renamed to the as-captured figure,
+    // which passes: the basis says worst phase.
+    forged(&dir, "basis", |v| {
+        v["verdict"] = "pass".into();
+        for c in v["cases"].as_array_mut().unwrap() {
+            if c["verdict"] == "fail" {
+                c["verdict"] = "pass".into();
+                let fdi = c["rois"][0]["metrics"]["fdi_2018"].clone();
+                for k in c["checks"].as_array_mut().unwrap() {
+                    k["metric"] = "fdi_2018".into();
+                    k["value"] = fdi.clone();
+                    k["pass"] = true.into();
+                }
+            }
+        }
+    });
+    // The failing check marked unbounded (+inf meets a minimum).
+    forged(&dir, "unbounded", |v| {
+        v["verdict"] = "pass".into();
+        for c in v["cases"].as_array_mut().unwrap() {
+            if c["verdict"] == "fail" {
+                c["verdict"] = "pass".into();
+                for k in c["checks"].as_array_mut().unwrap() {
+                    k["unbounded"] = true.into();
+                    k["pass"] = true.into();
+                }
+            }
+        }
+    });
+    // The failing check removed, excused in `not_checked`.
+    forged(&dir, "dropped", |v| {
+        v["verdict"] = "pass".into();
+        for c in v["cases"].as_array_mut().unwrap() {
+            if c["verdict"] == "fail" {
+                c["verdict"] = "info".into();
+                c["checks"] = serde_json::json!([]);
+                c["not_checked"] = serde_json::json!(["led: skipped"]);
+                c["not_judged"] = "no threshold applies (led: skipped)".into();
+            }
+        }
+    });
+    // A check twice: refused as an edit (exit 2), not a database error.
+    forged(&dir, "duplicate", |v| {
+        let c = &mut v["cases"][2];
+        let k = c["checks"][0].clone();
+        c["checks"].as_array_mut().unwrap().push(k);
+    });
+    for forged in forgeries {
         let o = run(&dir, &["import", forged, "--db", "i.sqlite"]);
         assert_eq!(o.status.code(), Some(2), "{forged}: {}", text(&o));
         assert!(
@@ -180,12 +236,56 @@ fn import_judges_the_verdicts_again_and_refuses_a_report_edited_to_pass() {
             "{}",
             text(&o)
         );
-        assert!(stderr(&o).contains("2000lux-150hz-"), "{}", text(&o));
+        assert!(stderr(&o).contains("2000lux-"), "{}", text(&o));
     }
     let o = run(&dir, &["history", "--db", "i.sqlite", "--json"]);
     let runs: Vec<serde_json::Value> = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(runs.len(), 1);
     assert_eq!(runs[0]["verdict"], "fail");
+}
+
+#[test]
+fn a_signature_by_a_key_the_user_does_not_trust_is_untrusted_not_broken() {
+    let dir = scratch("trust-signers");
+    let p = small_plan(&dir, "p", "1.0", "11.111");
+    for who in ["alice", "mallory"] {
+        let o = run(
+            &dir,
+            &[
+                "keygen",
+                "--signer",
+                "Alice Tester, Tested by",
+                "--out",
+                &format!("{who}.key"),
+            ],
+        );
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    }
+    // Mallory signs under Alice's name.
+    let signing = [
+        "--no-db",
+        "--sign-key",
+        "mallory.key",
+        "--signer",
+        "Alice Tester, Tested by",
+    ];
+    assert_eq!(plan(&dir, &p, "r", &signing).status.code(), Some(0));
+    let states = |trust: &[&str]| {
+        let db = format!("s{}.sqlite", trust.len());
+        let mut args = vec!["import", "r", "--db", &db];
+        args.extend(trust);
+        let o = run(&dir, &args);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+        let o = run(&dir, &["history", "--db", &db, "--json"]);
+        let runs: Vec<serde_json::Value> = serde_json::from_slice(&o.stdout).unwrap();
+        runs[0]["signature"].as_str().unwrap().to_string()
+    };
+    assert_eq!(states(&[]), "untrusted");
+    assert_eq!(states(&["--trust", "alice.crt"]), "untrusted");
+    assert_eq!(
+        states(&["--trust", "alice.crt", "--trust", "mallory.crt"]),
+        "intact"
+    );
 }
 
 #[test]

@@ -92,8 +92,16 @@ fn a_second_run_replaces_the_report_and_keeps_files_it_did_not_write() {
     assert_eq!(plan_into(&plan, &out, &dir).status.code(), Some(0));
     assert!(out.join(".ledflicker").is_file());
     std::fs::write(out.join("lab-notes.txt"), "bench 3").unwrap();
+    // A file of the user's inside a folder the report writes stops the
+    // re-run instead of going with the old generation; moved out, the run
+    // goes on, and the old run's traces are replaced.
     std::fs::write(out.join("traces/stale.csv"), "old").unwrap();
     let plan = small_plan(&dir, "frequencies-hz = [150.0]\nduty-cycles = [0.5]");
+    let o = plan_into(&plan, &out, &dir);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("traces/stale.csv"), "{}", stderr(&o));
+    std::fs::rename(out.join("traces/stale.csv"), dir.join("stale.csv")).unwrap();
+    std::fs::remove_file(dir.join("stale.csv")).unwrap();
     let o = plan_into(&plan, &out, &dir);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert_eq!(

@@ -220,3 +220,92 @@ fn resume_refuses_another_plan_and_a_directory_with_nothing_to_resume() {
         stderr(&o)
     );
 }
+
+/// A simulated sweep of 40 small cases whose report stage (the PDF) is
+/// most of its wall time.
+fn sweep(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml"))
+        .unwrap()
+        .replace("sensor-rows = 800", "sensor-rows = 12")
+        .replace("sensor-columns = 1280", "sensor-columns = 16")
+        .replace(
+            "frequencies-hz = [60.0, 150.0]\nduty-cycles = [0.2, 0.5]",
+            "frequencies-hz = [90.0, 110.0, 130.0, 150.0, 170.0, 190.0, 210.0, 230.0]\nduty-cycles = [0.1, 0.2, 0.3, 0.5, 0.7]",
+        )
+        .replace("fdi-2018-min = 0.1", "fdi-2018-min = 0.6")
+        + "\n[[roi]]\nname = \"led\"\nx-px = 2\ny-px = 4\nwidth-px = 8\nheight-px = 2\n";
+    assert!(text.contains("230.0]"));
+    let path = dir.join("p.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn a_sweep_stopped_at_any_instant_of_either_stage_resumes_to_the_bytes_of_an_uninterrupted_run() {
+    let dir = scratch("store-any-instant");
+    sweep(&dir);
+    let started = Instant::now();
+    let whole = plan_command(&dir, &["--out", "whole"]).output().unwrap();
+    let wall = started.elapsed();
+    assert!(
+        matches!(whole.status.code(), Some(0 | 1)),
+        "{}",
+        stderr(&whole)
+    );
+    let expected = tree(&dir.join("whole"));
+    // Instants spread over the whole run, run stage and report stage (a
+    // fixed pseudo-random sequence, so that a failure repeats), each with
+    // SIGKILL or SIGINT.
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    for round in 0..6 {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        let at = wall.mul_f64(0.05 + 0.9 * (state % 1000) as f64 / 1000.0);
+        let signal = if round % 2 == 0 {
+            libc::SIGKILL
+        } else {
+            libc::SIGINT
+        };
+        let out = format!("k{round}");
+        let mut child = plan_command(&dir, &["--out", &out])
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(at);
+        unsafe { libc::kill(child.id() as i32, signal) };
+        child.wait().unwrap();
+        // Resume until the report is there (a stop before any case was
+        // stored leaves nothing to resume: the plan is run afresh).
+        let mut tries = 0;
+        while !dir.join(&out).join("results.json").is_file() {
+            tries += 1;
+            assert!(tries <= 2, "round {round}: no report after resuming");
+            let o = plan_command(&dir, &["--resume", &out]).output().unwrap();
+            if o.status.code() == Some(2) && stderr(&o).contains("no interrupted run") {
+                let o = plan_command(&dir, &["--out", &out]).output().unwrap();
+                assert_eq!(o.status.code(), whole.status.code(), "{}", stderr(&o));
+            } else {
+                assert_eq!(
+                    o.status.code(),
+                    whole.status.code(),
+                    "round {round} (stopped at {at:?} of {wall:?}): {}",
+                    stderr(&o)
+                );
+            }
+        }
+        let got = tree(&dir.join(&out));
+        assert_eq!(
+            got.iter().map(|(p, _)| p).collect::<Vec<_>>(),
+            expected.iter().map(|(p, _)| p).collect::<Vec<_>>(),
+            "round {round}"
+        );
+        for ((path, x), (_, y)) in expected.iter().zip(&got) {
+            assert!(
+                x == y,
+                "round {round}: {} differs after the resume",
+                path.display()
+            );
+        }
+    }
+}

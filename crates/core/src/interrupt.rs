@@ -103,21 +103,31 @@ pub struct Prompt {
 }
 
 impl Prompt {
-    /// Starts watching; see [`Prompt`].
-    pub fn start(discard: std::path::PathBuf) -> Prompt {
+    /// Starts watching; see [`Prompt`]. With `keep` (a file name and a
+    /// hint), a stop keeps that file of `discard` (a run's finished case
+    /// store, for `--resume`) and removes the rest, then prints the hint.
+    pub fn start(discard: std::path::PathBuf, keep: Option<(&'static str, String)>) -> Prompt {
         let (done, over) = std::sync::mpsc::channel::<()>();
         let watcher = std::thread::spawn(move || {
             while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
                 over.recv_timeout(PROMPT_POLL)
             {
                 if let Some(signal) = requested() {
-                    // The writer may still add files: try a few times.
-                    for _ in 0..5 {
-                        if std::fs::remove_dir_all(&discard).is_ok() || !discard.exists() {
-                            break;
+                    eprintln!("error: {}", Interrupted { signal });
+                    match &keep {
+                        Some((file, hint)) if discard.join(file).is_file() => {
+                            prune(&discard, file);
+                            eprintln!("{hint}");
+                        }
+                        _ => {
+                            // The writer may still add files: try a few times.
+                            for _ in 0..5 {
+                                if std::fs::remove_dir_all(&discard).is_ok() || !discard.exists() {
+                                    break;
+                                }
+                            }
                         }
                     }
-                    eprintln!("error: {}", Interrupted { signal });
                     std::process::exit(Interrupted { signal }.exit_code());
                 }
             }
@@ -125,6 +135,31 @@ impl Prompt {
         Prompt {
             done: Some(done),
             watcher: Some(watcher),
+        }
+    }
+}
+
+/// Removes every entry of `dir` but `keep` (the writer may still add
+/// files: a few passes).
+pub fn prune(dir: &std::path::Path, keep: &str) {
+    for _ in 0..5 {
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return;
+        };
+        let mut left = false;
+        for e in entries.flatten() {
+            if e.file_name() == keep {
+                continue;
+            }
+            let path = e.path();
+            let gone = match e.file_type() {
+                Ok(t) if t.is_dir() => std::fs::remove_dir_all(&path),
+                _ => std::fs::remove_file(&path),
+            };
+            left |= gone.is_err();
+        }
+        if !left {
+            return;
         }
     }
 }

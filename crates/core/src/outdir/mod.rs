@@ -349,9 +349,9 @@ impl Generation {
     }
 
     /// Starts a generation from the staging directory that an interrupted
-    /// or killed run of `out` left beside it with the file `keep` in it
-    /// (the newest, when there are several); everything else in that
-    /// directory is removed. Refused when there is none.
+    /// or killed run of `out` left beside it with one of the files `keep`
+    /// in it (the newest, when there are several); everything else in
+    /// that directory is removed. Refused when there is none.
     pub fn resume(out: &Path, keep: &[&str]) -> Result<Generation, OutDirError> {
         let (parent, name) = split(out)?;
         let prefix = format!("{}new-", temp_prefix(&name));
@@ -365,7 +365,7 @@ impl Generation {
                             .and_then(|pid| pid.parse::<u32>().ok())
                             .is_some_and(|pid| !crate::util::alive(pid))
                     })
-                    .filter(|e| keep.first().is_some_and(|k| e.path().join(k).is_file()))
+                    .filter(|e| keep.iter().any(|k| e.path().join(k).is_file()))
                     .filter_map(|e| Some((e.metadata().ok()?.modified().ok()?, e.path())))
                     .collect()
             })
@@ -374,7 +374,7 @@ impl Generation {
         let Some((_, from)) = left.pop() else {
             return Err(OutDirError::Refused {
                 dir: out.to_path_buf(),
-                message: "has no interrupted run beside it to resume (no staging directory with a partial case store)".to_string(),
+                message: "has no interrupted run beside it to resume (no staging directory with a case store)".to_string(),
                 hint: "run the plan without --resume".to_string(),
             });
         };
