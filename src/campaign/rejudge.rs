@@ -224,10 +224,15 @@ fn judge(case: &CaseInfo, r: &Results, worst_phase: bool, out: &mut Vec<String>)
     if !outside && !informative {
         missing_checks(case, &lim, out);
     }
+    verdict_of(case, outside || informative, all_pass, out)
+}
+
+/// The case's verdict: not judged outside the mitigation range or when
+/// informative (`excused`), or with no check; else pass when every check
+/// passes. A `not_judged` that the data does not bear out goes to `out`.
+fn verdict_of(case: &CaseInfo, excused: bool, all_pass: bool, out: &mut Vec<String>) -> Verdict {
     match &case.not_judged {
-        Some(why) if outside || case.checks.is_empty() || why.contains("informative") => {
-            Verdict::Info
-        }
+        Some(_) if excused || case.checks.is_empty() => Verdict::Info,
         Some(why) => {
             out.push(format!(
                 "case `{}`: not judged ({why}), though it is in the mitigation range and checked",
@@ -235,7 +240,7 @@ fn judge(case: &CaseInfo, r: &Results, worst_phase: bool, out: &mut Vec<String>)
             ));
             Verdict::Info
         }
-        None if outside => {
+        None if excused => {
             out.push(format!(
                 "case `{}`: judged, though {} Hz is outside the mitigation range",
                 case.id, case.frequency_hz
