@@ -57,8 +57,8 @@ const NUMERIC_FLOOR: f64 = 1e-9;
 const SYSTEMATIC_Z: f64 = 1.0;
 
 /// The fewest degrees of freedom for which the repeats' spread is used:
-/// below it Student's t is so wide (25 sigma at 2 degrees of freedom and
-/// 8 gated KPIs, 7 at 6) that a third baseline run would make the gate
+/// below it Student's t is so wide (14 sigma at 2 degrees of freedom and
+/// 8 gated KPIs, 4.3 at 6) that a third baseline run would make the gate
 /// blind to a change the traces show; the traces are used instead.
 pub const MIN_REPEAT_DF: usize = 6;
 

@@ -110,6 +110,22 @@ pub(super) fn load_signer(
 }
 
 pub(super) fn sign(args: SignArgs) -> Result<i32, Failure> {
+    // The signature vouches for the report as rendered from results.json:
+    // one whose verdicts do not follow from its own values and limits was
+    // edited, and is not signed (nor rendered again as it says).
+    if let Ok(text) = crate::util::read_input_to_string(&args.dir.join("results.json"))
+        && let Ok(results) = crate::model::read_results(&text)
+    {
+        let problems = crate::campaign::rejudge::mismatches(&results);
+        if !problems.is_empty() {
+            return Err(UsageError(format!(
+                "`{}`: its verdicts do not follow from its own values and limits, so it is not signed:\n  {}\n    hint: the report was edited after it was written; run the plan again and sign its report",
+                args.dir.display(),
+                problems.join("\n  ")
+            ))
+            .into());
+        }
+    }
     let date = report_date(args.date.as_deref())?;
     let time = signing_time()?;
     let (key, key_files) = load_signer(

@@ -540,3 +540,48 @@ fn a_rerun_refuses_to_lose_a_users_file_saved_inside_a_report_folder() {
     }
     assert_eq!(plan(&dir, &p, "r", &["--no-db"]).status.code(), Some(0));
 }
+
+#[test]
+fn sign_refuses_a_report_whose_verdicts_were_edited() {
+    let dir = scratch("trust-sign-edited");
+    let p = small_plan(&dir, "p", "1.1", "1.0");
+    assert_eq!(plan(&dir, &p, "r", &["--no-db"]).status.code(), Some(1));
+    let o = run(
+        &dir,
+        &[
+            "keygen",
+            "--signer",
+            "Ada Tester, Tested by",
+            "--out",
+            "ada.key",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    forged(&dir, "r", |v| {
+        v["verdict"] = "pass".into();
+        for c in v["cases"].as_array_mut().unwrap() {
+            if c["verdict"] == "fail" {
+                c["verdict"] = "pass".into();
+                for k in c["checks"].as_array_mut().unwrap() {
+                    k["pass"] = true.into();
+                }
+            }
+        }
+    });
+    let pdf = std::fs::read(dir.join("r/report.pdf")).unwrap();
+    let o = run(
+        &dir,
+        &[
+            "sign",
+            "r",
+            "--key",
+            "ada.key",
+            "--signer",
+            "Ada Tester, Tested by",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(stderr(&o).contains("so it is not signed"), "{}", text(&o));
+    assert!(!dir.join("r/signoff.p7s").exists());
+    assert_eq!(std::fs::read(dir.join("r/report.pdf")).unwrap(), pdf);
+}

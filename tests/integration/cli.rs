@@ -679,7 +679,21 @@ fn ctrl_c_in_the_report_stage_stops_at_once_and_keeps_the_old_report() {
         "stopped {took:.3} s after SIGINT, in a report stage of {report_s:.3} s"
     );
     assert_eq!(std::fs::read(out.join("results.json")).unwrap(), before);
-    assert!(!staging.exists(), "the new generation was left behind");
+    // Of the new generation only the run's finished case store is kept,
+    // for `--resume`, which the message names.
+    let left: Vec<String> = std::fs::read_dir(&staging)
+        .expect("the staging directory keeps the case store")
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(
+        left,
+        [ledflicker::store::FILE],
+        "the half-written report was left behind"
+    );
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut run.stderr.take().unwrap(), &mut err).unwrap();
+    assert!(err.contains("--resume"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
