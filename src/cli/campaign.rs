@@ -301,9 +301,10 @@ fn table(runs: &[RunRow]) -> String {
         "cases",
         "fail",
         "signature",
+        "source",
         "report",
     ];
-    let rows: Vec<[String; 11]> = runs
+    let rows: Vec<[String; 12]> = runs
         .iter()
         .map(|r| {
             [
@@ -317,6 +318,7 @@ fn table(runs: &[RunRow]) -> String {
                 r.cases[0].to_string(),
                 r.cases[2].to_string(),
                 r.signature.clone(),
+                r.source.clone(),
                 r.report_dir.clone(),
             ]
         })
