@@ -330,6 +330,30 @@ impl Comparison {
         }
     }
 
+    /// The repeats in words: the runs (`18 other runs of this test on
+    /// this device and firmware`, or `2 other runs like A, 3 like B`) and
+    /// the degrees of freedom of the KPIs that used them (`17`, `12 to 17`).
+    pub fn repeats_in_words(&self) -> (String, String) {
+        let (_, lo, hi) = self.from_repeats();
+        let runs = if self.one_group {
+            format!(
+                "{} other runs of this test on this device and firmware",
+                self.repeats.0
+            )
+        } else {
+            format!(
+                "{} other runs like A, {} like B",
+                self.repeats.0, self.repeats.1
+            )
+        };
+        let df = if lo == hi {
+            lo.to_string()
+        } else {
+            format!("{lo} to {hi}")
+        };
+        (runs, df)
+    }
+
     /// The runs may be compared (the same test, or differences accepted)
     /// and share a gated KPI.
     pub fn is_comparable(&self) -> bool {

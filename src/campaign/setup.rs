@@ -72,6 +72,23 @@ pub struct Difference {
     pub b: Option<String>,
 }
 
+impl Difference {
+    /// The values in A and in B as shown, `(absent)` where a run lacks
+    /// the key.
+    pub fn shown(&self) -> (String, String) {
+        let v = |x: &Option<String>| x.clone().unwrap_or_else(|| "(absent)".to_string());
+        (v(&self.a), v(&self.b))
+    }
+}
+
+impl std::fmt::Display for Difference {
+    /// `kind key: a -> b`, as the terminal and JUnit list it.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (a, b) = self.shown();
+        write!(f, "{} {}: {a} -> {b}", self.kind, self.key)
+    }
+}
+
 impl Setup {
     /// The set-up of a run's results.
     pub fn of(r: &Results) -> Setup {

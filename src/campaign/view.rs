@@ -5,7 +5,9 @@
 
 use std::collections::BTreeMap;
 
-use super::compare::{ALPHA, Comparability, Comparison, Kpi, PoolMethod, Source, TRACE_INFLATION};
+use super::compare::{
+    ALPHA, Comparability, Comparison, Kpi, MIN_REPEAT_DF, PoolMethod, Source, TRACE_INFLATION,
+};
 use super::query::{RunData, RunRow};
 use crate::report::comparison::{
     ChartPoint, ComparisonView, DeltaCell, DeltaMatrix, DifferenceRow, FlipRow, KpiChange,
@@ -79,22 +81,10 @@ fn noise_source(c: &Comparison) -> String {
     let noiseless = count(&|k| k.sigma == Some(0.0));
     let trace = count(&|k| k.source == Source::Trace && k.sigma.is_some_and(|s| s > 0.0));
     let unknown = count(&|k| k.source == Source::Unknown);
-    let (repeats, df_lo, df_hi) = c.from_repeats();
+    let (repeats, _, _) = c.from_repeats();
     let mut s = Vec::new();
     if repeats > 0 {
-        let df = if df_lo == df_hi {
-            df_lo.to_string()
-        } else {
-            format!("{df_lo} to {df_hi}")
-        };
-        let runs = if c.one_group {
-            format!(
-                "{} other runs of this test on this device and firmware",
-                c.repeats.0
-            )
-        } else {
-            format!("{} other runs like A, {} like B", c.repeats.0, c.repeats.1)
-        };
+        let (runs, df) = c.repeats_in_words();
         s.push(format!(
             "For {repeats} of the {} gated KPIs σ is the run-to-run spread measured over the repeated runs of the same test in the database ({runs}; A and B left out), times √2 for two runs; the gate is Student's t at {df} degrees of freedom.",
             gated.len()
@@ -102,7 +92,7 @@ fn noise_source(c: &Comparison) -> String {
     }
     if trace > 0 {
         s.push(format!(
-            "For {trace}, with no repeated runs to measure it from, σ is each run's frame-to-frame noise propagated through the KPI's formula, times {TRACE_INFLATION} (the most by which the real run-to-run spread exceeded it in our measurements)."
+            "For {trace}, with too few repeated runs in the database to measure it from (at least {MIN_REPEAT_DF} degrees of freedom), σ is each run's frame-to-frame noise propagated through the KPI's formula, times {TRACE_INFLATION} (the most by which the real run-to-run spread exceeded it in our measurements)."
         ));
     }
     if noiseless > 0 {
@@ -327,12 +317,12 @@ pub fn view(c: &Comparison, b: &RunData, date: &str) -> ComparisonView {
             .differences
             .iter()
             .map(|d| {
-                let v = |x: &Option<String>| x.clone().unwrap_or_else(|| "(absent)".to_string());
+                let (a, b) = d.shown();
                 DifferenceRow {
                     key: d.key.clone(),
                     kind: d.kind.to_string(),
-                    a: v(&d.a),
-                    b: v(&d.b),
+                    a,
+                    b,
                 }
             })
             .collect(),

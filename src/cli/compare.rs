@@ -305,14 +305,7 @@ fn text(c: &Comparison, why: &[String]) -> String {
     } else {
         s.push_str("set-up differences (A -> B):\n");
         for d in &c.differences {
-            let v = |x: &Option<String>| x.clone().unwrap_or_else(|| "(absent)".to_string());
-            s.push_str(&format!(
-                "  {} {}: {} -> {}\n",
-                d.kind,
-                d.key,
-                v(&d.a),
-                v(&d.b)
-            ));
+            s.push_str(&format!("  {d}\n"));
         }
     }
     if c.comparability == Comparability::Accepted {
@@ -400,7 +393,7 @@ fn text(c: &Comparison, why: &[String]) -> String {
 /// Where the gate's noise came from, in one line.
 fn noise_line(c: &Comparison) -> String {
     let gated = || c.kpis.iter().filter(|k| k.worse != 0);
-    let (repeats, df_lo, df_hi) = c.from_repeats();
+    let (repeats, _, _) = c.from_repeats();
     let trace = gated()
         .filter(|k| k.source == Source::Trace && k.sigma.is_some_and(|s| s > 0.0))
         .count();
@@ -410,19 +403,7 @@ fn noise_line(c: &Comparison) -> String {
     let unknown = gated().filter(|k| k.source == Source::Unknown).count();
     let mut parts = Vec::new();
     if repeats > 0 {
-        let df = if df_lo == df_hi {
-            format!("{df_lo}")
-        } else {
-            format!("{df_lo} to {df_hi}")
-        };
-        let runs = if c.repeats.1 == 0 {
-            format!(
-                "{} other runs of this test on this device and firmware",
-                c.repeats.0
-            )
-        } else {
-            format!("{} other runs like A, {} like B", c.repeats.0, c.repeats.1)
-        };
+        let (runs, df) = c.repeats_in_words();
         parts.push(format!(
             "{repeats} from the spread over repeated runs ({runs}; {df} degrees of freedom, Student's t)"
         ));
@@ -465,14 +446,7 @@ fn junit(c: &Comparison) -> Result<String, quick_junit::SerializeError> {
     let mut suite = TestSuite::new(format!("ledflicker compare {} {}", c.a.id, c.b.id));
     // The set-up first: what differs, and whether the runs are the same
     // test. A CI reading only the failures sees an unaccepted difference.
-    let differences: Vec<String> = c
-        .differences
-        .iter()
-        .map(|d| {
-            let v = |x: &Option<String>| x.clone().unwrap_or_else(|| "(absent)".to_string());
-            format!("{} {}: {} -> {}", d.kind, d.key, v(&d.a), v(&d.b))
-        })
-        .collect();
+    let differences: Vec<String> = c.differences.iter().map(ToString::to_string).collect();
     for (i, d) in differences.iter().enumerate() {
         suite.add_property(quick_junit::Property::new(
             format!("difference.{}", i + 1),

@@ -128,6 +128,20 @@ fn forged(dir: &Path, name: &str, edit: impl Fn(&mut serde_json::Value)) {
     std::fs::write(&path, serde_json::to_string(&v).unwrap()).unwrap();
 }
 
+/// `v` (a results.json) turned to pass: the overall verdict and each
+/// failing case's, with `edit` applied to each of that case's checks.
+fn to_pass(v: &mut serde_json::Value, edit: impl Fn(&mut serde_json::Value)) {
+    v["verdict"] = "pass".into();
+    for c in v["cases"].as_array_mut().unwrap() {
+        if c["verdict"] == "fail" {
+            c["verdict"] = "pass".into();
+            for k in c["checks"].as_array_mut().unwrap() {
+                edit(k);
+            }
+        }
+    }
+}
+
 #[test]
 fn import_judges_the_verdicts_again_and_refuses_a_report_edited_to_pass() {
     let dir = scratch("trust-rejudge");
@@ -157,29 +171,13 @@ fn import_judges_the_verdicts_again_and_refuses_a_report_edited_to_pass() {
         }
     });
     // The checks too.
-    forged(&dir, "checks", |v| {
-        v["verdict"] = "pass".into();
-        for c in v["cases"].as_array_mut().unwrap() {
-            if c["verdict"] == "fail" {
-                c["verdict"] = "pass".into();
-                for k in c["checks"].as_array_mut().unwrap() {
-                    k["pass"] = true.into();
-                }
-            }
-        }
-    });
+    forged(&dir, "checks", |v| to_pass(v, |k| k["pass"] = true.into()));
     // The limit lowered in the failing checks only.
     forged(&dir, "limits", |v| {
-        v["verdict"] = "pass".into();
-        for c in v["cases"].as_array_mut().unwrap() {
-            if c["verdict"] == "fail" {
-                c["verdict"] = "pass".into();
-                for k in c["checks"].as_array_mut().unwrap() {
-                    k["pass"] = true.into();
-                    k["threshold"] = (-1.0).into();
-                }
-            }
-        }
+        to_pass(v, |k| {
+            k["pass"] = true.into();
+            k["threshold"] = (-1.0).into();
+        })
     });
     // The failing worst-phase check renamed to the as-captured figure,
     // which passes: the basis says worst phase.
@@ -199,16 +197,10 @@ fn import_judges_the_verdicts_again_and_refuses_a_report_edited_to_pass() {
     });
     // The failing check marked unbounded (+inf meets a minimum).
     forged(&dir, "unbounded", |v| {
-        v["verdict"] = "pass".into();
-        for c in v["cases"].as_array_mut().unwrap() {
-            if c["verdict"] == "fail" {
-                c["verdict"] = "pass".into();
-                for k in c["checks"].as_array_mut().unwrap() {
-                    k["unbounded"] = true.into();
-                    k["pass"] = true.into();
-                }
-            }
-        }
+        to_pass(v, |k| {
+            k["unbounded"] = true.into();
+            k["pass"] = true.into();
+        })
     });
     // The failing check removed, excused in `not_checked`.
     forged(&dir, "dropped", |v| {
@@ -557,17 +549,7 @@ fn sign_refuses_a_report_whose_verdicts_were_edited() {
         ],
     );
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    forged(&dir, "r", |v| {
-        v["verdict"] = "pass".into();
-        for c in v["cases"].as_array_mut().unwrap() {
-            if c["verdict"] == "fail" {
-                c["verdict"] = "pass".into();
-                for k in c["checks"].as_array_mut().unwrap() {
-                    k["pass"] = true.into();
-                }
-            }
-        }
-    });
+    forged(&dir, "r", |v| to_pass(v, |k| k["pass"] = true.into()));
     let pdf = std::fs::read(dir.join("r/report.pdf")).unwrap();
     let o = run(
         &dir,
