@@ -24,6 +24,7 @@ use std::time::Duration;
 use rusqlite::{Connection, OpenFlags, OptionalExtension, TransactionBehavior};
 
 pub mod compare;
+pub mod flips;
 pub mod noise;
 pub mod pages;
 pub mod query;
