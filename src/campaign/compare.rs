@@ -87,6 +87,19 @@ impl Default for GateOptions {
     }
 }
 
+/// Gated KPIs by where their sigma came from ([`Comparison::noise_counts`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct NoiseCounts {
+    /// From the spread over repeated runs.
+    pub repeats: usize,
+    /// From the runs' traces, noisy.
+    pub trace: usize,
+    /// From the traces of runs without noise: sigma 0.
+    pub noiseless: usize,
+    /// Unknown: a trace was unreadable.
+    pub unknown: usize,
+}
+
 /// Where a KPI's sigma came from.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Source {
@@ -287,6 +300,22 @@ impl Comparison {
         } else {
             format!("{lo:.2} to {hi:.2}")
         }
+    }
+
+    /// How many gated KPIs took their sigma from each source: repeats,
+    /// the traces (noisy), the traces of noiseless runs (sigma 0), or
+    /// none (a trace was unreadable).
+    pub fn noise_counts(&self) -> NoiseCounts {
+        let mut n = NoiseCounts::default();
+        for k in self.kpis.iter().filter(|k| k.worse != 0) {
+            match (k.source, k.sigma) {
+                (Source::Repeats(..), _) => n.repeats += 1,
+                (Source::Trace, Some(s)) if s > 0.0 => n.trace += 1,
+                (Source::Trace, _) => n.noiseless += 1,
+                (Source::Unknown, _) => n.unknown += 1,
+            }
+        }
+        n
     }
 
     /// The repeats in words: the runs (`18 other runs of this test on

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::setup::Setup;
+use super::setup::{CaseFacts, Setup};
 use super::sql::values;
 use super::{CampaignError, Database, noise};
 use crate::model::{CaseInfo, Results};
@@ -138,24 +138,28 @@ fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
     };
     // The traces are read and parsed in parallel: recording a run is on
     // the wall time of every `plan`.
-    let noise = (0..results.cases.len())
+    // One pass over the cases (a large run's are read back from its
+    // spill file): each trace's noise, and the case's facts for the
+    // set-up.
+    let (noise, facts): (Vec<_>, Vec<_>) = (0..results.cases.len())
         .into_par_iter()
         .map(|i| {
             let Some(case) = results.cases.get(i) else {
-                return Vec::new();
+                return (Vec::new(), CaseFacts::default());
             };
             let names: Vec<&str> = case.rois.iter().map(|r| r.name.as_str()).collect();
             // A trace that is gone or unreadable leaves the noise unknown:
             // `compare` then says it cannot judge that case's changes.
-            match read_trace(&abs, &case.trace) {
+            let noise = match read_trace(&abs, &case.trace) {
                 Ok(text) => noise::of_trace(&text, &names),
                 Err(_) => vec![None; names.len()],
-            }
+            };
+            (noise, CaseFacts::of(&case))
         })
-        .collect();
+        .unzip();
     spill_read(results)?;
     let meta = results.report.clone().or(stored_meta);
-    let mut setup = Setup::of(results);
+    let mut setup = Setup::of_facts(results, facts);
     if results.report.is_none() {
         // The inputs are in the `report` object read from the file.
         let with_meta = Results {

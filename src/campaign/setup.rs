@@ -89,9 +89,58 @@ impl std::fmt::Display for Difference {
     }
 }
 
+/// What a set-up takes of one case: its conditions and its ROIs, each
+/// (name, description, whether the description is the drawn rectangle,
+/// which wins over a kind alone).
+#[derive(Debug, Clone, Default)]
+pub struct CaseFacts {
+    /// Illuminance, lux.
+    pub light_lux: f64,
+    /// PWM frequency, Hz.
+    pub frequency_hz: f64,
+    /// Duty cycle.
+    pub duty: f64,
+    /// The case's ROIs.
+    pub rois: Vec<(String, String, bool)>,
+}
+
+impl CaseFacts {
+    /// The facts of case `c`.
+    pub fn of(c: &crate::model::CaseInfo) -> CaseFacts {
+        let mut rois: Vec<(String, String, bool)> = c
+            .rois
+            .iter()
+            .map(|r| (r.name.clone(), kind_word(&json(&r.kind)), false))
+            .collect();
+        if let Some(f) = &c.sample_frame {
+            rois.extend(f.rois.iter().map(|b| {
+                let [x, y, w, h] = b.rect_px;
+                let what = format!(
+                    "{} at x {x}, y {y}, {w} x {h} px",
+                    kind_word(&json(&b.kind))
+                );
+                (b.name.clone(), what, true)
+            }));
+        }
+        CaseFacts {
+            light_lux: c.light_lux,
+            frequency_hz: c.frequency_hz,
+            duty: c.duty,
+            rois,
+        }
+    }
+}
+
 impl Setup {
     /// The set-up of a run's results.
     pub fn of(r: &Results) -> Setup {
+        Setup::of_facts(r, r.cases.iter().map(|c| CaseFacts::of(&c)))
+    }
+
+    /// The set-up of a run's results, its cases' facts taken already
+    /// (`record` takes them in the pass that reads the traces, so that a
+    /// large run's spilled cases are not read twice).
+    pub fn of_facts(r: &Results, cases: impl IntoIterator<Item = CaseFacts>) -> Setup {
         let mut map = BTreeMap::new();
         let mut put = |key: String, value: String| {
             map.insert(key, value);
@@ -111,24 +160,15 @@ impl Setup {
         let mut hz = Vec::new();
         let mut duty = Vec::new();
         let mut rois = BTreeMap::new();
-        for c in r.cases.iter() {
+        for c in cases {
             lux.push(c.light_lux);
             hz.push(c.frequency_hz);
             duty.push(c.duty);
-            for roi in &c.rois {
-                rois.entry(roi.name.clone())
-                    .or_insert_with(|| kind_word(&json(&roi.kind)));
-            }
-            if let Some(f) = &c.sample_frame {
-                for b in &f.rois {
-                    let [x, y, w, h] = b.rect_px;
-                    rois.insert(
-                        b.name.clone(),
-                        format!(
-                            "{} at x {x}, y {y}, {w} x {h} px",
-                            kind_word(&json(&b.kind))
-                        ),
-                    );
+            for (name, what, drawn) in c.rois {
+                if drawn {
+                    rois.insert(name, what);
+                } else {
+                    rois.entry(name).or_insert(what);
                 }
             }
         }

@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 
 use super::compare::{
-    ALPHA, Comparability, Comparison, Kpi, MIN_REPEAT_DF, PoolMethod, Source, TRACE_INFLATION,
+    ALPHA, Comparability, Comparison, Kpi, MIN_REPEAT_DF, PoolMethod, TRACE_INFLATION,
 };
 use super::query::{RunData, RunRow};
 use crate::report::comparison::{
@@ -76,18 +76,14 @@ fn by_concern(a: &KpiChange, b: &KpiChange) -> std::cmp::Ordering {
 
 /// The sentences saying where the gate's sigma came from.
 fn noise_source(c: &Comparison) -> String {
-    let gated: Vec<&Kpi> = c.kpis.iter().filter(|k| k.worse != 0).collect();
-    let count = |f: &dyn Fn(&Kpi) -> bool| gated.iter().filter(|k| f(k)).count();
-    let noiseless = count(&|k| k.sigma == Some(0.0));
-    let trace = count(&|k| k.source == Source::Trace && k.sigma.is_some_and(|s| s > 0.0));
-    let unknown = count(&|k| k.source == Source::Unknown);
-    let (repeats, _, _) = c.from_repeats();
+    let gated = c.gated();
+    let n = c.noise_counts();
+    let (repeats, trace, noiseless, unknown) = (n.repeats, n.trace, n.noiseless, n.unknown);
     let mut s = Vec::new();
     if repeats > 0 {
         let (runs, df) = c.repeats_in_words();
         s.push(format!(
-            "For {repeats} of the {} gated KPIs σ is the run-to-run spread measured over the repeated runs of the same test in the database ({runs}; A and B left out), times √2 for two runs; the gate is Student's t at {df} degrees of freedom.",
-            gated.len()
+            "For {repeats} of the {gated} gated KPIs σ is the run-to-run spread measured over the repeated runs of the same test in the database ({runs}; A and B left out), times √2 for two runs; the gate is Student's t at {df} degrees of freedom."
         ));
     }
     if trace > 0 {

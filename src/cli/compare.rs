@@ -13,7 +13,7 @@ use clap::Args;
 use super::campaign::DbArg;
 use super::{EXIT_FAIL, EXIT_NOT_COMPARABLE, EXIT_PASS, Failure, UsageError};
 use crate::campaign::compare::{
-    Comparability, Comparison, GateOptions, PoolMethod, Source, compare as compare_runs,
+    Comparability, Comparison, GateOptions, PoolMethod, compare as compare_runs,
 };
 use crate::campaign::query::{self, Filter, RunRow};
 use crate::campaign::{CampaignError, Database};
@@ -392,15 +392,8 @@ fn text(c: &Comparison, why: &[String]) -> String {
 
 /// Where the gate's noise came from, in one line.
 fn noise_line(c: &Comparison) -> String {
-    let gated = || c.kpis.iter().filter(|k| k.worse != 0);
-    let (repeats, _, _) = c.from_repeats();
-    let trace = gated()
-        .filter(|k| k.source == Source::Trace && k.sigma.is_some_and(|s| s > 0.0))
-        .count();
-    let noiseless = gated()
-        .filter(|k| k.source == Source::Trace && k.sigma == Some(0.0))
-        .count();
-    let unknown = gated().filter(|k| k.source == Source::Unknown).count();
+    let n = c.noise_counts();
+    let (repeats, trace, noiseless, unknown) = (n.repeats, n.trace, n.noiseless, n.unknown);
     let mut parts = Vec::new();
     if repeats > 0 {
         let (runs, df) = c.repeats_in_words();

@@ -14,7 +14,7 @@ fn exe() -> String {
 }
 
 /// A small, fast simulator plan (4 cases, 16 x 12 sensor), written to `dir`.
-fn small_plan(dir: &Path, grid: &str) -> PathBuf {
+pub(super) fn small_plan(dir: &Path, grid: &str) -> PathBuf {
     let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml"))
         .unwrap()
         .replace("sensor-rows = 800", "sensor-rows = 12")

@@ -224,17 +224,12 @@ fn resume_refuses_another_plan_and_a_directory_with_nothing_to_resume() {
 /// A simulated sweep of 40 small cases whose report stage (the PDF) is
 /// most of its wall time.
 fn sweep(dir: &Path) -> PathBuf {
-    let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml"))
+    let grid = "frequencies-hz = [90.0, 110.0, 130.0, 150.0, 170.0, 190.0, 210.0, 230.0]\nduty-cycles = [0.1, 0.2, 0.3, 0.5, 0.7]";
+    let small = crate::robust::small_plan(dir, grid);
+    let text = std::fs::read_to_string(small)
         .unwrap()
-        .replace("sensor-rows = 800", "sensor-rows = 12")
-        .replace("sensor-columns = 1280", "sensor-columns = 16")
-        .replace(
-            "frequencies-hz = [60.0, 150.0]\nduty-cycles = [0.2, 0.5]",
-            "frequencies-hz = [90.0, 110.0, 130.0, 150.0, 170.0, 190.0, 210.0, 230.0]\nduty-cycles = [0.1, 0.2, 0.3, 0.5, 0.7]",
-        )
-        .replace("fdi-2018-min = 0.1", "fdi-2018-min = 0.6")
-        + "\n[[roi]]\nname = \"led\"\nx-px = 2\ny-px = 4\nwidth-px = 8\nheight-px = 2\n";
-    assert!(text.contains("230.0]"));
+        .replace("fdi-2018-min = 0.1", "fdi-2018-min = 0.6");
+    assert!(text.contains("230.0]") && text.contains("fdi-2018-min = 0.6"));
     let path = dir.join("p.toml");
     std::fs::write(&path, text).unwrap();
     path
