@@ -333,6 +333,8 @@ fn write_stage(
     let model = write_files(generation, model, run.results, write, on_progress)?;
     drop(t);
     drop(prompt);
+    // The marker goes in before the signature, so that the signature covers it.
+    generation.write_marker()?;
     let signed = match options.signing.take() {
         Some(s) => Some(sign(generation, &options.date, s)?),
         None => None,

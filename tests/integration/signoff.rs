@@ -96,6 +96,11 @@ fn two_signatories_sign_in_turn_and_standard_tools_verify_both() {
         "Ada Tester, Tested by",
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // The marker, written before the signature, is covered by it.
+    let manifest = std::fs::read_to_string(dir.join("manifest.txt")).unwrap();
+    let sum = text(&tool("sha256sum", &[".ledflicker"], &dir));
+    let line = format!("{}  .ledflicker", sum.split_whitespace().next().unwrap());
+    assert!(manifest.lines().any(|l| l == line), "{manifest}");
     let o = ledflicker(&[
         "sign",
         d,
@@ -246,6 +251,12 @@ fn tamper_checks(dir: &Path, certs: &[&str]) {
     std::fs::write(&p7s, &sig[..sig.len() / 2]).unwrap();
     expect_fail("signoff.p7s");
     std::fs::write(&p7s, &sig).unwrap();
+    // An edited marker: a later run would take a user's file for its own.
+    let marker = dir.join(".ledflicker");
+    let m = std::fs::read(&marker).unwrap();
+    std::fs::write(&marker, [&m[..], b"notes.txt\n"].concat()).unwrap();
+    expect_fail("`.ledflicker` has changed");
+    std::fs::write(&marker, &m).unwrap();
     // A deleted results.json.
     let results = dir.join("results.json");
     let r = std::fs::read(&results).unwrap();

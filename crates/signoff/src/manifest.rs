@@ -102,14 +102,11 @@ fn parse_input(value: &str) -> Option<InputFile> {
 }
 
 /// Top-level entries of a report directory outside the signature: the
-/// manifest and its signature themselves, and the `.ledflicker` marker,
-/// which `plan` writes when it swaps the report in (after signing) and
-/// which only tells a later `plan` which entries it may replace.
-pub const UNSIGNED: [&str; 3] = [
-    super::MANIFEST_FILE,
-    super::SIGNATURE_FILE,
-    crate::outdir::MARKER,
-];
+/// manifest and its signature themselves. The `.ledflicker` marker is
+/// signed like any file (`plan` writes it before it signs); a manifest
+/// signed before it was covered does not list it (see
+/// `verify::check_files`).
+pub const UNSIGNED: [&str; 2] = [super::MANIFEST_FILE, super::SIGNATURE_FILE];
 
 /// A private key file given to `sign`, to be recognised inside the report
 /// directory by identity (same device and inode: a hard link) or by

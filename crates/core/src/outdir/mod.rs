@@ -141,7 +141,20 @@ pub struct Generation {
     owned_files: Option<BTreeSet<String>>,
     /// Whether `out` holds an earlier report (see [`Generation::previous`]).
     has_previous: bool,
+    /// The device and inode of `out` when the run began, when it existed:
+    /// the directory swapped out must be that one, not whatever (a symbolic
+    /// link to a user's folder, say) was put at its path during the run.
+    identity: Option<(u64, u64)>,
     committed: bool,
+}
+
+/// The device and inode of the entry at `path` itself (a symbolic link is
+/// not followed), or None when there is none.
+fn identity(path: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::symlink_metadata(path)
+        .ok()
+        .map(|m| (m.dev(), m.ino()))
 }
 
 /// What a directory holds, for [`Generation::begin`].
@@ -436,6 +449,7 @@ impl Generation {
             owned: BTreeSet::new(),
             owned_files: None,
             has_previous: false,
+            identity: identity(out),
             committed: false,
         };
         if let DirKind::Report { owned, files } = kind {
@@ -600,35 +614,47 @@ impl Generation {
     /// name, returned in [`Committed::kept`]: nothing ledflicker did not
     /// write is ever deleted.
     pub fn commit(mut self) -> Result<Committed, OutDirError> {
+        self.check_still_ours()?;
         self.carry_foreign_again()?;
         self.swap_in()
     }
 
+    /// Refuses the swap when `out` is no longer the directory the run
+    /// began with (replaced during the run, by a symbolic link to a
+    /// user's folder or anything else): carrying "the user's entries" over
+    /// from it would put another folder's files in the new report. The new
+    /// report is kept beside `out`; nothing at `out` is touched.
+    fn check_still_ours(&mut self) -> Result<(), OutDirError> {
+        let now = identity(&self.out);
+        if now == self.identity {
+            return Ok(());
+        }
+        let kept = aside_name(&self.out, "new");
+        let kept_note = match std::fs::rename(&self.staging, &kept) {
+            Ok(()) => {
+                self.committed = true;
+                format!("; the new report is kept at `{}`", kept.display())
+            }
+            Err(e) => format!("; nor could the new report be kept aside: {e}"),
+        };
+        Err(OutDirError::Refused {
+            dir: self.out.clone(),
+            message: format!(
+                "was replaced during the run (it is not the directory the run began with{}); the report was not swapped in, so nothing there is touched{kept_note}",
+                match std::fs::symlink_metadata(&self.out) {
+                    Ok(m) if m.file_type().is_symlink() => ": it is now a symbolic link",
+                    Ok(_) => "",
+                    Err(_) => ": it is gone",
+                }
+            ),
+            hint: "let a run finish before moving or replacing its --out directory, then run again"
+                .to_string(),
+        })
+    }
+
     /// [`Generation::commit`] after the user's entries were carried again.
     fn swap_in(mut self) -> Result<Committed, OutDirError> {
-        let mut text = format!("{MARKER_HEADER}\n");
-        let mut names: Vec<String> = std::fs::read_dir(&self.staging)
-            .map_err(|e| io_err(&self.out, "list", &self.staging, e))?
-            .filter_map(|e| e.ok())
-            .map(|e| e.file_name().to_string_lossy().into_owned())
-            .filter(|n| !self.carried.contains(n) && n != MARKER)
-            .collect();
-        names.sort();
-        // Then every file written inside the folders, so that a file a
-        // user saves there later is known for theirs.
-        let mut inside = Vec::new();
-        for n in &names {
-            list_files(&self.staging.join(n), n, &mut inside)
-                .map_err(|e| io_err(&self.out, "list", &self.staging.join(n), e))?;
-        }
-        inside.sort();
-        for n in names.iter().chain(&inside) {
-            text.push_str(n);
-            text.push('\n');
-        }
-        let marker = self.staging.join(MARKER);
-        crate::util::write_atomic(&marker, text.as_bytes())
-            .map_err(|e| io_err(&self.out, "write", &marker, e))?;
+        self.write_marker()?;
         sync_dir(&self.staging);
         if !self.out.exists() {
             std::fs::rename(&self.staging, &self.out)
@@ -638,6 +664,11 @@ impl Generation {
             return Ok(Committed::default());
         }
         let old = match exchange(&self.staging, &self.out) {
+            Ok(()) if identity(&self.staging) != self.identity => {
+                // Replaced in the instant since the check: put it back.
+                let _ = exchange(&self.staging, &self.out);
+                return self.check_still_ours().map(|()| Committed::default());
+            }
             Ok(()) => self.staging.clone(),
             Err(_) => {
                 // Two renames; `clean_stale` restores `old` if we die between.
@@ -645,6 +676,10 @@ impl Generation {
                 let old = parent.join(format!("{}old-{}", temp_prefix(&name), std::process::id()));
                 std::fs::rename(&self.out, &old)
                     .map_err(|e| io_err(&self.out, "move aside", &self.out, e))?;
+                if identity(&old) != self.identity {
+                    let _ = std::fs::rename(&old, &self.out);
+                    return self.check_still_ours().map(|()| Committed::default());
+                }
                 if let Err(e) = std::fs::rename(&self.staging, &self.out) {
                     let _ = std::fs::rename(&old, &self.out);
                     return Err(io_err(&self.out, "rename", &self.staging, e));
@@ -730,6 +765,7 @@ impl Drop for Generation {
 }
 
 mod fs;
+mod marker;
 use fs::{exchange, link_tree, list_files, remove_tree, same_tree, sync_dir, sync_parent};
 
 #[cfg(test)]

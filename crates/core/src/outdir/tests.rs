@@ -288,3 +288,46 @@ fn a_file_in_place_of_the_directory_is_refused() {
         "{err}"
     );
 }
+
+#[test]
+fn a_report_folder_swapped_for_a_link_during_the_run_is_not_swapped_out() {
+    let root = scratch("swapped-link");
+    let out = root.join("report");
+    write_generation(&out, &[("results.json", "1"), ("traces/a.csv", "a")]);
+    let users = root.join("users-folder");
+    std::fs::create_dir_all(users.join("traces")).unwrap();
+    std::fs::write(users.join("thesis.txt"), "mine").unwrap();
+    std::fs::write(users.join("traces/bench.csv"), "mine").unwrap();
+
+    let g = Generation::begin(&out).unwrap();
+    std::fs::write(g.path().join("results.json"), "2").unwrap();
+    // During the run the report folder is replaced by a link to the user's.
+    std::fs::rename(&out, root.join("moved-away")).unwrap();
+    std::os::unix::fs::symlink(&users, &out).unwrap();
+    let err = g.commit().unwrap_err();
+    assert!(
+        err.to_string().contains("was replaced during the run"),
+        "{err}"
+    );
+    assert!(err.to_string().contains("symbolic link"), "{err}");
+
+    // The link and the user's folder are as they were; the new report is
+    // kept aside and holds none of the user's files.
+    assert!(
+        std::fs::symlink_metadata(&out)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert_eq!(read(&users.join("thesis.txt")), "mine");
+    assert_eq!(read(&users.join("traces/bench.csv")), "mine");
+    let kept: Vec<PathBuf> = std::fs::read_dir(&root)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.to_string_lossy().contains("report.new-"))
+        .collect();
+    assert_eq!(kept.len(), 1, "{kept:?}");
+    assert_eq!(read(&kept[0].join("results.json")), "2");
+    assert!(!kept[0].join("thesis.txt").exists());
+}
