@@ -26,9 +26,30 @@ pub(super) struct LightArgs {
     /// The intensity column: its header name, or its number from 1.
     #[arg(long, default_value = "2", value_name = "NAME|N")]
     intensity_column: String,
-    /// Print one JSON object (`format` "ledflicker.light/1") instead of the table.
+    /// Band limit of Percent Flicker and the Flicker Index, Hz (a Gaussian
+    /// low-pass, -3 dB there), or `none` for the raw samples. The SVM,
+    /// PstLM and the fundamental read the raw samples.
+    #[arg(long, default_value = "10000", value_name = "HZ|none", value_parser = parse_bandwidth)]
+    bandwidth: Bandwidth,
+    /// Print one JSON object (`format` "ledflicker.light/2") instead of the table.
     #[arg(long)]
     json: bool,
+}
+
+/// `--bandwidth`: a frequency, or none.
+#[derive(Debug, Clone, Copy)]
+struct Bandwidth(Option<f64>);
+
+fn parse_bandwidth(text: &str) -> Result<Bandwidth, String> {
+    if text.eq_ignore_ascii_case("none") {
+        return Ok(Bandwidth(None));
+    }
+    match text.trim().parse::<f64>() {
+        Ok(hz) if hz.is_finite() && hz > 0.0 => Ok(Bandwidth(Some(hz))),
+        _ => Err(format!(
+            "`{text}` is not a band limit; give a frequency in Hz above 0 (e.g. 10000 for 10 kHz), or `none` for the raw samples"
+        )),
+    }
 }
 
 /// The JSON form: the format, the file and its columns, then the figures.
@@ -49,15 +70,18 @@ pub(super) fn light(args: LightArgs) -> Result<i32, Failure> {
         &Column::parse(&args.intensity_column),
     )
     .map_err(|e| Failure::Frames(FrameError::Capture(e)))?;
-    if wave.intensity.iter().all(|&x| x == 0.0) {
+    if wave.intensity.iter().sum::<f64>() <= 0.0 {
         return Err(crate::error::UsageError(format!(
-            "waveform `{}`: every intensity is 0, no light to analyse\n    hint: the intensity column ({}) holds the light's level",
+            "waveform `{}`: the intensities average 0 or less, no light to analyse\n    hint: the intensity column ({}) holds the light's level",
             args.waveform.display(),
             wave.columns[1]
         ))
         .into());
     }
-    let figures = light::analyse(&wave.intensity, wave.rate_hz);
+    let options = light::LightOptions {
+        bandwidth_hz: args.bandwidth.0,
+    };
+    let figures = light::analyse(&wave.intensity, wave.rate_hz, &options);
     if args.json {
         let report = Report {
             format: light::FORMAT,
@@ -143,18 +167,38 @@ fn table(file: &str, columns: &[String; 2], f: &LightFigures) -> Vec<String> {
         ),
         row(
             "fundamental",
-            shown(&f.fundamental_hz, |v| format!("{v:.3} Hz{analysed}")),
+            shown(&f.fundamental_hz, |v| {
+                let within = f
+                    .fundamental_resolution_hz
+                    .map_or(String::new(), |r| format!(" +/- {r:.2e}"));
+                format!("{v:.3}{within} Hz{analysed}")
+            }),
         ),
+        row("band limit", band(f)),
         row(
             "percent flicker",
-            format!("{:.2} % (IEEE 1789 modulation)", f.percent_flicker),
+            if f.bandwidth_hz.is_some() && (f.percent_flicker_raw - f.percent_flicker).abs() > 0.005
+            {
+                format!(
+                    "{:.2} % (IEEE 1789 modulation; {:.2} % on the raw samples)",
+                    f.percent_flicker, f.percent_flicker_raw
+                )
+            } else {
+                format!("{:.2} % (IEEE 1789 modulation)", f.percent_flicker)
+            },
         ),
         row("flicker index", format!("{:.4} (IES)", f.flicker_index)),
         row("IEEE 1789-2015", ieee),
         row(
             "SVM",
             shown(&f.svm, |v| {
-                format!("{v:.3} (CIE TN 006:2016; 1 = visible to the average observer)")
+                let how = match f.svm_components {
+                    Some("spectral-peaks") => {
+                        "; from the spectrum's peaks: the record holds components of another period"
+                    }
+                    _ => "",
+                };
+                format!("{v:.3} (CIE TN 006:2016; 1 = visible to the average observer{how})")
             }),
         ),
         row(
@@ -167,4 +211,33 @@ fn table(file: &str, columns: &[String; 2], f: &LightFigures) -> Vec<String> {
             }),
         ),
     ]
+}
+
+/// The band limit line: what Percent Flicker and the Flicker Index read.
+fn band(f: &LightFigures) -> String {
+    let limit = match f.bandwidth_hz {
+        Some(b) => format!(
+            "{} (Gaussian, zero phase) for percent flicker and flicker index",
+            hz(b)
+        ),
+        None => format!(
+            "none: the raw samples ({} of sampling) for percent flicker and flicker index",
+            hz(f.sample_rate_hz)
+        ),
+    };
+    if f.read_as_dark == 0 {
+        return limit;
+    }
+    format!(
+        "{limit}; {} analysed samples below 0 (offset and noise around dark) read as 0",
+        f.read_as_dark
+    )
+}
+
+fn hz(v: f64) -> String {
+    if v >= 1000.0 {
+        format!("{:.4} kHz", v / 1000.0)
+    } else {
+        format!("{v:.4} Hz")
+    }
 }

@@ -9,7 +9,10 @@ definitions. Run from the repository root:
 Waveforms (SOURCE.md): each sampled at `rate_hz`, `i = 0 .. samples - 1`.
 The figures are computed over the first `periods` whole periods (the
 fundamental known here, not estimated), the SVM also from the continuous
-waveform's Fourier series where one is known in closed form.
+waveform's Fourier series where one is known in closed form. The real
+lamps' periods are measured as docs/light.md says (the lag of least squared
+difference, placed by a parabola), and their SVM follows its rule for
+records with components of another period (the spectrum's peaks).
 """
 
 import math
@@ -37,6 +40,65 @@ def svm_dft(x, rate):
     spectrum = np.fft.rfft(x)
     mean = x.mean()
     comps = [(k * rate / n, 2.0 * abs(spectrum[k]) / (n * mean)) for k in range(1, (n + 1) // 2)]
+    return svm_of_components(comps)
+
+
+def measured_period(x, t0):
+    """docs/light.md: the lag of least squared difference near one period,
+    then near 2, 4, 8 ... periods within 3 samples, by a parabola."""
+    n = len(x)
+
+    def best(lo, hi):
+        hi = min(hi, n - 2)
+        m = min(n - (hi + 1), 1 << 16)
+        lags = np.arange(lo - 1, hi + 2)
+        d = np.array([np.sum((x[l:l + m] - x[:m]) ** 2) for l in lags])
+        i = 1 + int(np.argmin(d[1:-1]))
+        a, b, c = d[i - 1], d[i], d[i + 1]
+        curve = a - 2 * b + c
+        shift = min(max(0.5 * (a - c) / curve, -0.5), 0.5) if curve > 0 else 0.0
+        return lags[i] + shift
+
+    width = math.ceil(0.03 * t0) + 2
+    lag = best(round(t0) - width, round(t0) + width)
+    period, k = lag, 1
+    while 2 * k * period + 2 * period <= n:
+        k *= 2
+        g = round(k * period)
+        lag = best(g - 3, g + 3)
+        period = lag / k
+    return period
+
+
+def inharmonic_share(w, periods):
+    spectrum = np.fft.fft(w - w.mean())
+    power = np.abs(spectrum[1:(len(w) + 1) // 2]) ** 2
+    k = np.arange(1, (len(w) + 1) // 2)
+    return power[k % periods != 0].sum() / power.sum()
+
+
+def svm_peaks(w, rate):
+    """docs/light.md: Hann-windowed spectrum; each peak with the falling bins
+    beside it (2 at most each side) is one component of that power."""
+    n = len(w)
+    win = 0.5 - 0.5 * np.cos(2 * math.pi * np.arange(n) / n)
+    power = np.abs(np.fft.fft((w - w.mean()) * win)[: (n + 1) // 2]) ** 2
+    comps = []
+    for k in range(1, len(power)):
+        right = power[k + 1] if k + 1 < len(power) else 0.0
+        if not (power[k] > power[k - 1] and power[k] >= right) or power[k] == 0:
+            continue
+        total = power[k]
+        for step in (-1, 1):
+            prev = power[k]
+            for d in (1, 2):
+                j = k + step * d
+                if j < 1 or j >= len(power) or power[j] >= prev:
+                    break
+                prev = power[j]
+                total += prev
+        amp = math.sqrt(4 * total / (np.sum(win ** 2) * n))
+        comps.append((k * rate / n, amp / w.mean()))
     return svm_of_components(comps)
 
 
@@ -93,11 +155,18 @@ def main():
     out.write("kind,frequency_hz,duty,modulation,rate_hz,samples,periods,lamp,analysed_samples,percent_flicker,flicker_index,svm,svm_continuous\n")
     for kind, f, duty, m, rate, samples, periods, lamp in ROWS:
         x = waveform(kind, f, duty, m, rate, samples, lamp)
-        used = min(samples, round(periods * rate / f))
+        if kind == "lamp":
+            t = measured_period(x, rate / f)
+            periods = math.floor((samples + 0.5) / t)
+            used = min(samples, round(periods * t))
+        else:
+            used = min(samples, round(periods * rate / f))
         w = x[:used]
         pf = 100.0 * (w.max() - w.min()) / (w.max() + w.min())
         fi = np.clip(w - w.mean(), 0.0, None).sum() / w.sum()
         svm = svm_dft(w, rate)
+        if periods >= 3 and inharmonic_share(w, periods) > 0.01:
+            svm = svm_peaks(w, rate)
         if kind == "square":
             cont = svm_square_continuous(f, duty)
         elif kind == "sine":

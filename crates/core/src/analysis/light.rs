@@ -11,22 +11,40 @@ use rustfft::num_complex::Complex;
 use serde::Serialize;
 
 use super::drive::{Ieee1789Region, low_risk_limit_percent, noel_limit_percent, region};
+pub use super::light_signal::DEFAULT_BANDWIDTH_HZ;
+use super::light_signal::{band_limited, lobe_components, measured_period};
 use crate::metrics::visibility::{pstlm, svm};
 
 /// The version of the JSON form of [`LightFigures`] (`light --json`).
-pub const FORMAT: &str = "ledflicker.light/1";
+pub const FORMAT: &str = "ledflicker.light/2";
 
 /// Fewest periods of the fundamental the record must hold for a
 /// frequency to be given: one period cannot be told from a slow drift.
 pub const MIN_PERIODS: f64 = 2.0;
 
-/// A record this close to a whole number of periods of its estimated
-/// fundamental, in periods, is taken as whole. On a record of a few
-/// periods the estimate is off by a few hundredths of a period (the
-/// Hann window's leakage from the negative frequency: 0.04 on the lamp
-/// records of three 120 Hz periods in tests/data/lamps), which would
-/// otherwise drop the last period.
-pub const WHOLE_PERIOD_SLACK: f64 = 0.1;
+/// Share of the analysed window's fluctuation (its power) outside the
+/// fundamental's harmonics above which the SVM is taken from the spectrum's
+/// peaks ([`lobe_components`]) rather than the window's Fourier series:
+/// the record then holds components of another period (a second lamp,
+/// mains ripple under a PWM), which whole periods of the fundamental cut
+/// mid-period.
+pub const INHARMONIC_SHARE: f64 = 0.01;
+
+/// What `light` was asked for beyond the record.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LightOptions {
+    /// Band limit of Percent Flicker and the Flicker Index, Hz; `None`
+    /// for the raw samples.
+    pub bandwidth_hz: Option<f64>,
+}
+
+impl Default for LightOptions {
+    fn default() -> Self {
+        LightOptions {
+            bandwidth_hz: Some(DEFAULT_BANDWIDTH_HZ),
+        }
+    }
+}
 
 /// A figure, or why it has none.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -98,6 +116,17 @@ pub struct LightFigures {
     /// Frequency of the strongest fluctuation, Hz; `None` for a steady
     /// light or a record of under [`MIN_PERIODS`] of it.
     pub fundamental_hz: Figure,
+    /// How closely the fundamental is known, Hz: the period is measured
+    /// to half a sample over the periods matched at once.
+    pub fundamental_resolution_hz: Option<f64>,
+    /// The band limit Percent Flicker and the Flicker Index were read
+    /// with, Hz; `None` for the raw samples (none asked for, or a record
+    /// sampled under four times the limit, whose sampling limits it).
+    pub bandwidth_hz: Option<f64>,
+    /// Samples of the analysed window below 0 (a scope's offset and
+    /// noise around dark) that Percent Flicker and the Flicker Index read
+    /// as 0: a light is never negative.
+    pub read_as_dark: usize,
     /// Whole periods of the fundamental analysed for Percent Flicker, the
     /// Flicker Index and the SVM (the whole record when it has none).
     pub analysed_periods: Option<u64>,
@@ -107,10 +136,18 @@ pub struct LightFigures {
     pub percent_flicker: f64,
     /// IES Flicker Index, 0..=1: the area above the mean over the total.
     pub flicker_index: f64,
+    /// Percent Flicker of the raw samples of the same window (levels below
+    /// 0 read as 0): the same as `percent_flicker` without a band limit.
+    pub percent_flicker_raw: f64,
     /// IEEE 1789-2015 region and limits at the fundamental.
     pub ieee1789: Ieee1789,
     /// Stroboscopic visibility measure (CIE TN 006:2016; 1 = threshold).
     pub svm: Figure,
+    /// How the SVM's components were taken: `fourier-series` (the
+    /// analysed whole periods as one period of the light) or
+    /// `spectral-peaks` (a record holding components of another period;
+    /// [`INHARMONIC_SHARE`]); `None` without an SVM.
+    pub svm_components: Option<&'static str>,
     /// PstLM (IEC TR 61547-1) of the whole record.
     pub pst_lm: PstFigure,
 }
@@ -211,6 +248,9 @@ fn flicker(x: &[f64]) -> (f64, f64) {
     let mean = x.iter().sum::<f64>() / x.len() as f64;
     let total: f64 = x.iter().sum();
     let above: f64 = x.iter().map(|&v| (v - mean).max(0.0)).sum();
+    if max + min <= 0.0 {
+        return (0.0, 0.0);
+    }
     (100.0 * (max - min) / (max + min), above / total)
 }
 
@@ -218,9 +258,9 @@ fn flicker(x: &[f64]) -> (f64, f64) {
 /// squares of them stays far below f64::MAX.
 const HUGE: f64 = 1e100;
 
-/// The figures of the waveform `x` (the light's level, each finite and
-/// >= 0, at least 8 samples, not all zero) sampled at `rate_hz` (> 0).
-pub fn analyse(x: &[f64], rate_hz: f64) -> LightFigures {
+/// The figures of the waveform `x` (the light's level, each finite, at
+/// least 8 samples, with a positive mean) sampled at `rate_hz` (> 0).
+pub fn analyse(x: &[f64], rate_hz: f64, options: &LightOptions) -> LightFigures {
     // Finite values near f64::MAX overflow the sums and squares below
     // (a mean of +inf, a fundamental of NaN). Every figure but the
     // levels is a ratio, so such a record is scaled by a power of two
@@ -229,48 +269,29 @@ pub fn analyse(x: &[f64], rate_hz: f64) -> LightFigures {
     if peak > HUGE {
         let scale = 2f64.powi(peak.log2().floor() as i32);
         let scaled: Vec<f64> = x.iter().map(|v| v / scale).collect();
-        let mut f = analyse(&scaled, rate_hz);
+        let mut f = analyse(&scaled, rate_hz, options);
         f.mean *= scale;
         f.min *= scale;
         f.max *= scale;
         return f;
     }
     let n = x.len();
-    let fundamental = fundamental(x, rate_hz);
-    // Whole periods, so that the record is one period of the light as the
-    // SVM's Fourier series takes it, and the Flicker Index's areas are a
-    // whole number of periods'.
-    let (periods, used) = match fundamental {
-        Ok(f) => {
-            let periods = (n as f64 * f / rate_hz + WHOLE_PERIOD_SLACK).floor();
-            let used = ((periods * rate_hz / f).round() as usize).clamp(2, n);
-            (Some(periods as u64), used)
-        }
-        Err(_) => (None, n),
-    };
-    let whole = &x[..used];
-    let (percent_flicker, flicker_index) = flicker(whole);
-    let ieee1789 = match (&fundamental, percent_flicker) {
-        (Ok(f), pf) => Ieee1789 {
-            region: Some(region(*f, pf)),
-            low_risk_max_percent: low_risk_limit_percent(*f),
-            noel_max_percent: noel_limit_percent(*f),
-            reason: None,
-        },
-        // No modulation is within every limit, at any frequency.
-        (Err(_), 0.0) => Ieee1789 {
-            region: Some(Ieee1789Region::NoObservableEffect),
-            low_risk_max_percent: None,
-            noel_max_percent: None,
-            reason: None,
-        },
-        (Err(why), _) => Ieee1789 {
-            region: None,
-            low_risk_max_percent: None,
-            noel_max_percent: None,
-            reason: Some(format!("no fundamental frequency: {why}")),
-        },
-    };
+    // Percent Flicker and the Flicker Index read extremes and areas, which
+    // a scope's noise inflates: they are read on the band-limited record,
+    // and so is the period, which the noise would blur.
+    let limited = options
+        .bandwidth_hz
+        .and_then(|b| band_limited(x, rate_hz, b).map(|y| (b, y)));
+    let levels = limited.as_ref().map_or(x, |(_, y)| y.as_slice());
+    let period = Period::of(x, levels, rate_hz);
+    let used = period.whole.map_or(n, |(_, used)| used);
+    let read_as_dark = levels[..used].iter().filter(|&&v| v < 0.0).count();
+    let window: Vec<f64> = levels[..used].iter().map(|&v| v.max(0.0)).collect();
+    let (percent_flicker, flicker_index) = flicker(&window);
+    let raw: Vec<f64> = x[..used].iter().map(|&v| v.max(0.0)).collect();
+    let percent_flicker_raw = flicker(&raw).0;
+    let ieee1789 = ieee1789(&period, percent_flicker);
+    let (svm, svm_components) = svm_of(x, rate_hz, &period);
     let pst = pstlm::of_samples(x, rate_hz);
     let (min, max) = x
         .iter()
@@ -284,13 +305,18 @@ pub fn analyse(x: &[f64], rate_hz: f64) -> LightFigures {
         mean: x.iter().sum::<f64>() / n as f64,
         min,
         max,
-        fundamental_hz: Figure::of(fundamental),
-        analysed_periods: periods,
+        fundamental_hz: Figure::of(period.frequency.clone()),
+        fundamental_resolution_hz: period.resolution_hz,
+        bandwidth_hz: limited.as_ref().map(|(b, _)| *b),
+        read_as_dark,
+        analysed_periods: period.whole.map(|(p, _)| p),
         analysed_samples: used,
         percent_flicker,
         flicker_index,
+        percent_flicker_raw,
         ieee1789,
-        svm: Figure::of(svm::of_samples(whole, rate_hz).map_err(|e| e.to_string())),
+        svm,
+        svm_components,
         pst_lm: match pst {
             Ok(p) => PstFigure {
                 value: Some(p.pst),
@@ -306,16 +332,158 @@ pub fn analyse(x: &[f64], rate_hz: f64) -> LightFigures {
     }
 }
 
+/// The fundamental of a record and the whole periods of it the record holds.
+struct Period {
+    /// The frequency, Hz, or why there is none.
+    frequency: Result<f64, String>,
+    /// Its resolution, Hz.
+    resolution_hz: Option<f64>,
+    /// Whole periods and the samples they span: the most periods `P` with
+    /// `P T <= n + 0.5` samples (a record a fraction of a sample short of
+    /// them holds them; one a tenth of a period short does not).
+    whole: Option<(u64, usize)>,
+    /// Whether the record was too short for a fundamental (not steady).
+    too_short: bool,
+}
+
+impl Period {
+    /// The period of the record `x`, measured on `levels` (`x`
+    /// band-limited, or `x`).
+    fn of(x: &[f64], levels: &[f64], rate_hz: f64) -> Period {
+        let n = x.len();
+        let estimate = match fundamental(x, rate_hz) {
+            Ok(f) => f,
+            Err(why) => {
+                return Period {
+                    too_short: !why.contains("steady"),
+                    frequency: Err(why),
+                    resolution_hz: None,
+                    whole: None,
+                };
+            }
+        };
+        // The spectral estimate is off by a few hundredths of a period on
+        // a record of a few periods (the Hann window's leakage from the
+        // negative frequency); the period is measured on the waveform.
+        let (t, lag) = measured_period(levels, rate_hz / estimate);
+        let f = rate_hz / t;
+        let periods = ((n as f64 + 0.5) / t).floor();
+        if periods < MIN_PERIODS {
+            return Period {
+                frequency: Err(format!(
+                    "the record ({:.4} s) holds {:.2} periods of its strongest fluctuation (about {f:.4} Hz), under {MIN_PERIODS}; record a longer waveform",
+                    n as f64 / rate_hz,
+                    n as f64 / t
+                )),
+                resolution_hz: None,
+                whole: None,
+                too_short: true,
+            };
+        }
+        let used = ((periods * t).round() as usize).clamp(2, n);
+        Period {
+            frequency: Ok(f),
+            resolution_hz: Some(f * 0.5 / lag),
+            whole: Some((periods as u64, used)),
+            too_short: false,
+        }
+    }
+}
+
+/// The IEEE 1789-2015 region at the fundamental. Its limits jump at
+/// 90 Hz (2.25 % below, 7.2 % from there): a fundamental within its
+/// resolution of 90 Hz is taken as 90 Hz, the range the boundary belongs
+/// to, so that the region does not flip on the estimate's last digits.
+fn ieee1789(period: &Period, percent_flicker: f64) -> Ieee1789 {
+    match (&period.frequency, percent_flicker) {
+        (Ok(f), pf) => {
+            let at = if (f - 90.0).abs() <= period.resolution_hz.unwrap_or(0.0) {
+                90.0
+            } else {
+                *f
+            };
+            Ieee1789 {
+                region: Some(region(at, pf)),
+                low_risk_max_percent: low_risk_limit_percent(at),
+                noel_max_percent: noel_limit_percent(at),
+                reason: None,
+            }
+        }
+        // No modulation is within every limit, at any frequency.
+        (Err(_), 0.0) => Ieee1789 {
+            region: Some(Ieee1789Region::NoObservableEffect),
+            low_risk_max_percent: None,
+            noel_max_percent: None,
+            reason: None,
+        },
+        (Err(why), _) => Ieee1789 {
+            region: None,
+            low_risk_max_percent: None,
+            noel_max_percent: None,
+            reason: Some(format!("no fundamental frequency: {why}")),
+        },
+    }
+}
+
+/// The SVM of the record's analysed window, and how its components were
+/// taken. A record of under two periods has none: its Fourier series
+/// would be of a fragment, not of the light.
+fn svm_of(x: &[f64], rate_hz: f64, period: &Period) -> (Figure, Option<&'static str>) {
+    if period.too_short {
+        let why = period.frequency.clone().err().unwrap_or_default();
+        return (
+            Figure::of(Err(format!(
+                "the record is too short for the light's spectrum: {why}"
+            ))),
+            None,
+        );
+    }
+    let (whole, periods) = match period.whole {
+        Some((p, used)) => (&x[..used], p as usize),
+        None => (x, 0),
+    };
+    let fourier = svm::of_samples(whole, rate_hz).map_err(|e| e.to_string());
+    if fourier.is_err() || periods < 3 || inharmonic_share(whole, periods) <= INHARMONIC_SHARE {
+        return (Figure::of(fourier), Some("fourier-series"));
+    }
+    let mean = whole.iter().sum::<f64>() / whole.len() as f64;
+    (
+        Figure::of(Ok(svm::of_components(lobe_components(
+            whole, rate_hz, mean,
+        )))),
+        Some("spectral-peaks"),
+    )
+}
+
+/// The share of the fluctuation power of `x` (`periods` whole periods of
+/// its fundamental) in the DFT bins that are not harmonics of it.
+fn inharmonic_share(x: &[f64], periods: usize) -> f64 {
+    let n = x.len();
+    let mean = x.iter().sum::<f64>() / n as f64;
+    let mut buf: Vec<Complex<f64>> = x.iter().map(|&v| Complex::new(v - mean, 0.0)).collect();
+    FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+    let (mut all, mut off) = (0.0, 0.0);
+    for (k, c) in buf.iter().enumerate().take(n.div_ceil(2)).skip(1) {
+        all += c.norm_sqr();
+        if k % periods != 0 {
+            off += c.norm_sqr();
+        }
+    }
+    if all > 0.0 { off / all } else { 0.0 }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use std::f64::consts::PI;
 
+    const RAW: LightOptions = LightOptions { bandwidth_hz: None };
+
     #[test]
     fn levels_near_the_largest_double_give_the_figures_of_the_same_light_scaled() {
         let x = square(0.3, 40, 10, 0);
         let big: Vec<f64> = x.iter().map(|v| v * 1.5e308).collect();
-        let (a, b) = (analyse(&x, 4000.0), analyse(&big, 4000.0));
+        let (a, b) = (analyse(&x, 4000.0, &RAW), analyse(&big, 4000.0, &RAW));
         // The same light, to the rounding of multiplying by 1.5e308.
         let close = |p: f64, q: f64| (p - q).abs() <= 1e-12 * p.abs().max(1.0);
         assert!(close(b.percent_flicker, a.percent_flicker));
@@ -345,7 +513,7 @@ mod tests {
         // 100 Hz at 20 kHz: 200 samples a period, duties on whole samples;
         // a record cut 37 samples into a period is analysed over whole ones.
         for duty in [0.05, 0.2, 0.5, 0.8] {
-            let fig = analyse(&square(duty, 200, 30, 37), 20_000.0);
+            let fig = analyse(&square(duty, 200, 30, 37), 20_000.0, &RAW);
             let f = fig.fundamental_hz.value.unwrap();
             assert!((f - 100.0).abs() < 0.05, "D={duty}: {f} Hz");
             assert_eq!(
@@ -370,7 +538,7 @@ mod tests {
             let x: Vec<f64> = (0..48_000 / 4)
                 .map(|i| 1.0 + m * (2.0 * PI * 120.0 * i as f64 / 48_000.0).sin())
                 .collect();
-            let fig = analyse(&x, 48_000.0);
+            let fig = analyse(&x, 48_000.0, &RAW);
             assert!(
                 (fig.percent_flicker - 100.0 * m).abs() < 1e-9,
                 "{m}: {}",
@@ -428,7 +596,7 @@ mod tests {
 
     #[test]
     fn a_steady_or_too_short_record_has_no_fundamental_and_says_why() {
-        let steady = analyse(&[3.0; 100], 10_000.0);
+        let steady = analyse(&[3.0; 100], 10_000.0, &RAW);
         assert_eq!(steady.fundamental_hz.value, None);
         assert!(
             steady
@@ -447,7 +615,7 @@ mod tests {
         let x: Vec<f64> = (0..150)
             .map(|i| 1.0 + 0.5 * (2.0 * PI * i as f64 / 100.0).sin())
             .collect();
-        let short = analyse(&x, 10_000.0);
+        let short = analyse(&x, 10_000.0, &RAW);
         assert!(
             short
                 .fundamental_hz
@@ -463,7 +631,7 @@ mod tests {
         let pst = short.pst_lm.reason.unwrap();
         assert!(pst.contains("at least 20 s"), "{pst}");
         // Sampled at 2 kHz: no SVM, and why.
-        let slow = analyse(&square(0.5, 20, 10, 0), 2000.0);
+        let slow = analyse(&square(0.5, 20, 10, 0), 2000.0, &RAW);
         assert!(slow.svm.reason.unwrap().contains("2000 Hz"));
     }
 }

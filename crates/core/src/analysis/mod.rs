@@ -27,6 +27,7 @@ pub mod drive;
 pub mod finemap;
 pub mod hazard;
 pub mod light;
+pub mod light_signal;
 pub mod phase_fold;
 pub mod roi;
 pub mod summary;

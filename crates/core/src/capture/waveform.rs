@@ -120,6 +120,11 @@ fn locate(c: &Column, header: &[String], path: &Path, role: &str) -> Result<usiz
     }
 }
 
+/// How far below 0 a reading may be, as a share of the largest: a scope's
+/// offset and noise around the dark level. `light` reads the band-limited
+/// levels below 0 as 0.
+pub const NEGATIVE_SHARE: f64 = 0.05;
+
 /// Reads the waveform of `path`, the time in column `time` and the light's
 /// level in column `intensity`.
 pub fn read_waveform(
@@ -176,13 +181,6 @@ pub fn read_waveform(
         };
         let t = field(ti, "time")?;
         let x = field(xi, "intensity")?;
-        if x < 0.0 {
-            return Err(CaptureError::Invalid {
-                path: path.to_path_buf(),
-                message: format!("line {line}: the intensity {x} is negative"),
-                hint: "give the light's level, 0 for dark: subtract the detector's dark reading, and set noise below zero to 0".to_string(),
-            });
-        }
         if let (Some(&prev), Some(&prev_line)) = (times.last(), lines.last())
             && t <= prev
         {
@@ -206,6 +204,22 @@ pub fn read_waveform(
             hint: WAVEFORM_HINT.to_string(),
         });
     };
+    // A scope's offset and noise put a dark level a little either side of
+    // 0; a reading far below it is a wrong column or an offset not taken off.
+    let top = values.iter().cloned().fold(0.0f64, f64::max);
+    if let Some((i, &low)) = values.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1))
+        && low < -NEGATIVE_SHARE * top
+    {
+        return Err(CaptureError::Invalid {
+            path: path.to_path_buf(),
+            message: format!(
+                "line {}: the intensity {low} is below 0 by more than {:.0} % of the largest ({top})",
+                lines[i],
+                100.0 * NEGATIVE_SHARE
+            ),
+            hint: "give the light's level, 0 for dark: subtract the detector's dark reading (noise a little below 0 is fine)".to_string(),
+        });
+    }
     if values.len() < MIN_SAMPLES {
         return Err(CaptureError::Invalid {
             path: path.to_path_buf(),
@@ -318,7 +332,7 @@ mod tests {
             ),
             (
                 good.replace("\n0.0003,1", "\n0.0003,-0.2"),
-                "line 5: the intensity -0.2 is negative",
+                "line 5: the intensity -0.2 is below 0 by more than 5 %",
             ),
             (
                 good.replace("\n0.0003,", "\n0.0001,"),
