@@ -88,7 +88,9 @@ pub fn spectrum(holds: &[screen::Hold], max_hz: f64) -> (f64, Vec<Component>) {
         .map(|h| h.luminance_cd_m2 * (h.end_s - h.start_s))
         .sum::<f64>()
         / period;
-    let harmonics = (max_hz * period).floor() as usize;
+    // Inclusive, within rounding: a segment of exactly 60 frames at 60 fps
+    // gives `400 T = 399.99999999999994`.
+    let harmonics = (max_hz * period * (1.0 + 1e-12)).floor() as usize;
     let components = (1..=harmonics)
         .map(|n| {
             let w = 2.0 * std::f64::consts::PI * n as f64 / period;

@@ -57,6 +57,8 @@ pub fn holds(refresh_hz: f64, times_s: &[f64], luminance_cd_m2: &[f64], frame_s:
     // A tolerance of a millionth of a refresh keeps a frame exactly on a
     // refresh (the simulator's n / fps at 30 fps on 60 Hz) on it.
     let tick = |t: f64| (t * refresh_hz - 1e-6).ceil() / refresh_hz;
+    let regular = on_a_clock(times_s);
+    let times_s = regular.as_deref().unwrap_or(times_s);
     let Some(&t0) = times_s.first() else {
         return Vec::new();
     };
@@ -161,6 +163,26 @@ mod tests {
     }
 
     #[test]
+    fn times_rounded_to_milliseconds_are_shown_on_the_frame_clock() {
+        // A 60 fps video whose times are rounded to 1 ms (16, 33, 50 ...
+        // ms): read literally, one frame in three falls before its refresh
+        // and the next replaces it unseen.
+        let times: Vec<f64> = (0..61)
+            .map(|n| (n as f64 * 1000.0 / 60.0).round() / 1000.0)
+            .collect();
+        let h = holds(60.0, &times, &[1.0; 61], 1.0 / 60.0);
+        assert_eq!(h.len(), 61);
+        assert!(
+            h.iter()
+                .all(|x| ((x.end_s - x.start_s) * 60.0 - 1.0).abs() < 1e-9)
+        );
+        // Irregular times (a frame really late) stay as they are.
+        let mut late = times.clone();
+        late[10] += 0.006;
+        assert_eq!(on_a_clock(&late), None);
+    }
+
+    #[test]
     fn frames_faster_than_the_refresh_are_dropped() {
         let times: Vec<f64> = (0..12).map(|n| n as f64 / 120.0).collect();
         let h = holds(60.0, &times, &[1.0; 12], 1.0 / 120.0);
@@ -176,4 +198,26 @@ mod tests {
         assert!((r - (w * w / std::f64::consts::PI).sqrt()).abs() < 1e-12);
         assert!((w - 1.2686).abs() < 1e-3, "{w}");
     }
+}
+
+/// Frame times rounded to a coarse time base (a video's milliseconds) put
+/// on the camera's frame clock: `t0 + k d`, `d` their mean interval, when
+/// every time is within `min(1 ms, d / 8)` of it (and one is more than
+/// 1 ns off, so that exact times stay as they are). Rounded times would
+/// move a frame across a refresh: at 60 fps on 60 Hz, one frame in three
+/// would never be shown.
+fn on_a_clock(times_s: &[f64]) -> Option<Vec<f64>> {
+    let (&t0, &last) = (times_s.first()?, times_s.last()?);
+    let n = times_s.len();
+    if n < 3 {
+        return None;
+    }
+    let d = (last - t0) / (n - 1) as f64;
+    let clock = |k: usize| t0 + k as f64 * d;
+    let off = times_s
+        .iter()
+        .enumerate()
+        .map(|(k, &t)| (t - clock(k)).abs())
+        .fold(0.0f64, f64::max);
+    (off > 1e-9 && off <= (d / 8.0).min(1e-3)).then(|| (0..n).map(clock).collect())
 }
