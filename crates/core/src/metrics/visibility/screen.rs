@@ -90,6 +90,28 @@ pub fn roi_radius_deg(d: &Display, width_px: u32, height_px: u32) -> f64 {
     (angle(width_px) * angle(height_px) / std::f64::consts::PI).sqrt()
 }
 
+/// Frame times rounded to a coarse time base (a video's milliseconds) put
+/// on the camera's frame clock: `t0 + k d`, `d` their mean interval, when
+/// every time is within `min(1 ms, d / 8)` of it (and one is more than
+/// 1 ns off, so that exact times stay as they are). Rounded times would
+/// move a frame across a refresh: at 60 fps on 60 Hz, one frame in three
+/// would never be shown.
+fn on_a_clock(times_s: &[f64]) -> Option<Vec<f64>> {
+    let (&t0, &last) = (times_s.first()?, times_s.last()?);
+    let n = times_s.len();
+    if n < 3 {
+        return None;
+    }
+    let d = (last - t0) / (n - 1) as f64;
+    let clock = |k: usize| t0 + k as f64 * d;
+    let off = times_s
+        .iter()
+        .enumerate()
+        .map(|(k, &t)| (t - clock(k)).abs())
+        .fold(0.0f64, f64::max);
+    (off > 1e-9 && off <= (d / 8.0).min(1e-3)).then(|| (0..n).map(clock).collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -198,26 +220,4 @@ mod tests {
         assert!((r - (w * w / std::f64::consts::PI).sqrt()).abs() < 1e-12);
         assert!((w - 1.2686).abs() < 1e-3, "{w}");
     }
-}
-
-/// Frame times rounded to a coarse time base (a video's milliseconds) put
-/// on the camera's frame clock: `t0 + k d`, `d` their mean interval, when
-/// every time is within `min(1 ms, d / 8)` of it (and one is more than
-/// 1 ns off, so that exact times stay as they are). Rounded times would
-/// move a frame across a refresh: at 60 fps on 60 Hz, one frame in three
-/// would never be shown.
-fn on_a_clock(times_s: &[f64]) -> Option<Vec<f64>> {
-    let (&t0, &last) = (times_s.first()?, times_s.last()?);
-    let n = times_s.len();
-    if n < 3 {
-        return None;
-    }
-    let d = (last - t0) / (n - 1) as f64;
-    let clock = |k: usize| t0 + k as f64 * d;
-    let off = times_s
-        .iter()
-        .enumerate()
-        .map(|(k, &t)| (t - clock(k)).abs())
-        .fold(0.0f64, f64::max);
-    (off > 1e-9 && off <= (d / 8.0).min(1e-3)).then(|| (0..n).map(clock).collect())
 }
