@@ -229,11 +229,22 @@ pub fn calibrate(a: CalibrateArgs) -> Result<i32, Failure> {
         })
         .unwrap_or_else(|| "calibrated".to_string());
     let opts = ProfileOptions { name, fps };
-    crate::calibrate::write_profile(&mut cal, &opts, a.out.as_deref())?;
+    // Two readings of the frames: a profile would have to pick one, and a
+    // plan run at another frequency would then inherit the wrong exposure.
+    let ambiguous = !cal.solutions.is_empty();
+    let out = a.out.as_deref().filter(|_| !ambiguous);
+    crate::calibrate::write_profile(&mut cal, &opts, out)?;
     if a.json {
         outln!("{}", serde_json::to_string_pretty(&cal)?)?;
     } else {
-        print_text(&cal, a.out.as_deref())?;
+        print_text(&cal, out)?;
+    }
+    if ambiguous && let Some(p) = &a.out {
+        eprintln!(
+            "error: profile `{}` not written: the frames fit two readings of the exposure and the duty equally well (a band edge is the ON time convolved with the exposure window, the same whichever is longer)\n    hint: give the light's duty with --duty (from the driver's specification or a scope) and run again",
+            p.display()
+        );
+        return Ok(super::EXIT_NO_CONFIDENCE);
     }
     Ok(EXIT_PASS)
 }
@@ -286,6 +297,16 @@ fn print_text(cal: &Calibration, out: Option<&std::path::Path>) -> std::io::Resu
         )?,
         _ => {}
     }
+    if let [a, b] = cal.solutions.as_slice() {
+        writeln!(
+            w,
+            "exposure_us, duty: two readings fit alike: exposure {} with duty {}, or exposure {} with duty {} (a band edge is the ON time convolved with the exposure window: it looks the same whichever is longer; give --duty to choose)",
+            pm(a.exposure_us, a.exposure_us_sigma, 2),
+            pm(a.duty, a.duty_sigma, 4),
+            pm(b.exposure_us, b.exposure_us_sigma, 2),
+            pm(b.duty, b.duty_sigma, 4),
+        )?;
+    }
     match (cal.duty, cal.duty_sigma, cal.duty_min, cal.duty_max) {
         (Some(d), Some(s), _, _) => writeln!(w, "duty:           {}", pm(d, s, 4))?,
         (_, _, Some(lo), Some(hi)) => writeln!(
@@ -314,7 +335,7 @@ fn print_text(cal: &Calibration, out: Option<&std::path::Path>) -> std::io::Resu
         )?,
         (None, Some(m), Some(FlatTop::Plateau)) => writeln!(
             w,
-            "saturation_dn:  >= {m:.2} (plateau below full scale: the exposure is shorter than the ON time)"
+            "saturation_dn:  >= {m:.2} (plateau below full scale: the exposure and the ON time differ in length)"
         )?,
         (None, Some(m), _) => writeln!(w, "saturation_dn:  >= {m:.2} (no row clipped)")?,
         _ => {}

@@ -16,7 +16,7 @@
 //! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `compare`: a KPI regressed beyond its measurement uncertainty; `verify`: a hash, signature or input mismatch, an untrusted signer, or no signature |
 //! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way; `merge`: shards that do not fit together (missing, duplicated, of another plan, tool or seed, damaged) |
 //! | 3 | internal or backend error |
-//! | 4 | per command: `plan`, `merge`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked; `linetime`, `bands`, `calibrate`: no confident estimate, the reason (flat rows, no periodic banding, fewer than 3 bands, column strips disagree, too uncertain) is printed |
+//! | 4 | per command: `plan`, `merge`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked; `linetime`, `bands`, `calibrate`: no confident estimate, the reason (flat rows, no periodic banding, fewer than 3 bands, regions band at different periods, too uncertain; with `--out`, exposure and duty that cannot be told apart) is printed |
 //! | 130, 143 | `plan` stopped by SIGINT (Ctrl-C) or SIGTERM (128 + signal); the old report is left as it was |
 
 #![deny(clippy::print_stdout)]

@@ -1,7 +1,8 @@
 //! Band estimates on frames of [`crate::band_frames`], a generator of its
 //! own: the JPEG block grid is not banding; two lights side by side are
-//! reported as two regions, never as one confident line time; a column
-//! group over an overlay is dropped, named, and the others give the answer.
+//! reported as two regions, never as one confident line time, and so is a
+//! column group over a periodic overlay; the light's columns alone give
+//! the answer.
 //! The truth is the generator's closed form: `t_line = 1 / (f P)`.
 
 use std::path::Path;
@@ -134,7 +135,7 @@ fn two_lights_give_two_regions_not_one_confident_line_time() {
         let o = run_linetime(&path, frequency_hz(right_period(k)), None);
         let e = stderr(&o);
         assert_eq!(o.status.code(), Some(4), "frame {k}: {e}");
-        assert!(e.contains("column strips disagree"), "frame {k}: {e}");
+        assert!(e.contains("band at different periods"), "frame {k}: {e}");
         let (left, right) = (region_period(&e, "0..320"), region_period(&e, "320..640"));
         assert!((left / 40.0 - 1.0).abs() < 2e-3, "frame {k}: {e}");
         assert!(
@@ -169,46 +170,58 @@ fn overlaid() -> Frame {
 }
 
 #[test]
-fn a_group_over_an_overlay_is_dropped_and_named() {
+fn a_group_over_an_overlay_is_refused_and_named_and_the_rest_measured_alone() {
+    // Ruled lines over one column group band at a period of their own: to
+    // the estimator a second light there. Refused, both regions named; the
+    // columns of the light alone (`--roi`) give its line time.
     let dir = scratch("bands-overlay");
     let path = dir.join("overlay.png");
     overlaid().save(&path, 90);
     let p = path.to_str().unwrap();
     let f = frequency_hz(40.0).to_string();
-    let calibrate = |roi: &str| {
-        let o = ledflicker(&["calibrate", p, "--frequency-hz", &f, "--roi", roi, "--json"]);
-        assert_eq!(o.status.code(), Some(0), "{roi}: {}", stderr(&o));
-        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
-    };
-    let wide = calibrate("160,0,640,1080");
-    let narrow = calibrate("160,0,320,1080");
-    let lt = |v: &serde_json::Value| {
-        let t = v["line_time_us"].as_f64().unwrap();
-        let s = v["line_time_us_sigma"].as_f64().unwrap();
-        (t, s)
-    };
-    let ((tw, sw), (tn, sn)) = (lt(&wide), lt(&narrow));
-    for (t, s) in [(tw, sw), (tn, sn)] {
-        assert!((t / LINE_TIME_US - 1.0).abs() < 1e-3, "{t} +- {s}");
-        assert!((t - LINE_TIME_US).abs() < 3.5 * s, "{t} +- {s}");
-    }
-    assert!((tw - tn).abs() < 3.5 * sw.hypot(sn), "{tw} vs {tn}");
-    let dropped = wide["dropped_columns"].as_array().unwrap();
-    assert_eq!(dropped.len(), 1, "{wide:#}");
-    assert_eq!(dropped[0]["columns"], serde_json::json!([[640, 800]]));
-    assert!(narrow["dropped_columns"].as_array().unwrap().is_empty());
-    // linetime names the dropped columns too.
-    let o = run_linetime(&path, frequency_hz(40.0), Some("160,0,640,1080"));
+    let o = ledflicker(&[
+        "calibrate",
+        p,
+        "--frequency-hz",
+        &f,
+        "--roi",
+        "160,0,640,1080",
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("band at different periods") && e.contains("640..800"),
+        "{e}"
+    );
+    assert!(e.contains("--roi"), "{e}");
+    let o = ledflicker(&[
+        "calibrate",
+        p,
+        "--frequency-hz",
+        &f,
+        "--roi",
+        "160,0,320,1080",
+        "--json",
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains("dropped: columns 640..800: period"), "{out}");
+    let narrow: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let t = narrow["line_time_us"].as_f64().unwrap();
+    let sigma = narrow["line_time_us_sigma"].as_f64().unwrap();
+    assert!((t / LINE_TIME_US - 1.0).abs() < 1e-3, "{t} +- {sigma}");
+    assert!(narrow["dropped_columns"].as_array().unwrap().is_empty());
+    // linetime refuses it too, naming the columns.
+    let o = run_linetime(&path, frequency_hz(40.0), Some("160,0,640,1080"));
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    assert!(stderr(&o).contains("columns 640..800"), "{}", stderr(&o));
 }
 
 #[test]
-fn the_real_frame_with_an_overlay_over_one_group_keeps_its_line_time() {
+fn the_real_frame_with_an_overlay_over_one_group_is_refused_and_its_light_measured_alone() {
     // The gyroflow frame (1000 Hz, 68.6-row bands) with ruled bright lines,
-    // 34 rows thick every 69.1 rows, over its right quarter: that group's
-    // own period is pulled off; the other three give the frame's answer.
+    // 34 rows thick every 69.1 rows, over its right quarter: that group
+    // bands at a period of its own, named in the refusal; the other three
+    // quarters, given alone, give the clean frame's answer.
     let dir = scratch("bands-real-overlay");
     let frame = crate::root().join("reference-data/gyroflow-rs-banding/frame_example.png");
     let mut img = image::open(&frame).unwrap().to_rgb8();
@@ -223,18 +236,24 @@ fn the_real_frame_with_an_overlay_over_one_group_keeps_its_line_time() {
             }
         }
     }
+    let height = img.height();
     let path = dir.join("overlaid.png");
     img.save(&path).unwrap();
     let clean = run_linetime(&frame, 1000.0, None);
     let over = run_linetime(&path, 1000.0, None);
-    assert_eq!(over.status.code(), Some(0), "{}", stderr(&over));
-    let ((tc, sc), (to, so)) = (line_time(&clean.stdout), line_time(&over.stdout));
+    assert_eq!(over.status.code(), Some(4), "{}", stderr(&over));
     assert!(
-        (to - tc).abs() < 3.5 * sc.hypot(so),
-        "{to} +- {so} vs {tc} +- {sc}"
+        stderr(&over).contains("columns 1440..1920"),
+        "{}",
+        stderr(&over)
     );
-    let out = String::from_utf8_lossy(&over.stdout);
-    assert!(out.contains("dropped: columns 1440..1920: period"), "{out}");
+    let left = run_linetime(&path, 1000.0, Some(&format!("0,0,1440,{height}")));
+    assert_eq!(left.status.code(), Some(0), "{}", stderr(&left));
+    let ((tc, sc), (tl, sl)) = (line_time(&clean.stdout), line_time(&left.stdout));
+    assert!(
+        (tl - tc).abs() < 3.5 * sc.hypot(sl),
+        "{tl} +- {sl} vs {tc} +- {sc}"
+    );
 }
 
 #[test]

@@ -398,6 +398,8 @@ fn built_in_plans_and_calibrate_away_from_the_checkout_give_the_checkouts_output
         frame.to_str().unwrap(),
         "--frequency-hz",
         "1000",
+        "--duty",
+        "0.5",
         "--json",
         "--out",
     ];

@@ -183,10 +183,10 @@ pub enum NoConfidence {
         /// Rows analysed.
         rows: usize,
     },
-    /// No majority of the column groups agrees on one period: regions of
-    /// the frame band differently (two lights, or a light and an overlay).
+    /// Column groups band at different periods: regions of the frame band
+    /// differently (two lights, or a light and a periodic overlay).
     #[error(
-        "column strips disagree, no majority agrees on one period: {}",
+        "regions of the frame band at different periods (two lights at different frequencies, or a periodic overlay); the frequency given cannot be paired with one period: {}",
         regions.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")
     )]
     StripsDisagree {
@@ -242,7 +242,7 @@ impl NoConfidence {
                 "raise the PWM frequency or use more rows, so that at least 3 bands show"
             }
             NoConfidence::StripsDisagree { .. } => {
-                "analyse one region at a time: --roi X,Y,W,H over its columns"
+                "analyse one light at a time: --roi X,Y,W,H over the columns of the region it lights, with that light's --frequency-hz"
             }
             NoConfidence::BlockGrid { .. } | NoConfidence::BlockContours { .. } => {
                 "use a lossless frame (PNG, TIFF) of a diffusely lit PWM scene, or --roi around a directly imaged LED; a true band period within 2 cycles per frame of 16 / k rows cannot be told from the block grid"

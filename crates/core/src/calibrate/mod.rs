@@ -101,6 +101,11 @@ pub struct Calibration {
     pub duty_min: Option<f64>,
     /// Upper bound when the duty is undetermined.
     pub duty_max: Option<f64>,
+    /// The two (duty, exposure) pairs that fit the frames equally well
+    /// when neither can be told from the other (see [`mirror`]): empty
+    /// when `duty` and `exposure_us` are values or bounds. `duty` and
+    /// `exposure_us` are then `None`.
+    pub solutions: Vec<Solution>,
     /// Duty of the fitted model (one member of the family when the duty is
     /// undetermined), used for the closed loop.
     #[serde(skip)]
@@ -396,6 +401,25 @@ fn summarise(
         .flatten()
         .fold(f64::NEG_INFINITY, |m, &x| m.max(x));
     let (member, c1_scale) = written_member(v, traded);
+    let mirrored = (light.duty.is_none() && traded.is_none() && determined)
+        .then(|| {
+            mirror(
+                (v[idx::DUTY], s[idx::DUTY]),
+                (v[idx::EXPOSURE], exposure_sigma * f),
+            )
+        })
+        .flatten();
+    let solutions: Vec<Solution> = mirrored
+        .iter()
+        .flatten()
+        .map(|&(duty, duty_sigma, e, e_sigma)| Solution {
+            duty,
+            duty_sigma,
+            exposure_us: e / f * 1e6,
+            exposure_us_sigma: e_sigma / f * 1e6,
+        })
+        .collect();
+    let chosen = solutions.is_empty();
     Calibration {
         frequency_hz: f,
         frames: data.len(),
@@ -409,15 +433,16 @@ fn summarise(
         block_grid_suppressed: band.block_grid_suppressed,
         line_time_us: line_time * 1e6,
         line_time_us_sigma: line_time * rel_t * 1e6,
-        exposure_us: determined.then_some(exposure_s * 1e6),
-        exposure_us_sigma: determined.then_some(exposure_sigma * 1e6),
+        exposure_us: (determined && chosen).then_some(exposure_s * 1e6),
+        exposure_us_sigma: (determined && chosen).then_some(exposure_sigma * 1e6),
         exposure_us_max: match traded {
             Some((_, hi)) => Some(hi / f * 1e6),
             None => (!determined).then(|| (exposure_s + 2.0 * exposure_sigma).max(line_time) * 1e6),
         },
         exposure_us_min: traded.map(|(lo, _)| lo / f * 1e6),
-        duty: traded.is_none().then_some(v[idx::DUTY]),
-        duty_sigma: traded.is_none().then_some(s[idx::DUTY]),
+        duty: (traded.is_none() && chosen).then_some(v[idx::DUTY]),
+        duty_sigma: (traded.is_none() && chosen).then_some(s[idx::DUTY]),
+        solutions,
         duty_min: traded.map(|(lo, _)| lo),
         duty_max: traded.map(|(_, hi)| hi.min(1.0)),
         model_duty: member[idx::DUTY],
@@ -444,6 +469,34 @@ fn summarise(
         frame_size: set.frame_size,
         measured: data.first().cloned().unwrap_or_default(),
     }
+}
+
+/// One of two readings of the same frames: a duty and an exposure.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Solution {
+    /// Duty cycle.
+    pub duty: f64,
+    /// Its sigma.
+    pub duty_sigma: f64,
+    /// Exposure, microseconds.
+    pub exposure_us: f64,
+    /// Its sigma.
+    pub exposure_us_sigma: f64,
+}
+
+/// The fitted duty `d` and exposure `e` (in PWM cycles, with sigmas) and
+/// their mirror, when the frames cannot tell them apart. A row collects
+/// the ON square wave (duty `D`) convolved with the exposure window (`e`
+/// cycles): a trapezoid whose ramps are `min(D, e)` wide and whose top is
+/// `|D - e|` long at a height of `min(D, e) / e` of the LED's level. The
+/// pair `(D' = e, e' = D)` with the LED level `c1 D / e` and each phase
+/// moved by `D - e` renders every row the same, exactly. Only a known
+/// duty (`--duty`) breaks the tie; an exposure of a whole cycle or more
+/// has no mirror (a duty cannot exceed 1), nor has a pair the fit cannot
+/// tell apart anyway (within 2 combined sigmas).
+pub fn mirror(d: (f64, f64), e: (f64, f64)) -> Option<[(f64, f64, f64, f64); 2]> {
+    let distinct = (d.0 - e.0).abs() > 2.0 * d.1.hypot(e.1);
+    (e.0 < 1.0 && d.0 < 1.0 && distinct).then_some([(d.0, d.1, e.0, e.1), (e.0, e.1, d.0, d.1)])
 }
 
 /// The member of the fit's family that the profile holds, and the factor
@@ -565,8 +618,13 @@ mod tests {
             (loose.line_time_us_sigma / lt - 1.0).abs() < 1e-9,
             "{loose:?}"
         );
-        let (e, s) = (exact.exposure_us.unwrap(), exact.exposure_us_sigma.unwrap());
-        assert!((loose.exposure_us_sigma.unwrap() / want(s, e) - 1.0).abs() < 1e-9);
+        // Without the duty the exposure is one of two readings; the fitted
+        // one comes first.
+        let (e, s) = (
+            exact.solutions[0].exposure_us,
+            exact.solutions[0].exposure_us_sigma,
+        );
+        assert!((loose.solutions[0].exposure_us_sigma / want(s, e) - 1.0).abs() < 1e-9);
         assert_eq!(loose.line_time_us, exact.line_time_us);
     }
 }

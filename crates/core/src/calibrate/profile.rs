@@ -41,6 +41,9 @@ pub fn frame_rate(cal: &Calibration, opts: &ProfileOptions) -> f64 {
 /// upper bound when undetermined.
 fn exposure_s(cal: &Calibration) -> f64 {
     cal.exposure_us
+        // Two readings: the fitted one, which renders the frames back (the
+        // command writes no profile file then).
+        .or(cal.solutions.first().map(|s| s.exposure_us))
         .or(cal.exposure_us_max)
         .unwrap_or(cal.line_time_us)
         * 1e-6
@@ -129,6 +132,13 @@ fn exposure_comment(t: &mut String, cal: &Calibration, exposure: f64) {
             let _ = writeln!(
                 t,
                 "# {e:.2} +- {s:.2} us, from the width of the band edges."
+            );
+        }
+        _ if !cal.solutions.is_empty() => {
+            let _ = writeln!(
+                t,
+                "# Two readings fit alike (exposure and duty swapped); the fitted one, {:.2} us.",
+                exposure * 1e6
             );
         }
         _ => match cal.exposure_us_min {

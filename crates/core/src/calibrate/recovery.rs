@@ -48,18 +48,22 @@ pub struct RecoveryCase {
 pub enum Scene {
     /// The frame as rendered.
     Plain,
-    /// The right half of the columns lit by a second light instead, of this
-    /// frequency (Hz) and duty: no majority of the column groups agrees, so
-    /// `calibrate` must refuse, naming both regions.
+    /// The columns from `from_quarter` quarters of the width on lit by a
+    /// second light instead, of this frequency (Hz) and duty: the column
+    /// groups band at two periods, so `calibrate` must refuse, naming both
+    /// regions, whether the second light has half the columns or a quarter.
     SecondLight {
         /// Its PWM frequency, Hz.
         frequency_hz: f64,
         /// Its duty cycle.
         duty: f64,
+        /// Where its columns start, in quarters of the width (1 to 3).
+        from_quarter: usize,
     },
     /// Bright ruled lines over the right quarter of the columns, half a band
     /// period thick, every 1.0075 band periods: that column group's own
-    /// period is pulled 0.75 % off, and it must be dropped.
+    /// period is pulled 0.75 % off, and it cannot be told from a second
+    /// light there: refused, naming both regions.
     RuledOverlay,
 }
 
@@ -296,9 +300,22 @@ fn scene_cases(base: &SynthFrame) -> Vec<RecoveryCase> {
             scene: Scene::SecondLight {
                 frequency_hz: 1130.0,
                 duty: 0.3,
+                from_quarter: 2,
             },
             ..case(
                 "two lights (1130 Hz on the right half)",
+                base.clone(),
+                "png",
+            )
+        },
+        RecoveryCase {
+            scene: Scene::SecondLight {
+                frequency_hz: 700.0,
+                duty: 0.5,
+                from_quarter: 3,
+            },
+            ..case(
+                "two lights (700 Hz on the right quarter)",
                 base.clone(),
                 "png",
             )
@@ -399,7 +416,11 @@ pub fn write_case(case: &RecoveryCase, path: &Path) -> Result<(), String> {
     let (w, h) = (fr.width as usize, fr.height as usize);
     let mut px = match case.scene {
         Scene::Plain => return fr.save(path, case.jpeg_quality),
-        Scene::SecondLight { frequency_hz, duty } => {
+        Scene::SecondLight {
+            frequency_hz,
+            duty,
+            from_quarter,
+        } => {
             let right = SynthFrame {
                 frequency_hz,
                 duty,
@@ -408,7 +429,7 @@ pub fn write_case(case: &RecoveryCase, path: &Path) -> Result<(), String> {
             .render()?;
             let mut px = fr.render()?;
             for (i, p) in px.iter_mut().enumerate() {
-                if i % w >= w / 2 {
+                if i % w >= from_quarter * w / 4 {
                     *p = right[i];
                 }
             }
@@ -461,10 +482,18 @@ fn calibrate_case(
 /// `calibrate` does not refuse with two regions, each within the line-time
 /// tolerance of its light.
 pub fn refusal(case: &RecoveryCase, dir: &Path, index: usize) -> Result<Vec<String>, String> {
-    let Scene::SecondLight { frequency_hz, .. } = case.scene else {
-        return Err(format!("{}: not a case of two lights", case.name));
-    };
     let fr = &case.frame;
+    // The second region's columns and its light (none for an overlay,
+    // whose period is only checked to be another one).
+    let (split, second) = match case.scene {
+        Scene::SecondLight {
+            frequency_hz,
+            from_quarter,
+            ..
+        } => (from_quarter as u32 * fr.width / 4, Some(frequency_hz)),
+        Scene::RuledOverlay => (3 * fr.width / 4, None),
+        Scene::Plain => return Err(format!("{}: not a case of two regions", case.name)),
+    };
     let period = |f: f64| super::bands::band_period_rows(f, fr.line_time_s);
     let regions = match calibrate_case(case, dir, index)? {
         Err(super::bands::NoConfidence::StripsDisagree { regions }) => regions,
@@ -475,16 +504,24 @@ pub fn refusal(case: &RecoveryCase, dir: &Path, index: usize) -> Result<Vec<Stri
             ));
         }
     };
-    let half = fr.width / 2;
+    if regions.len() != 2 {
+        return Err(format!("{}: {} regions, not 2", case.name, regions.len()));
+    }
     let mut out = Vec::new();
     for r in &regions {
         let ([a, b], Some(p)) = (r.columns[0], r.period_rows) else {
             return Err(format!("{}: a region without banding: {r}", case.name));
         };
-        let truth = if b <= half {
+        let truth = if b <= split {
             period(fr.frequency_hz)
-        } else if a >= half {
-            period(frequency_hz)
+        } else if a >= split {
+            match second {
+                Some(f) => period(f),
+                None => {
+                    out.push((a, format!("columns {a}..{b}: the overlay's period")));
+                    continue;
+                }
+            }
         } else {
             return Err(format!("{}: a region across both lights: {r}", case.name));
         };
@@ -506,8 +543,21 @@ pub fn recover(case: &RecoveryCase, dir: &Path, index: usize) -> Result<Recovery
     let fr = &case.frame;
     let cal = calibrate_case(case, dir, index)?.map_err(|e| format!("{}: {e}", case.name))?;
     let true_exposure_us = fr.exposure_s * 1e6;
-    let exposure = match (cal.exposure_us, cal.exposure_us_sigma) {
-        (Some(e), Some(s)) => Recovered::value(e / true_exposure_us - 1.0, s / true_exposure_us),
+    // Two readings (exposure and duty swapped): one of them must be the
+    // truth, within its sigmas; the frames cannot say which.
+    let nearest = cal.solutions.iter().min_by(|a, b| {
+        (a.duty - fr.duty)
+            .abs()
+            .total_cmp(&(b.duty - fr.duty).abs())
+    });
+    let exposure = match (cal.exposure_us, cal.exposure_us_sigma, nearest) {
+        (_, _, Some(s)) => Recovered::value(
+            s.exposure_us / true_exposure_us - 1.0,
+            s.exposure_us_sigma / true_exposure_us,
+        ),
+        (Some(e), Some(s), None) => {
+            Recovered::value(e / true_exposure_us - 1.0, s / true_exposure_us)
+        }
         _ => Recovered::Bound {
             holds: cal.exposure_us_max.is_some_and(|m| true_exposure_us <= m)
                 && cal.exposure_us_min.is_none_or(|m| true_exposure_us >= m),
@@ -527,8 +577,9 @@ pub fn recover(case: &RecoveryCase, dir: &Path, index: usize) -> Result<Recovery
             cal.line_time_us_sigma * 1e-6 / fr.line_time_s,
         ),
         exposure,
-        duty: match (cal.duty, cal.duty_sigma) {
-            (Some(d), Some(s)) => Recovered::value(d - fr.duty, s),
+        duty: match (cal.duty, cal.duty_sigma, nearest) {
+            (_, _, Some(s)) => Recovered::value(s.duty - fr.duty, s.duty_sigma),
+            (Some(d), Some(s), None) => Recovered::value(d - fr.duty, s),
             _ => Recovered::Bound {
                 holds: cal
                     .duty_min
@@ -549,7 +600,7 @@ pub fn table(dir: &Path) -> Result<String, String> {
         "| case | line time | exposure | duty | gamma | black level | fit RMS |\n|---|---|---|---|---|---|---|\n",
     );
     for (i, case) in cases().iter().enumerate() {
-        if matches!(case.scene, Scene::SecondLight { .. }) {
+        if !matches!(case.scene, Scene::Plain) {
             let regions = refusal(case, dir, i)?;
             t.push_str(&format!(
                 "| {} | refused (exit 4), two regions: {} | | | | | |\n",

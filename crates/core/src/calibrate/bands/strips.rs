@@ -1,12 +1,13 @@
 //! Column groups: the strips of a frame, left to right, in [`GROUPS`]
 //! groups, each estimated alone with its own search (docs/calibration.md,
 //! "Column groups"). The largest set of groups whose periods agree within
-//! their uncertainty gives the estimate when it is a strict majority of
-//! the groups that show banding; the others are dropped and named. Without
-//! such a majority the frame holds regions that band differently (two
-//! lights, or a light and an overlay), and the estimate is refused with
-//! each region's columns and period: a period from the whole frame would
-//! belong to one of them, or to neither.
+//! their uncertainty gives the estimate when every group that shows
+//! banding is in it; groups without banding are dropped and named. When a
+//! banded group disagrees, the frame holds regions that band differently
+//! (two lights at different frequencies, or a light and a periodic
+//! overlay), and the estimate is refused with each region's columns and
+//! period: a period from the whole frame, or from the larger region, could
+//! belong to the other light than the frequency given.
 
 use super::{
     BandEstimate, ColumnGroup, MAX_RELATIVE_SIGMA, NoConfidence, StripProfiles, combine_strips,
@@ -69,7 +70,12 @@ pub(super) fn estimate(
         return estimate_profiles(&profiles_of(input, &all));
     }
     let kept = largest_agreeing(&groups, &banded);
-    if 2 * kept.len() <= banded.len() {
+    // Any banded group outside the agreeing set bands at a period of its
+    // own: a second light at another frequency over part of the frame (or
+    // a periodic overlay). The user's frequency belongs to one of them;
+    // pairing it with the other's period would give a line time wrong by
+    // the ratio of the two frequencies. Refused, each region named.
+    if kept.len() < banded.len() {
         return Err(NoConfidence::StripsDisagree {
             regions: regions(&groups, banded),
         });
