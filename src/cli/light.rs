@@ -31,6 +31,15 @@ pub(super) struct LightArgs {
     /// PstLM and the fundamental read the raw samples.
     #[arg(long, default_value = "10000", value_name = "HZ|none", value_parser = parse_bandwidth)]
     bandwidth: Bandwidth,
+    /// The detector's dark reading, in the file's unit, subtracted from
+    /// every sample (a scope's offset); 0 unless given.
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        value_name = "LEVEL",
+        allow_hyphen_values = true
+    )]
+    dark: f64,
     /// Print one JSON object (`format` "ledflicker.light/2") instead of the table.
     #[arg(long)]
     json: bool,
@@ -64,10 +73,18 @@ struct Report<'a> {
 }
 
 pub(super) fn light(args: LightArgs) -> Result<i32, Failure> {
+    if !args.dark.is_finite() {
+        return Err(crate::error::UsageError(format!(
+            "--dark {} is not a level\n    hint: give the detector's dark reading in the file's unit, e.g. --dark -0.008",
+            args.dark
+        ))
+        .into());
+    }
     let wave = read_waveform(
         &args.waveform,
         &Column::parse(&args.time_column),
         &Column::parse(&args.intensity_column),
+        args.dark,
     )
     .map_err(|e| Failure::Frames(FrameError::Capture(e)))?;
     if wave.intensity.iter().sum::<f64>() <= 0.0 {
@@ -229,7 +246,7 @@ fn band(f: &LightFigures) -> String {
         return limit;
     }
     format!(
-        "{limit}; {} analysed samples below 0 (offset and noise around dark) read as 0",
+        "{limit}; {} analysed samples below 0 (offset and noise around dark) read as 0 (a dark offset? --dark gives it)",
         f.read_as_dark
     )
 }

@@ -49,11 +49,13 @@ def measured_period(x, t0):
     n = len(x)
 
     def best(lo, hi):
-        hi = min(hi, n - 2)
+        hi = min(hi, n - 3)
         m = min(n - (hi + 1), 1 << 16)
-        lags = np.arange(lo - 1, hi + 2)
+        lags = np.arange(lo, hi + 1)
         d = np.array([np.sum((x[l:l + m] - x[:m]) ** 2) for l in lags])
-        i = 1 + int(np.argmin(d[1:-1]))
+        i = int(np.argmin(d))
+        if i == 0 or i == len(d) - 1:
+            return None
         a, b, c = d[i - 1], d[i], d[i + 1]
         curve = a - 2 * b + c
         shift = min(max(0.5 * (a - c) / curve, -0.5), 0.5) if curve > 0 else 0.0
@@ -61,19 +63,26 @@ def measured_period(x, t0):
 
     width = math.ceil(0.03 * t0) + 2
     lag = best(round(t0) - width, round(t0) + width)
+    if lag is None:
+        return t0
     period, k = lag, 1
     while 2 * k * period + 2 * period <= n:
-        k *= 2
-        g = round(k * period)
+        g = round(2 * k * period)
         lag = best(g - 3, g + 3)
+        if lag is None:
+            break
+        k *= 2
         period = lag / k
     return period
 
 
-def inharmonic_share(w, periods):
+def inharmonic_share(w, periods, rate):
+    """Up to the SVM's 2 kHz: bins 1 .. with k rate / n <= 2000."""
+    n = len(w)
     spectrum = np.fft.fft(w - w.mean())
-    power = np.abs(spectrum[1:(len(w) + 1) // 2]) ** 2
-    k = np.arange(1, (len(w) + 1) // 2)
+    top = min(math.floor(F_MAX * n / rate) + 1, (n + 1) // 2)
+    k = np.arange(1, top)
+    power = np.abs(spectrum[1:top]) ** 2
     return power[k % periods != 0].sum() / power.sum()
 
 
@@ -165,7 +174,7 @@ def main():
         pf = 100.0 * (w.max() - w.min()) / (w.max() + w.min())
         fi = np.clip(w - w.mean(), 0.0, None).sum() / w.sum()
         svm = svm_dft(w, rate)
-        if periods >= 3 and inharmonic_share(w, periods) > 0.01:
+        if periods >= 3 and inharmonic_share(w, periods, rate) > 0.01:
             svm = svm_peaks(w, rate)
         if kind == "square":
             cont = svm_square_continuous(f, duty)

@@ -58,7 +58,15 @@ pub fn band_limited(x: &[f64], rate_hz: f64, bandwidth_hz: f64) -> Option<Vec<f6
         x[j as usize]
     };
     let padded: Vec<f64> = (-(half as isize)..(n + half) as isize).map(at).collect();
-    Some(if kernel.len() <= 256 {
+    // The FFT's rounding may step a hair outside the record's range (a
+    // dark of exactly 0 read as -1e-17): the kernel is positive, so the
+    // range is the exact result's.
+    let (lo, hi) = x
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        });
+    let filtered: Vec<f64> = if kernel.len() <= 256 {
         (0..n)
             .map(|i| {
                 padded[i..i + kernel.len()]
@@ -70,7 +78,8 @@ pub fn band_limited(x: &[f64], rate_hz: f64, bandwidth_hz: f64) -> Option<Vec<f6
             .collect()
     } else {
         convolve_fft(&padded, &kernel, n)
-    })
+    };
+    Some(filtered.into_iter().map(|v| v.clamp(lo, hi)).collect())
 }
 
 /// The first `n` outputs of the valid part of `padded * kernel`, by FFT.
@@ -102,29 +111,47 @@ fn convolve_fft(padded: &[f64], kernel: &[f64], n: usize) -> Vec<f64> {
 /// Most samples of overlap one lag's match is computed over.
 const MATCH_SAMPLES: usize = 1 << 16;
 
+/// The fundamental's period measured on the waveform ([`measured_period`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Measured {
+    /// The period, samples.
+    pub period: f64,
+    /// The lag of the last stage, samples (`k` periods).
+    pub lag: f64,
+    /// The lag's uncertainty, samples: half a sample, or three standard
+    /// errors of the lag from the residual at the match, whichever is
+    /// larger (noise makes the match's minimum wander).
+    pub lag_uncertainty: f64,
+}
+
 /// The fundamental's period, in samples, measured on the waveform: the lag
 /// at which the record best matches itself shifted (least squared
 /// difference, placed between samples by a parabola), first near one
 /// period of the spectral estimate `period0`, then near 2, 4, 8 ... of
 /// them while two periods still overlap, each stage within 3 samples of
-/// the last stage's multiple. Returns the period and the lag `L` of the
-/// last stage: the period is known to `0.5 / k` samples, `k = L / T`
-/// periods matched at once.
-pub fn measured_period(x: &[f64], period0: f64) -> (f64, f64) {
+/// the last stage's multiple. A best lag on the edge of a stage's range is
+/// no minimum (a second light or a band limit pulls the match off the
+/// period): the stage before stands, and with no stage standing `None`
+/// (the spectral estimate stands).
+pub fn measured_period(x: &[f64], period0: f64) -> Option<Measured> {
     let n = x.len();
     // Every lag of a stage is compared over the same `m` samples, so that
     // the differences are comparable to the last bit.
     let diff =
         |lag: usize, m: usize| -> f64 { (0..m).map(|i| (x[i + lag] - x[i]).powi(2)).sum::<f64>() };
-    // The lag of least difference within `lo..=hi`, between samples.
-    let best = |lo: usize, hi: usize| -> Option<f64> {
-        let hi = hi.min(n.saturating_sub(2));
-        if lo < 1 || lo > hi {
+    // The lag of least difference within `lo..=hi`, between samples, and
+    // its standard error; `None` when the least is at either end.
+    let best = |lo: usize, hi: usize| -> Option<(f64, f64)> {
+        let hi = hi.min(n.saturating_sub(3));
+        if lo < 2 || lo >= hi {
             return None;
         }
         let m = (n - (hi + 1)).min(MATCH_SAMPLES);
-        let d: Vec<f64> = (lo - 1..=hi + 1).map(|lag| diff(lag, m)).collect();
-        let i = (1..d.len() - 1).min_by(|&a, &b| d[a].total_cmp(&d[b]))?;
+        let d: Vec<f64> = (lo..=hi).map(|lag| diff(lag, m)).collect();
+        let i = (0..d.len()).min_by(|&a, &b| d[a].total_cmp(&d[b]))?;
+        if i == 0 || i == d.len() - 1 {
+            return None;
+        }
         let (a, b, c) = (d[i - 1], d[i], d[i + 1]);
         let curve = a - 2.0 * b + c;
         let shift = if curve > 0.0 {
@@ -132,31 +159,44 @@ pub fn measured_period(x: &[f64], period0: f64) -> (f64, f64) {
         } else {
             0.0
         };
-        Some((lo - 1 + i) as f64 + shift)
+        let lag = lo + i;
+        // The shift `delta` that best explains the residual `r_i =
+        // x[i + L] - x[i]` by the slope `g_i` has the standard error
+        // `sqrt((sum r^2 / m) / sum g^2)`.
+        let slope: f64 = (0..m.min(n - lag - 1))
+            .map(|j| (0.5 * (x[j + lag + 1] - x[j + lag - 1])).powi(2))
+            .sum();
+        let se = if slope > 0.0 {
+            (b / m as f64 / slope).sqrt()
+        } else {
+            0.0
+        };
+        Some((lag as f64 + shift, se))
     };
     let width = (0.03 * period0).ceil() as usize + 2;
-    let Some(mut lag) = best(
-        (period0.round() as usize).saturating_sub(width),
-        period0.round() as usize + width,
-    ) else {
-        return (period0, period0);
+    let centre = period0.round() as usize;
+    let (first, se) = best(centre.saturating_sub(width), centre + width)?;
+    let mut out = Measured {
+        period: first,
+        lag: first,
+        lag_uncertainty: (3.0 * se).max(0.5),
     };
-    let mut period = lag;
     let mut k = 1usize;
     // Two periods of overlap at least, so that every stage compares a
     // period with a period.
-    while (2 * k) as f64 * period + 2.0 * period <= n as f64 {
+    while (2 * k) as f64 * out.period + 2.0 * out.period <= n as f64 {
+        let guess = (2.0 * k as f64 * out.period).round() as usize;
+        let Some((lag, se)) = best(guess.saturating_sub(3), guess + 3) else {
+            break;
+        };
         k *= 2;
-        let guess = (k as f64 * period).round() as usize;
-        match best(guess.saturating_sub(3), guess + 3) {
-            Some(l) => {
-                lag = l;
-                period = l / k as f64;
-            }
-            None => break,
-        }
+        out = Measured {
+            period: lag / k as f64,
+            lag,
+            lag_uncertainty: (3.0 * se).max(0.5),
+        };
     }
-    (period, lag)
+    Some(out)
 }
 
 /// The components the SVM sums of the record `x` (at `rate_hz`, mean
@@ -250,8 +290,8 @@ mod tests {
                 1.0 + 0.1 * (2.0 * PI * f * t).sin() + 0.04 * (4.0 * PI * f * t + 0.3).sin()
             })
             .collect();
-        let (period, _) = measured_period(&x, rate / 121.0);
-        assert!((period - rate / f).abs() < 0.05, "{period}");
+        let m = measured_period(&x, rate / 121.0).unwrap();
+        assert!((m.period - rate / f).abs() < 0.05, "{m:?}");
     }
 
     #[test]

@@ -123,7 +123,7 @@ fn locate(c: &Column, header: &[String], path: &Path, role: &str) -> Result<usiz
 /// How far below 0 a reading may be, as a share of the largest: a scope's
 /// offset and noise around the dark level. `light` reads the band-limited
 /// levels below 0 as 0.
-pub const NEGATIVE_SHARE: f64 = 0.05;
+pub const NEGATIVE_SHARE: f64 = 0.10;
 
 /// Reads the waveform of `path`, the time in column `time` and the light's
 /// level in column `intensity`.
@@ -131,6 +131,7 @@ pub fn read_waveform(
     path: &Path,
     time: &Column,
     intensity: &Column,
+    dark: f64,
 ) -> Result<Waveform, CaptureError> {
     let text = text_of(path, read_file(path)?)?;
     let delim = delimiter(&text);
@@ -193,7 +194,7 @@ pub fn read_waveform(
             });
         }
         times.push(t);
-        values.push(x);
+        values.push(x - dark);
         lines.push(line);
     }
     let Some((ti, xi)) = cols else {
@@ -217,7 +218,7 @@ pub fn read_waveform(
                 lines[i],
                 100.0 * NEGATIVE_SHARE
             ),
-            hint: "give the light's level, 0 for dark: subtract the detector's dark reading (noise a little below 0 is fine)".to_string(),
+            hint: "give the light's level, 0 for dark: the detector's dark reading with --dark (noise a little below 0 is fine)".to_string(),
         });
     }
     if values.len() < MIN_SAMPLES {
@@ -286,7 +287,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("w.csv");
         std::fs::write(&path, text).unwrap();
-        read_waveform(&path, &Column::parse(time), &Column::parse(intensity))
+        read_waveform(&path, &Column::parse(time), &Column::parse(intensity), 0.0)
             .map_err(|e| e.to_string())
     }
 
@@ -332,7 +333,7 @@ mod tests {
             ),
             (
                 good.replace("\n0.0003,1", "\n0.0003,-0.2"),
-                "line 5: the intensity -0.2 is below 0 by more than 5 %",
+                "line 5: the intensity -0.2 is below 0 by more than 10 %",
             ),
             (
                 good.replace("\n0.0003,", "\n0.0001,"),
