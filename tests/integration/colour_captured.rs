@@ -655,3 +655,42 @@ fn a_captured_colour_plan_must_state_how_its_codes_encode_light() {
         "{err}"
     );
 }
+
+#[test]
+fn a_red_plane_clipped_under_a_low_luma_is_flagged_on_the_roi_and_its_colour_figures() {
+    // The same lamp on a red pedestal of 55 DN: its red plane reaches 255
+    // in the steady ON frames and in half the PWM frames, while the luma
+    // (mostly green) stays far below full scale.
+    let dir = scratch("captured-colour-clipped");
+    write_frames_on(&dir.join("frames"), [55, 0, 0]);
+    let plan = colour_plan(&dir, "frames", &matrix_camera());
+    let json = run_plan(&plan, &dir);
+    let roi = &json["cases"][0]["rois"][0];
+    assert_eq!(roi["name"], "lamp");
+    assert_eq!(roi["saturated"], true, "{roi:#}");
+    let luma_max = roi["levels"]["max"].as_f64().unwrap_or(0.0);
+    assert!(luma_max < 200.0, "the luma stays low: {roi:#}");
+    let reasons = roi["reasons"].to_string();
+    for key in ["delta_uv", "fmi_r", "fdi_p2020_r", "mmp_r"] {
+        assert!(
+            roi["reasons"][key]
+                .as_str()
+                .is_some_and(|r| r.contains("red plane clipped")),
+            "{key}: {reasons}"
+        );
+    }
+    // The green plane did not clip, and its figures carry no such caveat.
+    assert!(
+        !roi["reasons"]["fmi_g"]
+            .as_str()
+            .unwrap_or("")
+            .contains("clipped"),
+        "{reasons}"
+    );
+    // The unclipped recording is not flagged.
+    let clean = scratch("captured-colour-unclipped");
+    write_frames(&clean.join("frames"));
+    let plan = colour_plan(&clean, "frames", &matrix_camera());
+    let json = run_plan(&plan, &clean);
+    assert_eq!(json["cases"][0]["rois"][0]["saturated"], false);
+}

@@ -389,6 +389,10 @@ pub fn run_case(
                 };
                 let mut figures = chromaticity::of_trace(c, rgb, &segments, black);
                 figures.planes = chromaticity::plane_kpis(rgb, &segments, &plan.p2020);
+                let clipped = chromaticity::clipped_planes(rgb, acquisition.saturation_dn);
+                // The ROI is flagged as luma saturation flags it.
+                m.saturated |= !clipped.is_empty();
+                figures.mark_clipped(clipped);
                 Some(figures)
             }
         };

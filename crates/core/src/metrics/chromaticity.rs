@@ -258,10 +258,58 @@ pub struct ColourFigures {
     /// the luma's definitions; empty when not computed.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub planes: Vec<P2020Metrics>,
+    /// The colour planes (`"r"`, `"g"`, `"b"`) that reached the
+    /// saturation level in some frame, with the frames and the level: a
+    /// clipped plane gives the wrong colour and hides its own modulation,
+    /// though the luma may stay low.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub clipped: Vec<ClippedPlane>,
     /// Each PWM frame with light: its index in the whole trace and its
     /// `(u', v')`, for the report's diagram.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub path: Vec<(u64, f64, f64)>,
+}
+
+/// A colour plane that clipped.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ClippedPlane {
+    /// `"r"`, `"g"` or `"b"`.
+    pub plane: String,
+    /// Frames of the trace in which it reached the level.
+    pub frames: u64,
+    /// The saturation level, DN.
+    pub level_dn: f64,
+}
+
+impl ClippedPlane {
+    /// The caveat a figure computed from this plane carries.
+    pub fn note(&self) -> String {
+        let name = match self.plane.as_str() {
+            "r" => "red",
+            "g" => "green",
+            _ => "blue",
+        };
+        format!(
+            "the {name} plane clipped (reached {} DN in {} frame(s)): the colour and the plane's modulation are wrong where it did",
+            self.level_dn, self.frames
+        )
+    }
+}
+
+/// The colour planes of `rgb` that reach `saturation_dn` in some frame.
+pub fn clipped_planes(rgb: &[[f64; 3]], saturation_dn: f64) -> Vec<ClippedPlane> {
+    PLANE_SUFFIXES
+        .iter()
+        .enumerate()
+        .filter_map(|(p, name)| {
+            let frames = rgb.iter().filter(|c| c[p] >= saturation_dn).count() as u64;
+            (frames > 0).then(|| ClippedPlane {
+                plane: (*name).to_string(),
+                frames,
+                level_dn: saturation_dn,
+            })
+        })
+        .collect()
 }
 
 /// Why an LED ROI has no Δu′v′.
@@ -282,11 +330,34 @@ impl ColourFigures {
 
     /// Δu′v′ as a metric to check against `delta-uv-max`.
     pub fn delta_uv_metric(&self) -> Metric {
+        let reason = match (self.delta_uv, self.clipped.first()) {
+            (None, _) => Some(NO_COLOUR.to_string()),
+            (Some(_), Some(c)) => Some(c.note()),
+            (Some(_), None) => None,
+        };
         Metric {
             value: self.delta_uv,
             unbounded: false,
-            reason: self.delta_uv.is_none().then(|| NO_COLOUR.to_string()),
+            reason,
         }
+    }
+
+    /// Marks the figures of the clipped planes (and Δu′v′, through
+    /// [`ColourFigures::delta_uv_metric`]) with their caveat.
+    pub fn mark_clipped(&mut self, clipped: Vec<ClippedPlane>) {
+        for c in &clipped {
+            let Some(p) = PLANE_SUFFIXES.iter().position(|s| *s == c.plane) else {
+                continue;
+            };
+            if let Some(kpis) = self.planes.get_mut(p) {
+                for m in [&mut kpis.fmi, &mut kpis.fdi, &mut kpis.mmp] {
+                    if m.reason.is_none() {
+                        m.reason = Some(c.note());
+                    }
+                }
+            }
+        }
+        self.clipped = clipped;
     }
 }
 
@@ -377,6 +448,7 @@ pub fn of_trace(
         outside_frames,
         frames: light.len() as u64,
         planes: Vec::new(),
+        clipped: Vec::new(),
     }
 }
 

@@ -259,7 +259,7 @@ pub fn notes(model: &Results, plan: &Plan) -> Vec<String> {
     }
     if let Some(example) = saturated_example {
         out.push(format!(
-            "{saturated} case(s) have a saturated ROI (e.g. {example}): their metrics understate the modulation."
+            "{saturated} case(s) have a saturated ROI (e.g. {example}: its luma or a colour plane reached the saturation level): the metrics of what clipped understate the modulation."
         ));
     }
     if let Some(example) = example {

@@ -330,6 +330,7 @@ mod tests {
 
     fn figures(path: Vec<(u64, f64, f64)>, outside: Vec<u64>) -> ColourFigures {
         ColourFigures {
+            clipped: Vec::new(),
             delta_uv: Some(0.05),
             mean_uv: Some((0.55, 0.52)),
             mean_is_time_average: false,
