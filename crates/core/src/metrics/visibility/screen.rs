@@ -57,7 +57,7 @@ pub fn holds(refresh_hz: f64, times_s: &[f64], luminance_cd_m2: &[f64], frame_s:
     // A tolerance of a millionth of a refresh keeps a frame exactly on a
     // refresh (the simulator's n / fps at 30 fps on 60 Hz) on it.
     let tick = |t: f64| (t * refresh_hz - 1e-6).ceil() / refresh_hz;
-    let regular = on_a_clock(times_s);
+    let regular = on_a_clock(times_s, refresh_hz);
     let times_s = regular.as_deref().unwrap_or(times_s);
     let Some(&t0) = times_s.first() else {
         return Vec::new();
@@ -91,25 +91,79 @@ pub fn roi_radius_deg(d: &Display, width_px: u32, height_px: u32) -> f64 {
 }
 
 /// Frame times rounded to a coarse time base (a video's milliseconds) put
-/// on the camera's frame clock: `t0 + k d`, `d` their mean interval, when
-/// every time is within `min(1 ms, d / 8)` of it (and one is more than
-/// 1 ns off, so that exact times stay as they are). Rounded times would
-/// move a frame across a refresh: at 60 fps on 60 Hz, one frame in three
-/// would never be shown.
-fn on_a_clock(times_s: &[f64]) -> Option<Vec<f64>> {
-    let (&t0, &last) = (times_s.first()?, times_s.last()?);
+/// on the camera's frame clock `a + k d`. Rounded times would move frames
+/// across refreshes: at 60 fps on 60 Hz, one frame in three would never
+/// be shown. The clock is fitted to the times by least squares (twice: the
+/// second time without the frames more than the tolerance off); its
+/// interval is taken as exactly `p / (q R)` when `d R` is within 1e-4 of
+/// such a ratio (`q` up to 12: a camera locked to the monitor's rate, 60
+/// fps on 60 Hz, 25 on 60), since a fit to rounded times is off by a
+/// little that adds up over a segment. Each frame within `min(1 ms, d / 8)`
+/// of the clock takes its time; a frame further off (really late or
+/// early) keeps its own. `None` when no time moves by more than 1 ns
+/// (exact times stay as they are).
+fn on_a_clock(times_s: &[f64], refresh_hz: f64) -> Option<Vec<f64>> {
     let n = times_s.len();
     if n < 3 {
         return None;
     }
-    let d = (last - t0) / (n - 1) as f64;
-    let clock = |k: usize| t0 + k as f64 * d;
-    let off = times_s
+    let span = times_s[n - 1] - times_s[0];
+    let d0 = span / (n - 1) as f64;
+    if d0 <= 0.0 {
+        return None;
+    }
+    let tolerance = (d0 / 8.0).min(1e-3);
+    // Least squares of `t_k = a + k d` over the frames `use_k` keeps.
+    let fit = |keep: &dyn Fn(usize) -> bool| -> Option<(f64, f64)> {
+        let pts: Vec<(f64, f64)> = (0..n)
+            .filter(|&k| keep(k))
+            .map(|k| (k as f64, times_s[k]))
+            .collect();
+        let m = pts.len() as f64;
+        if m < 2.0 {
+            return None;
+        }
+        let (sx, sy) = pts.iter().fold((0.0, 0.0), |(a, b), p| (a + p.0, b + p.1));
+        let (mx, my) = (sx / m, sy / m);
+        let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+        let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+        (sxx > 0.0).then(|| (my - sxy / sxx * mx, sxy / sxx))
+    };
+    let (a, d) = fit(&|_| true)?;
+    let inlier = |k: usize| (times_s[k] - (a + k as f64 * d)).abs() <= tolerance;
+    let (_, mut d) = fit(&inlier)?;
+    let ratio = d * refresh_hz;
+    if let Some(exact) = (1..=12).find_map(|q| {
+        let p = (ratio * q as f64).round();
+        (p >= 1.0 && (ratio - p / q as f64).abs() <= 1e-4 * ratio)
+            .then(|| p / (q as f64 * refresh_hz))
+    }) {
+        d = exact;
+    }
+    // The clock's phase with that interval: the inliers' mean offset.
+    let offsets: Vec<f64> = (0..n)
+        .filter(|&k| inlier(k))
+        .map(|k| times_s[k] - k as f64 * d)
+        .collect();
+    if offsets.is_empty() {
+        return None;
+    }
+    let a = offsets.iter().sum::<f64>() / offsets.len() as f64;
+    let snapped: Vec<f64> = (0..n)
+        .map(|k| {
+            let clock = a + k as f64 * d;
+            if (times_s[k] - clock).abs() <= tolerance {
+                clock
+            } else {
+                times_s[k]
+            }
+        })
+        .collect();
+    let moved = snapped
         .iter()
-        .enumerate()
-        .map(|(k, &t)| (t - clock(k)).abs())
-        .fold(0.0f64, f64::max);
-    (off > 1e-9 && off <= (d / 8.0).min(1e-3)).then(|| (0..n).map(clock).collect())
+        .zip(times_s)
+        .any(|(s, t)| (s - t).abs() > 1e-9);
+    moved.then_some(snapped)
 }
 
 #[cfg(test)]
@@ -198,10 +252,30 @@ mod tests {
             h.iter()
                 .all(|x| ((x.end_s - x.start_s) * 60.0 - 1.0).abs() < 1e-9)
         );
-        // Irregular times (a frame really late) stay as they are.
+        // One frame really late keeps its time; the others stay on the
+        // clock, each shown for one refresh but the late one's neighbours.
         let mut late = times.clone();
-        late[10] += 0.006;
-        assert_eq!(on_a_clock(&late), None);
+        late[10] += 0.0012;
+        let snapped = on_a_clock(&late, 60.0).unwrap();
+        assert!((snapped[10] - late[10]).abs() < 1e-12);
+        assert!((snapped[30] - 30.0 / 60.0 - (snapped[0] - 0.0)).abs() < 1e-9);
+        let h = holds(60.0, &late, &[1.0; 61], 1.0 / 60.0);
+        assert_eq!(h.len(), 60, "only the late frame is lost");
+        // Rounded times whose first and last round in opposite directions
+        // (a segment starting at frame 31 of a 60 fps video): every frame
+        // is still shown once.
+        let shifted: Vec<f64> = (31..31 + 240)
+            .map(|n| (n as f64 * 1000.0 / 60.0).round() / 1000.0)
+            .collect();
+        let h = holds(60.0, &shifted, &[1.0; 240], 1.0 / 60.0);
+        assert_eq!(h.len(), 240);
+        assert!(
+            h.iter()
+                .all(|x| ((x.end_s - x.start_s) * 60.0 - 1.0).abs() < 1e-9)
+        );
+        // Exact times are left as they are.
+        let exact: Vec<f64> = (0..61).map(|n| n as f64 / 25.0).collect();
+        assert_eq!(on_a_clock(&exact, 60.0), None);
     }
 
     #[test]
