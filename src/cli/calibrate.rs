@@ -241,7 +241,7 @@ pub fn calibrate(a: CalibrateArgs) -> Result<i32, Failure> {
     }
     if ambiguous && let Some(p) = &a.out {
         eprintln!(
-            "error: profile `{}` not written: the frames fit two readings of the exposure and the duty equally well (a band edge is the ON time convolved with the exposure window, the same whichever is longer)\n    hint: give the light's duty with --duty (from the driver's specification or a scope) and run again",
+            "error: profile `{}` not written: the frames fit several readings of the exposure and the duty equally well (a band is the ON time convolved with the exposure window, the same whichever is longer)\n    hint: give the light's duty with --duty (from the driver's specification or a scope) and run again; at a duty of 0.5, calibrate at another duty",
             p.display()
         );
         return Ok(super::EXIT_NO_CONFIDENCE);
@@ -297,14 +297,23 @@ fn print_text(cal: &Calibration, out: Option<&std::path::Path>) -> std::io::Resu
         )?,
         _ => {}
     }
-    if let [a, b] = cal.solutions.as_slice() {
+    if !cal.solutions.is_empty() {
+        let each: Vec<String> = cal
+            .solutions
+            .iter()
+            .map(|r| {
+                format!(
+                    "exposure {} with duty {}",
+                    pm(r.exposure_us, r.exposure_us_sigma, 2),
+                    pm(r.duty, r.duty_sigma, 4)
+                )
+            })
+            .collect();
         writeln!(
             w,
-            "exposure_us, duty: two readings fit alike: exposure {} with duty {}, or exposure {} with duty {} (a band edge is the ON time convolved with the exposure window: it looks the same whichever is longer; give --duty to choose)",
-            pm(a.exposure_us, a.exposure_us_sigma, 2),
-            pm(a.duty, a.duty_sigma, 4),
-            pm(b.exposure_us, b.exposure_us_sigma, 2),
-            pm(b.duty, b.duty_sigma, 4),
+            "exposure_us, duty: {} readings fit alike: {} (a band is the ON time convolved with the exposure window: it looks the same whichever is longer, and, with ambient light, for their complements; give --duty to choose)",
+            each.len(),
+            each.join("; or ")
         )?;
     }
     match (cal.duty, cal.duty_sigma, cal.duty_min, cal.duty_max) {

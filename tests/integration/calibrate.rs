@@ -404,7 +404,7 @@ fn an_exposure_longer_than_the_on_time_is_not_read_as_the_duty() {
     assert!(stderr(&o).contains("--duty"), "{}", stderr(&o));
     assert!(!profile.exists());
     let text = String::from_utf8_lossy(&o.stdout);
-    assert!(text.contains("two readings fit alike"), "{text}");
+    assert!(text.contains("2 readings fit alike"), "{text}");
     // The known duty breaks the tie.
     let mut known = args.clone();
     known.extend(["--duty", "0.2"]);
@@ -416,4 +416,39 @@ fn an_exposure_longer_than_the_on_time_is_not_read_as_the_duty() {
         "{e} +- {sigma}"
     );
     assert!(v["solutions"].as_array().unwrap().is_empty());
+}
+
+#[test]
+fn with_ambient_light_the_complements_are_readings_too_and_one_holds_the_camera() {
+    // Exposure 0.45 cycles, duty 0.7: the sum is over a cycle, so the
+    // complements (duty 0.3, exposure 0.55) and (0.55, 0.3) render the rows
+    // alike over some ambient light. Whichever the fit lands on, the
+    // readings hold the camera.
+    let dir = scratch("calibrate-complement");
+    let frames: Vec<PathBuf> = (0..3)
+        .map(|k| {
+            let p = dir.join(format!("c-{k}.png"));
+            banding_png(&p, 0.7, 0.45, 48.0, 0.07 + 0.29 * f64::from(k));
+            p
+        })
+        .collect();
+    let mut args: Vec<&str> = vec!["calibrate"];
+    args.extend(frames.iter().map(|p| p.to_str().unwrap()));
+    args.extend(["--frequency-hz", "1000", "--json"]);
+    let v = json(&ledflicker(&args));
+    let solutions = v["solutions"].as_array().unwrap();
+    assert!(solutions.len() >= 2, "{v:#}");
+    assert!(
+        solutions
+            .iter()
+            .any(|s| (s["duty"].as_f64().unwrap() - 0.7).abs() < 0.02
+                && (s["exposure_us"].as_f64().unwrap() / 450.0 - 1.0).abs() < 0.05),
+        "{v:#}"
+    );
+    // The duty picks the camera.
+    let mut known = args.clone();
+    known.extend(["--duty", "0.7"]);
+    let v = json(&ledflicker(&known));
+    let e = num(&v, "exposure_us");
+    assert!((e / 450.0 - 1.0).abs() < 0.05, "{e}: {v:#}");
 }

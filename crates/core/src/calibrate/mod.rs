@@ -401,17 +401,21 @@ fn summarise(
         .flatten()
         .fold(f64::NEG_INFINITY, |m, &x| m.max(x));
     let (member, c1_scale) = written_member(v, traded);
-    let mirrored = (light.duty.is_none() && traded.is_none() && determined)
-        .then(|| {
-            mirror(
-                (v[idx::DUTY], s[idx::DUTY]),
-                (v[idx::EXPOSURE], exposure_sigma * f),
-            )
-        })
-        .flatten();
-    let solutions: Vec<Solution> = mirrored
+    let (e, d) = (v[idx::EXPOSURE], v[idx::DUTY]);
+    // The complements need the ambient light `c0 + c1 (e + D - 1) / e`.
+    let complement_ok = v[idx::C0] + v[idx::C1] * (e + d - 1.0) / e >= 0.0;
+    let found = if traded.is_none() && determined {
+        readings(
+            (d, s[idx::DUTY]),
+            (e, exposure_sigma * f),
+            complement_ok,
+            light.duty.is_some(),
+        )
+    } else {
+        Vec::new()
+    };
+    let solutions: Vec<Solution> = found
         .iter()
-        .flatten()
         .map(|&(duty, duty_sigma, e, e_sigma)| Solution {
             duty,
             duty_sigma,
@@ -484,19 +488,56 @@ pub struct Solution {
     pub exposure_us_sigma: f64,
 }
 
-/// The fitted duty `d` and exposure `e` (in PWM cycles, with sigmas) and
-/// their mirror, when the frames cannot tell them apart. A row collects
+/// The readings `(duty, sigma, exposure, sigma)` (exposure in PWM cycles)
+/// that render the frames alike with the fitted duty `d` and exposure `e`
+/// (values with sigmas); empty when there is only the fit. A row collects
 /// the ON square wave (duty `D`) convolved with the exposure window (`e`
-/// cycles): a trapezoid whose ramps are `min(D, e)` wide and whose top is
-/// `|D - e|` long at a height of `min(D, e) / e` of the LED's level. The
-/// pair `(D' = e, e' = D)` with the LED level `c1 D / e` and each phase
-/// moved by `D - e` renders every row the same, exactly. Only a known
-/// duty (`--duty`) breaks the tie; an exposure of a whole cycle or more
-/// has no mirror (a duty cannot exceed 1), nor has a pair the fit cannot
-/// tell apart anyway (within 2 combined sigmas).
-pub fn mirror(d: (f64, f64), e: (f64, f64)) -> Option<[(f64, f64, f64, f64); 2]> {
-    let distinct = (d.0 - e.0).abs() > 2.0 * d.1.hypot(e.1);
-    (e.0 < 1.0 && d.0 < 1.0 && distinct).then_some([(d.0, d.1, e.0, e.1), (e.0, e.1, d.0, d.1)])
+/// cycles), and:
+///
+/// - the **mirror** `(D' = e, e' = D)`, with the LED level `c1 D / e` and
+///   each phase moved by `e - D`, renders every row the same, exactly;
+/// - the **complements** `(1 - D, 1 - e)` and `(1 - e, 1 - D)` do too
+///   with flat illumination, given the ambient light `c0 + c1 (e + D - 1)
+///   / e`: they are readings when that is not negative (`complement_ok`).
+///
+/// A known duty (`duty_given`) keeps the readings of that duty only: the
+/// complement `(D, 1 - e)` at `D = 0.5`. Readings outside (0, 1), and any
+/// within 2 combined sigmas of an earlier one (the same camera), are left
+/// out. An exposure of a cycle or more has no such readings here.
+pub fn readings(
+    d: (f64, f64),
+    e: (f64, f64),
+    complement_ok: bool,
+    duty_given: bool,
+) -> Vec<(f64, f64, f64, f64)> {
+    if e.0 >= 1.0 {
+        return Vec::new();
+    }
+    let mut all = vec![(d.0, d.1, e.0, e.1)];
+    if !duty_given {
+        all.push((e.0, e.1, d.0, d.1));
+    }
+    if complement_ok {
+        all.push((1.0 - d.0, d.1, 1.0 - e.0, e.1));
+        if !duty_given {
+            all.push((1.0 - e.0, e.1, 1.0 - d.0, d.1));
+        }
+    }
+    let mut out: Vec<(f64, f64, f64, f64)> = Vec::new();
+    for r in all {
+        let inside = [r.0, r.2].iter().all(|v| *v > 0.0 && *v < 1.0);
+        let same_duty = !duty_given || (r.0 - d.0).abs() <= 1e-9;
+        let new = out.iter().all(|o| {
+            (o.0 - r.0).abs() > 2.0 * o.1.hypot(r.1) || (o.2 - r.2).abs() > 2.0 * o.3.hypot(r.3)
+        });
+        if inside && same_duty && new {
+            out.push(r);
+        }
+    }
+    if out.len() < 2 {
+        out.clear();
+    }
+    out
 }
 
 /// The member of the fit's family that the profile holds, and the factor
