@@ -58,7 +58,9 @@ pub fn holds(refresh_hz: f64, times_s: &[f64], luminance_cd_m2: &[f64], frame_s:
     // refresh (the simulator's n / fps at 30 fps on 60 Hz) on it.
     let tick = |t: f64| (t * refresh_hz - 1e-6).ceil() / refresh_hz;
     let regular = on_a_clock(times_s, refresh_hz);
-    let times_s = regular.as_deref().unwrap_or(times_s);
+    // On the clock, the last frame lasts the clock's interval too.
+    let frame_s = regular.as_ref().map_or(frame_s, |(_, d)| *d);
+    let times_s = regular.as_ref().map_or(times_s, |(t, _)| t.as_slice());
     let Some(&t0) = times_s.first() else {
         return Vec::new();
     };
@@ -100,9 +102,10 @@ pub fn roi_radius_deg(d: &Display, width_px: u32, height_px: u32) -> f64 {
 /// fps on 60 Hz, 25 on 60), since a fit to rounded times is off by a
 /// little that adds up over a segment. Each frame within `min(1 ms, d / 8)`
 /// of the clock takes its time; a frame further off (really late or
-/// early) keeps its own. `None` when no time moves by more than 1 ns
+/// early) keeps its own. Returns the times and the clock's interval (the
+/// last frame's hold); `None` when no time moves by more than 1 ns
 /// (exact times stay as they are).
-fn on_a_clock(times_s: &[f64], refresh_hz: f64) -> Option<Vec<f64>> {
+fn on_a_clock(times_s: &[f64], refresh_hz: f64) -> Option<(Vec<f64>, f64)> {
     let n = times_s.len();
     if n < 3 {
         return None;
@@ -163,7 +166,7 @@ fn on_a_clock(times_s: &[f64], refresh_hz: f64) -> Option<Vec<f64>> {
         .iter()
         .zip(times_s)
         .any(|(s, t)| (s - t).abs() > 1e-9);
-    moved.then_some(snapped)
+    moved.then_some((snapped, d))
 }
 
 #[cfg(test)]
@@ -256,7 +259,7 @@ mod tests {
         // clock, each shown for one refresh but the late one's neighbours.
         let mut late = times.clone();
         late[10] += 0.0012;
-        let snapped = on_a_clock(&late, 60.0).unwrap();
+        let (snapped, _) = on_a_clock(&late, 60.0).unwrap();
         assert!((snapped[10] - late[10]).abs() < 1e-12);
         assert!((snapped[30] - 30.0 / 60.0 - (snapped[0] - 0.0)).abs() < 1e-9);
         let h = holds(60.0, &late, &[1.0; 61], 1.0 / 60.0);
@@ -264,6 +267,18 @@ mod tests {
         // Rounded times whose first and last round in opposite directions
         // (a segment starting at frame 31 of a 60 fps video): every frame
         // is still shown once.
+        for first in [31, 32] {
+            let shifted: Vec<f64> = (first..first + 240)
+                .map(|n| (n as f64 * 1000.0 / 60.0).round() / 1000.0)
+                .collect();
+            let h = holds(60.0, &shifted, &[1.0; 240], 0.016_666_712_963_766_733);
+            assert_eq!(h.len(), 240, "from frame {first}");
+            assert!(
+                h.iter()
+                    .all(|x| ((x.end_s - x.start_s) * 60.0 - 1.0).abs() < 1e-9),
+                "from frame {first}: the last frame too holds one refresh"
+            );
+        }
         let shifted: Vec<f64> = (31..31 + 240)
             .map(|n| (n as f64 * 1000.0 / 60.0).round() / 1000.0)
             .collect();
