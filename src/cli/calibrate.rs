@@ -256,12 +256,10 @@ fn write_caveats(
     dropped: &[ColumnGroup],
     block_grid: bool,
 ) -> std::io::Result<()> {
+    // Only groups without banding are dropped: a group banding at another
+    // period is refused with the rest (`NoConfidence::StripsDisagree`).
     for d in dropped {
-        let why = match d.period_rows {
-            Some(_) => " (disagrees with the majority)",
-            None => "",
-        };
-        writeln!(w, "dropped: {d}{why}")?;
+        writeln!(w, "dropped: {d}")?;
     }
     if block_grid {
         writeln!(

@@ -469,12 +469,15 @@ fn svm_of(x: &[f64], rate_hz: f64, period: &Period) -> (Figure, Option<&'static 
         Some((p, used)) => (&x[..used], p as usize),
         None => (x, 0),
     };
-    let fourier = svm::of_samples(whole, rate_hz).map_err(|e| e.to_string());
-    if fourier.is_err() {
-        return (Figure::of(fourier), None);
-    }
-    if periods < 3 || inharmonic_share(whole, rate_hz, periods) <= INHARMONIC_SHARE {
-        return (Figure::of(fourier), Some("fourier-series"));
+    let components = match svm::components(whole, rate_hz) {
+        Ok(c) => c,
+        Err(e) => return (Figure::of(Err(e.to_string())), None),
+    };
+    if periods < 3 || inharmonic_share(&components, periods) <= INHARMONIC_SHARE {
+        return (
+            Figure::of(Ok(svm::of_components(components))),
+            Some("fourier-series"),
+        );
     }
     let mean = whole.iter().sum::<f64>() / whole.len() as f64;
     (
@@ -485,21 +488,19 @@ fn svm_of(x: &[f64], rate_hz: f64, period: &Period) -> (Figure, Option<&'static 
     )
 }
 
-/// The share of the fluctuation power of `x` (`periods` whole periods of
-/// its fundamental) up to the SVM's 2 kHz in the DFT bins that are not
-/// harmonics of it (a scope's broadband noise above is no other light).
-fn inharmonic_share(x: &[f64], rate_hz: f64, periods: usize) -> f64 {
-    let n = x.len();
-    let mean = x.iter().sum::<f64>() / n as f64;
-    let mut buf: Vec<Complex<f64>> = x.iter().map(|&v| Complex::new(v - mean, 0.0)).collect();
-    FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+/// The share of the fluctuation power up to the SVM's 2 kHz, in the
+/// window's Fourier `components` (bin `k` is the `k`-th, from 1), that
+/// lies in bins that are not harmonics of its fundamental (`periods` whole
+/// periods): a scope's broadband noise above 2 kHz is no other light.
+fn inharmonic_share(components: &[(f64, f64)], periods: usize) -> f64 {
     let (mut all, mut off) = (0.0, 0.0);
-    let top =
-        ((svm::MAX_FREQUENCY_HZ * n as f64 / rate_hz).floor() as usize + 1).min(n.div_ceil(2));
-    for (k, c) in buf.iter().enumerate().take(top).skip(1) {
-        all += c.norm_sqr();
+    for (k, &(f, c)) in (1..).zip(components) {
+        if f > svm::MAX_FREQUENCY_HZ {
+            break;
+        }
+        all += c * c;
         if k % periods != 0 {
-            off += c.norm_sqr();
+            off += c * c;
         }
     }
     if all > 0.0 { off / all } else { 0.0 }

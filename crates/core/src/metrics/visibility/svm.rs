@@ -89,6 +89,12 @@ pub enum SvmError {
 /// gives the light's own spectrum; a record cut mid-period spreads each
 /// component over its neighbours.
 pub fn of_samples(samples: &[f64], rate_hz: f64) -> Result<f64, SvmError> {
+    components(samples, rate_hz).map(of_components)
+}
+
+/// The components [`of_samples`] sums: `(k rate / N, C_k)` for
+/// `k = 1 .. ceil(N / 2) - 1`, each `C_k = 2 |X_k| / (N mean)`.
+pub fn components(samples: &[f64], rate_hz: f64) -> Result<Vec<(f64, f64)>, SvmError> {
     let n = samples.len();
     if n < 2 {
         return Err(SvmError::TooShort(n));
@@ -109,12 +115,14 @@ pub fn of_samples(samples: &[f64], rate_hz: f64) -> Result<f64, SvmError> {
     // Components below the Nyquist bin only: at `2k = N` the transform
     // holds the cosine alone, and `rate >= 4 kHz` puts it at or above the
     // 2 kHz the SVM stops at.
-    Ok(of_components((1..n.div_ceil(2)).map(|k| {
-        (
-            k as f64 * rate_hz / n as f64,
-            2.0 * buffer[k].norm() / (n as f64 * mean),
-        )
-    })))
+    Ok((1..n.div_ceil(2))
+        .map(|k| {
+            (
+                k as f64 * rate_hz / n as f64,
+                2.0 * buffer[k].norm() / (n as f64 * mean),
+            )
+        })
+        .collect())
 }
 
 #[cfg(test)]
