@@ -17,7 +17,9 @@
 use std::collections::BTreeSet;
 
 use crate::model::{BackendName, CaseInfo, Comparison, Results, RoiInfo, RoiKind};
-use crate::model::{VERDICT_TOLERANCE, Verdict, VerdictBasis};
+use crate::model::{Verdict, VerdictBasis};
+use crate::plan::Limits;
+use ledflicker_core::metrics::verdict::{case_verdict, limit_families, meets};
 
 /// Mismatches listed at most; the rest are counted.
 const MAX: usize = 8;
@@ -49,7 +51,7 @@ pub fn mismatches(r: &Results) -> Vec<String> {
         }] += 1;
         verdicts.push(verdict);
     }
-    let overall = crate::metrics::verdict::overall(verdicts);
+    let overall = ledflicker_core::metrics::verdict::overall(verdicts);
     if overall != r.verdict {
         out.push(format!(
             "the overall verdict: results.json says {}, its cases say {}",
@@ -79,24 +81,18 @@ pub fn mismatches(r: &Results) -> Vec<String> {
     out
 }
 
-/// The limit families, each with the metric a check of it names (before
-/// the basis's suffix for the first two).
-const FAMILIES: [&str; 7] = [
-    "fdi_2018",
-    "percent_flicker",
-    "fmi",
-    "fdi_p2020",
-    "mmp",
-    "visibility",
-    "delta_uv",
-];
-
-/// The family of a checked metric, and the metric the family's check must
-/// name on `roi` (the worst-phase figures where the basis takes them).
-fn family_of<'a>(metric: &str, roi: &RoiInfo, worst_phase: bool) -> Option<(&'a str, String)> {
-    let family = FAMILIES
+/// The family of a checked metric, its limit in `lim` and whether that
+/// is a minimum, and the metric the family's check must name on `roi` (the
+/// worst-phase figures where the basis takes them).
+fn family_of(
+    metric: &str,
+    roi: &RoiInfo,
+    lim: &Limits,
+    worst_phase: bool,
+) -> Option<(&'static str, Option<f64>, bool, String)> {
+    let (family, limit, min) = limit_families(lim)
         .into_iter()
-        .find(|f| metric == *f || metric.strip_prefix(f) == Some("_worst_phase"))?;
+        .find(|(f, ..)| metric == *f || metric.strip_prefix(f) == Some("_worst_phase"))?;
     let suffix = if worst_phase
         && matches!(family, "fdi_2018" | "percent_flicker")
         && roi.metrics.contains_key("fdi_2018_worst_phase")
@@ -106,20 +102,7 @@ fn family_of<'a>(metric: &str, roi: &RoiInfo, worst_phase: bool) -> Option<(&'a 
     } else {
         ""
     };
-    Some((family, format!("{family}{suffix}")))
-}
-
-/// The limit of `family` in `lim`, and whether it is a minimum.
-fn limit_of(family: &str, lim: &crate::plan::Limits) -> (Option<f64>, bool) {
-    match family {
-        "fdi_2018" => (lim.fdi_2018_min, true),
-        "percent_flicker" => (lim.percent_flicker_max, false),
-        "fmi" => (lim.fmi_max, false),
-        "fdi_p2020" => (lim.fdi_p2020_min, true),
-        "mmp" => (lim.mmp_min, true),
-        "visibility" => (lim.visibility_max, false),
-        _ => (lim.delta_uv_max, false),
-    }
+    Some((family, limit, min, format!("{family}{suffix}")))
 }
 
 /// The case's verdict from its data; what does not add up goes to `out`.
@@ -147,7 +130,8 @@ fn judge(case: &CaseInfo, r: &Results, worst_phase: bool, out: &mut Vec<String>)
         if roi.kind != RoiKind::Led {
             bad(format!("a check on the background ROI `{}`", c.roi));
         }
-        let Some((family, expected)) = family_of(&c.metric, roi, worst_phase) else {
+        let Some((family, limit, min, expected)) = family_of(&c.metric, roi, &lim, worst_phase)
+        else {
             bad(format!(
                 "a check on `{}`, which no limit of the plan names",
                 c.metric
@@ -160,7 +144,6 @@ fn judge(case: &CaseInfo, r: &Results, worst_phase: bool, out: &mut Vec<String>)
                 c.roi, c.metric
             ));
         }
-        let (limit, min) = limit_of(family, &lim);
         if limit != Some(c.threshold) || min != (c.comparison == Comparison::AtLeast) {
             bad(format!(
                 "the check of {} on `{}` has the limit {} {}, the plan's limits say {}",
@@ -192,15 +175,7 @@ fn judge(case: &CaseInfo, r: &Results, worst_phase: bool, out: &mut Vec<String>)
                 if c.unbounded { "" } else { "not " }
             ));
         }
-        let pass = if min {
-            c.unbounded
-                || c.value
-                    .is_some_and(|v| v >= c.threshold - VERDICT_TOLERANCE)
-        } else {
-            !c.unbounded
-                && c.value
-                    .is_some_and(|v| v <= c.threshold + VERDICT_TOLERANCE)
-        };
+        let pass = meets(c.value, c.unbounded, c.threshold, min);
         if pass != c.pass {
             bad(format!(
                 "the check of {} on `{}` says {}, its value and limit say {}",
@@ -213,7 +188,10 @@ fn judge(case: &CaseInfo, r: &Results, worst_phase: bool, out: &mut Vec<String>)
         all_pass &= pass;
     }
     let outside = case.frequency_hz > 0.0
-        && !crate::metrics::verdict::in_mitigation_range(case.frequency_hz, &r.thresholds);
+        && !ledflicker_core::metrics::verdict::in_mitigation_range(
+            case.frequency_hz,
+            &r.thresholds,
+        );
     let informative = case
         .not_judged
         .as_deref()
@@ -247,9 +225,7 @@ fn verdict_of(case: &CaseInfo, excused: bool, all_pass: bool, out: &mut Vec<Stri
             ));
             Verdict::Info
         }
-        None if case.checks.is_empty() => Verdict::Info,
-        None if all_pass => Verdict::Pass,
-        None => Verdict::Fail,
+        None => case_verdict(true, (!case.checks.is_empty()).then_some(all_pass)),
     }
 }
 
@@ -257,10 +233,10 @@ fn verdict_of(case: &CaseInfo, excused: bool, all_pass: bool, out: &mut Vec<Stri
 /// data lacks what the limit needs and `not_checked` says so: FDI (2018)
 /// needs the OFF level; Percent Flicker can always be checked; the P2020
 /// KPIs, visibility and colour need their values.
-fn missing_checks(case: &CaseInfo, lim: &crate::plan::Limits, out: &mut Vec<String>) {
+fn missing_checks(case: &CaseInfo, lim: &Limits, out: &mut Vec<String>) {
     for r in case.rois.iter().filter(|r| r.kind == RoiKind::Led) {
-        for family in FAMILIES {
-            if limit_of(family, lim).0.is_none() {
+        for (family, limit, _) in limit_families(lim) {
+            if limit.is_none() {
                 continue;
             }
             let checked = case.checks.iter().any(|c| {

@@ -113,12 +113,51 @@ impl Check {
     }
 }
 
-fn check(roi: &str, name: &str, m: &Metric, threshold: f64, min: bool) -> Check {
-    let pass = if min {
-        m.unbounded || m.value.is_some_and(|v| v >= threshold - VERDICT_TOLERANCE)
+/// Whether a value meets its threshold, within [`VERDICT_TOLERANCE`]: an
+/// unbounded value meets every minimum and no maximum; an undefined value
+/// meets nothing (it could not be shown to).
+pub fn meets(value: Option<f64>, unbounded: bool, threshold: f64, min: bool) -> bool {
+    if min {
+        unbounded || value.is_some_and(|v| v >= threshold - VERDICT_TOLERANCE)
     } else {
-        !m.unbounded && m.value.is_some_and(|v| v <= threshold + VERDICT_TOLERANCE)
-    };
+        !unbounded && value.is_some_and(|v| v <= threshold + VERDICT_TOLERANCE)
+    }
+}
+
+/// The plan's limits by the metric family each checks (the name a check
+/// carries, before the basis's `_worst_phase`): the family, its limit in
+/// `lim`, and whether the limit is a minimum.
+pub fn limit_families(lim: &Limits) -> [(&'static str, Option<f64>, bool); 7] {
+    [
+        ("fdi_2018", lim.fdi_2018_min, true),
+        ("percent_flicker", lim.percent_flicker_max, false),
+        ("fmi", lim.fmi_max, false),
+        ("fdi_p2020", lim.fdi_p2020_min, true),
+        ("mmp", lim.mmp_min, true),
+        ("visibility", lim.visibility_max, false),
+        ("delta_uv", lim.delta_uv_max, false),
+    ]
+}
+
+/// A case's verdict from its checks: info when it is not judged or has no
+/// check, else pass when every check passes.
+pub fn case_verdict(judged: bool, checks: impl IntoIterator<Item = bool>) -> Verdict {
+    let mut any = false;
+    for pass in checks {
+        if !pass {
+            return if judged { Verdict::Fail } else { Verdict::Info };
+        }
+        any = true;
+    }
+    if judged && any {
+        Verdict::Pass
+    } else {
+        Verdict::Info
+    }
+}
+
+fn check(roi: &str, name: &str, m: &Metric, threshold: f64, min: bool) -> Check {
+    let pass = meets(m.value, m.unbounded, threshold, min);
     Check {
         roi: roi.to_string(),
         metric: name.to_string(),
@@ -298,13 +337,7 @@ pub fn evaluate_case(
     } else {
         None
     };
-    let verdict = if not_judged.is_some() {
-        Verdict::Info
-    } else if checks.iter().all(|c| c.pass) {
-        Verdict::Pass
-    } else {
-        Verdict::Fail
-    };
+    let verdict = case_verdict(not_judged.is_none(), checks.iter().map(|c| c.pass));
     Evaluation {
         verdict,
         checks,
@@ -418,6 +451,24 @@ mod tests {
         assert_eq!(e.verdict, Verdict::Fail);
         assert!(!e.checks[0].pass && e.checks[1].pass);
         assert_eq!(e.checks[0].describe(), "fdi_2018 0.095 < 0.1 on led");
+    }
+
+    #[test]
+    fn the_shared_rules_judge_what_import_and_the_run_judge() {
+        // A value a tolerance away meets its limit; two tolerances away not.
+        assert!(meets(Some(0.1 - 0.5e-9), false, 0.1, true));
+        assert!(!meets(Some(0.1 - 2e-9), false, 0.1, true));
+        assert!(meets(Some(10.0 + 0.5e-9), false, 10.0, false));
+        assert!(!meets(Some(10.0 + 2e-9), false, 10.0, false));
+        assert!(meets(None, true, 0.1, true) && !meets(None, true, 10.0, false));
+        assert!(!meets(None, false, 0.1, true) && !meets(None, false, 10.0, false));
+        assert_eq!(case_verdict(true, [true, true]), Verdict::Pass);
+        assert_eq!(case_verdict(true, [true, false]), Verdict::Fail);
+        assert_eq!(case_verdict(false, [false]), Verdict::Info);
+        assert_eq!(case_verdict(true, []), Verdict::Info);
+        let families = limit_families(&thresholds().limits_for(None));
+        assert_eq!(families.len(), 7);
+        assert!(families.iter().any(|f| *f == ("fdi_2018", Some(0.1), true)));
     }
 
     #[test]
