@@ -468,7 +468,7 @@ mod tests {
         assert_eq!(case_verdict(true, []), Verdict::Info);
         let families = limit_families(&thresholds().limits_for(None));
         assert_eq!(families.len(), 7);
-        assert!(families.iter().any(|f| *f == ("fdi_2018", Some(0.1), true)));
+        assert!(families.contains(&("fdi_2018", Some(0.1), true)));
     }
 
     #[test]
