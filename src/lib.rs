@@ -47,9 +47,6 @@ pub use ledflicker_report as report;
 #[cfg(feature = "signoff")]
 pub use ledflicker_signoff as signoff;
 
-pub mod bench;
-pub mod campaign;
+pub use ledflicker_engine::{bench, campaign, pipeline, shard, store};
+
 pub mod cli;
-pub mod pipeline;
-pub mod shard;
-pub mod store;

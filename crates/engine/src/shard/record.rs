@@ -16,8 +16,8 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use super::ShardSpec;
-use crate::inputs::InputFile;
-use crate::runner::CaseResult;
+use ledflicker_core::inputs::InputFile;
+use ledflicker_core::runner::CaseResult;
 
 /// Schema of `shard.json`.
 pub const SCHEMA: &str = "ledflicker.shard/2";
@@ -130,13 +130,13 @@ impl ShardCase {
 
 /// Hash identifying a plan and its inputs: SHA-256 over each input's role,
 /// SHA-256 and size (not its path, which may differ between machines), in
-/// the order [`crate::inputs::collect`] lists them, the plan first.
+/// the order [`ledflicker_core::inputs::collect`] lists them, the plan first.
 pub fn plan_hash(inputs: &[InputFile]) -> String {
     let mut h = Sha256::new();
     for i in inputs {
         h.update(format!("{}\0{}\0{}\n", i.role, i.sha256, i.size).as_bytes());
     }
-    crate::util::hex(&h.finalize())
+    ledflicker_core::util::hex(&h.finalize())
 }
 
 /// CBOR bytes of `cases`.
@@ -165,10 +165,10 @@ pub fn decode_cases(bytes: &[u8], path: &Path) -> Result<Vec<ShardCase>, String>
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::backend::{Acquisition, FrameInfo, RenderedFrame, RoiTrace};
-    use crate::metrics::Verdict;
-    use crate::metrics::flicker::Segment;
-    use crate::plan::TestCase;
+    use ledflicker_core::backend::{Acquisition, FrameInfo, RenderedFrame, RoiTrace};
+    use ledflicker_core::metrics::Verdict;
+    use ledflicker_core::metrics::flicker::Segment;
+    use ledflicker_core::plan::TestCase;
 
     /// Awkward f64s: shortest decimal forms that naive parsers round wrong,
     /// subnormals, signed zero, infinities, and the extremes.

@@ -6,9 +6,9 @@ use std::path::{Path, PathBuf};
 
 use super::ShardSpec;
 use super::record::{self, CASES, MANIFEST, Manifest, ShardCase};
-use crate::inputs::InputFile;
-use crate::plan::Plan;
-use crate::runner::CaseResult;
+use ledflicker_core::inputs::InputFile;
+use ledflicker_core::plan::Plan;
+use ledflicker_core::runner::CaseResult;
 
 /// What one shard ran and measured.
 pub struct ShardOutput<'a> {
@@ -62,7 +62,12 @@ pub fn write_dir(dir: &Path, out: ShardOutput<'_>) -> Result<Manifest, WriteErro
     let traces: Vec<(String, String)> = out
         .results
         .iter()
-        .map(|c| (format!("{}.csv", c.case.id), crate::report::trace_csv(c)))
+        .map(|c| {
+            (
+                format!("{}.csv", c.case.id),
+                ledflicker_report::trace_csv(c),
+            )
+        })
         .collect();
     let records: Vec<ShardCase> = out
         .results
@@ -86,7 +91,7 @@ pub fn write_dir(dir: &Path, out: ShardOutput<'_>) -> Result<Manifest, WriteErro
         case_count: out.case_count,
         cases: out.cases,
         inputs: out.inputs.iter().map(Into::into).collect(),
-        cases_sha256: crate::util::sha256_hex(&bytes),
+        cases_sha256: ledflicker_core::util::sha256_hex(&bytes),
     };
     write_files(dir, &manifest, &bytes, &traces)?;
     Ok(manifest)

@@ -20,16 +20,16 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::{RecvTimeoutError, channel};
 use std::time::Duration;
 
-use crate::interrupt::Interrupted;
-use crate::metrics::Verdict;
-use crate::model::{Detail, InputFile, Results};
-use crate::outdir::{Generation, OutDirError};
-use crate::plan::Plan;
-use crate::report::golden::{Comparison, Tolerances};
-use crate::report::{self, ReportError, WriteOptions};
-use crate::runner::CaseSource;
+use ledflicker_core::interrupt::Interrupted;
+use ledflicker_core::metrics::Verdict;
+use ledflicker_core::model::{Detail, InputFile, Results};
+use ledflicker_core::outdir::{Generation, OutDirError};
+use ledflicker_core::plan::Plan;
+use ledflicker_core::runner::CaseSource;
+use ledflicker_report::golden::{Comparison, Tolerances};
+use ledflicker_report::{self as report, ReportError, WriteOptions};
 #[cfg(feature = "signoff")]
-use crate::signoff::SignoffError;
+use ledflicker_signoff::SignoffError;
 
 /// Why the report stage failed. Each variant names what was being done;
 /// the command maps it to an exit code through its cause (`cli::Failure`).
@@ -79,9 +79,9 @@ const PICTURES_TICK: Duration = Duration::from_millis(100);
 /// then starts the new generation of `out` and installs the signal
 /// handler, so that Ctrl-C from here on leaves the old report as it was.
 pub fn begin_output(out: &Path, force: bool) -> Result<Generation, OutDirError> {
-    crate::outdir::check_overwrite(out, force)?;
+    ledflicker_core::outdir::check_overwrite(out, force)?;
     let generation = Generation::begin(out)?;
-    crate::interrupt::install();
+    ledflicker_core::interrupt::install();
     Ok(generation)
 }
 
@@ -89,7 +89,7 @@ pub fn begin_output(out: &Path, force: bool) -> Result<Generation, OutDirError> 
 /// the staging directory the interrupted run left, with only its case
 /// store kept.
 pub fn resume_output(out: &Path, force: bool) -> Result<Generation, OutDirError> {
-    crate::outdir::check_overwrite(out, force)?;
+    ledflicker_core::outdir::check_overwrite(out, force)?;
     let generation = Generation::resume(
         out,
         &[
@@ -100,7 +100,7 @@ pub fn resume_output(out: &Path, force: bool) -> Result<Generation, OutDirError>
             crate::store::FILE,
         ],
     )?;
-    crate::interrupt::install();
+    ledflicker_core::interrupt::install();
     Ok(generation)
 }
 
@@ -109,12 +109,12 @@ pub fn resume_output(out: &Path, force: bool) -> Result<Generation, OutDirError>
 pub struct Run<'a> {
     /// The plan the cases came from.
     pub plan: &'a Plan,
-    /// The backend's id ([`crate::backend::Backend::id`]), as results.json shows it.
+    /// The backend's id ([`ledflicker_core::backend::Backend::id`]), as results.json shows it.
     pub backend_id: &'a str,
     /// Every case's result, in case order, sample frames rendered: in
     /// memory, or read back from the run's case store.
     pub results: &'a dyn CaseSource,
-    /// The run's input files, hashed ([`crate::inputs::collect`]).
+    /// The run's input files, hashed ([`ledflicker_core::inputs::collect`]).
     pub inputs: Vec<InputFile>,
 }
 
@@ -143,7 +143,7 @@ pub struct Signing {
     /// "Name, Role".
     pub signer: String,
     /// Key and certificate.
-    pub key: crate::signoff::SignerKey,
+    pub key: ledflicker_signoff::SignerKey,
     /// Key files, which must lie outside the report directory.
     pub key_files: Vec<PathBuf>,
     /// Signing time in the signatures, Unix seconds.
@@ -231,7 +231,7 @@ pub struct Outcome {
     pub signed: Option<SignedBy>,
     /// The drift from the golden results, when compared.
     pub golden: Option<Comparison>,
-    /// A warning for the user from the swap ([`crate::outdir::Committed::warning`]).
+    /// A warning for the user from the swap ([`ledflicker_core::outdir::Committed::warning`]).
     pub warning: Option<String>,
 }
 
@@ -267,11 +267,11 @@ pub fn report(
         Err(e) => {
             // A stop in this stage keeps the finished case store, so that
             // `--resume` goes straight to the report.
-            if crate::interrupt::requested().is_some()
+            if ledflicker_core::interrupt::requested().is_some()
                 && let Some(hint) = hint
                 && generation.path().join(crate::store::FILE).is_file()
             {
-                crate::interrupt::prune(generation.path(), crate::store::FILE);
+                ledflicker_core::interrupt::prune(generation.path(), crate::store::FILE);
                 generation.keep_for_resume();
                 eprintln!("{hint}");
             }
@@ -304,23 +304,27 @@ fn write_stage(
     // Ctrl-C acts within a fraction of a second in the analyses and the
     // PDF layout too, where no loop of ours looks at it.
     let keep = hint.map(|h| (crate::store::FILE, h));
-    let prompt = crate::interrupt::Prompt::start(generation.path().to_path_buf(), keep);
+    let prompt = ledflicker_core::interrupt::Prompt::start(generation.path().to_path_buf(), keep);
     on_progress(Progress::Analysing {
         cases: run.results.len(),
     });
-    let t = crate::timings::span("report model (analyses)");
-    let mut model =
-        crate::model::assemble_from(run.plan, run.backend_id, run.results, options.detail)
-            .map_err(|e| PipelineError::Write {
-                out: generation.out().to_path_buf(),
-                source: e.into(),
-            })?;
-    crate::model::listing::drop_undrawn(&mut model, options.detail);
+    let t = ledflicker_core::timings::span("report model (analyses)");
+    let mut model = ledflicker_core::model::assemble_from(
+        run.plan,
+        run.backend_id,
+        run.results,
+        options.detail,
+    )
+    .map_err(|e| PipelineError::Write {
+        out: generation.out().to_path_buf(),
+        source: e.into(),
+    })?;
+    ledflicker_core::model::listing::drop_undrawn(&mut model, options.detail);
     // The cases read back for the analyses are freed on the workers' threads.
-    crate::util::release_free_memory();
+    ledflicker_core::util::release_free_memory();
     drop(t);
-    crate::interrupt::check()?;
-    let t = crate::timings::span("write report");
+    ledflicker_core::interrupt::check()?;
+    let t = ledflicker_core::timings::span("write report");
     let write = WriteOptions {
         date: options.date.clone(),
         force: options.force,
@@ -340,7 +344,7 @@ fn write_stage(
         None => None,
     };
     on_progress(Progress::Written);
-    crate::interrupt::check()?;
+    ledflicker_core::interrupt::check()?;
     Ok((model, signed))
 }
 
@@ -377,9 +381,9 @@ fn write_files(
 /// Signs the new generation (report.pdf and manifest.txt).
 #[cfg(feature = "signoff")]
 fn sign(generation: &Generation, date: &str, s: Signing) -> Result<SignedBy, PipelineError> {
-    let done = crate::signoff::sign(
+    let done = ledflicker_signoff::sign(
         generation.path(),
-        &crate::signoff::SignRequest {
+        &ledflicker_signoff::SignRequest {
             signer: &s.signer,
             date,
             time_unix_s: s.time_unix_s,
@@ -408,12 +412,14 @@ mod tests {
 
     /// The small fixture plan (tests/fixtures/plans/base.toml) and its
     /// case results on the simulator.
-    fn small_run() -> (Plan, Vec<crate::model::CaseResult>) {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/plans/base.toml");
-        let plan = crate::plan::load(&path).unwrap();
-        let cases = crate::plan::expand_cases(&plan);
-        let simulator = crate::backend::sim::Simulator::new(&plan);
-        let results = crate::runner::run(&plan, &cases, &simulator, Some(2), &|_| {}).unwrap();
+    fn small_run() -> (Plan, Vec<ledflicker_core::model::CaseResult>) {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/fixtures/plans/base.toml");
+        let plan = ledflicker_core::plan::load(&path).unwrap();
+        let cases = ledflicker_core::plan::expand_cases(&plan);
+        let simulator = ledflicker_core::backend::sim::Simulator::new(&plan);
+        let results =
+            ledflicker_core::runner::run(&plan, &cases, &simulator, Some(2), &|_| {}).unwrap();
         (plan, results)
     }
 
@@ -480,7 +486,7 @@ mod tests {
     #[test]
     fn golden_drift_fails_the_run_and_no_judged_case_is_not_judged() {
         let (plan, results) = small_run();
-        let model = crate::model::assemble(&plan, "sim-ideal", &results);
+        let model = ledflicker_core::model::assemble(&plan, "sim-ideal", &results);
         let mut outcome = Outcome {
             model,
             dir: PathBuf::from("out"),

@@ -22,7 +22,7 @@ pub mod write;
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::UsageError;
+use ledflicker_core::error::UsageError;
 
 /// Largest shard count: more shards than this is a mistake, not a cluster.
 pub const MAX_SHARDS: usize = 100_000;

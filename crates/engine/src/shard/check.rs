@@ -14,14 +14,14 @@ use rayon::prelude::*;
 
 use super::ShardSpec;
 use super::record::{self, ShardCase};
-use crate::backend::sim::Simulator;
-use crate::backend::{Acquisition, Backend, BackendError, RenderedFrame};
-use crate::error::UsageError;
-use crate::metrics::flicker::Segment;
-use crate::plan::{BackendKind, Plan, TestCase};
-use crate::runner::{self, CaseResult};
-use crate::trace::SegmentMethod;
-use crate::trace::SegmentsFound;
+use ledflicker_core::backend::sim::Simulator;
+use ledflicker_core::backend::{Acquisition, Backend, BackendError, RenderedFrame};
+use ledflicker_core::error::UsageError;
+use ledflicker_core::metrics::flicker::Segment;
+use ledflicker_core::plan::{BackendKind, Plan, TestCase};
+use ledflicker_core::runner::{self, CaseResult};
+use ledflicker_core::trace::SegmentMethod;
+use ledflicker_core::trace::SegmentsFound;
 
 /// Decodes the `cases.cbor` of shard `shard` (`bytes`, read from `path`),
 /// which its manifest says holds the cases `listed` of `all` (the plan's
@@ -121,12 +121,12 @@ fn conditions(c: &TestCase) -> String {
 }
 
 /// Largest luma magnitude a shard may hold, DN: the bound a capture's
-/// luma is read within ([`crate::capture::MAX_CSV_LUMA_DN`]), so that every
+/// luma is read within ([`ledflicker_core::capture::MAX_CSV_LUMA_DN`]), so that every
 /// shard `plan --shard` writes merges. The metrics and analyses sum and
 /// square luma over up to 10^7 frames; within this bound that stays near
 /// 10^31, far from overflowing, where values near `f64::MAX` overflow to
 /// infinity and give NaN metrics.
-pub const MAX_LUMA_DN: f64 = crate::capture::MAX_CSV_LUMA_DN;
+pub const MAX_LUMA_DN: f64 = ledflicker_core::capture::MAX_CSV_LUMA_DN;
 
 fn in_range(v: f64) -> bool {
     v.is_finite() && v.abs() <= MAX_LUMA_DN

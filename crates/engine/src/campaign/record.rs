@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use super::setup::{CaseFacts, Setup};
 use super::sql::values;
 use super::{CampaignError, Database, noise};
-use crate::model::{CaseInfo, Results};
+use ledflicker_core::model::{CaseInfo, Results};
 
 /// Which command recorded a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -86,7 +86,7 @@ struct Prepared {
     dir: String,
     /// The report's date and inputs: from the model, else from
     /// results.json (the pipeline adds them as it writes the file).
-    meta: Option<crate::model::ReportMeta>,
+    meta: Option<ledflicker_core::model::ReportMeta>,
     results_sha256: String,
     manifest_sha256: Option<String>,
     /// Per case, per ROI (in the case's order): the trace's noise.
@@ -131,8 +131,8 @@ fn prepare(results: &Results, dir: &Path) -> Result<Prepared, CampaignError> {
     let results_path = dir.join("results.json");
     let (results_sha256, stored_meta) = read_results_file(&results_path, results.report.is_none())?;
     let manifest = dir.join("manifest.txt");
-    let manifest_sha256 = match crate::util::read_input(&manifest) {
-        Ok(m) => Some(crate::util::sha256_hex(&m)),
+    let manifest_sha256 = match ledflicker_core::util::read_input(&manifest) {
+        Ok(m) => Some(ledflicker_core::util::sha256_hex(&m)),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
         Err(e) => return Err(unreadable(&manifest, e)),
     };
@@ -209,7 +209,7 @@ fn read_trace(dir: &Path, rel: &str) -> std::io::Result<String> {
         return Err(refuse("the trace leads out of the report directory"));
     }
     let mut text = String::new();
-    crate::util::open_input(&full)?
+    ledflicker_core::util::open_input(&full)?
         .take(MAX_TRACE_BYTES)
         .read_to_string(&mut text)?;
     Ok(text)
@@ -222,7 +222,7 @@ fn read_trace(dir: &Path, rel: &str) -> std::io::Result<String> {
 fn read_results_file(
     path: &Path,
     want_meta: bool,
-) -> Result<(String, Option<crate::model::ReportMeta>), CampaignError> {
+) -> Result<(String, Option<ledflicker_core::model::ReportMeta>), CampaignError> {
     use sha2::Digest;
     use std::io::Read;
 
@@ -240,12 +240,12 @@ fn read_results_file(
     }
     #[derive(serde::Deserialize)]
     struct Head {
-        report: Option<crate::model::ReportMeta>,
+        report: Option<ledflicker_core::model::ReportMeta>,
     }
 
     let unreadable =
         |e: std::io::Error| CampaignError::Input(format!("cannot read `{}`: {e}", path.display()));
-    let file = crate::util::open_input(path).map_err(unreadable)?;
+    let file = ledflicker_core::util::open_input(path).map_err(unreadable)?;
     let mut reader = Hashing {
         inner: std::io::BufReader::new(file),
         hasher: sha2::Sha256::new(),
@@ -261,7 +261,7 @@ fn read_results_file(
     // The rest (all of it when the `report` object was not wanted) goes
     // into the hash only.
     std::io::copy(&mut reader, &mut std::io::sink()).map_err(unreadable)?;
-    Ok((crate::util::hex(&reader.hasher.finalize()), meta))
+    Ok((ledflicker_core::util::hex(&reader.hasher.finalize()), meta))
 }
 
 fn insert_run(
@@ -355,8 +355,8 @@ fn insert_case(
         "INSERT INTO metrics (run_id, idx, roi, metric, value) VALUES (?1, ?2, ?3, ?4, ?5)";
     for (roi, n) in c.rois.iter().zip(noise) {
         let kind = match roi.kind {
-            crate::model::RoiKind::Led => "led",
-            crate::model::RoiKind::Background => "background",
+            ledflicker_core::model::RoiKind::Led => "led",
+            ledflicker_core::model::RoiKind::Background => "background",
         };
         tx.execute(
             roi_row,

@@ -1,11 +1,12 @@
 use super::*;
 /// Three simulated cases of the daylight plan, in case order.
 fn results() -> Vec<CaseResult> {
-    let plan = crate::plan::find_and_load("daylight").unwrap();
-    let cases = crate::plan::expand_cases(&plan);
-    let backend = crate::backend::for_plan(&plan, None).unwrap();
-    let mut results = crate::runner::run(&plan, &cases[..3], &backend, Some(1), &|_| {}).unwrap();
-    crate::runner::render_sample_frames(&plan, &mut results, &backend).unwrap();
+    let plan = ledflicker_core::plan::find_and_load("daylight").unwrap();
+    let cases = ledflicker_core::plan::expand_cases(&plan);
+    let backend = ledflicker_core::backend::for_plan(&plan, None).unwrap();
+    let mut results =
+        ledflicker_core::runner::run(&plan, &cases[..3], &backend, Some(1), &|_| {}).unwrap();
+    ledflicker_core::runner::render_sample_frames(&plan, &mut results, &backend).unwrap();
     assert!(results.iter().any(|r| r.sample_frame.is_some()));
     results
 }
@@ -116,21 +117,25 @@ fn resuming_without_a_partial_store_or_from_a_foreign_file_is_a_clear_error() {
 
 #[test]
 fn a_resumed_store_judges_its_cases_again_so_a_forged_verdict_does_not_survive() {
-    let plan = crate::plan::find_and_load("daylight").unwrap();
-    let cases = crate::plan::expand_cases(&plan);
-    let backend = crate::backend::for_plan(&plan, None).unwrap();
+    let plan = ledflicker_core::plan::find_and_load("daylight").unwrap();
+    let cases = ledflicker_core::plan::expand_cases(&plan);
+    let backend = ledflicker_core::backend::for_plan(&plan, None).unwrap();
     let idx = cases
         .iter()
         .position(|c| c.id == "2000lux-90hz-50pct")
         .unwrap();
-    let genuine = crate::runner::run(&plan, &cases[idx..=idx], &backend, Some(1), &|_| {})
-        .unwrap()
-        .remove(0);
-    assert_eq!(genuine.verdict, crate::metrics::verdict::Verdict::Pass);
+    let genuine =
+        ledflicker_core::runner::run(&plan, &cases[idx..=idx], &backend, Some(1), &|_| {})
+            .unwrap()
+            .remove(0);
+    assert_eq!(
+        genuine.verdict,
+        ledflicker_core::metrics::verdict::Verdict::Pass
+    );
     // The partial store edited: the case failed, its check too, its
     // figure lowered.
     let mut forged = genuine.clone();
-    forged.verdict = crate::metrics::verdict::Verdict::Fail;
+    forged.verdict = ledflicker_core::metrics::verdict::Verdict::Fail;
     for c in &mut forged.checks {
         c.pass = false;
         c.value = Some(0.0);

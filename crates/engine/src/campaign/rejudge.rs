@@ -16,10 +16,10 @@
 
 use std::collections::BTreeSet;
 
-use crate::model::{BackendName, CaseInfo, Comparison, Results, RoiInfo, RoiKind};
-use crate::model::{Verdict, VerdictBasis};
-use crate::plan::Limits;
 use ledflicker_core::metrics::verdict::{case_verdict, limit_families, meets};
+use ledflicker_core::model::{BackendName, CaseInfo, Comparison, Results, RoiInfo, RoiKind};
+use ledflicker_core::model::{Verdict, VerdictBasis};
+use ledflicker_core::plan::Limits;
 
 /// Mismatches listed at most; the rest are counted.
 const MAX: usize = 8;

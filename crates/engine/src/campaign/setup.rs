@@ -14,7 +14,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 use serde_json::Value;
 
-use crate::model::Results;
+use ledflicker_core::model::Results;
 
 /// A run's set-up: key -> value, in key order.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
@@ -106,7 +106,7 @@ pub struct CaseFacts {
 
 impl CaseFacts {
     /// The facts of case `c`.
-    pub fn of(c: &crate::model::CaseInfo) -> CaseFacts {
+    pub fn of(c: &ledflicker_core::model::CaseInfo) -> CaseFacts {
         let mut rois: Vec<(String, String, bool)> = c
             .rois
             .iter()
@@ -206,7 +206,7 @@ impl Setup {
             text.push_str(v);
             text.push('\n');
         }
-        crate::util::sha256_hex(text.as_bytes())
+        ledflicker_core::util::sha256_hex(text.as_bytes())
     }
 
     /// A short label of the device as run: its firmware and the simulated

@@ -8,9 +8,9 @@ use std::path::{Path, PathBuf};
 
 use super::record::{self, CASES, MANIFEST, Manifest};
 use super::write::tool;
-use crate::error::UsageError;
-use crate::plan::{self, Plan, PlanError};
-use crate::runner::CaseResult;
+use ledflicker_core::error::UsageError;
+use ledflicker_core::plan::{self, Plan, PlanError};
+use ledflicker_core::runner::CaseResult;
 
 /// Why the shard directories cannot be merged. Both are the user's input
 /// (exit code 2).
@@ -35,7 +35,7 @@ pub struct Merged {
     /// The first shard's manifest (every shard agrees on what a report uses).
     pub manifest: Manifest,
     /// The plan's cases, in case order.
-    all: Vec<crate::plan::TestCase>,
+    all: Vec<ledflicker_core::plan::TestCase>,
     /// Each shard directory and its manifest.
     read: Vec<(PathBuf, Manifest)>,
 }
@@ -131,9 +131,9 @@ impl Merged {
 /// inputs (role, SHA-256 and size; the paths are as the shard saw them).
 pub fn check_manifest(
     plan: &Plan,
-    all: &[crate::plan::TestCase],
+    all: &[ledflicker_core::plan::TestCase],
     owners: &[usize],
-    inputs: &[crate::inputs::InputFile],
+    inputs: &[ledflicker_core::inputs::InputFile],
     dir: &Path,
     m: &Manifest,
 ) -> Result<(), UsageError> {
@@ -247,7 +247,7 @@ fn glob_match(pattern: &str, name: &str) -> bool {
 
 fn read_manifest(dir: &Path) -> Result<(PathBuf, Manifest), UsageError> {
     let path = dir.join(MANIFEST);
-    let text = crate::util::read_input_to_string(&path).map_err(|e| {
+    let text = ledflicker_core::util::read_input_to_string(&path).map_err(|e| {
         if e.kind() == std::io::ErrorKind::InvalidInput {
             UsageError(format!(
                 "`{}` {e}\n    hint: a shard's {MANIFEST} is a file written by `ledflicker plan PLAN --shard K/N --out DIR`",
@@ -366,12 +366,12 @@ fn check_shards(shards: &[(PathBuf, Manifest)]) -> Result<(), UsageError> {
 /// then checked and evaluated again ([`super::check::shard_cases`]).
 fn shard_cases_checked(
     plan: &Plan,
-    all: &[crate::plan::TestCase],
+    all: &[ledflicker_core::plan::TestCase],
     dir: &Path,
     m: &Manifest,
 ) -> Result<Vec<CaseResult>, MergeError> {
     let path = dir.join(CASES);
-    let bytes = crate::util::read_input(&path).map_err(|e| {
+    let bytes = ledflicker_core::util::read_input(&path).map_err(|e| {
         UsageError(format!(
             "cannot read `{}`: {e}\n    hint: re-run shard {} with `ledflicker plan PLAN --shard {} --out DIR`",
             path.display(),
@@ -379,7 +379,7 @@ fn shard_cases_checked(
             m.shard
         ))
     })?;
-    if crate::util::sha256_hex(&bytes) != m.cases_sha256 {
+    if ledflicker_core::util::sha256_hex(&bytes) != m.cases_sha256 {
         return Err(UsageError(format!(
             "`{}` does not match the SHA-256 in its {MANIFEST}: the file is damaged or from another run\n    hint: re-run shard {}",
             path.display(),
@@ -398,7 +398,7 @@ fn shard_cases_checked(
 fn load_plan(
     given: Option<&Path>,
     m: &Manifest,
-) -> Result<(Plan, Vec<crate::inputs::InputFile>), MergeError> {
+) -> Result<(Plan, Vec<ledflicker_core::inputs::InputFile>), MergeError> {
     let as_given = PathBuf::from(&m.plan_path);
     let absolute = PathBuf::from(&m.plan_path_absolute);
     // A built-in plan's shards name its path in the source tree; when no
@@ -414,7 +414,7 @@ fn load_plan(
         (None, Some(b)) if !absolute.is_file() => plan::load_built_in(b)?,
         (None, _) => plan::load_within(&absolute, unbounded)?,
     };
-    let inputs = crate::inputs::collect(&plan).map_err(|e| UsageError(e.to_string()))?;
+    let inputs = ledflicker_core::inputs::collect(&plan).map_err(|e| UsageError(e.to_string()))?;
     if record::plan_hash(&inputs) != m.plan_hash {
         let now: Vec<record::InputRecord> = inputs.iter().map(Into::into).collect();
         let changed: Vec<String> = now

@@ -11,9 +11,9 @@
 use serde::de::{self, Deserializer, Visitor};
 use serde::{Deserialize, Serialize, Serializer};
 
-use crate::runner::CaseResult;
 use crate::shard::record::ShardCase;
-use crate::trace::{FrameInfo, Segment};
+use ledflicker_core::runner::CaseResult;
+use ledflicker_core::trace::{FrameInfo, Segment};
 
 /// A case as the store holds it.
 #[derive(Serialize, Deserialize)]
@@ -178,12 +178,13 @@ mod tests {
     /// A case with every frame field and luma value set to odd bit
     /// patterns, frames not numbered from 0.
     fn odd_case() -> CaseResult {
-        let plan = crate::plan::find_and_load("daylight").unwrap();
-        let cases = crate::plan::expand_cases(&plan);
-        let backend = crate::backend::for_plan(&plan, None).unwrap();
-        let mut result = crate::runner::run(&plan, &cases[..1], &backend, Some(1), &|_| {})
-            .unwrap()
-            .remove(0);
+        let plan = ledflicker_core::plan::find_and_load("daylight").unwrap();
+        let cases = ledflicker_core::plan::expand_cases(&plan);
+        let backend = ledflicker_core::backend::for_plan(&plan, None).unwrap();
+        let mut result =
+            ledflicker_core::runner::run(&plan, &cases[..1], &backend, Some(1), &|_| {})
+                .unwrap()
+                .remove(0);
         let odd = [
             f64::NAN,
             -0.0,

@@ -230,7 +230,7 @@ pub fn connect(url: &str) -> Result<Client, CampaignError> {
                 ));
             }
             Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
-                if let Err(stop) = crate::interrupt::check() {
+                if let Err(stop) = ledflicker_core::interrupt::check() {
                     return Err(failed(format!("not connected: {stop}")));
                 }
                 if started.elapsed() >= CONNECT_TIMEOUT {
@@ -354,7 +354,7 @@ fn password_from_file(config: &Config) -> Result<Option<String>, String> {
     let Some(file) = server::passfile(&env) else {
         return Ok(None);
     };
-    let text = match crate::util::read_input_to_string(&file) {
+    let text = match ledflicker_core::util::read_input_to_string(&file) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => {

@@ -1,5 +1,5 @@
 //! The runs of the results database as the browsable history page shows
-//! them ([`crate::report::history::HistoryView`]): grouped by camera, each
+//! them ([`ledflicker_report::history::HistoryView`]): grouped by camera, each
 //! linked to its report where it still is, with a chart of failing and
 //! passing cases per run for each plan and camera.
 
@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use super::query::RunRow;
-use crate::report::history::{CameraGroup, HistoryRun, HistoryView, TrendChart};
+use ledflicker_report::history::{CameraGroup, HistoryRun, HistoryView, TrendChart};
 
 /// `path` as a `file://` URL: a page opened from disk follows it, and a
 /// space, `#` or `?` in a directory name stays part of the path.

@@ -7,11 +7,11 @@
 
 use std::time::Instant;
 
-use crate::physics::PwmDrive;
-use crate::physics::sensor::Rng;
-use crate::physics::shutter::{Shutter, ShutterModel};
-use crate::plan::{self, Plan};
-use crate::runner;
+use ledflicker_core::physics::PwmDrive;
+use ledflicker_core::physics::sensor::Rng;
+use ledflicker_core::physics::shutter::{Shutter, ShutterModel};
+use ledflicker_core::plan::{self, Plan};
+use ledflicker_core::runner;
 
 /// One row of the bench table.
 #[derive(Debug, Clone)]
@@ -95,7 +95,7 @@ pub const SWEEP_DUTIES: usize = 10;
 /// of 5 Hz) on a 16 x 12 sensor, 120 frames a case and 2 ROIs: the shipped
 /// 192-case grid's camera and scene, smaller.
 pub fn sweep_plan(frequencies: usize) -> String {
-    let grid = crate::plan::shipped::PLANS
+    let grid = ledflicker_core::plan::shipped::PLANS
         .iter()
         .find(|p| p.path == "test-plans/grid-192.toml")
         .map_or("", |p| p.text);
@@ -131,7 +131,7 @@ pub fn sweep_plan(frequencies: usize) -> String {
 }
 
 /// Median of `xs` (the upper middle for an even count); NaN when empty.
-pub(crate) fn median(mut xs: Vec<f64>) -> f64 {
+pub fn median(mut xs: Vec<f64>) -> f64 {
     xs.sort_by(f64::total_cmp);
     xs.get(xs.len() / 2).copied().unwrap_or(f64::NAN)
 }
@@ -331,14 +331,14 @@ pub fn numpy_peer(script: &std::path::Path, timeout: std::time::Duration) -> Res
 /// 50 % LED seen by a sensor reading 4320 rows in 15.7 ms, with noise and
 /// vignetting. Writes it to `path`.
 pub fn write_8k_frame(path: &std::path::Path) -> Result<(), String> {
-    crate::calibrate::synth::SynthFrame {
+    ledflicker_core::calibrate::synth::SynthFrame {
         width: 7680,
         height: 4320,
         line_time_s: 3.641e-6,
         noise_dn: 200.0,
         vignetting: 0.3,
         bits16: true,
-        ..crate::calibrate::synth::SynthFrame::base()
+        ..ledflicker_core::calibrate::synth::SynthFrame::base()
     }
     .save(path, 90)
 }
@@ -351,16 +351,19 @@ pub fn calibrate_8k_once(
     frame: &std::path::Path,
     profile_out: &std::path::Path,
 ) -> Result<f64, String> {
-    use crate::calibrate::profile::{self, ProfileOptions};
-    let set =
-        crate::calibrate::frames::load(std::slice::from_ref(&frame.to_path_buf()), None, None)
-            .map_err(|e| e.to_string())?;
-    let light = crate::calibrate::Light {
+    use ledflicker_core::calibrate::profile::{self, ProfileOptions};
+    let set = ledflicker_core::calibrate::frames::load(
+        std::slice::from_ref(&frame.to_path_buf()),
+        None,
+        None,
+    )
+    .map_err(|e| e.to_string())?;
+    let light = ledflicker_core::calibrate::Light {
         frequency_hz: 1000.0,
         frequency_sigma_hz: 0.0,
         duty: None,
     };
-    let cal = crate::calibrate::calibrate(&set, light).map_err(|e| e.to_string())?;
+    let cal = ledflicker_core::calibrate::calibrate(&set, light).map_err(|e| e.to_string())?;
     let opts = ProfileOptions {
         name: "bench".to_string(),
         fps: None,
@@ -567,13 +570,14 @@ fn plan_rows(quick: bool, table: &mut Table<'_>) -> Result<(), Box<dyn std::erro
     ] {
         let plan = bench_plan(Some(profile))?;
         let cases = plan::expand_cases(&plan);
-        let backend = crate::backend::for_plan(&plan, None)?;
+        let backend = ledflicker_core::backend::for_plan(&plan, None)?;
         let (t, results) = timed(if quick { 1 } else { 3 }, || {
             runner::run(&plan, &cases, &backend, None, &|_| {})
         });
         results?;
         let frames =
-            crate::backend::sim::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps).total();
+            ledflicker_core::backend::sim::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps)
+                .total();
         table.push(BenchRow {
             method: label.into(),
             per: "plan",
@@ -613,8 +617,8 @@ mod tests {
     /// computes the same grid: read the script's constants and compare.
     #[test]
     fn core_grid_is_the_numpy_peers_grid() {
-        let path =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/peer_closedform.py");
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../scripts/peer_closedform.py");
         let text = std::fs::read_to_string(path).unwrap();
         let numbers = |name: &str| -> Vec<f64> {
             let line = text

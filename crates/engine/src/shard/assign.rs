@@ -8,7 +8,7 @@
 //! its own. LPT's makespan is within 4/3 of the best possible (Graham 1969).
 //!
 //! Weights: a simulated case costs its frames times the ROI rows
-//! integrated per frame ([`crate::plan::WorkEstimate`]), the same for every
+//! integrated per frame ([`ledflicker_core::plan::WorkEstimate`]), the same for every
 //! case of a plan, so the assignment is round-robin by index (case `i` to
 //! shard `i mod N`). A captured case costs the bytes of its capture (a
 //! video, Y4M or CSV file, or every file of a frame directory): decoding
@@ -19,14 +19,14 @@ use std::collections::BinaryHeap;
 use std::path::Path;
 
 use super::ShardSpec;
-use crate::plan::{BackendKind, Plan, TestCase};
+use ledflicker_core::plan::{BackendKind, Plan, TestCase};
 
 /// Estimated work of each case of `plan`, in plan order (`cases` is
-/// [`crate::plan::expand_cases`] of it).
+/// [`ledflicker_core::plan::expand_cases`] of it).
 pub fn weights(plan: &Plan, cases: &[TestCase]) -> Vec<u64> {
     match plan.dut.backend {
         BackendKind::Simulator => {
-            let w = crate::plan::WorkEstimate::of(plan);
+            let w = ledflicker_core::plan::WorkEstimate::of(plan);
             let per_case = w.frames_per_case.saturating_mul(w.rows_per_frame).max(1);
             vec![per_case; cases.len()]
         }

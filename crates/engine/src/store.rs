@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 use rusqlite::config::DbConfig;
 use rusqlite::{Connection, OptionalExtension, params};
 
-use crate::runner::{CaseReadError, CaseResult, CaseSource};
+use ledflicker_core::runner::{CaseReadError, CaseResult, CaseSource};
 
 mod record;
 

@@ -1,5 +1,5 @@
 //! A [`Comparison`] as the comparison report shows it
-//! ([`crate::report::comparison::ComparisonView`]): the two runs, the
+//! ([`ledflicker_report::comparison::ComparisonView`]): the two runs, the
 //! regressions worst first, the other gated KPIs, the flips, and a chart
 //! per gated KPI with the regressed cases on top.
 
@@ -9,7 +9,7 @@ use super::compare::{
     ALPHA, Comparability, Comparison, Kpi, MIN_REPEAT_DF, PoolMethod, TRACE_INFLATION,
 };
 use super::query::{RunData, RunRow};
-use crate::report::comparison::{
+use ledflicker_report::comparison::{
     ChartPoint, ComparisonView, DeltaCell, DeltaMatrix, DifferenceRow, FlipRow, KpiChange,
     KpiChart, PooledRow, RunSide, TraceOverlay,
 };
@@ -134,7 +134,7 @@ fn charts(changes: &[KpiChange], b: &RunData) -> Vec<KpiChart> {
             points.sort_by_key(|p| std::cmp::Reverse(p.regressed));
             KpiChart {
                 threshold: threshold(&roi, &metric, &points),
-                name: crate::model::human_name(&metric).to_string(),
+                name: ledflicker_core::model::human_name(&metric).to_string(),
                 points: points
                     .iter()
                     .map(|p| ChartPoint {
@@ -252,7 +252,7 @@ fn overlays(c: &Comparison, regressions: &[KpiChange]) -> (Vec<TraceOverlay>, Op
     };
     let (mut out, mut gone) = (Vec::new(), Vec::new());
     for k in worst.iter().take(MAX_OVERLAYS) {
-        let trace = crate::model::trace_path(&k.case);
+        let trace = ledflicker_core::model::trace_path(&k.case);
         let read = |dir: &str| trace_column(&std::path::Path::new(dir).join(&trace), &k.roi);
         match (read(&c.a.report_dir), read(&c.b.report_dir)) {
             (Some(a), Some(b)) => out.push(TraceOverlay {
