@@ -83,6 +83,9 @@ pub enum Failure {
     /// cause's.
     #[error(transparent)]
     Pipeline(#[from] PipelineError),
+    /// The run stage stopped: the case store (below) or the run (above).
+    #[error(transparent)]
+    RunStage(#[from] crate::pipeline::RunStageError),
     /// The case store failed (3), or cannot be resumed (2).
     #[error(transparent)]
     Store(#[from] crate::store::StoreError),
@@ -139,6 +142,7 @@ impl Failure {
             Failure::Signoff(e) => signoff(e),
             Failure::Pipeline(e) => pipeline(e),
             Failure::ShardWrite(e) => shard_write(e),
+            Failure::RunStage(e) => run_stage(e),
             Failure::Store(e) => store(e),
             Failure::Campaign(e) if e.is_usage_error() => EXIT_INVALID,
             Failure::Campaign(_) => EXIT_INTERNAL,
@@ -306,6 +310,15 @@ fn shard_write(e: &WriteError) -> i32 {
 
 /// A store that belongs to another run is the user's to sort out; any
 /// other store failure is the tool's.
+fn run_stage(e: &crate::pipeline::RunStageError) -> i32 {
+    use crate::pipeline::RunStageError;
+    match e {
+        RunStageError::Store(e) => store(e),
+        RunStageError::Run(e) => run(e),
+        RunStageError::Cases { source, .. } => run_stage(source),
+    }
+}
+
 fn store(e: &crate::store::StoreError) -> i32 {
     match e {
         crate::store::StoreError::Mismatch { .. } => EXIT_INVALID,

@@ -12,7 +12,6 @@ use super::output::{out, outln};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
-use super::failure::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
@@ -21,10 +20,10 @@ use super::sign::signing;
 use super::{EXIT_FAIL, EXIT_NOT_JUDGED, EXIT_PASS, Failure};
 use crate::backend::{Backend, PlanBackend};
 use crate::error::UsageError;
-use crate::pipeline::{self, Golden, Outcome, Progress, ReportOptions, Status};
+use crate::pipeline::{self, Golden, Outcome, Progress, ReportOptions, RunProgress, Status};
 use crate::plan::{self, Plan};
 use crate::report;
-use crate::runner::{self, CaseResult, RunEvent};
+use crate::runner;
 
 #[derive(Args, Debug)]
 pub(super) struct PlanArgs {
@@ -149,13 +148,8 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
     // A failure from here on keeps what a resumed run had stored, and what
     // this run stored, for another `--resume`.
     let resuming = args.resume.is_some();
-    let stop = |failure: Failure, generation| {
-        let stopped = Stopped {
-            failure: Box::new(failure),
-            stored: resuming,
-        };
-        keep_for_resume(stopped, generation, &args, &out)
-    };
+    let stop =
+        |failure: Failure, generation| keep_for_resume(failure, resuming, generation, &args, &out);
     let mut backend = match build_backend(&plan, args.quiet) {
         Ok(backend) => backend,
         Err(e) => return Err(stop(e, generation)),
@@ -185,9 +179,9 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
     };
     let results = match run_cases(&plan, &backend, &args, generation.path(), &inputs) {
         Ok(results) => results,
-        Err(mut e) => {
-            e.stored |= resuming;
-            return Err(keep_for_resume(e, generation, &args, &out));
+        Err(e) => {
+            let failure = Failure::from(e.error);
+            return Err(keep_for_resume(failure, e.stored, generation, &args, &out));
         }
     };
     let stage = report_spinner(args.quiet);
@@ -340,31 +334,15 @@ fn build_backend(plan: &Plan, quiet: bool) -> Result<PlanBackend, Failure> {
     Ok(backend?)
 }
 
-/// Why the run stage stopped, and whether its store holds cases worth
-/// resuming.
-struct Stopped {
-    failure: Box<Failure>,
-    stored: bool,
-}
-
-impl<E: Into<Failure>> From<E> for Stopped {
-    fn from(e: E) -> Self {
-        Stopped {
-            failure: Box::new(e.into()),
-            stored: false,
-        }
-    }
-}
-
 /// A run that stopped with cases stored (or a resumed run that stopped)
 /// keeps its store for `--resume`; the error is passed on.
 fn keep_for_resume(
-    e: Stopped,
+    failure: Failure,
+    stored: bool,
     generation: crate::outdir::Generation,
     args: &PlanArgs,
     out: &Path,
 ) -> Failure {
-    let Stopped { failure, stored } = e;
     if stored {
         let kept = generation.keep_for_resume();
         eprintln!(
@@ -374,120 +352,44 @@ fn keep_for_resume(
             out.display()
         );
     }
-    *failure
+    failure
 }
 
-/// Runs every case with a progress bar, each case into the store in `dir`
-/// as it finishes (with `--resume`, only the cases not stored yet), and
-/// gives the finished store, which the report stage reads back in case
-/// order. On failure, says whether the store holds cases worth resuming.
+/// The run stage ([`pipeline::run_cases`]) with a progress bar, and the
+/// number of cases a resumed run kept, on stderr.
 fn run_cases(
     plan: &Plan,
     backend: &PlanBackend,
     args: &PlanArgs,
     dir: &Path,
     inputs: &[crate::inputs::InputFile],
-) -> Result<crate::store::StoredCases, Stopped> {
-    let cases = plan::expand_cases(plan);
-    let key = crate::store::RunKey {
-        plan_id: plan.id.clone(),
-        plan_hash: crate::shard::record::plan_hash(inputs),
-        tool: crate::shard::write::tool(),
-        backend: backend.id().to_string(),
-        case_count: cases.len(),
-    };
-    let (mut store, done) = match args.resume {
-        None => crate::store::Store::create(dir, &key).map(|s| (s, Default::default())),
-        Some(_) => crate::store::Store::resume(dir, &key),
-    }?;
-    if args.resume.is_some() {
-        // The stored cases are data: each is judged again from its
-        // acquisition, as the plan's own case at its position.
-        let judge = |idx: usize, mut stored: runner::CaseResult| {
-            let case = cases.get(idx).ok_or_else(|| {
-                format!("position {idx} is beyond the plan's {} cases", cases.len())
-            })?;
-            stored.case = case.clone();
-            crate::shard::check::evaluate_again(plan, stored)
-        };
-        let kept = store.rejudge(&judge)?;
-        if !args.quiet {
-            eprintln!(
-                "resumed: {kept} of {} cases kept from the partial store (judged again from their data); {} to run",
-                cases.len(),
-                cases.len() - kept
-            );
-        }
-    }
-    let (positions, todo): (Vec<usize>, Vec<_>) = cases
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| !done.contains(i))
-        .map(|(i, c)| (i, c.clone()))
-        .unzip();
-    let bar = case_bar(cases.len(), args.quiet);
+) -> Result<crate::store::StoredCases, pipeline::Stopped> {
+    let bar = case_bar(plan::expand_cases(plan).len(), args.quiet);
     bar.set_message(plan.id.clone());
-    // The rate and ETA count from here: the stored cases took no time now.
-    bar.set_position(done.len() as u64);
-    bar.reset_eta();
-    let on_event = |ev: RunEvent<'_>| {
-        if let RunEvent::CaseFinished { .. } = ev {
-            bar.inc(1);
+    let on_progress = |p: RunProgress| match p {
+        RunProgress::Resumed { kept, total } if !args.quiet => eprintln!(
+            "resumed: {kept} of {total} cases kept from the partial store (judged again from their data); {} to run",
+            total - kept
+        ),
+        RunProgress::Resumed { .. } => {}
+        RunProgress::Started { done, .. } => {
+            // The rate and ETA count from here: the stored cases took no
+            // time now.
+            bar.set_position(done as u64);
+            bar.reset_eta();
         }
+        RunProgress::CaseFinished => bar.inc(1),
+        RunProgress::Finished => bar.finish_and_clear(),
     };
-    let options = runner::RunOptions {
+    let run = pipeline::RunCases {
+        plan,
+        backend,
+        inputs,
+        dir,
         threads: args.threads,
-        sample_frames: true,
+        resume: args.resume.is_some(),
     };
-    let t = crate::timings::span("run cases");
-    let mut sink = Storing {
-        stored: !done.is_empty(),
-        store,
-        positions,
-    };
-    let ran = runner::run_streaming(plan, &todo, backend, options, &on_event, &mut sink);
-    drop(t);
-    bar.finish_and_clear();
-    let Storing { store, stored, .. } = sink;
-    if let Err(e) = ran {
-        let e = Err::<(), _>(e)
-            .with_context(|| format!("run of plan `{}` failed", plan.id))
-            .unwrap_err();
-        return Err(Stopped {
-            failure: Box::new(e),
-            stored: stored && store.close().is_ok(),
-        });
-    }
-    let path = store.finish()?;
-    Ok(crate::store::StoredCases::open(&path)?)
-}
-
-/// The run's sink: each case into the store, under its position in the plan.
-struct Storing {
-    store: crate::store::Store,
-    /// Plan position of each case run, by its position in the run.
-    positions: Vec<usize>,
-    /// Whether the store holds a case.
-    stored: bool,
-}
-
-impl runner::CaseSink for Storing {
-    type Error = Failure;
-    type Item = crate::store::Encoded;
-
-    fn prepare(result: CaseResult) -> crate::store::Encoded {
-        crate::store::Encoded::new(result)
-    }
-
-    fn put(&mut self, position: usize, case: crate::store::Encoded) -> Result<(), Failure> {
-        self.store.put_encoded(self.positions[position], case)?;
-        self.stored = true;
-        Ok(())
-    }
-
-    fn idle(&mut self) -> Result<(), Failure> {
-        Ok(self.store.flush()?)
-    }
+    pipeline::run_cases(&run, &on_progress)
 }
 
 fn print_summary(model: &crate::model::Results, out: &Path) -> Result<(), Failure> {

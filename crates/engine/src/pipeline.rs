@@ -4,7 +4,7 @@
 //!
 //! ```text
 //! begin_output ──▶ Generation        (refusals before any work)
-//!   … the run stage, or shard::merge::gather …
+//! run_cases ──▶ StoredCases         (the run stage; or shard::merge::gather)
 //! report(Run, Generation, ReportOptions, on_progress)
 //!   model::assemble ─▶ report::write_report ─▶ signoff::sign
 //!   ─▶ Generation::commit ─▶ golden comparison ─▶ Outcome
@@ -15,6 +15,10 @@
 //! the [`Status`] it maps to an exit code. The same inputs give the same
 //! bytes on disk whichever command calls, which is why a merged report is
 //! byte for byte that of a single run.
+
+mod run;
+
+pub use run::{RunCases, RunProgress, RunStageError, Stopped, run_cases, run_key};
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{RecvTimeoutError, channel};

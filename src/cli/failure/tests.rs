@@ -359,6 +359,22 @@ fn tool_failures() -> Vec<(Failure, i32)> {
             .into(),
             3,
         ),
+        (
+            crate::pipeline::RunStageError::Cases {
+                plan: "daylight".into(),
+                source: Box::new(RunError::Interrupted(sigterm()).into()),
+            }
+            .into(),
+            143,
+        ),
+        (
+            crate::pipeline::RunStageError::Store(crate::store::StoreError::Mismatch {
+                path: path(),
+                message: "its case_count is `3`".into(),
+            })
+            .into(),
+            2,
+        ),
         (WriteError::Manifest(json_error()).into(), 3),
         (
             WriteError::Io {
@@ -490,6 +506,7 @@ const VARIANTS: &[&str] = &[
     "Signoff",
     "Pipeline",
     "ShardWrite",
+    "RunStage",
     "Store",
     "Campaign",
     "Profile",
@@ -517,6 +534,7 @@ fn variant(f: &Failure) -> &'static str {
         Failure::Signoff(_) => "Signoff",
         Failure::Pipeline(_) => "Pipeline",
         Failure::ShardWrite(_) => "ShardWrite",
+        Failure::RunStage(_) => "RunStage",
         Failure::Store(_) => "Store",
         Failure::Campaign(_) => "Campaign",
         Failure::Profile(_) => "Profile",
