@@ -10,6 +10,7 @@
 #![warn(missing_docs)]
 
 pub use ledflicker_physics as physics;
+pub use ledflicker_plan::{plan, trace, util};
 
 pub mod advise;
 pub mod analysis;
@@ -22,9 +23,6 @@ pub mod interrupt;
 pub mod metrics;
 pub mod model;
 pub mod outdir;
-pub mod plan;
 pub mod render;
 pub mod runner;
 pub mod timings;
-pub mod trace;
-pub mod util;

@@ -62,21 +62,6 @@ pub struct Simulator {
 
 pub use crate::plan::SegmentFrames;
 
-// Which segment a frame is in is the simulator's concern; the counts are
-// the plan's.
-impl SegmentFrames {
-    /// Segment of frame `k`.
-    pub fn segment(&self, k: u64) -> Segment {
-        if k < self.on {
-            Segment::On
-        } else if k < self.on + self.off {
-            Segment::Off
-        } else {
-            Segment::Pwm
-        }
-    }
-}
-
 /// What the LED does during one frame.
 #[derive(Debug, Clone, Copy)]
 enum Light<'a> {

@@ -259,8 +259,8 @@ impl CameraConfig {
     /// Exposure timing of this camera: shutter model, exposure and frame
     /// rate. The one mapping from the plan's camera to the physics; the
     /// simulator and the analyses both use it.
-    pub fn exposure_timing(&self) -> crate::physics::Shutter {
-        use crate::physics::{Shutter, ShutterModel};
+    pub fn exposure_timing(&self) -> ledflicker_physics::Shutter {
+        use ledflicker_physics::{Shutter, ShutterModel};
         Shutter {
             model: match self.shutter {
                 ShutterKind::Global => ShutterModel::Global,
@@ -278,17 +278,17 @@ impl CameraConfig {
 #[derive(Debug, Clone, PartialEq)]
 pub struct PhysicalCamera {
     /// Sensor.
-    pub sensor: crate::physics::sensor::Sensor,
+    pub sensor: ledflicker_physics::sensor::Sensor,
     /// Captures, at least one; the first is the reference (L).
-    pub captures: Vec<crate::physics::hdr::Capture>,
+    pub captures: Vec<ledflicker_physics::hdr::Capture>,
     /// Sequential or split-pixel.
-    pub hdr_mode: crate::physics::hdr::HdrMode,
+    pub hdr_mode: ledflicker_physics::hdr::HdrMode,
     /// Merge rule.
-    pub merge: crate::physics::hdr::MergeRule,
+    pub merge: ledflicker_physics::hdr::MergeRule,
     /// Tone curve and white point.
-    pub tone: crate::physics::hdr::Tone,
+    pub tone: ledflicker_physics::hdr::Tone,
     /// Auto exposure; `None` keeps exposure and gains fixed.
-    pub auto_exposure: Option<crate::physics::ae::AutoExposure>,
+    pub auto_exposure: Option<ledflicker_physics::ae::AutoExposure>,
     /// Analogue gain when auto exposure is off (>= 1).
     pub analog_gain: f64,
     /// Digital gain when auto exposure is off (> 0).

@@ -24,6 +24,21 @@ pub enum LumaWeights {
     Bt709,
 }
 
+impl LumaWeights {
+    /// Per-pixel luma of integer R, G, B, rounded to a whole DN. BT.601
+    /// uses OpenCV's 14-bit fixed-point weights so that 8-bit grey is
+    /// bit-identical to `cv2.cvtColor(.., COLOR_BGR2GRAY)`.
+    #[inline]
+    pub fn luma(self, r: u32, g: u32, b: u32) -> u32 {
+        match self {
+            LumaWeights::Bt601 => (r * 4899 + g * 9617 + b * 1868 + 8192) >> 14,
+            LumaWeights::Bt709 => {
+                ((r as f64 * 0.2126 + g as f64 * 0.7152 + b as f64 * 0.0722) + 0.5) as u32
+            }
+        }
+    }
+}
+
 /// How video is decoded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]

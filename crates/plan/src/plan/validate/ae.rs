@@ -1,11 +1,11 @@
 //! `[auto-exposure]` of a physical camera: target, damping, deadband and
 //! the exposure and gain limits of the controller.
 
-use crate::physics::ae::AutoExposure;
-use crate::physics::hdr::ToneCurve;
 use crate::plan::bounds::{ANALOG_GAIN_RANGE, DIGITAL_GAIN_RANGE, MIN_EXPOSURE_S, MIN_FPS};
 use crate::plan::check::Checker;
 use crate::plan::raw::RawAutoExposure;
+use ledflicker_physics::ae::AutoExposure;
+use ledflicker_physics::hdr::ToneCurve;
 
 /// Validates `[auto-exposure]` under `prefix`. `curve` is the camera's
 /// tone curve (`None` when invalid) and `frame_s` its frame time, seconds,

@@ -482,7 +482,9 @@ impl std::fmt::Display for Ratio {
 /// Declares a closed set of words that results.json holds as strings: the
 /// enum, its serde names (the words), `as_str` / `Display` giving them,
 /// and comparison with a word.
-macro_rules! words {
+#[macro_export]
+#[doc(hidden)]
+macro_rules! __words {
     ($(#[$doc:meta])* $name:ident { $($(#[$vdoc:meta])* $variant:ident = $word:literal,)* }) => {
         $(#[$doc])*
         #[derive(Debug, Clone, Copy, PartialEq, Eq, ::serde::Serialize, ::serde::Deserialize)]
@@ -513,7 +515,7 @@ macro_rules! words {
     };
 }
 
-pub(crate) use words;
+pub use crate::__words as words;
 
 words! {
     /// How a case's segments were found.

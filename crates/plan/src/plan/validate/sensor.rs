@@ -4,8 +4,6 @@
 //! `camera.`).
 
 use super::ae;
-use crate::physics::hdr::{Capture, CaptureExposure, HdrMode, MergeRule, Tone, ToneCurve};
-use crate::physics::sensor::Sensor;
 use crate::plan::PhysicalCamera;
 use crate::plan::bounds::{
     ANALOG_GAIN_RANGE, DIGITAL_GAIN_RANGE, E_PER_DN_RANGE, FULL_WELL_E_RANGE, GAMMA_RANGE,
@@ -14,6 +12,8 @@ use crate::plan::bounds::{
 };
 use crate::plan::check::Checker;
 use crate::plan::raw::{RawCamera, RawCapture, RawHdr, RawSensor, RawTone};
+use ledflicker_physics::hdr::{Capture, CaptureExposure, HdrMode, MergeRule, Tone, ToneCurve};
+use ledflicker_physics::sensor::Sensor;
 
 /// Validates the physical camera of `cam`, which has a `[sensor]` table.
 /// `exposure_s` and `fps` are the camera's, `None` when invalid.

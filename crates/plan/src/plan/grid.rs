@@ -90,6 +90,18 @@ pub fn case_seed(plan_seed: u64, case_id: &str) -> u64 {
     z ^ (z >> 31)
 }
 
+impl super::SegmentFrames {
+    /// Segment of frame `k`.
+    pub fn segment(&self, k: u64) -> crate::trace::Segment {
+        use crate::trace::Segment;
+        match k {
+            _ if k < self.on => Segment::On,
+            _ if k < self.on + self.off => Segment::Off,
+            _ => Segment::Pwm,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
