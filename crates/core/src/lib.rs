@@ -9,6 +9,7 @@
 //! here as [`physics`].
 #![warn(missing_docs)]
 
+pub use ledflicker_metrics::metrics;
 pub use ledflicker_physics as physics;
 pub use ledflicker_plan::{plan, trace, util};
 
@@ -20,7 +21,6 @@ pub mod capture;
 pub mod error;
 pub mod inputs;
 pub mod interrupt;
-pub mod metrics;
 pub mod model;
 pub mod outdir;
 pub mod render;

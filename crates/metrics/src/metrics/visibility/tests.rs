@@ -1,6 +1,6 @@
 use super::screen::Hold;
 use super::*;
-use crate::plan::display::{DisplayPreset, Eotf};
+use ledflicker_plan::plan::display::{DisplayPreset, Eotf};
 
 /// `n` equal holds over `period_s` with luminances `f(t_start)`.
 fn sampled(n: usize, period_s: f64, f: impl Fn(f64) -> f64) -> Vec<Hold> {

@@ -10,8 +10,8 @@ use serde::{Deserialize, Serialize};
 
 use super::metric::Metric;
 use super::p2020::{self, P2020Metrics, P2020Options};
-use crate::plan::colour::{ColourConfig, SignalColourName};
-use crate::trace::Segment;
+use ledflicker_plan::plan::colour::{ColourConfig, SignalColourName};
+use ledflicker_plan::trace::Segment;
 
 /// A 3 x 3 matrix from linear camera RGB to CIE 1931 XYZ, rows X, Y, Z.
 pub type CameraToXyz = [[f64; 3]; 3];

@@ -13,9 +13,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::metric::Metric;
-use crate::trace::Segment;
+use ledflicker_plan::trace::Segment;
 
-pub use crate::plan::{MmpReference, P2020Options};
+pub use ledflicker_plan::plan::{MmpReference, P2020Options};
 
 /// The P2020 KPIs of one ROI.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -104,7 +104,7 @@ pub fn percent_flicker(min: f64, max: f64) -> Metric {
     }
 }
 
-pub use crate::trace::Segment;
+pub use ledflicker_plan::trace::Segment;
 
 fn mean(xs: impl Iterator<Item = f64>) -> Option<f64> {
     let (n, s) = xs.fold((0usize, 0.0), |(n, s), x| (n + 1, s + x));

@@ -2,7 +2,7 @@
 //! EOTF, each camera frame held from refresh to refresh, and the visual
 //! angle an ROI subtends at the driver's eye.
 
-use crate::plan::display::{Display, Eotf};
+use ledflicker_plan::plan::display::{Display, Eotf};
 
 /// BT.1886's exponent (ITU-R BT.1886 Annex 1), and the 2.4 power of
 /// IEC 61966-2-1's sRGB curve above its linear toe.
@@ -172,7 +172,7 @@ fn on_a_clock(times_s: &[f64], refresh_hz: f64) -> Option<(Vec<f64>, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::display::DisplayPreset;
+    use ledflicker_plan::plan::display::DisplayPreset;
 
     fn display(eotf: Eotf) -> Display {
         Display {

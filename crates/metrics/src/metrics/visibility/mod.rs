@@ -25,9 +25,9 @@ pub mod validation;
 
 use serde::{Deserialize, Serialize};
 
-use crate::plan::Roi;
-use crate::plan::display::Display;
-use crate::trace::{FrameInfo, Segment};
+use ledflicker_plan::plan::Roi;
+use ledflicker_plan::plan::display::Display;
+use ledflicker_plan::trace::{FrameInfo, Segment};
 
 /// Minkowski exponent of the pooling over frequency (CIE TN 006:2016).
 pub const POOLING_EXPONENT: f64 = 3.7;

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::flicker::{Metric, RoiMetrics};
 use super::p2020::P2020Metrics;
-use crate::plan::{BackendKind, Limits, Roi, RoiKind, Thresholds, VerdictBasis};
+use ledflicker_plan::plan::{BackendKind, Limits, Roi, RoiKind, Thresholds, VerdictBasis};
 
 /// Slack when comparing a metric with its threshold, in the metric's units.
 /// A value within this of the threshold meets it, so that the last bit of a
@@ -64,7 +64,7 @@ pub struct Check {
     pub reason: Option<String>,
 }
 
-crate::trace::words! {
+ledflicker_plan::trace::words! {
     /// How a check compares its value with its threshold.
     Comparison {
         /// The value must be at least the threshold.
@@ -95,7 +95,7 @@ impl Check {
     pub fn describe(&self) -> String {
         let value = match (self.value, self.unbounded) {
             (_, true) => "+inf".to_string(),
-            (Some(v), false) => crate::util::fixed(v, 3),
+            (Some(v), false) => ledflicker_plan::util::fixed(v, 3),
             (None, false) => "undefined".to_string(),
         };
         let undefined = self.value.is_none() && !self.unbounded;
@@ -586,7 +586,7 @@ mod tests {
     #[test]
     fn light_level_limits_override_the_global_ones() {
         let mut t = thresholds();
-        t.light_levels.push(crate::plan::LevelLimits {
+        t.light_levels.push(ledflicker_plan::plan::LevelLimits {
             light_lux: 40.0,
             limits: Limits {
                 percent_flicker_max: Some(50.0),
