@@ -9,20 +9,15 @@
 //! here as [`physics`].
 #![warn(missing_docs)]
 
+pub use ledflicker_acquisition::{
+    backend, capture, error, inputs, interrupt, render, runner, timings,
+};
 pub use ledflicker_metrics::metrics;
 pub use ledflicker_physics as physics;
 pub use ledflicker_plan::{plan, trace, util};
 
 pub mod advise;
 pub mod analysis;
-pub mod backend;
 pub mod calibrate;
-pub mod capture;
-pub mod error;
-pub mod inputs;
-pub mod interrupt;
 pub mod model;
 pub mod outdir;
-pub mod render;
-pub mod runner;
-pub mod timings;

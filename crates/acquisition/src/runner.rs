@@ -7,17 +7,17 @@
 use rayon::prelude::*;
 
 use crate::backend::{Acquisition, Backend, BackendError, RenderedFrame};
-use crate::metrics::flicker::Segment;
-use crate::metrics::p2020::{self, P2020Metrics};
-use crate::metrics::verdict::{CaseConditions, RoiFigures, effective_basis};
-use crate::metrics::{
+use ledflicker_metrics::metrics::flicker::Segment;
+use ledflicker_metrics::metrics::p2020::{self, P2020Metrics};
+use ledflicker_metrics::metrics::verdict::{CaseConditions, RoiFigures, effective_basis};
+use ledflicker_metrics::metrics::{
     Check, RoiMetrics, Verdict, chromaticity, evaluate_case, evaluate_roi, visibility,
 };
-use crate::plan::RoiKind;
-use crate::plan::{BlackLevel, Plan, TestCase};
+use ledflicker_plan::plan::RoiKind;
+use ledflicker_plan::plan::{BlackLevel, Plan, TestCase};
 
 /// Everything known about one finished case. Serialisable so that a
-/// shard can hand it to `ledflicker merge` unchanged ([`crate::shard`]).
+/// shard can hand it to `ledflicker merge` unchanged (`ledflicker_engine::shard`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CaseResult {
     /// The condition tested.
@@ -488,7 +488,7 @@ pub fn render_sample_frame(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trace::{FrameInfo, RoiTrace, Segment};
+    use ledflicker_plan::trace::{FrameInfo, RoiTrace, Segment};
 
     /// What the fake backend does for every case.
     #[derive(Clone, Copy)]
@@ -576,12 +576,12 @@ mod tests {
     fn plan() -> Plan {
         let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
             .join("test-plans/daylight.toml");
-        crate::plan::load(&path).unwrap()
+        ledflicker_plan::plan::load(&path).unwrap()
     }
 
     fn run_with(fault: Fault) -> Result<Vec<CaseResult>, RunError> {
         let plan = plan();
-        let cases = crate::plan::expand_cases(&plan);
+        let cases = ledflicker_plan::plan::expand_cases(&plan);
         let fake = Fake {
             rois: plan.rois.len(),
             fault,

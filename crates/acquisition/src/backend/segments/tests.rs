@@ -14,7 +14,7 @@ fn trace(seconds: f64, led: impl Fn(f64) -> f64) -> CaptureTrace {
         rgb: None,
         full_scale_dn: 255.0,
         frame_size: (0, 0),
-        timestamps: crate::trace::TimestampSource::Fps,
+        timestamps: ledflicker_plan::trace::TimestampSource::Fps,
         format: "test".to_string(),
         time_base_s: None,
         stated_fps: None,
@@ -55,7 +55,10 @@ fn paper(on: f64) -> impl Fn(f64) -> f64 {
 fn sequence_rule_finds_on_off_pwm_after_a_lead_in_and_settles() {
     let t = trace(10.0, paper(1.0));
     let f = detect(&t, &detection(2.0), Path::new("x.csv")).unwrap();
-    assert_eq!(f.rule, Some(crate::trace::DetectionRule::Sequence));
+    assert_eq!(
+        f.rule,
+        Some(ledflicker_plan::trace::DetectionRule::Sequence)
+    );
     // Steps at frames 30, 90, 150; settle 15 frames; 1 guard frame.
     assert_eq!(f.on, Some((45, 89)));
     assert_eq!(f.off, Some((105, 149)));
@@ -109,7 +112,10 @@ fn a_flat_capture_is_refused_and_no_on_keeps_the_off_then_pwm_rule() {
     // Dark, then PWM: the off-then-pwm rule of format version 1.
     let t = trace(10.0, |t| if t < 2.0 { 10.0 } else { 100.0 });
     let f = detect(&t, &detection(0.0), Path::new("x.csv")).unwrap();
-    assert_eq!(f.rule, Some(crate::trace::DetectionRule::OffThenPwm));
+    assert_eq!(
+        f.rule,
+        Some(ledflicker_plan::trace::DetectionRule::OffThenPwm)
+    );
     assert_eq!(f.off, Some((0, 58)));
     assert_eq!(f.pwm, (75, 300));
 }

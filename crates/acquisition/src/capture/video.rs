@@ -256,7 +256,7 @@ impl Decoder {
 impl Drop for Decoder {
     fn drop(&mut self) {
         if !self.reaped {
-            crate::util::kill_group(self.child.id());
+            ledflicker_plan::util::kill_group(self.child.id());
             let _ = self.child.wait();
         }
         if let Some(t) = self.err_thread.take() {
@@ -409,13 +409,19 @@ fn trace(acc: Accumulator<'_>, p: Probe, opts: &ReadOptions, full: bool) -> Capt
     let (luma, rgb) = acc.finish();
     let container = p.packet_times.len() == n && n > 0;
     let (time_s, timestamps) = if container {
-        (p.packet_times, crate::trace::TimestampSource::Container)
+        (
+            p.packet_times,
+            ledflicker_plan::trace::TimestampSource::Container,
+        )
     } else {
         match p.fps.or(opts.fps) {
-            Some(fps) => (times_from_fps(n, fps), crate::trace::TimestampSource::Fps),
+            Some(fps) => (
+                times_from_fps(n, fps),
+                ledflicker_plan::trace::TimestampSource::Fps,
+            ),
             None => (
                 times_from_fps(n, f64::NAN),
-                crate::trace::TimestampSource::None,
+                ledflicker_plan::trace::TimestampSource::None,
             ),
         }
     };

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use sha2::{Digest, Sha256};
 
 use crate::capture::{SourceKind, source_kind};
-use crate::plan::{BackendKind, Plan, shipped};
+use ledflicker_plan::plan::{BackendKind, Plan, shipped};
 
 /// One input file of the run, with its hash.
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -40,10 +40,10 @@ pub struct InputError {
 
 /// SHA-256 (lowercase hex) and size in bytes of a file, read in chunks.
 /// Anything but a regular file (a FIFO, a device) is refused at once
-/// ([`crate::util::open_input`]); Ctrl-C stops the hashing of a large file
+/// ([`ledflicker_plan::util::open_input`]); Ctrl-C stops the hashing of a large file
 /// between chunks, with an `Interrupted` error.
 pub fn hash_file(path: &Path) -> std::io::Result<(String, u64)> {
-    let mut f = crate::util::open_input(path)?;
+    let mut f = ledflicker_plan::util::open_input(path)?;
     let mut hasher = Sha256::new();
     let mut buf = vec![0u8; 1 << 20];
     let mut size = 0u64;
@@ -61,7 +61,7 @@ pub fn hash_file(path: &Path) -> std::io::Result<(String, u64)> {
         size += n as u64;
         hasher.update(&buf[..n]);
     }
-    Ok((crate::util::hex(&hasher.finalize()), size))
+    Ok((ledflicker_plan::util::hex(&hasher.finalize()), size))
 }
 
 fn input(role: &str, path: &Path) -> Result<InputFile, InputError> {
@@ -83,7 +83,7 @@ fn built_in_input(role: &str, file: &shipped::Shipped) -> InputFile {
     InputFile {
         role: role.to_string(),
         path: shipped::label(file.path),
-        sha256: crate::util::sha256_hex(file.text.as_bytes()),
+        sha256: ledflicker_plan::util::sha256_hex(file.text.as_bytes()),
         size: file.text.len() as u64,
     }
 }
@@ -133,7 +133,7 @@ fn capture_inputs(source: &Path, out: &mut Vec<InputFile>) -> Result<(), InputEr
         (Some(role), Some(data)) => out.push(InputFile {
             role: role.to_string(),
             path: shipped::label(&source.display().to_string()),
-            sha256: crate::util::sha256_hex(data.bytes),
+            sha256: ledflicker_plan::util::sha256_hex(data.bytes),
             size: data.bytes.len() as u64,
         }),
         (Some(role), None) => out.push(input(role, source)?),

@@ -6,7 +6,7 @@ use std::path::Path;
 use super::CaptureError;
 
 /// A private copy of the capture built into the binary at `path`
-/// ([`crate::plan::shipped::data_at`]) when nothing stands at `path`: a
+/// ([`ledflicker_plan::plan::shipped::data_at`]) when nothing stands at `path`: a
 /// shipped plan's capture, read away from the source tree. The readers
 /// (and ffmpeg) take a file, so the bytes go to a temporary file of
 /// ledflicker's own, removed when the copy is dropped. `None` when `path`
@@ -15,7 +15,7 @@ pub(crate) fn built_in_copy(path: &Path) -> Result<Option<tempfile::TempPath>, C
     if std::fs::symlink_metadata(path).is_ok() {
         return Ok(None);
     }
-    let Some(data) = crate::plan::shipped::data_at(path) else {
+    let Some(data) = ledflicker_plan::plan::shipped::data_at(path) else {
         return Ok(None);
     };
     let suffix = path

@@ -2,7 +2,7 @@ use std::time::Instant;
 
 use super::simulator::{Faults, IDENTITY, SimInstrument};
 use super::*;
-use crate::plan::source::InstrumentKind;
+use ledflicker_plan::plan::source::InstrumentKind;
 
 fn config(kind: InstrumentKind, port: u16) -> SourceConfig {
     SourceConfig {
@@ -41,7 +41,10 @@ fn run_case(
     kind: InstrumentKind,
     faults: Faults,
     c: &TestCase,
-) -> (Result<Vec<crate::trace::SourceStep>, String>, Vec<String>) {
+) -> (
+    Result<Vec<ledflicker_plan::trace::SourceStep>, String>,
+    Vec<String>,
+) {
     let sim = SimInstrument::start(faults).unwrap();
     let cfg = config(kind, sim.port());
     let result = Instrument::connect(&cfg)

@@ -8,9 +8,9 @@ use std::time::Instant;
 
 use super::sequence::{self, SequenceError};
 use super::{Instrument, case_steps};
-use crate::plan::source::SourceConfig;
-use crate::plan::{Sequence, TestCase};
-use crate::trace::SourceLog;
+use ledflicker_plan::plan::source::SourceConfig;
+use ledflicker_plan::plan::{Sequence, TestCase};
+use ledflicker_plan::trace::SourceLog;
 
 /// A plan's `[source]`, connected on first use.
 #[derive(Debug, Clone)]

@@ -8,7 +8,7 @@ use super::command::CommandRig;
 use super::sim::Simulator;
 use super::{Acquisition, Backend, BackendError, RenderedFrame};
 use crate::capture::CaptureError;
-use crate::plan::{BackendKind, Plan, TestCase};
+use ledflicker_plan::plan::{BackendKind, Plan, TestCase};
 
 /// The backend of a plan, one of the built-in three.
 pub enum PlanBackend {

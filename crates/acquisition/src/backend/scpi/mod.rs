@@ -22,8 +22,8 @@ use std::time::Duration;
 
 use client::{Client, ScpiError};
 
-use crate::plan::source::{CommandSet, SourceConfig};
-use crate::plan::{Sequence, TestCase};
+use ledflicker_plan::plan::source::{CommandSet, SourceConfig};
+use ledflicker_plan::plan::{Sequence, TestCase};
 
 /// Most entries read from the error queue after one step: a queue is 10
 /// to 20 deep on common generators, and an instrument that never answers

@@ -1,7 +1,7 @@
 //! PNG and TIFF frames (8 or 16 bit, grey or RGB, TIFF with LZW) through the
 //! `image` crate, one file per frame, in file-name order.
 
-use crate::trace::TimestampSource;
+use ledflicker_plan::trace::TimestampSource;
 use std::path::{Path, PathBuf};
 
 use image::DynamicImage;
@@ -58,10 +58,10 @@ pub(super) fn frame_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
 /// is allocated, so that a forged header cannot ask for gigabytes, at the sensor bound of docs/plan-format.md.
 fn frame_limits() -> image::Limits {
     let mut l = image::Limits::default();
-    l.max_image_width = Some(crate::plan::bounds::MAX_SENSOR_SIDE);
-    l.max_image_height = Some(crate::plan::bounds::MAX_SENSOR_SIDE);
+    l.max_image_width = Some(ledflicker_plan::plan::bounds::MAX_SENSOR_SIDE);
+    l.max_image_height = Some(ledflicker_plan::plan::bounds::MAX_SENSOR_SIDE);
     // 40 Mpx of 16-bit RGBA.
-    l.max_alloc = Some(crate::plan::bounds::MAX_SENSOR_PIXELS * 8);
+    l.max_alloc = Some(ledflicker_plan::plan::bounds::MAX_SENSOR_PIXELS * 8);
     l
 }
 

@@ -9,7 +9,7 @@
 use std::time::{Duration, Instant};
 
 use super::{Instrument, SourceError, Step};
-use crate::trace::{SourceStep, StepFound, StepKind, StepSource};
+use ledflicker_plan::trace::{SourceStep, StepFound, StepKind, StepSource};
 
 /// How often a hold looks at the stop flags.
 const POLL: Duration = Duration::from_millis(5);

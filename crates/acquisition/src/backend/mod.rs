@@ -17,8 +17,8 @@ pub mod sim;
 
 pub use factory::{PlanBackend, SetupError, for_plan};
 
-use crate::plan::TestCase;
-pub use crate::trace::{Acquisition, FrameInfo, RenderedFrame, RoiTrace};
+use ledflicker_plan::plan::TestCase;
+pub use ledflicker_plan::trace::{Acquisition, FrameInfo, RenderedFrame, RoiTrace};
 
 /// A backend failed to acquire a case.
 #[derive(Debug, thiserror::Error)]

@@ -24,18 +24,18 @@
 //! Background ROIs see no LED.
 
 use super::{Acquisition, Backend, BackendError, FrameInfo, RenderedFrame, RoiTrace};
-use crate::metrics::flicker::Segment;
-use crate::physics::ae::ExposureState;
-use crate::physics::extremes::extremes;
-use crate::physics::hdr::{HdrMode, merge};
-use crate::physics::pwm::{on_fraction, wrap_unit};
-use crate::physics::sensor::{CaptureSample, Rng};
-use crate::physics::{PwmDrive, Shutter};
-use crate::plan::colour::ColourConfig;
-use crate::plan::{
+use ledflicker_metrics::metrics::flicker::Segment;
+use ledflicker_physics::ae::ExposureState;
+use ledflicker_physics::extremes::extremes;
+use ledflicker_physics::hdr::{HdrMode, merge};
+use ledflicker_physics::pwm::{on_fraction, wrap_unit};
+use ledflicker_physics::sensor::{CaptureSample, Rng};
+use ledflicker_physics::{PwmDrive, Shutter};
+use ledflicker_plan::plan::colour::ColourConfig;
+use ledflicker_plan::plan::{
     CameraConfig, PhysicalCamera, Plan, Roi, RoiKind, Scene, Sequence, ShutterKind, TestCase,
 };
-use crate::trace::Run;
+use ledflicker_plan::trace::Run;
 
 mod dies;
 use dies::{mixed_envelope, mixed_on_fractions, steady_fraction, weighted};
@@ -60,7 +60,7 @@ pub struct Simulator {
     colour: Option<Box<ColourConfig>>,
 }
 
-pub use crate::plan::SegmentFrames;
+pub use ledflicker_plan::plan::SegmentFrames;
 
 /// What the LED does during one frame.
 #[derive(Debug, Clone, Copy)]
@@ -412,7 +412,7 @@ impl Simulator {
         let s = &p.sensor;
         let adc_e = s.dn_max() * s.e_per_dn / state.analog_gain;
         let mut levels = vec![s.full_well_e.min(adc_e)];
-        if p.merge == crate::physics::hdr::MergeRule::Weighted {
+        if p.merge == ledflicker_physics::hdr::MergeRule::Weighted {
             levels.push(0.8 * adc_e);
         }
         let mut out = Vec::new();
@@ -720,7 +720,7 @@ mod tests {
             "format-version = 2\n[plan]\nid = \"e\"\ntitle = \"e\"\n[sequence]\non-s = 0.3\noff-s = 0.3\npwm-s = 0.5\n[light]\nlevels-lux = [40.0, 2000.0]\n[grid]\nfrequencies-hz = [90.0, 151.3, 397.7]\nduty-cycles = [0.1, 0.5]\n[[roi]]\nname = \"led\"\nx-px = 910\ny-px = 539\nwidth-px = 100\nheight-px = 2\n[dut]\ncamera-profile = \"camera.toml\"\n[scene]\nled-luminance-cd-m2 = {led}\nled-frame-fraction = 0.005\n"
         );
         std::fs::write(dir.join("plan.toml"), plan).unwrap();
-        crate::plan::load(&dir.join("plan.toml")).unwrap()
+        ledflicker_plan::plan::load(&dir.join("plan.toml")).unwrap()
     }
 
     /// The envelope is never narrower than a brute-force search over 16 384
@@ -738,7 +738,7 @@ mod tests {
                 let sim = Simulator::new(&plan);
                 let p = plan.dut.camera.physical.as_ref().unwrap();
                 let roi = &plan.rois[0];
-                for case in crate::plan::expand_cases(&plan) {
+                for case in ledflicker_plan::plan::expand_cases(&plan) {
                     let pwm = sim.pwm_for(&case).unwrap();
                     let (_, states) = sim.run_physical(&case, &pwm, p);
                     let state = *states.last().unwrap();

@@ -212,11 +212,14 @@ pub(super) fn read(
     }
     let n = luma.first().map_or(0, Vec::len);
     let (time_s, timestamps) = match (time_col, opts.fps) {
-        (Some(_), _) => (times, crate::trace::TimestampSource::Csv),
-        (None, Some(fps)) => (times_from_fps(n, fps), crate::trace::TimestampSource::Fps),
+        (Some(_), _) => (times, ledflicker_plan::trace::TimestampSource::Csv),
+        (None, Some(fps)) => (
+            times_from_fps(n, fps),
+            ledflicker_plan::trace::TimestampSource::Fps,
+        ),
         (None, None) => (
             times_from_fps(n, f64::NAN),
-            crate::trace::TimestampSource::None,
+            ledflicker_plan::trace::TimestampSource::None,
         ),
     };
     Ok(CaptureTrace {

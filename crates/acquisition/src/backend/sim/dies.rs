@@ -3,10 +3,10 @@
 //! the exact integrals and worst case over phase of their mixed light
 //! (docs/visibility.md, section 6).
 
-use crate::physics::pwm::{on_fraction, wrap_unit};
-use crate::physics::{PwmDrive, Shutter, ShutterModel};
-use crate::plan::Roi;
-use crate::plan::colour::ColourConfig;
+use ledflicker_physics::pwm::{on_fraction, wrap_unit};
+use ledflicker_physics::{PwmDrive, Shutter, ShutterModel};
+use ledflicker_plan::plan::Roi;
+use ledflicker_plan::plan::colour::ColourConfig;
 
 /// One source of the LED's light: the whole LED, or one of its dies
 /// (`[[scene.led-die]]`), each on its own PWM waveform.
@@ -161,7 +161,7 @@ pub(super) fn mixed_envelope(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::sensor::Rng;
+    use ledflicker_physics::sensor::Rng;
 
     /// The dies' worst case over phase bounds a dense sweep of phases,
     /// each computed by the shutter's own per-frame integral of each die's

@@ -16,9 +16,9 @@ pub use super::segments::SegmentsFound;
 use super::segments::{self, Detection};
 use super::{Acquisition, Backend, BackendError, FrameInfo, RoiTrace};
 use crate::capture::{self, CaptureError, CaptureTrace, ColourTransfer, ReadOptions, RoiRect};
-use crate::metrics::flicker::Segment;
-use crate::plan::{CaptureConfig, Plan, Roi, RoiKind, SegmentSpec, Span, TestCase};
-use crate::trace::RenderedFrame;
+use ledflicker_metrics::metrics::flicker::Segment;
+use ledflicker_plan::plan::{CaptureConfig, Plan, Roi, RoiKind, SegmentSpec, Span, TestCase};
+use ledflicker_plan::trace::RenderedFrame;
 
 /// Turns the plan's ROIs into pixel rectangles.
 pub fn roi_rects(rois: &[Roi]) -> Vec<RoiRect> {
@@ -113,7 +113,7 @@ pub fn find_segments_with(
         (at(a), at(b))
     };
     let found = SegmentsFound {
-        method: crate::trace::SegmentMethod::Plan,
+        method: ledflicker_plan::trace::SegmentMethod::Plan,
         rule: None,
         off,
         on,
@@ -224,7 +224,7 @@ fn grey_reason(format: &str) -> &'static str {
     }
 }
 
-pub use crate::trace::CaptureSummary;
+pub use ledflicker_plan::trace::CaptureSummary;
 
 /// The captured backend: every case's capture, read.
 #[derive(Debug)]

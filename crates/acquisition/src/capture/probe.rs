@@ -10,7 +10,7 @@ use std::thread::JoinHandle;
 
 use super::CaptureError;
 use super::watch::{Fired, STALL, Watchdog};
-use crate::trace::Ratio;
+use ledflicker_plan::trace::Ratio;
 
 pub(super) fn tool_error(path: &Path, tool: &str, e: std::io::Error) -> CaptureError {
     CaptureError::Tool {

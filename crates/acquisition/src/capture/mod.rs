@@ -41,8 +41,8 @@ pub(crate) use built_in::built_in_copy;
 use built_in::with_built_in;
 
 // The plan's `[capture]` choices; defined with the plan, read here.
-pub use crate::plan::{ColourTransfer, LumaWeights, VideoDecode, VideoRange};
-pub use crate::trace::Ratio;
+pub use ledflicker_plan::plan::{ColourTransfer, LumaWeights, VideoDecode, VideoRange};
+pub use ledflicker_plan::trace::Ratio;
 
 /// A rectangle of pixels, 0-based from the top-left corner.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -91,7 +91,7 @@ pub struct CaptureTrace {
     /// Frame width and height, pixels (0 for CSV traces).
     pub frame_size: (u32, u32),
     /// Where the timestamps came from: "container", "sidecar", "fps", "csv".
-    pub timestamps: crate::trace::TimestampSource,
+    pub timestamps: ledflicker_plan::trace::TimestampSource,
     /// What was read, e.g. "video h264 (ffmpeg, rgb24)".
     pub format: String,
     /// The container's time base, seconds, when `time_s` are its timestamps.
@@ -220,7 +220,7 @@ impl CaptureError {
 /// `Err(Interrupted)` naming `path` once the user asked the run to stop
 /// (SIGINT, SIGTERM). Long reads poll it every frame (or chunk), so that
 /// Ctrl-C stops a read of a large capture within a frame's time.
-pub(crate) fn check_interrupt(path: &Path) -> Result<(), CaptureError> {
+pub fn check_interrupt(path: &Path) -> Result<(), CaptureError> {
     crate::interrupt::check().map_err(|source| CaptureError::Interrupted {
         path: path.to_path_buf(),
         source,
@@ -230,7 +230,7 @@ pub(crate) fn check_interrupt(path: &Path) -> Result<(), CaptureError> {
 /// Opens a capture file for reading: a FIFO, a device, a socket or a
 /// directory in its place is refused at once (never waited on), naming it.
 pub(crate) fn open_file(path: &Path) -> Result<std::fs::File, CaptureError> {
-    crate::util::open_input(path).map_err(|e| CaptureError::Read {
+    ledflicker_plan::util::open_input(path).map_err(|e| CaptureError::Read {
         path: path.to_path_buf(),
         message: e.to_string(),
     })
@@ -263,7 +263,7 @@ pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>, CaptureError> {
 
 /// An image decoder on the frame file `path` ([`open_file`]): the format
 /// from the file name, corrected by the file's first bytes.
-pub(crate) fn image_reader(
+pub fn image_reader(
     path: &Path,
 ) -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>, CaptureError> {
     let file = open_file(path)?;
@@ -316,7 +316,7 @@ pub fn source_kind(path: &Path) -> SourceKind {
 /// ffprobe's stream facts, without decoding a frame; `None` for a CSV
 /// trace, which has no frame, and for a capture that cannot be read now
 /// (its read at run time says why). Plan validation checks ROIs with it
-/// ([`crate::plan::FrameSize`]).
+/// ([`ledflicker_plan::plan::FrameSize`]).
 pub fn frame_size(path: &Path) -> Option<(u32, u32)> {
     with_built_in(path, |path| Ok(frame_size_on_disk(path)))
         .ok()
@@ -396,12 +396,12 @@ fn finish_trace(path: &Path, mut trace: CaptureTrace) -> Result<CaptureTrace, Ca
     // directory there is refused, not skipped.
     if std::fs::symlink_metadata(&sidecar).is_ok() {
         trace.time_s = read_sidecar(&sidecar, trace.time_s.len())?;
-        trace.timestamps = crate::trace::TimestampSource::Sidecar;
+        trace.timestamps = ledflicker_plan::trace::TimestampSource::Sidecar;
         // The sidecar's times are not in the container's unit.
         trace.time_base_s = None;
     }
     check_times(path, &trace.time_s)?;
-    if trace.timestamps == crate::trace::TimestampSource::None {
+    if trace.timestamps == ledflicker_plan::trace::TimestampSource::None {
         return Err(CaptureError::Invalid {
             path: path.to_path_buf(),
             message: "the capture has no timestamps".to_string(),

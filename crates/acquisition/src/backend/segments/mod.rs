@@ -20,10 +20,10 @@
 use std::path::Path;
 
 use crate::capture::{CaptureError, CaptureTrace};
-use crate::plan::{Plan, RoiKind, Sequence};
-use crate::trace::{DetectionRule, SegmentMethod, StepKind, StepSource};
+use ledflicker_plan::plan::{Plan, RoiKind, Sequence};
+use ledflicker_plan::trace::{DetectionRule, SegmentMethod, StepKind, StepSource};
 
-pub use crate::plan::DEFAULT_SETTLE_S;
+pub use ledflicker_plan::plan::DEFAULT_SETTLE_S;
 /// Frames left out before each detected step (the frame that straddles it).
 pub const GUARD_FRAMES: usize = 1;
 /// Frames kept out on each side of the ON step by the `off-then-pwm` rule.
@@ -87,7 +87,7 @@ fn led_rois(plan: &Plan) -> Vec<usize> {
     }
 }
 
-pub use crate::trace::{LevelsFound, SegmentsFound, StepFound};
+pub use ledflicker_plan::trace::{LevelsFound, SegmentsFound, StepFound};
 
 /// The frame times and the LED-ROI mean luma of a capture.
 struct Signal {

@@ -222,7 +222,7 @@ fn exited(pid: libc::pid_t) -> std::io::Result<bool> {
 
 /// Sends SIGKILL to every process of group `pgid`.
 fn kill_group(pgid: libc::pid_t) {
-    crate::util::kill_group(pgid as u32);
+    ledflicker_plan::util::kill_group(pgid as u32);
 }
 
 #[cfg(test)]

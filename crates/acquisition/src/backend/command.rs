@@ -25,9 +25,9 @@ use super::scpi::sequence;
 use super::segments::Detection;
 use super::{Acquisition, Backend, BackendError};
 use crate::capture::{self, SourceKind};
-use crate::plan::recorder::{CameraSettings, RecorderKind, pipeline_args};
-use crate::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Sequence, Span, TestCase};
-use crate::trace::{CameraLog, Ratio, SourceLog};
+use ledflicker_plan::plan::recorder::{CameraSettings, RecorderKind, pipeline_args};
+use ledflicker_plan::plan::{CaptureConfig, Plan, Roi, SegmentSpec, Sequence, Span, TestCase};
+use ledflicker_plan::trace::{CameraLog, Ratio, SourceLog};
 use std::sync::atomic::AtomicBool;
 
 /// Name prefix of the rigs' scratch directories in the temporary
@@ -82,7 +82,7 @@ pub fn clean_stale_scratch() -> StaleRigs {
         else {
             continue;
         };
-        if crate::util::alive(pid) {
+        if ledflicker_plan::util::alive(pid) {
             continue;
         }
         stale.stopped.extend(stop_processes_of(&e.path()));

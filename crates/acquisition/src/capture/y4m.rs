@@ -2,7 +2,7 @@
 //! little-endian) mono, 4:2:0, 4:2:2 and 4:4:4. Only the Y' rows that hold
 //! ROIs are read; chroma and other rows are skipped with a seek.
 
-use crate::trace::TimestampSource;
+use ledflicker_plan::trace::TimestampSource;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 

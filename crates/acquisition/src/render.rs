@@ -5,12 +5,12 @@
 //! is the fraction of that row's exposure during which the LED was ON: the
 //! duty cycle in the steady-ON segment (luminance matched to the PWM
 //! average), 0 when OFF, and the exact PWM integral of
-//! [`crate::physics::Shutter::frame_on_fraction`] in the PWM segment. The
+//! [`ledflicker_physics::Shutter::frame_on_fraction`] in the PWM segment. The
 //! whole frame is lit by the LED (a diffusely lit scene).
 
 use std::path::Path;
 
-use crate::physics::{PwmDrive, Shutter};
+use ledflicker_physics::{PwmDrive, Shutter};
 
 /// What to render.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -52,7 +52,7 @@ impl Watchdog {
                         (since.elapsed() >= stall).then_some(Fired::Stalled(stall))
                     };
                     if fired.is_some() {
-                        crate::util::kill_group(pgid);
+                        ledflicker_plan::util::kill_group(pgid);
                         return fired;
                     }
                 }
@@ -134,7 +134,7 @@ mod tests {
         assert_eq!(dog.finish(), None);
         // Not killed by the watchdog: still running until we stop it.
         assert!(child.try_wait().expect("try_wait").is_none());
-        crate::util::kill_group(child.id());
+        ledflicker_plan::util::kill_group(child.id());
         let _ = child.wait();
     }
 }
