@@ -1,7 +1,7 @@
 //! Tests of the band estimator.
 
 use super::*;
-use crate::physics::pwm::on_fraction;
+use ledflicker_physics::pwm::on_fraction;
 
 /// Row profile of a PWM light: duty `d`, period `p` rows, exposure
 /// `e` rows, phase `phi` cycles.
@@ -146,7 +146,7 @@ fn flat_rows_and_noise_are_not_banding() {
         estimate_profile(&[5.0; 200]),
         Err(NoConfidence::Flat { .. })
     ));
-    let mut rng = crate::physics::sensor::Rng::new(3);
+    let mut rng = ledflicker_physics::sensor::Rng::new(3);
     let noise: Vec<f64> = (0..1000).map(|_| rng.normal()).collect();
     assert!(matches!(
         estimate_profile(&noise),

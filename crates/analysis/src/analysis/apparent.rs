@@ -360,7 +360,7 @@ pub fn aliased_harmonic(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::{PwmDrive, Shutter, ShutterModel};
+    use ledflicker_physics::{PwmDrive, Shutter, ShutterModel};
 
     #[test]
     fn formula_gives_zero_at_phase_lock_and_folds_to_nyquist() {

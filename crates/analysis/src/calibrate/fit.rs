@@ -23,7 +23,7 @@
 //! `s^2 (J^T J)^-1`.
 
 use super::linalg::{inverse_spd, solve_spd};
-use crate::physics::pwm::{on_fraction, wrap_unit};
+use ledflicker_physics::pwm::{on_fraction, wrap_unit};
 
 /// Index of each parameter in [`ModelParams::values`].
 pub mod idx {

@@ -19,7 +19,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::metrics::visibility::svm;
+use ledflicker_metrics::metrics::visibility::svm;
 
 /// IEEE 1789-2015 region of a light source.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -3,7 +3,7 @@
 //! fundamental frequency, Percent Flicker and the IES Flicker Index, the
 //! IEEE 1789-2015 risk region ([`super::drive`]), the stroboscopic
 //! visibility measure (CIE TN 006:2016) and PstLM (IEC TR 61547-1)
-//! ([`crate::metrics::visibility`]). Undefined figures are `None` with
+//! ([`ledflicker_metrics::metrics::visibility`]). Undefined figures are `None` with
 //! the reason: the output never shows NaN.
 
 use rustfft::FftPlanner;
@@ -13,7 +13,7 @@ use serde::Serialize;
 use super::drive::{Ieee1789Region, low_risk_limit_percent, noel_limit_percent, region};
 pub use super::light_signal::DEFAULT_BANDWIDTH_HZ;
 use super::light_signal::{band_limited, lobe_components, measured_period};
-use crate::metrics::visibility::{pstlm, svm};
+use ledflicker_metrics::metrics::visibility::{pstlm, svm};
 
 /// The version of the JSON form of [`LightFigures`] (`light --json`).
 pub const FORMAT: &str = "ledflicker.light/2";

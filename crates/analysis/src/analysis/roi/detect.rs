@@ -4,7 +4,7 @@
 //! Two reads of the capture, each streamed frame by frame:
 //! 1. the mean of tiles of about 1/4096 of the frame; the tiles that change
 //!    most stand in for the LED ROIs, and the plan's segment detection
-//!    ([`crate::backend::segments`]) finds the ON -> OFF step of the paper's
+//!    ([`ledflicker_acquisition::backend::segments`]) finds the ON -> OFF step of the paper's
 //!    sequence on them, or, when the capture has none, the step from a
 //!    dark baseline to the light (the `off-then-pwm` rule);
 //! 2. per pixel, the mean over the lit segment (ON, or PWM after a dark
@@ -20,12 +20,12 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::backend::segments::{self, Detection};
-use crate::capture::{
+use ledflicker_acquisition::backend::segments::{self, Detection};
+use ledflicker_acquisition::capture::{
     self, CaptureError, CaptureTrace, FrameSink, GreyFrame, ReadOptions, RoiRect,
 };
-use crate::plan::{RoiKind, Sequence};
-use crate::trace::{DetectionRule, SegmentsFound};
+use ledflicker_plan::plan::{RoiKind, Sequence};
+use ledflicker_plan::trace::{DetectionRule, SegmentsFound};
 
 /// A pixel is lit when its step exceeds this many times the frame's noise.
 pub const NOISE_FACTOR: f64 = 6.0;

@@ -9,7 +9,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::physics::pwm::wrap_unit;
+use ledflicker_physics::pwm::wrap_unit;
 
 /// Bins of the phase circle. With an exposure of `w` PWM cycles the ROI
 /// mean changes by at most `2 / w` of its range per cycle, so a sample
@@ -47,7 +47,7 @@ pub struct PhaseCoverage {
 /// `frames[i]` (`frames[i] / fps` seconds) plus `row_offset_s` (rolling
 /// shutter: the ROI's first row), times `frequency_hz`, modulo 1. Phase 0 is
 /// frame 0's row 0. The cycle count is reduced exactly, as in
-/// [`crate::physics::PwmDrive::phase_at`], so phase-locked frames fold onto
+/// [`ledflicker_physics::PwmDrive::phase_at`], so phase-locked frames fold onto
 /// one phase.
 pub fn fold(
     frames: &[u64],
@@ -220,7 +220,7 @@ pub fn coverage_over(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::{PwmDrive, Shutter, ShutterModel};
+    use ledflicker_physics::{PwmDrive, Shutter, ShutterModel};
 
     #[test]
     fn phase_locked_capture_covers_one_bin_and_never_more() {

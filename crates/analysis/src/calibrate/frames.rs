@@ -3,7 +3,7 @@
 //!
 //! Still frames (PNG, TIFF 8/16 bit, JPEG) are read with the `image` crate;
 //! anything else (a video, a Y4M file, a directory of frames) through the
-//! capture readers of [`crate::capture`], with one ROI per row and column
+//! capture readers of [`ledflicker_acquisition::capture`], with one ROI per row and column
 //! strip. Luma is BT.601 in the source's DN (0..255 or 0..65535).
 //!
 //! Each analysed row is split into [`STRIPS`] column strips and the mean of
@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use image::DynamicImage;
 
 use super::bands::{Layout, StripProfiles};
-use crate::capture::{
+use ledflicker_acquisition::capture::{
     self, CaptureError, LumaWeights, ReadOptions, RoiRect, VideoDecode, VideoRange,
 };
 
@@ -367,7 +367,7 @@ fn read_sequence(path: &Path, roi: Option<RoiRect>) -> Result<ReadOut, FrameErro
         luma: LumaWeights::Bt601,
         video_decode: VideoDecode::Rgb,
         range: VideoRange::Auto,
-        colour_transfer: crate::capture::ColourTransfer::Linear,
+        colour_transfer: ledflicker_acquisition::capture::ColourTransfer::Linear,
         fps: Some(30.0),
         decoder_threads: None,
     };
@@ -406,12 +406,12 @@ fn read_sequence(path: &Path, roi: Option<RoiRect>) -> Result<ReadOut, FrameErro
 }
 
 /// SHA-256 of a file, lowercase hex; "" for a directory. Read in chunks
-/// ([`crate::inputs::hash_file`]): a FIFO or a device is refused at once.
+/// ([`ledflicker_acquisition::inputs::hash_file`]): a FIFO or a device is refused at once.
 fn file_sha256(path: &Path) -> Result<String, FrameError> {
     if path.is_dir() {
         return Ok(String::new());
     }
-    match crate::inputs::hash_file(path) {
+    match ledflicker_acquisition::inputs::hash_file(path) {
         Ok((sha256, _)) => Ok(sha256),
         // Stopped by Ctrl-C: the signal's error, not a read error.
         Err(e) => match capture::check_interrupt(path) {

@@ -9,8 +9,8 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::metrics::flicker::{fdi_2018, percent_flicker};
-use crate::physics::Shutter;
+use ledflicker_metrics::metrics::flicker::{fdi_2018, percent_flicker};
+use ledflicker_physics::Shutter;
 
 /// A linear camera response for one light level: ROI luma is
 /// `min(off_dn + led_peak_dn * s, full_scale_dn)` for an ON fraction `s`.
@@ -134,7 +134,8 @@ impl FineMap {
     pub fn summary(&self, fdi_min: Option<f64>) -> FineMapSummary {
         let nd = self.duty.count;
         let fails = |k: usize, t: f64| {
-            self.fdi_worst[k].is_none_or(|v| v < t - crate::metrics::verdict::VERDICT_TOLERANCE)
+            self.fdi_worst[k]
+                .is_none_or(|v| v < t - ledflicker_metrics::metrics::verdict::VERDICT_TOLERANCE)
         };
         let fdi_fail_fraction = fdi_min.map(|t| {
             (0..self.fdi_worst.len()).filter(|&k| fails(k, t)).count() as f64
@@ -165,7 +166,7 @@ impl FineMap {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::{PwmDrive, ShutterModel};
+    use ledflicker_physics::{PwmDrive, ShutterModel};
 
     #[test]
     fn map_cells_equal_the_envelope_and_bound_a_phase_sweep() {

@@ -11,16 +11,16 @@
 //! case (the capture saw that phase) needs no run: its trace is the
 //! evidence.
 //!
-//! [`Shutter::darkest_phase`]: crate::physics::Shutter::darkest_phase
+//! [`Shutter::darkest_phase`]: ledflicker_physics::Shutter::darkest_phase
 
-use crate::backend::Backend;
-use crate::backend::sim::Simulator;
-use crate::metrics::flicker::Segment;
-use crate::metrics::{Check, Verdict, evaluate_roi};
-use crate::physics::pwm::wrap_unit;
-use crate::plan::{BackendKind, Plan};
-use crate::runner::CaseResult;
-use crate::trace::RenderedFrame;
+use ledflicker_acquisition::backend::Backend;
+use ledflicker_acquisition::backend::sim::Simulator;
+use ledflicker_acquisition::runner::CaseResult;
+use ledflicker_metrics::metrics::flicker::Segment;
+use ledflicker_metrics::metrics::{Check, Verdict, evaluate_roi};
+use ledflicker_physics::pwm::wrap_unit;
+use ledflicker_plan::plan::{BackendKind, Plan};
+use ledflicker_plan::trace::RenderedFrame;
 
 /// Suffix of the metrics judged on the worst case over phase.
 const WORST_PHASE_SUFFIX: &str = "_worst_phase";

@@ -245,9 +245,11 @@ pub fn write_profile(
             true,
         ),
     };
-    crate::util::write_atomic(&path, text.as_bytes()).map_err(|error| ProfileError::Write {
-        path: path.clone(),
-        error,
+    ledflicker_plan::util::write_atomic(&path, text.as_bytes()).map_err(|error| {
+        ProfileError::Write {
+            path: path.clone(),
+            error,
+        }
     })?;
     let fps_used = profile::frame_rate(cal, opts);
     let looped = profile::closed_loop(cal, &path, fps_used);
@@ -358,7 +360,8 @@ fn initial(
         // The fundamental peaks at row r* = psi P / 2 pi, where the window
         // centre phi + r/P + e/2 sits on the pulse centre D/2.
         let r_peak = s.atan2(c) / (2.0 * std::f64::consts::PI) * p;
-        values[idx::PHASE0 + j] = crate::physics::pwm::wrap_unit(0.5 * d - 0.5 * e - r_peak / p);
+        values[idx::PHASE0 + j] =
+            ledflicker_physics::pwm::wrap_unit(0.5 * d - 0.5 * e - r_peak / p);
     }
     ModelParams {
         values,
@@ -558,7 +561,7 @@ fn written_member(v: &[f64], traded: Option<(f64, f64)>) -> (Vec<f64>, f64) {
     m[idx::DUTY] = lo;
     m[idx::C1] *= scale;
     for phase in &mut m[idx::PHASE0..] {
-        *phase = crate::physics::pwm::wrap_unit(*phase + e - hi);
+        *phase = ledflicker_physics::pwm::wrap_unit(*phase + e - hi);
     }
     (m, scale)
 }

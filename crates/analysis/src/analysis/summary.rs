@@ -13,8 +13,8 @@ use std::ops::Range;
 use serde::Serialize;
 
 use super::{Banding, Beat, DriveFlicker, HazardClass, PhaseCoverage};
-use crate::metrics::flicker::{Metric, fdi_2018, percent_flicker};
-use crate::physics::{PwmDrive, Shutter};
+use ledflicker_metrics::metrics::flicker::{Metric, fdi_2018, percent_flicker};
+use ledflicker_physics::{PwmDrive, Shutter};
 
 /// The summary object.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -157,7 +157,7 @@ pub fn summarise(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::ShutterModel;
+    use ledflicker_physics::ShutterModel;
 
     #[test]
     fn summary_agrees_with_the_closed_form_and_never_holds_nan() {

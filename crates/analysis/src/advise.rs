@@ -34,8 +34,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::analysis::finemap::Axis;
-use crate::physics::hdr::{Capture, CaptureExposure, HdrMode};
-use crate::physics::{Shutter, ShutterModel};
+use ledflicker_physics::hdr::{Capture, CaptureExposure, HdrMode};
+use ledflicker_physics::{Shutter, ShutterModel};
 
 /// What to advise on.
 #[derive(Debug, Clone, PartialEq)]
@@ -452,7 +452,7 @@ pub fn curve(req: &AdviseRequest, points: usize) -> Result<Vec<Candidate>, Advis
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::PwmDrive;
+    use ledflicker_physics::PwmDrive;
 
     #[test]
     fn bound_is_the_maximum_of_eq1_over_a_brute_force_grid() {

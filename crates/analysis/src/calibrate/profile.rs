@@ -8,9 +8,9 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::Calibration;
-use crate::backend::Backend;
-use crate::backend::sim::Simulator;
-use crate::plan::bounds::MIN_LIGHT_LUX;
+use ledflicker_acquisition::backend::Backend;
+use ledflicker_acquisition::backend::sim::Simulator;
+use ledflicker_plan::plan::bounds::MIN_LIGHT_LUX;
 
 /// Full well of the written sensor, electrons: any value works, the
 /// sensitivity is scaled to it.
@@ -215,7 +215,7 @@ fn sensor_and_tone(t: &mut String, cal: &Calibration, exposure: f64) {
 fn pwm_delay_s(cal: &Calibration) -> f64 {
     let f = cal.frequency_hz;
     let cycles = cal.roi[1] as f64 * cal.line_time_us * 1e-6 * f - cal.phase_cycles;
-    crate::physics::pwm::wrap_unit(cycles) / f
+    ledflicker_physics::pwm::wrap_unit(cycles) / f
 }
 
 fn toml_str(s: &str) -> String {
@@ -269,9 +269,9 @@ pub fn closed_loop(cal: &Calibration, profile: &Path, fps: f64) -> Result<(Vec<f
     let plan_path = profile.with_extension("closed-loop.toml");
     // One case, simulated and never reported: a report's work limits (a
     // case page per ROI of its thousands of rows) do not apply.
-    let plan = crate::plan::parse_within(&text, &plan_path, String::new(), false)
+    let plan = ledflicker_plan::plan::parse_within(&text, &plan_path, String::new(), false)
         .map_err(|e| format!("the fitted profile does not validate: {e}"))?;
-    let cases = crate::plan::expand_cases(&plan);
+    let cases = ledflicker_plan::plan::expand_cases(&plan);
     let case = cases.first().ok_or("the closed-loop plan has no case")?;
     let acq = Simulator::new(&plan)
         .acquire(case)

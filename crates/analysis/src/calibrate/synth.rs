@@ -4,14 +4,14 @@
 //! docs/calibration.md and the calibration benchmark.
 //!
 //! Each row's ON fraction comes from the simulator's exact shutter
-//! integral ([`crate::physics::Shutter::frame_on_fraction`]); the pixel is
+//! integral ([`ledflicker_physics::Shutter::frame_on_fraction`]); the pixel is
 //! `black + A clamp((c0 + c1 s) v t)^(1/gamma) + noise`, with `v` the
 //! vignetting and `t` the texture of the pixel.
 
 use std::path::Path;
 
-use crate::physics::sensor::Rng;
-use crate::physics::{PwmDrive, Shutter, ShutterModel};
+use ledflicker_physics::sensor::Rng;
+use ledflicker_physics::{PwmDrive, Shutter, ShutterModel};
 
 /// A synthetic frame: camera, light and degradations.
 #[derive(Debug, Clone, PartialEq)]

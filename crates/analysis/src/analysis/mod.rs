@@ -36,10 +36,10 @@ pub mod worst_phase;
 
 use serde::{Deserialize, Serialize};
 
-use crate::metrics::flicker::Segment;
-use crate::physics::PwmDrive;
-use crate::plan::{BackendKind, CameraConfig, Plan, RoiKind};
-use crate::runner::CaseResult;
+use ledflicker_acquisition::runner::CaseResult;
+use ledflicker_metrics::metrics::flicker::Segment;
+use ledflicker_physics::PwmDrive;
+use ledflicker_plan::plan::{BackendKind, CameraConfig, Plan, RoiKind};
 
 pub use apparent::{ApparentMethod, Beat};
 pub use banding::{Banding, FrameBanding};
@@ -472,7 +472,7 @@ pub const FINE_DUTY: finemap::Axis = finemap::Axis {
 /// Why a plan gets no fine maps, if it gets none: they model the ideal,
 /// linear, single-exposure simulated camera only.
 pub fn fine_maps_note(plan: &Plan) -> Option<String> {
-    if plan.dut.backend != crate::plan::BackendKind::Simulator {
+    if plan.dut.backend != ledflicker_plan::plan::BackendKind::Simulator {
         Some(
             "no fine maps: the plan measures captured data or a lab rig, not a simulated camera"
                 .to_string(),
@@ -520,7 +520,7 @@ pub fn fine_maps(plan: &Plan) -> Vec<FineMapInfo> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trace::Ratio;
+    use ledflicker_plan::trace::Ratio;
 
     /// The beat's note states the fitted rate with its uncertainty, the
     /// resolution, the stated rate and the drops.

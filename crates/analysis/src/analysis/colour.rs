@@ -15,7 +15,7 @@
 //! of that die, so between the union of those corners the pixel moves on a
 //! straight line in (Cb, Cr): its distance from a fixed point is largest at
 //! a corner, and its hue angle is monotone. Extremes over phase are exact at
-//! the corners, as in [`crate::physics::Shutter::phase_envelope`].
+//! the corners, as in [`ledflicker_physics::Shutter::phase_envelope`].
 //!
 //! Spectra are reduced to camera RGB by integrating against channel
 //! sensitivities; [`GaussianSensitivity`] is a stand-in for a measured
@@ -27,7 +27,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::physics::pwm::{on_fraction, wrap_unit};
+use ledflicker_physics::pwm::{on_fraction, wrap_unit};
 
 /// Linear camera RGB, arbitrary units (>= 0).
 pub type Rgb = [f64; 3];

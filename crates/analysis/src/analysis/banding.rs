@@ -14,8 +14,8 @@ use serde::{Deserialize, Serialize};
 
 use super::apparent::phase_step_cycles;
 use crate::calibrate::bands::{band_period_rows, estimate_profile};
-use crate::physics::{PwmDrive, Shutter, ShutterModel};
-use crate::trace::RenderedFrame;
+use ledflicker_physics::{PwmDrive, Shutter, ShutterModel};
+use ledflicker_plan::trace::RenderedFrame;
 
 /// Row contrast below which a frame's LED rows count as even (no bands), %.
 pub const NO_BANDS_CONTRAST_PERCENT: f64 = 1.0;

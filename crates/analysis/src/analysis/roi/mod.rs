@@ -1,7 +1,7 @@
 //! ROIs seen in their frame, before a run (`ledflicker roi`, docs/roi.md).
 //!
 //! Sits beside the analyses: it reads a capture's pixels through
-//! [`crate::capture::read_grey_frames`] (or renders a frame with the
+//! [`ledflicker_acquisition::capture::read_grey_frames`] (or renders a frame with the
 //! simulator) and draws ROIs on it; [`detect`] proposes ROIs from a
 //! capture's ON -> OFF step. Nothing here is part of a run or a report.
 //!
@@ -18,9 +18,11 @@ mod draw;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-use crate::backend::Backend;
-use crate::capture::{self, CaptureError, FrameSink, GreyFrame, ReadOptions, RoiRect};
-use crate::plan::{BackendKind, Plan, RoiKind};
+use ledflicker_acquisition::backend::Backend;
+use ledflicker_acquisition::capture::{
+    self, CaptureError, FrameSink, GreyFrame, ReadOptions, RoiRect,
+};
+use ledflicker_plan::plan::{BackendKind, Plan, RoiKind};
 
 pub use draw::annotate;
 
@@ -108,18 +110,18 @@ pub fn previews(plan: &Plan) -> Result<Vec<(String, Picture)>, PreviewError> {
             let Some(cap) = &plan.capture else {
                 return Ok(Vec::new());
             };
-            let opts = crate::backend::captured::read_options(cap);
+            let opts = ledflicker_acquisition::backend::captured::read_options(cap);
             cap.cases
                 .iter()
                 .map(|c| Ok((c.id.clone(), first_frame(&c.source, &opts)?)))
                 .collect()
         }
         BackendKind::Simulator => {
-            let cases = crate::plan::expand_cases(plan);
+            let cases = ledflicker_plan::plan::expand_cases(plan);
             let Some(case) = cases.first() else {
                 return Ok(Vec::new());
             };
-            let sim = crate::backend::sim::Simulator::new(plan);
+            let sim = ledflicker_acquisition::backend::sim::Simulator::new(plan);
             let frame = sim
                 .render_frame(case, 0)
                 .ok_or_else(|| PreviewError::Render("the simulator renders no frames".into()))?
@@ -309,7 +311,7 @@ pub fn write_files(dir: &Path, files: &[(String, Vec<u8>)]) -> Result<Vec<PathBu
     let mut written = Vec::new();
     for (name, bytes) in files {
         let path = dir.join(name);
-        crate::util::write_atomic(&path, bytes).map_err(io(&path))?;
+        ledflicker_plan::util::write_atomic(&path, bytes).map_err(io(&path))?;
         ours.insert(name.clone());
         written.push(path);
     }
@@ -318,7 +320,7 @@ pub fn write_files(dir: &Path, files: &[(String, Vec<u8>)]) -> Result<Vec<PathBu
         text.push_str(name);
         text.push('\n');
     }
-    crate::util::write_atomic(&marker, text.as_bytes()).map_err(io(&marker))?;
+    ledflicker_plan::util::write_atomic(&marker, text.as_bytes()).map_err(io(&marker))?;
     Ok(written)
 }
 

@@ -48,7 +48,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::apparent::SpectrumError;
-use crate::trace::Ratio;
+use ledflicker_plan::trace::Ratio;
 
 /// An interval further than this fraction from the frame period makes
 /// the timing irregular (a drop, a doubled frame, a variable frame rate).

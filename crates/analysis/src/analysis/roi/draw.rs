@@ -5,8 +5,8 @@
 use image::{Rgb, RgbImage};
 
 use super::{Overlay, Picture};
-use crate::capture::RoiRect;
-use crate::plan::RoiKind;
+use ledflicker_acquisition::capture::RoiRect;
+use ledflicker_plan::plan::RoiKind;
 
 const LED_COLOUR: Rgb<u8> = Rgb([235, 40, 40]);
 const BACKGROUND_COLOUR: Rgb<u8> = Rgb([40, 120, 255]);

@@ -1,7 +1,7 @@
 use std::io::Write;
 
 use super::*;
-use crate::plan::{LumaWeights, VideoDecode, VideoRange};
+use ledflicker_plan::plan::{LumaWeights, VideoDecode, VideoRange};
 
 /// Frame size of the generated captures.
 const W: u32 = 160;
@@ -22,13 +22,13 @@ fn opts() -> DetectOptions {
             luma: LumaWeights::Bt601,
             video_decode: VideoDecode::Rgb,
             range: VideoRange::Auto,
-            colour_transfer: crate::capture::ColourTransfer::Linear,
+            colour_transfer: ledflicker_acquisition::capture::ColourTransfer::Linear,
             fps: None,
             decoder_threads: None,
         },
         on_s: 2.0,
         off_s: 2.0,
-        settle_s: crate::plan::DEFAULT_SETTLE_S,
+        settle_s: ledflicker_plan::plan::DEFAULT_SETTLE_S,
     }
 }
 
@@ -160,7 +160,7 @@ fn the_proposed_blocks_parse_as_the_roi_tables_of_a_plan() {
          [[case]]\nid = \"seq\"\nsource = \"seq.y4m\"\n\n{blocks}"
     );
     let plan_path = tmp.path().join("pasted.toml");
-    let plan = crate::plan::parse(&plan_text, &plan_path, String::new())
+    let plan = ledflicker_plan::plan::parse(&plan_text, &plan_path, String::new())
         .unwrap_or_else(|e| panic!("{e}\n{plan_text}"));
     assert_eq!(plan.rois.len(), p.rois.len());
     for (got, want) in plan.rois.iter().zip(&p.rois) {
