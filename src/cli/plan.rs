@@ -114,102 +114,151 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
         return super::rig::dry_run(&plan);
     }
     if let Some(spec) = &args.shard {
-        let spec = crate::shard::ShardSpec::parse(spec, &|k| std::env::var(k).ok())?;
-        super::shard::check_share(&plan, spec, args.limits.limits(false))?;
-        return super::shard::run_shard(&super::shard::ShardRun {
-            plan: &plan,
-            spec,
-            out: args.out.as_deref().unwrap_or(Path::new(".")),
-            threads: args.threads,
-            force: args.force,
-            quiet: args.quiet,
-        });
+        return shard(&args, &plan, spec);
     }
     let out = args
         .resume
         .clone()
         .or_else(|| args.out.clone())
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
-    args.record.check_outside(&out)?;
+    let (generation, options) = prepare(&args, &out, date)?;
+    let (ran, generation) = run(&args, &plan, generation, &out)?;
+    let stage = report_spinner(args.quiet);
+    let run = pipeline::Run {
+        plan: &plan,
+        backend_id: ran.backend.id(),
+        results: &ran.results,
+        inputs: ran.inputs,
+    };
+    let options = ReportOptions {
+        resume_hint: Some(format!(
+            "the {} cases of the run are kept beside `{}`; continue with `ledflicker plan {} --resume {}` (it goes straight to the report)",
+            runner::CaseSource::len(&ran.results),
+            out.display(),
+            args.plan,
+            out.display()
+        )),
+        ..options
+    };
+    let outcome = pipeline::report(run, generation, options, &|p| show_progress(&stage, p))?;
+    finish(&args, &outcome, total)
+}
+
+/// `--shard K/N`: this shard's cases into a shard directory, no report.
+fn shard(args: &PlanArgs, plan: &Plan, spec: &str) -> Result<i32, Failure> {
+    let spec = crate::shard::ShardSpec::parse(spec, &|k| std::env::var(k).ok())?;
+    super::shard::check_share(plan, spec, args.limits.limits(false))?;
+    super::shard::run_shard(&super::shard::ShardRun {
+        plan,
+        spec,
+        out: args.out.as_deref().unwrap_or(Path::new(".")),
+        threads: args.threads,
+        force: args.force,
+        quiet: args.quiet,
+    })
+}
+
+/// Everything refused before any time goes into the run: the output
+/// directory (a new generation, or the one to resume), the golden results
+/// and the signing key; gives the new generation and the report options.
+fn prepare(
+    args: &PlanArgs,
+    out: &Path,
+    date: String,
+) -> Result<(crate::outdir::Generation, ReportOptions), Failure> {
+    args.record.check_outside(out)?;
     let generation = match &args.resume {
-        None => pipeline::begin_output(&out, args.force)?,
+        None => pipeline::begin_output(out, args.force)?,
         Some(dir) => pipeline::resume_output(dir, args.force)?,
     };
-    let golden = golden(&args)?;
+    let golden = golden(args)?;
     let signing = signing(
         &super::args::SignOptions {
             key: args.sign_key.as_deref(),
             cert: args.sign_cert.as_deref(),
             signer: args.signer.as_deref(),
         },
-        &out,
+        out,
     )?;
-
-    // A failure from here on keeps what a resumed run had stored, and what
-    // this run stored, for another `--resume`.
-    let resuming = args.resume.is_some();
-    let stop =
-        |failure: Failure, generation| keep_for_resume(failure, resuming, generation, &args, &out);
-    let mut backend = match build_backend(&plan, args.quiet) {
-        Ok(backend) => backend,
-        Err(e) => return Err(stop(e, generation)),
+    let options = ReportOptions {
+        date,
+        force: args.force,
+        detail: args.detail.into(),
+        signing,
+        golden,
+        resume_hint: None,
     };
-    if args.keep_captures {
-        match &mut backend {
-            PlanBackend::Command(rig) => {
-                rig.keep_captures(generation.path().join(CAPTURES_DIR), CAPTURES_DIR);
-            }
-            _ => {
-                let kind = match plan.dut.backend {
-                    plan::BackendKind::Captured => "captured",
-                    _ => "simulator",
-                };
-                let e = UsageError(format!(
-                    "--keep-captures: plan `{}` records nothing to keep (its backend is {kind})\n    hint: only a command plan (`[dut] backend = \"command\"`) records captures",
-                    plan.id
-                ));
-                return Err(stop(e.into(), generation));
-            }
-        }
+    Ok((generation, options))
+}
+
+/// The run stage's products: the backend, every case in the store, the
+/// hashed inputs.
+struct Ran {
+    backend: PlanBackend,
+    results: crate::store::StoredCases,
+    inputs: Vec<crate::inputs::InputFile>,
+}
+
+/// The backend, the inputs and the run stage. A failure keeps what a
+/// resumed run had stored, and what this run stored, for another
+/// `--resume`.
+fn run(
+    args: &PlanArgs,
+    plan: &Plan,
+    generation: crate::outdir::Generation,
+    out: &Path,
+) -> Result<(Ran, crate::outdir::Generation), Failure> {
+    let resuming = args.resume.is_some();
+    let stop = |failure: Failure, stored: bool, generation| {
+        Err(keep_for_resume(failure, stored, generation, args, out))
+    };
+    let mut backend = match build_backend(plan, args.quiet) {
+        Ok(backend) => backend,
+        Err(e) => return stop(e, resuming, generation),
+    };
+    if args.keep_captures
+        && let Err(e) = keep_captures(plan, &mut backend, generation.path())
+    {
+        return stop(e, resuming, generation);
     }
     // After the backend has checked that the captures exist.
-    let inputs = match super::collect_inputs(&plan) {
+    let inputs = match super::collect_inputs(plan) {
         Ok(inputs) => inputs,
-        Err(e) => return Err(stop(e, generation)),
+        Err(e) => return stop(e, resuming, generation),
     };
-    let results = match run_cases(&plan, &backend, &args, generation.path(), &inputs) {
-        Ok(results) => results,
-        Err(e) => {
-            let failure = Failure::from(e.error);
-            return Err(keep_for_resume(failure, e.stored, generation, &args, &out));
+    match run_cases(plan, &backend, args, generation.path(), &inputs) {
+        Ok(results) => {
+            let ran = Ran {
+                backend,
+                results,
+                inputs,
+            };
+            Ok((ran, generation))
         }
-    };
-    let stage = report_spinner(args.quiet);
-    let outcome = pipeline::report(
-        pipeline::Run {
-            plan: &plan,
-            backend_id: backend.id(),
-            results: &results,
-            inputs,
-        },
-        generation,
-        ReportOptions {
-            date,
-            force: args.force,
-            detail: args.detail.into(),
-            signing,
-            golden,
-            resume_hint: Some(format!(
-                "the {} cases of the run are kept beside `{}`; continue with `ledflicker plan {} --resume {}` (it goes straight to the report)",
-                runner::CaseSource::len(&results),
-                out.display(),
-                args.plan,
-                out.display()
-            )),
-        },
-        &|p| show_progress(&stage, p),
-    )?;
-    finish(&args, &outcome, total)
+        Err(e) => stop(e.error.into(), e.stored, generation),
+    }
+}
+
+/// `--keep-captures`: a command plan's recordings go to the report's
+/// [`CAPTURES_DIR`]; any other backend records nothing to keep.
+fn keep_captures(plan: &Plan, backend: &mut PlanBackend, dir: &Path) -> Result<(), Failure> {
+    match backend {
+        PlanBackend::Command(rig) => {
+            rig.keep_captures(dir.join(CAPTURES_DIR), CAPTURES_DIR);
+            Ok(())
+        }
+        _ => {
+            let kind = match plan.dut.backend {
+                plan::BackendKind::Captured => "captured",
+                _ => "simulator",
+            };
+            Err(UsageError(format!(
+                "--keep-captures: plan `{}` records nothing to keep (its backend is {kind})\n    hint: only a command plan (`[dut] backend = \"command\"`) records captures",
+                plan.id
+            ))
+            .into())
+        }
+    }
 }
 
 /// The signature, the summary table, the drift from `--golden`, the
