@@ -322,7 +322,9 @@ fn run_stage(e: &crate::pipeline::RunStageError) -> i32 {
 fn store(e: &crate::store::StoreError) -> i32 {
     match e {
         crate::store::StoreError::Mismatch { .. } => EXIT_INVALID,
-        _ => EXIT_INTERNAL,
+        crate::store::StoreError::Sqlite { .. }
+        | crate::store::StoreError::Record { .. }
+        | crate::store::StoreError::Io { .. } => EXIT_INTERNAL,
     }
 }
 

@@ -96,10 +96,11 @@ pub enum CampaignError {
 impl CampaignError {
     /// The user's file or request is at fault (exit 2), not the tool.
     pub fn is_usage_error(&self) -> bool {
-        matches!(
-            self,
-            CampaignError::Unusable { .. } | CampaignError::Input(_)
-        )
+        // Every variant named, so that a new one must be placed.
+        match self {
+            CampaignError::Unusable { .. } | CampaignError::Input(_) => true,
+            CampaignError::Sqlite { .. } | CampaignError::Postgres { .. } => false,
+        }
     }
 }
 
