@@ -1,6 +1,6 @@
 //! The names a person reads for each metric id of results.json.
 //!
-//! results.json, the CSV exports and `--tolerance` keep the snake_case ids
+//! results.json, the CSV exports and `--golden-tolerance` keep the snake_case ids
 //! (`fdi_2018_worst_phase`); every table and chart of the HTML and PDF
 //! reports shows [`human_name`] instead, and the reports' glossary lists
 //! [`GLOSSARY`] so that an id seen in results.json can be found. One table,
