@@ -9,10 +9,7 @@ use minijinja::value::{Serde, Value};
 use minijinja::{Environment, UndefinedBehavior};
 
 use super::ReportError;
-use super::document::{
-    ADVICE_CHART, Document, finemap_chart_path, fold_chart_prefix, frame_image_path,
-    matrix_chart_path, trace_chart_path, visibility_matrix_chart_path,
-};
+use super::document::{Document, matrix_chart_path, visibility_matrix_chart_path};
 
 const BASE: &str = include_str!("../../../templates/base.html.j2");
 const REPORT: &str = include_str!("../../../templates/report.html.j2");
@@ -177,84 +174,20 @@ pub fn render(
     render_document(&Document::build(model, results, date, Vec::new())?)
 }
 
-/// Renders report.html from a [`Document`].
+/// Renders report.html from a [`Document`]: every picture inline, an SVG
+/// as markup and a PNG as a data URI, so that the file stands alone.
 pub fn render_document(doc: &Document) -> Result<String, ReportError> {
     let env = environment(&doc.look)?;
-    let inline = |path: &str| {
-        doc.charts
-            .get(path)
-            .map(|svg| Value::from_safe_string(svg.clone()))
-            .unwrap_or_else(|| Value::from(()))
+    let picture = |path: &str| {
+        if let Some(svg) = doc.charts.get(path) {
+            Value::from_safe_string(svg.clone())
+        } else if let Some(png) = doc.images.get(path) {
+            let uri = format!("data:image/png;base64,{}", super::frames::base64(png));
+            Value::from_safe_string(uri)
+        } else {
+            Value::from(())
+        }
     };
-    let mut traces = BTreeMap::new();
-    let mut zooms = BTreeMap::new();
-    for case in doc.case_ids() {
-        let path = trace_chart_path(&case);
-        if doc.charts.contains_key(&path) {
-            traces.insert(case.clone(), inline(&path));
-        }
-        let path = super::document::zoom_chart_path(&case);
-        if doc.charts.contains_key(&path) {
-            zooms.insert(case, inline(&path));
-        }
-    }
-    // Sample frames inline as PNG data URIs.
-    let mut frames = BTreeMap::new();
-    for case in doc.case_ids() {
-        if let Some(png) = doc.images.get(&frame_image_path(&case)) {
-            let uri = format!("data:image/png;base64,{}", super::frames::base64(png));
-            frames.insert(case, Value::from_safe_string(uri));
-        }
-    }
-    // The evidence of worst-phase verdicts: chart and frame view by case.
-    let mut worst_charts = BTreeMap::new();
-    let mut worst_frames = BTreeMap::new();
-    for case in doc.case_ids() {
-        let chart = super::document::worst_phase_chart_path(&case);
-        if doc.charts.contains_key(&chart) {
-            worst_charts.insert(case.clone(), inline(&chart));
-        }
-        if let Some(png) = doc
-            .images
-            .get(&super::document::worst_phase_image_path(&case))
-        {
-            let uri = format!("data:image/png;base64,{}", super::frames::base64(png));
-            worst_frames.insert(case, Value::from_safe_string(uri));
-        }
-    }
-    // The flicker signal folded by phase, one chart per LED ROI.
-    let mut folds: BTreeMap<String, Vec<Value>> = BTreeMap::new();
-    for case in doc.case_ids() {
-        let prefix = fold_chart_prefix(&case);
-        let svgs = doc
-            .charts
-            .range(prefix.clone()..)
-            .take_while(|(path, _)| path.starts_with(&prefix))
-            .map(|(_, svg)| Value::from_safe_string(svg.clone()))
-            .collect();
-        folds.insert(case, svgs);
-    }
-    let finemaps: Vec<Value> = (0..)
-        .map_while(|i| {
-            let fdi = doc.charts.get(&finemap_chart_path(i, "fdi"))?;
-            let pf = doc.charts.get(&finemap_chart_path(i, "pf"))?;
-            Some(minijinja::context! {
-                fdi => Value::from_safe_string(fdi.clone()),
-                pf => Value::from_safe_string(pf.clone()),
-            })
-        })
-        .collect();
-    // The u'v' diagrams of the driver section, by path.
-    let uv_charts: BTreeMap<String, Value> = doc
-        .charts
-        .range("charts/uv-".to_string()..)
-        .take_while(|(path, _)| path.starts_with("charts/uv-"))
-        .map(|(path, svg)| (path.clone(), Value::from_safe_string(svg.clone())))
-        .collect();
-    let advice_chart = inline(ADVICE_CHART);
-    let results = doc.json()?;
-    let error = |e: minijinja::Error| template_error(&e, "report.html.j2", &doc.look);
-    let template = env.get_template("report.html.j2").map_err(error)?;
     let look = doc.look_context(|path, bytes| {
         let mime = if path.ends_with(".svg") {
             "image/svg+xml"
@@ -264,39 +197,10 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
         let uri = format!("data:{mime};base64,{}", super::frames::base64(bytes));
         Value::from_safe_string(uri)
     });
-    let listing = doc.listing();
-    template
-        .render(minijinja::context! {
-            r => Serde(&results),
-            charts => traces,
-            frames => frames,
-            folds => folds,
-            finemaps => finemaps,
-            advice_chart => advice_chart,
-            matrices => matrices(doc, inline),
-            driver => Serde(doc.driver()),
-            uv_charts => uv_charts,
-            roi_maps => roi_maps(doc, inline),
-            signatories => Serde(&doc.signatories),
-            zooms => zooms,
-            worst_charts => worst_charts,
-            worst_frames => worst_frames,
-            pages => listing.pages.clone(),
-            listed => listed_ids(&listing),
-            unlisted => listing.unlisted,
-            pages_omitted => listing.pages_omitted,
-            listed_max => crate::model::listing::LISTED_CASES_MAX,
-            info_rows => Serde(doc.info_rows()),
-            glossary => Serde(doc.glossary()),
-            caveats => doc.caveats(),
-            fold_notes => doc.fold_notes(),
-            limit_tables => Serde(doc.limit_tables()),
-            detail => doc.detail().as_str(),
-            draft => doc.is_draft(),
-            date => doc.date(),
-            look => look,
-        })
-        .map_err(error)
+    let context = super::context::shared(doc, &picture, look)?;
+    let error = |e: minijinja::Error| template_error(&e, "report.html.j2", &doc.look);
+    let template = env.get_template("report.html.j2").map_err(error)?;
+    template.render(context).map_err(error)
 }
 
 /// The listed cases' ids as a map to `true`, for the templates' `c.id in

@@ -12,6 +12,7 @@ use ledflicker_core::{model, outdir, timings, util};
 
 pub mod charts;
 pub mod comparison;
+mod context;
 pub mod document;
 pub mod export;
 pub mod frames;

@@ -11,7 +11,6 @@
 
 mod shapes;
 
-use super::html::listed_ids;
 use std::collections::BTreeMap;
 use std::sync::{LazyLock, OnceLock};
 
@@ -26,7 +25,7 @@ use typst::{Library, LibraryExt, World, WorldExt};
 use typst_layout::PagedDocument;
 
 use super::ReportError;
-use super::document::{ChartJobs, Document, ViewJobs, trace_chart_path};
+use super::document::{ChartJobs, Document, ViewJobs};
 
 const TEMPLATE: &str = include_str!("../../../templates/report.typ.j2");
 const TEMPLATE_NAME: &str = "report.typ.j2";
@@ -252,103 +251,15 @@ pub fn render_markup(doc: &Document) -> Result<String, ReportError> {
     env.add_filter("num", |v: Serde<Option<f64>>, digits: Option<usize>| {
         super::html::num(v.0, digits)
     });
-    let mut traces = BTreeMap::new();
-    let mut zooms = BTreeMap::new();
-    for case in doc.case_ids() {
-        let path = trace_chart_path(&case);
-        if doc.charts.contains_key(&path) {
-            traces.insert(case.clone(), path);
-        }
-        let path = super::document::zoom_chart_path(&case);
-        if doc.charts.contains_key(&path) {
-            zooms.insert(case, path);
-        }
-    }
-    // Every other picture goes in by its virtual path in the world.
-    let mut frames = BTreeMap::new();
-    let mut folds: BTreeMap<String, Vec<String>> = BTreeMap::new();
-    for case in doc.case_ids() {
-        let frame = super::document::frame_image_path(&case);
-        if doc.images.contains_key(&frame) {
-            frames.insert(case.clone(), frame);
-        }
-        let prefix = super::document::fold_chart_prefix(&case);
-        let paths = doc
-            .charts
-            .range(prefix.clone()..)
-            .take_while(|(path, _)| path.starts_with(&prefix))
-            .map(|(path, _)| path.clone())
-            .collect();
-        folds.insert(case, paths);
-    }
-    // The evidence of worst-phase verdicts: chart and frame view by case.
-    let mut worst_charts = BTreeMap::new();
-    let mut worst_frames = BTreeMap::new();
-    for case in doc.case_ids() {
-        let chart = super::document::worst_phase_chart_path(&case);
-        if doc.charts.contains_key(&chart) {
-            worst_charts.insert(case.clone(), chart);
-        }
-        let frame = super::document::worst_phase_image_path(&case);
-        if doc.images.contains_key(&frame) {
-            worst_frames.insert(case, frame);
-        }
-    }
-    let finemaps: Vec<Value> = (0..)
-        .map_while(|i| {
-            let fdi = super::document::finemap_chart_path(i, "fdi");
-            let pf = super::document::finemap_chart_path(i, "pf");
-            (doc.charts.contains_key(&fdi) && doc.charts.contains_key(&pf))
-                .then(|| minijinja::context! { fdi => fdi, pf => pf })
-        })
-        .collect();
-    // The u'v' diagrams of the driver section, by path.
-    let uv_charts: Vec<String> = doc
-        .charts
-        .range("charts/uv-".to_string()..)
-        .take_while(|(path, _)| path.starts_with("charts/uv-"))
-        .map(|(path, _)| path.clone())
-        .collect();
-    let advice_chart = doc
-        .charts
-        .contains_key(super::document::ADVICE_CHART)
-        .then_some(super::document::ADVICE_CHART);
+    // Every picture goes in by its virtual path in the world.
+    let picture = |path: &str| Value::from(path);
+    let look = doc.look_context(|path, _| Value::from(path));
+    let context = minijinja::context! {
+        appendix_pages => appendix_page_values(doc),
+        ..super::context::shared(doc, &picture, look)?
+    };
     let template = env.get_template(TEMPLATE_NAME).map_err(template_error)?;
-    let results = doc.json()?;
-    let listing = doc.listing();
-    template
-        .render(minijinja::context! {
-            r => Serde(&results),
-            frames => frames,
-            folds => folds,
-            finemaps => finemaps,
-            advice_chart => advice_chart,
-            charts => traces,
-            matrices => super::html::matrices(doc, |p: &str| Value::from(p)),
-            driver => Serde(doc.driver()),
-            uv_charts => uv_charts,
-            roi_maps => super::html::roi_maps(doc, |p: &str| Value::from(p)),
-            signatories => Serde(&doc.signatories),
-            zooms => zooms,
-            worst_charts => worst_charts,
-            worst_frames => worst_frames,
-            pages => listing.pages.clone(),
-            listed => listed_ids(&listing),
-            unlisted => listing.unlisted,
-            pages_omitted => listing.pages_omitted,
-            listed_max => crate::model::listing::LISTED_CASES_MAX,
-            info_rows => Serde(doc.info_rows()),
-            glossary => Serde(doc.glossary()),
-            appendix_pages => appendix_page_values(doc),
-            caveats => doc.caveats(),
-            fold_notes => doc.fold_notes(),
-            limit_tables => Serde(doc.limit_tables()),
-            detail => doc.detail().as_str(),
-            draft => doc.is_draft(),
-            date => doc.date(),
-            look => doc.look_context(|path, _| Value::from(path)),
-        })
-        .map_err(template_error)
+    template.render(context).map_err(template_error)
 }
 
 /// The longest case id and ROI name that Appendix A's table surely sets on

@@ -1,0 +1,104 @@
+//! The values the HTML and the PDF template are rendered with, built once
+//! for both. They differ only in how a picture goes in: the HTML inlines
+//! it (an SVG as markup, a PNG as a data URI), the PDF names its path in
+//! the document's world; `picture` makes that choice for every chart and
+//! image, and `look` is the report profile's look with the logo made the
+//! same way.
+
+use std::collections::BTreeMap;
+
+use minijinja::value::{Serde, Value};
+
+use super::ReportError;
+use super::document::{
+    ADVICE_CHART, Document, finemap_chart_path, fold_chart_prefix, frame_image_path,
+    trace_chart_path, worst_phase_chart_path, worst_phase_image_path, zoom_chart_path,
+};
+use super::html::{listed_ids, matrices, roi_maps};
+
+/// The template context of `doc`: results.json as the templates see it
+/// (`r`), every picture by case, and the report's tables and notes.
+pub(crate) fn shared(
+    doc: &Document,
+    picture: &dyn Fn(&str) -> Value,
+    look: Value,
+) -> Result<Value, ReportError> {
+    let has = |path: &str| doc.charts.contains_key(path) || doc.images.contains_key(path);
+    // One map per kind of picture, by case id, of the cases that have one.
+    let by_case = |path_of: &dyn Fn(&str) -> String| -> BTreeMap<String, Value> {
+        doc.case_ids()
+            .into_iter()
+            .filter_map(|case| {
+                let path = path_of(&case);
+                has(&path).then(|| (case, picture(&path)))
+            })
+            .collect()
+    };
+    // The flicker signal folded by phase, one chart per LED ROI.
+    let folds: BTreeMap<String, Vec<Value>> = doc
+        .case_ids()
+        .into_iter()
+        .map(|case| {
+            let prefix = fold_chart_prefix(&case);
+            let charts = doc
+                .charts
+                .range(prefix.clone()..)
+                .take_while(|(path, _)| path.starts_with(&prefix))
+                .map(|(path, _)| picture(path))
+                .collect();
+            (case, charts)
+        })
+        .collect();
+    let finemaps: Vec<Value> = (0..)
+        .map_while(|i| {
+            let fdi = finemap_chart_path(i, "fdi");
+            let pf = finemap_chart_path(i, "pf");
+            (has(&fdi) && has(&pf)).then(|| {
+                minijinja::context! { fdi => picture(&fdi), pf => picture(&pf) }
+            })
+        })
+        .collect();
+    // The u'v' diagrams of the driver section, by path.
+    let uv_charts: BTreeMap<String, Value> = doc
+        .charts
+        .range("charts/uv-".to_string()..)
+        .take_while(|(path, _)| path.starts_with("charts/uv-"))
+        .map(|(path, _)| (path.clone(), picture(path)))
+        .collect();
+    let advice_chart = if has(ADVICE_CHART) {
+        picture(ADVICE_CHART)
+    } else {
+        Value::from(())
+    };
+    let listing = doc.listing();
+    Ok(minijinja::context! {
+        r => Serde(&doc.json()?),
+        charts => by_case(&|c| trace_chart_path(c)),
+        zooms => by_case(&|c| zoom_chart_path(c)),
+        frames => by_case(&|c| frame_image_path(c)),
+        worst_charts => by_case(&|c| worst_phase_chart_path(c)),
+        worst_frames => by_case(&|c| worst_phase_image_path(c)),
+        folds => folds,
+        finemaps => finemaps,
+        advice_chart => advice_chart,
+        matrices => matrices(doc, picture),
+        driver => Serde(doc.driver()),
+        uv_charts => uv_charts,
+        roi_maps => roi_maps(doc, picture),
+        signatories => Serde(&doc.signatories),
+        pages => listing.pages.clone(),
+        listed => listed_ids(&listing),
+        unlisted => listing.unlisted,
+        pages_omitted => listing.pages_omitted,
+        listed_max => crate::model::listing::LISTED_CASES_MAX,
+        info_rows => Serde(doc.info_rows()),
+        glossary => Serde(doc.glossary()),
+        caveats => doc.caveats(),
+        fold_notes => doc.fold_notes(),
+        limit_tables => Serde(doc.limit_tables()),
+        detail => doc.detail().as_str(),
+        draft => doc.is_draft(),
+        date => doc.date(),
+        look => look,
+    })
+}
