@@ -12,9 +12,9 @@ use minijinja::value::{Serde, Value};
 use super::ReportError;
 use super::document::{
     ADVICE_CHART, Document, finemap_chart_path, fold_chart_prefix, frame_image_path,
-    trace_chart_path, worst_phase_chart_path, worst_phase_image_path, zoom_chart_path,
+    matrix_chart_path, trace_chart_path, visibility_matrix_chart_path, worst_phase_chart_path,
+    worst_phase_image_path, zoom_chart_path,
 };
-use super::html::{listed_ids, matrices, roi_maps};
 
 /// The template context of `doc`: results.json as the templates see it
 /// (`r`), every picture by case, and the report's tables and notes.
@@ -101,4 +101,52 @@ pub(crate) fn shared(
         date => doc.date(),
         look => look,
     })
+}
+
+/// Per light level ([`crate::model::Results::light_levels`]; the matrix of
+/// the `i`-th is [`matrix_chart_path`]`(i)`): `{lux, chart}`, where `chart`
+/// is what `chart_for` makes of the matrix's chart path (missing charts are
+/// skipped).
+fn matrices(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec<Value> {
+    doc.results
+        .light_levels()
+        .into_iter()
+        .enumerate()
+        .flat_map(|(i, lux)| {
+            // A plan with `[display]` has a visibility matrix after each
+            // level's verdict matrix.
+            [matrix_chart_path(i), visibility_matrix_chart_path(i)]
+                .into_iter()
+                .filter(|path| doc.charts.contains_key(path))
+                .map(|path| minijinja::context! { lux => lux, chart => chart_for(&path) })
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+/// The ROI maps ([`super::document::roi_map_chart_path`]), in case order:
+/// `{case, frame, chart}`, where `chart` is what `chart_for` makes of the
+/// map's chart path and `frame` the frame number shown.
+fn roi_maps(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec<Value> {
+    // The mapped cases are among those the model keeps in memory.
+    doc.results
+        .cases
+        .resident()
+        .filter_map(|c| {
+            let path = super::document::roi_map_chart_path(&c.id);
+            doc.charts.contains_key(&path).then(|| {
+                minijinja::context! {
+                    case => c.id.clone(),
+                    frame => c.sample_frame.as_ref().map(|f| f.frame),
+                    chart => chart_for(&path),
+                }
+            })
+        })
+        .collect()
+}
+
+/// The listed cases' ids as a map to `true`, for the templates' `c.id in
+/// listed` (a key lookup, where a list would be searched).
+fn listed_ids(listing: &crate::model::listing::Listing) -> BTreeMap<String, bool> {
+    listing.listed.iter().map(|id| (id.clone(), true)).collect()
 }

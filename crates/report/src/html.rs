@@ -3,13 +3,11 @@
 //! The templates are compiled into the binary, so a report needs nothing at
 //! run time. The page is self-contained: CSS inline, charts as inline SVG.
 
-use std::collections::BTreeMap;
-
 use minijinja::value::{Serde, Value};
 use minijinja::{Environment, UndefinedBehavior};
 
 use super::ReportError;
-use super::document::{Document, matrix_chart_path, visibility_matrix_chart_path};
+use super::document::Document;
 
 const BASE: &str = include_str!("../../../templates/base.html.j2");
 const REPORT: &str = include_str!("../../../templates/report.html.j2");
@@ -123,48 +121,6 @@ fn environment(look: &super::document::profile::Look) -> Result<Environment<'sta
     Ok(env)
 }
 
-/// Per light level ([`crate::model::Results::light_levels`]; the matrix of
-/// the `i`-th is [`matrix_chart_path`]`(i)`): `{lux, chart}`, where `chart`
-/// is what `chart_for` makes of the matrix's chart path (missing charts are
-/// skipped).
-pub(crate) fn matrices(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec<Value> {
-    doc.results
-        .light_levels()
-        .into_iter()
-        .enumerate()
-        .flat_map(|(i, lux)| {
-            // A plan with `[display]` has a visibility matrix after each
-            // level's verdict matrix.
-            [matrix_chart_path(i), visibility_matrix_chart_path(i)]
-                .into_iter()
-                .filter(|path| doc.charts.contains_key(path))
-                .map(|path| minijinja::context! { lux => lux, chart => chart_for(&path) })
-                .collect::<Vec<_>>()
-        })
-        .collect()
-}
-
-/// The ROI maps ([`super::document::roi_map_chart_path`]), in case order:
-/// `{case, frame, chart}`, where `chart` is what `chart_for` makes of the
-/// map's chart path and `frame` the frame number shown.
-pub(crate) fn roi_maps(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec<Value> {
-    // The mapped cases are among those the model keeps in memory.
-    doc.results
-        .cases
-        .resident()
-        .filter_map(|c| {
-            let path = super::document::roi_map_chart_path(&c.id);
-            doc.charts.contains_key(&path).then(|| {
-                minijinja::context! {
-                    case => c.id.clone(),
-                    frame => c.sample_frame.as_ref().map(|f| f.frame),
-                    chart => chart_for(&path),
-                }
-            })
-        })
-        .collect()
-}
-
 /// Renders report.html for a run in memory (a draft: no signatories).
 pub fn render(
     model: &crate::model::Results,
@@ -201,12 +157,6 @@ pub fn render_document(doc: &Document) -> Result<String, ReportError> {
     let error = |e: minijinja::Error| template_error(&e, "report.html.j2", &doc.look);
     let template = env.get_template("report.html.j2").map_err(error)?;
     template.render(context).map_err(error)
-}
-
-/// The listed cases' ids as a map to `true`, for the templates' `c.id in
-/// listed` (a key lookup, where a list would be searched).
-pub(crate) fn listed_ids(listing: &crate::model::listing::Listing) -> BTreeMap<String, bool> {
-    listing.listed.iter().map(|id| (id.clone(), true)).collect()
 }
 
 #[cfg(test)]
