@@ -413,7 +413,8 @@ fn run_cases(
     dir: &Path,
     inputs: &[crate::inputs::InputFile],
 ) -> Result<crate::store::StoredCases, pipeline::Stopped> {
-    let bar = case_bar(plan::expand_cases(plan).len(), args.quiet);
+    // Its length comes with `Started`: the run stage expands the plan.
+    let bar = case_bar(0, args.quiet);
     bar.set_message(plan.id.clone());
     let on_progress = |p: RunProgress| match p {
         RunProgress::Resumed { kept, total } if !args.quiet => eprintln!(
@@ -421,7 +422,8 @@ fn run_cases(
             total - kept
         ),
         RunProgress::Resumed { .. } => {}
-        RunProgress::Started { done, .. } => {
+        RunProgress::Started { total, done } => {
+            bar.set_length(total as u64);
             // The rate and ETA count from here: the stored cases took no
             // time now.
             bar.set_position(done as u64);
