@@ -10,23 +10,11 @@
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
+pub use ledflicker_results::inputs::InputFile;
 use sha2::{Digest, Sha256};
 
 use crate::capture::{SourceKind, source_kind};
 use ledflicker_plan::plan::{BackendKind, Plan, shipped};
-
-/// One input file of the run, with its hash.
-#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct InputFile {
-    /// What it is, e.g. "plan".
-    pub role: String,
-    /// Path as given on the command line.
-    pub path: String,
-    /// SHA-256 of its bytes, lowercase hex.
-    pub sha256: String,
-    /// Size in bytes.
-    pub size: u64,
-}
 
 /// Why an input could not be hashed.
 #[derive(Debug, thiserror::Error)]

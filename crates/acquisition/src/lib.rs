@@ -13,4 +13,4 @@ pub mod inputs;
 pub mod interrupt;
 pub mod render;
 pub mod runner;
-pub mod timings;
+pub use ledflicker_plan::timings;

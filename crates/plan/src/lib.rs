@@ -6,5 +6,6 @@
 #![warn(missing_docs)]
 
 pub mod plan;
+pub mod timings;
 pub mod trace;
 pub mod util;

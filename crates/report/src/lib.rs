@@ -8,7 +8,8 @@
 //! keeps that true; the tests reach further).
 #![warn(missing_docs)]
 
-use ledflicker_core::{model, outdir, timings, util};
+use ledflicker_plan::{timings, util};
+use ledflicker_results::{model, outdir};
 
 pub mod charts;
 pub mod comparison;

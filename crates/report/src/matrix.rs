@@ -589,7 +589,7 @@ pub(crate) mod tests {
         let backend = ledflicker_core::backend::sim::Simulator::new(&plan);
         let results =
             ledflicker_core::runner::run(&plan, &cases, &backend, Some(1), &|_| {}).unwrap();
-        crate::model::assemble(&plan, "sim-ideal", &results)
+        ledflicker_core::model::assemble(&plan, "sim-ideal", &results)
     }
 
     /// (x, y, font size, anchor, text) of every `<text>` of an SVG.

@@ -10,35 +10,11 @@
 //! background, so the largest contrast the bands can have) and the row
 //! analysis of a case's sample frame ([`frame_banding`]).
 
-use serde::{Deserialize, Serialize};
-
 use super::apparent::phase_step_cycles;
 use crate::calibrate::bands::{band_period_rows, estimate_profile};
 use ledflicker_physics::{PwmDrive, Shutter, ShutterModel};
 use ledflicker_plan::trace::RenderedFrame;
-
-/// Row contrast below which a frame's LED rows count as even (no bands), %.
-pub const NO_BANDS_CONTRAST_PERCENT: f64 = 1.0;
-
-/// Banding of one PWM condition on a rolling shutter.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Banding {
-    /// Rows between successive bands, `1 / (f * t_line)`.
-    pub band_period_rows: f64,
-    /// Band periods per frame height.
-    pub bands_per_frame: f64,
-    /// Michelson contrast x 100 of the LED-only row profile of frame 0,
-    /// 0..=100; `None` when no row sees light.
-    pub band_contrast_percent: Option<f64>,
-    /// Band motion in rows per frame (positive: down the frame), the
-    /// smallest of the aliases `-(f/fps - round(f/fps)) * period`.
-    pub band_velocity_rows_per_frame: f64,
-    /// PWM frequency estimated from the band spacing of frame 0 and the
-    /// line time, Hz; `None` with `estimate_note` when it cannot be.
-    pub estimated_frequency_hz: Option<f64>,
-    /// Why there is no estimate, if there is none.
-    pub estimate_note: Option<String>,
-}
+pub use ledflicker_results::analysis::banding::{Banding, FrameBanding, NO_BANDS_CONTRAST_PERCENT};
 
 /// LED-only ON fraction of every row `rows` of frame `frame`, exact.
 pub fn row_profile(shutter: &Shutter, pwm: &PwmDrive, frame: u64, rows: u32) -> Vec<f64> {
@@ -87,19 +63,6 @@ pub fn banding(shutter: &Shutter, pwm: &PwmDrive, sensor_rows: u32) -> Option<Ba
         estimated_frequency_hz,
         estimate_note,
     })
-}
-
-/// Row analysis of a frame: the mean luma of each row over some columns,
-/// between the first and the last row the LED lights.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct FrameBanding {
-    /// First and last lit row (inclusive).
-    pub lit_rows: (u32, u32),
-    /// Michelson contrast x 100 of the row means over the lit rows.
-    pub row_contrast_percent: f64,
-    /// Mean spacing of the bands over the lit rows, rows; `None` when the
-    /// lit rows hold fewer than two band periods or show no bands.
-    pub band_period_rows: Option<f64>,
 }
 
 /// Row means of `frame` over the pixel columns `columns` (clipped to the

@@ -17,7 +17,7 @@
 //! A class applies only when the flicker is visible: see
 //! [`VISIBLE_PERCENT_FLICKER`].
 
-use serde::{Deserialize, Serialize};
+pub use ledflicker_results::analysis::hazard::HazardClass;
 
 /// Percent Flicker of the ROI luma trace (Michelson contrast x 100) at or
 /// above which the flicker is taken as visible on a monitor.
@@ -28,42 +28,6 @@ use serde::{Deserialize, Serialize};
 /// claimed only where an observer would see the flicker at every rate
 /// classified here; an 8-bit display step at mid grey is about 0.4 %.
 pub const VISIBLE_PERCENT_FLICKER: f64 = 2.0;
-
-/// What the apparent flicker looks like to a driver.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum HazardClass {
-    /// No visible modulation, or phase locked (a constant level).
-    Steady,
-    /// Visible, slower than 0.8 Hz: a slow pulsing of brightness.
-    SlowDrift,
-    /// 0.8 Hz to below 1.0 Hz (MUTCD 4D.30: 50-60 flashes per minute).
-    TrafficSignalLike,
-    /// 1.0 to 2.0 Hz (UN R6/R48: 90 +/- 30 flashes per minute).
-    TurnIndicatorLike,
-    /// Above 2.0 up to 4.0 Hz (SAE J845: 1-4 Hz; 1-2 Hz is classed as a turn
-    /// indicator, and listed as beacon-like in the matches).
-    BeaconLike,
-    /// Visible flicker outside the named bands (4-10 Hz, above 25 Hz).
-    Flicker,
-    /// 10 to 25 Hz, around the peak of flicker sensitivity (~15 Hz).
-    PeakAnnoyance,
-}
-
-impl HazardClass {
-    /// Kebab-case name, as in results.json.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            HazardClass::Steady => "steady",
-            HazardClass::SlowDrift => "slow-drift",
-            HazardClass::TrafficSignalLike => "traffic-signal-like",
-            HazardClass::TurnIndicatorLike => "turn-indicator-like",
-            HazardClass::BeaconLike => "beacon-like",
-            HazardClass::Flicker => "flicker",
-            HazardClass::PeakAnnoyance => "peak-annoyance",
-        }
-    }
-}
 
 /// The named bands, `[lo, hi]` in Hz, with their sources.
 pub const BANDS: [(HazardClass, f64, f64, &str); 4] = [

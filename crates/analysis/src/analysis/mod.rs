@@ -34,6 +34,7 @@ pub mod summary;
 pub mod timing;
 pub mod worst_phase;
 
+pub use ledflicker_results::analysis::{FineMapInfo, RoiAnalysis};
 use serde::{Deserialize, Serialize};
 
 use ledflicker_acquisition::runner::CaseResult;
@@ -47,43 +48,6 @@ pub use drive::DriveFlicker;
 pub use hazard::HazardClass;
 pub use phase_fold::PhaseCoverage;
 pub use timing::FrameTiming;
-
-/// [`RoiAnalysis::spectrum`] of a model read back from results.json.
-fn spectrum_not_stored() -> Result<f64, apparent::SpectrumError> {
-    Err(apparent::SpectrumError::TooShort(0))
-}
-
-/// The analysis of one ROI trace.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RoiAnalysis {
-    /// Dominant frequency of the PWM-segment trace's spectrum, Hz; `None`
-    /// with `spectrum_reason` when there is none.
-    pub apparent_frequency_spectrum_hz: Option<f64>,
-    /// Why the spectrum gave no frequency, or why it differs from `f_a`.
-    pub spectrum_reason: Option<String>,
-    /// The apparent frequency the hazard class is judged on, Hz.
-    pub apparent_frequency_hz: f64,
-    /// Where `apparent_frequency_hz` came from.
-    pub apparent_method: ApparentMethod,
-    /// What the flicker looks like (from the apparent frequency and the
-    /// trace's Percent Flicker).
-    pub hazard_class: HazardClass,
-    /// Every named band the apparent frequency falls in (when visible).
-    pub hazard_matches: Vec<HazardClass>,
-    /// Phase coverage of the capture.
-    pub phase_coverage: PhaseCoverage,
-    /// Per-bin (min, max) luma of the folded trace, for the chart.
-    #[serde(skip)]
-    pub folded_bins: Vec<Option<(f64, f64)>>,
-    /// Exact (min, max) luma over phase, when known, for the chart.
-    #[serde(skip)]
-    pub envelope: Option<(f64, f64)>,
-    /// The dominant frequency of the spectrum, or why there is none (not
-    /// in results.json, which holds it as `apparent_frequency_spectrum_hz`
-    /// and `spectrum_reason`).
-    #[serde(skip, default = "spectrum_not_stored")]
-    pub spectrum: Result<f64, apparent::SpectrumError>,
-}
 
 /// When the frames of a trace were taken.
 #[derive(Debug, Clone, Copy)]
@@ -438,22 +402,6 @@ pub fn ideal_luma_model(plan: &Plan, lux: f64) -> finemap::LumaModel {
         led_peak_dn: k * plan.scene.led_fill * plan.scene.led_luminance_cd_m2,
         full_scale_dn: cam.full_scale_dn,
     }
-}
-
-/// A fine map for one light level, as reported.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct FineMapInfo {
-    /// Illuminance, lux.
-    pub light_lux: f64,
-    /// The LED ROI the map is for.
-    pub roi: String,
-    /// The luma model used.
-    pub luma: finemap::LumaModel,
-    /// What the map says.
-    pub summary: finemap::FineMapSummary,
-    /// The map itself (not serialised: 2 x 195 100 numbers).
-    #[serde(skip)]
-    pub map: finemap::FineMap,
 }
 
 /// Default fine-map frequency axis: 50 Hz to 2 kHz in 1 Hz steps.

@@ -7,7 +7,7 @@
 //! from simulated and captured data alike. The phase circle is cut into
 //! [`PHASE_BINS`] bins; a capture "covers" the bins its frames fall in.
 
-use serde::{Deserialize, Serialize};
+pub use ledflicker_results::analysis::phase_fold::PhaseCoverage;
 
 use ledflicker_physics::pwm::wrap_unit;
 
@@ -19,29 +19,6 @@ pub const PHASE_BINS: usize = 64;
 /// Longest capture considered when computing how long a capture must be,
 /// seconds (one hour).
 pub const MAX_NEEDED_CAPTURE_S: f64 = 3600.0;
-
-/// How well a capture sampled the flicker signal.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PhaseCoverage {
-    /// Bins of the phase circle.
-    pub bins: usize,
-    /// Bins with at least one frame.
-    pub covered_bins: usize,
-    /// `covered_bins / bins`, 0..=1.
-    pub coverage: f64,
-    /// Duration of the PWM capture, seconds.
-    pub capture_s: f64,
-    /// Capture length that covers every bin at this frame rate, seconds;
-    /// `None` when no capture up to [`MAX_NEEDED_CAPTURE_S`] does (at or
-    /// very near phase lock).
-    pub needed_capture_s: Option<f64>,
-    /// Whether the trace reached the exact worst case over phase (within 1 %
-    /// of the envelope's range); `None` when the backend cannot compute the
-    /// envelope (captured data).
-    pub worst_case_seen: Option<bool>,
-    /// Set when the capture is too short to have seen its worst case.
-    pub warning: Option<String>,
-}
 
 /// (phase in cycles `[0, 1)`, luma) of every PWM frame: the start of frame
 /// `frames[i]` (`frames[i] / fps` seconds) plus `row_offset_s` (rolling

@@ -379,7 +379,7 @@ mod tests {
         let cases = ledflicker_core::plan::expand_cases(&plan);
         let sim = ledflicker_core::backend::sim::Simulator::new(&plan);
         let results = ledflicker_core::runner::run(&plan, &cases, &sim, Some(2), &|_| {}).unwrap();
-        let model = crate::model::assemble(&plan, "sim-ideal", &results);
+        let model = ledflicker_core::model::assemble(&plan, "sim-ideal", &results);
         crate::document::Document::build(&model, &results, "2026-01-01", Vec::new()).unwrap()
     }
 

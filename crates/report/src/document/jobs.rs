@@ -268,7 +268,7 @@ pub(crate) mod tests {
         let simulator = ledflicker_core::backend::sim::Simulator::new(&plan);
         let results =
             ledflicker_core::runner::run(&plan, &cases, &simulator, Some(2), &|_| {}).unwrap();
-        let model = crate::model::assemble(&plan, "sim-ideal", &results);
+        let model = ledflicker_core::model::assemble(&plan, "sim-ideal", &results);
         (results, model)
     }
 

@@ -355,7 +355,8 @@ pub fn stretched_view(frame: &RenderedFrame, rois: &[RoiBox], stretch: &Stretch)
 mod tests {
     use super::*;
     use crate::model::frame::*;
-    use ledflicker_core::analysis::banding::NO_BANDS_CONTRAST_PERCENT;
+    use ledflicker_core::model::frame::frame_banding;
+    use ledflicker_results::analysis::banding::NO_BANDS_CONTRAST_PERCENT;
 
     fn frame(width: u32, height: u32, f: impl Fn(u32, u32) -> f64) -> RenderedFrame {
         let luma: Vec<f64> = (0..height)

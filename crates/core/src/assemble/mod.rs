@@ -5,9 +5,13 @@
 
 use std::collections::BTreeMap;
 
-use super::*;
+pub mod conditions;
+pub mod frame;
+pub mod method;
+
 use crate::analysis;
 use crate::metrics::verdict::{effective_basis, in_mitigation_range, overall};
+use crate::model::*;
 use crate::plan::{BackendKind, Plan, Sequence, ShutterKind};
 use crate::runner::{CaseReadError, CaseSource};
 
@@ -173,7 +177,7 @@ fn build(
         sequence: SequenceInfo { on_s, off_s, pwm_s },
         conditions: Default::default(),
         thresholds,
-        method: super::method::method(plan),
+        method: method::method(plan),
         p2020: plan.p2020,
         display: plan.display,
         verdict: overall(counts.verdicts()),
@@ -200,7 +204,7 @@ fn analysed_case(plan: &Plan, r: &CaseResult) -> CaseInfo {
     let frame = || {
         r.sample_frame
             .as_ref()
-            .map(|f| super::frame::sample_frame_info(&r.case.id, f, &plan.rois))
+            .map(|f| frame::sample_frame_info(&r.case.id, f, &plan.rois))
     };
     let (mut a, sample_frame) = rayon::join(|| analysis::analyse_case(plan, r), frame);
     let rois = roi_infos(plan, r, std::mem::take(&mut a.rois));
@@ -211,7 +215,7 @@ fn analysed_case(plan: &Plan, r: &CaseResult) -> CaseInfo {
         }
         case.capture = Some(Box::new(s.clone()));
     }
-    case.acquisition = super::method::case_acquisition(plan, &case);
+    case.acquisition = method::case_acquisition(plan, &case);
     case
 }
 
@@ -238,8 +242,8 @@ pub fn assemble_from(
     detail: Detail,
 ) -> Result<Results, CaseReadError> {
     let mut model = build(plan, backend_id, source, detail)?;
-    super::method::describe(&mut model, plan);
-    model.notes = super::method::notes(&model, plan);
+    method::describe(&mut model, plan);
+    model.notes = method::notes(&model, plan);
     Ok(model)
 }
 
@@ -339,7 +343,7 @@ fn case_info(
         frame_timing: a.timing.map(Box::new),
         worst_phase: a
             .worst_phase
-            .map(|w| Box::new(super::evidence::worst_phase_info(&r.case.id, w, &plan.rois))),
+            .map(|w| Box::new(frame::worst_phase_info(&r.case.id, w, &plan.rois))),
     }
 }
 
@@ -354,8 +358,8 @@ fn dut_info(plan: &Plan, backend_id: &str) -> DutInfo {
         firmware: plan.dut.firmware.clone(),
         camera: (plan.dut.backend == BackendKind::Simulator).then_some(CameraInfo {
             shutter: match cam.shutter {
-                ShutterKind::Global => super::ShutterName::Global,
-                ShutterKind::Rolling => super::ShutterName::Rolling,
+                ShutterKind::Global => ShutterName::Global,
+                ShutterKind::Rolling => ShutterName::Rolling,
             },
             sensor_rows: cam.sensor_rows,
             sensor_columns: cam.sensor_columns,

@@ -156,13 +156,6 @@ pub fn crop_rect(rois: &[RoiBox], (width, height): (u32, u32)) -> Option<[u32; 4
     Some([centre(x, w, cw, width), centre(y, h, ch, height), cw, ch])
 }
 
-/// Banding of the frame shown, in the columns of the first LED ROI; `None`
-/// without an LED ROI or when no row differs from the darkest.
-pub fn frame_banding(frame: &RenderedFrame, rois: &[RoiBox]) -> Option<FrameBanding> {
-    let [x, _, w, _] = rois.iter().find(|r| r.kind == RoiKind::Led)?.rect_px;
-    crate::analysis::banding::frame_banding(frame, x..x.saturating_add(w))
-}
-
 /// The sentence on the banding of the frame shown.
 pub fn banding_sentence(banding: Option<&FrameBanding>) -> String {
     let Some(b) = banding else {
@@ -218,38 +211,13 @@ pub fn caption(
     out
 }
 
-/// What results.json says of a case's sample frame: its files, the
-/// display stretch, the ROIs as drawn, the crop, the banding of this very
-/// frame and the caption that states them.
-pub fn sample_frame_info(
-    case_id: &str,
-    frame: &RenderedFrame,
-    plan_rois: &[Roi],
-) -> super::SampleFrameInfo {
-    let rois = RoiBox::from_plan(plan_rois);
-    let stretch = Stretch::of_frame(frame);
-    let crop_px = crop_rect(&rois, (frame.width, frame.height));
-    let banding = frame_banding(frame, &rois);
-    let caption = caption(&stretch, &rois, crop_px, banding.as_ref());
-    super::SampleFrameInfo {
-        path: super::frame_path(case_id),
-        frame: frame.index,
-        view: super::view_path(case_id),
-        stretch,
-        rois,
-        crop_px,
-        banding,
-        caption,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn counted_percentiles_are_the_sorted_pixels_percentiles() {
-        let mut rng = crate::physics::sensor::Rng::new(11);
+        let mut rng = ledflicker_physics::sensor::Rng::new(11);
         let mut values: Vec<f64> = (0..3000).map(|_| rng.normal() * 40.0).collect();
         // Duplicates, both zeros, tiny and huge magnitudes, NaN, whole numbers.
         values.extend([

@@ -27,7 +27,6 @@
 //! and the drops), and its `capture` the container's `time_base_s` and
 //! `stated_frame_rate_fps`.
 
-pub mod build;
 pub mod cases;
 pub mod conditions;
 pub mod evidence;
@@ -46,6 +45,7 @@ pub use crate::analysis::finemap::FineMap;
 pub use crate::analysis::{
     Banding, Beat, DriveFlicker, FineMapInfo, FrameBanding, FrameTiming, HazardClass, RoiAnalysis,
 };
+pub use crate::cases::{CaseReadError, CaseResult, CaseSource, for_each_chunk};
 pub use crate::inputs::InputFile;
 pub use crate::metrics::chromaticity::{ColourFigures, SPECTRUM_LOCUS, SignalColour, uv_of_xy};
 pub use crate::metrics::verdict::{Comparison, VERDICT_TOLERANCE};
@@ -55,12 +55,11 @@ pub use crate::metrics::{
 };
 pub use crate::plan::profile::{LABELS, Logo, ReportProfile, SECTIONS, TemplateOverrides};
 pub use crate::plan::{RoiKind, Thresholds, VerdictBasis};
-pub use crate::runner::{CaseReadError, CaseResult, CaseSource, for_each_chunk};
 pub use crate::trace::{
     Acquisition, CaptureSummary, DetectionRule, FrameInfo, RenderedFrame, Run, Segment,
     SegmentMethod, SegmentsFound, StepKind, StepSource, TRACE_COLUMNS, TimestampSource,
 };
-pub use build::{assemble, assemble_from};
+
 pub use cases::{Cases, CasesBuilder};
 
 /// Schema id of results.json.

@@ -1,12 +1,10 @@
 //! What results.json says of the evidence behind a worst-phase verdict:
 //! the case's trace and darkest frame at the worst PWM phase
-//! ([`crate::analysis::worst_phase`]).
+//! (the worst-phase analysis of `ledflicker-analysis`).
 
 use serde::{Deserialize, Serialize};
 
 use super::{RenderedFrame, SampleFrameInfo};
-use crate::analysis::worst_phase::WorstPhaseRun;
-use crate::plan::Roi;
 
 /// The case run again at the worst PWM phase of the ROI its verdict rests
 /// on: present only for a simulated case (ideal camera) that fails, or is
@@ -61,28 +59,4 @@ pub fn worst_phase_frame_path(case_id: &str) -> String {
 /// phase.
 pub fn worst_phase_view_path(case_id: &str) -> String {
     format!("frames/{case_id}-worst-phase-view.png")
-}
-
-/// The model's record of `run`, with its frame's stretch, ROI boxes and
-/// caption as for a sample frame.
-pub fn worst_phase_info(case_id: &str, run: WorstPhaseRun, plan_rois: &[Roi]) -> WorstPhaseInfo {
-    let sample_frame = run.rendered.as_ref().map(|f| SampleFrameInfo {
-        path: worst_phase_frame_path(case_id),
-        view: worst_phase_view_path(case_id),
-        ..super::frame::sample_frame_info(case_id, f, plan_rois)
-    });
-    WorstPhaseInfo {
-        roi: run.roi,
-        metric: run.metric,
-        reported: run.reported,
-        phase_cycles: run.phase_cycles,
-        pwm_delay_ms: run.pwm_delay_s * 1e3,
-        frame: run.frame,
-        trace: worst_phase_trace_path(case_id),
-        fdi_2018: run.fdi_2018,
-        percent_flicker: run.percent_flicker,
-        luma: run.luma,
-        sample_frame,
-        rendered: run.rendered,
-    }
 }

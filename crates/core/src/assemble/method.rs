@@ -1,30 +1,10 @@
-//! What was really done, in words: the acquisition of each case and of the
-//! whole run per backend, the verdict basis actually used, and where the run
-//! departs from the method of Deegan 2018.
-//!
-//! Part of the results model. The text goes into results.json (`method`,
-//! each case's `acquisition` and the report's `notes`), so HTML and PDF, and
-//! a report re-rendered at signing, all say the same.
+//! What was really done, in words ([`Method`], each case's acquisition,
+//! the report's notes), from the plan and the assembled model.
 
-use serde::{Deserialize, Serialize};
-
-use super::{BackendName, CaseInfo, Results, Verdict};
-use crate::backend::sim::SegmentFrames;
+use crate::model::method::Method;
+use crate::model::{BackendName, CaseInfo, Results, Verdict};
+use crate::plan::SegmentFrames;
 use crate::plan::{BackendKind, Limits, Plan, ShutterKind, Thresholds, VerdictBasis};
-
-/// How the run was done, for the report's method section.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Method {
-    /// "simulator", "captured" or "command".
-    pub backend: super::BackendName,
-    /// Where the frames came from, one paragraph.
-    pub acquisition: String,
-    /// The verdict basis actually used, one sentence.
-    pub verdict_basis: String,
-    /// The limits in words: the global ones, then one line per light level
-    /// with its own.
-    pub limits: Vec<String>,
-}
 
 /// Limits in words, e.g. `FDI (2018) >= 0.1; FMI <= 0.1`.
 pub fn limits_text(l: &Limits) -> String {
@@ -59,11 +39,11 @@ fn limits_lines(t: &Thresholds) -> Vec<String> {
     out
 }
 
-fn kind_name(kind: BackendKind) -> super::BackendName {
+fn kind_name(kind: BackendKind) -> BackendName {
     match kind {
-        BackendKind::Simulator => super::BackendName::Simulator,
-        BackendKind::Captured => super::BackendName::Captured,
-        BackendKind::Command => super::BackendName::Command,
+        BackendKind::Simulator => BackendName::Simulator,
+        BackendKind::Captured => BackendName::Captured,
+        BackendKind::Command => BackendName::Command,
     }
 }
 
