@@ -44,6 +44,7 @@ pub use ledflicker_core::{
     outdir, physics, plan, render, runner, timings, trace, util,
 };
 pub use ledflicker_report as report;
+pub use ledflicker_results::exit;
 #[cfg(feature = "signoff")]
 pub use ledflicker_signoff as signoff;
 

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use super::failure::Context;
 use clap::Args;
 
-use super::{EXIT_PASS, Failure};
+use super::{ExitCode, Failure};
 use crate::error::UsageError;
 use crate::report;
 
@@ -50,7 +50,7 @@ pub(super) struct AdviseArgs {
     json: bool,
 }
 
-pub(super) fn advise(a: AdviseArgs) -> Result<i32, Failure> {
+pub(super) fn advise(a: AdviseArgs) -> Result<ExitCode, Failure> {
     use crate::advise::{AdviseRequest, advise, curve, table};
     if a.hdr_ratio.iter().any(|r| !(r.is_finite() && *r > 1.0)) {
         return Err(UsageError("--hdr-ratio must be > 1".into()).into());
@@ -88,5 +88,5 @@ pub(super) fn advise(a: AdviseArgs) -> Result<i32, Failure> {
         crate::util::write_atomic(path, svg.as_bytes())
             .with_context(|| format!("cannot write `{}`", path.display()))?;
     }
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }

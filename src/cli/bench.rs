@@ -5,7 +5,7 @@
 use super::output::outln;
 use clap::Args;
 
-use super::{EXIT_PASS, Failure};
+use super::{ExitCode, Failure};
 use crate::error::UsageError;
 use crate::plan;
 
@@ -60,7 +60,7 @@ fn print_peer_ratio(rows: &[crate::bench::BenchRow]) -> std::io::Result<()> {
     }
 }
 
-pub(super) fn bench(a: BenchArgs) -> Result<i32, Failure> {
+pub(super) fn bench(a: BenchArgs) -> Result<ExitCode, Failure> {
     use crate::analysis::{FINE_DUTY, FINE_FREQUENCY, finemap};
     if a.repeat == 0 {
         return Err(UsageError("--repeat must be at least 1".into()).into());
@@ -134,5 +134,5 @@ pub(super) fn bench(a: BenchArgs) -> Result<i32, Failure> {
     if a.sweeps {
         super::sweeps::bench_sweeps(a.quick)?;
     }
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }

@@ -7,14 +7,14 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::{EXIT_PASS, Failure};
+use super::{ExitCode, Failure};
 use crate::calibrate::bands::{ColumnGroup, NoConfidence};
 use crate::calibrate::frames::{self, FrameSet};
 use crate::calibrate::profile::ProfileOptions;
 use crate::calibrate::{Calibration, FlatTop, Light, estimate_bands};
 use crate::error::UsageError;
 
-/// No confident estimate: the input shows no usable banding. Exit code 4.
+/// No confident estimate: the input shows no usable banding. Exit code 7.
 #[derive(Debug, thiserror::Error)]
 #[error("no confident estimate from {input}: {reason}\n    hint: {hint}")]
 pub struct NoEstimate {
@@ -137,7 +137,7 @@ fn refuse(a: &FrameArgs, reason: NoConfidence) -> Failure {
 }
 
 /// `linetime`: the line time on the first line (microseconds), then details.
-pub fn linetime(a: LinetimeArgs) -> Result<i32, Failure> {
+pub fn linetime(a: LinetimeArgs) -> Result<ExitCode, Failure> {
     let f = positive("--frequency-hz", a.frequency_hz)?;
     let set = load(&a.input)?;
     let (e, divided) = estimate_bands(&set).map_err(|r| refuse(&a.input, r))?;
@@ -166,11 +166,11 @@ pub fn linetime(a: LinetimeArgs) -> Result<i32, Failure> {
     )?;
     writeln!(w, "fit_quality: {:.3}", e.quality)?;
     write_caveats(&mut w, &e.dropped, e.block_grid_suppressed)?;
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 /// `bands`: the PWM frequency from the band spacing, JSON.
-pub fn bands(a: BandsArgs) -> Result<i32, Failure> {
+pub fn bands(a: BandsArgs) -> Result<ExitCode, Failure> {
     let t = positive("--line-time-us", a.line_time_us)? * 1e-6;
     let set = load(&a.input)?;
     let (e, divided) = estimate_bands(&set).map_err(|r| refuse(&a.input, r))?;
@@ -192,11 +192,11 @@ pub fn bands(a: BandsArgs) -> Result<i32, Failure> {
         "estimated_frequency_hz_sigma": sigma,
     });
     outln!("{}", serde_json::to_string_pretty(&out)?)?;
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 /// `calibrate`: fits the camera, closes the loop, writes the profile.
-pub fn calibrate(a: CalibrateArgs) -> Result<i32, Failure> {
+pub fn calibrate(a: CalibrateArgs) -> Result<ExitCode, Failure> {
     let f = positive("--frequency-hz", a.frequency_hz)?;
     if let Some(d) = a.duty
         && !(d > 0.0 && d < 1.0)
@@ -244,9 +244,9 @@ pub fn calibrate(a: CalibrateArgs) -> Result<i32, Failure> {
             "error: profile `{}` not written: the frames fit several readings of the exposure and the duty equally well (a band is the ON time convolved with the exposure window, the same whichever is longer)\n    hint: give the light's duty with --duty (from the driver's specification or a scope) and run again; at a duty of 0.5, calibrate at another duty",
             p.display()
         );
-        return Ok(super::EXIT_NO_CONFIDENCE);
+        return Ok(ExitCode::NoConfidence);
     }
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 /// The columns the band estimate left out, and the suppressed block grid,

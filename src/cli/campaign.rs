@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 
-use super::{EXIT_PASS, Failure, UsageError};
+use super::{ExitCode, Failure, UsageError};
 use crate::campaign::query::{self, Filter, RunRow};
 use crate::campaign::record::{Provenance, Signature, Source};
 use crate::campaign::{self, Database, Location};
@@ -165,7 +165,7 @@ pub(super) struct ImportArgs {
 /// values and limits (a report whose conclusions do not follow is
 /// refused); a signed one verified first and recorded with what the
 /// check found (`intact` with a trusted signer, `untrusted`, `broken`).
-pub(super) fn import(a: ImportArgs) -> Result<i32, Failure> {
+pub(super) fn import(a: ImportArgs) -> Result<ExitCode, Failure> {
     let trusted = super::sign::trusted(&a.trust)?;
     let mut db = Database::open(&a.db.location()?)?;
     for dir in &a.dirs {
@@ -212,7 +212,7 @@ pub(super) fn import(a: ImportArgs) -> Result<i32, Failure> {
             signature.as_str()
         )?;
     }
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 /// `ledflicker history` arguments.
@@ -273,7 +273,7 @@ impl HistoryArgs {
 }
 
 /// Lists the runs the filters select, oldest first.
-pub(super) fn history(a: HistoryArgs) -> Result<i32, Failure> {
+pub(super) fn history(a: HistoryArgs) -> Result<ExitCode, Failure> {
     let filter = a.filter()?;
     let db = Database::open_existing(&a.db.location()?)?;
     let runs = query::history(&db, &filter)?;
@@ -285,7 +285,7 @@ pub(super) fn history(a: HistoryArgs) -> Result<i32, Failure> {
     } else {
         out!("{}", table(&runs))?;
     }
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 /// The runs as an aligned text table, one line each.

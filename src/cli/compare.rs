@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::campaign::DbArg;
-use super::{EXIT_FAIL, EXIT_NOT_COMPARABLE, EXIT_PASS, Failure, UsageError};
+use super::{ExitCode, Failure, UsageError};
 use crate::campaign::compare::{
     Comparability, Comparison, GateOptions, PoolMethod, compare as compare_runs,
 };
@@ -76,7 +76,7 @@ pub(super) struct CompareArgs {
 
 /// Compares the runs; exit 1 when a KPI regressed beyond its noise, 5 when
 /// the runs are not comparable.
-pub(super) fn compare(a: CompareArgs) -> Result<i32, Failure> {
+pub(super) fn compare(a: CompareArgs) -> Result<ExitCode, Failure> {
     let opts = GateOptions {
         min_change: min_changes(&a.min_change)?,
         accept_changes: a.accept_changes,
@@ -108,11 +108,11 @@ pub(super) fn compare(a: CompareArgs) -> Result<i32, Failure> {
         );
     }
     Ok(if !c.is_comparable() {
-        EXIT_NOT_COMPARABLE
+        ExitCode::NotComparable
     } else if c.regressed_cases().is_empty() {
-        EXIT_PASS
+        ExitCode::Pass
     } else {
-        EXIT_FAIL
+        ExitCode::Fail
     })
 }
 

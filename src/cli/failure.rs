@@ -12,8 +12,8 @@
 
 use std::error::Error as _;
 
+use super::ExitCode;
 use super::calibrate::NoEstimate;
-use super::{EXIT_INTERNAL, EXIT_INVALID, EXIT_NO_CONFIDENCE};
 use crate::backend::SetupError;
 use crate::calibrate::ProfileError;
 use crate::calibrate::frames::FrameError;
@@ -126,13 +126,13 @@ pub enum Failure {
 
 impl Failure {
     /// The process exit code (the table in [`super`]).
-    pub fn exit_code(&self) -> i32 {
+    pub fn exit_code(&self) -> ExitCode {
         match self {
             Failure::Plan(_) | Failure::Usage(_) | Failure::NotBuiltIn(_) | Failure::Shards(_) => {
-                EXIT_INVALID
+                ExitCode::Invalid
             }
-            Failure::NoEstimate(_) => EXIT_NO_CONFIDENCE,
-            Failure::Interrupted(i) => i.exit_code(),
+            Failure::NoEstimate(_) => ExitCode::NoConfidence,
+            Failure::Interrupted(i) => ExitCode::Signal(i.signal),
             Failure::Setup(e) => setup(e),
             Failure::Frames(e) => frames(e),
             Failure::Run(e) => run(e),
@@ -144,10 +144,10 @@ impl Failure {
             Failure::ShardWrite(e) => shard_write(e),
             Failure::RunStage(e) => run_stage(e),
             Failure::Store(e) => store(e),
-            Failure::Campaign(e) if e.is_usage_error() => EXIT_INVALID,
-            Failure::Campaign(_) => EXIT_INTERNAL,
+            Failure::Campaign(e) if e.is_usage_error() => ExitCode::Invalid,
+            Failure::Campaign(_) => ExitCode::Internal,
             Failure::Profile(_) | Failure::Chart(_) | Failure::Json(_) | Failure::Internal(_) => {
-                EXIT_INTERNAL
+                ExitCode::Internal
             }
             Failure::Io(e) => io(e),
             Failure::Context { source, .. } => source.exit_code(),
@@ -187,64 +187,64 @@ impl<T, E: Into<Failure>> Context<T> for Result<T, E> {
 /// A FIFO, device, socket or directory given where a file is read
 /// ([`crate::util::open_input`]) is the user's input (2); any other I/O
 /// failure is the tool's or the system's (3).
-fn io(e: &std::io::Error) -> i32 {
+fn io(e: &std::io::Error) -> ExitCode {
     if crate::util::is_not_regular(e) {
-        EXIT_INVALID
+        ExitCode::Invalid
     } else {
-        EXIT_INTERNAL
+        ExitCode::Internal
     }
 }
 
 /// A capture the user gave is unreadable or inconsistent (2), the tool
 /// reading it (ffmpeg) is missing or broke (3), or the user stopped it.
-fn capture(e: &CaptureError) -> i32 {
+fn capture(e: &CaptureError) -> ExitCode {
     match e {
         CaptureError::Read { .. }
         | CaptureError::Frame { .. }
         | CaptureError::RoiOutside { .. }
-        | CaptureError::Invalid { .. } => EXIT_INVALID,
-        CaptureError::Tool { .. } => EXIT_INTERNAL,
-        CaptureError::Interrupted { source, .. } => source.exit_code(),
+        | CaptureError::Invalid { .. } => ExitCode::Invalid,
+        CaptureError::Tool { .. } => ExitCode::Internal,
+        CaptureError::Interrupted { source, .. } => ExitCode::Signal(source.signal),
     }
 }
 
-fn setup(e: &SetupError) -> i32 {
+fn setup(e: &SetupError) -> ExitCode {
     match e {
         SetupError::Captures { source, .. } => capture(source),
-        SetupError::Interrupted { source, .. } => source.exit_code(),
-        SetupError::NoCommand => EXIT_INVALID,
+        SetupError::Interrupted { source, .. } => ExitCode::Signal(source.signal),
+        SetupError::NoCommand => ExitCode::Invalid,
     }
 }
 
-fn frames(e: &FrameError) -> i32 {
+fn frames(e: &FrameError) -> ExitCode {
     match e {
-        FrameError::Read { .. } | FrameError::Invalid { .. } => EXIT_INVALID,
+        FrameError::Read { .. } | FrameError::Invalid { .. } => ExitCode::Invalid,
         FrameError::Capture(c) => capture(c),
     }
 }
 
 /// A run stops on a broken backend or thread pool (the tool's fault: the
 /// plan was validated), or on a signal.
-fn run(e: &RunError) -> i32 {
+fn run(e: &RunError) -> ExitCode {
     match e {
         RunError::Backend(_) | RunError::BadTrace { .. } | RunError::Threads { .. } => {
-            EXIT_INTERNAL
+            ExitCode::Internal
         }
-        RunError::Interrupted(i) => i.exit_code(),
+        RunError::Interrupted(i) => ExitCode::Signal(i.signal),
     }
 }
 
-fn out_dir(e: &OutDirError) -> i32 {
+fn out_dir(e: &OutDirError) -> ExitCode {
     if e.is_usage_error() {
-        EXIT_INVALID
+        ExitCode::Invalid
     } else {
-        EXIT_INTERNAL
+        ExitCode::Internal
     }
 }
 
-fn pipeline(e: &PipelineError) -> i32 {
+fn pipeline(e: &PipelineError) -> ExitCode {
     match e {
-        PipelineError::Interrupted(i) => i.exit_code(),
+        PipelineError::Interrupted(i) => ExitCode::Signal(i.signal),
         PipelineError::OutDir(o) => out_dir(o),
         PipelineError::Golden { source, .. } | PipelineError::Write { source, .. } => {
             report(source)
@@ -257,18 +257,18 @@ fn pipeline(e: &PipelineError) -> i32 {
 /// A report file that is not what ledflicker writes (an earlier report,
 /// a golden results.json) is the user's input (2); so is an output
 /// directory refused for the user's reasons. Rendering is the tool's (3).
-fn report(e: &ReportError) -> i32 {
+fn report(e: &ReportError) -> ExitCode {
     match e {
         ReportError::Io { source, .. } => io(source),
         ReportError::OutDir(o) => out_dir(o),
-        ReportError::Invalid { .. } => EXIT_INVALID,
+        ReportError::Invalid { .. } => ExitCode::Invalid,
         ReportError::Template { .. }
         | ReportError::Chart(_)
         | ReportError::Cases(_)
         | ReportError::Json(_)
         | ReportError::Csv(_)
         | ReportError::Junit(_)
-        | ReportError::Pdf { .. } => EXIT_INTERNAL,
+        | ReportError::Pdf { .. } => ExitCode::Internal,
     }
 }
 
@@ -277,16 +277,16 @@ fn report(e: &ReportError) -> i32 {
 /// re-rendering the report is the tool's (3), except when the report on
 /// disk is not one ledflicker wrote or holds a signed report (2).
 #[cfg(feature = "signoff")]
-fn signoff(e: &SignoffError) -> i32 {
+fn signoff(e: &SignoffError) -> ExitCode {
     match e {
         SignoffError::Io { .. }
         | SignoffError::Key { .. }
         | SignoffError::Pdf(_)
-        | SignoffError::Refused(_) => EXIT_INVALID,
-        SignoffError::Crypto(_) => EXIT_INTERNAL,
+        | SignoffError::Refused(_) => ExitCode::Invalid,
+        SignoffError::Crypto(_) => ExitCode::Internal,
         SignoffError::Report(r) => match r {
             ReportError::Invalid { .. } | ReportError::OutDir(OutDirError::Signed { .. }) => {
-                EXIT_INVALID
+                ExitCode::Invalid
             }
             ReportError::OutDir(OutDirError::Refused { .. } | OutDirError::Io { .. })
             | ReportError::Io { .. }
@@ -296,21 +296,21 @@ fn signoff(e: &SignoffError) -> i32 {
             | ReportError::Json(_)
             | ReportError::Csv(_)
             | ReportError::Junit(_)
-            | ReportError::Pdf { .. } => EXIT_INTERNAL,
+            | ReportError::Pdf { .. } => ExitCode::Internal,
         },
     }
 }
 
-fn shard_write(e: &WriteError) -> i32 {
+fn shard_write(e: &WriteError) -> ExitCode {
     match e {
-        WriteError::Encode(_) | WriteError::Manifest(_) => EXIT_INTERNAL,
+        WriteError::Encode(_) | WriteError::Manifest(_) => ExitCode::Internal,
         WriteError::Io { source, .. } => io(source),
     }
 }
 
 /// A store that belongs to another run is the user's to sort out; any
 /// other store failure is the tool's.
-fn run_stage(e: &crate::pipeline::RunStageError) -> i32 {
+fn run_stage(e: &crate::pipeline::RunStageError) -> ExitCode {
     use crate::pipeline::RunStageError;
     match e {
         RunStageError::Store(e) => store(e),
@@ -319,12 +319,12 @@ fn run_stage(e: &crate::pipeline::RunStageError) -> i32 {
     }
 }
 
-fn store(e: &crate::store::StoreError) -> i32 {
+fn store(e: &crate::store::StoreError) -> ExitCode {
     match e {
-        crate::store::StoreError::Mismatch { .. } => EXIT_INVALID,
+        crate::store::StoreError::Mismatch { .. } => ExitCode::Invalid,
         crate::store::StoreError::Sqlite { .. }
         | crate::store::StoreError::Record { .. }
-        | crate::store::StoreError::Io { .. } => EXIT_INTERNAL,
+        | crate::store::StoreError::Io { .. } => ExitCode::Internal,
     }
 }
 

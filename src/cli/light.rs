@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::output::outln;
-use super::{EXIT_PASS, Failure};
+use super::{ExitCode, Failure};
 use crate::analysis::light::{self, Figure, LightFigures};
 use crate::calibrate::frames::FrameError;
 use crate::capture::{Column, read_waveform};
@@ -72,7 +72,7 @@ struct Report<'a> {
     figures: &'a LightFigures,
 }
 
-pub(super) fn light(args: LightArgs) -> Result<i32, Failure> {
+pub(super) fn light(args: LightArgs) -> Result<ExitCode, Failure> {
     if !args.dark.is_finite() {
         return Err(crate::error::UsageError(format!(
             "--dark {} is not a level\n    hint: give the detector's dark reading in the file's unit, e.g. --dark -0.008",
@@ -108,7 +108,7 @@ pub(super) fn light(args: LightArgs) -> Result<i32, Failure> {
             figures: &figures,
         };
         outln!("{}", serde_json::to_string_pretty(&report)?)?;
-        return Ok(EXIT_PASS);
+        return Ok(ExitCode::Pass);
     }
     for line in table(
         &args.waveform.display().to_string(),
@@ -117,7 +117,7 @@ pub(super) fn light(args: LightArgs) -> Result<i32, Failure> {
     ) {
         outln!("{line}")?;
     }
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 /// A figure's value by `show`, or `not computed: ` and its reason, the

@@ -7,8 +7,8 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::Failure;
 use super::args::{DetailArg, report_date};
+use super::{ExitCode, Failure};
 use crate::pipeline::{self, ReportOptions};
 use crate::report;
 
@@ -45,7 +45,7 @@ pub(super) struct MergeArgs {
 }
 
 /// Checks the shards, then writes the report of the whole plan.
-pub(super) fn merge(a: MergeArgs) -> Result<i32, Failure> {
+pub(super) fn merge(a: MergeArgs) -> Result<ExitCode, Failure> {
     let date = report_date(a.date.as_deref())?;
     let m = crate::shard::merge::gather(&a.shards, a.plan.as_deref())?;
     let limits = a.limits.limits(matches!(a.detail, DetailArg::Full));

@@ -8,7 +8,8 @@
 //! the exit codes; `args` the flags several commands share. The CLI sits
 //! on top: it may import any module, and no module imports it.
 //!
-//! Exit codes (stable; CI scripts depend on them):
+//! Exit codes (stable; CI scripts depend on them; [`ExitCode`] gives each
+//! meaning its number):
 //!
 //! | code | meaning |
 //! |---|---|
@@ -16,7 +17,10 @@
 //! | 1 | the run completed and some case failed, or `--golden` found drift beyond tolerance; `compare`: a KPI regressed beyond its measurement uncertainty; `verify`: a hash, signature or input mismatch, an untrusted signer, or no signature |
 //! | 2 | invalid plan, input or usage, including a missing file, a bad key or a signed report in the way; `merge`: shards that do not fit together (missing, duplicated, of another plan, tool or seed, damaged) |
 //! | 3 | internal or backend error |
-//! | 4 | per command: `plan`, `merge`: the run completed but no case was judged (the summary says NOT JUDGED); `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked; `linetime`, `bands`, `calibrate`: no confident estimate, the reason (flat rows, no periodic banding, fewer than 3 bands, regions band at different periods, too uncertain; with `--out`, exposure and duty that cannot be told apart) is printed |
+//! | 4 | `plan`, `merge`: the run completed but no case was judged (the summary says NOT JUDGED) |
+//! | 5 | `compare`: the two runs are different tests (a setting differs, unaccepted), or share no case or no gated KPI |
+//! | 6 | `verify` without `--trust`: every hash and signature matched, but the signers' identity was not checked |
+//! | 7 | `linetime`, `bands`, `calibrate`: no confident estimate, the reason (flat rows, no periodic banding, fewer than 3 bands, regions band at different periods, too uncertain; with `--out`, exposure and duty that cannot be told apart) is printed |
 //! | 130, 143 | `plan` stopped by SIGINT (Ctrl-C) or SIGTERM (128 + signal); the old report is left as it was |
 
 #![deny(clippy::print_stdout)]
@@ -55,26 +59,7 @@ mod validate;
 pub use args::DetailArg;
 pub use failure::Failure;
 
-/// Every case passed.
-pub const EXIT_PASS: i32 = 0;
-/// Some case failed.
-pub const EXIT_FAIL: i32 = 1;
-/// Invalid plan, input or usage.
-pub const EXIT_INVALID: i32 = 2;
-/// Internal or backend error.
-pub const EXIT_INTERNAL: i32 = 3;
-/// `plan`: the run completed but no case was judged (every case informational).
-pub const EXIT_NOT_JUDGED: i32 = 4;
-/// `verify` without `--trust`: intact, but nobody vouched for the signers.
-/// Same number as [`EXIT_NOT_JUDGED`]: each command documents its own use.
-pub const EXIT_IDENTITY_UNCHECKED: i32 = 4;
-/// `linetime`, `bands`, `calibrate`: the input gives no confident estimate.
-/// Same number as [`EXIT_NOT_JUDGED`]: each command documents its own use.
-pub const EXIT_NO_CONFIDENCE: i32 = 4;
-/// `compare`: the two runs are different tests (a plan setting differs,
-/// unaccepted), or share no case or no gated KPI: no verdict on the
-/// camera can be given.
-pub const EXIT_NOT_COMPARABLE: i32 = 5;
+pub use crate::exit::ExitCode;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -115,7 +100,7 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Estimate a rolling shutter's line time from frames of a diffusely
     /// lit PWM scene; prints the line time in microseconds on the first line.
-    /// Exit code 4 when the frames give no confident estimate.
+    /// Exit code 7 when the frames give no confident estimate.
     Linetime(calibrate::LinetimeArgs),
     /// Render ideal-camera frames (ON, OFF, PWM) as grey PNG files.
     Render(render::RenderArgs),
@@ -127,12 +112,12 @@ enum Command {
     /// propose LED ROIs from the capture's ON -> OFF step as `[[roi]]` blocks.
     Roi(roi::RoiArgs),
     /// Estimate a PWM frequency from the band spacing of rolling-shutter
-    /// frames with a known line time; prints JSON. Exit code 4 when the
+    /// frames with a known line time; prints JSON. Exit code 7 when the
     /// frames give no confident estimate.
     Bands(calibrate::BandsArgs),
     /// Fit a rolling-shutter camera model (line time, exposure, duty, black
     /// level, saturation, tone curve) to banding frames of a PWM light;
-    /// writes a camera profile with --out. Exit code 4 when the frames give
+    /// writes a camera profile with --out. Exit code 7 when the frames give
     /// no confident estimate.
     Calibrate(calibrate::CalibrateArgs),
     /// A light source's flicker from a photodiode or oscilloscope record
@@ -202,15 +187,35 @@ pub fn main(version: &'static str) -> i32 {
         Err(e) => e.exit(),
     };
     match run(cli, version) {
-        Ok(code) => code,
+        Ok(code) => code.code(),
         Err(err) => {
             eprintln!("error: {}", err.message());
-            err.exit_code()
+            err.exit_code().code()
         }
     }
 }
 
-fn run(cli: Cli, version: &'static str) -> Result<i32, Failure> {
+/// The man pages' EXIT STATUS, in roff, from [`ExitCode`] itself so that
+/// the page and the numbers cannot differ.
+fn exit_status_section() -> String {
+    let roff = |text: &str| text.replace('\\', "\\e").replace('-', "\\-");
+    let mut section = String::from(".SH \"EXIT STATUS\"\n");
+    for code in ExitCode::ALL {
+        section.push_str(&format!(
+            ".TP\n\\fB{}\\fR\n{}\n",
+            code.code(),
+            roff(code.meaning())
+        ));
+    }
+    let signal = ExitCode::Signal(2);
+    section.push_str(&format!(
+        ".TP\n\\fB130\\fR, \\fB143\\fR\n{}\n",
+        roff(signal.meaning())
+    ));
+    section
+}
+
+fn run(cli: Cli, version: &'static str) -> Result<ExitCode, Failure> {
     match cli.command {
         Command::Plan(args) => plan::run_plan(args),
         Command::Merge(args) => merge::merge(args),
@@ -239,7 +244,7 @@ fn run(cli: Cli, version: &'static str) -> Result<i32, Failure> {
                 "ledflicker",
                 &mut output::Stdout,
             );
-            Ok(EXIT_PASS)
+            Ok(ExitCode::Pass)
         }
         Command::Man { subcommand } => {
             let mut cmd = command(version);
@@ -260,7 +265,8 @@ fn run(cli: Cli, version: &'static str) -> Result<i32, Failure> {
                 }
             };
             clap_mangen::Man::new(page).render(&mut output::Stdout)?;
-            Ok(EXIT_PASS)
+            std::io::Write::write_all(&mut output::Stdout, exit_status_section().as_bytes())?;
+            Ok(ExitCode::Pass)
         }
     }
 }

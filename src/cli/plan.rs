@@ -17,7 +17,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use super::args::{DetailArg, report_date};
 use super::sign::signing;
-use super::{EXIT_FAIL, EXIT_NOT_JUDGED, EXIT_PASS, Failure};
+use super::{ExitCode, Failure};
 use crate::backend::{Backend, PlanBackend};
 use crate::error::UsageError;
 use crate::pipeline::{self, Golden, Outcome, Progress, ReportOptions, RunProgress, Status};
@@ -104,7 +104,7 @@ pub(super) struct PlanArgs {
 /// folder per case.
 const CAPTURES_DIR: &str = "captures";
 
-pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
+pub(super) fn run_plan(args: PlanArgs) -> Result<ExitCode, Failure> {
     if args.timings {
         crate::timings::enable();
     }
@@ -145,7 +145,7 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<i32, Failure> {
 }
 
 /// `--shard K/N`: this shard's cases into a shard directory, no report.
-fn shard(args: &PlanArgs, plan: &Plan, spec: &str) -> Result<i32, Failure> {
+fn shard(args: &PlanArgs, plan: &Plan, spec: &str) -> Result<ExitCode, Failure> {
     let spec = crate::shard::ShardSpec::parse(spec, &|k| std::env::var(k).ok())?;
     super::shard::check_share(plan, spec, args.limits.limits(false))?;
     super::shard::run_shard(&super::shard::ShardRun {
@@ -267,7 +267,7 @@ fn finish(
     args: &PlanArgs,
     outcome: &Outcome,
     total: crate::timings::Guard,
-) -> Result<i32, Failure> {
+) -> Result<ExitCode, Failure> {
     if let Some(s) = outcome.signed.as_ref().filter(|_| !args.quiet) {
         outln!(
             "signed by {} (certificate SHA-256 {})",
@@ -311,11 +311,11 @@ fn finish(
 }
 
 /// The exit code of a report's [`Status`] (`plan` and `merge`).
-pub(super) fn exit_code(status: Status) -> i32 {
+pub(super) fn exit_code(status: Status) -> ExitCode {
     match status {
-        Status::Pass => EXIT_PASS,
-        Status::Fail => EXIT_FAIL,
-        Status::NotJudged => EXIT_NOT_JUDGED,
+        Status::Pass => ExitCode::Pass,
+        Status::Fail => ExitCode::Fail,
+        Status::NotJudged => ExitCode::NotJudged,
     }
 }
 

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::args::{CameraArgs, PwmArgs, check_drive_and_camera};
-use super::{EXIT_PASS, Failure};
+use super::{ExitCode, Failure};
 use crate::error::UsageError;
 use crate::physics::PwmDrive;
 use crate::plan::bounds::{
@@ -39,7 +39,7 @@ pub(super) struct RenderArgs {
     out: PathBuf,
 }
 
-pub(super) fn render(a: RenderArgs) -> Result<i32, Failure> {
+pub(super) fn render(a: RenderArgs) -> Result<ExitCode, Failure> {
     let usage = |m: String| Failure::from(UsageError(m));
     let (p, c) = (&a.pwm, &a.camera);
     let pwm = PwmDrive::new(p.frequency_hz, p.duty, p.pwm_delay_ms * 1e-3).map_err(usage)?;
@@ -72,7 +72,7 @@ pub(super) fn render(a: RenderArgs) -> Result<i32, Failure> {
         crate::render::RenderError::Write(m) => Failure::Internal(m),
     })?;
     eprintln!("wrote {n} frames to {}", a.out.display());
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 /// Frame size and count within the limits of a plan's sensor and case

@@ -10,7 +10,7 @@
 use clap::{Args, Subcommand};
 
 use super::output::outln;
-use super::{EXIT_PASS, Failure};
+use super::{ExitCode, Failure};
 use crate::backend::scpi::{self, Instrument};
 use crate::plan::source::SourceConfig;
 use crate::plan::{self, Plan};
@@ -47,7 +47,7 @@ const fn scpi_port() -> u16 {
     crate::plan::source::DEFAULT_PORT
 }
 
-pub(super) fn rig(args: RigArgs) -> Result<i32, Failure> {
+pub(super) fn rig(args: RigArgs) -> Result<ExitCode, Failure> {
     match args.action {
         RigAction::Check { plan } => check(&plan),
         RigAction::Simulate { port, log } => simulate(port, log.as_deref()),
@@ -56,7 +56,7 @@ pub(super) fn rig(args: RigArgs) -> Result<i32, Failure> {
 
 /// Serves as an instrument until SIGINT or SIGTERM, then says how many
 /// lines it received.
-fn simulate(port: u16, log: Option<&std::path::Path>) -> Result<i32, Failure> {
+fn simulate(port: u16, log: Option<&std::path::Path>) -> Result<ExitCode, Failure> {
     use crate::backend::scpi::simulator::{Faults, SimInstrument};
     crate::interrupt::install();
     let sim = SimInstrument::start_at(port, Faults::default(), log).map_err(|e| {
@@ -85,10 +85,10 @@ fn simulate(port: u16, log: Option<&std::path::Path>) -> Result<i32, Failure> {
         sim.connections(),
         last.unwrap_or_default()
     );
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
-fn check(arg: &str) -> Result<i32, Failure> {
+fn check(arg: &str) -> Result<ExitCode, Failure> {
     let plan = super::validate::load(arg, crate::plan::ResourceLimits::unbounded())?;
     let Some(source) = &plan.source else {
         return Err(crate::error::UsageError(format!(
@@ -108,7 +108,7 @@ fn check(arg: &str) -> Result<i32, Failure> {
             outln!("error queue: {code}, \"{message}\" (read and cleared)")?;
         }
     }
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 /// The plan's light source and capture command, as a run would use them.
@@ -150,7 +150,7 @@ fn settings(plan: &Plan, s: &SourceConfig) -> Result<(), Failure> {
 }
 
 /// `plan --dry-run`: every line the run would send, nothing connected.
-pub(super) fn dry_run(plan: &Plan) -> Result<i32, Failure> {
+pub(super) fn dry_run(plan: &Plan) -> Result<ExitCode, Failure> {
     let cases = plan::expand_cases(plan);
     outln!(
         "dry run of plan `{}`: {} cases; nothing is connected or sent",
@@ -159,7 +159,7 @@ pub(super) fn dry_run(plan: &Plan) -> Result<i32, Failure> {
     )?;
     let Some(source) = &plan.source else {
         outln!("the plan has no [source]: a run sends no instrument commands")?;
-        return Ok(EXIT_PASS);
+        return Ok(ExitCode::Pass);
     };
     settings(plan, source)?;
     let query = &source.commands.error_query;
@@ -188,5 +188,5 @@ pub(super) fn dry_run(plan: &Plan) -> Result<i32, Failure> {
             at += step.hold_s;
         }
     }
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }

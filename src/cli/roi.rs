@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::output::{out, outln};
-use super::{EXIT_PASS, Failure};
+use super::{ExitCode, Failure};
 use crate::analysis::roi::detect::{self, DetectOptions};
 use crate::analysis::roi::{self, Overlay, PreviewError, WriteError};
 use crate::calibrate::frames::FrameError;
@@ -47,7 +47,7 @@ pub(super) struct RoiArgs {
     settle_s: f64,
 }
 
-pub(super) fn roi(a: RoiArgs) -> Result<i32, Failure> {
+pub(super) fn roi(a: RoiArgs) -> Result<ExitCode, Failure> {
     match (&a.detect, &a.plan) {
         (Some(capture), _) => detect_rois(capture, &a),
         (None, Some(plan)) => preview_plan(plan, a.out.as_deref()),
@@ -59,7 +59,7 @@ pub(super) fn roi(a: RoiArgs) -> Result<i32, Failure> {
 }
 
 /// `roi PLAN`: a picture per capture, then the ROI table.
-fn preview_plan(arg: &str, out: Option<&Path>) -> Result<i32, Failure> {
+fn preview_plan(arg: &str, out: Option<&Path>) -> Result<ExitCode, Failure> {
     let plan = plan::find_and_load(arg)?;
     let overlays = Overlay::of_plan(&plan);
     let pictures = roi::previews(&plan).map_err(preview_failure)?;
@@ -97,7 +97,7 @@ fn preview_plan(arg: &str, out: Option<&Path>) -> Result<i32, Failure> {
         ))
         .into());
     }
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 /// The ROIs as a table: name, kind, x, y, w, h (pixels, 0-based).
@@ -138,7 +138,7 @@ fn print_table(overlays: &[Overlay]) -> std::io::Result<()> {
 
 /// `roi --detect CAPTURE`: the proposal as `[[roi]]` blocks, and with
 /// `--out` its picture (the lit frames' mean, lit regions in yellow).
-fn detect_rois(capture: &Path, a: &RoiArgs) -> Result<i32, Failure> {
+fn detect_rois(capture: &Path, a: &RoiArgs) -> Result<ExitCode, Failure> {
     let ok = |v: f64| v.is_finite() && v > 0.0;
     if !(ok(a.on_s) && ok(a.off_s) && a.settle_s.is_finite() && a.settle_s >= 0.0) {
         return Err(
@@ -207,7 +207,7 @@ fn detect_rois(capture: &Path, a: &RoiArgs) -> Result<i32, Failure> {
         }
     }
     out!("{}", detect::to_toml(&p))?;
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 fn capture_failure(e: CaptureError) -> Failure {

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use super::failure::Context;
 
-use super::{EXIT_PASS, Failure};
+use super::{ExitCode, Failure};
 use crate::error::UsageError;
 use crate::plan::{self, Plan};
 use crate::runner;
@@ -57,7 +57,7 @@ pub(super) fn check_share(
 
 /// Runs one shard and writes its directory. Exit 0 whatever the verdicts:
 /// the merge judges (a failing case must not stop a dependent merge job).
-pub(super) fn run_shard(r: &ShardRun<'_>) -> Result<i32, Failure> {
+pub(super) fn run_shard(r: &ShardRun<'_>) -> Result<ExitCode, Failure> {
     let plan = r.plan;
     if r.threads == Some(0) {
         return Err(UsageError("--threads must be at least 1".into()).into());
@@ -99,5 +99,5 @@ pub(super) fn run_shard(r: &ShardRun<'_>) -> Result<i32, Failure> {
             r.out.display()
         )?;
     }
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }

@@ -9,7 +9,7 @@ use super::failure::Context;
 use clap::Args;
 
 use super::args::{SignOptions, now_unix_s, report_date, signing_time};
-use super::{EXIT_FAIL, EXIT_IDENTITY_UNCHECKED, EXIT_PASS, Failure};
+use super::{ExitCode, Failure};
 use crate::error::UsageError;
 
 #[derive(Args, Debug)]
@@ -55,7 +55,7 @@ pub(super) struct VerifyArgs {
     dir: PathBuf,
     /// Trusted certificate (PEM or DER), or a directory of them;
     /// repeatable. Without it the signers' identity is not checked
-    /// (exit 4).
+    /// (exit 6).
     #[arg(long = "trust")]
     trust: Vec<PathBuf>,
     /// Also hash every input again at its recorded path.
@@ -66,7 +66,7 @@ pub(super) struct VerifyArgs {
     inputs_root: Option<PathBuf>,
 }
 
-pub(super) fn keygen(a: KeygenArgs) -> Result<i32, Failure> {
+pub(super) fn keygen(a: KeygenArgs) -> Result<ExitCode, Failure> {
     let files = crate::signoff::keygen(&a.out, &a.signer, &a.org, now_unix_s())?;
     outln!(
         "private key: {} (PKCS#8 PEM, mode 0600; keep it secret, outside report directories)\ncertificate: {} (self-signed X.509 PEM; give it to whoever verifies your reports)\nSHA-256:     {}",
@@ -74,7 +74,7 @@ pub(super) fn keygen(a: KeygenArgs) -> Result<i32, Failure> {
         files.cert.display(),
         files.fingerprint
     )?;
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 /// Loads the signing key and certificate (PEM pair or PKCS#12), and
@@ -109,7 +109,7 @@ pub(super) fn load_signer(
     Ok((signer, key_files))
 }
 
-pub(super) fn sign(args: SignArgs) -> Result<i32, Failure> {
+pub(super) fn sign(args: SignArgs) -> Result<ExitCode, Failure> {
     // The signature vouches for the report as rendered from results.json:
     // one whose verdicts do not follow from its own values and limits was
     // edited, and is not signed (nor rendered again as it says).
@@ -153,10 +153,10 @@ pub(super) fn sign(args: SignArgs) -> Result<i32, Failure> {
         done.fingerprint,
         done.files
     )?;
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
-pub(super) fn verify(a: VerifyArgs) -> Result<i32, Failure> {
+pub(super) fn verify(a: VerifyArgs) -> Result<ExitCode, Failure> {
     let inputs = (a.inputs || a.inputs_root.is_some()).then_some(a.inputs_root.as_deref());
     let (dir, trust) = (a.dir.as_path(), a.trust.as_slice());
     let trusted = crate::signoff::verify::load_trusted(trust)?;
@@ -185,7 +185,7 @@ pub(super) fn verify(a: VerifyArgs) -> Result<i32, Failure> {
     }
     if !v.ok() {
         outln!("NOT VERIFIED: {} problem(s)", v.problems.len())?;
-        return Ok(EXIT_FAIL);
+        return Ok(ExitCode::Fail);
     }
     outln!(
         "intact: {} files, {n} manifest signature(s), {} PDF signature(s){}",
@@ -199,12 +199,13 @@ pub(super) fn verify(a: VerifyArgs) -> Result<i32, Failure> {
     )?;
     if v.identity_checked {
         outln!("verified: every signer holds a trusted certificate")?;
-        Ok(EXIT_PASS)
+        Ok(ExitCode::Pass)
     } else {
         outln!(
-            "IDENTITY NOT CHECKED: anyone can sign under any name; pass --trust CERT (the signers' certificates, obtained from them directly) to check who signed (exit {EXIT_IDENTITY_UNCHECKED})"
+            "IDENTITY NOT CHECKED: anyone can sign under any name; pass --trust CERT (the signers' certificates, obtained from them directly) to check who signed (exit {})",
+            ExitCode::IdentityUnchecked.code()
         )?;
-        Ok(EXIT_IDENTITY_UNCHECKED)
+        Ok(ExitCode::IdentityUnchecked)
     }
 }
 

@@ -35,15 +35,15 @@ fn absent(what: &str) -> Failure {
     .into()
 }
 
-pub(super) fn keygen(_: KeygenArgs) -> Result<i32, Failure> {
+pub(super) fn keygen(_: KeygenArgs) -> Result<ExitCode, Failure> {
     Err(absent("`keygen`"))
 }
 
-pub(super) fn sign(_: SignArgs) -> Result<i32, Failure> {
+pub(super) fn sign(_: SignArgs) -> Result<ExitCode, Failure> {
     Err(absent("`sign`"))
 }
 
-pub(super) fn verify(_: VerifyArgs) -> Result<i32, Failure> {
+pub(super) fn verify(_: VerifyArgs) -> Result<ExitCode, Failure> {
     Err(absent("`verify`"))
 }
 

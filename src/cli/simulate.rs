@@ -7,7 +7,7 @@ use std::io::Write;
 use clap::Args;
 
 use super::args::{CameraArgs, PwmArgs};
-use super::{EXIT_PASS, Failure};
+use super::{ExitCode, Failure};
 use crate::analysis::colour::Die;
 use crate::error::UsageError;
 use crate::physics::{PwmDrive, Shutter};
@@ -122,7 +122,7 @@ fn condition(a: &SimulateArgs) -> Result<(PwmDrive, Shutter, std::ops::Range<u32
     Ok((pwm, c.shutter(), a.rows.clone()))
 }
 
-pub(super) fn simulate(a: SimulateArgs) -> Result<i32, Failure> {
+pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode, Failure> {
     let (pwm, shutter, rows) = condition(&a)?;
     if a.summary {
         return summary(&a, &pwm, &shutter, rows);
@@ -141,7 +141,7 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<i32, Failure> {
         writeln!(w, "{k},{t},{s}")?;
     }
     w.flush()?;
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 /// The LED dies `--rgb-duty` or `--led-rgb` describe, if either.
@@ -183,7 +183,7 @@ fn summary(
     pwm: &PwmDrive,
     shutter: &Shutter,
     rows: std::ops::Range<u32>,
-) -> Result<i32, Failure> {
+) -> Result<ExitCode, Failure> {
     if !(a.background.is_finite() && a.background >= 0.0) {
         return Err(usage(format!(
             "--background must be >= 0, got {}",
@@ -213,5 +213,5 @@ fn summary(
     );
     // serde_json writes a non-finite number as null, never NaN.
     outln!("{}", serde_json::to_string_pretty(&summary)?)?;
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }

@@ -7,7 +7,7 @@ use clap::Args;
 
 use super::campaign::DbArg;
 use super::output::{out, outln};
-use super::{EXIT_PASS, Failure, UsageError};
+use super::{ExitCode, Failure, UsageError};
 use crate::campaign::Database;
 use crate::campaign::query::{self, Filter, TrendPoint};
 
@@ -44,7 +44,7 @@ pub(super) struct TrendArgs {
 }
 
 /// Prints the KPI's values over the runs, oldest first.
-pub(super) fn trend(a: TrendArgs) -> Result<i32, Failure> {
+pub(super) fn trend(a: TrendArgs) -> Result<ExitCode, Failure> {
     let db = Database::open_existing(&a.db.location()?)?;
     let filter = Filter {
         camera: a.camera.clone(),
@@ -70,7 +70,7 @@ pub(super) fn trend(a: TrendArgs) -> Result<i32, Failure> {
         crate::util::write_atomic(path, svg.as_bytes())
             .map_err(|e| UsageError(format!("cannot write `{}`: {e}", path.display())))?;
     }
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 fn table(points: &[TrendPoint]) -> String {

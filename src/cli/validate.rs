@@ -2,10 +2,10 @@
 //! a run would do.
 
 use super::output::outln;
-use super::{EXIT_PASS, Failure};
+use super::{ExitCode, Failure};
 use crate::plan;
 
-pub(super) fn validate(arg: &str, limits: plan::ResourceLimits) -> Result<i32, Failure> {
+pub(super) fn validate(arg: &str, limits: plan::ResourceLimits) -> Result<ExitCode, Failure> {
     let plan = load(arg, limits)?;
     let cases = plan::expand_cases(&plan);
     if plan.dut.backend == plan::BackendKind::Captured {
@@ -17,7 +17,7 @@ pub(super) fn validate(arg: &str, limits: plan::ResourceLimits) -> Result<i32, F
             plan.rois.len()
         )?;
         outln!("{}", plan::WorkEstimate::of(&plan).summary())?;
-        return Ok(EXIT_PASS);
+        return Ok(ExitCode::Pass);
     }
     let frames = crate::backend::sim::SegmentFrames::new(&plan.sequence, plan.dut.camera.fps);
     outln!(
@@ -32,7 +32,7 @@ pub(super) fn validate(arg: &str, limits: plan::ResourceLimits) -> Result<i32, F
         frames.total()
     )?;
     outln!("{}", plan::WorkEstimate::of(&plan).summary())?;
-    Ok(EXIT_PASS)
+    Ok(ExitCode::Pass)
 }
 
 /// Finds and validates a plan for `validate` and `plan`: a captured

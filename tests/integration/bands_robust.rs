@@ -52,7 +52,7 @@ fn the_jpeg_block_grid_is_not_taken_for_bands() {
         leds.save(&path, q);
         let o = run_linetime(&path, 500.0, None);
         let e = stderr(&o);
-        assert_eq!(o.status.code(), Some(4), "quality {q}: {e}");
+        assert_eq!(o.status.code(), Some(7), "quality {q}: {e}");
         assert!(o.stdout.is_empty(), "quality {q}: {e}");
         assert!(
             ["block grid", "no periodic banding", "rows are flat"]
@@ -87,7 +87,7 @@ fn the_jpeg_block_grid_is_not_taken_for_bands() {
     near.save(&jpg, 90);
     near.save(&png, 90);
     let o = run_linetime(&jpg, frequency_hz(16.3), None);
-    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(7), "{}", stderr(&o));
     assert!(stderr(&o).contains("block grid"), "{}", stderr(&o));
     let o = run_linetime(&png, frequency_hz(16.3), None);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
@@ -134,7 +134,7 @@ fn two_lights_give_two_regions_not_one_confident_line_time() {
         // answer for it.
         let o = run_linetime(&path, frequency_hz(right_period(k)), None);
         let e = stderr(&o);
-        assert_eq!(o.status.code(), Some(4), "frame {k}: {e}");
+        assert_eq!(o.status.code(), Some(7), "frame {k}: {e}");
         assert!(e.contains("band at different periods"), "frame {k}: {e}");
         let (left, right) = (region_period(&e, "0..320"), region_period(&e, "320..640"));
         assert!((left / 40.0 - 1.0).abs() < 2e-3, "frame {k}: {e}");
@@ -188,7 +188,7 @@ fn a_group_over_an_overlay_is_refused_and_named_and_the_rest_measured_alone() {
         "160,0,640,1080",
         "--json",
     ]);
-    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(7), "{}", stderr(&o));
     let e = stderr(&o);
     assert!(
         e.contains("band at different periods") && e.contains("640..800"),
@@ -212,7 +212,7 @@ fn a_group_over_an_overlay_is_refused_and_named_and_the_rest_measured_alone() {
     assert!(narrow["dropped_columns"].as_array().unwrap().is_empty());
     // linetime refuses it too, naming the columns.
     let o = run_linetime(&path, frequency_hz(40.0), Some("160,0,640,1080"));
-    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(7), "{}", stderr(&o));
     assert!(stderr(&o).contains("columns 640..800"), "{}", stderr(&o));
 }
 
@@ -241,7 +241,7 @@ fn the_real_frame_with_an_overlay_over_one_group_is_refused_and_its_light_measur
     img.save(&path).unwrap();
     let clean = run_linetime(&frame, 1000.0, None);
     let over = run_linetime(&path, 1000.0, None);
-    assert_eq!(over.status.code(), Some(4), "{}", stderr(&over));
+    assert_eq!(over.status.code(), Some(7), "{}", stderr(&over));
     assert!(
         stderr(&over).contains("columns 1440..1920"),
         "{}",

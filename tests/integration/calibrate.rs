@@ -174,7 +174,7 @@ fn degraded_synthetic_frames_give_back_their_parameters() {
 /// Exit 4, no estimate on stdout, one of `reasons` and a hint on stderr.
 fn expect_no_confidence(args: &[&str], reasons: &[&str]) {
     let o = ledflicker(args);
-    assert_eq!(o.status.code(), Some(4), "{args:?}: {}", stderr(&o));
+    assert_eq!(o.status.code(), Some(7), "{args:?}: {}", stderr(&o));
     let e = stderr(&o);
     assert!(
         e.contains("no confident estimate") && reasons.iter().any(|r| e.contains(r)),
@@ -189,7 +189,7 @@ fn expect_no_confidence(args: &[&str], reasons: &[&str]) {
 }
 
 #[test]
-fn frames_without_banding_exit_4_with_the_reason() {
+fn frames_without_banding_exit_7_with_the_reason() {
     let dir = scratch("calibrate-none");
     // A lit scene with texture and noise, but steady light.
     let flat = dir.join("flat.png");
@@ -400,7 +400,7 @@ fn an_exposure_longer_than_the_on_time_is_not_read_as_the_duty() {
     with_out.retain(|a| *a != "--json");
     with_out.extend(["--out", profile.to_str().unwrap()]);
     let o = ledflicker(&with_out);
-    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(7), "{}", stderr(&o));
     assert!(stderr(&o).contains("--duty"), "{}", stderr(&o));
     assert!(!profile.exists());
     let text = String::from_utf8_lossy(&o.stdout);

@@ -791,6 +791,14 @@ fn version_completions_and_manual_page() {
         plan.contains("ledflicker\\-plan") && plan.contains("\\-\\-out"),
         "{plan}"
     );
+    // Every page ends with EXIT STATUS, one entry per documented number
+    // (the README's table), 6 and 7 among them.
+    for page in [&page, &plan] {
+        let status = &page[page.find(".SH \"EXIT STATUS\"").expect("no EXIT STATUS")..];
+        for code in [0, 1, 2, 3, 4, 5, 6, 7, 130, 143] {
+            assert!(status.contains(&format!("\\fB{code}\\fR")), "{code}: {status}");
+        }
+    }
     let none = super::ledflicker(&["man", "nosuch"]);
     assert_eq!(none.status.code(), Some(2));
     assert!(super::stderr(&none).contains("calibrate"));

@@ -207,7 +207,7 @@ fn mutated_plans_never_panic_and_validated_plans_stay_within_their_estimate() {
             Ok(Err(err)) => {
                 counts.invalid += 1;
                 let code = ledflicker::cli::Failure::from(err).exit_code();
-                assert_eq!(code, 2, "{what}");
+                assert_eq!(code, ledflicker::exit::ExitCode::Invalid, "{what}");
             }
             Ok(Ok((p, e))) => {
                 counts.valid += 1;

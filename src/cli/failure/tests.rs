@@ -75,7 +75,7 @@ fn invalid_report() -> ReportError {
 
 /// The library's error types, each variant whose code differs (and the
 /// nested causes that decide it), with the code the table documents:
-/// 2 the user's plan, input or usage, 3 the tool or a backend, 4 no
+/// 2 the user's plan, input or usage, 3 the tool or a backend, 7 no
 /// confident estimate, 128 + the signal when stopped.
 fn one_of_each() -> Vec<(Failure, i32)> {
     let mut all = input_failures();
@@ -114,7 +114,7 @@ fn input_failures() -> Vec<(Failure, i32)> {
                 hint: "use a taller frame or --roi",
             }
             .into(),
-            4,
+            7,
         ),
         (sigint().into(), 130),
         (sigterm().into(), 143),
@@ -569,7 +569,7 @@ fn every_failure_has_the_documented_exit_code() {
     let documented = documented_codes();
     assert_eq!(
         documented,
-        BTreeSet::from([0, 1, 2, 3, 4, 5, 130, 143]),
+        BTreeSet::from([0, 1, 2, 3, 4, 5, 6, 7, 130, 143]),
         "the README's exit-code table changed: update this test and the variants' docs"
     );
     let samples = one_of_each();
@@ -577,7 +577,7 @@ fn every_failure_has_the_documented_exit_code() {
     let all: BTreeSet<&str> = VARIANTS.iter().copied().collect();
     assert_eq!(seen, all, "one_of_each() misses a variant");
     for (failure, code) in &samples {
-        let got = failure.exit_code();
+        let got = failure.exit_code().code();
         assert_eq!(got, *code, "{}: {failure:?}", failure.message());
         assert!(documented.contains(&got), "{got} is not in the README");
         // An error is never an exit code of success or of a verdict.

@@ -603,7 +603,7 @@ pub fn table(dir: &Path) -> Result<String, String> {
         if !matches!(case.scene, Scene::Plain) {
             let regions = refusal(case, dir, i)?;
             t.push_str(&format!(
-                "| {} | refused (exit 4), two regions: {} | | | | | |\n",
+                "| {} | refused (exit 7), two regions: {} | | | | | |\n",
                 case.name,
                 regions.join(", ")
             ));
