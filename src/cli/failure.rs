@@ -124,6 +124,18 @@ pub enum Failure {
     },
 }
 
+/// A plan that cannot be loaded fails as its cause does.
+impl From<crate::pipeline::LoadError> for Failure {
+    fn from(e: crate::pipeline::LoadError) -> Self {
+        use crate::pipeline::LoadError;
+        match e {
+            LoadError::Plan(e) => Failure::Plan(e),
+            LoadError::Interrupted(e) => Failure::Interrupted(e),
+            LoadError::Address(e) => Failure::Usage(e),
+        }
+    }
+}
+
 impl Failure {
     /// The process exit code (the table in [`super`]).
     pub fn exit_code(&self) -> ExitCode {

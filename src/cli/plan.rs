@@ -329,7 +329,8 @@ fn load(args: &PlanArgs) -> Result<(Plan, String), Failure> {
     } else {
         args.limits.limits(matches!(args.detail, DetailArg::Full))
     };
-    let mut plan = super::validate::load(&args.plan, limits)?;
+    let mut plan = crate::pipeline::load_plan(&args.plan, limits)?;
+    eprint!("{}", plan.warnings_text());
     if let Some(path) = &args.profile {
         let profile = plan::load_report_profile(path)?;
         plan.report = std::mem::take(&mut plan.report).overridden_by(profile);

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use clap::Args;
 
-use super::Failure;
+use super::{ExitCode, Failure};
 
 use super::args::{SignOptions, signing_time};
 use crate::error::NotBuiltIn;

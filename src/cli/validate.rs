@@ -35,25 +35,10 @@ pub(super) fn validate(arg: &str, limits: plan::ResourceLimits) -> Result<ExitCo
     Ok(ExitCode::Pass)
 }
 
-/// Finds and validates a plan for `validate` and `plan`: a captured
-/// plan's ROIs are checked against each capture's frame size (read from
-/// its header), its work estimate against `limits`, and the plausibility
-/// warnings are printed to stderr.
+/// [`crate::pipeline::load_plan`], its plausibility warnings printed to
+/// stderr (`validate`, `plan`, `rig`).
 pub(super) fn load(arg: &str, limits: plan::ResourceLimits) -> Result<plan::Plan, Failure> {
-    // With the handler installed, Ctrl-C during a probe stops its ffprobe
-    // (in a process group of its own, which the terminal's signal does not
-    // reach) rather than end ledflicker and leave ffprobe behind.
-    crate::interrupt::install();
-    let mut plan = plan::find_and_load_with(arg, &crate::capture::frame_size, limits)?;
-    crate::interrupt::check()?;
-    if let (Some(source), Ok(address)) = (
-        plan.source.as_mut(),
-        std::env::var(plan::source::ADDRESS_ENV),
-    ) {
-        source
-            .set_address(&address)
-            .map_err(crate::error::UsageError)?;
-    }
+    let plan = crate::pipeline::load_plan(arg, limits)?;
     eprint!("{}", plan.warnings_text());
     Ok(plan)
 }

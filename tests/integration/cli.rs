@@ -796,7 +796,10 @@ fn version_completions_and_manual_page() {
     for page in [&page, &plan] {
         let status = &page[page.find(".SH \"EXIT STATUS\"").expect("no EXIT STATUS")..];
         for code in [0, 1, 2, 3, 4, 5, 6, 7, 130, 143] {
-            assert!(status.contains(&format!("\\fB{code}\\fR")), "{code}: {status}");
+            assert!(
+                status.contains(&format!("\\fB{code}\\fR")),
+                "{code}: {status}"
+            );
         }
     }
     let none = super::ledflicker(&["man", "nosuch"]);

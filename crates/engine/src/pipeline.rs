@@ -3,6 +3,7 @@
 //! report (`plan` after its run, `merge` after reading the shards back).
 //!
 //! ```text
+//! load_plan ──▶ Plan                 (found, validated, captures probed)
 //! begin_output ──▶ Generation        (refusals before any work)
 //! run_cases ──▶ StoredCases         (the run stage; or shard::merge::gather)
 //! report(Run, Generation, ReportOptions, on_progress)
@@ -34,6 +35,49 @@ use ledflicker_report::golden::{Comparison, Tolerances};
 use ledflicker_report::{self as report, ReportError, WriteOptions};
 #[cfg(feature = "signoff")]
 use ledflicker_signoff::SignoffError;
+
+/// Why a plan could not be loaded ([`load_plan`]).
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    /// Not found, or invalid (every error located by line).
+    #[error(transparent)]
+    Plan(#[from] ledflicker_core::plan::PlanError),
+    /// A signal stopped a capture's probe.
+    #[error(transparent)]
+    Interrupted(#[from] Interrupted),
+    /// The light source's address in the environment is malformed.
+    #[error(transparent)]
+    Address(#[from] ledflicker_core::error::UsageError),
+}
+
+/// Finds and validates a plan (a file, or the name of a built-in one) for
+/// `plan`, `validate` and `rig`: a captured plan's ROIs are checked
+/// against each capture's frame size (read from its header), its work
+/// estimate against `limits`, and the light source takes its address from
+/// the environment when set. The plausibility warnings are the plan's
+/// own (`Plan::warnings_text`), for the caller to print.
+pub fn load_plan(
+    arg: &str,
+    limits: ledflicker_core::plan::ResourceLimits,
+) -> Result<Plan, LoadError> {
+    // With the handler installed, Ctrl-C during a probe stops its ffprobe
+    // (in a process group of its own, which the terminal's signal does not
+    // reach) rather than end ledflicker and leave ffprobe behind.
+    ledflicker_core::interrupt::install();
+    let mut plan = ledflicker_core::plan::find_and_load_with(
+        arg,
+        &ledflicker_core::capture::frame_size,
+        limits,
+    )?;
+    ledflicker_core::interrupt::check()?;
+    let address = std::env::var(ledflicker_core::plan::source::ADDRESS_ENV);
+    if let (Some(source), Ok(address)) = (plan.source.as_mut(), address) {
+        source
+            .set_address(&address)
+            .map_err(ledflicker_core::error::UsageError)?;
+    }
+    Ok(plan)
+}
 
 /// Why the report stage failed. Each variant names what was being done;
 /// the command maps it to an exit code through its cause (`cli::Failure`).
