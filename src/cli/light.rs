@@ -17,8 +17,9 @@ use crate::capture::{Column, read_waveform};
 #[derive(Args, Debug)]
 pub(super) struct LightArgs {
     /// CSV file: optional header lines, then one row per sample with the
-    /// time in seconds and the light's level (0 for dark), evenly sampled;
-    /// fields separated by `,`, `;` or tabs.
+    /// time and the light's level (0 for dark), evenly sampled; fields
+    /// separated by `,`, `;` or tabs. The time is in seconds, or in the
+    /// unit its header names: `Time (ms)`, `t [us]`, `time_ns`.
     waveform: PathBuf,
     /// The time column: its header name, or its number from 1.
     #[arg(long, default_value = "1", value_name = "NAME|N")]
@@ -113,6 +114,7 @@ pub(super) fn light(args: LightArgs) -> Result<ExitCode, Failure> {
     for line in table(
         &args.waveform.display().to_string(),
         &wave.columns,
+        wave.time_unit,
         &figures,
     ) {
         outln!("{line}")?;
@@ -136,7 +138,7 @@ fn shown(f: &Figure, show: impl Fn(f64) -> String) -> String {
 }
 
 /// The lines of the table.
-fn table(file: &str, columns: &[String; 2], f: &LightFigures) -> Vec<String> {
+fn table(file: &str, columns: &[String; 2], time_unit: &str, f: &LightFigures) -> Vec<String> {
     let row = |name: &str, value: String| format!("{name:<20}{value}");
     let rate = if f.sample_rate_hz >= 1000.0 {
         format!("{:.4} kHz", f.sample_rate_hz / 1000.0)
@@ -175,7 +177,7 @@ fn table(file: &str, columns: &[String; 2], f: &LightFigures) -> Vec<String> {
     };
     vec![
         format!(
-            "light source `{file}`: columns `{}` (s) and `{}`; {} samples at {rate}, {:.4} s",
+            "light source `{file}`: columns `{}` ({time_unit}) and `{}`; {} samples at {rate}, {:.4} s",
             columns[0], columns[1], f.samples, f.duration_s
         ),
         row(

@@ -579,3 +579,40 @@ fn a_light_at_90_hz_is_judged_on_the_90_hz_side_whatever_the_sampling_and_noise(
         assert_eq!(v["ieee1789"]["low_risk_max_percent"].as_f64(), Some(7.2));
     }
 }
+
+/// A scope that stamps its samples in milliseconds and says so in the
+/// header (`Time (ms)`) gives the light's own frequency, not one a
+/// thousandth of it; the table says the unit it read.
+#[test]
+fn a_time_column_in_milliseconds_gives_the_lights_frequency() {
+    let dir = scratch("light-ms");
+    let rows = |scale: f64| -> String {
+        (0..4000)
+            .map(|i| {
+                let t = i as f64 * 50e-6;
+                format!(
+                    "{:.9},{:.6}\n",
+                    t * scale,
+                    1.0 + 0.5 * (2.0 * PI * 120.0 * t).sin()
+                )
+            })
+            .collect()
+    };
+    let seconds = dir.join("s.csv");
+    std::fs::write(&seconds, format!("Time (s),V\n{}", rows(1.0))).unwrap();
+    let millis = dir.join("ms.csv");
+    std::fs::write(&millis, format!("Time (ms),V\n{}", rows(1e3))).unwrap();
+    let (a, b) = (light_json(&seconds, &[]), light_json(&millis, &[]));
+    let f = value(&b, "fundamental_hz");
+    assert!((f - 120.0).abs() < 0.05, "{f}");
+    assert_eq!(value(&a, "fundamental_hz"), f);
+    let table = text(&ledflicker(&["light", millis.to_str().unwrap()]));
+    assert!(table.contains("`Time (ms)` (ms)"), "{table}");
+    // A header that names something else in brackets is refused, not
+    // read as seconds.
+    let samples = dir.join("samples.csv");
+    std::fs::write(&samples, format!("Time (samples),V\n{}", rows(1.0))).unwrap();
+    let o = ledflicker(&["light", samples.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("not a time unit"), "{}", text(&o));
+}

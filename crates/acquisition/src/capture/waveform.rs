@@ -63,6 +63,9 @@ pub struct Waveform {
     pub start_s: f64,
     /// The time and intensity columns' names (the header's, or `column N`).
     pub columns: [String; 2],
+    /// The unit the time column's header names (`s` when it names none),
+    /// its times read in it and converted to seconds.
+    pub time_unit: &'static str,
     /// 1-based line of the first sample.
     pub first_line: u64,
 }
@@ -120,6 +123,44 @@ fn locate(c: &Column, header: &[String], path: &Path, role: &str) -> Result<usiz
     }
 }
 
+/// The time units a header may name, with their length in seconds.
+const TIME_UNITS: [(&str, f64); 7] = [
+    ("s", 1.0),
+    ("sec", 1.0),
+    ("ms", 1e-3),
+    ("us", 1e-6),
+    ("µs", 1e-6),
+    ("μs", 1e-6),
+    ("ns", 1e-9),
+];
+
+/// The unit a time column's header names, and its length in seconds:
+/// `Time (ms)`, `t [us]`, `time_ms`, `Time/s`. `None` when it names none
+/// (the time is then in seconds); an error for a unit in brackets that is
+/// not a time unit, which would otherwise be read as seconds.
+fn time_unit(header: &str) -> Result<Option<(&'static str, f64)>, String> {
+    let h = header.trim();
+    let bracketed = h
+        .rfind(['(', '['])
+        .filter(|&open| h.ends_with([')', ']']) && open + 1 < h.len())
+        .map(|open| h[open + 1..h.len() - 1].trim());
+    let suffix = h
+        .rsplit(['_', '/', ' '])
+        .next()
+        .filter(|t| t.len() < h.len());
+    let Some(named) = bracketed.or(suffix) else {
+        return Ok(None);
+    };
+    match TIME_UNITS
+        .iter()
+        .find(|(u, _)| named.eq_ignore_ascii_case(u))
+    {
+        Some(&(unit, seconds)) => Ok(Some((if seconds == 1.0 { "s" } else { unit }, seconds))),
+        None if bracketed.is_some() => Err(named.to_string()),
+        None => Ok(None),
+    }
+}
+
 /// How far below 0 a reading may be, as a share of the largest: a scope's
 /// offset and noise around the dark level. `light` reads the band-limited
 /// levels below 0 as 0.
@@ -141,6 +182,7 @@ pub fn read_waveform(
     let mut times = Vec::new();
     let mut values = Vec::new();
     let mut lines = Vec::new();
+    let mut unit: Option<(&'static str, f64)> = None;
     while let Some((line, fields)) = rows.next(path, WAVEFORM_HINT)? {
         if values.len().is_multiple_of(ROWS_PER_CHECK) {
             check_interrupt(path)?;
@@ -166,6 +208,17 @@ pub fn read_waveform(
                     locate(time, &header, path, "time")?,
                     locate(intensity, &header, path, "intensity")?,
                 );
+                if let Some(name) = header.get(c.0) {
+                    unit = time_unit(name).map_err(|named| CaptureError::Invalid {
+                        path: path.to_path_buf(),
+                        message: format!(
+                            "the time column {} names the unit {}, which is not a time unit",
+                            shown(name),
+                            shown(&named)
+                        ),
+                        hint: "name the time column's unit as s, ms, us or ns (e.g. `Time (ms)`), or give the time in seconds".to_string(),
+                    })?;
+                }
                 cols = Some(c);
                 c
             }
@@ -180,7 +233,7 @@ pub fn read_waveform(
                     hint: format!("every row after the header needs a number in the time column ({}) and the intensity column ({})", ti + 1, xi + 1),
                 })
         };
-        let t = field(ti, "time")?;
+        let t = field(ti, "time")? * unit.map_or(1.0, |u| u.1);
         let x = field(xi, "intensity")?;
         if let (Some(&prev), Some(&prev_line)) = (times.last(), lines.last())
             && t <= prev
@@ -244,6 +297,7 @@ pub fn read_waveform(
         rate_hz,
         start_s: times[0],
         columns: [name(ti), name(xi)],
+        time_unit: unit.map_or("s", |u| u.0),
         first_line: lines[0],
     })
 }
@@ -289,6 +343,40 @@ mod tests {
         std::fs::write(&path, text).unwrap();
         read_waveform(&path, &Column::parse(time), &Column::parse(intensity), 0.0)
             .map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn the_time_header_names_its_unit() {
+        for (header, unit) in [
+            ("Time (ms)", Some(("ms", 1e-3))),
+            ("t [us]", Some(("us", 1e-6))),
+            ("TIME(µs)", Some(("µs", 1e-6))),
+            ("time_ns", Some(("ns", 1e-9))),
+            ("Time/s", Some(("s", 1.0))),
+            ("Time (sec)", Some(("s", 1.0))),
+            ("Time", None),
+            ("timestamps", None),
+            ("time_since_start", None),
+        ] {
+            assert_eq!(time_unit(header), Ok(unit), "{header}");
+        }
+        assert_eq!(time_unit("Time (samples)"), Err("samples".to_string()));
+    }
+
+    #[test]
+    fn times_in_milliseconds_are_read_as_milliseconds() {
+        let ms: String = (0..16)
+            .map(|i| format!("{:.3},{}\n", i as f64 * 0.1, i % 2))
+            .collect();
+        let w = read(&format!("Time (ms),V\n{ms}"), "1", "2").unwrap();
+        assert_eq!(w.time_unit, "ms");
+        assert!((w.rate_hz - 10_000.0).abs() < 1e-6, "{}", w.rate_hz);
+        assert!((w.start_s - 0.0).abs() < 1e-15);
+        let e = read(&format!("Time (samples),V\n{ms}"), "1", "2").unwrap_err();
+        assert!(
+            e.contains("not a time unit") && e.contains("samples"),
+            "{e}"
+        );
     }
 
     fn rows(n: usize, sep: &str) -> String {
