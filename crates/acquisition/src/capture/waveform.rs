@@ -161,6 +161,44 @@ fn time_unit(header: &str) -> Result<Option<(&'static str, f64)>, String> {
     }
 }
 
+/// A scope's offset and noise put a dark level a little either side of
+/// 0; a reading far below it is a wrong column or an offset not taken off.
+fn check_dark(values: &[f64], lines: &[u64], path: &Path) -> Result<(), CaptureError> {
+    let top = values.iter().cloned().fold(0.0f64, f64::max);
+    if let Some((i, &low)) = values.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1))
+        && low < -NEGATIVE_SHARE * top
+    {
+        return Err(CaptureError::Invalid {
+            path: path.to_path_buf(),
+            message: format!(
+                "line {}: the intensity {low} is below 0 by more than {:.0} % of the largest ({top})",
+                lines[i],
+                100.0 * NEGATIVE_SHARE
+            ),
+            hint: "give the light's level, 0 for dark: the detector's dark reading with --dark (noise a little below 0 is fine)".to_string(),
+        });
+    }
+    Ok(())
+}
+
+/// [`time_unit`] of the time column's header, if it has one, refused
+/// with a hint when it names a unit that is not a time.
+fn header_unit(
+    name: Option<&String>,
+    path: &Path,
+) -> Result<Option<(&'static str, f64)>, CaptureError> {
+    let Some(name) = name else { return Ok(None) };
+    time_unit(name).map_err(|named| CaptureError::Invalid {
+        path: path.to_path_buf(),
+        message: format!(
+            "the time column {} names the unit {}, which is not a time unit",
+            shown(name),
+            shown(&named)
+        ),
+        hint: "name the time column's unit as s, ms, us or ns (e.g. `Time (ms)`), or give the time in seconds".to_string(),
+    })
+}
+
 /// How far below 0 a reading may be, as a share of the largest: a scope's
 /// offset and noise around the dark level. `light` reads the band-limited
 /// levels below 0 as 0.
@@ -208,17 +246,7 @@ pub fn read_waveform(
                     locate(time, &header, path, "time")?,
                     locate(intensity, &header, path, "intensity")?,
                 );
-                if let Some(name) = header.get(c.0) {
-                    unit = time_unit(name).map_err(|named| CaptureError::Invalid {
-                        path: path.to_path_buf(),
-                        message: format!(
-                            "the time column {} names the unit {}, which is not a time unit",
-                            shown(name),
-                            shown(&named)
-                        ),
-                        hint: "name the time column's unit as s, ms, us or ns (e.g. `Time (ms)`), or give the time in seconds".to_string(),
-                    })?;
-                }
+                unit = header_unit(header.get(c.0), path)?;
                 cols = Some(c);
                 c
             }
@@ -258,22 +286,7 @@ pub fn read_waveform(
             hint: WAVEFORM_HINT.to_string(),
         });
     };
-    // A scope's offset and noise put a dark level a little either side of
-    // 0; a reading far below it is a wrong column or an offset not taken off.
-    let top = values.iter().cloned().fold(0.0f64, f64::max);
-    if let Some((i, &low)) = values.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1))
-        && low < -NEGATIVE_SHARE * top
-    {
-        return Err(CaptureError::Invalid {
-            path: path.to_path_buf(),
-            message: format!(
-                "line {}: the intensity {low} is below 0 by more than {:.0} % of the largest ({top})",
-                lines[i],
-                100.0 * NEGATIVE_SHARE
-            ),
-            hint: "give the light's level, 0 for dark: the detector's dark reading with --dark (noise a little below 0 is fine)".to_string(),
-        });
-    }
+    check_dark(&values, &lines, path)?;
     if values.len() < MIN_SAMPLES {
         return Err(CaptureError::Invalid {
             path: path.to_path_buf(),
