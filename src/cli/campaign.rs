@@ -33,8 +33,13 @@ impl RecordArgs {
     /// new one after it is signed (and break its `verify`).
     pub(super) fn check_outside(&self, out: &Path) -> Result<(), Failure> {
         let at = campaign::locate(self.db.as_deref(), self.no_db, &|k| std::env::var(k).ok());
-        let Some(Location::File(db)) = at else {
-            return Ok(());
+        let db = match at {
+            Some(Location::File(db)) => {
+                crate::campaign::check_directory(&db)?;
+                db
+            }
+            Some(Location::Default(db)) => db,
+            Some(Location::Server(_) | Location::Off) | None => return Ok(()),
         };
         let (db_abs, out_abs) = (absolute(&db), absolute(out));
         if db_abs.starts_with(&out_abs) {

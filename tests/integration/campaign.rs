@@ -137,6 +137,20 @@ fn no_db_records_nothing_and_a_database_that_fails_is_a_warning() {
     // --db and --no-db together are a usage error.
     let o = plan(&dir, &p, "r3", &["--db", "x.sqlite", "--no-db"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    // A database in a directory that does not exist (a typo) is refused
+    // before the run, naming it, and nothing is created; import likewise.
+    let o = plan(&dir, &p, "r4", &["--db", "no/such/dir/db.sqlite"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("the directory `no/such/dir` does not exist")
+            && err.contains("hint: create it first"),
+        "{err}"
+    );
+    assert!(!dir.join("no").exists() && !dir.join("r4").exists());
+    let o = run(&dir, &["import", "r", "--db", "no/such/dir/db.sqlite"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(!dir.join("no").exists());
 }
 
 #[test]

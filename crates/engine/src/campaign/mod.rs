@@ -116,8 +116,12 @@ pub(crate) fn sqlite(path: &Path) -> impl Fn(rusqlite::Error) -> CampaignError +
 pub enum Location {
     /// `--no-db`: nowhere.
     Off,
-    /// This file.
+    /// This file, named by `--db` or `$LEDFLICKER_DB`: its directory
+    /// must exist.
     File(PathBuf),
+    /// This file, ledflicker's own default place (XDG or HOME): its
+    /// directory is created when missing.
+    Default(PathBuf),
     /// The PostgreSQL server at this `postgres://` URL.
     Server(String),
 }
@@ -137,21 +141,37 @@ pub fn locate(
         return Some(Location::Off);
     }
     let set = |k: &str| env(k).filter(|v| !v.is_empty());
-    let file = db
+    let Some(file) = db
         .map(Path::to_path_buf)
         .or_else(|| set(ENV).map(PathBuf::from))
-        .or_else(|| {
-            set("XDG_DATA_HOME")
-                .map(PathBuf::from)
-                .filter(|p| p.is_absolute())
-                .map(|p| p.join("ledflicker").join(FILE))
-        })
-        .or_else(|| {
-            set("HOME").map(|h| Path::new(&h).join(".local/share/ledflicker").join(FILE))
-        })?;
+    else {
+        return set("XDG_DATA_HOME")
+            .map(PathBuf::from)
+            .filter(|p| p.is_absolute())
+            .map(|p| p.join("ledflicker").join(FILE))
+            .or_else(|| {
+                set("HOME").map(|h| Path::new(&h).join(".local/share/ledflicker").join(FILE))
+            })
+            .map(Location::Default);
+    };
     match file.to_str() {
         Some(url) if server::is_url(url) => Some(Location::Server(url.to_string())),
         _ => Some(Location::File(file)),
+    }
+}
+
+/// A database file the user named is made in a directory that exists: a
+/// mistyped directory is refused, not created with a new, empty history
+/// in it.
+pub fn check_directory(path: &Path) -> Result<(), CampaignError> {
+    match path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        Some(dir) if !dir.is_dir() => Err(CampaignError::Input(format!(
+            "results database `{}`: the directory `{}` does not exist\n    hint: create it first (mkdir -p {}), or give a file in an existing directory with --db or $LEDFLICKER_DB",
+            path.display(),
+            dir.display(),
+            dir.display()
+        ))),
+        _ => Ok(()),
     }
 }
 
@@ -169,7 +189,19 @@ impl Database {
     /// schema up to date.
     pub fn open(at: &Location) -> Result<Database, CampaignError> {
         match at {
-            Location::File(path) => Db::open(path).map(Database::Sqlite),
+            Location::File(path) => {
+                check_directory(path)?;
+                Db::open(path).map(Database::Sqlite)
+            }
+            Location::Default(path) => {
+                if let Some(dir) = path.parent() {
+                    std::fs::create_dir_all(dir).map_err(|e| CampaignError::Unusable {
+                        path: path.to_path_buf(),
+                        message: format!("cannot create its directory: {e}"),
+                    })?;
+                }
+                Db::open(path).map(Database::Sqlite)
+            }
             Location::Server(url) => open_server(url),
             Location::Off => Err(CampaignError::Input(
                 "no results database (--no-db)".to_string(),
@@ -181,8 +213,10 @@ impl Database {
     /// error naming it, not an empty history.
     pub fn open_existing(at: &Location) -> Result<Database, CampaignError> {
         match at {
-            Location::File(path) => Db::open_existing(path).map(Database::Sqlite),
-            _ => Database::open(at),
+            Location::File(path) | Location::Default(path) => {
+                Db::open_existing(path).map(Database::Sqlite)
+            }
+            Location::Server(_) | Location::Off => Database::open(at),
         }
     }
 
@@ -284,12 +318,6 @@ impl Db {
     /// [`Db::open`] with the given migrations (tests give fewer, to make a
     /// database of an older version).
     pub fn open_with(path: &Path, migrations: &[&str]) -> Result<Db, CampaignError> {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| CampaignError::Unusable {
-                path: path.to_path_buf(),
-                message: format!("cannot create its directory: {e}"),
-            })?;
-        }
         let sql = sqlite(path);
         let conn = Connection::open(path).map_err(&sql)?;
         conn.busy_timeout(BUSY_TIMEOUT).map_err(&sql)?;

@@ -16,6 +16,7 @@ fn the_database_is_found_by_flag_then_environment_then_xdg_then_home() {
         ("HOME", "/home/u"),
     ];
     let file = |p: &str| Some(Location::File(PathBuf::from(p)));
+    let default = |p: &str| Some(Location::Default(PathBuf::from(p)));
     assert_eq!(locate(None, true, &env_of(&all)), Some(Location::Off));
     assert_eq!(
         locate(Some(Path::new("x.sqlite")), false, &env_of(&all)),
@@ -24,13 +25,13 @@ fn the_database_is_found_by_flag_then_environment_then_xdg_then_home() {
     assert_eq!(locate(None, false, &env_of(&all)), file("/env/db.sqlite"));
     assert_eq!(
         locate(None, false, &env_of(&all[1..])),
-        file("/xdg/ledflicker/results.sqlite")
+        default("/xdg/ledflicker/results.sqlite")
     );
     // A relative XDG_DATA_HOME is ignored, as the specification says.
     let relative = [("XDG_DATA_HOME", "xdg"), ("HOME", "/home/u")];
     assert_eq!(
         locate(None, false, &env_of(&relative)),
-        file("/home/u/.local/share/ledflicker/results.sqlite")
+        default("/home/u/.local/share/ledflicker/results.sqlite")
     );
     assert_eq!(locate(None, false, &env_of(&[])), None);
 }
