@@ -85,14 +85,37 @@ pub enum ShutterArg {
     Rolling,
 }
 
+/// `--duty`: a share of the period in (0, 1]; a percentage (1 to 100) is
+/// refused with the share it likely meant, never read as a duty over 1.
+pub(super) fn parse_duty(text: &str) -> Result<f64, String> {
+    let duty: f64 = text.trim().parse().map_err(|_| {
+        format!(
+            "`{text}` is not a number; give the duty as a share of the period, e.g. 0.2 for 20 %"
+        )
+    })?;
+    if duty.is_finite() && duty > 0.0 && duty <= 1.0 {
+        Ok(duty)
+    } else if duty > 1.0 && duty <= 100.0 {
+        Err(format!(
+            "the duty is a share of the period in (0, 1], not a percentage: for {duty} % give --duty {}",
+            duty / 100.0
+        ))
+    } else {
+        Err(format!(
+            "the duty must be in (0, 1], e.g. 0.2 for 20 %; got {text}"
+        ))
+    }
+}
+
 /// The LED's PWM drive.
 #[derive(Args, Debug)]
 pub struct PwmArgs {
     /// PWM frequency in Hz (> 0).
     #[arg(long)]
     pub frequency_hz: f64,
-    /// Duty cycle in (0, 1].
-    #[arg(long)]
+    /// Duty cycle in (0, 1]: the share of each period the LED is ON
+    /// (0.2 for 20 %).
+    #[arg(long, value_parser = parse_duty)]
     pub duty: f64,
     /// Time of the first PWM rising edge after the start of frame 0's
     /// exposure (row 0), in milliseconds.

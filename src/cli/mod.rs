@@ -1,4 +1,4 @@
-//! Command-line interface: `plan`, `merge`, `validate`, `simulate`, `advise`,
+//! Command-line interface: `plan`, `merge`, `plans`, `validate`, `simulate`, `advise`,
 //! `bench`, `linetime`, `render`, `rig`, `roi`, `bands`, `calibrate`, `light`, `keygen`, `sign`,
 //! `verify`, `import`, `history` and `compare`, one module each (`linetime`, `bands` and `calibrate` share
 //! `calibrate`; `keygen`, `sign` and `verify` share `sign`; `import` and `history`
@@ -42,6 +42,7 @@ mod light;
 mod merge;
 pub(crate) mod output;
 mod plan;
+mod plans;
 mod render;
 mod rig;
 mod roi;
@@ -81,6 +82,10 @@ enum Command {
     /// Check the shard directories of a sharded run (`plan --shard`) and
     /// write the whole plan's report, as one `plan` run would have.
     Merge(merge::MergeArgs),
+    /// List the plans built into ledflicker; `plans show NAME` prints one
+    /// as TOML, to save and edit (`ledflicker plans show daylight >
+    /// my-camera.toml`).
+    Plans(plans::PlansArgs),
     /// Check a test plan without running it.
     Validate {
         /// Plan file, or a plan name from test-plans/ (e.g. `daylight`).
@@ -219,6 +224,7 @@ fn run(cli: Cli, version: &'static str) -> Result<ExitCode, Failure> {
     match cli.command {
         Command::Plan(args) => plan::run_plan(args),
         Command::Merge(args) => merge::merge(args),
+        Command::Plans(args) => plans::plans(args),
         Command::Validate { plan, limits } => validate::validate(&plan, limits.limits(false)),
         Command::Simulate(args) => simulate::simulate(args),
         Command::Advise(args) => advise::advise(args),

@@ -98,8 +98,22 @@ fn check(arg: &str) -> Result<ExitCode, Failure> {
         .into());
     };
     settings(&plan, source)?;
-    let (identity, errors) =
-        Instrument::probe(source).map_err(|e| Failure::Internal(format!("light source: {e}")))?;
+    let (identity, errors) = Instrument::probe(source).map_err(|e| {
+        // An instrument that is off, elsewhere or not yet wired is the
+        // usual reason; the simulator lets the plan be tried without it.
+        let hint = if e.is_connection() {
+            format!(
+                "\n    hint: check that the instrument is on and listening at {}:{} ([source] host and port, or ${}); to try the plan without it, start `ledflicker rig simulate` and set {}=127.0.0.1:PORT",
+                source.host,
+                source.port,
+                crate::plan::source::ADDRESS_ENV,
+                crate::plan::source::ADDRESS_ENV
+            )
+        } else {
+            String::new()
+        };
+        Failure::Internal(format!("light source: {e}{hint}"))
+    })?;
     outln!("identity: {identity}")?;
     if errors.is_empty() {
         outln!("error queue: empty")?;

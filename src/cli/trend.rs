@@ -43,6 +43,37 @@ pub(super) struct TrendArgs {
     db: DbArg,
 }
 
+/// Why `trend` has nothing to show: a KPI the database does not know
+/// (with the nearest name, and every name), or no value in the runs
+/// the filters select.
+fn no_values(kpi: &str, names: &[String]) -> String {
+    if names.iter().any(|n| n == kpi) {
+        return format!(
+            "no value of `{kpi}` in the runs selected\n    hint: check the filters against `ledflicker history`"
+        );
+    }
+    // Names compared without case and underscores first (fdi2018 is
+    // fdi_2018), then by edit distance.
+    let plain = |s: &str| s.to_lowercase().replace(['_', '-'], "");
+    let nearest = names
+        .iter()
+        .map(|n| {
+            let d = if plain(n) == plain(kpi) {
+                0
+            } else {
+                strsim::levenshtein(&plain(n), &plain(kpi))
+            };
+            (d, n)
+        })
+        .filter(|(d, _)| *d <= 3)
+        .min();
+    let mean = nearest.map_or(String::new(), |(_, n)| format!("did you mean `{n}`? "));
+    format!(
+        "no KPI `{kpi}` in the results database\n    hint: {mean}the database holds: {}",
+        names.join(", ")
+    )
+}
+
 /// Prints the KPI's values over the runs, oldest first.
 pub(super) fn trend(a: TrendArgs) -> Result<ExitCode, Failure> {
     let db = Database::open_existing(&a.db.location()?)?;
@@ -54,11 +85,8 @@ pub(super) fn trend(a: TrendArgs) -> Result<ExitCode, Failure> {
     };
     let points = query::trend(&db, &filter, &a.kpi, a.case.as_deref(), a.roi.as_deref())?;
     if points.is_empty() {
-        return Err(UsageError(format!(
-            "no value of `{}` in the runs selected\n    hint: check the KPI's name in a report's results.json, and the filters against `ledflicker history`",
-            a.kpi
-        ))
-        .into());
+        let names = query::metric_names(&db)?;
+        return Err(UsageError(no_values(&a.kpi, &names)).into());
     }
     if a.json {
         outln!("{}", serde_json::to_string_pretty(&points)?)?;

@@ -839,3 +839,109 @@ fn malformed_rows_and_colours_are_usage_errors_naming_the_flag() {
         );
     }
 }
+
+/// The built-in plans are reachable from an empty directory: listed,
+/// written out, and named in the hint when a source-tree path is given.
+#[test]
+fn built_in_plans_are_listed_written_out_and_hinted_from_an_empty_directory() {
+    let dir = super::scratch("plans-empty");
+    let list = super::ledflicker_in(&["plans"], &dir);
+    assert!(list.status.success(), "{}", super::text(&list));
+    let listed = super::text(&list);
+    for name in ["daylight", "lowlight", "p2020-samples", "sweep-23k"] {
+        assert!(listed.lines().any(|l| l.starts_with(name)), "{listed}");
+    }
+    let show = super::ledflicker_in(&["plans", "show", "lowlight"], &dir);
+    assert!(show.status.success());
+    let shipped = std::fs::read(super::root().join("test-plans/lowlight.toml")).unwrap();
+    assert_eq!(
+        show.stdout, shipped,
+        "`plans show` prints the plan as shipped"
+    );
+    std::fs::write(dir.join("mine.toml"), &show.stdout).unwrap();
+    let o = super::ledflicker_in(&["validate", "mine.toml"], &dir);
+    assert_eq!(o.status.code(), Some(0), "{}", super::text(&o));
+    let o = super::ledflicker_in(&["plans", "show", "daylite"], &dir);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        super::stderr(&o).contains("one of bench-example"),
+        "{}",
+        super::stderr(&o)
+    );
+    let o = super::ledflicker_in(&["validate", "test-plans/lowlight.toml"], &dir);
+    assert_eq!(o.status.code(), Some(2));
+    let err = super::stderr(&o);
+    assert!(
+        err.contains("`lowlight` is built into ledflicker") && err.contains("plans show lowlight"),
+        "{err}"
+    );
+    assert_eq!(err.matches("no such file").count(), 1, "{err}");
+}
+
+/// Common slips get a hint that names the fix: a duty in percent, a
+/// number in quotes, a KPI misspelt, an instrument that does not answer.
+#[test]
+fn common_slips_are_refused_with_the_fix() {
+    let dir = super::scratch("slips");
+    let o = super::ledflicker(&[
+        "simulate",
+        "--duty",
+        "20",
+        "--frequency-hz",
+        "90",
+        "--exposure-ms",
+        "11",
+        "--fps",
+        "30",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        super::stderr(&o).contains("give --duty 0.2"),
+        "{}",
+        super::stderr(&o)
+    );
+
+    let text = std::fs::read_to_string(super::root().join("test-plans/lowlight.toml")).unwrap();
+    let quoted = text.replacen("exposure-ms = 30.0", "exposure-ms = \"30.0\"", 1);
+    assert_ne!(quoted, text);
+    std::fs::write(dir.join("q.toml"), quoted).unwrap();
+    let o = super::ledflicker_in(&["validate", "q.toml"], &dir);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        super::stderr(&o).contains("hint: a number is written without quotes: exposure-ms = 30.0"),
+        "{}",
+        super::stderr(&o)
+    );
+
+    let db = dir.join("t.sqlite");
+    let db = db.to_str().unwrap();
+    let o = super::ledflicker_in(&["plan", "lowlight", "-q", "--out", "r", "--db", db], &dir);
+    assert!(
+        matches!(o.status.code(), Some(0 | 1)),
+        "{}",
+        super::text(&o)
+    );
+    let o = super::ledflicker(&["trend", "--kpi", "fdi2018", "--db", db]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = super::stderr(&o);
+    assert!(
+        err.contains("did you mean `fdi_2018`?") && err.contains("percent_flicker"),
+        "{err}"
+    );
+
+    let bench = super::ledflicker_in(&["plans", "show", "bench-example"], &dir);
+    std::fs::write(dir.join("bench.toml"), &bench.stdout).unwrap();
+    // Port 1 on the loopback: nothing listens there.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .args(["rig", "check", "bench.toml"])
+        .current_dir(&dir)
+        .env("LEDFLICKER_SOURCE_ADDRESS", "127.0.0.1:1")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(3), "{}", super::text(&o));
+    assert!(
+        super::stderr(&o).contains("ledflicker rig simulate"),
+        "{}",
+        super::stderr(&o)
+    );
+}

@@ -187,6 +187,16 @@ pub struct TrendPoint {
     pub value: Option<f64>,
 }
 
+/// Every KPI name the database holds a value of, in order: what `trend
+/// --kpi` may name.
+pub fn metric_names(db: &Database) -> Result<Vec<String>, CampaignError> {
+    db.query_map(
+        "SELECT DISTINCT metric FROM metrics ORDER BY metric",
+        &[],
+        |r| r.get(0),
+    )
+}
+
 /// The values of `metric` (of case `case` and ROI `roi` when given) in the
 /// runs `filter` selects, by run (oldest first) then plan order.
 pub fn trend(

@@ -478,7 +478,7 @@ impl fmt::Display for Diagnostic {
 #[derive(Debug, thiserror::Error)]
 pub enum PlanError {
     /// The file could not be found or read.
-    #[error("cannot read test plan `{path}`: {source}")]
+    #[error("cannot read test plan `{path}`")]
     Read {
         /// Path tried.
         path: PathBuf,
@@ -578,9 +578,13 @@ pub fn resolve_plan(arg: &str) -> Result<PlanSource, PlanError> {
     }
     let bare = !arg.contains('/') && !arg.contains('\\');
     if !bare {
+        let hint = shipped::hint_for_missing(&direct);
         return Err(PlanError::Read {
             path: direct,
-            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            source: std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                format!("no such file{hint}"),
+            ),
         });
     }
     let names = if arg.ends_with(".toml") {

@@ -117,6 +117,20 @@ pub fn plan(name: &str) -> Option<&'static Shipped> {
         .find(|p| p.path.rsplit('/').next() == Some(&file))
 }
 
+/// For a plan file that is missing, a hint naming the built-in plan of
+/// its name (`test-plans/lowlight.toml` away from the source tree), or
+/// nothing.
+pub fn hint_for_missing(path: &std::path::Path) -> String {
+    path.file_stem()
+        .map(|stem| stem.to_string_lossy().into_owned())
+        .filter(|name| plan(name).is_some())
+        .map_or(String::new(), |name| {
+            format!(
+                "\n    hint: `{name}` is built into ledflicker: give its name alone (`ledflicker plan {name}`), or write it out with `ledflicker plans show {name} > {name}.toml`"
+            )
+        })
+}
+
 /// The shipped plan at `path`, a path the plan was reported under
 /// (`test-plans/daylight.toml`).
 pub fn plan_at(path: &str) -> Option<&'static Shipped> {

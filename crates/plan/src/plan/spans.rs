@@ -408,11 +408,29 @@ pub fn syntax_message(text: &str, e: &toml::de::Error) -> String {
     let pad = before.len() + column - from;
     let gutter = " ".repeat(line_no.to_string().len() + 1);
     format!(
-        "TOML parse error at line {line_no}, column {}\n{gutter}|\n{line_no} | {before}{shown}{after}\n{gutter}|{} {}\n{message}",
+        "TOML parse error at line {line_no}, column {}\n{gutter}|\n{line_no} | {before}{shown}{after}\n{gutter}|{} {}\n{message}{}",
         column + 1,
         " ".repeat(pad),
-        "^".repeat(carets)
+        "^".repeat(carets),
+        quoted_number_hint(e.message(), line)
     )
+}
+
+/// A number written in quotes (`exposure-ms = "11.111"`) reads as text;
+/// the hint shows the line without them.
+fn quoted_number_hint(message: &str, line: &str) -> String {
+    let quoted = message
+        .strip_prefix("invalid type: string \"")
+        .and_then(|rest| rest.split_once('"'))
+        .map(|(value, _)| value);
+    match quoted {
+        Some(value) if value.trim().parse::<f64>().is_ok() => format!(
+            "\n    hint: a number is written without quotes: {}",
+            line.trim()
+                .replacen(&format!("\"{value}\""), value.trim(), 1)
+        ),
+        _ => String::new(),
+    }
 }
 
 /// A hint for an unknown key: the closest known key of its table, or the list.
@@ -512,6 +530,27 @@ mod tests {
         assert_eq!(index.location("plan.id"), Some((2, 1)));
         assert_eq!(index.location("roi[1].x-px"), Some((7, 1)));
         assert_eq!(index.location("nope"), None);
+    }
+
+    #[test]
+    fn a_quoted_number_is_shown_without_its_quotes() {
+        #[derive(serde::Deserialize, Debug)]
+        #[allow(dead_code)]
+        struct Camera {
+            #[serde(rename = "exposure-ms")]
+            exposure_ms: f64,
+        }
+        let text = "exposure-ms = \"11.111\"\n";
+        let e = toml::from_str::<Camera>(text).unwrap_err();
+        let m = syntax_message(text, &e);
+        assert!(
+            m.ends_with("hint: a number is written without quotes: exposure-ms = 11.111"),
+            "{m}"
+        );
+        // Text that is no number gets no such hint.
+        let text = "exposure-ms = \"long\"\n";
+        let m = syntax_message(text, &toml::from_str::<Camera>(text).unwrap_err());
+        assert!(!m.contains("hint"), "{m}");
     }
 
     #[test]

@@ -70,6 +70,14 @@ pub enum SourceError {
     },
 }
 
+impl SourceError {
+    /// True when the instrument could not be reached at all (off, another
+    /// address, a firewall), rather than answering wrongly.
+    pub fn is_connection(&self) -> bool {
+        matches!(self, SourceError::Scpi(e) if e.is_connection())
+    }
+}
+
 fn plural(n: usize) -> String {
     if n == 1 {
         "an error".to_string()
