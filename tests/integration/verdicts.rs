@@ -505,3 +505,53 @@ fn hdr_example_runs_to_finite_plausible_numbers() {
         assert!(fdi(&format!("{lux}lux-150hz-50pct")) > fdi(&format!("{lux}lux-150hz-10pct")));
     }
 }
+
+/// summary.csv's `failed` column lists failed checks of judged cases
+/// only: daylight's cases below the mitigation boundary miss the FDI
+/// limit but were not judged, so they failed nothing.
+#[test]
+fn summary_csv_names_no_failure_for_a_case_that_was_not_judged() {
+    let dir = scratch("summary-info");
+    let out = dir.join("out");
+    let o = crate::ledflicker(&["plan", "daylight", "-q", "--out", out.to_str().unwrap()]);
+    assert!(
+        matches!(o.status.code(), Some(0 | 1)),
+        "{}",
+        crate::text(&o)
+    );
+    let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let at = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (verdict, failed) = (at("verdict"), at("failed"));
+    assert_eq!(failed, header.len() - 1);
+    let mut info = 0;
+    for line in lines {
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields[verdict] == "info" {
+            info += 1;
+            assert!(fields[failed..].join(",").is_empty(), "{line}");
+        }
+    }
+    // The test means something only if some unjudged case does miss a
+    // limit (its checks in results.json say so).
+    let j: Value =
+        serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    let missed = j["cases"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|c| c["verdict"] == "info")
+        .filter(|c| {
+            c["checks"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|k| k["pass"] == false)
+        })
+        .count();
+    assert!(
+        info > 0 && missed > 0,
+        "info rows {info}, unjudged cases missing a limit {missed}"
+    );
+}

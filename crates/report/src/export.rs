@@ -344,7 +344,7 @@ pub(crate) fn csv_text(out: csv::Writer<Vec<u8>>) -> Result<String, csv::Error> 
 /// CSV summary, one row per case and ROI: conditions (empty when
 /// unknown), verdict, metrics (empty when undefined, `inf` for an unbounded
 /// FDI), saturation, the limits that applied to the case (empty: none) and
-/// the ROI's failed checks.
+/// the ROI's failed checks (empty for a case not judged).
 pub fn summary_csv(model: &Results) -> Result<String, csv::Error> {
     let mut out = csv_writer(0);
     write_summary_rows(model, &mut out)?;
@@ -427,10 +427,12 @@ fn write_summary_rows<W: std::io::Write>(
                 Some(v) if r.kind == crate::model::RoiKind::Led => csv_number(*v),
                 _ => String::new(),
             }));
+            // A case that was not judged failed nothing, whatever its
+            // values against the limits (results.json keeps its checks).
             let failed: Vec<String> = c
                 .checks
                 .iter()
-                .filter(|k| !k.pass && k.roi == r.name)
+                .filter(|k| !k.pass && k.roi == r.name && c.verdict != Verdict::Info)
                 .map(|k| k.describe())
                 .collect();
             row.push(failed.join("; "));
