@@ -33,12 +33,9 @@ impl RecordArgs {
     /// new one after it is signed (and break its `verify`).
     pub(super) fn check_outside(&self, out: &Path) -> Result<(), Failure> {
         let at = campaign::locate(self.db.as_deref(), self.no_db, &|k| std::env::var(k).ok());
-        let db = match at {
-            Some(Location::File(db)) => {
-                crate::campaign::check_directory(&db)?;
-                db
-            }
-            Some(Location::Default(db)) => db,
+        let (db, named) = match at {
+            Some(Location::File(db)) => (db, true),
+            Some(Location::Default(db)) => (db, false),
             Some(Location::Server(_) | Location::Off) | None => return Ok(()),
         };
         let (db_abs, out_abs) = (absolute(&db), absolute(out));
@@ -49,6 +46,10 @@ impl RecordArgs {
                 out.display()
             ))
             .into());
+        }
+        // Inside --out first: making the directory would not help there.
+        if named {
+            crate::campaign::check_directory(&db)?;
         }
         Ok(())
     }

@@ -35,6 +35,9 @@ pub(super) struct MergeArgs {
     /// Print no summary table.
     #[arg(long, short)]
     quiet: bool,
+    /// List every case in the summary table (as for `plan`).
+    #[arg(long)]
+    all_cases: bool,
     /// How much of each case the report shows (as for `plan`).
     #[arg(long, value_enum, default_value_t = DetailArg::Standard)]
     detail: DetailArg,
@@ -116,7 +119,7 @@ pub(super) fn merge(a: MergeArgs) -> Result<ExitCode, Failure> {
         )?;
         out!(
             "{}",
-            report::terminal::summary(&outcome.model, &outcome.dir)
+            report::terminal::summary(&outcome.model, &outcome.dir, a.all_cases)
         )?;
     }
     Ok(super::plan::exit_code(outcome.status()))

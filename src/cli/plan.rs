@@ -44,6 +44,10 @@ pub(super) struct PlanArgs {
     /// Print no summary table and no progress.
     #[arg(long, short)]
     quiet: bool,
+    /// List every case in the summary table; without it a run of more
+    /// than 50 cases lists its failing cases only (at most 50).
+    #[arg(long)]
+    all_cases: bool,
     /// How much of each case the report shows: `summary` (no case pages),
     /// `standard` (a page for each failing case; not judged cases one row
     /// each in a table, passing cases one line each in the appendix) or
@@ -286,7 +290,7 @@ fn finish(
         outcome.signed.as_ref().map(|s| s.signer.as_str()),
     );
     if !args.quiet {
-        print_summary(&outcome.model, &outcome.dir)?;
+        print_summary(&outcome.model, &outcome.dir, args.all_cases)?;
     }
     let kept = outcome
         .model
@@ -444,9 +448,9 @@ fn run_cases(
     pipeline::run_cases(&run, &on_progress)
 }
 
-fn print_summary(model: &crate::model::Results, out: &Path) -> Result<(), Failure> {
+fn print_summary(model: &crate::model::Results, out: &Path, all: bool) -> Result<(), Failure> {
     let mut w = super::output::Stdout;
-    w.write_all(report::terminal::summary(model, out).as_bytes())?;
+    w.write_all(report::terminal::summary(model, out, all).as_bytes())?;
     Ok(())
 }
 

@@ -102,8 +102,8 @@ fn a_spilled_model_writes_what_the_same_model_in_memory_writes() {
     }
     let out = Path::new("report");
     assert_eq!(
-        report::terminal::summary(&spilled, out),
-        report::terminal::summary(&memory, out)
+        report::terminal::summary(&spilled, out, true),
+        report::terminal::summary(&memory, out, true)
     );
 
     // The cases kept in memory are the model's own, worst-phase frames

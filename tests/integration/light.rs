@@ -614,5 +614,9 @@ fn a_time_column_in_milliseconds_gives_the_lights_frequency() {
     std::fs::write(&samples, format!("Time (samples),V\n{}", rows(1.0))).unwrap();
     let o = ledflicker(&["light", samples.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("not a time unit"), "{}", text(&o));
+    assert!(
+        text(&o).contains("not one ledflicker reads"),
+        "{}",
+        text(&o)
+    );
 }

@@ -555,3 +555,58 @@ fn summary_csv_names_no_failure_for_a_case_that_was_not_judged() {
         "info rows {info}, unjudged cases missing a limit {missed}"
     );
 }
+
+/// A run of more than 50 cases lists its failing cases only (at most 50)
+/// and says how to see the rest; `--all-cases` lists every case.
+#[test]
+fn a_large_run_lists_its_failing_cases_only_unless_asked() {
+    let dir = scratch("summary-rows");
+    let grid = std::fs::read_to_string(root().join("test-plans/grid-192.toml")).unwrap();
+    // A 5 ms exposure loses the LED at low duty: some cases fail.
+    let short_exposure = grid.replace("exposure-ms = 11.111", "exposure-ms = 5.0");
+    assert_ne!(short_exposure, grid);
+    let run = |name: &str, text: &str, extra: &[&str]| {
+        let plan = dir.join(format!("{name}.toml"));
+        std::fs::write(&plan, text).unwrap();
+        let mut args = vec!["plan", plan.to_str().unwrap(), "--out", name, "--no-db"];
+        args.extend_from_slice(extra);
+        let o = crate::ledflicker_in(&args, &dir);
+        let out = String::from_utf8(o.stdout).unwrap();
+        let rows: Vec<String> = out
+            .lines()
+            .filter(|l| l.contains("lux-"))
+            .map(str::to_string)
+            .collect();
+        (o.status.code(), rows, out)
+    };
+    let (code, rows, out) = run("pass", &grid, &[]);
+    assert_eq!(code, Some(0), "{out}");
+    assert!(rows.is_empty(), "{out}");
+    assert!(
+        out.contains("(192 cases not listed: every case is in summary.csv"),
+        "{out}"
+    );
+    let (_, rows, out) = run("pass-all", &grid, &["--all-cases"]);
+    assert_eq!(rows.len(), 192, "{out}");
+    assert!(!out.contains("not listed"), "{out}");
+    let (code, rows, out) = run("fail", &short_exposure, &[]);
+    assert_eq!(code, Some(1), "{out}");
+    assert!(!rows.is_empty() && rows.len() <= 50, "{}", rows.len());
+    assert!(
+        rows.iter()
+            .all(|r| r.split_whitespace().nth(1) == Some("fail")),
+        "{out}"
+    );
+    let fails = out
+        .lines()
+        .find_map(|l| l.strip_prefix("overall: FAIL ("))
+        .and_then(|l| l.split(" pass, ").nth(1))
+        .and_then(|l| l.split(' ').next())
+        .and_then(|n| n.parse::<usize>().ok())
+        .unwrap();
+    assert_eq!(rows.len(), fails.min(50), "{out}");
+    assert!(
+        out.contains(&format!("({} more cases not listed", 192 - rows.len())),
+        "{out}"
+    );
+}

@@ -75,7 +75,7 @@ fn a_beat_on_the_monitor_fails_visibility_max_in_every_export() {
         failure.contains("failed: fdi_2018_worst_phase, visibility"),
         "{junit}"
     );
-    let table = ledflicker::report::terminal::summary(&m, Path::new("out"));
+    let table = ledflicker::report::terminal::summary(&m, Path::new("out"), true);
     assert!(table.lines().next().unwrap().contains("Visible"), "{table}");
 }
 
@@ -90,7 +90,7 @@ fn without_a_display_no_visibility_appears_anywhere() {
     assert!(!json.contains("visib") && !json.contains("\"display\""));
     let csv = ledflicker::report::export::summary_csv(&m).unwrap();
     assert!(!csv.contains("visib"));
-    let table = ledflicker::report::terminal::summary(&m, Path::new("out"));
+    let table = ledflicker::report::terminal::summary(&m, Path::new("out"), true);
     assert!(!table.contains("Visible"));
 }
 
@@ -148,7 +148,7 @@ fn the_shipped_night_cms_plan_judges_visibility_in_every_case() {
         assert!((peak.unwrap() - 1.0).abs() < 0.3, "{beat}: peak {peak:?}");
     }
     assert_eq!(m.cases[0].verdict, Verdict::Pass, "{}", m.cases[0].id);
-    let table = ledflicker::report::terminal::summary(&m, Path::new("out"));
+    let table = ledflicker::report::terminal::summary(&m, Path::new("out"), true);
     let header = table.lines().next().unwrap();
     let col = header.find("Visible").expect("a Visible column");
     let rows: Vec<&str> = table.lines().filter(|l| l.starts_with("10lux-")).collect();

@@ -5,6 +5,7 @@
 //! Part of the report stage; a pure function of [`Results`] so that tests
 //! read exactly what a user sees.
 
+use std::borrow::Cow;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -109,8 +110,32 @@ pub fn overall_line(model: &Results) -> String {
     )
 }
 
+/// Most rows the summary table prints unless every case is asked for: a
+/// sweep's table belongs in summary.csv and the report, not the terminal.
+pub const LISTED_CASES: usize = 50;
+
+/// The cases the table lists: all of them up to [`LISTED_CASES`] (or with
+/// `all`); else the failing ones, at most [`LISTED_CASES`], and how many
+/// are left out.
+fn listed(model: &Results, all: bool) -> (Vec<Cow<'_, crate::model::CaseInfo>>, usize) {
+    if all || model.cases.len() <= LISTED_CASES {
+        return (model.cases.iter().collect(), 0);
+    }
+    let shown: Vec<_> = model
+        .cases
+        .iter()
+        .filter(|c| c.verdict == Verdict::Fail)
+        .take(LISTED_CASES)
+        .collect();
+    let left = model.cases.len() - shown.len();
+    (shown, left)
+}
+
 /// The whole summary: table, legend, overall line, basis and report paths.
-pub fn summary(model: &Results, out: &Path) -> String {
+/// A run of more than [`LISTED_CASES`] cases lists its failing cases only
+/// (at most that many), unless `all`.
+pub fn summary(model: &Results, out: &Path, all: bool) -> String {
+    let (cases, left_out) = listed(model, all);
     let id_w = model
         .cases
         .iter()
@@ -152,7 +177,7 @@ pub fn summary(model: &Results, out: &Path) -> String {
         let _ = write!(s, "  {h:>9}");
     }
     s.push_str("  criterion\n");
-    for c in &model.cases {
+    for c in cases.iter().map(|c| c.as_ref()) {
         let roi = c.worst_roi();
         let _ = write!(
             s,
@@ -166,6 +191,17 @@ pub fn summary(model: &Results, out: &Path) -> String {
             let _ = write!(s, "  {v:>9}");
         }
         let _ = writeln!(s, "  {}", criterion(&c, roi));
+    }
+    if left_out > 0 {
+        let what = if cases.is_empty() {
+            "cases"
+        } else {
+            "more cases"
+        };
+        let _ = writeln!(
+            s,
+            "({left_out} {what} not listed: every case is in summary.csv and the report; --all-cases lists them here)"
+        );
     }
     let _ = writeln!(s, "{LEGEND}");
     if visibility.is_some() {

@@ -54,7 +54,7 @@ impl ExitCode {
                 "every judged case passed and at least one was judged; verify: intact and every signer trusted; compare: no regression"
             }
             ExitCode::Fail => {
-                "some case failed or drifted beyond the golden tolerance; compare: a KPI regressed; verify: a mismatch or an untrusted signer"
+                "some case failed or drifted beyond the golden tolerance; compare: a KPI regressed; verify: a mismatch, an untrusted signer or an unsigned report"
             }
             ExitCode::Invalid => "invalid plan, input or usage",
             ExitCode::Internal => "internal or backend error",

@@ -124,14 +124,17 @@ fn locate(c: &Column, header: &[String], path: &Path, role: &str) -> Result<usiz
 }
 
 /// The time units a header may name, with their length in seconds.
-const TIME_UNITS: [(&str, f64); 7] = [
+const TIME_UNITS: [(&str, f64); 10] = [
     ("s", 1.0),
     ("sec", 1.0),
     ("ms", 1e-3),
+    ("msec", 1e-3),
     ("us", 1e-6),
     ("µs", 1e-6),
     ("μs", 1e-6),
+    ("usec", 1e-6),
     ("ns", 1e-9),
+    ("nsec", 1e-9),
 ];
 
 /// The unit a time column's header names, and its length in seconds:
@@ -155,7 +158,16 @@ fn time_unit(header: &str) -> Result<Option<(&'static str, f64)>, String> {
         .iter()
         .find(|(u, _)| named.eq_ignore_ascii_case(u))
     {
-        Some(&(unit, seconds)) => Ok(Some((if seconds == 1.0 { "s" } else { unit }, seconds))),
+        Some(&(unit, seconds)) => Ok(Some((
+            match unit {
+                "sec" => "s",
+                "msec" => "ms",
+                "usec" => "us",
+                "nsec" => "ns",
+                _ => unit,
+            },
+            seconds,
+        ))),
         None if bracketed.is_some() => Err(named.to_string()),
         None => Ok(None),
     }
@@ -191,11 +203,11 @@ fn header_unit(
     time_unit(name).map_err(|named| CaptureError::Invalid {
         path: path.to_path_buf(),
         message: format!(
-            "the time column {} names the unit {}, which is not a time unit",
+            "the time column {} names the unit {}, which is not one ledflicker reads",
             shown(name),
             shown(&named)
         ),
-        hint: "name the time column's unit as s, ms, us or ns (e.g. `Time (ms)`), or give the time in seconds".to_string(),
+        hint: "name the time column's unit as s, ms, us or ns (e.g. `Time (ms)`), or convert the time to seconds".to_string(),
     })
 }
 
@@ -367,6 +379,8 @@ mod tests {
             ("time_ns", Some(("ns", 1e-9))),
             ("Time/s", Some(("s", 1.0))),
             ("Time (sec)", Some(("s", 1.0))),
+            ("Time (msec)", Some(("ms", 1e-3))),
+            ("t [usec]", Some(("us", 1e-6))),
             ("Time", None),
             ("timestamps", None),
             ("time_since_start", None),
