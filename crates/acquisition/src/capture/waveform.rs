@@ -401,7 +401,7 @@ mod tests {
         assert!((w.start_s - 0.0).abs() < 1e-15);
         let e = read(&format!("Time (samples),V\n{ms}"), "1", "2").unwrap_err();
         assert!(
-            e.contains("not a time unit") && e.contains("samples"),
+            e.contains("not one ledflicker reads") && e.contains("samples"),
             "{e}"
         );
     }
