@@ -39,6 +39,7 @@ mod compare_report;
 mod endtoend;
 mod failure;
 mod light;
+mod manual;
 mod merge;
 pub(crate) mod output;
 mod plan;
@@ -160,8 +161,9 @@ enum Command {
     /// Print the manual page (roff), e.g. `ledflicker man | man -l -`, or
     /// a subcommand's page (`ledflicker man plan`, the page `ledflicker-plan(1)`).
     Man {
-        /// A subcommand; without it, the page of `ledflicker` itself.
-        subcommand: Option<String>,
+        /// A subcommand, and a subcommand of it (`rig check`); without
+        /// it, the page of `ledflicker` itself.
+        subcommand: Vec<String>,
     },
 }
 
@@ -200,26 +202,6 @@ pub fn main(version: &'static str) -> i32 {
     }
 }
 
-/// The man pages' EXIT STATUS, in roff, from [`ExitCode`] itself so that
-/// the page and the numbers cannot differ.
-fn exit_status_section() -> String {
-    let roff = |text: &str| text.replace('\\', "\\e").replace('-', "\\-");
-    let mut section = String::from(".SH \"EXIT STATUS\"\n");
-    for code in ExitCode::ALL {
-        section.push_str(&format!(
-            ".TP\n\\fB{}\\fR\n{}\n",
-            code.code(),
-            roff(code.meaning())
-        ));
-    }
-    let signal = ExitCode::Signal(2);
-    section.push_str(&format!(
-        ".TP\n\\fB130\\fR, \\fB143\\fR\n{}\n",
-        roff(signal.meaning())
-    ));
-    section
-}
-
 fn run(cli: Cli, version: &'static str) -> Result<ExitCode, Failure> {
     match cli.command {
         Command::Plan(args) => plan::run_plan(args),
@@ -252,27 +234,6 @@ fn run(cli: Cli, version: &'static str) -> Result<ExitCode, Failure> {
             );
             Ok(ExitCode::Pass)
         }
-        Command::Man { subcommand } => {
-            let mut cmd = command(version);
-            cmd.build();
-            let page = match subcommand {
-                None => cmd,
-                Some(name) => {
-                    let Some(sub) = cmd.find_subcommand(&name) else {
-                        let names: Vec<&str> =
-                            cmd.get_subcommands().map(|c| c.get_name()).collect();
-                        return Err(UsageError(format!(
-                            "no subcommand `{name}`\n    hint: one of {}",
-                            names.join(", ")
-                        ))
-                        .into());
-                    };
-                    sub.clone().name(format!("ledflicker-{name}"))
-                }
-            };
-            clap_mangen::Man::new(page).render(&mut output::Stdout)?;
-            std::io::Write::write_all(&mut output::Stdout, exit_status_section().as_bytes())?;
-            Ok(ExitCode::Pass)
-        }
+        Command::Man { subcommand } => manual::man(command(version), &subcommand),
     }
 }

@@ -814,3 +814,28 @@ fn readme_campaign_runs_as_written() {
         assert!(dir.join("reports/compare/comparison.pdf").is_file());
     }
 }
+
+/// The history page counts runs in words that fit one run, and says when
+/// a camera's runs carry no firmware instead of printing an empty list.
+#[test]
+fn the_history_page_names_one_run_and_missing_firmware_in_words() {
+    let dir = scratch("history-words");
+    let shipped = std::fs::read_to_string(root().join("test-plans/daylight.toml")).unwrap();
+    let no_firmware: String = shipped
+        .lines()
+        .filter(|l| !l.starts_with("firmware"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert_ne!(no_firmware, shipped);
+    std::fs::write(dir.join("p.toml"), no_firmware).unwrap();
+    let o = plan(&dir, &dir.join("p.toml"), "r", &["--db", "h.sqlite"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = run(&dir, &["history", "--db", "h.sqlite", "--html", "h.html"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let html = std::fs::read_to_string(dir.join("h.html")).unwrap();
+    assert!(html.contains("(1 run; no firmware recorded)"), "{html}");
+    assert!(
+        !html.contains("1 runs") && !html.contains("firmware )"),
+        "{html}"
+    );
+}

@@ -933,6 +933,7 @@ fn common_slips_are_refused_with_the_fix() {
     std::fs::write(dir.join("bench.toml"), &bench.stdout).unwrap();
     // Port 1 on the loopback: nothing listens there.
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_ledflicker"))
+        .env("LEDFLICKER_DB", super::test_db())
         .args(["rig", "check", "bench.toml"])
         .current_dir(&dir)
         .env("LEDFLICKER_SOURCE_ADDRESS", "127.0.0.1:1")
