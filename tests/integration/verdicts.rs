@@ -605,8 +605,20 @@ fn a_large_run_lists_its_failing_cases_only_unless_asked() {
         .and_then(|n| n.parse::<usize>().ok())
         .unwrap();
     assert_eq!(rows.len(), fails.min(50), "{out}");
+    // 32 fail at 5 ms, all listed: no "of them failing".
     assert!(
-        out.contains(&format!("({} more cases not listed", 192 - rows.len())),
+        out.contains(&format!(
+            "({} more cases not listed: every case",
+            192 - rows.len()
+        )),
         "{out}"
     );
+    // At 1 ms more than 50 cases fail: the line says how many of those
+    // left out fail too.
+    let many = grid.replace("exposure-ms = 11.111", "exposure-ms = 1.0");
+    let (code, rows, out) = run("many", &many, &[]);
+    assert_eq!(code, Some(1), "{out}");
+    assert_eq!(rows.len(), 50, "{out}");
+    assert!(out.contains("(142 more cases not listed, "), "{out}");
+    assert!(out.contains(" of them failing: every case"), "{out}");
 }

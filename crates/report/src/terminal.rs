@@ -198,9 +198,16 @@ pub fn summary(model: &Results, out: &Path, all: bool) -> String {
         } else {
             "more cases"
         };
+        // Failing cases beyond the first LISTED_CASES are among them; say
+        // so, or a reader takes the listed failures for all of them.
+        let failing = model.counts.fail.saturating_sub(cases.len());
+        let of_which = match failing {
+            0 => String::new(),
+            n => format!(", {n} of them failing"),
+        };
         let _ = writeln!(
             s,
-            "({left_out} {what} not listed: every case is in summary.csv and the report; --all-cases lists them here)"
+            "({left_out} {what} not listed{of_which}: every case is in summary.csv and the report; --all-cases lists them here)"
         );
     }
     let _ = writeln!(s, "{LEGEND}");
