@@ -311,7 +311,7 @@ mod tests {
                 assert!(page.contains(section), "`{path}` lacks {section}");
             }
             let examples = &page[page.find(".SH EXAMPLES").unwrap()..];
-            let head = roff(&format!("ledflicker {path}").trim().to_string());
+            let head = roff(format!("ledflicker {path}").trim());
             assert!(
                 examples.contains(&head),
                 "`{path}` has no example of itself: {examples}"

@@ -182,7 +182,7 @@ pub fn summary(model: &Results, out: &Path, all: bool) -> String {
         let _ = write!(
             s,
             "{:<id_w$}  {:<7}  {:<roi_w$}",
-            format!("{}{}", c.id, if detected(&c) { "*" } else { "" }),
+            format!("{}{}", c.id, if detected(c) { "*" } else { "" }),
             c.verdict.as_str(),
             roi.map_or("-", |r| r.name.as_str())
         );
@@ -190,7 +190,7 @@ pub fn summary(model: &Results, out: &Path, all: bool) -> String {
             let v = roi.map_or("n/a".to_string(), |r| cell(r, name, digits));
             let _ = write!(s, "  {v:>9}");
         }
-        let _ = writeln!(s, "  {}", criterion(&c, roi));
+        let _ = writeln!(s, "  {}", criterion(c, roi));
     }
     if left_out > 0 {
         let what = if cases.is_empty() {
