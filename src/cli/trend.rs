@@ -164,12 +164,20 @@ fn chart(kpi: &str, points: &[TrendPoint]) -> Result<String, Failure> {
     }
     let labels: Vec<String> = runs.into_iter().map(|r| r.1).collect();
     let name = crate::model::human_name(kpi);
+    // Each limit the KPI was judged against, once (a plan may have moved
+    // it between runs).
+    let mut limits: Vec<(f64, String)> = Vec::new();
+    for (op, threshold) in points.iter().filter_map(|p| p.limit.as_ref()) {
+        if !limits.iter().any(|l| l.0 == *threshold) {
+            limits.push((*threshold, format!("limit {op} {threshold}")));
+        }
+    }
     crate::report::charts::trend_svg(
         &format!("{name} over the runs"),
-        "firmware, oldest run first",
-        name,
+        ("firmware, oldest run first", name),
         &labels,
         &series,
+        &limits,
     )
     .map_err(|e| crate::report::ReportError::from(e).into())
 }

@@ -18,6 +18,7 @@ mod colour_captured;
 mod colour_dies;
 mod compare_gate;
 mod conditions;
+mod customer;
 mod detect;
 mod estimate;
 mod exact;

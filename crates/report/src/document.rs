@@ -138,6 +138,10 @@ pub struct Document {
 /// spectrum's reason and the phase-coverage warning), so not as caveats.
 const SHOWN_IN_CASE_TABLE: [&str; 2] = ["apparent_frequency_spectrum_hz", "phase_coverage"];
 
+/// The caveat of an FDI (2018) that is +∞, said once for all the ROIs of a
+/// case that have it.
+const UNBOUNDED_FDI: &str = "L_OFF = 0 (dark OFF reference): the contrast is unbounded (+∞), so the light never appears OFF";
+
 impl Document {
     /// Builds the document of a finished run: draws every chart and frame
     /// view and adds the `report` metadata (date, inputs, notes) to the
@@ -324,9 +328,10 @@ impl Document {
 
     /// Per listed case, its caveats (metric values undefined or qualified), each
     /// text once, metrics by their names for people:
-    /// `"led, background / FDI (Deegan 2018): <why>"`. An LED ROI's
-    /// reasons in [`SHOWN_IN_CASE_TABLE`] are left out: the case table's
-    /// "Apparent flicker" and "Phase coverage" rows print them.
+    /// `"led, background / FDI (Deegan 2018): <why>"`. Reasons in
+    /// [`SHOWN_IN_CASE_TABLE`] are left out: the case table's "Apparent
+    /// flicker" and "Phase coverage" rows print an LED ROI's, and a
+    /// background ROI is flat by design.
     pub fn caveats(&self) -> BTreeMap<String, Vec<String>> {
         let mut out = BTreeMap::new();
         let listing = self.listing();
@@ -334,11 +339,19 @@ impl Document {
             // Reason text -> (ROIs, metrics), in order of first appearance.
             let mut seen: Vec<(&str, Vec<&str>, Vec<&str>)> = Vec::new();
             for roi in &c.rois {
-                let led = roi.kind == RoiKind::Led;
                 for (metric, why) in &roi.reasons {
-                    if led && SHOWN_IN_CASE_TABLE.contains(&metric.as_str()) {
+                    // An LED ROI's table prints these; a background ROI is
+                    // flat by design, so its "no flicker to measure" is expected.
+                    if SHOWN_IN_CASE_TABLE.contains(&metric.as_str()) {
                         continue;
                     }
+                    // Each ROI's unbounded FDI names its own minimum luma;
+                    // the table shows +∞, so one line serves every ROI.
+                    let why: &str = if roi.is_unbounded(metric) {
+                        UNBOUNDED_FDI
+                    } else {
+                        why
+                    };
                     let at = match seen.iter().position(|(w, _, _)| *w == why) {
                         Some(i) => i,
                         None => {

@@ -100,10 +100,10 @@ pub fn html(view: &HistoryView) -> Result<String, ReportError> {
     for c in &view.charts {
         let svg = trend_svg(
             &c.title,
-            "firmware, oldest run first",
-            &c.y_desc,
+            ("firmware, oldest run first", &c.y_desc),
             &c.labels,
             &c.series,
+            &[],
         )?;
         charts.push(minijinja::context! {
             title => c.title.clone(),

@@ -378,18 +378,18 @@ fn draw_eq1(area: &Area<'_>, grid: &Grid, eq1: &Eq1) -> Result<(), String> {
     let lines = if eq1.any_off() {
         [
             format!(
-                "Eq. (1), T_exp = {} ms: below and left of the line",
+                "Eq. (1) at the {} ms exposure: below and left of the line",
                 crate::util::fixed(exposure_ms, 3)
             ),
-            "T_exp < (1 \u{2212} D) / f, the LED can appear OFF".to_string(),
+            "exposure < (1 \u{2212} D) / f, the LED can appear OFF".to_string(),
         ]
     } else {
         [
             format!(
-                "Eq. (1), T_exp = {} ms:",
+                "Eq. (1) at the {} ms exposure:",
                 crate::util::fixed(exposure_ms, 3)
             ),
-            "no cell has T_exp < (1 \u{2212} D) / f".to_string(),
+            "no cell has exposure < (1 \u{2212} D) / f".to_string(),
         ]
     };
     for (k, text) in lines.into_iter().enumerate() {
@@ -531,7 +531,9 @@ fn draw_matrix(
         }
         draw_axes(&root, &grid, freqs, duties).map_err(|e| err(&e))?;
         draw_colour_bar(&root, &grid, kind, title, th).map_err(|e| err(&e))?;
-        if let Some(eq1) = &plane.eq1 {
+        // Eq. (1) is about the camera's exposure; the monitor's
+        // visibility is another question.
+        if let Some(eq1) = plane.eq1.as_ref().filter(|_| kind != Shown::Visibility) {
             draw_eq1(&root, &grid, eq1).map_err(|e| err(&e))?;
         }
         root.present().map_err(|e| err(&e))?;

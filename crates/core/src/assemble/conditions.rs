@@ -152,7 +152,8 @@ fn sequence_text(
                 )
             };
             let mut t = match s.frames {
-                Some((a, b)) => format!("{name} frames {a}..{b} ({seconds})"),
+                // Frame numbers as a reader counts them: first and last, inclusive.
+                Some((a, b)) => format!("{name} frames {a}-{} ({seconds})", b.max(a + 1) - 1),
                 None => format!(
                     "{name} {} frames from frame {} ({seconds}; each case's page gives its own)",
                     s.frame_count.text(0, "").trim_end(),

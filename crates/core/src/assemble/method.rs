@@ -2,7 +2,7 @@
 //! the report's notes), from the plan and the assembled model.
 
 use crate::model::method::Method;
-use crate::model::{BackendName, CaseInfo, Results, Verdict};
+use crate::model::{BackendName, CaseInfo, Results, RoiKind, Verdict};
 use crate::plan::SegmentFrames;
 use crate::plan::{BackendKind, Limits, Plan, ShutterKind, Thresholds, VerdictBasis};
 
@@ -96,12 +96,12 @@ pub fn method(plan: &Plan) -> Method {
                 .map(|c| c.argv.join(" "))
                 .unwrap_or_default();
             format!(
-                "Frames come from the lab rig: for each case ledflicker runs `{argv}` with the case's light level, PWM frequency and duty cycle, then reads the frames it leaves (docs/command-backend.md). Each case's text gives the segments and the frames used."
+                "Frames come from the lab rig: for each case ledflicker runs `{argv}` with the case's light level, PWM frequency and duty cycle, then reads the frames it leaves. Each case's text gives the segments and the frames used."
             )
         }
     };
     let verdict_basis = match basis {
-        VerdictBasis::WorstPhase => format!("Verdicts on FDI (2018) and Percent Flicker use the worst case over PWM phase, computed by the simulator{}; the IEEE P2020 KPIs (FMI, FDI, MMP) count frames and are judged on the trace as simulated.", physical_worst_case_words(plan)),
+        VerdictBasis::WorstPhase => worst_phase_basis(plan),
         VerdictBasis::AsCaptured if plan.dut.backend == BackendKind::Simulator => "Verdicts use the trace as simulated, at the plan's PWM phase (basis = \"as-captured\"); the worst case over phase is reported but not judged.".to_string(),
         VerdictBasis::AsCaptured => "Verdicts use the trace as captured: a recording shows only the PWM phases it caught, so there is no worst case over phase.".to_string(),
     };
@@ -111,6 +111,50 @@ pub fn method(plan: &Plan) -> Method {
         verdict_basis,
         limits: limits_lines(&plan.thresholds),
     }
+}
+
+/// The basis sentence of a simulated run judged on the worst case over
+/// phase: it names only the metrics that some limit of the plan judges, so
+/// that a plan judged on visibility does not read as judged on Percent
+/// Flicker.
+fn worst_phase_basis(plan: &Plan) -> String {
+    let t = &plan.thresholds;
+    let every = std::iter::once(t.global())
+        .chain(t.light_levels.iter().map(|l| l.limits.over(t.global())))
+        .collect::<Vec<Limits>>();
+    let limited = |f: fn(&Limits) -> bool| every.iter().any(f);
+    let phase: Vec<&str> = [
+        (limited(|l| l.fdi_2018_min.is_some()), "FDI (2018)"),
+        (
+            limited(|l| l.percent_flicker_max.is_some()),
+            "Percent Flicker",
+        ),
+    ]
+    .into_iter()
+    .filter_map(|(on, name)| on.then_some(name))
+    .collect();
+    let how = physical_worst_case_words(plan);
+    let mut out = if phase.is_empty() {
+        format!(
+            "The worst case over PWM phase of FDI (2018) and Percent Flicker is computed by the simulator{how} and reported, not judged"
+        )
+    } else {
+        format!(
+            "Verdicts on {} use the worst case over PWM phase, computed by the simulator{how}",
+            phase.join(" and ")
+        )
+    };
+    let p2020 =
+        limited(|l| l.fmi_max.is_some() || l.fdi_p2020_min.is_some() || l.mmp_min.is_some());
+    out += if p2020 {
+        "; the IEEE P2020 KPIs (FMI, FDI, MMP) count frames and are judged on the trace as simulated"
+    } else {
+        "; the IEEE P2020 KPIs (FMI, FDI, MMP) count frames and are reported on the trace as simulated"
+    };
+    if limited(|l| l.visibility_max.is_some()) {
+        out += "; the visibility index is judged on the monitor's luminance of the trace as simulated, at the plan's PWM phase";
+    }
+    out + "."
 }
 
 /// How a physical camera's worst case over phase is found
@@ -215,9 +259,8 @@ pub fn notes(model: &Results, plan: &Plan) -> Vec<String> {
             "ideal"
         };
         out.push(format!(
-            "Frames come from the {which} camera simulator (backend {}), not from a captured device; \
-             the DUT fields name the camera being modelled.",
-            model.dut.backend
+            "Frames come from the {which} camera simulator, not from a captured device; \
+             the DUT fields name the camera being modelled."
         ));
     }
     // Saturated ROIs and undefined metrics in one pass over the cases.
@@ -229,11 +272,19 @@ pub fn notes(model: &Results, plan: &Plan) -> Vec<String> {
             saturated += 1;
             saturated_example.get_or_insert_with(|| c.id.clone());
         }
-        for r in &c.rois {
+        // A background ROI is flat by design: its undefined spectrum and
+        // contrast are expected, not a caveat on the result.
+        for r in c.rois.iter().filter(|r| r.kind == RoiKind::Led) {
             for (metric, reason) in &r.reasons {
                 undefined += 1;
-                example
-                    .get_or_insert_with(|| format!("{} / {} / {metric}: {reason}", c.id, r.name));
+                example.get_or_insert_with(|| {
+                    format!(
+                        "{} / {} / {}: {reason}",
+                        c.id,
+                        r.name,
+                        crate::metrics::human_name(metric)
+                    )
+                });
             }
         }
     }
@@ -244,7 +295,7 @@ pub fn notes(model: &Results, plan: &Plan) -> Vec<String> {
     }
     if let Some(example) = example {
         out.push(format!(
-            "{undefined} metric value(s) are undefined or carry a caveat, e.g. {example}."
+            "{undefined} metric value(s) of LED ROIs are undefined or carry a caveat, e.g. {example}."
         ));
     }
     if model.counts.info > 0 {
@@ -290,7 +341,7 @@ mod tests {
             model
                 .notes
                 .iter()
-                .any(|n| n.contains("the ideal camera simulator (backend sim-ideal)")),
+                .any(|n| n.contains("the ideal camera simulator, not from a captured device")),
             "{:?}",
             model.notes
         );

@@ -185,6 +185,9 @@ pub struct TrendPoint {
     pub metric: String,
     /// Its value; `None`: undefined in that run.
     pub value: Option<f64>,
+    /// The limit it was judged against in that run (`">="` or `"<="`
+    /// and the threshold); `None`: not judged.
+    pub limit: Option<(String, f64)>,
 }
 
 /// Every KPI name the database holds a value of, in order: what `trend
@@ -221,9 +224,12 @@ pub fn trend(
     }
     let mut points = db.query_map(
         &format!(
-            "SELECT r.id, r.date, r.plan_id, r.model, r.serial, r.firmware, c.id, m.roi, m.metric, m.value, c.idx \
+            "SELECT r.id, r.date, r.plan_id, r.model, r.serial, r.firmware, c.id, m.roi, m.metric, m.value, c.idx, \
+             k.comparison, k.threshold \
              FROM metrics m JOIN cases c ON c.run_id = m.run_id AND c.idx = m.idx \
-             JOIN runs r ON r.id = m.run_id{} ORDER BY r.id, c.idx, m.roi",
+             JOIN runs r ON r.id = m.run_id \
+             LEFT JOIN checks k ON k.run_id = m.run_id AND k.idx = m.idx AND k.roi = m.roi AND k.metric = m.metric\
+             {} ORDER BY r.id, c.idx, m.roi",
             terms.concat()
         ),
         &texts(values),
@@ -239,6 +245,10 @@ pub fn trend(
                 roi: r.get(7)?,
                 metric: r.get(8)?,
                 value: r.get(9)?,
+                limit: match (r.get::<Option<String>>(11)?, r.get::<Option<f64>>(12)?) {
+                    (Some(op), Some(threshold)) => Some((op, threshold)),
+                    _ => None,
+                },
             };
             Ok((r.get::<i64>(10)?, point))
         },

@@ -97,7 +97,7 @@ pub fn evaluate(luma: &[f64], segments: &[Segment], opts: &P2020Options) -> Opti
                 value: Some(share),
                 unbounded: false,
                 reason: Some(
-                    "x_off = 0 (dark OFF reference): every frame with light has unbounded contrast; FDI is the share of PWM frames with luma > 0 (the limit x_off -> 0+)"
+                    "dark OFF reference (level 0): every frame with light has unbounded contrast; FDI is the share of PWM frames with luma > 0 (its limit as the OFF reference falls to 0)"
                         .to_string(),
                 ),
             }
@@ -169,7 +169,7 @@ mod tests {
         let luma = [0.0, 0.0, 0.0, 5.0, 0.0, 7.0];
         let m = evaluate(&luma, &seg(2, 0, 4), &P2020Options::default()).unwrap();
         assert_eq!(m.fdi.value, Some(0.5));
-        assert!(m.fdi.reason.unwrap().contains("x_off = 0"));
+        assert!(m.fdi.reason.unwrap().contains("dark OFF reference (level 0)"));
         let dark = evaluate(&[0.0, 0.0, 0.0], &seg(1, 0, 2), &P2020Options::default()).unwrap();
         assert_eq!(dark.fmi.value, None);
         assert_eq!(dark.mmp.value, None);

@@ -14,37 +14,49 @@ pub type TrendSeries = (String, Vec<Option<f64>>);
 /// grey, unnamed, so a plan of many cases still reads.
 const NAMED: usize = 6;
 
+/// A limit of the plotted KPI, drawn as a dashed line across the runs:
+/// its value and its legend (`"limit >= 0.1"`).
+pub type TrendLimit = (f64, String);
+
+/// Width of the legend column right of the plot, pixels: the legend never
+/// covers a value.
+const LEGEND_W: u32 = 200;
+
 /// The chart as SVG, 760 x 380 px: `labels` along x (one a run, the axis
-/// described by `x_desc`), `series` as lines with a dot at each value.
+/// described by `x_desc`), `series` as lines with a dot at each value,
+/// each of `limits` as a dashed line; the legend is right of the plot.
 pub fn trend_svg(
     title: &str,
-    x_desc: &str,
-    y_desc: &str,
+    (x_desc, y_desc): (&str, &str),
     labels: &[String],
     series: &[TrendSeries],
+    limits: &[TrendLimit],
 ) -> Result<String, ChartError> {
     let err = |e: &dyn std::fmt::Display| ChartError {
         chart: format!("trend {title}"),
         message: e.to_string(),
     };
-    let values = series.iter().flat_map(|s| s.1.iter().flatten().copied());
+    let values = series
+        .iter()
+        .flat_map(|s| s.1.iter().flatten().copied())
+        .chain(limits.iter().map(|l| l.0));
     let (lo, hi) = values
         .filter(|v| v.is_finite())
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
             (a.min(v), b.max(v))
         });
-    // The top quarter is left free for the legend.
     let (lo, hi) = if lo.is_finite() {
         let pad = ((hi - lo) * 0.08).max(1e-3 * hi.abs().max(1.0));
-        (lo - pad, hi + (hi - lo + pad) * 0.35)
+        (lo - pad, hi + pad)
     } else {
         (0.0, 1.0)
     };
     let n = labels.len().max(1);
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (760, 380)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let canvas = SVGBackend::with_string(&mut svg, (760, 380)).into_drawing_area();
+        canvas.fill(&WHITE).map_err(|e| err(&e))?;
+        let (root, legend) = canvas.split_horizontally(760 - LEGEND_W);
         let mut c = ChartBuilder::on(&root)
             .margin(10)
             .caption(title, (FONT, FONT_FULL_WIDTH + 2))
@@ -75,6 +87,20 @@ pub fn trend_svg(
             root.draw(&Text::new(label.clone(), (x, y + 6), style.clone()))
                 .map_err(|e| err(&e))?;
         }
+        let dashed = |colour: RGBColor, (x0, x1): (f64, f64), y: f64| {
+            // plotters' SVG has no dash style: short segments.
+            let step = (x1 - x0) / 60.0;
+            (0..30).map(move |i| {
+                let a = x0 + 2.0 * i as f64 * step;
+                PathElement::new([(a, y), (a + step, y)], colour.stroke_width(2))
+            })
+        };
+        let limit_colour = RGBColor(180, 30, 30);
+        for l in limits {
+            c.draw_series(dashed(limit_colour, (-0.5, n as f64 - 0.5), l.0))
+                .map_err(|e| err(&e))?;
+        }
+        let mut entries: Vec<(String, RGBColor, bool)> = Vec::new();
         for (k, (name, values)) in series.iter().enumerate().rev() {
             let colour = if k < NAMED {
                 SERIES_COLOURS[k % SERIES_COLOURS.len()]
@@ -90,28 +116,47 @@ pub fn trend_svg(
                 }
             }
             for (j, run) in runs.into_iter().filter(|r| !r.is_empty()).enumerate() {
-                let drawn = c
-                    .draw_series(LineSeries::new(run.clone(), colour.stroke_width(2)))
+                c.draw_series(LineSeries::new(run.clone(), colour.stroke_width(2)))
                     .map_err(|e| err(&e))?;
                 if k < NAMED && j == 0 {
-                    drawn.label(name.as_str()).legend(move |(x, y)| {
-                        PathElement::new([(x, y), (x + 18, y)], colour.stroke_width(2))
-                    });
+                    entries.push((name.clone(), colour, false));
                 }
                 c.draw_series(run.into_iter().map(|p| Circle::new(p, 3, colour.filled())))
                     .map_err(|e| err(&e))?;
             }
         }
-        c.configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .label_font((FONT, FONT_FULL_WIDTH))
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(200, 200, 200))
-            .draw()
-            .map_err(|e| err(&e))?;
-        root.present().map_err(|e| err(&e))?;
+        entries.reverse();
+        entries.extend(limits.iter().map(|l| (l.1.clone(), limit_colour, true)));
+        draw_legend(&legend, entries).map_err(|e| err(&e))?;
+        canvas.present().map_err(|e| err(&e))?;
     }
     Ok(svg)
+}
+
+/// The legend column: each entry's line (dashed for a limit) and name,
+/// one under the other.
+fn draw_legend<DB: DrawingBackend>(
+    legend: &DrawingArea<DB, plotters::coord::Shift>,
+    entries: Vec<(String, RGBColor, bool)>,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let text = TextStyle::from((FONT, FONT_FULL_WIDTH).into_font());
+    for (i, (name, colour, limit)) in entries.into_iter().enumerate() {
+        let y = 40 + 18 * i as i32;
+        let line = if limit {
+            PathElement::new([(8, y), (14, y)], colour.stroke_width(2))
+        } else {
+            PathElement::new([(8, y), (26, y)], colour.stroke_width(2))
+        };
+        legend.draw(&line)?;
+        if limit {
+            legend.draw(&PathElement::new(
+                [(20, y), (26, y)],
+                colour.stroke_width(2),
+            ))?;
+        }
+        legend.draw(&Text::new(name, (32, y - 6), text.clone()))?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -128,11 +173,28 @@ mod tests {
             ),
             ("case-b".to_string(), vec![Some(0.5); 5]),
         ];
-        let svg = trend_svg("FDI over firmware", "firmware", "FDI", &labels, &series).unwrap();
+        let limits = [(0.1, "limit >= 0.1".to_string())];
+        let svg = trend_svg(
+            "FDI over firmware",
+            ("firmware", "FDI"),
+            &labels,
+            &series,
+            &limits,
+        )
+        .unwrap();
         for l in &labels {
             assert!(svg.contains(&format!("\n{l}\n")), "no label {l}");
         }
         assert!(svg.contains("\ncase-a\n") && svg.contains("\ncase-b\n"));
+        // The legend is right of the plot, never over a value.
+        for name in ["case-a", "case-b", "limit &gt;= 0.1"] {
+            let at = svg
+                .find(&format!("\n{name}\n"))
+                .unwrap_or_else(|| panic!("no legend {name}: {svg}"));
+            let tag = &svg[svg[..at].rfind("<text x=\"").unwrap() + 9..];
+            let x: f64 = tag[..tag.find('"').unwrap()].parse().unwrap();
+            assert!(x >= f64::from(760 - LEGEND_W), "{name} at x = {x}");
+        }
         // Nine dots: four of case-a (one gap), five of case-b.
         assert_eq!(svg.matches("<circle").count(), 9, "{svg}");
     }
@@ -141,7 +203,7 @@ mod tests {
     fn many_runs_get_a_label_every_few_runs() {
         let labels: Vec<String> = (0..60).map(|i| format!("r{i}")).collect();
         let series = vec![("x".to_string(), vec![Some(1.0); 60])];
-        let svg = trend_svg("t", "run", "y", &labels, &series).unwrap();
+        let svg = trend_svg("t", ("run", "y"), &labels, &series, &[]).unwrap();
         // Every eighth run.
         assert!(svg.contains("\nr0\n") && svg.contains("\nr8\n"), "{svg}");
         assert!(!svg.contains("\nr4\n"));

@@ -37,7 +37,7 @@ pub struct PlaneCell {
     pub frequency_hz: f64,
     /// The case's duty cycle, 0..1.
     pub duty: f64,
-    /// The case's verdict.
+    /// The case's verdict on the plane's metric ([`metric_verdict`]).
     pub verdict: Verdict,
     /// The plane's metric ([`shown_value`]).
     pub value: Option<f64>,
@@ -59,6 +59,27 @@ pub fn shown_value(case: &CaseInfo, metric: &str) -> (Option<f64>, bool) {
     };
     let unbounded = roi.contrast_unbounded && metric.starts_with("fdi");
     (roi.metrics.get(metric).copied().flatten(), unbounded)
+}
+
+/// The verdict a matrix of `metric` marks in a case: the case's verdict
+/// on that metric alone (fail when one of its checks fails, pass when all
+/// of them pass), so that a case failing on another metric is not marked
+/// failed in a cell whose value meets its limit. A case not judged stays
+/// info; a case with no check of `metric` shows its own verdict.
+pub fn metric_verdict(case: &CaseInfo, metric: &str) -> Verdict {
+    let family = |m: &str| m.trim_end_matches("_worst_phase").to_string();
+    let mine: Vec<bool> = case
+        .checks
+        .iter()
+        .filter(|c| family(&c.metric) == family(metric))
+        .map(|c| c.pass)
+        .collect();
+    match case.verdict {
+        Verdict::Info => Verdict::Info,
+        _ if mine.is_empty() => case.verdict,
+        _ if mine.iter().all(|&p| p) => Verdict::Pass,
+        _ => Verdict::Fail,
+    }
 }
 
 /// Deegan 2018 Eq. (1) on a plane: an exposure `T_exp` can fall entirely
@@ -137,7 +158,7 @@ impl Results {
                     row: 0,
                     frequency_hz: case.frequency_hz,
                     duty: case.duty,
-                    verdict: case.verdict,
+                    verdict: metric_verdict(&case, metric),
                     value,
                     unbounded,
                 };

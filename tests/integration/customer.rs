@@ -1,0 +1,195 @@
+//! The customer's document speaks the customer's language: the PDF of five
+//! shipped plans of different kinds (daylight, low light, a monitor at
+//! night, colour, captured video) carries no command line, flag, backend
+//! id, path of the tool's docs, code notation or results.json id outside
+//! the glossary and the environment (the machine-readable parts), and no
+//! caveat line is printed over and over.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::Command;
+
+use crate::{ledflicker, scratch, text};
+
+/// The plans, and the exit code each gives (1: some case fails).
+const PLANS: [(&str, i32); 5] = [
+    ("daylight", 0),
+    ("lowlight", 0),
+    ("cms-night", 1),
+    ("rgb-signal", 1),
+    ("p2020-samples", 1),
+];
+
+/// Text of page `k` (1-based) of `pdf`.
+fn page_text(pdf: &Path, k: usize) -> Option<String> {
+    let k = k.to_string();
+    let o = Command::new("pdftotext")
+        .args(["-f", &k, "-l", &k, "-layout"])
+        .arg(pdf)
+        .arg("-")
+        .output()
+        .expect("pdftotext (poppler-utils) runs");
+    o.status
+        .success()
+        .then(|| String::from_utf8_lossy(&o.stdout).into_owned())
+}
+
+/// Every page's text, until pdftotext finds no more pages.
+fn pages(pdf: &Path) -> Vec<String> {
+    (1..).map_while(|k| page_text(pdf, k)).take(200).collect()
+}
+
+/// Whether `line` is the heading `title` (numbered, as the PDF sets it;
+/// the contents' lines end in dot leaders and a page number).
+fn is_heading(line: &str, title: &str) -> bool {
+    line.trim()
+        .trim_start_matches(|c: char| c.is_ascii_digit() || c == '.' || c == ' ')
+        == title
+}
+
+/// The part of `page` a reader is shown in prose: all of it but the
+/// glossary and the environment (the machine-readable parts).
+fn prose(page: &str) -> String {
+    if page.lines().any(|l| is_heading(l, "Glossary of metrics")) {
+        return String::new();
+    }
+    page.lines()
+        .take_while(|l| !is_heading(l, "Environment"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// What the reader must not meet, as (what, why) for each line of `page`
+/// that has it; `names` are the plan's own names (case ids, ROI names),
+/// which may look like ids.
+fn internals(page: &str, names: &[String]) -> Vec<String> {
+    let mut found = Vec::new();
+    for line in page.lines() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let flag = words.iter().any(|w| {
+            w.strip_prefix("--")
+                .is_some_and(|f| f.chars().next().is_some_and(|c| c.is_ascii_lowercase()))
+        });
+        let command = words.windows(2).any(|w| {
+            w[0] == "ledflicker"
+                && [
+                    "plan", "sign", "verify", "advise", "compare", "merge", "render", "export",
+                ]
+                .contains(&w[1])
+        });
+        // A results.json id: lower-case words joined by '_' (file names
+        // such as traces/2000lux-50hz-5pct.csv use '-').
+        let id = words.iter().any(|w| {
+            let w = w.trim_matches(|c: char| !c.is_ascii_alphanumeric() && c != '_');
+            w.contains('_')
+                && !names.iter().any(|n| n == w)
+                && w.split('_').all(|p| {
+                    !p.is_empty()
+                        && p.chars()
+                            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit())
+                })
+        });
+        let checks = [
+            (flag, "a command-line flag"),
+            (command, "a command line"),
+            (id, "a results.json id"),
+            (
+                line.contains("sim-ideal") || line.contains("sim-physical"),
+                "a backend id",
+            ),
+            (line.contains("docs/"), "a path of the tool's docs"),
+            (
+                line.contains("T_exp") || line.contains("x_off ->"),
+                "code notation",
+            ),
+        ];
+        for (hit, what) in checks {
+            if hit {
+                found.push(format!("{what}: {}", line.trim()));
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn shipped_reports_show_no_tool_internals_and_no_repeated_caveat() {
+    let dir = scratch("customer");
+    let mut failures = Vec::new();
+    for (plan, code) in PLANS {
+        let out = dir.join(plan);
+        let o = ledflicker(&[
+            "plan",
+            plan,
+            "--out",
+            out.to_str().unwrap(),
+            "--date",
+            "2026-01-15",
+            "-q",
+        ]);
+        assert_eq!(o.status.code(), Some(code), "{plan}: {}", text(&o));
+        let results: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+        let mut names: Vec<String> = Vec::new();
+        for c in results["cases"].as_array().unwrap() {
+            names.push(c["id"].as_str().unwrap().to_string());
+            for r in c["rois"].as_array().unwrap() {
+                names.push(r["name"].as_str().unwrap().to_string());
+            }
+        }
+        let pages = pages(&out.join("report.pdf"));
+        assert!(pages.len() >= 5, "{plan}: {} pages", pages.len());
+        let mut lines: BTreeMap<String, usize> = BTreeMap::new();
+        for (k, page) in pages.iter().enumerate() {
+            let page = prose(page);
+            for hit in internals(&page, &names) {
+                failures.push(format!("{plan} p{}: {hit}", k + 1));
+            }
+            // Sentences only: a table's rows may repeat.
+            let sentence = |l: &&str| {
+                l.split_whitespace()
+                    .filter(|w| w.chars().all(char::is_alphabetic))
+                    .count()
+                    >= 6
+            };
+            for line in page.lines().map(str::trim).filter(sentence) {
+                *lines.entry(line.to_string()).or_default() += 1;
+            }
+        }
+        // A long sentence printed on many pages is a caveat of a whole
+        // class said per ROI or per case.
+        for (line, n) in lines.iter().filter(|(_, n)| **n > 8) {
+            failures.push(format!("{plan}: printed {n} times: {line}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn the_check_finds_what_it_looks_for() {
+    // Each planted line is found; plain prose and report file names are not.
+    for bad in [
+        "Sign it with ledflicker sign DIR --key FILE",
+        "the full report: --detail full",
+        "fdi_2018_worst_phase = 0.0000",
+        "Frames come from the ideal camera simulator (backend sim-ideal)",
+        "see docs/campaigns.md",
+        "Eq. (1), T_exp = 11.111 ms",
+        "the limit x_off -> 0+",
+    ] {
+        assert!(!internals(bad, &[]).is_empty(), "{bad}");
+    }
+    for good in [
+        "Trace: traces/2000lux-50hz-5pct.csv (180 frames)",
+        "FDI (Deegan 2018), worst phase 0.873 — 10 % duty",
+        "Plan daylight, 2026-01-15",
+        "Figure 1: ROIs on frame 471 of case test_vid1",
+    ] {
+        let names = ["test_vid1".to_string()];
+        assert!(
+            internals(good, &names).is_empty(),
+            "{good}: {:?}",
+            internals(good, &names)
+        );
+    }
+}
