@@ -139,6 +139,9 @@ fn shipped_reports_show_no_tool_internals_and_no_repeated_caveat() {
         }
         let pages = pages(&out.join("report.pdf"));
         assert!(pages.len() >= 5, "{plan}: {} pages", pages.len());
+        if plan == "daylight" {
+            readme_pages_match(pages.len());
+        }
         let mut lines: BTreeMap<String, usize> = BTreeMap::new();
         for (k, page) in pages.iter().enumerate() {
             let page = prose(page);
@@ -163,6 +166,23 @@ fn shipped_reports_show_no_tool_internals_and_no_repeated_caveat() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// The README's "N-page PDF" of the daylight plan is the PDF's page count.
+fn readme_pages_match(pages: usize) {
+    let readme = std::fs::read_to_string(crate::root().join("README.md")).unwrap();
+    let claims: Vec<&str> = readme
+        .split_whitespace()
+        .filter(|w| w.ends_with("-page"))
+        .collect();
+    assert!(!claims.is_empty(), "the README states no page count");
+    for claim in claims {
+        assert_eq!(
+            claim.trim_end_matches("-page"),
+            pages.to_string(),
+            "README.md says {claim}; the daylight PDF has {pages} pages"
+        );
+    }
 }
 
 #[test]

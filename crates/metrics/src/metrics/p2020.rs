@@ -169,7 +169,12 @@ mod tests {
         let luma = [0.0, 0.0, 0.0, 5.0, 0.0, 7.0];
         let m = evaluate(&luma, &seg(2, 0, 4), &P2020Options::default()).unwrap();
         assert_eq!(m.fdi.value, Some(0.5));
-        assert!(m.fdi.reason.unwrap().contains("dark OFF reference (level 0)"));
+        assert!(
+            m.fdi
+                .reason
+                .unwrap()
+                .contains("dark OFF reference (level 0)")
+        );
         let dark = evaluate(&[0.0, 0.0, 0.0], &seg(1, 0, 2), &P2020Options::default()).unwrap();
         assert_eq!(dark.fmi.value, None);
         assert_eq!(dark.mmp.value, None);
