@@ -168,7 +168,7 @@ pub fn coverage_over(
     let warning = short.then(|| {
         let seen = match (worst_case_seen, envelope) {
             (Some(false), Some((lo, hi))) => format!(
-                "; its luma spans {tmin:.3}..{tmax:.3} DN, but every phase spans {lo:.3}..{hi:.3} DN"
+                "; its luma spans {tmin:.3} to {tmax:.3} DN, but every phase spans {lo:.3} to {hi:.3} DN"
             ),
             _ => String::new(),
         };

@@ -12,7 +12,9 @@ use crate::comparison::TraceOverlay;
 /// Size of the chart, pixels (printed at the PDF's full text width).
 const WIDTH: u32 = 760;
 /// See [`WIDTH`].
-const HEIGHT: u32 = 230;
+const HEIGHT: u32 = 250;
+/// The legend's row above the plot, pixels.
+const LEGEND_H: u32 = 20;
 
 const BASELINE: RGBColor = RGBColor(31, 119, 180);
 const NEW: RGBColor = RGBColor(179, 38, 30);
@@ -33,8 +35,11 @@ pub fn trace_overlay_svg(o: &TraceOverlay) -> Result<String, ChartError> {
     let y1 = if y1 > 0.0 { y1 * 1.08 } else { 1.0 };
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let canvas = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
+        canvas.fill(&WHITE).map_err(|e| err(&e))?;
+        // The legend in a row above the plot: over the plot it would
+        // cover the ON level, where both traces start.
+        let (legend, root) = canvas.split_vertically(LEGEND_H);
         let mut c = ChartBuilder::on(&root)
             .margin(8)
             .x_label_area_size(40)
@@ -49,26 +54,31 @@ pub fn trace_overlay_svg(o: &TraceOverlay) -> Result<String, ChartError> {
             .max_light_lines(0)
             .draw()
             .map_err(|e| err(&e))?;
-        for (points, colour, label) in [
-            (&o.a, BASELINE, o.a_label.as_str()),
-            (&o.b, NEW, o.b_label.as_str()),
-        ] {
+        for (points, colour) in [(&o.a, BASELINE), (&o.b, NEW)] {
             c.draw_series(LineSeries::new(
                 points.iter().filter(finite).copied(),
                 colour.stroke_width(1),
             ))
-            .map_err(|e| err(&e))?
-            .label(label)
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour.stroke_width(3)));
-        }
-        c.configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT, FONT_FULL_WIDTH))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.3))
-            .draw()
             .map_err(|e| err(&e))?;
-        root.present().map_err(|e| err(&e))?;
+        }
+        let text = TextStyle::from((FONT, FONT_FULL_WIDTH).into_font());
+        let mut x = 68;
+        for (colour, label) in [(BASELINE, &o.a_label), (NEW, &o.b_label)] {
+            let y = LEGEND_H as i32 / 2 + 2;
+            legend
+                .draw(&PathElement::new(
+                    [(x, y), (x + 18, y)],
+                    colour.stroke_width(3),
+                ))
+                .map_err(|e| err(&e))?;
+            legend
+                .draw(&Text::new(label.clone(), (x + 24, y - 6), text.clone()))
+                .map_err(|e| err(&e))?;
+            // DejaVu Sans: about 0.62 em a character.
+            x +=
+                24 + (0.62 * f64::from(FONT_FULL_WIDTH) * label.chars().count() as f64) as i32 + 24;
+        }
+        canvas.present().map_err(|e| err(&e))?;
     }
     Ok(svg)
 }

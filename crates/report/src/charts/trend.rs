@@ -140,8 +140,11 @@ fn draw_legend<DB: DrawingBackend>(
     entries: Vec<(String, RGBColor, bool)>,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let text = TextStyle::from((FONT, FONT_FULL_WIDTH).into_font());
-    for (i, (name, colour, limit)) in entries.into_iter().enumerate() {
-        let y = 40 + 18 * i as i32;
+    // Characters that fit beside the line (DejaVu Sans, about 0.62 em);
+    // a longer name wraps at a space onto a second line.
+    let fits = ((LEGEND_W - 36) as f64 / (0.62 * f64::from(FONT_FULL_WIDTH))) as usize;
+    let mut y = 40;
+    for (name, colour, limit) in entries {
         let line = if limit {
             PathElement::new([(8, y), (14, y)], colour.stroke_width(2))
         } else {
@@ -154,7 +157,21 @@ fn draw_legend<DB: DrawingBackend>(
                 colour.stroke_width(2),
             ))?;
         }
-        legend.draw(&Text::new(name, (32, y - 6), text.clone()))?;
+        let mut lines = vec![name.as_str()];
+        if name.chars().count() > fits
+            && let Some(at) = name
+                .char_indices()
+                .filter(|&(i, c)| c == ' ' && i <= fits)
+                .map(|(i, _)| i)
+                .next_back()
+        {
+            lines = vec![&name[..at], &name[at + 1..]];
+        }
+        for line in lines {
+            legend.draw(&Text::new(line.to_string(), (32, y - 6), text.clone()))?;
+            y += 16;
+        }
+        y += 4;
     }
     Ok(())
 }

@@ -145,14 +145,7 @@ impl<'a> ChartJobs<'a> {
                 });
             }
         }
-        // The ROI map: a frame of each capture; the simulated camera's
-        // frames all show the same scene, so one of them.
-        let each_capture = model.method.backend == crate::model::BackendName::Captured;
-        let framed = results.iter().filter_map(|r| {
-            let info = cases.get(r.case.id.as_str())?;
-            Some((r, r.sample_frame.as_ref()?, info.sample_frame.as_ref()?))
-        });
-        for (r, frame, info) in framed.take(if each_capture { usize::MAX } else { 1 }) {
+        for (r, frame, info) in roi_map_cases(model, results, &cases) {
             jobs.add(roi_map_chart_path(&r.case.id), move || {
                 charts::roi_map_svg(frame, &info.rois, &info.stretch)
             });
@@ -252,6 +245,46 @@ impl<'a, T: Clone + Send + Sync> Jobs<'a, T> {
             .map(|(path, picture)| Ok((path.clone(), picture.clone()?)))
             .collect()
     }
+}
+
+/// The cases whose frame the ROI map shows, with that frame and its view:
+/// each capture's; of a simulated run, whose frames all show the same
+/// scene, one: the case whose sample frame (its darkest PWM frame) is
+/// brightest, so that the lamp is lit in it (a 100 % duty case is lit in
+/// every frame), the first of them in plan order.
+fn roi_map_cases<'a>(
+    model: &Results,
+    results: &'a [CaseResult],
+    cases: &BTreeMap<&str, &'a CaseInfo>,
+) -> Vec<(
+    &'a CaseResult,
+    &'a crate::model::RenderedFrame,
+    &'a crate::model::SampleFrameInfo,
+)> {
+    let framed = results.iter().filter_map(|r| {
+        let case = cases.get(r.case.id.as_str())?;
+        let lit = case
+            .rois
+            .iter()
+            .find(|roi| roi.kind == RoiKind::Led)
+            .map_or(0.0, |roi| roi.levels.min);
+        Some((
+            r,
+            r.sample_frame.as_ref()?,
+            case.sample_frame.as_ref()?,
+            lit,
+        ))
+    });
+    let framed: Vec<_> = if model.method.backend == crate::model::BackendName::Captured {
+        framed.collect()
+    } else {
+        framed
+            .rev()
+            .max_by(|a, b| a.3.total_cmp(&b.3))
+            .into_iter()
+            .collect()
+    };
+    framed.into_iter().map(|(r, f, i, _)| (r, f, i)).collect()
 }
 
 #[cfg(test)]
