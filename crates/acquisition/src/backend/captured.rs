@@ -328,8 +328,8 @@ impl Backend for Captured {
             want: frame,
             picture: None,
         };
-        let read = match capture::read_grey_frames(path, opts, &mut grab) {
-            Ok(trace) => trace,
+        let full_scale_dn = match capture::read_grey_frame(path, opts, frame, &mut grab) {
+            Ok(full_scale_dn) => full_scale_dn,
             Err(e) => return Some(Err(error(e.to_string()))),
         };
         Some(match grab.picture {
@@ -338,7 +338,7 @@ impl Backend for Captured {
                 width,
                 height,
                 &luma,
-                read.full_scale_dn,
+                full_scale_dn,
             )),
             None => Err(error(format!(
                 "frame {frame} is not in `{}` on a second read",

@@ -570,6 +570,26 @@ pub fn read_grey_frames(
     with_built_in(path, |path| read_grey_frames_on_disk(path, opts, sink))
 }
 
+/// Hands frame `frame` of a capture, whole, to `sink` (with the frames
+/// before it), and returns the capture's full scale: a video is decoded up
+/// to that frame only, the other kinds are read whole.
+pub fn read_grey_frame(
+    path: &Path,
+    opts: &ReadOptions,
+    frame: u64,
+    sink: &mut dyn FrameSink,
+) -> Result<f64, CaptureError> {
+    with_built_in(path, |path| {
+        if source_kind(path) == SourceKind::Video {
+            check_exists(path)?;
+            // Every video is decoded to 8-bit codes.
+            video::read_until(path, opts, sink, frame).map(|()| 255.0)
+        } else {
+            read_grey_frames_on_disk(path, opts, sink).map(|t| t.full_scale_dn)
+        }
+    })
+}
+
 fn read_grey_frames_on_disk(
     path: &Path,
     opts: &ReadOptions,

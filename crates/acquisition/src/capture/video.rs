@@ -90,7 +90,23 @@ pub(super) fn read_whole(
     let ready = prepare_with(path, &[], opts, probe)?;
     ready
         .decoder
-        .read(path, ready.probe, opts, STALL, Some(sink))
+        .read(path, ready.probe, opts, STALL, Some((sink, None)))
+}
+
+/// Hands the whole frames of `path` up to frame `last` (0-based) to
+/// `sink`, then stops ffmpeg: a sample frame costs the decode up to it,
+/// not the whole video's. A video shorter than that ends as it is.
+pub(super) fn read_until(
+    path: &Path,
+    opts: &ReadOptions,
+    sink: &mut dyn FrameSink,
+    last: u64,
+) -> Result<(), CaptureError> {
+    let ready = prepare_with(path, &[], opts, probe)?;
+    ready
+        .decoder
+        .read(path, ready.probe, opts, STALL, Some((sink, Some(last))))
+        .map(drop)
 }
 
 /// A video probed, its ROIs checked, and its ffmpeg started on the layout
@@ -203,15 +219,18 @@ impl Decoder {
     }
 
     /// Reads every frame under a watchdog that fires after `stall` without
-    /// a frame; `p` is the probe of `path`.
+    /// a frame; `p` is the probe of `path`. With a sink, each whole frame
+    /// also goes to it, and with a last frame the read stops after it
+    /// (the trace then holds the frames read, and ffmpeg is killed).
     fn read(
         mut self,
         path: &Path,
         p: Probe,
         opts: &ReadOptions,
         stall: Duration,
-        sink: Option<&mut dyn FrameSink>,
+        sink: Option<(&mut dyn FrameSink, Option<u64>)>,
     ) -> Result<CaptureTrace, CaptureError> {
+        let (sink, last) = sink.map_or((None, None), |(s, last)| (Some(s), last));
         let (_, bpp, _) = pixel_format(opts.video_decode);
         let mut acc = Accumulator::new(&self.layout.rois, opts.luma)
             .linearising(opts.colour_transfer)
@@ -231,11 +250,16 @@ impl Decoder {
             path,
             &mut self.child,
             &mut acc,
-            layout,
-            frame_bytes,
+            (layout, frame_bytes, last),
             opts,
             &dog,
         );
+        if last.is_some_and(|l| matches!(read, Ok((n, false)) if n > l)) {
+            // Stopped on purpose: ffmpeg, its pipe closed, is killed and
+            // reaped when the decoder drops; its status says nothing.
+            let _ = dog.finish();
+            return Ok(trace(acc, p, opts, full));
+        }
         let status = self.child.wait().map_err(|e| tool_error(path, "ffmpeg", e));
         self.reaped = status.is_ok();
         let stderr_text = self
@@ -333,15 +357,14 @@ fn spawn_ffmpeg(
         .map_err(|e| tool_error(path, "ffmpeg", e))
 }
 
-/// Feeds every whole frame of ffmpeg's stdout to `acc`. Returns the frames
-/// read and whether the stream ended inside a frame; a read error kills
-/// ffmpeg and names the frame.
+/// Feeds every whole frame of ffmpeg's stdout to `acc`, up to frame `last`
+/// when given. Returns the frames read and whether the stream ended inside
+/// a frame; a read error kills ffmpeg and names the frame.
 fn read_frames(
     path: &Path,
     child: &mut Child,
     acc: &mut Accumulator<'_>,
-    layout: &Layout,
-    frame_bytes: usize,
+    (layout, frame_bytes, last): (&Layout, usize, Option<u64>),
     opts: &ReadOptions,
     dog: &Watchdog,
 ) -> Result<(u64, bool), CaptureError> {
@@ -365,6 +388,9 @@ fn read_frames(
                 });
                 frame += 1;
                 dog.tick();
+                if last.is_some_and(|l| frame > l) {
+                    return Ok((frame, false));
+                }
             }
             Ok(_) => return Ok((frame, true)),
             Err(e) => {
@@ -534,6 +560,52 @@ mod tests {
             fps: None,
             decoder_threads: Some(1),
         }
+    }
+
+    /// Keeps frame `want` whole and counts the frames it was handed.
+    struct Keep {
+        want: u64,
+        seen: u64,
+        picture: Vec<u32>,
+    }
+
+    impl FrameSink for Keep {
+        fn frame(&mut self, f: &super::super::GreyFrame<'_>) {
+            self.seen += 1;
+            if f.index == self.want {
+                let mut row = vec![0u32; f.width() as usize];
+                for y in 0..f.height() {
+                    f.row(y, &mut row);
+                    self.picture.extend_from_slice(&row);
+                }
+            }
+        }
+    }
+
+    /// A sample frame read by stopping after it is the frame a whole read
+    /// hands over, pixel for pixel, and the read stops there.
+    #[test]
+    fn reading_until_a_frame_gives_that_frame_and_stops() {
+        assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
+        let path = sample_video();
+        let opts = rgb_opts();
+        let keep = |want| Keep {
+            want,
+            seen: 0,
+            picture: Vec::new(),
+        };
+        let mut whole = keep(40);
+        read_whole(&path, &opts, &mut whole).unwrap();
+        assert_eq!(whole.seen, 369);
+        let mut until = keep(40);
+        read_until(&path, &opts, &mut until, 40).unwrap();
+        assert_eq!(until.seen, 41);
+        assert_eq!(until.picture.len(), 1280 * 800);
+        assert!(until.picture == whole.picture, "frame 40 differs");
+        // Beyond the last frame: every frame, and no error.
+        let mut beyond = keep(1000);
+        read_until(&path, &opts, &mut beyond, 1000).unwrap();
+        assert_eq!((beyond.seen, beyond.picture.len()), (369, 0));
     }
 
     /// ffmpeg started before the probe reads the same trace as ffmpeg
