@@ -140,7 +140,8 @@ const SHOWN_IN_CASE_TABLE: [&str; 2] = ["apparent_frequency_spectrum_hz", "phase
 
 /// The caveat of an FDI (2018) that is +∞, said once for all the ROIs of a
 /// case that have it.
-const UNBOUNDED_FDI: &str = "L_OFF = 0 (dark OFF reference): the contrast is unbounded (+∞), so the light never appears OFF";
+const UNBOUNDED_FDI: &str =
+    "the OFF reference is 0 (dark): the contrast is unbounded (+∞), so the light never appears OFF";
 
 impl Document {
     /// Builds the document of a finished run: draws every chart and frame

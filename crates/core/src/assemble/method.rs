@@ -123,16 +123,19 @@ fn worst_phase_basis(plan: &Plan) -> String {
         .chain(t.light_levels.iter().map(|l| l.limits.over(t.global())))
         .collect::<Vec<Limits>>();
     let limited = |f: fn(&Limits) -> bool| every.iter().any(f);
-    let phase: Vec<&str> = [
-        (limited(|l| l.fdi_2018_min.is_some()), "FDI (2018)"),
+    // Both FDIs compare with the OFF segment: without one they are not
+    // checked, whatever their limits.
+    let off = plan.sequence.off_s > 0.0;
+    let named = |list: &[(bool, &'static str)]| -> Vec<&'static str> {
+        list.iter().filter(|(on, _)| *on).map(|(_, n)| *n).collect()
+    };
+    let phase = named(&[
+        (off && limited(|l| l.fdi_2018_min.is_some()), "FDI (2018)"),
         (
             limited(|l| l.percent_flicker_max.is_some()),
             "Percent Flicker",
         ),
-    ]
-    .into_iter()
-    .filter_map(|(on, name)| on.then_some(name))
-    .collect();
+    ]);
     let how = physical_worst_case_words(plan);
     let mut out = if phase.is_empty() {
         format!(
@@ -144,12 +147,19 @@ fn worst_phase_basis(plan: &Plan) -> String {
             phase.join(" and ")
         )
     };
-    let p2020 =
-        limited(|l| l.fmi_max.is_some() || l.fdi_p2020_min.is_some() || l.mmp_min.is_some());
-    out += if p2020 {
-        "; the IEEE P2020 KPIs (FMI, FDI, MMP) count frames and are judged on the trace as simulated"
-    } else {
-        "; the IEEE P2020 KPIs (FMI, FDI, MMP) count frames and are reported on the trace as simulated"
+    let p2020 = named(&[
+        (limited(|l| l.fmi_max.is_some()), "FMI"),
+        (off && limited(|l| l.fdi_p2020_min.is_some()), "FDI"),
+        (limited(|l| l.mmp_min.is_some()), "MMP"),
+    ]);
+    out += "; the IEEE P2020 KPIs (FMI, FDI, MMP) count frames and are ";
+    out += &match p2020.as_slice() {
+        [] => "reported on the trace as simulated".to_string(),
+        [_, _, _] => "judged on the trace as simulated".to_string(),
+        some => format!(
+            "reported on the trace as simulated, {} judged",
+            some.join(" and ")
+        ),
     };
     if limited(|l| l.visibility_max.is_some()) {
         out += "; the visibility index is judged on the monitor's luminance of the trace as simulated, at the plan's PWM phase";

@@ -59,9 +59,7 @@ pub struct RoiMetrics {
 /// value is undefined.
 pub fn fdi_2018(min: f64, l_off: Option<f64>) -> Metric {
     let Some(l_off) = l_off else {
-        return Metric::undefined(
-            "no OFF reference: the sequence has no OFF frames (sequence.off-s = 0)".to_string(),
-        );
+        return Metric::undefined("no OFF reference: the sequence has no OFF frames".to_string());
     };
     if l_off > 0.0 {
         let v = (min - l_off) / l_off;
@@ -81,7 +79,7 @@ pub fn fdi_2018(min: f64, l_off: Option<f64>) -> Metric {
             value: None,
             unbounded: true,
             reason: Some(format!(
-                "{off}: the contrast is unbounded (+inf); min luma {min:.4} DN is above it, so the light never appears OFF"
+                "{off}: the contrast is unbounded (infinite); min luma {min:.4} DN is above it, so the light never appears OFF"
             )),
         }
     } else {
@@ -211,7 +209,7 @@ mod tests {
     fn missing_off_segment_leaves_fdi_undefined() {
         let m = fdi_2018(5.0, None);
         assert_eq!(m.value, None);
-        assert!(m.reason.unwrap().contains("off-s"));
+        assert!(m.reason.unwrap().contains("no OFF frames"));
     }
 
     #[test]

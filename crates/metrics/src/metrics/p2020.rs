@@ -81,9 +81,10 @@ pub fn evaluate(luma: &[f64], segments: &[Segment], opts: &P2020Options) -> Opti
     let x_off = mean(&pick(Segment::Off));
     let t = opts.contrast_threshold;
     let fdi = match x_off {
-        None => {
-            undefined("no OFF reference frames: FDI needs x_off (give the OFF segment)".to_string())
-        }
+        None => undefined(
+            "no OFF reference frames: FDI needs the OFF level (give the sequence an OFF segment)"
+                .to_string(),
+        ),
         Some(x0) if x0 > 0.0 => {
             value(pwm.iter().filter(|&&x| (x - x0) / x0 > t).count() as f64 / n)
         }

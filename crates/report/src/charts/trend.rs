@@ -142,7 +142,8 @@ fn draw_legend<DB: DrawingBackend>(
     let text = TextStyle::from((FONT, FONT_FULL_WIDTH).into_font());
     // Characters that fit beside the line (DejaVu Sans, about 0.62 em);
     // a longer name wraps at a space onto a second line.
-    let fits = ((LEGEND_W - 36) as f64 / (0.62 * f64::from(FONT_FULL_WIDTH))) as usize;
+    let px = f64::from(FONT_FULL_WIDTH) / super::PLOTTERS_FONT_SCALE;
+    let fits = (f64::from(LEGEND_W - 36) / (0.62 * px)) as usize;
     let mut y = 40;
     for (name, colour, limit) in entries {
         let line = if limit {
@@ -158,17 +159,25 @@ fn draw_legend<DB: DrawingBackend>(
             ))?;
         }
         let mut lines = vec![name.as_str()];
-        if name.chars().count() > fits
-            && let Some(at) = name
-                .char_indices()
-                .filter(|&(i, c)| c == ' ' && i <= fits)
-                .map(|(i, _)| i)
-                .next_back()
-        {
-            lines = vec![&name[..at], &name[at + 1..]];
+        if name.chars().count() > fits {
+            // The last space that fits, else the first one.
+            let spaces = || {
+                name.char_indices()
+                    .filter(|&(_, c)| c == ' ')
+                    .map(|(i, _)| i)
+            };
+            if let Some(at) = spaces().rfind(|&i| i <= fits).or_else(|| spaces().next()) {
+                lines = vec![&name[..at], &name[at + 1..]];
+            }
         }
         for line in lines {
-            legend.draw(&Text::new(line.to_string(), (32, y - 6), text.clone()))?;
+            // A line still too long ends in an ellipsis at the column's edge.
+            let line: String = if line.chars().count() > fits {
+                line.chars().take(fits - 1).chain(['\u{2026}']).collect()
+            } else {
+                line.to_string()
+            };
+            legend.draw(&Text::new(line, (32, y - 6), text.clone()))?;
             y += 16;
         }
         y += 4;
@@ -214,6 +223,19 @@ mod tests {
         }
         // Nine dots: four of case-a (one gap), five of case-b.
         assert_eq!(svg.matches("<circle").count(), 9, "{svg}");
+    }
+
+    #[test]
+    fn a_long_legend_name_wraps_inside_the_chart() {
+        let labels = vec!["a".to_string(), "b".to_string()];
+        let long = "2000lux-100hz-10pct background";
+        let series = vec![(long.to_string(), vec![Some(1.0), Some(2.0)])];
+        let svg = trend_svg("t", ("run", "y"), &labels, &series, &[]).unwrap();
+        assert!(svg.contains("\n2000lux-100hz-10pct\n") && svg.contains("\nbackground\n"));
+        // The column's right edge, at the width the font takes.
+        let px = f64::from(FONT_FULL_WIDTH) / super::super::PLOTTERS_FONT_SCALE;
+        let x = f64::from(760 - LEGEND_W) + 32.0;
+        assert!(x + 0.62 * px * "2000lux-100hz-10pct".len() as f64 <= 760.0);
     }
 
     #[test]

@@ -428,7 +428,7 @@ mod tests {
         let every = html.split("<h2 id=\"verdicts\">").nth(1).unwrap();
         let every = every.split("</table>").next().unwrap();
         assert!(
-            every.contains("<th>Visibility on the monitor</th>"),
+            every.contains("<th title=\"Visibility on the monitor\">visible</th>"),
             "{every}"
         );
         assert!(every.contains(&format!("<td class=\"num\">{}</td>", beat.index)));
