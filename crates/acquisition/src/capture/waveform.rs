@@ -175,7 +175,7 @@ fn time_unit(header: &str) -> Result<Option<(&'static str, f64)>, String> {
 
 /// A scope's offset and noise put a dark level a little either side of
 /// 0; a reading far below it is a wrong column or an offset not taken off.
-fn check_dark(values: &[f64], lines: &[u64], path: &Path) -> Result<(), CaptureError> {
+fn check_dark(values: &[f64], lines: &[u64], path: &Path, row: &str) -> Result<(), CaptureError> {
     let top = values.iter().cloned().fold(0.0f64, f64::max);
     if let Some((i, &low)) = values.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1))
         && low < -NEGATIVE_SHARE * top
@@ -183,7 +183,7 @@ fn check_dark(values: &[f64], lines: &[u64], path: &Path) -> Result<(), CaptureE
         return Err(CaptureError::Invalid {
             path: path.to_path_buf(),
             message: format!(
-                "line {}: the intensity {low} is below 0 by more than {:.0} % of the largest ({top})",
+                "{row} {}: the intensity {low} is below 0 by more than {:.0} % of the largest ({top})",
                 lines[i],
                 100.0 * NEGATIVE_SHARE
             ),
@@ -298,7 +298,7 @@ pub fn read_waveform(
             hint: WAVEFORM_HINT.to_string(),
         });
     };
-    check_dark(&values, &lines, path)?;
+    check_dark(&values, &lines, path, "line")?;
     if values.len() < MIN_SAMPLES {
         return Err(CaptureError::Invalid {
             path: path.to_path_buf(),
@@ -309,7 +309,7 @@ pub fn read_waveform(
             hint: "record several periods of the light, each of several samples".to_string(),
         });
     }
-    let rate_hz = check_even(&times, &lines, path)?;
+    let rate_hz = check_even(&times, &lines, path, "line")?;
     let name = |i: usize| {
         header
             .get(i)
@@ -327,10 +327,60 @@ pub fn read_waveform(
     })
 }
 
+/// A waveform given as samples rather than a file (the Python package's
+/// `light(t, x)`), checked as [`read_waveform`] checks a file's: at least
+/// [`MIN_SAMPLES`], times increasing on an even grid, no level far below
+/// dark. `name` stands for the file in messages, which number the
+/// samples from 1; `dark` is subtracted from every level.
+pub fn from_samples(
+    times: &[f64],
+    levels: &[f64],
+    dark: f64,
+    name: &Path,
+) -> Result<Waveform, CaptureError> {
+    let invalid = |message: String, hint: &str| CaptureError::Invalid {
+        path: name.to_path_buf(),
+        message,
+        hint: hint.to_string(),
+    };
+    if let Some(i) = (1..times.len()).find(|&i| times[i] <= times[i - 1]) {
+        return Err(invalid(
+            format!(
+                "sample {}: the time {} s is not after {} s of sample {i}",
+                i + 1,
+                times[i],
+                times[i - 1]
+            ),
+            "the times must increase, one per sample, without repeats",
+        ));
+    }
+    let values: Vec<f64> = levels.iter().map(|x| x - dark).collect();
+    let samples: Vec<u64> = (1..=values.len() as u64).collect();
+    check_dark(&values, &samples, name, "sample")?;
+    if values.len() < MIN_SAMPLES {
+        return Err(invalid(
+            format!(
+                "{} samples; the analysis needs at least {MIN_SAMPLES}",
+                values.len()
+            ),
+            "record several periods of the light, each of several samples",
+        ));
+    }
+    let rate_hz = check_even(times, &samples, name, "sample")?;
+    Ok(Waveform {
+        intensity: values,
+        rate_hz,
+        start_s: times[0],
+        columns: ["t".to_string(), "x".to_string()],
+        time_unit: "s",
+        first_line: 1,
+    })
+}
+
 /// The sampling rate of the increasing `times` (at `lines`), or an error
 /// naming the first line whose time is off the even grid by more than
 /// [`MAX_GRID_DEVIATION`] intervals.
-fn check_even(times: &[f64], lines: &[u64], path: &Path) -> Result<f64, CaptureError> {
+fn check_even(times: &[f64], lines: &[u64], path: &Path, row: &str) -> Result<f64, CaptureError> {
     let n = times.len();
     let (t0, span) = (times[0], times[n - 1] - times[0]);
     let dt = span / (n - 1) as f64;
@@ -347,7 +397,7 @@ fn check_even(times: &[f64], lines: &[u64], path: &Path) -> Result<f64, CaptureE
             return Err(CaptureError::Invalid {
                 path: path.to_path_buf(),
                 message: format!(
-                    "line {line}: the time {t} s is {:.2} sampling intervals off the even grid of {} samples every {dt:e} s",
+                    "{row} {line}: the time {t} s is {:.2} sampling intervals off the even grid of {} samples every {dt:e} s",
                     off.abs(),
                     n
                 ),
