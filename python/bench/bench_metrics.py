@@ -7,6 +7,7 @@ For `percent_flicker` and `light`: the median wall time of N calls from
 Python (the array checked in place, the figures handed back) and of N
 calls of the Rust function on a Rust-owned copy of the same array, timed
 inside the extension (`_ledflicker.rust_call_seconds`), and their ratio.
+The two alternate, call by call, so that a busy machine slows both alike.
 """
 
 import argparse
@@ -19,13 +20,15 @@ import ledflicker
 from ledflicker import _ledflicker as native
 
 
-def median_seconds(call, reps):
-    times = []
+def medians(name, call, t, x, reps):
+    """Median seconds of the Python call and of the Rust call, alternated."""
+    py, rs = [], []
     for _ in range(reps):
         start = time.perf_counter()
         call()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
+        py.append(time.perf_counter() - start)
+        rs.append(native.rust_call_seconds(name, t, x, 1))
+    return statistics.median(py), statistics.median(rs)
 
 
 def main():
@@ -45,8 +48,7 @@ def main():
     print(f"{'call':<16}{'python (ms)':>12}{'rust (ms)':>12}{'ratio':>8}")
     for name, call in calls.items():
         call()  # warm
-        py = median_seconds(call, a.reps)
-        rs = native.rust_call_seconds(name, t, x, a.reps)
+        py, rs = medians(name, call, t, x, a.reps)
         print(f"{name:<16}{py * 1e3:>12.3f}{rs * 1e3:>12.3f}{py / rs:>8.3f}")
 
 

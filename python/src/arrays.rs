@@ -278,9 +278,11 @@ pub fn rust_call_seconds(
 ) -> PyResult<f64> {
     use ledflicker::analysis::light as l;
     let (ta, xa) = (trace("t", t)?, trace("x", x)?);
-    let (times, levels) = (ta.as_array().to_vec(), xa.as_array().to_vec());
+    // The samples and rate exactly as `light` reads them.
+    let wave = ledflicker::capture::from_samples(&values(&ta), &values(&xa), 0.0, "x".as_ref())
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let (levels, rate_hz) = (wave.intensity, wave.rate_hz);
     let segs = vec![Segment::Pwm; levels.len()];
-    let rate_hz = (times.len().max(2) - 1) as f64 / (times[times.len() - 1] - times[0]);
     let call: Box<dyn Fn() + Send + Sync> = match kind {
         "percent_flicker" => Box::new(|| {
             std::hint::black_box(flicker::evaluate_roi(
