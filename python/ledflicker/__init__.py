@@ -86,14 +86,17 @@ class Case:
 
     @property
     def id(self) -> str:
+        """The case's id, e.g. "2000lux-90hz-10pct"."""
         return self.data["id"]
 
     @property
     def verdict(self) -> str:
+        """"pass", "fail" or "info" (not judged)."""
         return self.data["verdict"]
 
     @property
     def rois(self) -> List[Dict[str, Any]]:
+        """Each ROI's name, kind, levels and metrics, as results.json holds them."""
         return self.data.get("rois", [])
 
     def __getitem__(self, key: str) -> Any:
@@ -138,6 +141,7 @@ class Run:
 
     @property
     def cases(self) -> List[Case]:
+        """The cases, in plan order."""
         if self._cases is None:
             self._cases = [Case(c) for c in self.results["cases"]]
         return self._cases
@@ -399,6 +403,7 @@ class Comparison:
 
     @property
     def regressed(self) -> bool:
+        """Some case regressed beyond the gate."""
         return bool(self.regressed_cases)
 
     def kpis_frame(self):

@@ -241,21 +241,23 @@ fn light(
     dark: f64,
 ) -> Result<String, ledflicker::cli::Failure> {
     use ledflicker::analysis::light as l;
-    let wave = ledflicker::capture::from_samples(times, levels, dark, "the arrays t, x".as_ref())
+    // The caller's samples in place, unless a dark level is taken off.
+    let levels: Cow<[f64]> = if dark == 0.0 {
+        Cow::Borrowed(levels)
+    } else {
+        Cow::Owned(levels.iter().map(|x| x - dark).collect())
+    };
+    let rate_hz = ledflicker::capture::sample_rate(times, &levels, "the arrays t, x".as_ref())
         .map_err(|e| {
-        ledflicker::cli::Failure::Frames(ledflicker::calibrate::frames::FrameError::Capture(e))
-    })?;
-    if wave.intensity.iter().sum::<f64>() <= 0.0 {
+            ledflicker::cli::Failure::Frames(ledflicker::calibrate::frames::FrameError::Capture(e))
+        })?;
+    if levels.iter().sum::<f64>() <= 0.0 {
         return Err(ledflicker::error::UsageError(
             "x: the levels average 0 or less, no light to analyse\n    hint: x holds the light's level, 0 for dark".to_string(),
         )
         .into());
     }
-    let figures = l::analyse(
-        &wave.intensity,
-        wave.rate_hz,
-        &l::LightOptions { bandwidth_hz },
-    );
+    let figures = l::analyse(&levels, rate_hz, &l::LightOptions { bandwidth_hz });
     let mut json = serde_json::to_value(&figures)?;
     if let Some(o) = json.as_object_mut() {
         o.insert("format".into(), l::FORMAT.into());
@@ -278,10 +280,10 @@ pub fn rust_call_seconds(
 ) -> PyResult<f64> {
     use ledflicker::analysis::light as l;
     let (ta, xa) = (trace("t", t)?, trace("x", x)?);
-    // The samples and rate exactly as `light` reads them.
-    let wave = ledflicker::capture::from_samples(&values(&ta), &values(&xa), 0.0, "x".as_ref())
+    let (times, levels) = (ta.as_array().to_vec(), xa.as_array().to_vec());
+    // The rate exactly as `light` reads it.
+    let rate_hz = ledflicker::capture::sample_rate(&times, &levels, "x".as_ref())
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let (levels, rate_hz) = (wave.intensity, wave.rate_hz);
     let segs = vec![Segment::Pwm; levels.len()];
     let call: Box<dyn Fn() + Send + Sync> = match kind {
         "percent_flicker" => Box::new(|| {

@@ -269,5 +269,6 @@ def test_the_gil_is_released_while_the_engine_works(tmp_path):
     finally:
         done.set()
         t.join()
-    # A thread holding no lock ticks all through the run.
-    assert len(ticks) > 0.3 * elapsed / 0.005
+    # A thread that needs the GIL ticks all through the run (held by the
+    # engine, it would not tick at all); a busy machine may slow it down.
+    assert len(ticks) > 0.1 * elapsed / 0.005
