@@ -31,7 +31,7 @@ impl From<DetailArg> for crate::model::Detail {
 
 /// `--max-memory` and `--max-report` of `validate`, `plan` and `merge`: the limits
 /// a plan's work estimate must fit.
-#[derive(Args, Debug, Clone, Copy)]
+#[derive(Args, Debug, Clone, Copy, Default)]
 pub struct LimitArgs {
     /// Largest estimated peak memory to accept, e.g. `4GB` [default: 1 GB].
     #[arg(long, value_name = "SIZE", value_parser = parse_size)]

@@ -254,7 +254,8 @@ fn baseline(db: &Database, b: &RunRow, firmware: Option<&str>) -> Result<(i64, S
 }
 
 /// A run id, or the newest run recorded of a report directory.
-fn resolve(db: &Database, spec: &str) -> Result<i64, Failure> {
+/// A run id, or the id of the recorded report directory `spec`.
+pub fn resolve(db: &Database, spec: &str) -> Result<i64, Failure> {
     if let Ok(id) = spec.parse::<i64>() {
         return Ok(id);
     }
@@ -293,7 +294,9 @@ fn run_line(side: &str, r: &RunRow) -> String {
 
 /// The comparison as text: the runs, what differs, the gate, then the
 /// regressions, flips and verdict.
-fn text(c: &Comparison, why: &[String]) -> String {
+/// What `compare` prints: the runs, then the regressions with the reasons
+/// behind them, then the verdict flips.
+pub fn text(c: &Comparison, why: &[String]) -> String {
     let mut s = run_line("A", &c.a) + &run_line("B", &c.b);
     for w in why {
         s.push_str(&format!("picked {w}\n"));

@@ -34,7 +34,7 @@ mod args;
 mod bench;
 mod calibrate;
 mod campaign;
-mod compare;
+pub mod compare;
 mod compare_report;
 mod endtoend;
 mod failure;
@@ -53,12 +53,12 @@ mod sign;
 #[cfg(not(feature = "signoff"))]
 #[path = "sign_disabled.rs"]
 mod sign;
-mod simulate;
+pub mod simulate;
 mod sweeps;
 mod trend;
 mod validate;
 
-pub use args::DetailArg;
+pub use args::{CameraArgs, DetailArg, LimitArgs, PwmArgs, ShutterArg, report_date};
 pub use failure::Failure;
 
 pub use crate::exit::ExitCode;
@@ -176,9 +176,7 @@ fn command(version: &'static str) -> clap::Command {
 /// The run's inputs, hashed ([`crate::inputs::collect`]): a file that
 /// cannot be read is the user's input error (exit 2); hashing stopped by
 /// Ctrl-C is the signal's exit.
-pub(crate) fn collect_inputs(
-    plan: &crate::plan::Plan,
-) -> Result<Vec<crate::inputs::InputFile>, Failure> {
+pub fn collect_inputs(plan: &crate::plan::Plan) -> Result<Vec<crate::inputs::InputFile>, Failure> {
     crate::inputs::collect(plan).map_err(|e| match crate::interrupt::check() {
         Err(stop) => Failure::from(stop),
         Ok(()) => Failure::from(UsageError(e.to_string())),

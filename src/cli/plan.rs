@@ -18,12 +18,13 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use super::args::{DetailArg, report_date};
 use super::sign::signing;
 use super::{ExitCode, Failure};
-use crate::backend::{Backend, PlanBackend};
+use crate::backend::PlanBackend;
 use crate::error::UsageError;
-use crate::pipeline::{self, Golden, Outcome, Progress, ReportOptions, RunProgress, Status};
+use crate::pipeline::{
+    self, Golden, Outcome, PlanRunError, Progress, ReportOptions, RunProgress, Status,
+};
 use crate::plan::{self, Plan};
 use crate::report;
-use crate::runner;
 
 #[derive(Args, Debug)]
 pub(super) struct PlanArgs {
@@ -126,25 +127,48 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<ExitCode, Failure> {
         .or_else(|| args.out.clone())
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
     let (generation, options) = prepare(&args, &out, date)?;
-    let (ran, generation) = run(&args, &plan, generation, &out)?;
-    let stage = report_spinner(args.quiet);
-    let run = pipeline::Run {
-        plan: &plan,
-        backend_id: ran.backend.id(),
-        results: &ran.results,
-        inputs: ran.inputs,
-    };
-    let options = ReportOptions {
-        resume_hint: Some(format!(
-            "the {} cases of the run are kept beside `{}`; continue with `ledflicker plan {} --resume {}` (it goes straight to the report)",
-            runner::CaseSource::len(&ran.results),
+    let (backend, inputs, generation) = set_up(&args, &plan, generation, &out)?;
+    // Made on the report stage's first progress: it ticks from its start.
+    let stage = std::sync::OnceLock::new();
+    let resume_hint = |stored: usize| {
+        format!(
+            "the {stored} cases of the run are kept beside `{}`; continue with `ledflicker plan {} --resume {}` (it goes straight to the report)",
             out.display(),
             args.plan,
             out.display()
-        )),
-        ..options
+        )
     };
-    let outcome = pipeline::report(run, generation, options, &|p| show_progress(&stage, p))?;
+    let run = pipeline::PlanRun {
+        plan: &plan,
+        backend: &backend,
+        inputs,
+        threads: args.threads,
+        resume: args.resume.is_some(),
+        options,
+        resume_hint: Some(&resume_hint),
+    };
+    let bar = case_bar(0, args.quiet);
+    let outcome = pipeline::run_plan(run, generation, &run_progress(&bar, &plan, &args), &|p| {
+        show_progress(stage.get_or_init(|| report_spinner(args.quiet)), p)
+    });
+    let outcome = match outcome {
+        Ok(outcome) => outcome,
+        Err(PlanRunError::Stopped(run)) => {
+            let pipeline::StoppedRun {
+                stopped,
+                generation,
+            } = *run;
+            let failure = stopped.error.into();
+            return Err(keep_for_resume(
+                failure,
+                stopped.stored,
+                generation,
+                &args,
+                &out,
+            ));
+        }
+        Err(PlanRunError::Report(e)) => return Err(e.into()),
+    };
     finish(&args, &outcome, total)
 }
 
@@ -195,51 +219,38 @@ fn prepare(
     Ok((generation, options))
 }
 
-/// The run stage's products: the backend, every case in the store, the
-/// hashed inputs.
-struct Ran {
-    backend: PlanBackend,
-    results: crate::store::StoredCases,
-    inputs: Vec<crate::inputs::InputFile>,
-}
-
-/// The backend, the inputs and the run stage. A failure keeps what a
-/// resumed run had stored, and what this run stored, for another
-/// `--resume`.
-fn run(
+/// The backend and the inputs of the run. A failure keeps what a resumed
+/// run had stored for another `--resume`.
+fn set_up(
     args: &PlanArgs,
     plan: &Plan,
     generation: crate::outdir::Generation,
     out: &Path,
-) -> Result<(Ran, crate::outdir::Generation), Failure> {
+) -> Result<
+    (
+        PlanBackend,
+        Vec<crate::inputs::InputFile>,
+        crate::outdir::Generation,
+    ),
+    Failure,
+> {
     let resuming = args.resume.is_some();
-    let stop = |failure: Failure, stored: bool, generation| {
-        Err(keep_for_resume(failure, stored, generation, args, out))
+    let stop = |failure: Failure, generation| {
+        Err(keep_for_resume(failure, resuming, generation, args, out))
     };
     let mut backend = match build_backend(plan, args.quiet) {
         Ok(backend) => backend,
-        Err(e) => return stop(e, resuming, generation),
+        Err(e) => return stop(e, generation),
     };
     if args.keep_captures
         && let Err(e) = keep_captures(plan, &mut backend, generation.path())
     {
-        return stop(e, resuming, generation);
+        return stop(e, generation);
     }
     // After the backend has checked that the captures exist.
-    let inputs = match super::collect_inputs(plan) {
-        Ok(inputs) => inputs,
-        Err(e) => return stop(e, resuming, generation),
-    };
-    match run_cases(plan, &backend, args, generation.path(), &inputs) {
-        Ok(results) => {
-            let ran = Ran {
-                backend,
-                results,
-                inputs,
-            };
-            Ok((ran, generation))
-        }
-        Err(e) => stop(e.error.into(), e.stored, generation),
+    match super::collect_inputs(plan) {
+        Ok(inputs) => Ok((backend, inputs, generation)),
+        Err(e) => stop(e, generation),
     }
 }
 
@@ -409,19 +420,16 @@ fn keep_for_resume(
     failure
 }
 
-/// The run stage ([`pipeline::run_cases`]) with a progress bar, and the
-/// number of cases a resumed run kept, on stderr.
-fn run_cases(
+/// The run stage's progress on `bar`, and the number of cases a resumed
+/// run kept, on stderr.
+fn run_progress<'a>(
+    bar: &'a ProgressBar,
     plan: &Plan,
-    backend: &PlanBackend,
-    args: &PlanArgs,
-    dir: &Path,
-    inputs: &[crate::inputs::InputFile],
-) -> Result<crate::store::StoredCases, pipeline::Stopped> {
+    args: &'a PlanArgs,
+) -> impl Fn(RunProgress) + Sync + 'a {
     // Its length comes with `Started`: the run stage expands the plan.
-    let bar = case_bar(0, args.quiet);
     bar.set_message(plan.id.clone());
-    let on_progress = |p: RunProgress| match p {
+    move |p: RunProgress| match p {
         RunProgress::Resumed { kept, total } if !args.quiet => eprintln!(
             "resumed: {kept} of {total} cases kept from the partial store (judged again from their data); {} to run",
             total - kept
@@ -436,16 +444,7 @@ fn run_cases(
         }
         RunProgress::CaseFinished => bar.inc(1),
         RunProgress::Finished => bar.finish_and_clear(),
-    };
-    let run = pipeline::RunCases {
-        plan,
-        backend,
-        inputs,
-        dir,
-        threads: args.threads,
-        resume: args.resume.is_some(),
-    };
-    pipeline::run_cases(&run, &on_progress)
+    }
 }
 
 fn print_summary(model: &crate::model::Results, out: &Path, all: bool) -> Result<(), Failure> {

@@ -122,22 +122,55 @@ fn condition(a: &SimulateArgs) -> Result<(PwmDrive, Shutter, std::ops::Range<u32
     Ok((pwm, c.shutter(), a.rows.clone()))
 }
 
-pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode, Failure> {
+/// The ideal camera's ON fraction and start time of each of `frames`
+/// frames over the ROI rows `rows`: the CSV of `ledflicker simulate`,
+/// with its checks, for callers of the library (the Python package).
+pub fn on_fractions(
+    pwm: PwmArgs,
+    camera: CameraArgs,
+    frames: u64,
+    rows: std::ops::Range<u32>,
+) -> Result<Vec<(f64, f64)>, Failure> {
+    let a = SimulateArgs {
+        pwm,
+        camera,
+        frames,
+        rows,
+        summary: false,
+        background: 0.0,
+        sensor_rows: 800,
+        rgb_duty: None,
+        led_rgb: None,
+        background_rgb: None,
+    };
     let (pwm, shutter, rows) = condition(&a)?;
+    (0..a.frames)
+        .map(|k| {
+            let s = shutter.frame_on_fraction(&pwm, k, rows.clone());
+            let t = k as f64 / a.camera.fps;
+            if s.is_finite() && t.is_finite() {
+                Ok((t, s))
+            } else {
+                Err(usage(format!(
+                    "frame {k} has no finite ON fraction for these inputs; check their ranges (`ledflicker simulate --help`)"
+                )))
+            }
+        })
+        .collect()
+}
+
+pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode, Failure> {
     if a.summary {
+        let (pwm, shutter, rows) = condition(&a)?;
         return summary(&a, &pwm, &shutter, rows);
     }
+    let rows = a.rows.clone();
+    // Never print NaN: a frame beyond what the model covers fails the
+    // whole trace before a line of it is written.
+    let trace = on_fractions(a.pwm, a.camera, a.frames, rows)?;
     let mut w = std::io::BufWriter::new(super::output::Stdout);
     writeln!(w, "frame,time_s,on_fraction")?;
-    for k in 0..a.frames {
-        let s = shutter.frame_on_fraction(&pwm, k, rows.clone());
-        let t = k as f64 / a.camera.fps;
-        if !(s.is_finite() && t.is_finite()) {
-            // Never print NaN: the inputs are beyond what the model covers.
-            return Err(usage(format!(
-                "frame {k} has no finite ON fraction for these inputs; check their ranges (`ledflicker simulate --help`)"
-            )));
-        }
+    for (k, (t, s)) in trace.iter().enumerate() {
         writeln!(w, "{k},{t},{s}")?;
     }
     w.flush()?;

@@ -17,9 +17,37 @@ static SIGNAL: LazyLock<Arc<AtomicUsize>> = LazyLock::new(|| Arc::new(AtomicUsiz
 /// action (the process ends at once).
 static ASKED: LazyLock<Arc<AtomicBool>> = LazyLock::new(|| Arc::new(AtomicBool::new(false)));
 
+/// Set by [`embed`]: the host process (Python) owns the signals.
+static EMBEDDED: AtomicBool = AtomicBool::new(false);
+
+/// Hands the signals to a host process that embeds the engine (the Python
+/// package): [`install`] then installs no handler, since the host's own
+/// handler must keep running (Python raises `KeyboardInterrupt` from it),
+/// and a stop in a stage that cannot look at the flag ([`Prompt`]) waits
+/// for that stage rather than end the host. The host asks for a stop with
+/// [`request`] and clears it with [`clear`] before the next run.
+pub fn embed() {
+    EMBEDDED.store(true, Ordering::SeqCst);
+}
+
+/// Whether a host process embeds the engine ([`embed`]).
+pub fn is_embedded() -> bool {
+    EMBEDDED.load(Ordering::SeqCst)
+}
+
+/// Forgets a stop request, for a host that runs again after a stopped
+/// run ([`embed`]); a command line process never runs twice.
+pub fn clear() {
+    SIGNAL.store(0, Ordering::SeqCst);
+}
+
 /// Installs the SIGINT and SIGTERM handlers (signal-hook's, which only
-/// store to atomics). Idempotent: a second call changes nothing.
+/// store to atomics). Idempotent: a second call changes nothing; none is
+/// installed in an embedded engine ([`embed`]).
 pub fn install() {
+    if EMBEDDED.load(Ordering::SeqCst) {
+        return;
+    }
     static INSTALLED: std::sync::Once = std::sync::Once::new();
     INSTALLED.call_once(|| {
         for sig in [libc::SIGINT, libc::SIGTERM] {
@@ -107,6 +135,12 @@ impl Prompt {
     /// hint), a stop keeps that file of `discard` (a run's finished case
     /// store, for `--resume`) and removes the rest, then prints the hint.
     pub fn start(discard: std::path::PathBuf, keep: Option<(&'static str, String)>) -> Prompt {
+        if EMBEDDED.load(Ordering::SeqCst) {
+            return Prompt {
+                done: None,
+                watcher: None,
+            };
+        }
         let (done, over) = std::sync::mpsc::channel::<()>();
         let watcher = std::thread::spawn(move || {
             while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =

@@ -6,6 +6,7 @@
 //! load_plan ──▶ Plan                 (found, validated, captures probed)
 //! begin_output ──▶ Generation        (refusals before any work)
 //! run_cases ──▶ StoredCases         (the run stage; or shard::merge::gather)
+//!   (run_plan: run_cases then report, for `plan` and the Python package)
 //! report(Run, Generation, ReportOptions, on_progress)
 //!   model::assemble ─▶ report::write_report ─▶ signoff::sign
 //!   ─▶ Generation::commit ─▶ golden comparison ─▶ Outcome
@@ -17,8 +18,10 @@
 //! bytes on disk whichever command calls, which is why a merged report is
 //! byte for byte that of a single run.
 
+mod plan_run;
 mod run;
 
+pub use plan_run::{PlanRun, PlanRunError, StoppedRun, run_plan};
 pub use run::{RunCases, RunProgress, RunStageError, Stopped, run_cases, run_key};
 
 use std::path::{Path, PathBuf};

@@ -408,13 +408,20 @@ impl CommandRig {
         cancel: &AtomicBool,
     ) -> Result<PathBuf, BackendError> {
         let (program, args) = self.program_and_args(out);
-        let exe = std::env::current_exe().unwrap_or_default();
         let mut command = Command::new(&program);
         command
             .args(&args)
             .envs(self.env(case, out))
-            .env("LEDFLICKER_EXE", exe)
             .current_dir(&self.plan_dir);
+        // The rig may call ledflicker back: this executable, unless the
+        // engine is embedded (in Python, whose interpreter is no
+        // ledflicker), where the caller's environment says where it is.
+        if !crate::interrupt::is_embedded() {
+            command.env(
+                "LEDFLICKER_EXE",
+                std::env::current_exe().unwrap_or_default(),
+            );
+        }
         let finished = rig::run_until(
             &mut command,
             self.stdin_json(case, out),

@@ -35,7 +35,7 @@ pub use csv_trace::MAX_CSV_LUMA_DN;
 pub use progress::{decode_progress_text, frames_decoded};
 pub use schedule::read_captures;
 pub use video::ffmpeg_available;
-pub use waveform::{Column, Waveform, read_waveform};
+pub use waveform::{Column, Waveform, read_waveform, sample_rate};
 
 pub(crate) use built_in::built_in_copy;
 use built_in::with_built_in;

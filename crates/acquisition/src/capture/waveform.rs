@@ -175,7 +175,11 @@ fn time_unit(header: &str) -> Result<Option<(&'static str, f64)>, String> {
 
 /// A scope's offset and noise put a dark level a little either side of
 /// 0; a reading far below it is a wrong column or an offset not taken off.
-fn check_dark(values: &[f64], lines: &[u64], path: &Path) -> Result<(), CaptureError> {
+fn check_dark(
+    values: &[f64],
+    row: &dyn Fn(usize) -> String,
+    path: &Path,
+) -> Result<(), CaptureError> {
     let top = values.iter().cloned().fold(0.0f64, f64::max);
     if let Some((i, &low)) = values.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1))
         && low < -NEGATIVE_SHARE * top
@@ -183,8 +187,8 @@ fn check_dark(values: &[f64], lines: &[u64], path: &Path) -> Result<(), CaptureE
         return Err(CaptureError::Invalid {
             path: path.to_path_buf(),
             message: format!(
-                "line {}: the intensity {low} is below 0 by more than {:.0} % of the largest ({top})",
-                lines[i],
+                "{}: the intensity {low} is below 0 by more than {:.0} % of the largest ({top})",
+                row(i),
                 100.0 * NEGATIVE_SHARE
             ),
             hint: "give the light's level, 0 for dark: the detector's dark reading with --dark (noise a little below 0 is fine)".to_string(),
@@ -298,7 +302,8 @@ pub fn read_waveform(
             hint: WAVEFORM_HINT.to_string(),
         });
     };
-    check_dark(&values, &lines, path)?;
+    let line = |i: usize| format!("line {}", lines[i]);
+    check_dark(&values, &line, path)?;
     if values.len() < MIN_SAMPLES {
         return Err(CaptureError::Invalid {
             path: path.to_path_buf(),
@@ -309,7 +314,7 @@ pub fn read_waveform(
             hint: "record several periods of the light, each of several samples".to_string(),
         });
     }
-    let rate_hz = check_even(&times, &lines, path)?;
+    let rate_hz = check_even(&times, &line, path)?;
     let name = |i: usize| {
         header
             .get(i)
@@ -327,10 +332,51 @@ pub fn read_waveform(
     })
 }
 
-/// The sampling rate of the increasing `times` (at `lines`), or an error
-/// naming the first line whose time is off the even grid by more than
+/// The sampling rate of a waveform given as samples rather than a file
+/// (the Python package's `light(t, x)`), its `levels` checked as
+/// [`read_waveform`] checks a file's, dark already subtracted: at least
+/// [`MIN_SAMPLES`], times increasing on an even grid, no level far below
+/// dark. `name` stands for the file in messages, which number the
+/// samples from 1.
+pub fn sample_rate(times: &[f64], levels: &[f64], name: &Path) -> Result<f64, CaptureError> {
+    let invalid = |message: String, hint: &str| CaptureError::Invalid {
+        path: name.to_path_buf(),
+        message,
+        hint: hint.to_string(),
+    };
+    if let Some(i) = (1..times.len()).find(|&i| times[i] <= times[i - 1]) {
+        return Err(invalid(
+            format!(
+                "sample {}: the time {} s is not after {} s of sample {i}",
+                i + 1,
+                times[i],
+                times[i - 1]
+            ),
+            "the times must increase, one per sample, without repeats",
+        ));
+    }
+    let sample = |i: usize| format!("sample {}", i + 1);
+    check_dark(levels, &sample, name)?;
+    if levels.len() < MIN_SAMPLES {
+        return Err(invalid(
+            format!(
+                "{} samples; the analysis needs at least {MIN_SAMPLES}",
+                levels.len()
+            ),
+            "record several periods of the light, each of several samples",
+        ));
+    }
+    check_even(times, &sample, name)
+}
+
+/// The sampling rate of the increasing `times`, or an error naming (by
+/// `row`) the first row whose time is off the even grid by more than
 /// [`MAX_GRID_DEVIATION`] intervals.
-fn check_even(times: &[f64], lines: &[u64], path: &Path) -> Result<f64, CaptureError> {
+fn check_even(
+    times: &[f64],
+    row: &dyn Fn(usize) -> String,
+    path: &Path,
+) -> Result<f64, CaptureError> {
     let n = times.len();
     let (t0, span) = (times[0], times[n - 1] - times[0]);
     let dt = span / (n - 1) as f64;
@@ -341,13 +387,14 @@ fn check_even(times: &[f64], lines: &[u64], path: &Path) -> Result<f64, CaptureE
             hint: "the time column holds seconds".to_string(),
         });
     }
-    for (i, (&t, &line)) in times.iter().zip(lines).enumerate() {
+    for (i, &t) in times.iter().enumerate() {
         let off = (t - (t0 + i as f64 * dt)) / dt;
         if off.abs() > MAX_GRID_DEVIATION {
             return Err(CaptureError::Invalid {
                 path: path.to_path_buf(),
                 message: format!(
-                    "line {line}: the time {t} s is {:.2} sampling intervals off the even grid of {} samples every {dt:e} s",
+                    "{}: the time {t} s is {:.2} sampling intervals off the even grid of {} samples every {dt:e} s",
+                    row(i),
                     off.abs(),
                     n
                 ),

@@ -1,0 +1,403 @@
+//! `run_plan` and `read_report`: a plan run into a report directory through
+//! the library's one run path ([`pipeline::run_plan`], which the command
+//! line's `plan` calls too), and a report directory read back.
+//!
+//! The engine works on a thread of its own without the GIL; the caller's
+//! thread waits for its progress, hands it to the Python callback, and
+//! looks for Ctrl-C (Python's own SIGINT handler, [`Python::check_signals`])
+//! every [`POLL`]. Ctrl-C asks the engine to stop as the command line's
+//! handler would ([`interrupt::request`]); the engine stops between cases
+//! and leaves the old report as it was, then `KeyboardInterrupt` is raised.
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::time::Duration;
+
+use ledflicker::campaign::record::{Provenance, Signature, Source};
+use ledflicker::campaign::{self, Database, Location};
+use ledflicker::cli::{ExitCode, Failure, LimitArgs, collect_inputs, report_date};
+use ledflicker::error::UsageError;
+use ledflicker::interrupt;
+use ledflicker::model::Detail;
+use ledflicker::pipeline::{self, PlanRun, PlanRunError, Progress, ReportOptions, RunProgress};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::errors;
+
+/// How often the waiting thread looks for Ctrl-C and progress.
+const POLL: Duration = Duration::from_millis(50);
+
+/// What the engine tells the waiting thread.
+enum Event {
+    Run(RunProgress),
+    Report(Progress),
+}
+
+/// A run as asked for from Python.
+struct Request {
+    plan: String,
+    out: Option<PathBuf>,
+    threads: Option<usize>,
+    date: Option<String>,
+    force: bool,
+    detail: Detail,
+    db: Option<PathBuf>,
+}
+
+/// A finished run, as handed to Python.
+struct Done {
+    results_json: String,
+    dir: PathBuf,
+    status: &'static str,
+    exit_code: i32,
+    warnings: String,
+    run_id: Option<i64>,
+}
+
+/// A plan given as TOML text is written to a file of its own, which the
+/// run reads (and hashes) as it would a plan file; the folder lives as
+/// long as the run.
+fn plan_source(plan: &str) -> Result<(Option<tempfile::TempDir>, String), Failure> {
+    if !plan.contains('\n') {
+        return Ok((None, plan.to_string()));
+    }
+    let dir = tempfile::tempdir()?;
+    let path = dir.path().join("plan.toml");
+    std::fs::write(&path, plan)?;
+    Ok((Some(dir), path.display().to_string()))
+}
+
+fn detail(text: &str) -> Option<Detail> {
+    match text {
+        "summary" => Some(Detail::Summary),
+        "standard" => Some(Detail::Standard),
+        "full" => Some(Detail::Full),
+        _ => None,
+    }
+}
+
+/// The run itself, on the engine's thread: what `ledflicker plan` does,
+/// without its terminal output.
+fn execute(req: &Request, send: &(dyn Fn(Event) + Sync)) -> Result<Done, Failure> {
+    let (_text_dir, arg) = plan_source(&req.plan)?;
+    let limits = LimitArgs::default().limits(matches!(req.detail, Detail::Full));
+    let plan = pipeline::load_plan(&arg, limits)?;
+    let mut warnings = plan.warnings_text();
+    let date = report_date(req.date.as_deref())?;
+    if req.threads == Some(0) {
+        return Err(UsageError("threads must be at least 1".into()).into());
+    }
+    let out = req
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
+    let generation = pipeline::begin_output(&out, req.force)?;
+    let backend = ledflicker::backend::for_plan(&plan, None)?;
+    let inputs = collect_inputs(&plan)?;
+    let run = PlanRun {
+        plan: &plan,
+        backend: &backend,
+        inputs,
+        threads: req.threads,
+        resume: false,
+        options: ReportOptions {
+            date,
+            force: req.force,
+            detail: req.detail,
+            signing: None,
+            golden: None,
+            resume_hint: None,
+        },
+        resume_hint: None,
+    };
+    let outcome = pipeline::run_plan(run, generation, &|p| send(Event::Run(p)), &|p| {
+        send(Event::Report(p))
+    })
+    .map_err(|e| match e {
+        PlanRunError::Stopped(run) => Failure::from(run.stopped.error),
+        PlanRunError::Report(e) => Failure::from(e),
+    })?;
+    if let Some(w) = &outcome.warning {
+        warnings.push_str(w);
+        warnings.push('\n');
+    }
+    let run_id = match &req.db {
+        Some(db) => match record(db, &outcome.model, &outcome.dir) {
+            Ok(id) => Some(id),
+            Err(e) => {
+                warnings.push_str(&format!(
+                    "the run was not recorded in the results database: {}\n",
+                    e.message()
+                ));
+                None
+            }
+        },
+        None => None,
+    };
+    let (status, exit_code) = match outcome.status() {
+        pipeline::Status::Pass => ("pass", ExitCode::Pass),
+        pipeline::Status::Fail => ("fail", ExitCode::Fail),
+        pipeline::Status::NotJudged => ("not-judged", ExitCode::NotJudged),
+    };
+    // The file as written: results.json carries the report's own section
+    // (date, detail, inputs) beside the model.
+    let results_json = std::fs::read_to_string(outcome.dir.join("results.json"))?;
+    Ok(Done {
+        results_json,
+        dir: outcome.dir,
+        status,
+        exit_code: exit_code.code(),
+        warnings,
+        run_id,
+    })
+}
+
+/// Records a finished report in the database `db` (a file or a
+/// `postgres://` URL), as `plan --db` does.
+fn record(db: &Path, model: &ledflicker::model::Results, dir: &Path) -> Result<i64, Failure> {
+    let at = match campaign::locate(Some(db), false, &|k| std::env::var(k).ok()) {
+        Some(Location::File(f)) => {
+            campaign::check_directory(&f)?;
+            Location::File(f)
+        }
+        Some(at) => at,
+        None => return Err(UsageError("no results database given".into()).into()),
+    };
+    let mut database = Database::open(&at)?;
+    let provenance = Provenance {
+        source: Source::Plan,
+        signer: None,
+        signature: Signature::Unsigned,
+    };
+    Ok(campaign::record::record(
+        &mut database,
+        model,
+        dir,
+        &provenance,
+    )?)
+}
+
+/// Counts of the run, for the progress callback.
+#[derive(Default)]
+struct Counts {
+    done: usize,
+    total: usize,
+}
+
+/// One progress event as a dict: `stage` ("run" or "report"), `event`,
+/// and the cases `done` of `total` (pictures drawn of planned while the
+/// report is written).
+fn event_dict<'py>(py: Python<'py>, e: Event, c: &mut Counts) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let (stage, event) = match e {
+        Event::Run(RunProgress::Resumed { kept, total }) => {
+            (c.done, c.total) = (kept, total);
+            ("run", "resumed")
+        }
+        Event::Run(RunProgress::Started { total, done }) => {
+            (c.done, c.total) = (done, total);
+            ("run", "started")
+        }
+        Event::Run(RunProgress::CaseFinished) => {
+            c.done += 1;
+            ("run", "case-finished")
+        }
+        Event::Run(RunProgress::Finished) => ("run", "finished"),
+        Event::Report(Progress::Analysing { cases }) => {
+            (c.done, c.total) = (0, cases);
+            ("report", "analysing")
+        }
+        Event::Report(Progress::Writing) => ("report", "writing"),
+        Event::Report(Progress::Pictures { drawn, planned }) => {
+            (c.done, c.total) = (drawn, planned);
+            ("report", "pictures")
+        }
+        Event::Report(Progress::Written) => ("report", "written"),
+    };
+    d.set_item("stage", stage)?;
+    d.set_item("event", event)?;
+    d.set_item("done", c.done)?;
+    d.set_item("total", c.total)?;
+    Ok(d)
+}
+
+/// Runs a plan into its report directory; see `ledflicker.run` in
+/// python/ledflicker/__init__.py for the arguments.
+#[pyfunction]
+#[pyo3(signature = (plan, out=None, threads=None, date=None, db=None, force=false, detail="standard", progress=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn run_plan<'py>(
+    py: Python<'py>,
+    plan: String,
+    out: Option<PathBuf>,
+    threads: Option<usize>,
+    date: Option<String>,
+    db: Option<PathBuf>,
+    force: bool,
+    detail: &str,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let Some(detail) = self::detail(detail) else {
+        return Err(errors::usage(
+            py,
+            format!("detail `{detail}` is not one of `summary`, `standard`, `full`"),
+        ));
+    };
+    let req = Request {
+        plan,
+        out,
+        threads,
+        date,
+        force,
+        detail,
+        db,
+    };
+    interrupt::clear();
+    let mut stop: Option<PyErr> = None;
+    let (result, failed_callback) = wait(py, req, progress.as_ref(), &mut stop)?;
+    // Ctrl-C (here, or in the callback as KeyboardInterrupt) or the
+    // callback's own exception: raised, with what the engine said as it
+    // stopped for its cause.
+    if let Some(raised) = failed_callback.or(stop) {
+        if let Err(f) = result {
+            raised.set_cause(py, Some(errors::to_py(py, f)));
+        }
+        return Err(raised);
+    }
+    let done = result.map_err(|f| errors::to_py(py, f))?;
+    let d = PyDict::new(py);
+    d.set_item("results_json", done.results_json)?;
+    d.set_item("dir", done.dir)?;
+    d.set_item("status", done.status)?;
+    d.set_item("exit_code", done.exit_code)?;
+    d.set_item("warnings", done.warnings)?;
+    d.set_item("run_id", done.run_id)?;
+    Ok(d)
+}
+
+/// The engine on its thread, and this thread waiting for it: progress to
+/// the callback, Ctrl-C (into `stop`) to the engine. Gives the engine's
+/// result and the callback's exception, if it raised one (which stops
+/// the run too).
+fn wait(
+    py: Python<'_>,
+    req: Request,
+    progress: Option<&Bound<'_, PyAny>>,
+    stop: &mut Option<PyErr>,
+) -> PyResult<(Result<Done, Failure>, Option<PyErr>)> {
+    let (tx, mut rx) = mpsc::channel::<Event>();
+    let mut counts = Counts::default();
+    let mut failed: Option<PyErr> = None;
+    let joined = std::thread::scope(|s| {
+        let worker = s.spawn(move || {
+            let send = move |e: Event| {
+                // The waiting thread is gone only when this run is over.
+                let _ = tx.send(e);
+            };
+            execute(&req, &send)
+        });
+        loop {
+            let (back, got) = py.detach(move || {
+                let got = rx.recv_timeout(POLL);
+                (rx, got)
+            });
+            rx = back;
+            match got {
+                Ok(event) => {
+                    if let (Some(cb), None) = (progress, &failed) {
+                        let called = event_dict(py, event, &mut counts)
+                            .and_then(|d| cb.call1((d,)).map(drop));
+                        if let Err(e) = called {
+                            interrupt::request(libc::SIGINT);
+                            failed = Some(e);
+                        }
+                    }
+                }
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => break,
+            }
+            if stop.is_none()
+                && let Err(e) = py.check_signals()
+            {
+                interrupt::request(libc::SIGINT);
+                *stop = Some(e);
+            }
+        }
+        worker.join()
+    });
+    let result = joined.unwrap_or_else(|_| {
+        Err(Failure::Internal(
+            "the engine's thread panicked; no new report was written".into(),
+        ))
+    });
+    Ok((result, failed))
+}
+
+/// Reads a report directory: its results.json, checked as `import` checks
+/// it (the verdicts must follow from the values and limits), and, when
+/// the report is signed, its files and signature as `verify` checks them.
+/// Gives the results as JSON text and the signature's state.
+#[pyfunction]
+pub fn read_report(py: Python<'_>, dir: PathBuf) -> PyResult<(String, &'static str)> {
+    let read = py.detach(|| read_checked(&dir));
+    read.map_err(|f| errors::to_py(py, f))
+}
+
+fn read_checked(dir: &Path) -> Result<(String, &'static str), Failure> {
+    let path = dir.join("results.json");
+    let text = ledflicker::util::read_input_to_string(&path).map_err(|e| {
+        UsageError(format!(
+            "cannot read `{}`: {e}\n    hint: pass a report directory written by `ledflicker plan` or `merge`",
+            path.display()
+        ))
+    })?;
+    let results = ledflicker::model::read_results(&text)
+        .map_err(|e| UsageError(format!("`{}`: {e}", path.display())))?;
+    let problems = campaign::rejudge::mismatches(&results);
+    if !problems.is_empty() {
+        return Err(UsageError(format!(
+            "`{}`: its verdicts do not follow from its own values and limits:\n  {}\n    hint: the report was edited after it was written; read the report as ledflicker wrote it, or run the plan again",
+            dir.display(),
+            problems.join("\n  ")
+        ))
+        .into());
+    }
+    let signature = signature(dir)?;
+    Ok((text, signature))
+}
+
+use ledflicker::outdir::SIGNOFF_FILE as SIGNATURE_FILE;
+
+/// `unsigned`, or `intact` when `verify` finds every file and signature
+/// as signed; a broken one is an error.
+#[cfg(feature = "signoff")]
+fn signature(dir: &Path) -> Result<&'static str, Failure> {
+    if !dir.join(SIGNATURE_FILE).is_file() {
+        return Ok("unsigned");
+    }
+    let v = ledflicker::signoff::verify(dir, &[], None)?;
+    if v.ok() {
+        return Ok("intact");
+    }
+    Err(UsageError(format!(
+        "`{}`: a hash or signature does not match what was signed\n    hint: `ledflicker verify {}` lists what changed",
+        dir.display(),
+        dir.display()
+    ))
+    .into())
+}
+
+/// A build without the sign-off cannot check a signed report, so it
+/// reads none.
+#[cfg(not(feature = "signoff"))]
+fn signature(dir: &Path) -> Result<&'static str, Failure> {
+    if !dir.join(SIGNATURE_FILE).is_file() {
+        return Ok("unsigned");
+    }
+    Err(UsageError(format!(
+        "`{}` is signed, and this build has no sign-off to verify it\n    hint: build the package with its default features",
+        dir.display()
+    ))
+    .into())
+}
