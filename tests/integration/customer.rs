@@ -213,3 +213,43 @@ fn the_check_finds_what_it_looks_for() {
         );
     }
 }
+
+/// A plan without an OFF segment cannot judge FDI: its matrix shows the
+/// Percent Flicker it is judged on, and the verdict basis names that alone.
+#[test]
+fn a_run_without_an_off_segment_shows_the_percent_flicker_it_is_judged_on() {
+    let dir = scratch("customer-pf");
+    let shown = ledflicker(&["plans", "show", "daylight"]);
+    let plan = String::from_utf8(shown.stdout)
+        .unwrap()
+        .replace("off-s = 2.0", "off-s = 0.0")
+        .replace("pwm-s = 60.0", "pwm-s = 4.0")
+        .replace(
+            "fdi-2018-min = 0.1",
+            "fdi-2018-min = 0.1\npercent-flicker-max = 15.0",
+        );
+    assert!(plan.contains("percent-flicker-max = 15.0") && plan.contains("off-s = 0.0"));
+    let path = dir.join("pf.toml");
+    std::fs::write(&path, plan).unwrap();
+    let out = dir.join("out");
+    let o = ledflicker(&[
+        "plan",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let matrix = std::fs::read_to_string(out.join("charts/matrix-0.svg")).unwrap();
+    assert!(
+        matrix.contains("Percent Flicker, worst phase by PWM frequency and duty"),
+        "{matrix}"
+    );
+    let results: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    let basis = results["method"]["verdict_basis"].as_str().unwrap();
+    assert!(
+        basis.starts_with("Verdicts on Percent Flicker use"),
+        "{basis}"
+    );
+}

@@ -36,7 +36,15 @@ enum Shown {
 fn shown(model: &Results) -> (Shown, String, &'static str, Option<f64>) {
     let worst = model.thresholds.basis == VerdictBasis::WorstPhase;
     let suffix = if worst { "_worst_phase" } else { "" };
-    if model.thresholds.fdi_2018_min.is_none() && model.thresholds.percent_flicker_max.is_some() {
+    // FDI compares with the OFF segment: a run without one is judged on
+    // Percent Flicker only, whatever FDI's limit.
+    let off = model
+        .conditions
+        .sequence
+        .iter()
+        .any(|s| s.segment == crate::model::Segment::Off);
+    let fdi = model.thresholds.fdi_2018_min.is_some() && off;
+    if !fdi && model.thresholds.percent_flicker_max.is_some() {
         (
             Shown::PercentFlicker,
             format!("percent_flicker{suffix}"),
