@@ -190,8 +190,8 @@ fn p2020_samples_fail_test_vid2_on_fmi_and_mmp_in_every_output() {
     // HTML and PDF show the KPIs, the limits and the capture's method.
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     for needle in [
-        "<th>Flicker Modulation Index (P2020)</th>",
-        "<th>Modulation Mitigation Probability (P2020)</th>",
+        "<th title=\"Flicker Modulation Index (P2020)\">FMI</th>",
+        "<th title=\"Modulation Mitigation Probability (P2020)\">MMP</th>",
         "FMI &lt;= 0.1",
         "Capture <code>",
         "test_vid2.mp4",
