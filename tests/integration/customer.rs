@@ -206,32 +206,12 @@ fn check_pdf(
     failures
 }
 
-/// Share of page `k` of `pdf` that its content fills, top to bottom: the
-/// lowest row with ink between the running header and footer, over the
-/// height between them. The DRAFT watermark is too light to count.
+/// Share of page `k` of `pdf` (rendered as the visual test renders it)
+/// that its content fills, top to bottom: the lowest row with ink between
+/// the running header and footer, over the height between them. The DRAFT
+/// watermark is too light to count.
 fn filled(pdf: &Path, k: usize, scratch: &Path) -> f64 {
-    let prefix = scratch.join(format!("fill-{k}"));
-    let k = k.to_string();
-    let o = Command::new("pdftoppm")
-        .args([
-            "-r",
-            "20",
-            "-gray",
-            "-png",
-            "-singlefile",
-            "-f",
-            &k,
-            "-l",
-            &k,
-        ])
-        .arg(pdf)
-        .arg(&prefix)
-        .output()
-        .expect("pdftoppm (poppler-utils) runs");
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let page = image::open(prefix.with_extension("png"))
-        .unwrap()
-        .to_luma8();
+    let page = crate::visual::render(pdf, k, &scratch.join(format!("fill-{k}.png")));
     let (w, h) = page.dimensions();
     // The header and footer lines sit within 9 % of the page's edges.
     let (top, bottom) = ((f64::from(h) * 0.09) as u32, (f64::from(h) * 0.91) as u32);

@@ -90,7 +90,7 @@ fn page_count(pdf: &Path) -> usize {
 }
 
 /// Page `k` of `pdf` as a grey image at [`DPI`].
-fn render(pdf: &Path, k: usize, out: &Path) -> GrayImage {
+pub(crate) fn render(pdf: &Path, k: usize, out: &Path) -> GrayImage {
     let k = k.to_string();
     let prefix = out.with_extension("");
     tool(
