@@ -354,15 +354,12 @@ fn read_checked(dir: &Path) -> Result<(String, &'static str), Failure> {
     })?;
     let results = ledflicker::model::read_results(&text)
         .map_err(|e| UsageError(format!("`{}`: {e}", path.display())))?;
-    let problems = campaign::rejudge::mismatches(&results);
-    if !problems.is_empty() {
-        return Err(UsageError(format!(
-            "`{}`: its verdicts do not follow from its own values and limits:\n  {}\n    hint: the report was edited after it was written; read the report as ledflicker wrote it, or run the plan again",
-            dir.display(),
-            problems.join("\n  ")
-        ))
-        .into());
-    }
+    campaign::rejudge::refuse_edited(
+        dir,
+        &results,
+        "",
+        "read the report as ledflicker wrote it, or run the plan again",
+    )?;
     let signature = signature(dir)?;
     Ok((text, signature))
 }

@@ -184,15 +184,12 @@ pub(super) fn import(a: ImportArgs) -> Result<ExitCode, Failure> {
         })?;
         let results = crate::model::read_results(&text)
             .map_err(|e| UsageError(format!("`{}`: {e}", results_path.display())))?;
-        let problems = campaign::rejudge::mismatches(&results);
-        if !problems.is_empty() {
-            return Err(UsageError(format!(
-                "`{}`: its verdicts do not follow from its own values and limits, so it is not recorded:\n  {}\n    hint: the report was edited after it was written; import the report as ledflicker wrote it, or run the plan again",
-                dir.display(),
-                problems.join("\n  ")
-            ))
-            .into());
-        }
+        campaign::rejudge::refuse_edited(
+            dir,
+            &results,
+            ", so it is not recorded",
+            "import the report as ledflicker wrote it, or run the plan again",
+        )?;
         let (signature, signer) = super::sign::signature_of(dir, &trusted);
         if signature == Signature::Broken {
             eprintln!(

@@ -116,15 +116,12 @@ pub(super) fn sign(args: SignArgs) -> Result<ExitCode, Failure> {
     if let Ok(text) = crate::util::read_input_to_string(&args.dir.join("results.json"))
         && let Ok(results) = crate::model::read_results(&text)
     {
-        let problems = crate::campaign::rejudge::mismatches(&results);
-        if !problems.is_empty() {
-            return Err(UsageError(format!(
-                "`{}`: its verdicts do not follow from its own values and limits, so it is not signed:\n  {}\n    hint: the report was edited after it was written; run the plan again and sign its report",
-                args.dir.display(),
-                problems.join("\n  ")
-            ))
-            .into());
-        }
+        crate::campaign::rejudge::refuse_edited(
+            &args.dir,
+            &results,
+            ", so it is not signed",
+            "run the plan again and sign its report",
+        )?;
     }
     let date = report_date(args.date.as_deref())?;
     let time = signing_time()?;

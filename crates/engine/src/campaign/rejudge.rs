@@ -24,6 +24,29 @@ use ledflicker_core::plan::Limits;
 /// Mismatches listed at most; the rest are counted.
 const MAX: usize = 8;
 
+/// Refuses a report whose verdicts do not follow from its own values and
+/// limits (it was edited after it was written): the error names the
+/// directory and each mismatch, says what is not done (`consequence`, e.g.
+/// ", so it is not signed"; empty when nothing more) and what to do
+/// instead (`hint`). `sign`, `import` and the Python package's `read`
+/// share it, so a report refused by one is refused by all.
+pub fn refuse_edited(
+    dir: &std::path::Path,
+    r: &Results,
+    consequence: &str,
+    hint: &str,
+) -> Result<(), ledflicker_core::error::UsageError> {
+    let problems = mismatches(r);
+    if problems.is_empty() {
+        return Ok(());
+    }
+    Err(ledflicker_core::error::UsageError(format!(
+        "`{}`: its verdicts do not follow from its own values and limits{consequence}:\n  {}\n    hint: the report was edited after it was written; {hint}",
+        dir.display(),
+        problems.join("\n  ")
+    )))
+}
+
 /// The mismatches between what `r` concludes and what its data says, at
 /// most [`MAX`] of them and a count of the others, one line each; empty
 /// when they agree.
