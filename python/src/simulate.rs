@@ -135,6 +135,7 @@ pub fn detect_segments<'py>(
         format: "array".to_string(),
         time_base_s: None,
         stated_fps: None,
+        video: None,
     };
     let det = Detection {
         sequence: Sequence { on_s, off_s, pwm_s },

@@ -231,7 +231,19 @@ pub use ledflicker_plan::trace::CaptureSummary;
 pub struct Captured {
     acquisitions: HashMap<String, Acquisition>,
     /// Each case's capture and how it is read, for its sample frame.
-    sources: HashMap<String, (std::path::PathBuf, ReadOptions)>,
+    sources: HashMap<String, Source>,
+    /// The plan's ROIs, pixels.
+    rects: Vec<RoiRect>,
+}
+
+/// A case's capture, to read one frame of it again.
+#[derive(Debug)]
+struct Source {
+    path: std::path::PathBuf,
+    opts: ReadOptions,
+    /// For a video with its frames' times: the times, the frame size and
+    /// how it was read, so that a frame is read by seeking.
+    seek: Option<(Vec<f64>, (u32, u32), capture::VideoRead)>,
 }
 
 impl Captured {
@@ -244,6 +256,7 @@ impl Captured {
             return Ok(Self {
                 acquisitions: HashMap::new(),
                 sources: HashMap::new(),
+                rects: Vec::new(),
             });
         };
         let rects = roi_rects(&plan.rois);
@@ -252,6 +265,13 @@ impl Captured {
         let paths: Vec<&Path> = cap.cases.iter().map(|c| c.source.as_path()).collect();
         let traces = capture::read_captures(&paths, &rects, &names, &opts)?;
         let detection = Detection::for_plan(plan);
+        let seeks: Vec<_> = traces
+            .iter()
+            .map(|t| {
+                let video = t.video.filter(|v| v.origin_s.is_some())?;
+                Some((t.time_s.clone(), t.frame_size, video))
+            })
+            .collect();
         let acquisitions = cap
             .cases
             .par_iter()
@@ -281,11 +301,20 @@ impl Captured {
         let sources = cap
             .cases
             .iter()
-            .map(|c| (c.id.clone(), (c.source.clone(), opts)))
+            .zip(seeks)
+            .map(|(c, seek)| {
+                let source = Source {
+                    path: c.source.clone(),
+                    opts,
+                    seek,
+                };
+                (c.id.clone(), source)
+            })
             .collect();
         Ok(Self {
             acquisitions,
             sources,
+            rects,
         })
     }
 }
@@ -314,7 +343,8 @@ impl Backend for Captured {
         case: &TestCase,
         frame: u64,
     ) -> Option<Result<RenderedFrame, BackendError>> {
-        let (path, opts) = self.sources.get(&case.id)?;
+        let source = self.sources.get(&case.id)?;
+        let (path, opts) = (&source.path, &source.opts);
         // A CSV trace holds ROI means, not a picture.
         if capture::source_kind(path) == capture::SourceKind::Csv {
             return None;
@@ -328,8 +358,15 @@ impl Backend for Captured {
             want: frame,
             picture: None,
         };
-        let full_scale_dn = match capture::read_grey_frame(path, opts, frame, &mut grab) {
-            Ok(full_scale_dn) => full_scale_dn,
+        let full_scale_dn = match self.seek(case, source, frame, &mut grab) {
+            Ok(true) => 255.0,
+            Ok(false) => {
+                grab.picture = None;
+                match capture::read_grey_frame(path, opts, frame, &mut grab) {
+                    Ok(full_scale_dn) => full_scale_dn,
+                    Err(e) => return Some(Err(error(e.to_string()))),
+                }
+            }
             Err(e) => return Some(Err(error(e.to_string()))),
         };
         Some(match grab.picture {
@@ -345,6 +382,45 @@ impl Backend for Captured {
                 path.display()
             ))),
         })
+    }
+}
+
+impl Captured {
+    /// Reads frame `frame` of `case`'s video into `grab` by seeking, and
+    /// says whether the frame that came is the one wanted (its ROI means
+    /// are the trace's). False without a seek to make: frame 0 (as cheap
+    /// from the start), a frame outside the segments (no means to check
+    /// by), a capture that is not a video with times.
+    fn seek(
+        &self,
+        case: &TestCase,
+        source: &Source,
+        frame: u64,
+        grab: &mut Grab,
+    ) -> Result<bool, CaptureError> {
+        let Some((times, size, video)) = &source.seek else {
+            return Ok(false);
+        };
+        let (Some(origin), Some(acq)) = (video.origin_s, self.acquisitions.get(&case.id)) else {
+            return Ok(false);
+        };
+        let k = frame as usize;
+        let (Some(&before), Some(&at), Some(row)) = (
+            k.checked_sub(1).and_then(|b| times.get(b)),
+            times.get(k),
+            acq.frames.iter().position(|f| f.index == frame),
+        ) else {
+            return Ok(false);
+        };
+        let means: Vec<f64> = acq.rois.iter().map(|r| r.luma[row]).collect();
+        let seek = capture::FrameSeek {
+            at_s: origin + (before + at) / 2.0,
+            size: *size,
+            video: *video,
+            rois: &self.rects,
+            means: &means,
+        };
+        capture::read_video_frame_seeking(&source.path, &source.opts, frame, &seek, grab)
     }
 }
 

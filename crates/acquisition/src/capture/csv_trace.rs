@@ -232,6 +232,7 @@ pub(super) fn read(
         format: "csv luma trace".to_string(),
         time_base_s: None,
         stated_fps: None,
+        video: None,
     })
 }
 

@@ -167,6 +167,7 @@ pub(super) fn read_files(
         ),
         time_base_s: None,
         stated_fps: None,
+        video: None,
     })
 }
 

@@ -98,6 +98,20 @@ pub struct CaptureTrace {
     pub time_base_s: Option<Ratio>,
     /// The frame rate the source states, frames/s, when it states one.
     pub stated_fps: Option<Ratio>,
+    /// For a video, what reading one of its frames again by seeking needs.
+    pub video: Option<VideoRead>,
+}
+
+/// How a video was read, so that one frame of it can be read again by
+/// seeking ([`read_grey_frame`]) rather than by decoding it from the start.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VideoRead {
+    /// Where the first frame is on the timeline that ffmpeg's `-ss` seeks
+    /// on (the file's start time is 0 there), seconds: frame `k` is at
+    /// `origin_s + time_s[k]`. None when the probe gave no times.
+    pub origin_s: Option<f64>,
+    /// Whether the Y' range read was full (else limited).
+    pub full_range: bool,
 }
 
 /// Why a capture could not be read. Every variant names the file.
@@ -587,6 +601,62 @@ pub fn read_grey_frame(
         } else {
             read_grey_frames_on_disk(path, opts, sink).map(|t| t.full_scale_dn)
         }
+    })
+}
+
+/// Where a video's frame is, so that it can be read by seeking.
+pub struct FrameSeek<'a> {
+    /// Where ffmpeg's `-ss` goes: halfway between the frame's presentation
+    /// time and the one before it, on the file's timeline, seconds.
+    pub at_s: f64,
+    /// Frame width and height, pixels.
+    pub size: (u32, u32),
+    /// How the video was read.
+    pub video: VideoRead,
+    /// The ROIs, frame coordinates.
+    pub rois: &'a [RoiRect],
+    /// The frame's ROI means as the trace holds them, DN.
+    pub means: &'a [f64],
+}
+
+/// Most difference, DN, between a ROI mean of the frame a seek landed on
+/// and the trace's mean of the frame wanted: the same pixels give the same
+/// sums; this only absorbs the order they are added in.
+const SEEK_MEANS_TOLERANCE_DN: f64 = 1e-9;
+
+/// Hands frame `frame` of the video at `path`, whole, to `sink`, decoding
+/// from the key frame before it rather than from the start, and returns
+/// true when the frame that came has `seek.means` in every ROI. False (a
+/// file whose index sends the seek elsewhere, or no ROI to check by): the
+/// frame `sink` got, if any, is not the one wanted, and the caller reads it
+/// from the start ([`read_grey_frame`]).
+pub fn read_video_frame_seeking(
+    path: &Path,
+    opts: &ReadOptions,
+    frame: u64,
+    seek: &FrameSeek<'_>,
+    sink: &mut dyn FrameSink,
+) -> Result<bool, CaptureError> {
+    if seek.rois.is_empty() || seek.rois.len() != seek.means.len() {
+        return Ok(false);
+    }
+    with_built_in(path, |path| {
+        let (w, h) = seek.size;
+        let got = video::read_frame_seeking(
+            path,
+            opts,
+            (frame, seek.at_s),
+            (w, h, seek.video),
+            seek.rois,
+            sink,
+        )?;
+        Ok(got.is_some_and(|got| {
+            got.len() == seek.means.len()
+                && got
+                    .iter()
+                    .zip(seek.means)
+                    .all(|(a, b)| (a - b).abs() <= SEEK_MEANS_TOLERANCE_DN)
+        }))
     })
 }
 

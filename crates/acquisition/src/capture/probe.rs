@@ -35,6 +35,9 @@ pub(super) struct Probe {
     pub stated_fps: Option<Ratio>,
     /// Presentation times of the video packets, sorted, seconds from the first.
     pub packet_times: Vec<f64>,
+    /// Where the first packet is on ffmpeg's `-ss` timeline: its
+    /// presentation time less the file's start time, seconds.
+    pub seek_origin_s: Option<f64>,
 }
 
 /// Most bytes of ffprobe's stdout read (about 10 million packet times);
@@ -65,7 +68,7 @@ struct ProbeOutput {
 }
 
 /// What [`probe`] asks ffprobe for: the stream's facts and every packet's time.
-const PROBE_ENTRIES: &str = "stream=width,height,codec_name,pix_fmt,color_range,avg_frame_rate,r_frame_rate,time_base:packet=pts";
+const PROBE_ENTRIES: &str = "stream=width,height,codec_name,pix_fmt,color_range,avg_frame_rate,r_frame_rate,time_base:packet=pts:format=start_time";
 
 /// Longest wait for [`frame_size`]'s ffprobe: reading a stream's header
 /// takes well under a second, and a video whose header does not come
@@ -164,7 +167,9 @@ pub(super) fn probe(path: &Path) -> Result<Probe, CaptureError> {
     };
     let avg = get("avg_frame_rate").and_then(Ratio::parse);
     let time_base_s = get("time_base").and_then(Ratio::parse);
+    let start_s = get("start_time").and_then(|v| v.parse::<f64>().ok());
     Ok(Probe {
+        seek_origin_s: time_base_s.and_then(|tb| Some(first_pts(&text)? * tb.value() - start_s?)),
         packet_times: time_base_s.map_or_else(Vec::new, |tb| packet_times(&text, tb)),
         time_base_s,
         stated_fps: get("r_frame_rate").and_then(Ratio::parse).or(avg),
@@ -200,6 +205,14 @@ pub(super) fn frame_size(path: &Path) -> Option<(u32, u32)> {
         })
     };
     Some((get("width")?, get("height")?))
+}
+
+/// The earliest packet presentation time in `text`, in time-base units.
+fn first_pts(text: &str) -> Option<f64> {
+    text.lines()
+        .filter_map(|l| l.strip_prefix("pts=")?.trim().parse::<i64>().ok())
+        .min()
+        .map(|p| p as f64)
 }
 
 /// The packets' presentation times in `text` (ffprobe's `pts=` lines, in

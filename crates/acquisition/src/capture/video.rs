@@ -31,12 +31,16 @@ use std::process::{Child, Command, Stdio};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+mod seek;
+
+pub(super) use seek::read_frame_seeking;
+
 use super::layout::Layout;
 use super::probe::{Probe, drain_stderr, probe, stopped, tool_error};
 use super::watch::{STALL, Watchdog};
 use super::{
     Accumulator, CaptureError, CaptureTrace, FrameSink, FrameView, Pixels, ReadOptions, RoiRect,
-    VideoDecode, VideoRange, check_rois, limited_to_full_lut, open_file, times_from_fps,
+    VideoDecode, VideoRange, VideoRead, check_rois, limited_to_full_lut, open_file, times_from_fps,
 };
 
 /// True when `ffmpeg` and `ffprobe` can be run.
@@ -204,8 +208,19 @@ impl Decoder {
     /// Starts ffmpeg on `path` through `layout`, in the pixel format of
     /// `opts.video_decode`.
     fn start(path: &Path, layout: Layout, opts: &ReadOptions) -> Result<Decoder, CaptureError> {
+        Decoder::start_at(path, layout, opts, None)
+    }
+
+    /// [`Decoder::start`], from `seek_s` seconds into the file when given.
+    fn start_at(
+        path: &Path,
+        layout: Layout,
+        opts: &ReadOptions,
+        seek_s: Option<f64>,
+    ) -> Result<Decoder, CaptureError> {
         let (pix_fmt, _, planes) = pixel_format(opts.video_decode);
-        let mut child = spawn_ffmpeg(path, &layout.filter(planes), pix_fmt, opts.decoder_threads)?;
+        let filter = layout.filter(planes);
+        let mut child = spawn_ffmpeg(path, &filter, pix_fmt, (opts.decoder_threads, seek_s))?;
         if let Some(out) = &child.stdout {
             grow_pipe(out);
         }
@@ -317,15 +332,21 @@ fn pixel_format(decode: VideoDecode) -> (&'static str, usize, &'static str) {
 /// Starts ffmpeg decoding the first video stream of `path` through the
 /// filter graph `filter` (ending in `[out]`) to raw `pix_fmt` frames on its
 /// stdout, with `threads` decoder threads and a one-thread filter graph
-/// (FFmpeg's choice for both when `None`).
+/// (FFmpeg's choice for both when `None`), from `seek_s` seconds into the
+/// file when given.
 fn spawn_ffmpeg(
     path: &Path,
     filter: &str,
     pix_fmt: &str,
-    threads: Option<usize>,
+    (threads, seek_s): (Option<usize>, Option<f64>),
 ) -> Result<Child, CaptureError> {
     let mut cmd = Command::new("ffmpeg");
     cmd.args(["-nostdin", "-v", "error", "-xerror"]);
+    if let Some(at) = seek_s {
+        // Microseconds, FFmpeg's own time unit: a shorter decimal could
+        // round past the midpoint between two frames.
+        cmd.arg("-ss").arg(format!("{at:.6}"));
+    }
     if let Some(n) = threads {
         // Decoders that share the cores: the filter graph (crops, stack,
         // conversion of a small picture) runs on one thread, which costs
@@ -472,6 +493,10 @@ fn trace(acc: Accumulator<'_>, p: Probe, opts: &ReadOptions, full: bool) -> Capt
         ),
         time_base_s: p.time_base_s.filter(|_| container),
         stated_fps: p.stated_fps,
+        video: Some(VideoRead {
+            origin_s: p.seek_origin_s.filter(|_| container),
+            full_range: full,
+        }),
     }
 }
 

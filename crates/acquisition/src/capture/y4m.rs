@@ -318,6 +318,7 @@ pub(super) fn read(
         ),
         time_base_s: None,
         stated_fps: hdr.stated_fps,
+        video: None,
     })
 }
 

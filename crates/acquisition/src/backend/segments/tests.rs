@@ -18,6 +18,7 @@ fn trace(seconds: f64, led: impl Fn(f64) -> f64) -> CaptureTrace {
         format: "test".to_string(),
         time_base_s: None,
         stated_fps: None,
+        video: None,
     }
 }
 
