@@ -91,7 +91,9 @@ fn p2020_samples_fail_test_vid2_on_fmi_and_mmp_in_every_output() {
     );
     assert!(row.contains("1.000"), "{row}");
     // Each capture's darkest PWM frame, read again from the video, whole,
-    // and the ROI map of the method on each: the ROIs seen in place.
+    // and the ROI map of the method on each that shows anything: the ROIs
+    // seen in place. test_vid2's is black (the lamps were off for its whole
+    // exposure), so it has no map.
     for case in ["test_vid1", "test_vid2", "test_vid3"] {
         let frame = image::open(out.join(format!("frames/{case}.png"))).unwrap();
         assert_eq!((frame.width(), frame.height()), (1280, 800), "{case}");
@@ -106,7 +108,8 @@ fn p2020_samples_fail_test_vid2_on_fmi_and_mmp_in_every_output() {
         );
     }
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
-    assert_eq!(html.matches("<figcaption>ROIs on frame").count(), 3);
+    assert_eq!(html.matches("<figcaption>ROIs on frame").count(), 2);
+    assert!(!html.contains("ROIs on frame 106 of case test_vid2"));
     let header = stdout.lines().find(|l| l.starts_with("case")).unwrap();
     for col in ["roi", "FMI", "FDI P2020", "MMP", "criterion"] {
         assert!(header.contains(col), "{header}");

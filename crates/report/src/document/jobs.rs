@@ -247,8 +247,28 @@ impl<'a, T: Clone + Send + Sync> Jobs<'a, T> {
     }
 }
 
+/// Share of a frame's pixels that must be above [`DARK_SHARE_OF_FULL_SCALE`]
+/// of full scale for the frame to show anything (the rule of `ledflicker
+/// roi`'s preview: 0.1 % above 5 of 255).
+const LIT_SHARE: f64 = 0.001;
+/// Level below which a pixel is dark, as a share of full scale.
+const DARK_SHARE_OF_FULL_SCALE: f64 = 5.0 / 255.0;
+
+/// Whether `frame` shows anything: a capture's darkest PWM frame can be
+/// black where the lamp was off for the whole exposure, and ROIs drawn on
+/// black show nothing of where they are.
+fn shows_anything(frame: &crate::model::RenderedFrame) -> bool {
+    let dark = frame.full_scale_dn * DARK_SHARE_OF_FULL_SCALE;
+    let mut lit = 0u64;
+    for y in 0..frame.height {
+        frame.for_each_in_row(y, (0, frame.width), |_, v| lit += u64::from(v > dark));
+    }
+    lit as f64 > LIT_SHARE * f64::from(frame.width) * f64::from(frame.height)
+}
+
 /// The cases whose frame the ROI map shows, with that frame and its view:
-/// each capture's; of a simulated run, whose frames all show the same
+/// each capture's whose frame shows anything (else the brightest one); of a
+/// simulated run, whose frames all show the same
 /// scene, one: the case whose sample frame (its darkest PWM frame) is
 /// brightest, so that the lamp is lit in it (a 100 % duty case is lit in
 /// every frame), the first of them in plan order.
@@ -275,14 +295,28 @@ fn roi_map_cases<'a>(
             lit,
         ))
     });
-    let framed: Vec<_> = if model.method.backend == crate::model::BackendName::Captured {
-        framed.collect()
-    } else {
+    let brightest = |framed: Vec<_>| -> Vec<_> {
         framed
+            .into_iter()
             .rev()
-            .max_by(|a, b| a.3.total_cmp(&b.3))
+            .max_by(|a: &(_, _, _, f64), b| a.3.total_cmp(&b.3))
             .into_iter()
             .collect()
+    };
+    let framed: Vec<_> = framed.collect();
+    let framed = if model.method.backend == crate::model::BackendName::Captured {
+        let lit: Vec<_> = framed
+            .iter()
+            .filter(|f| shows_anything(f.1))
+            .cloned()
+            .collect();
+        if lit.is_empty() {
+            brightest(framed)
+        } else {
+            lit
+        }
+    } else {
+        brightest(framed)
     };
     framed.into_iter().map(|(r, f, i, _)| (r, f, i)).collect()
 }
@@ -337,5 +371,20 @@ pub(crate) mod tests {
             assert_eq!(&alone[*p], svg, "{p}");
         }
         assert!(jobs.get("charts/no-such-chart.svg").is_none());
+    }
+
+    /// A black frame shows nothing; a frame with 0.2 % of its pixels lit
+    /// does; 0.05 % (a few hot pixels) or a level of 4 DN in 255 does not.
+    #[test]
+    fn a_frame_shows_anything_when_more_than_a_thousandth_of_it_is_lit() {
+        let frame = |lit: usize, level: f64| {
+            let mut luma = vec![0.0; 100 * 100];
+            luma[..lit].iter_mut().for_each(|v| *v = level);
+            crate::model::RenderedFrame::from_pixels(0, 100, 100, &luma, 255.0)
+        };
+        assert!(!shows_anything(&frame(0, 0.0)));
+        assert!(shows_anything(&frame(20, 200.0)));
+        assert!(!shows_anything(&frame(5, 200.0)));
+        assert!(!shows_anything(&frame(20, 4.0)));
     }
 }
