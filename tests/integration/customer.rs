@@ -197,10 +197,7 @@ fn check_pdf(
     }
     // A long sentence printed on many pages is a caveat of a whole
     // class said per ROI or per case.
-    // A sweep's 20 case pages each caption their frame and evidence in
-    // full, so it is held to the other checks only.
-    let repeats = if plan == "sweep-23k" { usize::MAX } else { 8 };
-    for (line, n) in lines.iter().filter(|(_, n)| **n > repeats) {
+    for (line, n) in lines.iter().filter(|(_, n)| **n > 8) {
         failures.push(format!("{plan}: printed {n} times: {line}"));
     }
     failures

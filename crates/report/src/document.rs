@@ -14,6 +14,7 @@ use serde::Serialize;
 mod driver;
 mod info;
 mod jobs;
+mod notes;
 pub mod profile;
 
 pub use driver::{DriverRow, DriverView};
