@@ -155,26 +155,25 @@ impl Store {
         let path = dir.join(PARTIAL);
         remove_partial(&path)?;
         let conn = Connection::open(&path).map_err(sqlite(&path))?;
-        let store = Store::tuned(conn, path)?;
-        let sql = |e| sqlite(&store.path)(e);
+        let mut store = Store::tuned(conn, path)?;
+        let sql = sqlite(&store.path);
         // One transaction: one append to the log instead of one per table
         // and row.
-        store.conn.execute_batch("BEGIN").map_err(sql)?;
-        store.conn.execute_batch(CREATE).map_err(sql)?;
+        let tx = store.conn.transaction().map_err(&sql)?;
+        tx.execute_batch(CREATE).map_err(&sql)?;
         for (k, v) in key
             .rows()
             .iter()
             .chain([&("status", "running".to_string())])
         {
-            store
-                .conn
-                .execute(
-                    "INSERT INTO run (key, value) VALUES (?1, ?2)",
-                    params![k, v],
-                )
-                .map_err(sql)?;
+            tx.execute(
+                "INSERT INTO run (key, value) VALUES (?1, ?2)",
+                params![k, v],
+            )
+            .map_err(&sql)?;
         }
-        store.conn.execute_batch("COMMIT").map_err(sql)?;
+        tx.commit().map_err(&sql)?;
+        drop(sql);
         Ok(store)
     }
 
@@ -235,7 +234,9 @@ impl Store {
             let sql = sqlite(finished);
             for (k, want) in key.rows() {
                 let have: Option<String> = conn
-                    .query_row("SELECT value FROM run WHERE key = ?1", [k], |r| r.get(0))
+                    .query_row("SELECT value FROM run WHERE key = ?1", [k], |r| {
+                        r.get("value")
+                    })
                     .optional()
                     .map_err(&sql)?;
                 if have.as_deref() != Some(want.as_str()) {
@@ -300,7 +301,7 @@ impl Store {
                 message: format!("it is not a ledflicker case store ({e})"),
             })?;
         let rows = q
-            .query_map([], |r| Ok((r.get(0)?, r.get(1)?)))
+            .query_map([], |r| Ok((r.get("key")?, r.get("value")?)))
             .map_err(&sql)?;
         rows.collect::<Result<_, _>>().map_err(sql)
     }
@@ -309,7 +310,7 @@ impl Store {
     fn positions(&self) -> Result<BTreeSet<usize>, StoreError> {
         let sql = sqlite(&self.path);
         let mut q = self.conn.prepare("SELECT idx FROM cases").map_err(&sql)?;
-        let rows = q.query_map([], |r| r.get::<_, i64>(0)).map_err(&sql)?;
+        let rows = q.query_map([], |r| r.get::<_, i64>("idx")).map_err(&sql)?;
         rows.map(|r| r.map(|i| i as usize))
             .collect::<Result<_, _>>()
             .map_err(sql)
@@ -323,6 +324,21 @@ impl Store {
     /// Stores the case at position `idx` of the run, encoded by
     /// [`Encoded::new`] (in its worker, while the run goes on).
     pub fn put_encoded(&mut self, idx: usize, case: Encoded) -> Result<(), StoreError> {
+        self.write_case(idx, case, false)
+    }
+
+    /// Writes the case at `idx` into the open batch (replacing the one
+    /// stored there when `replace`), and commits the batch when it is
+    /// full or old enough.
+    ///
+    /// The batch is a transaction held open across many calls, which a
+    /// guard cannot be (it would borrow the connection the store owns):
+    /// it is begun and committed by statement. Each case goes into it
+    /// under a savepoint guard instead, so that a case that fails halfway
+    /// is rolled back whole, and the batch that is committed later (by
+    /// [`Store::close`] after the error, so that a resumed run keeps the
+    /// cases before it) never holds part of a case.
+    fn write_case(&mut self, idx: usize, case: Encoded, replace: bool) -> Result<(), StoreError> {
         let row = case.0.map_err(|message| StoreError::Record {
             path: self.path.clone(),
             idx,
@@ -333,34 +349,16 @@ impl Store {
             self.conn.execute_batch("BEGIN").map_err(&sql)?;
             self.opened = Instant::now();
         }
-        self.conn
-            .prepare_cached(
-                "INSERT INTO cases (idx, id, light_lux, frequency_hz, duty, verdict, result) \
-                 VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
-            )
-            .and_then(|mut q| {
-                q.execute(params![
-                    idx as i64,
-                    row.id,
-                    row.light_lux,
-                    row.frequency_hz,
-                    row.duty,
-                    row.verdict,
-                    row.bytes
-                ])
-            })
-            .map_err(&sql)?;
-        let mut m = self
-            .conn
-            .prepare_cached(
-                "INSERT INTO roi_metrics (idx, roi, metric, value) VALUES (?1, ?2, ?3, ?4)",
-            )
-            .map_err(&sql)?;
-        for (roi, metric, value) in &row.metrics {
-            m.execute(params![idx as i64, roi, metric, value])
-                .map_err(&sql)?;
+        let case = self.conn.savepoint().map_err(&sql)?;
+        if replace {
+            for table in ["roi_metrics", "cases"] {
+                case.prepare_cached(&format!("DELETE FROM {table} WHERE idx = ?1"))
+                    .and_then(|mut q| q.execute(params![idx as i64]))
+                    .map_err(&sql)?;
+            }
         }
-        drop(m);
+        insert(&case, idx, &row).map_err(&sql)?;
+        case.commit().map_err(&sql)?;
         drop(sql);
         self.pending += 1;
         if self.pending >= BATCH || self.opened.elapsed() >= COMMIT_EVERY {
@@ -376,6 +374,9 @@ impl Store {
         self.commit()
     }
 
+    /// Commits the open batch, if any. A batch holds whole cases only
+    /// ([`Store::write_case`]), so a failed commit leaves it open and
+    /// whole, for the next commit to try again.
     fn commit(&mut self) -> Result<(), StoreError> {
         if !self.conn.is_autocommit() {
             self.conn
@@ -413,8 +414,7 @@ impl Store {
                     idx,
                     message,
                 })?;
-                self.remove(idx)?;
-                self.put_encoded(idx, encoded)?;
+                self.write_case(idx, encoded, true)?;
             }
         }
         self.commit()?;
@@ -431,7 +431,7 @@ impl Store {
         let mut out = Vec::with_capacity(positions.len());
         for &idx in positions {
             let bytes: Vec<u8> = q
-                .query_row(params![idx as i64], |r| r.get(0))
+                .query_row(params![idx as i64], |r| r.get("result"))
                 .map_err(&sql)?;
             let case = record::decode(&bytes).map_err(|message| StoreError::Record {
                 path: self.path.clone(),
@@ -441,23 +441,6 @@ impl Store {
             out.push((idx, case));
         }
         Ok(out)
-    }
-
-    /// Deletes the stored case at `idx` and its metric rows, in the open
-    /// batch.
-    fn remove(&mut self, idx: usize) -> Result<(), StoreError> {
-        let sql = sqlite(&self.path);
-        if self.conn.is_autocommit() {
-            self.conn.execute_batch("BEGIN").map_err(&sql)?;
-            self.opened = Instant::now();
-        }
-        for table in ["roi_metrics", "cases"] {
-            self.conn
-                .prepare_cached(&format!("DELETE FROM {table} WHERE idx = ?1"))
-                .and_then(|mut q| q.execute(params![idx as i64]))
-                .map_err(&sql)?;
-        }
-        Ok(())
     }
 
     /// Commits what is pending: after an interruption, so that a resumed
@@ -528,6 +511,30 @@ impl Encoded {
     }
 }
 
+/// Inserts the case `row` at position `idx`: its row and its metrics.
+fn insert(conn: &Connection, idx: usize, row: &Row) -> rusqlite::Result<()> {
+    conn.prepare_cached(
+        "INSERT INTO cases (idx, id, light_lux, frequency_hz, duty, verdict, result) \
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+    )?
+    .execute(params![
+        idx as i64,
+        row.id,
+        row.light_lux,
+        row.frequency_hz,
+        row.duty,
+        row.verdict,
+        row.bytes
+    ])?;
+    let mut m = conn.prepare_cached(
+        "INSERT INTO roi_metrics (idx, roi, metric, value) VALUES (?1, ?2, ?3, ?4)",
+    )?;
+    for (roi, metric, value) in &row.metrics {
+        m.execute(params![idx as i64, roi, metric, value])?;
+    }
+    Ok(())
+}
+
 /// The `roi_metrics` rows of a case: each ROI's metrics by their
 /// results.json names; an undefined metric is NULL.
 fn roi_metrics(result: &CaseResult) -> Vec<(String, &'static str, Option<f64>)> {
@@ -591,7 +598,7 @@ impl StoredCases {
         let sql = sqlite(path);
         let status: Option<String> = conn
             .query_row("SELECT value FROM run WHERE key = 'status'", [], |r| {
-                r.get(0)
+                r.get("value")
             })
             .optional()
             .map_err(&sql)?;
@@ -602,9 +609,11 @@ impl StoredCases {
             });
         }
         let (count, last): (i64, Option<i64>) = conn
-            .query_row("SELECT COUNT(*), MAX(idx) FROM cases", [], |r| {
-                Ok((r.get(0)?, r.get(1)?))
-            })
+            .query_row(
+                "SELECT COUNT(*) AS count, MAX(idx) AS last FROM cases",
+                [],
+                |r| Ok((r.get("count")?, r.get("last")?)),
+            )
             .map_err(&sql)?;
         if last.map_or(count != 0, |last| last + 1 != count) {
             return Err(StoreError::Mismatch {
@@ -635,7 +644,7 @@ impl StoredCases {
             .map_err(&sql)?;
         let rows = q
             .query_map(params![range.start as i64, range.end as i64], |r| {
-                Ok((r.get::<_, i64>(0)?, r.get::<_, Vec<u8>>(1)?))
+                Ok((r.get::<_, i64>("idx")?, r.get::<_, Vec<u8>>("result")?))
             })
             .map_err(&sql)?;
         let mut cases = Vec::with_capacity(range.len());

@@ -346,7 +346,7 @@ impl Db {
     pub fn version(&self) -> Result<usize, CampaignError> {
         let v: i64 = self
             .conn
-            .query_row("PRAGMA user_version", [], |r| r.get(0))
+            .query_row("PRAGMA user_version", [], |r| r.get("user_version"))
             .map_err(|e| not_a_database(&self.path, e))?;
         Ok(v.max(0) as usize)
     }
@@ -364,7 +364,7 @@ impl Db {
                 .transaction_with_behavior(TransactionBehavior::Immediate)
                 .map_err(|e| not_a_database(&path, e))?;
             let version: i64 = tx
-                .query_row("PRAGMA user_version", [], |r| r.get(0))
+                .query_row("PRAGMA user_version", [], |r| r.get("user_version"))
                 .map_err(&sql)?;
             let version = version.max(0) as usize;
             if version > migrations.len() {
@@ -397,7 +397,7 @@ impl Db {
 /// file that is not a results database, or of a newer schema, is refused.
 fn schema_state(conn: &Connection, path: &Path, known: usize) -> Result<usize, CampaignError> {
     let version: i64 = conn
-        .query_row("PRAGMA user_version", [], |r| r.get(0))
+        .query_row("PRAGMA user_version", [], |r| r.get("user_version"))
         .map_err(|e| not_a_database(path, e))?;
     let version = version.max(0) as usize;
     if version > known {
@@ -436,7 +436,7 @@ fn uri_path(path: &Path) -> String {
 /// The database holds no table.
 fn is_empty(conn: &Connection) -> rusqlite::Result<bool> {
     conn.query_row("SELECT name FROM sqlite_master LIMIT 1", [], |r| {
-        r.get::<_, String>(0)
+        r.get::<_, String>("name")
     })
     .optional()
     .map(|t| t.is_none())

@@ -9,12 +9,14 @@
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::PathBuf;
+use std::rc::Rc;
 
-use postgres::types::{IsNull, ToSql, Type, private::BytesMut, to_sql_checked};
-use postgres::{Client, Config, NoTls};
+use bytes::BytesMut;
+use postgres::types::{IsNull, ToSql, Type, to_sql_checked};
+use postgres::{Client, Config, GenericClient, NoTls};
 
 use super::server::{self, Target};
-use super::sql::{Row, Value};
+use super::sql::{Row, ServerTx, Tx, Value};
 use super::{CampaignError, SCHEMA};
 
 /// The schema's steps for PostgreSQL, the same tables and columns as
@@ -93,11 +95,11 @@ impl PgDb {
             if version == 0 {
                 let others: i64 = tx
                     .query_one(
-                        "SELECT count(*) FROM information_schema.tables \
+                        "SELECT count(*) AS tables FROM information_schema.tables \
                          WHERE table_schema = current_schema() AND table_name <> 'schema_version'",
                         &[],
                     )
-                    .and_then(|r| r.try_get(0))
+                    .and_then(|r| r.try_get("tables"))
                     .map_err(|e| self.error(&e))?;
                 if others > 0 {
                     return Err(CampaignError::Unusable {
@@ -130,13 +132,17 @@ impl PgDb {
         }
     }
 
-    fn statement(&self, sql: &str) -> Result<postgres::Statement, CampaignError> {
+    /// The prepared statement of `sql` on this connection, prepared on
+    /// `c` (the client, or a transaction on it) the first time.
+    fn statement(
+        &self,
+        c: &mut impl GenericClient,
+        sql: &str,
+    ) -> Result<postgres::Statement, CampaignError> {
         if let Some(s) = self.statements.borrow().get(sql) {
             return Ok(s.clone());
         }
-        let st = self
-            .client
-            .borrow_mut()
+        let st = c
             .prepare(&super::sql::dollar_placeholders(sql))
             .map_err(|e| self.error(&e))?;
         self.statements
@@ -146,39 +152,82 @@ impl PgDb {
     }
 
     pub(crate) fn rows(&self, sql: &str, params: &[Value]) -> Result<Vec<Row>, CampaignError> {
-        let st = self.statement(sql)?;
+        self.rows_in(&mut *self.client.borrow_mut(), sql, params)
+    }
+
+    /// The rows `sql` gives on `c`: the client, or a transaction on it.
+    fn rows_in(
+        &self,
+        c: &mut impl GenericClient,
+        sql: &str,
+        params: &[Value],
+    ) -> Result<Vec<Row>, CampaignError> {
+        let st = self.statement(c, sql)?;
         let refs: Vec<&(dyn ToSql + Sync)> = params.iter().map(|v| v as _).collect();
-        let rows = self
-            .client
-            .borrow_mut()
-            .query(&st, &refs)
-            .map_err(|e| self.error(&e))?;
+        let rows = c.query(&st, &refs).map_err(|e| self.error(&e))?;
+        let names: Rc<[String]> = st.columns().iter().map(|c| c.name().to_string()).collect();
         rows.iter()
             .map(|r| {
                 (0..r.len())
                     .map(|i| column(r, i))
                     .collect::<Result<Vec<_>, _>>()
-                    .map(Row)
+                    .map(|values| Row {
+                        names: Rc::clone(&names),
+                        values,
+                    })
             })
             .collect::<Result<_, _>>()
             .map_err(|e| self.error(&e))
     }
 
-    pub(crate) fn run(&self, sql: &str, params: &[Value]) -> Result<(), CampaignError> {
-        let st = self.statement(sql)?;
+    /// Runs a statement that returns no rows on `c`: the client, or a
+    /// transaction on it.
+    fn run_in(
+        &self,
+        c: &mut impl GenericClient,
+        sql: &str,
+        params: &[Value],
+    ) -> Result<(), CampaignError> {
+        let st = self.statement(c, sql)?;
         let refs: Vec<&(dyn ToSql + Sync)> = params.iter().map(|v| v as _).collect();
-        self.client
-            .borrow_mut()
-            .execute(&st, &refs)
-            .map(drop)
-            .map_err(|e| self.error(&e))
+        c.execute(&st, &refs).map(drop).map_err(|e| self.error(&e))
     }
 
-    pub(crate) fn batch(&self, sql: &str) -> Result<(), CampaignError> {
-        self.client
-            .borrow_mut()
-            .batch_execute(sql)
-            .map_err(|e| self.error(&e))
+    /// [`super::Database::write`] on the server: the client's transaction,
+    /// rolled back by its guard when `f` or the commit fails.
+    pub(crate) fn write<T>(
+        &self,
+        f: impl FnOnce(&Tx<'_>) -> Result<T, CampaignError>,
+    ) -> Result<T, CampaignError> {
+        let mut client = self.client.borrow_mut();
+        let tx = client.transaction().map_err(|e| self.error(&e))?;
+        let tx = PgTx {
+            db: self,
+            tx: RefCell::new(tx),
+        };
+        super::sql::in_transaction(Tx::server(&self.path, Box::new(tx)), f)
+    }
+}
+
+/// A transaction on the server, as [`Tx`] runs statements in it.
+struct PgTx<'a> {
+    db: &'a PgDb,
+    /// In a cell: the client runs a statement through `&mut`.
+    tx: RefCell<postgres::Transaction<'a>>,
+}
+
+impl ServerTx for PgTx<'_> {
+    fn rows(&self, sql: &str, params: &[Value]) -> Result<Vec<Row>, CampaignError> {
+        self.db.rows_in(&mut *self.tx.borrow_mut(), sql, params)
+    }
+
+    fn run(&self, sql: &str, params: &[Value]) -> Result<(), CampaignError> {
+        self.db.run_in(&mut *self.tx.borrow_mut(), sql, params)
+    }
+
+    fn commit(self: Box<Self>) -> Result<(), CampaignError> {
+        let PgTx { db, tx } = *self;
+        tx.into_inner().commit().map_err(|e| db.error(&e))
     }
 }
 
@@ -281,8 +330,11 @@ fn bound(config: &mut Config) {
 }
 
 fn has_version_table(c: &mut impl postgres::GenericClient) -> Result<bool, postgres::Error> {
-    c.query_one("SELECT to_regclass('schema_version') IS NOT NULL", &[])?
-        .try_get(0)
+    c.query_one(
+        "SELECT to_regclass('schema_version') IS NOT NULL AS present",
+        &[],
+    )?
+    .try_get("present")
 }
 
 /// The highest step recorded in `schema_version`; 0 without the table.
@@ -291,8 +343,8 @@ fn version_of(c: &mut impl postgres::GenericClient) -> Result<usize, postgres::E
         return Ok(0);
     }
     let v: Option<i64> = c
-        .query_one("SELECT max(version) FROM schema_version", &[])?
-        .try_get(0)?;
+        .query_one("SELECT max(version) AS version FROM schema_version", &[])?
+        .try_get("version")?;
     Ok(v.unwrap_or(0).max(0) as usize)
 }
 

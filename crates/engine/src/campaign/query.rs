@@ -70,32 +70,37 @@ const RUN_COLUMNS: &str = "id, recorded_unix_s, source, date, plan_id, plan_hash
 
 fn run_row(r: &Row) -> Result<RunRow, Mismatch> {
     Ok(RunRow {
-        id: r.get(0)?,
-        recorded_unix_s: r.get(1)?,
-        source: r.get(2)?,
-        date: r.get(3)?,
-        plan_id: r.get(4)?,
-        plan_hash: r.get(5)?,
-        tool: r.get(6)?,
-        backend: r.get(7)?,
-        supplier: r.get(8)?,
-        model: r.get(9)?,
-        serial: r.get(10)?,
-        firmware: r.get(11)?,
-        signer: r.get(12)?,
-        signature: r.get(13)?,
-        report_dir: r.get(14)?,
-        results_sha256: r.get(15)?,
-        manifest_sha256: r.get(16)?,
-        verdict: r.get(17)?,
-        cases: [r.get(18)?, r.get(19)?, r.get(20)?, r.get(21)?],
-        plan_title: r.get(22)?,
+        id: r.get("id")?,
+        recorded_unix_s: r.get("recorded_unix_s")?,
+        source: r.get("source")?,
+        date: r.get("date")?,
+        plan_id: r.get("plan_id")?,
+        plan_hash: r.get("plan_hash")?,
+        tool: r.get("tool")?,
+        backend: r.get("backend")?,
+        supplier: r.get("supplier")?,
+        model: r.get("model")?,
+        serial: r.get("serial")?,
+        firmware: r.get("firmware")?,
+        signer: r.get("signer")?,
+        signature: r.get("signature")?,
+        report_dir: r.get("report_dir")?,
+        results_sha256: r.get("results_sha256")?,
+        manifest_sha256: r.get("manifest_sha256")?,
+        verdict: r.get("verdict")?,
+        cases: [
+            r.get("cases_total")?,
+            r.get("cases_pass")?,
+            r.get("cases_fail")?,
+            r.get("cases_info")?,
+        ],
+        plan_title: r.get("plan_title")?,
         // Stored as SQL's signed integer, bit for bit.
-        seed: r.get::<i64>(23)? as u64,
+        seed: r.get::<i64>("seed")? as u64,
         setup: r
-            .get::<Option<String>>(24)?
+            .get::<Option<String>>("setup")?
             .and_then(|s| serde_json::from_str(&s).ok()),
-        test_hash: r.get(25)?,
+        test_hash: r.get("test_hash")?,
     })
 }
 
@@ -196,7 +201,7 @@ pub fn metric_names(db: &Database) -> Result<Vec<String>, CampaignError> {
     db.query_map(
         "SELECT DISTINCT metric FROM metrics ORDER BY metric",
         &[],
-        |r| r.get(0),
+        |r| r.get("metric"),
     )
 }
 
@@ -224,8 +229,10 @@ pub fn trend(
     }
     let mut points = db.query_map(
         &format!(
-            "SELECT r.id, r.date, r.plan_id, r.model, r.serial, r.firmware, c.id, m.roi, m.metric, m.value, c.idx, \
-             k.comparison, k.threshold \
+            "SELECT r.id AS run_id, r.date AS date, r.plan_id AS plan_id, r.model AS model, \
+             r.serial AS serial, r.firmware AS firmware, c.id AS case_id, c.idx AS idx, \
+             m.roi AS roi, m.metric AS metric, m.value AS value, \
+             k.comparison AS comparison, k.threshold AS threshold \
              FROM metrics m JOIN cases c ON c.run_id = m.run_id AND c.idx = m.idx \
              JOIN runs r ON r.id = m.run_id \
              LEFT JOIN checks k ON k.run_id = m.run_id AND k.idx = m.idx AND k.roi = m.roi AND k.metric = m.metric\
@@ -234,23 +241,27 @@ pub fn trend(
         ),
         &texts(values),
         |r| {
+            let limit = (
+                r.get::<Option<String>>("comparison")?,
+                r.get::<Option<f64>>("threshold")?,
+            );
             let point = TrendPoint {
-                run: r.get(0)?,
-                date: r.get(1)?,
-                plan: r.get(2)?,
-                camera: r.get(3)?,
-                serial: r.get(4)?,
-                firmware: r.get(5)?,
-                case: r.get(6)?,
-                roi: r.get(7)?,
-                metric: r.get(8)?,
-                value: r.get(9)?,
-                limit: match (r.get::<Option<String>>(11)?, r.get::<Option<f64>>(12)?) {
+                run: r.get("run_id")?,
+                date: r.get("date")?,
+                plan: r.get("plan_id")?,
+                camera: r.get("model")?,
+                serial: r.get("serial")?,
+                firmware: r.get("firmware")?,
+                case: r.get("case_id")?,
+                roi: r.get("roi")?,
+                metric: r.get("metric")?,
+                value: r.get("value")?,
+                limit: match limit {
                     (Some(op), Some(threshold)) => Some((op, threshold)),
                     _ => None,
                 },
             };
-            Ok((r.get::<i64>(10)?, point))
+            Ok((r.get::<i64>("idx")?, point))
         },
     )?;
     // ROI names in byte order, as SQLite sorts text: a server's collation
@@ -273,9 +284,9 @@ pub fn run_of_dir(db: &Database, dir: &Path) -> Result<Option<i64>, CampaignErro
     let abs = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
     Ok(db
         .query_row(
-            "SELECT max(id) FROM runs WHERE report_dir = ?1",
+            "SELECT max(id) AS id FROM runs WHERE report_dir = ?1",
             &values![abs.to_string_lossy().as_ref()],
-            |r| r.get::<Option<i64>>(0),
+            |r| r.get::<Option<i64>>("id"),
         )?
         .flatten())
 }
@@ -368,7 +379,8 @@ pub fn repeats(db: &Database, a: &RunRow, b: &RunRow) -> Result<Repeats, Campaig
     for (g, run) in groups.into_iter().enumerate() {
         let Some(hash) = &run.test_hash else { continue };
         let rows = db.query_map(
-            "SELECT r.id, c.id, m.roi, m.metric, m.value FROM metrics m \
+            "SELECT r.id AS run_id, c.id AS case_id, m.roi AS roi, m.metric AS metric, \
+             m.value AS value FROM metrics m \
              JOIN cases c ON c.run_id = m.run_id AND c.idx = m.idx \
              JOIN runs r ON r.id = m.run_id \
              WHERE r.plan_id = ?1 AND r.model = ?2 AND r.serial = ?3 AND r.firmware = ?4 \
@@ -376,13 +388,13 @@ pub fn repeats(db: &Database, a: &RunRow, b: &RunRow) -> Result<Repeats, Campaig
             &values![run.plan_id, run.model, run.serial, run.firmware, hash],
             |r| {
                 Ok((
-                    r.get::<i64>(0)?,
+                    r.get::<i64>("run_id")?,
                     (
-                        r.get::<String>(1)?,
-                        r.get::<String>(2)?,
-                        r.get::<String>(3)?,
+                        r.get::<String>("case_id")?,
+                        r.get::<String>("roi")?,
+                        r.get::<String>("metric")?,
                     ),
-                    r.get::<f64>(4)?,
+                    r.get::<f64>("value")?,
                 ))
             },
         )?;
@@ -414,8 +426,13 @@ pub fn load_run(db: &Database, id: i64) -> Result<RunData, CampaignError> {
          ORDER BY idx",
         &values![id],
         |r| {
-            let head = (r.get::<i64>(0)?, r.get::<String>(1)?, r.get(2)?);
-            Ok((head, (r.get(3)?, r.get(4)?, r.get(5)?)))
+            let head = (
+                r.get::<i64>("idx")?,
+                r.get::<String>("id")?,
+                r.get("verdict")?,
+            );
+            let conditions = (r.get("light_lux")?, r.get("frequency_hz")?, r.get("duty")?);
+            Ok((head, conditions))
         },
     )?;
     for ((idx, case, verdict), (light_lux, frequency_hz, duty)) in rows {
@@ -439,17 +456,17 @@ pub fn load_run(db: &Database, id: i64) -> Result<RunData, CampaignError> {
         &values![id],
         |r| {
             Ok((
-                r.get::<i64>(0)?,
-                r.get::<String>(1)?,
+                r.get::<i64>("idx")?,
+                r.get::<String>("roi")?,
                 RoiData {
-                    kind: r.get(2)?,
-                    level_min: r.get(3)?,
-                    level_max: r.get(4)?,
-                    level_off: r.get(5)?,
-                    level_on: r.get(6)?,
-                    noise_on_dn: r.get(7)?,
-                    noise_off_dn: r.get(8)?,
-                    off_frames: r.get::<i64>(9)?.max(0) as usize,
+                    kind: r.get("kind")?,
+                    level_min: r.get("level_min")?,
+                    level_max: r.get("level_max")?,
+                    level_off: r.get("level_off")?,
+                    level_on: r.get("level_on")?,
+                    noise_on_dn: r.get("noise_on_dn")?,
+                    noise_off_dn: r.get("noise_off_dn")?,
+                    off_frames: r.get::<i64>("off_frames")?.max(0) as usize,
                     metrics: BTreeMap::new(),
                 },
             ))
@@ -465,10 +482,10 @@ pub fn load_run(db: &Database, id: i64) -> Result<RunData, CampaignError> {
         &values![id],
         |r| {
             Ok((
-                r.get::<i64>(0)?,
-                r.get::<String>(1)?,
-                r.get::<String>(2)?,
-                r.get::<Option<f64>>(3)?,
+                r.get::<i64>("idx")?,
+                r.get::<String>("roi")?,
+                r.get::<String>("metric")?,
+                r.get::<Option<f64>>("value")?,
             ))
         },
     )?;
@@ -485,13 +502,13 @@ pub fn load_run(db: &Database, id: i64) -> Result<RunData, CampaignError> {
         &values![id],
         |r| {
             Ok((
-                r.get::<i64>(0)?,
+                r.get::<i64>("idx")?,
                 CheckData {
-                    roi: r.get(1)?,
-                    metric: r.get(2)?,
-                    comparison: r.get(3)?,
-                    threshold: r.get(4)?,
-                    pass: r.get(5)?,
+                    roi: r.get("roi")?,
+                    metric: r.get("metric")?,
+                    comparison: r.get("comparison")?,
+                    threshold: r.get("threshold")?,
+                    pass: r.get("pass")?,
                 },
             ))
         },

@@ -6,7 +6,7 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use super::setup::{CaseFacts, Setup};
-use super::sql::values;
+use super::sql::{Tx, values};
 use super::{CampaignError, Database, noise};
 use ledflicker_core::model::{CaseInfo, Results};
 
@@ -265,7 +265,7 @@ fn read_results_file(
 }
 
 fn insert_run(
-    tx: &Database,
+    tx: &Tx<'_>,
     r: &Results,
     p: &Prepared,
     provenance: &Provenance,
@@ -317,7 +317,7 @@ fn insert_run(
             setup_json,
             setup.test_hash(),
         ],
-        |row| row.get::<i64>(0),
+        |row| row.get::<i64>("id"),
     )?;
     id.ok_or_else(|| CampaignError::Unusable {
         path: tx.path().to_path_buf(),
@@ -326,7 +326,7 @@ fn insert_run(
 }
 
 fn insert_case(
-    tx: &Database,
+    tx: &Tx<'_>,
     run_id: i64,
     idx: usize,
     c: &CaseInfo,

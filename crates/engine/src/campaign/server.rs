@@ -5,114 +5,114 @@
 
 use std::path::{Path, PathBuf};
 
+use percent_encoding::{AsciiSet, CONTROLS, percent_decode_str, utf8_percent_encode};
+use url::Url;
+
 /// Whether `--db` names a server, not a file: a `postgres://` or
 /// `postgresql://` URL, as libpq takes them.
 pub fn is_url(db: &str) -> bool {
     db.starts_with("postgres://") || db.starts_with("postgresql://")
 }
 
-/// The parts of a server URL as libpq reads them: the scheme with its
-/// `://`, the user part (before an `@` met before any `/`; it may hold a
-/// `?`), the host and path, and the parameters after the first `?` of
-/// the host and path.
-fn split(url: &str) -> Option<(&str, Option<&str>, &str, Option<&str>)> {
-    let scheme_end = url.find("://")? + 3;
-    let rest = &url[scheme_end..];
-    let user_end = rest
-        .find(['@', '/'])
-        .filter(|&i| rest.as_bytes()[i] == b'@');
-    let (user, after) = match user_end {
-        Some(at) => (Some(&rest[..at]), &rest[at + 1..]),
-        None => (None, rest),
-    };
-    let (host, query) = match after.find('?') {
-        Some(q) => (&after[..q], Some(&after[q + 1..])),
-        None => (after, None),
-    };
-    Some((&url[..scheme_end], user, host, query))
+/// What is escaped in a user part before the `url` crate parses it: the
+/// characters that end a URL's authority (RFC 3986) before its `@`.
+const IN_USER_PART: &AsciiSet = &CONTROLS.add(b'?').add(b'#');
+/// What is escaped in the rest of the URL: a `#` starts no fragment in a
+/// libpq URL, so a parameter's value may hold one.
+const IN_REST: &AsciiSet = &CONTROLS.add(b'#');
+
+/// The user part of a server URL (`user:password`, as written), read as
+/// libpq and the postgres client read it: up to the first `@` met before
+/// any `/`, so that a password may hold a `?` or a `#`.
+fn user_part(url: &str) -> Option<&str> {
+    let (_, rest) = url.split_once("://")?;
+    rest.find(['@', '/'])
+        .filter(|&i| rest.as_bytes()[i] == b'@')
+        .map(|at| &rest[..at])
+}
+
+/// A server URL as the `url` crate parses it, read as libpq reads it: its
+/// user part as [`user_part`] reads it (the crate would end it at a `?`
+/// or a `#`), and a `#` a character like any other; these are escaped
+/// first. `None`: not a URL the crate parses (a libpq list of several
+/// hosts with ports).
+fn parse(url: &str) -> Option<Url> {
+    let (scheme, rest) = url.split_once("://")?;
+    let user = user_part(url).unwrap_or("");
+    let escaped = format!(
+        "{scheme}://{}{}",
+        utf8_percent_encode(user, IN_USER_PART),
+        utf8_percent_encode(&rest[user.len()..], IN_REST)
+    );
+    Url::parse(&escaped).ok()
 }
 
 /// Whether a URL parameter's key, percent-decoded, is `password`.
 fn is_password_key(key: &str) -> bool {
-    percent_decode(key) == "password"
+    percent_decode_str(key).decode_utf8_lossy() == "password"
+}
+
+/// The URL's parameters as written, each `(key, value)` (`value` `None`
+/// without `=`).
+fn params(url: &Url) -> impl Iterator<Item = (&str, Option<&str>)> {
+    url.query()
+        .into_iter()
+        .flat_map(|q| q.split('&'))
+        .map(|p| match p.split_once('=') {
+            Some((k, v)) => (k, Some(v)),
+            None => (p, None),
+        })
 }
 
 /// `url` with the password, of the user part or of a `password=`
 /// parameter (its key percent-encoded or not), replaced by `***`: the only
-/// form of the URL a message or a page shows.
+/// form of the URL a message or a page shows. A URL that cannot be parsed
+/// shows its scheme alone.
 pub fn redact(url: &str) -> String {
-    let Some((scheme, user, host, query)) = split(url) else {
-        return url.to_string();
+    let Some(mut parsed) = parse(url) else {
+        let scheme = url.split_once("://").map_or("", |(s, _)| s);
+        return format!("{scheme}://***");
     };
-    let mut out = scheme.to_string();
-    if let Some(user) = user {
-        match user.split_once(':') {
-            Some((name, _)) => {
-                out.push_str(name);
-                out.push_str(":***");
-            }
-            None => out.push_str(user),
-        }
-        out.push('@');
+    if parsed.password().is_some() {
+        // Cannot fail: the URL has a host, or it would have no password.
+        let _ = parsed.set_password(Some("***"));
     }
-    out.push_str(host);
-    if let Some(params) = query {
-        let params: Vec<String> = params
-            .split('&')
-            .map(|p| match p.split_once('=') {
-                Some((k, _)) if is_password_key(k) => format!("{k}=***"),
-                _ => p.to_string(),
+    if parsed.query().is_some() {
+        let query: Vec<String> = params(&parsed)
+            .map(|(k, v)| match v {
+                Some(_) if is_password_key(k) => format!("{k}=***"),
+                Some(v) => format!("{k}={v}"),
+                None => k.to_string(),
             })
             .collect();
-        out.push('?');
-        out.push_str(&params.join("&"));
+        parsed.set_query(Some(&query.join("&")));
     }
-    out
+    parsed.into()
 }
 
 /// The password written in `url`, if any, as written and percent-decoded:
 /// the strings a message must never show.
 pub fn secrets_in(url: &str) -> Vec<String> {
     let mut found = Vec::new();
-    let Some((_, user, _, query)) = split(url) else {
-        return found;
-    };
-    if let Some((_, pw)) = user.and_then(|u| u.split_once(':')) {
+    if let Some((_, pw)) = user_part(url).and_then(|u| u.split_once(':')) {
         found.push(pw.to_string());
     }
-    for p in query.unwrap_or("").split('&') {
-        if let Some((k, pw)) = p.split_once('=')
-            && is_password_key(k)
-        {
-            found.push(pw.to_string());
-        }
+    if let Some(parsed) = parse(url) {
+        found.extend(
+            params(&parsed)
+                .filter(|(k, _)| is_password_key(k))
+                .filter_map(|(_, v)| v.map(str::to_string)),
+        );
     }
-    let decoded: Vec<String> = found.iter().map(|s| percent_decode(s)).collect();
+    let decoded: Vec<String> = found
+        .iter()
+        .map(|s| percent_decode_str(s).decode_utf8_lossy().into_owned())
+        .collect();
     found.extend(decoded);
     found.retain(|s| !s.is_empty());
     found.sort();
     found.dedup();
     found
-}
-
-fn percent_decode(s: &str) -> String {
-    let b = s.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        let hex = |c: u8| (c as char).to_digit(16);
-        if b[i] == b'%'
-            && i + 2 < b.len()
-            && let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2]))
-        {
-            out.push((h * 16 + l) as u8);
-            i += 3;
-        } else {
-            out.push(b[i]);
-            i += 1;
-        }
-    }
-    String::from_utf8_lossy(&out).into_owned()
 }
 
 /// `text` with every secret replaced by `***`.
@@ -223,6 +223,18 @@ mod tests {
             "postgres://lab@db/x?pass%77ord=***&sslmode=disable"
         );
         assert_eq!(secrets_in(url), ["hun%3Fter", "hun?ter"]);
+        let url = "postgres://lab:a#b@db/x";
+        assert_eq!(redact(url), "postgres://lab:***@db/x");
+        assert_eq!(secrets_in(url), ["a#b"]);
+        // Nor does a `#` end a parameter's value.
+        let url = "postgres://db/x?password=a#b&sslmode=disable";
+        assert_eq!(redact(url), "postgres://db/x?password=***&sslmode=disable");
+        assert_eq!(secrets_in(url), ["a#b", "a%23b"]);
+        // A libpq list of hosts with ports is no URL the url crate parses:
+        // it shows its scheme alone, and its password is still known.
+        let url = "postgres://lab:pw@h1:5432,h2:5433/x?password=p2";
+        assert_eq!(redact(url), "postgres://***");
+        assert_eq!(secrets_in(url), ["pw"]);
         // An `@` in a parameter is not a user part.
         assert_eq!(
             redact("postgres://db/x?application_name=a@b&password=p"),

@@ -6,6 +6,11 @@
 //! Booleans travel as integers 0 and 1, as SQLite stores them; a
 //! PostgreSQL `BOOLEAN` column takes and gives them as `false` and `true`.
 
+use std::path::Path;
+use std::rc::Rc;
+
+use rusqlite::TransactionBehavior;
+
 use super::{CampaignError, Database};
 
 /// One SQL value: what a placeholder takes and a column gives.
@@ -126,17 +131,33 @@ impl<T: FromValue> FromValue for Option<T> {
     }
 }
 
-/// One result row.
+/// One result row: its values by column name.
 #[derive(Debug)]
-pub struct Row(pub(crate) Vec<Value>);
+pub struct Row {
+    /// The statement's column names, shared by its rows.
+    pub(crate) names: Rc<[String]>,
+    /// The values, in the order of `names`.
+    pub(crate) values: Vec<Value>,
+}
 
 impl Row {
-    /// Column `i` as a `T`.
-    pub fn get<T: FromValue>(&self, i: usize) -> Result<T, Mismatch> {
-        let v = self.0.get(i).unwrap_or(&Value::Null);
+    /// Column `name` as a `T`. A name the statement does not give, or
+    /// gives twice (an unaliased join), is an error: a reordered or
+    /// widened SELECT cannot hand a field another column's value.
+    pub fn get<T: FromValue>(&self, name: &str) -> Result<T, Mismatch> {
+        let mut at = (self.names.iter().enumerate())
+            .filter(|(_, n)| n.as_str() == name)
+            .map(|(i, _)| i);
+        let v = match (at.next(), at.next()) {
+            (Some(i), None) => self.values.get(i).unwrap_or(&Value::Null),
+            (None, _) => return Err(Mismatch(format!("no column `{name}`"))),
+            (Some(_), Some(_)) => {
+                return Err(Mismatch(format!("two columns are named `{name}`")));
+            }
+        };
         T::from_value(v).ok_or_else(|| {
             Mismatch(format!(
-                "column {i} holds {v:?}, not a {}",
+                "column `{name}` holds {v:?}, not a {}",
                 std::any::type_name::<T>()
             ))
         })
@@ -168,17 +189,11 @@ impl Database {
         read: impl FnMut(&Row) -> Result<T, Mismatch>,
     ) -> Result<Vec<T>, CampaignError> {
         let rows = match self {
-            Database::Sqlite(db) => db.rows(sql, params)?,
+            Database::Sqlite(db) => sqlite_rows(&db.conn, &db.path, sql, params)?,
             #[cfg(feature = "postgres")]
             Database::Postgres(db) => db.rows(sql, params)?,
         };
-        rows.iter()
-            .map(read)
-            .collect::<Result<_, _>>()
-            .map_err(|Mismatch(m)| CampaignError::Unusable {
-                path: self.path().to_path_buf(),
-                message: format!("{m}, in `{sql}`"),
-            })
+        read_rows(self.path(), sql, &rows, read)
     }
 
     /// The one row `sql` gives, read with `read`; `None` when it gives none.
@@ -191,80 +206,193 @@ impl Database {
         Ok(self.query_map(sql, params, read)?.into_iter().next())
     }
 
-    /// Runs a statement that returns no rows.
-    pub(crate) fn execute(&self, sql: &str, params: &[Value]) -> Result<(), CampaignError> {
-        match self {
-            Database::Sqlite(db) => db.run(sql, params),
-            #[cfg(feature = "postgres")]
-            Database::Postgres(db) => db.run(sql, params),
-        }
-    }
-
     /// Runs `f` in one write transaction: all its statements are
-    /// committed, or (on an error, or a process killed meanwhile) none.
+    /// committed, or (on an error, a panic, or a process killed
+    /// meanwhile) none.
     pub(crate) fn write<T>(
         &mut self,
-        f: impl FnOnce(&Database) -> Result<T, CampaignError>,
+        f: impl FnOnce(&Tx<'_>) -> Result<T, CampaignError>,
     ) -> Result<T, CampaignError> {
-        // SQLite: IMMEDIATE takes the write lock now, so two writers wait
-        // for each other (busy timeout) instead of failing at commit.
-        let (begin, commit, rollback) = match self {
-            Database::Sqlite(_) => ("BEGIN IMMEDIATE", "COMMIT", "ROLLBACK"),
-            #[cfg(feature = "postgres")]
-            Database::Postgres(_) => ("BEGIN", "COMMIT", "ROLLBACK"),
-        };
-        self.batch(begin)?;
-        match f(self) {
-            Ok(v) => match self.batch(commit) {
-                Ok(()) => Ok(v),
-                Err(e) => {
-                    let _ = self.batch(rollback);
-                    Err(e)
-                }
-            },
-            Err(e) => {
-                let _ = self.batch(rollback);
-                Err(e)
-            }
-        }
-    }
-
-    fn batch(&self, sql: &str) -> Result<(), CampaignError> {
         match self {
-            Database::Sqlite(db) => db.conn.execute_batch(sql).map_err(super::sqlite(&db.path)),
+            Database::Sqlite(db) => db.write(f),
             #[cfg(feature = "postgres")]
-            Database::Postgres(db) => db.batch(sql),
+            Database::Postgres(db) => db.write(f),
         }
     }
 }
 
-impl super::Db {
-    fn rows(&self, sql: &str, params: &[Value]) -> Result<Vec<Row>, CampaignError> {
-        let err = super::sqlite(&self.path);
-        let mut st = self.conn.prepare_cached(sql).map_err(&err)?;
-        let n = st.column_count();
-        let mut rows = st
-            .query(rusqlite::params_from_iter(params.iter()))
-            .map_err(&err)?;
-        let mut out = Vec::new();
-        while let Some(r) = rows.next().map_err(&err)? {
-            let row = (0..n)
-                .map(|i| r.get_ref(i).map(Value::from))
-                .collect::<Result<_, _>>()
-                .map_err(&err)?;
-            out.push(Row(row));
+/// An open write transaction ([`Database::write`]): the crate's own guard,
+/// which rolls back what was written when it is dropped uncommitted.
+pub(crate) struct Tx<'a> {
+    /// How messages name the database.
+    path: &'a Path,
+    guard: Guard<'a>,
+}
+
+enum Guard<'a> {
+    Sqlite(rusqlite::Transaction<'a>),
+    #[cfg(feature = "postgres")]
+    Server(Box<dyn ServerTx + 'a>),
+}
+
+/// A transaction on a server (pg.rs), as [`Tx`] runs statements
+/// in it; dropped uncommitted, it rolls back.
+#[cfg(feature = "postgres")]
+pub(crate) trait ServerTx {
+    /// The rows `sql` gives.
+    fn rows(&self, sql: &str, params: &[Value]) -> Result<Vec<Row>, CampaignError>;
+    /// Runs a statement that returns no rows.
+    fn run(&self, sql: &str, params: &[Value]) -> Result<(), CampaignError>;
+    /// Commits.
+    fn commit(self: Box<Self>) -> Result<(), CampaignError>;
+}
+
+impl<'a> Tx<'a> {
+    /// The transaction `tx` on the server named `path` (password hidden).
+    #[cfg(feature = "postgres")]
+    pub(crate) fn server(path: &'a Path, tx: Box<dyn ServerTx + 'a>) -> Tx<'a> {
+        Tx {
+            path,
+            guard: Guard::Server(tx),
         }
-        Ok(out)
     }
 
-    fn run(&self, sql: &str, params: &[Value]) -> Result<(), CampaignError> {
-        let err = super::sqlite(&self.path);
-        self.conn
-            .prepare_cached(sql)
-            .and_then(|mut st| st.execute(rusqlite::params_from_iter(params.iter())))
-            .map(drop)
-            .map_err(err)
+    /// The file, or the server's URL with its password hidden.
+    pub(crate) fn path(&self) -> &Path {
+        self.path
     }
+
+    /// Runs `sql` in the transaction and reads each row with `read`.
+    pub(crate) fn query_map<T>(
+        &self,
+        sql: &str,
+        params: &[Value],
+        read: impl FnMut(&Row) -> Result<T, Mismatch>,
+    ) -> Result<Vec<T>, CampaignError> {
+        let rows = match &self.guard {
+            Guard::Sqlite(tx) => sqlite_rows(tx, self.path, sql, params)?,
+            #[cfg(feature = "postgres")]
+            Guard::Server(tx) => tx.rows(sql, params)?,
+        };
+        read_rows(self.path, sql, &rows, read)
+    }
+
+    /// The one row `sql` gives in the transaction, read with `read`;
+    /// `None` when it gives none.
+    pub(crate) fn query_row<T>(
+        &self,
+        sql: &str,
+        params: &[Value],
+        read: impl FnMut(&Row) -> Result<T, Mismatch>,
+    ) -> Result<Option<T>, CampaignError> {
+        Ok(self.query_map(sql, params, read)?.into_iter().next())
+    }
+
+    /// Runs a statement that returns no rows, in the transaction.
+    pub(crate) fn execute(&self, sql: &str, params: &[Value]) -> Result<(), CampaignError> {
+        match &self.guard {
+            Guard::Sqlite(tx) => sqlite_run(tx, self.path, sql, params),
+            #[cfg(feature = "postgres")]
+            Guard::Server(tx) => tx.run(sql, params),
+        }
+    }
+
+    /// Commits; on an error here the guard is dropped and rolls back.
+    fn commit(self) -> Result<(), CampaignError> {
+        match self.guard {
+            Guard::Sqlite(tx) => tx.commit().map_err(super::sqlite(self.path)),
+            #[cfg(feature = "postgres")]
+            Guard::Server(tx) => tx.commit(),
+        }
+    }
+}
+
+/// Runs `f` in the transaction `tx`, committed when `f` succeeds and
+/// rolled back (by the guard's drop) when `f` or the commit fails.
+pub(crate) fn in_transaction<T>(
+    tx: Tx<'_>,
+    f: impl FnOnce(&Tx<'_>) -> Result<T, CampaignError>,
+) -> Result<T, CampaignError> {
+    let v = f(&tx)?;
+    tx.commit()?;
+    Ok(v)
+}
+
+/// `rows`, each read with `read`; a value its reader did not expect is an
+/// error naming the statement.
+fn read_rows<T>(
+    path: &Path,
+    sql: &str,
+    rows: &[Row],
+    read: impl FnMut(&Row) -> Result<T, Mismatch>,
+) -> Result<Vec<T>, CampaignError> {
+    rows.iter()
+        .map(read)
+        .collect::<Result<_, _>>()
+        .map_err(|Mismatch(m)| CampaignError::Unusable {
+            path: path.to_path_buf(),
+            message: format!("{m}, in `{sql}`"),
+        })
+}
+
+impl super::Db {
+    /// [`Database::write`] on the file: `BEGIN IMMEDIATE` takes the write
+    /// lock at once, so that two writers wait for each other (busy
+    /// timeout) instead of one failing at commit.
+    fn write<T>(
+        &mut self,
+        f: impl FnOnce(&Tx<'_>) -> Result<T, CampaignError>,
+    ) -> Result<T, CampaignError> {
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(super::sqlite(&self.path))?;
+        let tx = Tx {
+            path: &self.path,
+            guard: Guard::Sqlite(tx),
+        };
+        in_transaction(tx, f)
+    }
+}
+
+/// The rows `sql` gives on an SQLite connection (or a transaction on it).
+fn sqlite_rows(
+    conn: &rusqlite::Connection,
+    path: &Path,
+    sql: &str,
+    params: &[Value],
+) -> Result<Vec<Row>, CampaignError> {
+    let err = super::sqlite(path);
+    let mut st = conn.prepare_cached(sql).map_err(&err)?;
+    let names: Rc<[String]> = st.column_names().map(String::from).collect();
+    let mut rows = st
+        .query(rusqlite::params_from_iter(params.iter()))
+        .map_err(&err)?;
+    let mut out = Vec::new();
+    while let Some(r) = rows.next().map_err(&err)? {
+        let values = (0..names.len())
+            .map(|i| r.get_ref(i).map(Value::from))
+            .collect::<Result<_, _>>()
+            .map_err(&err)?;
+        out.push(Row {
+            names: Rc::clone(&names),
+            values,
+        });
+    }
+    Ok(out)
+}
+
+/// Runs a statement that returns no rows on an SQLite connection.
+fn sqlite_run(
+    conn: &rusqlite::Connection,
+    path: &Path,
+    sql: &str,
+    params: &[Value],
+) -> Result<(), CampaignError> {
+    conn.prepare_cached(sql)
+        .and_then(|mut st| st.execute(rusqlite::params_from_iter(params.iter())))
+        .map(drop)
+        .map_err(super::sqlite(path))
 }
 
 impl rusqlite::ToSql for Value {
@@ -311,14 +439,29 @@ mod tests {
 
     #[test]
     fn values_read_back_as_their_rust_types_and_nulls_as_none() {
-        let row = Row(values![3_i64, 0.5_f64, true, "x", None::<f64>].to_vec());
-        assert_eq!(row.get::<i64>(0).unwrap(), 3);
-        assert_eq!(row.get::<f64>(1).unwrap(), 0.5);
-        assert!(row.get::<bool>(2).unwrap());
-        assert_eq!(row.get::<String>(3).unwrap(), "x");
-        assert_eq!(row.get::<Option<f64>>(4).unwrap(), None);
-        assert_eq!(row.get::<Option<i64>>(0).unwrap(), Some(3));
-        let e = row.get::<i64>(3).unwrap_err().0;
-        assert!(e.contains("column 3"), "{e}");
+        let row = Row {
+            names: ["n", "x", "ok", "s", "none"].map(String::from).into(),
+            values: values![3_i64, 0.5_f64, true, "x", None::<f64>].to_vec(),
+        };
+        assert_eq!(row.get::<i64>("n").unwrap(), 3);
+        assert_eq!(row.get::<f64>("x").unwrap(), 0.5);
+        assert!(row.get::<bool>("ok").unwrap());
+        assert_eq!(row.get::<String>("s").unwrap(), "x");
+        assert_eq!(row.get::<Option<f64>>("none").unwrap(), None);
+        assert_eq!(row.get::<Option<i64>>("n").unwrap(), Some(3));
+        let e = row.get::<i64>("s").unwrap_err().0;
+        assert!(e.contains("column `s`"), "{e}");
+    }
+
+    #[test]
+    fn a_column_not_given_or_given_twice_is_refused_not_guessed() {
+        let row = Row {
+            names: ["id", "id"].map(String::from).into(),
+            values: values![1_i64, 2_i64].to_vec(),
+        };
+        let e = row.get::<i64>("id").unwrap_err().0;
+        assert!(e.contains("two columns"), "{e}");
+        let e = row.get::<i64>("run").unwrap_err().0;
+        assert!(e.contains("no column `run`"), "{e}");
     }
 }

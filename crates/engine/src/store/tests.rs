@@ -165,3 +165,34 @@ fn a_resumed_store_judges_its_cases_again_so_a_forged_verdict_does_not_survive()
         .unwrap();
     assert_eq!(verdict, "pass");
 }
+
+#[test]
+fn a_case_that_fails_halfway_is_not_stored_in_part() {
+    let results = results();
+    let dir = tempfile::tempdir().unwrap();
+    let mut store = Store::create(dir.path(), &key()).unwrap();
+    store.put(0, results[0].clone()).unwrap();
+    // Its ROIs twice: its metric rows collide after its case row is written.
+    let mut twice = results[1].clone();
+    twice
+        .acquisition
+        .rois
+        .extend(twice.acquisition.rois.clone());
+    twice.metrics.extend(twice.metrics.clone());
+    assert!(store.put(1, twice).is_err());
+    // What a stopped run does: commit what is pending, for a resume.
+    store.close().unwrap();
+    let conn = Connection::open(dir.path().join(PARTIAL)).unwrap();
+    let rows = |table: &str| -> i64 {
+        conn.query_row(
+            &format!("SELECT COUNT(*) AS n FROM {table} WHERE idx = 1"),
+            [],
+            |r| r.get("n"),
+        )
+        .unwrap()
+    };
+    assert_eq!((rows("cases"), rows("roi_metrics")), (0, 0));
+    drop(conn);
+    let (_, done) = Store::resume(dir.path(), &key()).unwrap();
+    assert_eq!(done.into_iter().collect::<Vec<_>>(), [0]);
+}
