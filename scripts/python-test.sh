@@ -38,10 +38,13 @@ rm -rf target/wheels
 "$work/build/bin/maturin" build --release -m python/Cargo.toml -o target/wheels
 echo "--- the wheel into a fresh virtual environment"
 venv "$work/env"
-"$work/env/bin/pip" install -q target/wheels/ledflicker-*.whl pytest pandas
+# matplotlib for the plot of docs/python.md, whose examples are run.
+"$work/env/bin/pip" install -q target/wheels/ledflicker-*.whl pytest pandas matplotlib
 echo "--- pytest python/tests"
-# From outside the source tree, so that the installed package is tested.
+# From outside the source tree, so that the installed package is tested;
+# the runs' folders in $work, removed on exit, not kept by pytest in /tmp.
 (cd "$work" && LEDFLICKER_CLI="$root/target/release/ledflicker" \
-    "$work/env/bin/pytest" "$root/python/tests" -q -p no:cacheprovider "$@")
+    "$work/env/bin/pytest" "$root/python/tests" -q -p no:cacheprovider \
+    --basetemp "$work/pytest" --durations 8 "$@")
 echo "--- python/bench/bench_metrics.py"
 (cd "$work" && "$work/env/bin/python" "$root/python/bench/bench_metrics.py" --reps 11)

@@ -49,6 +49,10 @@ __all__ = [
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
+#: A results database: a file, a ``postgres://`` URL, or True for the one
+#: ``ledflicker plan`` records in ($LEDFLICKER_DB, else
+#: ``~/.local/share/ledflicker/results.sqlite``; docs/campaigns.md).
+Database = Union[PathLike, bool]
 
 #: The files of a report directory that :attr:`Run.files` names when present.
 REPORT_FILES = ("results.json", "report.html", "report.pdf", "junit.xml", "summary.csv")
@@ -193,7 +197,7 @@ def run(
     out: Optional[PathLike] = None,
     threads: Optional[int] = None,
     date: Optional[str] = None,
-    db: Optional[PathLike] = None,
+    db: Optional[Database] = None,
     force: bool = False,
     detail: str = "standard",
     progress: Optional[Callable[[Dict[str, Any]], None]] = None,
@@ -205,8 +209,12 @@ def run(
     out: the report directory [default: reports/<plan id>/].
     threads: worker threads [default: one per core]; results do not depend on it.
     date: the report date YYYY-MM-DD [default: $SOURCE_DATE_EPOCH, else today].
-    db: record the run in this results database (a file or a postgres:// URL);
-        None records it nowhere.
+    db: the results database the run is recorded in: a file or a
+        postgres:// URL (as ``plan --db``), True for the one ``ledflicker
+        plan`` records in by default ($LEDFLICKER_DB, else
+        ~/.local/share/ledflicker/results.sqlite), None (or False) for none.
+        A file inside ``out``, or in a directory that does not exist, is
+        refused before the run.
     force: replace a signed report in ``out``.
     detail: "summary", "standard" or "full", as ``--detail``.
     progress: called on this thread with a dict (``stage`` "run" or
@@ -224,7 +232,7 @@ def run(
         out=None if out is None else os.fspath(out),
         threads=threads,
         date=date,
-        db=None if db is None else os.fspath(db),
+        db=db if db is None or isinstance(db, bool) else _database(db),
         force=force,
         detail=detail,
         progress=progress,
@@ -367,15 +375,27 @@ class _Rows(list):
         return pd.DataFrame(list(self))
 
 
-def history(db: PathLike, camera: Optional[str] = None, serial: Optional[str] = None,
+def _database(db: Database) -> Optional[str]:
+    """A database to read: its path or URL, or None for the command line's
+    default (``db=True``)."""
+    if db is True:
+        return None
+    if not isinstance(db, (str, os.PathLike)):
+        raise TypeError("db: a results database (a path or a postgres:// URL), "
+                        f"or True for the command line's default; got {db!r}")
+    return os.fspath(db)
+
+
+def history(db: Database, camera: Optional[str] = None, serial: Optional[str] = None,
             firmware: Optional[str] = None, plan: Optional[str] = None,
             since: Optional[str] = None, until: Optional[str] = None,
             verdict: Optional[str] = None) -> List[Dict[str, Any]]:
     """The runs of the results database ``db`` the filters select, oldest
     first, as ``ledflicker history --json`` lists them: a list of dicts
-    with ``to_pandas()``."""
+    with ``to_pandas()``. ``db`` is a file, a postgres:// URL, or True for
+    the command line's default database (as ``history`` without ``--db``)."""
     return _Rows(json.loads(_native.history_json(
-        os.fspath(db), camera=camera, serial=serial, firmware=firmware, plan=plan,
+        _database(db), camera=camera, serial=serial, firmware=firmware, plan=plan,
         since=since, until=until, verdict=verdict)))
 
 
@@ -411,13 +431,14 @@ class Comparison:
         return _Rows(self.kpis).to_pandas()
 
 
-def compare(a: Union[int, PathLike], b: Union[int, PathLike], db: PathLike,
+def compare(a: Union[int, PathLike], b: Union[int, PathLike], db: Database,
             accept_changes: bool = False,
             min_change: Optional[Dict[str, float]] = None) -> Comparison:
     """Compares the recorded runs ``a`` (the baseline) and ``b``: run ids or
-    recorded report directories of the database ``db``, as ``ledflicker
-    compare A B``."""
-    d = _native.compare_runs(os.fspath(db), str(a) if isinstance(a, int) else os.fspath(a),
+    recorded report directories of the database ``db`` (a file, a
+    postgres:// URL, or True for the command line's default), as
+    ``ledflicker compare A B``."""
+    d = _native.compare_runs(_database(db), str(a) if isinstance(a, int) else os.fspath(a),
                              str(b) if isinstance(b, int) else os.fspath(b),
                              accept_changes=accept_changes, min_change=min_change)
     ra, rb = json.loads(d["runs_json"])

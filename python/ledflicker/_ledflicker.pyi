@@ -1,7 +1,7 @@
 """The native half of ledflicker (Rust, PyO3). Use the functions of
 ``ledflicker`` itself; these are what they call."""
 
-from typing import Any, Callable, Dict, Optional, Tuple
+from typing import Any, Callable, Dict, Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -38,13 +38,17 @@ def run_plan(
     out: Optional[str] = None,
     threads: Optional[int] = None,
     date: Optional[str] = None,
-    db: Optional[str] = None,
+    db: Union[str, bool, None] = None,
     force: bool = False,
     detail: str = "standard",
     progress: Optional[Callable[[Dict[str, Any]], None]] = None,
 ) -> Dict[str, Any]:
     """Runs a plan into its report directory: ``results_json`` (the text of
-    results.json), ``dir``, ``status``, ``exit_code``, ``warnings``, ``run_id``."""
+    results.json), ``dir``, ``status``, ``exit_code``, ``warnings``, ``run_id``.
+    ``db``: the results database to record the run in (a path or a
+    postgres:// URL), True for the command line's default one
+    ($LEDFLICKER_DB, else ~/.local/share/ledflicker/results.sqlite), None or
+    False for none."""
 
 def read_report(dir: str) -> Tuple[str, str]:
     """results.json's text of a checked report directory, and its signature
@@ -102,7 +106,7 @@ def detect_segments(
     """Segment codes per frame, and what was found as JSON text."""
 
 def history_json(
-    db: str,
+    db: Optional[str],
     camera: Optional[str] = None,
     serial: Optional[str] = None,
     firmware: Optional[str] = None,
@@ -111,13 +115,15 @@ def history_json(
     until: Optional[str] = None,
     verdict: Optional[str] = None,
 ) -> str:
-    """``ledflicker history --json``'s array as JSON text."""
+    """``ledflicker history --json``'s array as JSON text; ``db`` None reads
+    the command line's default database."""
 
 def compare_runs(
-    db: str,
+    db: Optional[str],
     a: str,
     b: str,
     accept_changes: bool = False,
     min_change: Optional[Dict[str, float]] = None,
 ) -> Dict[str, Any]:
-    """The comparison of two recorded runs."""
+    """The comparison of two recorded runs; ``db`` None reads the command
+    line's default database."""

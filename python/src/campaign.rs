@@ -16,11 +16,16 @@ use pyo3::types::{PyDict, PyList};
 
 use crate::errors;
 
-/// The database at `db` (a file or a `postgres://` URL), which must exist.
-fn open(db: &std::path::Path) -> Result<Database, Failure> {
-    match campaign::locate(Some(db), false, &|k| std::env::var(k).ok()) {
-        Some(at @ (Location::File(_) | Location::Server(_))) => Ok(Database::open_existing(&at)?),
-        _ => Err(UsageError(format!("`{}` is not a results database", db.display())).into()),
+/// The database at `db` (a file or a `postgres://` URL), or, for None,
+/// the one the command line reads without `--db` ($LEDFLICKER_DB, else
+/// the data directory's); it must exist.
+fn open(db: Option<&std::path::Path>) -> Result<Database, Failure> {
+    match campaign::locate(db, false, &|k| std::env::var(k).ok()) {
+        Some(Location::Off) | None => Err(UsageError(
+            "no results database: HOME, XDG_DATA_HOME and LEDFLICKER_DB are unset\n    hint: pass db=PATH".into(),
+        )
+        .into()),
+        Some(at) => Ok(Database::open_existing(&at)?),
     }
 }
 
@@ -31,7 +36,7 @@ fn open(db: &std::path::Path) -> Result<Database, Failure> {
 #[allow(clippy::too_many_arguments)]
 pub fn history_json(
     py: Python<'_>,
-    db: PathBuf,
+    db: Option<PathBuf>,
     camera: Option<String>,
     serial: Option<String>,
     firmware: Option<String>,
@@ -70,7 +75,7 @@ pub fn history_json(
                 UsageError(format!("verdict `{v}` is not `pass`, `fail` or `info`")).into(),
             );
         }
-        let runs = query::history(&open(&db)?, &filter)?;
+        let runs = query::history(&open(db.as_deref())?, &filter)?;
         Ok(serde_json::to_string(&runs)?)
     });
     listed.map_err(|f| errors::to_py(py, f))
@@ -85,7 +90,7 @@ pub fn history_json(
 #[pyo3(signature = (db, a, b, accept_changes=false, min_change=None))]
 pub fn compare_runs<'py>(
     py: Python<'py>,
-    db: PathBuf,
+    db: Option<PathBuf>,
     a: String,
     b: String,
     accept_changes: bool,
@@ -107,7 +112,7 @@ pub fn compare_runs<'py>(
         ..GateOptions::default()
     };
     let compared = py.detach(|| -> Result<(Comparison, String, String), Failure> {
-        let db = open(&db)?;
+        let db = open(db.as_deref())?;
         let (id_a, id_b) = (
             ledflicker::cli::compare::resolve(&db, &a)?,
             ledflicker::cli::compare::resolve(&db, &b)?,

@@ -15,13 +15,16 @@ use std::time::Duration;
 
 use ledflicker::campaign::record::{Provenance, Signature, Source};
 use ledflicker::campaign::{self, Database, Location};
-use ledflicker::cli::{ExitCode, Failure, LimitArgs, collect_inputs, report_date};
+use ledflicker::cli::{
+    ExitCode, Failure, LimitArgs, check_database_outside, collect_inputs, report_date,
+};
 use ledflicker::error::UsageError;
 use ledflicker::interrupt;
 use ledflicker::model::Detail;
 use ledflicker::pipeline::{self, PlanRun, PlanRunError, Progress, ReportOptions, RunProgress};
+use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBool, PyDict};
 
 use crate::errors;
 
@@ -42,7 +45,35 @@ struct Request {
     date: Option<String>,
     force: bool,
     detail: Detail,
-    db: Option<PathBuf>,
+    db: Record,
+}
+
+/// Where a run is recorded: `db=None` (or False) nowhere, `db=True` where
+/// `ledflicker plan` records it, `db=PATH` in that database.
+enum Record {
+    Nowhere,
+    Default,
+    At(PathBuf),
+}
+
+impl Record {
+    /// The database, found as the command line finds it: `At` as `--db`,
+    /// `Default` as `plan` without `--db` ($LEDFLICKER_DB, else the data
+    /// directory's). Asked for and not found is an error before the run.
+    fn locate(&self) -> Result<Option<Location>, Failure> {
+        let env = |k: &str| std::env::var(k).ok();
+        match self {
+            Record::Nowhere => Ok(None),
+            Record::At(db) => Ok(campaign::locate(Some(db), false, &env)),
+            Record::Default => match campaign::locate(None, false, &env) {
+                Some(at) => Ok(Some(at)),
+                None => Err(UsageError(
+                    "no results database: HOME, XDG_DATA_HOME and LEDFLICKER_DB are unset\n    hint: pass db=PATH".into(),
+                )
+                .into()),
+            },
+        }
+    }
 }
 
 /// A finished run, as handed to Python.
@@ -92,6 +123,11 @@ fn execute(req: &Request, send: &(dyn Fn(Event) + Sync)) -> Result<Done, Failure
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
+    // As `plan` refuses them, before any time goes into the run.
+    let database = req.db.locate()?;
+    if let Some(at) = &database {
+        check_database_outside(at, &out)?;
+    }
     let generation = pipeline::begin_output(&out, req.force)?;
     let backend = ledflicker::backend::for_plan(&plan, None)?;
     let inputs = collect_inputs(&plan)?;
@@ -122,8 +158,8 @@ fn execute(req: &Request, send: &(dyn Fn(Event) + Sync)) -> Result<Done, Failure
         warnings.push_str(w);
         warnings.push('\n');
     }
-    let run_id = match &req.db {
-        Some(db) => match record(db, &outcome.model, &outcome.dir) {
+    let run_id = match database {
+        Some(at) => match record(&at, &outcome.model, &outcome.dir) {
             Ok(id) => Some(id),
             Err(e) => {
                 warnings.push_str(&format!(
@@ -153,18 +189,9 @@ fn execute(req: &Request, send: &(dyn Fn(Event) + Sync)) -> Result<Done, Failure
     })
 }
 
-/// Records a finished report in the database `db` (a file or a
-/// `postgres://` URL), as `plan --db` does.
-fn record(db: &Path, model: &ledflicker::model::Results, dir: &Path) -> Result<i64, Failure> {
-    let at = match campaign::locate(Some(db), false, &|k| std::env::var(k).ok()) {
-        Some(Location::File(f)) => {
-            campaign::check_directory(&f)?;
-            Location::File(f)
-        }
-        Some(at) => at,
-        None => return Err(UsageError("no results database given".into()).into()),
-    };
-    let mut database = Database::open(&at)?;
+/// Records a finished report in the database `at`, as `plan` does.
+fn record(at: &Location, model: &ledflicker::model::Results, dir: &Path) -> Result<i64, Failure> {
+    let mut database = Database::open(at)?;
     let provenance = Provenance {
         source: Source::Plan,
         signer: None,
@@ -233,11 +260,23 @@ pub fn run_plan<'py>(
     out: Option<PathBuf>,
     threads: Option<usize>,
     date: Option<String>,
-    db: Option<PathBuf>,
+    db: Option<Bound<'py, PyAny>>,
     force: bool,
     detail: &str,
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let db = match db {
+        None => Record::Nowhere,
+        Some(b) => match b.cast::<PyBool>() {
+            Ok(flag) if flag.is_true() => Record::Default,
+            Ok(_) => Record::Nowhere,
+            Err(_) => Record::At(b.extract::<PathBuf>().map_err(|_| {
+                PyTypeError::new_err(
+                    "db: a path, a postgres:// URL, True (the command line's default database) or None",
+                )
+            })?),
+        },
+    };
     let Some(detail) = self::detail(detail) else {
         return Err(errors::usage(
             py,

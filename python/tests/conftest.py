@@ -17,14 +17,19 @@ CLI = Path(os.environ.get("LEDFLICKER_CLI", ROOT / "target" / "release" / "ledfl
 DATE = "2026-01-02"
 
 
+def cli_env(**extra):
+    """The environment the reference runs in: no results database of the
+    user's is touched (LEDFLICKER_DB empty, and plans run with --no-db)."""
+    return dict(os.environ, LEDFLICKER_DB="", HOME=os.environ.get("HOME", "/tmp"), **extra)
+
+
 @pytest.fixture(scope="session")
 def cli():
     assert CLI.is_file(), f"the reference binary {CLI} is missing: cargo build --release"
 
     def run(*args, check=True, cwd=None):
-        env = dict(os.environ, LEDFLICKER_DB="", HOME=os.environ.get("HOME", "/tmp"))
         p = subprocess.run([str(CLI), *map(str, args)], capture_output=True, text=True,
-                           cwd=cwd, env=env)
+                           cwd=cwd, env=cli_env())
         if check and p.returncode not in (0, 1, 6):
             raise AssertionError(f"ledflicker {' '.join(map(str, args))}: {p.returncode}\n{p.stderr}")
         return p

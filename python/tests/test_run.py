@@ -1,45 +1,17 @@
 """ledflicker.run and ledflicker.read against the command line."""
 
 import json
-import os
 import shutil
 import signal
 import subprocess
 import sys
-import textwrap
 import time
 from pathlib import Path
 
 import pytest
 
 import ledflicker
-from conftest import CLI, DATE, ROOT, load
-
-# Every shipped plan but the 23,000-case sweep (minutes of CPU; its cases
-# are those of the others at more frequencies) and bench-example, whose
-# light source is a lab instrument on the network.
-SHIPPED = sorted(p.name for p in (ROOT / "test-plans").glob("*.toml")
-                 if p.stem not in ("sweep-23k", "bench-example"))
-
-
-@pytest.mark.parametrize("plan", SHIPPED)
-def test_every_figure_is_the_command_lines(plan, cli, tmp_path, monkeypatch):
-    path = ROOT / "test-plans" / plan
-    # A rig's command runs where the command line would run it, and calls
-    # the same ledflicker back.
-    monkeypatch.chdir(ROOT)
-    monkeypatch.setenv("LEDFLICKER_EXE", str(CLI))
-    ref = cli("plan", path, "--out", tmp_path / "cli", "--date", DATE, "-q", "--no-db",
-              cwd=ROOT)
-    r = ledflicker.run(path, out=tmp_path / "py", date=DATE)
-    expected = (tmp_path / "cli" / "results.json").read_bytes()
-    # The run's figures as Python holds them, every double bit for bit...
-    assert r.results == json.loads(expected)
-    # ...and the file the package wrote, byte for byte.
-    assert (tmp_path / "py" / "results.json").read_bytes() == expected
-    assert r.exit_code == ref.returncode
-    assert r.verdict == json.loads(expected)["verdict"]
-    assert set(r.files) >= {"results.json", "report.html", "junit.xml", "summary.csv"}
+from conftest import DATE, ROOT, load
 
 
 def test_the_report_files_are_the_command_lines(daylight, tmp_path):

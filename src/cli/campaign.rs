@@ -28,31 +28,42 @@ pub(super) struct RecordArgs {
 }
 
 impl RecordArgs {
-    /// Refuses a database file inside the report directory `out`: it
-    /// would be swapped away with the old report, or become part of the
-    /// new one after it is signed (and break its `verify`).
+    /// Refuses a database file inside the report directory `out` (see
+    /// [`check_database_outside`]).
     pub(super) fn check_outside(&self, out: &Path) -> Result<(), Failure> {
         let at = campaign::locate(self.db.as_deref(), self.no_db, &|k| std::env::var(k).ok());
-        let (db, named) = match at {
-            Some(Location::File(db)) => (db, true),
-            Some(Location::Default(db)) => (db, false),
-            Some(Location::Server(_) | Location::Off) | None => return Ok(()),
-        };
-        let (db_abs, out_abs) = (absolute(&db), absolute(out));
-        if db_abs.starts_with(&out_abs) {
-            return Err(UsageError(format!(
-                "the results database `{}` is inside the report directory `{}`, which a run replaces whole\n    hint: keep the database outside it, e.g. --db results.sqlite beside the reports",
-                db.display(),
-                out.display()
-            ))
-            .into());
+        match at {
+            Some(at) => check_database_outside(&at, out),
+            None => Ok(()),
         }
-        // Inside --out first: making the directory would not help there.
-        if named {
-            crate::campaign::check_directory(&db)?;
-        }
-        Ok(())
     }
+}
+
+/// Refuses a database file inside the report directory `out`: it would
+/// be swapped away with the old report, or become part of the new one
+/// after it is signed (and break its `verify`). A file named by the user
+/// must be in a directory that exists. Checked before a run starts, by
+/// `plan`, `merge` and the Python package's `run`.
+pub fn check_database_outside(at: &Location, out: &Path) -> Result<(), Failure> {
+    let (db, named) = match at {
+        Location::File(db) => (db, true),
+        Location::Default(db) => (db, false),
+        Location::Server(_) | Location::Off => return Ok(()),
+    };
+    let (db_abs, out_abs) = (absolute(db), absolute(out));
+    if db_abs.starts_with(&out_abs) {
+        return Err(UsageError(format!(
+            "the results database `{}` is inside the report directory `{}`, which a run replaces whole\n    hint: keep the database outside it, e.g. --db results.sqlite beside the reports",
+            db.display(),
+            out.display()
+        ))
+        .into());
+    }
+    // Inside --out first: making the directory would not help there.
+    if named {
+        crate::campaign::check_directory(db)?;
+    }
+    Ok(())
 }
 
 /// `path` made absolute and free of symbolic links as far as it exists

@@ -59,6 +59,7 @@ mod trend;
 mod validate;
 
 pub use args::{CameraArgs, DetailArg, LimitArgs, PwmArgs, ShutterArg, report_date};
+pub use campaign::check_database_outside;
 pub use failure::Failure;
 
 pub use crate::exit::ExitCode;
