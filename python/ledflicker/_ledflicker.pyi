@@ -13,8 +13,9 @@ LEFT_OUT: int
 VERSION: str
 
 class LedflickerError(Exception):
-    """An error of the engine: the command line's ``message`` (as printed
-    after ``error: ``), its first ``hint`` (or None) and ``exit_code``."""
+    """An error of the engine: the command line's ``message`` (all it
+    prints after ``error: ``, its hint lines included), the first hint
+    alone as ``hint`` (or None) and ``exit_code``."""
 
     message: str
     hint: Optional[str]
@@ -23,10 +24,14 @@ class LedflickerError(Exception):
 
 class PlanError(LedflickerError):
     """The plan cannot be found, read or validated; ``errors`` lists every
-    problem: ``key``, ``line``, ``column``, ``message``, ``hint``, ``text``."""
+    problem: ``key``, ``line``, ``column``, ``message``, ``hint``, ``text``.
+    A TOML syntax error stops the reading, so it is the one entry (its
+    ``key`` None). A plan given as TOML text is named ``<plan text>``."""
 
 class UsageError(LedflickerError):
-    """An argument, file or input of the caller's is wrong (exit code 2)."""
+    """An argument, file or input of the caller's is wrong: every error
+    whose exit code is 2 but a plan's (a missing database directory, an
+    unknown run, arrays ``light`` cannot read)."""
 
 class ReportError(LedflickerError):
     """A report directory cannot be written or read."""

@@ -43,6 +43,15 @@ fn hints(message: &str) -> Vec<String> {
         .collect()
 }
 
+/// The line and column of a TOML syntax error, from toml's message
+/// ("TOML parse error at line 1, column 6").
+fn syntax_location(message: &str) -> Option<(usize, usize)> {
+    let rest = &message[message.find("line ")? + 5..];
+    let (line, rest) = rest.split_once(", column ")?;
+    let column: String = rest.chars().take_while(char::is_ascii_digit).collect();
+    Some((line.trim().parse().ok()?, column.parse().ok()?))
+}
+
 /// `failure` as the exception of its kind, with `message`, `hint`,
 /// `exit_code` and, for an invalid plan, `errors`.
 pub fn to_py(py: Python<'_>, failure: Failure) -> PyErr {
@@ -52,6 +61,8 @@ pub fn to_py(py: Python<'_>, failure: Failure) -> PyErr {
         Failure::Plan(_) => PlanError::new_err(message.clone()),
         Failure::Usage(_) => UsageError::new_err(message.clone()),
         Failure::Report(_) => ReportError::new_err(message.clone()),
+        // Exit code 2 is the caller's input: a file, an argument, an array.
+        _ if code == 2 => UsageError::new_err(message.clone()),
         _ => LedflickerError::new_err(message.clone()),
     };
     if let Err(e) = annotate(py, &err, &failure, &message, code) {
@@ -72,6 +83,18 @@ fn annotate(
     value.setattr("hint", hints(message).into_iter().next())?;
     value.setattr("exit_code", code)?;
     let errors = PyList::empty(py);
+    if let Failure::Plan(RustPlanError::Syntax { message, .. }) = failure {
+        // TOML stops at its first error: one entry, located as toml says.
+        let (line, column) = syntax_location(message).unzip();
+        let e = PyDict::new(py);
+        e.set_item("key", None::<String>)?;
+        e.set_item("line", line)?;
+        e.set_item("column", column)?;
+        e.set_item("message", message.lines().next().unwrap_or(message))?;
+        e.set_item("hint", None::<String>)?;
+        e.set_item("text", message)?;
+        errors.append(e)?;
+    }
     if let Failure::Plan(RustPlanError::Invalid { diagnostics, .. }) = failure {
         for d in diagnostics {
             let e = PyDict::new(py);

@@ -22,6 +22,7 @@ use ledflicker::error::UsageError;
 use ledflicker::interrupt;
 use ledflicker::model::Detail;
 use ledflicker::pipeline::{self, PlanRun, PlanRunError, Progress, ReportOptions, RunProgress};
+use ledflicker::plan::PlanError;
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict};
@@ -99,6 +100,21 @@ fn plan_source(plan: &str) -> Result<(Option<tempfile::TempDir>, String), Failur
     Ok((Some(dir), path.display().to_string()))
 }
 
+/// What the errors of a plan given as TOML text call it: the file it was
+/// written to is the package's own, and means nothing to the caller.
+const PLAN_TEXT: &str = "<plan text>";
+
+/// `e` naming the plan [`PLAN_TEXT`] rather than the file it was written to.
+fn named_as_text(e: PlanError) -> PlanError {
+    let path = PathBuf::from(PLAN_TEXT);
+    match e {
+        PlanError::Read { source, .. } => PlanError::Read { path, source },
+        PlanError::Syntax { message, .. } => PlanError::Syntax { path, message },
+        PlanError::Invalid { diagnostics, .. } => PlanError::Invalid { path, diagnostics },
+        e @ PlanError::NotFound { .. } => e,
+    }
+}
+
 fn detail(text: &str) -> Option<Detail> {
     match text {
         "summary" => Some(Detail::Summary),
@@ -111,9 +127,15 @@ fn detail(text: &str) -> Option<Detail> {
 /// The run itself, on the engine's thread: what `ledflicker plan` does,
 /// without its terminal output.
 fn execute(req: &Request, send: &(dyn Fn(Event) + Sync)) -> Result<Done, Failure> {
-    let (_text_dir, arg) = plan_source(&req.plan)?;
+    let (text_dir, arg) = plan_source(&req.plan)?;
     let limits = LimitArgs::default().limits(matches!(req.detail, Detail::Full));
-    let plan = pipeline::load_plan(&arg, limits)?;
+    let plan = match pipeline::load_plan(&arg, limits) {
+        Ok(plan) => plan,
+        Err(pipeline::LoadError::Plan(e)) if text_dir.is_some() => {
+            return Err(Failure::Plan(named_as_text(e)));
+        }
+        Err(e) => return Err(e.into()),
+    };
     let mut warnings = plan.warnings_text();
     let date = report_date(req.date.as_deref())?;
     if req.threads == Some(0) {
@@ -258,13 +280,22 @@ pub fn run_plan<'py>(
     py: Python<'py>,
     plan: String,
     out: Option<PathBuf>,
-    threads: Option<usize>,
+    threads: Option<i64>,
     date: Option<String>,
     db: Option<Bound<'py, PyAny>>,
     force: bool,
     detail: &str,
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    // Taken as a signed number, so that a negative count is refused in the
+    // command line's words rather than by Python's conversion.
+    let threads = match threads.map(usize::try_from) {
+        None => None,
+        Some(Ok(n)) => Some(n),
+        Some(Err(_)) => {
+            return Err(errors::usage(py, "threads must be at least 1".to_string()));
+        }
+    };
     let db = match db {
         None => Record::Nowhere,
         Some(b) => match b.cast::<PyBool>() {

@@ -114,7 +114,7 @@ def test_a_database_inside_the_report_is_refused_before_the_run(daylight, cli, t
 
 def test_a_database_in_a_missing_directory_is_refused_before_the_run(cli, tmp_path):
     missing = tmp_path / "no" / "results.sqlite"
-    with pytest.raises(ledflicker.LedflickerError) as e:
+    with pytest.raises(ledflicker.UsageError) as e:
         ledflicker.run("daylight", out=tmp_path / "r", db=missing)
     ref = cli("plan", "daylight", "--out", tmp_path / "c", "--db", missing, check=False)
     assert e.value.message == ref.stderr.strip().removeprefix("error: ")

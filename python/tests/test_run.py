@@ -119,6 +119,7 @@ def test_a_missing_plan_says_where_it_looked_with_the_hint(cli):
 
 @pytest.mark.parametrize("kwargs, words", [
     ({"threads": 0}, "threads must be at least 1"),
+    ({"threads": -1}, "threads must be at least 1"),
     ({"date": "2026-13-01"}, "2026-13-01"),
     ({"detail": "all"}, "detail `all`"),
 ])
@@ -127,6 +128,16 @@ def test_bad_arguments_raise_usage_errors(kwargs, words, tmp_path):
         ledflicker.run("daylight", out=tmp_path / "u", **kwargs)
     assert words in e.value.message
     assert e.value.exit_code == 2
+
+
+def test_a_toml_syntax_error_in_plan_text_is_located_and_named_as_text(tmp_path):
+    with pytest.raises(ledflicker.PlanError) as e:
+        ledflicker.run("format-version = 2\n[plan\nid = 'x'\n", out=tmp_path / "s")
+    # The text is named as text, not by a file the package wrote it to.
+    assert "<plan text>" in e.value.message and "/tmp" not in e.value.message
+    [err] = e.value.errors
+    assert (err["line"], err["column"]) == (2, 6), err
+    assert err["key"] is None and err["message"]
 
 
 def test_read_gives_the_runs_figures(daylight):

@@ -72,6 +72,8 @@ pub fn fdi_2018(min: f64, l_off: Option<f64>) -> Metric {
     if min > 0.0 {
         let off = if l_off > 0.0 {
             format!("L_OFF = {l_off:e} DN (dark OFF reference, too near 0 for the ratio)")
+        } else if l_off < 0.0 {
+            format!("L_OFF = {l_off:.4} DN, below 0 (dark OFF reference)")
         } else {
             "L_OFF = 0 (dark OFF reference)".to_string()
         };
@@ -82,9 +84,13 @@ pub fn fdi_2018(min: f64, l_off: Option<f64>) -> Metric {
                 "{off}: the contrast is unbounded (infinite); min luma {min:.4} DN is above it, so the light never appears OFF"
             )),
         }
-    } else {
+    } else if l_off == 0.0 {
         Metric::undefined(format!(
             "L_OFF = 0 and min luma = {min:.4} DN: 0/0, the light cannot be told from OFF"
+        ))
+    } else {
+        Metric::undefined(format!(
+            "L_OFF = {l_off:.4} DN and min luma = {min:.4} DN, neither above 0: the light cannot be told from OFF"
         ))
     }
 }
@@ -188,6 +194,18 @@ mod tests {
         assert_eq!(m.value, None);
         assert!(!m.unbounded);
         assert!(m.reason.unwrap().contains("0/0"));
+        // A reference below 0 (a black level over-subtracted) is dark too,
+        // and the reason gives it as it is.
+        let m = fdi_2018(5.0, Some(-1.0));
+        assert!(m.unbounded && m.value.is_none());
+        assert!(m.reason.unwrap().starts_with("L_OFF = -1.0000 DN, below 0"));
+        let m = fdi_2018(-2.0, Some(-1.0));
+        assert!(!m.unbounded && m.value.is_none());
+        assert!(
+            m.reason
+                .unwrap()
+                .starts_with("L_OFF = -1.0000 DN and min luma = -2.0000 DN")
+        );
     }
 
     #[test]
