@@ -11,7 +11,7 @@ use super::Document;
 use crate::model::RoiKind;
 use crate::model::SampleFrameInfo;
 use crate::model::frame::{
-    CROP_ZOOM, STRETCH_HIGH_PERCENTILE, STRETCH_LOW_PERCENTILE, banding_sentence,
+    CROP_ZOOM, STRETCH_HIGH_PERCENTILE, STRETCH_LOW_PERCENTILE, banding_sentence, roi_key,
 };
 
 /// Fewest case pages a note must be on to be said once above them: on two
@@ -130,17 +130,7 @@ impl Document {
         let frame = (self.results.cases.resident())
             .filter(|c| pages.contains(&c.id))
             .find_map(|c| c.sample_frame.as_ref())?;
-        let key: Vec<String> = frame
-            .rois
-            .iter()
-            .map(|r| {
-                let colour = match r.kind {
-                    RoiKind::Led => "red",
-                    RoiKind::Background => "blue",
-                };
-                format!("{} = {} ({colour})", r.number, r.name)
-            })
-            .collect();
+        let key = roi_key(&frame.rois);
         Some(format!(
             "Each case page shows a frame display-stretched: its {STRETCH_LOW_PERCENTILE}th percentile of luma black and its {STRETCH_HIGH_PERCENTILE}th white, linearly in between (darker and brighter pixels clipped). ROIs: {}. Right of the frame: the region around the LED ROI (yellow box) at {CROP_ZOOM}x. Each caption gives the levels shown black and white, and the region's size and top-left pixel (column, row).",
             key.join(", ")

@@ -179,6 +179,20 @@ pub fn banding_sentence(banding: Option<&FrameBanding>) -> String {
     }
 }
 
+/// Each ROI's number, name and outline colour on a frame, e.g. `1 = led
+/// (red)`.
+pub fn roi_key(rois: &[RoiBox]) -> Vec<String> {
+    rois.iter()
+        .map(|r| {
+            let colour = match r.kind {
+                RoiKind::Led => "red",
+                RoiKind::Background => "blue",
+            };
+            format!("{} = {} ({colour})", r.number, r.name)
+        })
+        .collect()
+}
+
 /// The caption of a view: the stretch, the ROI key, the crop and the
 /// banding of the frame shown.
 pub fn caption(
@@ -187,16 +201,7 @@ pub fn caption(
     crop: Option<[u32; 4]>,
     banding: Option<&FrameBanding>,
 ) -> String {
-    let key: Vec<String> = rois
-        .iter()
-        .map(|r| {
-            let colour = match r.kind {
-                RoiKind::Led => "red",
-                RoiKind::Background => "blue",
-            };
-            format!("{} = {} ({colour})", r.number, r.name)
-        })
-        .collect();
+    let key = roi_key(rois);
     let mut out = stretch.caption();
     if !key.is_empty() {
         out.push_str(&format!(" ROIs: {}.", key.join(", ")));
