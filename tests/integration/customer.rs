@@ -153,12 +153,17 @@ fn shipped_reports_show_no_tool_internals_and_no_repeated_caveat() {
         let pdf = out.join("report.pdf");
         let pages = pages(&pdf);
         assert!(pages.len() >= 5, "{plan}: {} pages", pages.len());
+        failures.extend(crate::doc_figures::check(plan, &out));
         if plan == "daylight" {
-            readme_pages_match(pages.len());
+            failures.extend(crate::doc_figures::check("results", &out));
         }
         failures.extend(check_pdf(plan, &pdf, &pages, &plan_names(&out), &dir));
     }
     let pdf = comparison_report(&dir.join("campaign"));
+    failures.extend(crate::doc_figures::check(
+        "comparison",
+        pdf.parent().unwrap(),
+    ));
     let pages = pages(&pdf);
     assert!(pages.len() >= 3, "comparison: {} pages", pages.len());
     failures.extend(check_pdf("comparison", &pdf, &pages, &[], &dir));
@@ -265,23 +270,6 @@ fn comparison_report(dir: &Path) -> std::path::PathBuf {
     ]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     report.join("comparison.pdf")
-}
-
-/// The README's "N-page PDF" of the daylight plan is the PDF's page count.
-fn readme_pages_match(pages: usize) {
-    let readme = std::fs::read_to_string(crate::root().join("README.md")).unwrap();
-    let claims: Vec<&str> = readme
-        .split_whitespace()
-        .filter(|w| w.ends_with("-page"))
-        .collect();
-    assert!(!claims.is_empty(), "the README states no page count");
-    for claim in claims {
-        assert_eq!(
-            claim.trim_end_matches("-page"),
-            pages.to_string(),
-            "README.md says {claim}; the daylight PDF has {pages} pages"
-        );
-    }
 }
 
 #[test]

@@ -163,6 +163,8 @@ fn pdf_text_is_at_least_7_pt_and_no_report_shows_a_backtick_or_a_metric_id() {
 #[test]
 fn informational_cases_are_rows_at_the_default_detail_and_pages_at_full() {
     let out = report_of("grid-192");
+    let figures = crate::doc_figures::check("grid-192", &out);
+    assert!(figures.is_empty(), "{}", figures.join("\n"));
     let results: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
     let cases = results["cases"].as_array().unwrap();

@@ -20,6 +20,7 @@ mod compare_gate;
 mod conditions;
 mod customer;
 mod detect;
+mod doc_figures;
 mod estimate;
 mod exact;
 mod features;
