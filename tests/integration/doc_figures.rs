@@ -8,9 +8,8 @@
 //! vary by machine: scripts/readme-figures reports them.
 
 use std::path::Path;
-use std::process::Command;
 
-use crate::{ledflicker, root, scratch, text};
+use crate::{ledflicker, pdf_text, root, scratch, text};
 
 /// The outputs the integration tests pass to `check`: the customer test's
 /// plans and comparison report, the legibility test's grid-192, and the
@@ -185,18 +184,6 @@ fn figure_of(figure: &str, pdf: &Path, results: Option<&serde_json::Value>) -> f
                 .unwrap()
         }
     }
-}
-
-/// The PDF's text, pages separated by form feeds.
-fn pdf_text(pdf: &Path) -> String {
-    let o = Command::new("pdftotext")
-        .args(["-layout"])
-        .arg(pdf)
-        .arg("-")
-        .output()
-        .expect("pdftotext (poppler-utils) runs");
-    assert!(o.status.success(), "pdftotext {}", pdf.display());
-    String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
 /// The cases that open a section of their own ("3.2 test_vid3: ...").

@@ -105,6 +105,18 @@ pub fn ledflicker(args: &[&str]) -> Output {
 }
 
 /// The command's stderr, as text.
+/// `pdftotext -layout` of the whole PDF, pages separated by form feeds.
+pub fn pdf_text(pdf: &Path) -> String {
+    let o = std::process::Command::new("pdftotext")
+        .args(["-layout"])
+        .arg(pdf)
+        .arg("-")
+        .output()
+        .expect("pdftotext (poppler-utils) is needed: run scripts/test.sh, which installs it");
+    assert!(o.status.success(), "pdftotext {}", pdf.display());
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }

@@ -3,7 +3,7 @@
 //! auto-exposure target a user can set.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use ledflicker::backend::sim::Simulator;
 use ledflicker::metrics::Verdict;
@@ -11,7 +11,7 @@ use ledflicker::plan;
 use ledflicker::runner;
 use serde_json::Value;
 
-use crate::{ledflicker_in as ledflicker, root, scratch};
+use crate::{ledflicker_in as ledflicker, pdf_text, root, scratch};
 
 fn run(plan: &Path, out: &Path) -> (Output, String) {
     let o = ledflicker(
@@ -35,17 +35,6 @@ fn run(plan: &Path, out: &Path) -> (Output, String) {
 
 fn json(out: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap()
-}
-
-fn pdf_text(pdf: &Path) -> String {
-    let o = Command::new("pdftotext")
-        .args(["-layout"])
-        .arg(pdf)
-        .arg("-")
-        .output()
-        .expect("pdftotext (poppler-utils) is needed: run scripts/test.sh, which installs it");
-    assert!(o.status.success());
-    String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
 #[test]
