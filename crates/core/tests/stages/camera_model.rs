@@ -4,10 +4,10 @@
 //! simulator's physics, and compared frame by frame with the simulator on
 //! every shipped HDR profile with noise off.
 
-use ledflicker::backend::Backend;
-use ledflicker::backend::sim::Simulator;
-use ledflicker::physics::hdr::{CaptureExposure, HdrMode, MergeRule, ToneCurve};
-use ledflicker::plan::{self, Plan, ShutterKind, TestCase};
+use ledflicker_core::backend::Backend;
+use ledflicker_core::backend::sim::Simulator;
+use ledflicker_core::physics::hdr::{CaptureExposure, HdrMode, MergeRule, ToneCurve};
+use ledflicker_core::plan::{self, Plan, ShutterKind, TestCase};
 
 use crate::{root, scratch};
 
@@ -23,7 +23,7 @@ struct Doc<'a> {
 }
 
 impl Doc<'_> {
-    fn p(&self) -> &ledflicker::plan::PhysicalCamera {
+    fn p(&self) -> &ledflicker_core::plan::PhysicalCamera {
         self.plan.dut.camera.physical.as_ref().unwrap()
     }
 
@@ -211,7 +211,7 @@ fn documented(plan: &Plan, cam: &toml::Value) -> (f64, f64) {
     let p = plan.dut.camera.physical.as_ref().unwrap();
     let dn_max = 2f64.powi(p.sensor.adc_bits as i32) - 1.0;
     let t = plan.dut.camera.exposure_s;
-    let t_c = |c: &ledflicker::physics::hdr::Capture| match c.exposure {
+    let t_c = |c: &ledflicker_core::physics::hdr::Capture| match c.exposure {
         CaptureExposure::Ratio(r) => r * t,
         CaptureExposure::Fixed(s) => s,
     };

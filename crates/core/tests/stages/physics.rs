@@ -1,10 +1,10 @@
 //! The physical camera end to end: Deegan 2018 Table 1, hard cases, noise
 //! statistics, output bit depth, saturation, determinism.
 
-use ledflicker::backend::sim::Simulator;
-use ledflicker::metrics::RoiMetrics;
-use ledflicker::plan;
-use ledflicker::runner::{self, CaseResult};
+use ledflicker_core::backend::sim::Simulator;
+use ledflicker_core::metrics::RoiMetrics;
+use ledflicker_core::plan;
+use ledflicker_core::runner::{self, CaseResult};
 
 use crate::{root, scratch};
 
@@ -190,7 +190,7 @@ fn noise_leaves_the_mean_within_its_statistical_bounds() {
             .frames
             .iter()
             .zip(&r.acquisition.rois[0].luma)
-            .filter(|(f, _)| f.segment == ledflicker::metrics::flicker::Segment::Pwm)
+            .filter(|(f, _)| f.segment == ledflicker_core::metrics::flicker::Segment::Pwm)
             .map(|(_, v)| *v)
             .collect()
     };
@@ -309,7 +309,7 @@ fn invalid_profile_errors_name_the_profile_file_and_line() {
 
 #[test]
 fn rendered_rolling_shutter_frame_shows_bands_at_the_predicted_spacing() {
-    use ledflicker::backend::Backend;
+    use ledflicker_core::backend::Backend;
     let text = std::fs::read_to_string(root().join("tests/fixtures/plans/base.toml"))
         .unwrap()
         .replace(
@@ -350,7 +350,7 @@ fn physical_camera_gets_no_ideal_fine_map_but_says_why() {
     let p = plan::load(&root().join("test-plans/deegan2018.toml")).unwrap();
     let cases = plan::expand_cases(&p);
     let results = runner::run(&p, &cases, &Simulator::new(&p), Some(2), &|_| {}).unwrap();
-    let model = ledflicker::model::assemble(&p, "sim-physical", &results);
+    let model = ledflicker_core::model::assemble(&p, "sim-physical", &results);
     assert!(model.fine_maps.is_empty());
     assert!(
         model
@@ -360,5 +360,5 @@ fn physical_camera_gets_no_ideal_fine_map_but_says_why() {
             .contains("physical sensor")
     );
     let daylight = plan::load(&root().join("test-plans/daylight.toml")).unwrap();
-    assert!(ledflicker::analysis::fine_maps_note(&daylight).is_none());
+    assert!(ledflicker_core::analysis::fine_maps_note(&daylight).is_none());
 }

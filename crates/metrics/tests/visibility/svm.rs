@@ -6,7 +6,7 @@
 //! rectified sine, a triangle and two real lamps' waveforms
 //! (tests/data/lamps, MIT). docs/visibility.md states the tolerance.
 
-use ledflicker::metrics::visibility::svm;
+use ledflicker_metrics::metrics::visibility::svm;
 use std::f64::consts::PI;
 
 /// The TN's threshold modulation of the stroboscopic effect.

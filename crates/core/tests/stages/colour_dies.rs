@@ -6,7 +6,7 @@
 //! `(x, y)` and to CIE 1976 `(u', v')`, and which die a window of the PWM
 //! period catches; nothing of the code under test is called for them.
 
-use ledflicker::trace::Segment;
+use ledflicker_core::trace::Segment;
 
 /// The camera's linear R, G, B to X, Y, Z, as in test-plans/rgb-signal.toml.
 const CAMERA_TO_XYZ: [[f64; 3]; 3] = [
@@ -91,12 +91,12 @@ signal-colour = "amber"
     )
 }
 
-fn run(text: &str) -> Vec<ledflicker::runner::CaseResult> {
-    let plan =
-        ledflicker::plan::parse(text, std::path::Path::new("dies.toml"), String::new()).unwrap();
-    let cases = ledflicker::plan::expand_cases(&plan);
-    let backend = ledflicker::backend::sim::Simulator::new(&plan);
-    ledflicker::runner::run(&plan, &cases, &backend, Some(2), &|_| {}).unwrap()
+fn run(text: &str) -> Vec<ledflicker_core::runner::CaseResult> {
+    let plan = ledflicker_core::plan::parse(text, std::path::Path::new("dies.toml"), String::new())
+        .unwrap();
+    let cases = ledflicker_core::plan::expand_cases(&plan);
+    let backend = ledflicker_core::backend::sim::Simulator::new(&plan);
+    ledflicker_core::runner::run(&plan, &cases, &backend, Some(2), &|_| {}).unwrap()
 }
 
 /// CIE 1931 XYZ of the chromaticity `(x, y)` at `Y = 1`.
@@ -312,9 +312,10 @@ fn bad_dies_are_refused_naming_the_key_with_a_hint() {
     ];
     for (text, expected) in bad {
         assert_ne!(text, good);
-        let err = ledflicker::plan::parse(&text, std::path::Path::new("d.toml"), String::new())
-            .unwrap_err()
-            .to_string();
+        let err =
+            ledflicker_core::plan::parse(&text, std::path::Path::new("d.toml"), String::new())
+                .unwrap_err()
+                .to_string();
         assert!(err.contains(expected), "{expected}\n---\n{err}");
         assert!(err.contains("hint"), "{err}");
     }
@@ -324,13 +325,13 @@ fn bad_dies_are_refused_naming_the_key_with_a_hint() {
 fn the_shipped_amber_signal_reads_as_red_or_green_at_a_short_exposure() {
     let path = crate::root().join("test-plans/rgb-signal.toml");
     let text = std::fs::read_to_string(&path).unwrap();
-    let plan = ledflicker::plan::parse(&text, &path, String::new()).unwrap();
+    let plan = ledflicker_core::plan::parse(&text, &path, String::new()).unwrap();
     let colour = plan.colour.as_ref().unwrap();
     assert_eq!(colour.dies.len(), 2);
     assert!(amber(colour.led_xy), "{:?}", colour.led_xy);
-    let cases = ledflicker::plan::expand_cases(&plan);
-    let backend = ledflicker::backend::sim::Simulator::new(&plan);
-    let results = ledflicker::runner::run(&plan, &cases, &backend, Some(2), &|_| {}).unwrap();
+    let cases = ledflicker_core::plan::expand_cases(&plan);
+    let backend = ledflicker_core::backend::sim::Simulator::new(&plan);
+    let results = ledflicker_core::runner::run(&plan, &cases, &backend, Some(2), &|_| {}).unwrap();
     assert_eq!(results.len(), 2);
     for r in &results {
         let c = r.metrics[0].colour.as_ref().unwrap();

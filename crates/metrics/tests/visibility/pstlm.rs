@@ -6,7 +6,7 @@
 //! (tests/data/lamps) on a fluctuating supply. docs/visibility.md states
 //! the tolerance and the measured agreement.
 
-use ledflicker::metrics::visibility::pstlm;
+use ledflicker_metrics::metrics::visibility::pstlm;
 use std::f64::consts::PI;
 
 const RATE_HZ: f64 = 4000.0;
@@ -24,7 +24,7 @@ struct Reference {
 }
 
 fn data(path: &str) -> String {
-    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/");
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/");
     std::fs::read_to_string(format!("{root}{path}")).unwrap()
 }
 

@@ -3,11 +3,18 @@
 //! reference-data/gyroflow-rs-banding/SOURCE.md) gives back
 //! the LED's frequency.
 
-use ledflicker::calibrate::bands::estimate_profile;
+use std::path::Path;
+
+use ledflicker_analysis::calibrate::bands::estimate_profile;
+
+/// The repository root, where reference-data/ is.
+fn root() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+}
 
 #[test]
 fn real_frame_band_spacing_gives_the_led_frequency() {
-    let path = crate::root().join("reference-data/gyroflow-rs-banding/frame_example.png");
+    let path = root().join("reference-data/gyroflow-rs-banding/frame_example.png");
     let img = image::open(&path)
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
         .to_luma8();

@@ -1,8 +1,8 @@
 //! Issue 6 in results.json: apparent frequency, beat, hazard class, drive,
 //! banding and phase coverage of a small plan, against closed forms.
 
-use ledflicker::backend::sim::Simulator;
-use ledflicker::{plan, runner};
+use ledflicker_core::backend::sim::Simulator;
+use ledflicker_core::{plan, runner};
 use serde_json::Value;
 
 use crate::root;
@@ -22,7 +22,7 @@ fn model(frequencies: &str, duties: &str) -> Value {
     let p = plan::parse(&text, std::path::Path::new("beyond.toml"), String::new()).unwrap();
     let cases = plan::expand_cases(&p);
     let results = runner::run(&p, &cases, &Simulator::new(&p), Some(2), &|_| {}).unwrap();
-    serde_json::to_value(ledflicker::model::assemble(&p, "sim-ideal", &results)).unwrap()
+    serde_json::to_value(ledflicker_core::model::assemble(&p, "sim-ideal", &results)).unwrap()
 }
 
 fn case<'a>(m: &'a Value, id: &str) -> &'a Value {
@@ -101,7 +101,7 @@ fn model_with(frequency_hz: f64, extra: &str) -> Value {
     let p = plan::parse(&text, std::path::Path::new("ppm.toml"), String::new()).unwrap();
     let cases = plan::expand_cases(&p);
     let results = runner::run(&p, &cases, &Simulator::new(&p), Some(2), &|_| {}).unwrap();
-    serde_json::to_value(ledflicker::model::assemble(&p, "sim-ideal", &results)).unwrap()
+    serde_json::to_value(ledflicker_core::model::assemble(&p, "sim-ideal", &results)).unwrap()
 }
 
 #[test]
@@ -169,7 +169,7 @@ fn the_pwm_delay_moves_the_folded_phase_as_it_moves_the_drive() {
         let p = plan::parse(&text, std::path::Path::new("delay.toml"), String::new()).unwrap();
         let cases = plan::expand_cases(&p);
         let results = runner::run(&p, &cases, &Simulator::new(&p), Some(1), &|_| {}).unwrap();
-        let a = ledflicker::analysis::analyse_case(&p, &results[0]);
+        let a = ledflicker_core::analysis::analyse_case(&p, &results[0]);
         let hit: Vec<usize> = a.rois[0]
             .folded_bins
             .iter()
