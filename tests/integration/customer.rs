@@ -164,6 +164,9 @@ fn shipped_reports_show_no_tool_internals_and_no_repeated_caveat() {
         "comparison",
         pdf.parent().unwrap(),
     ));
+    failures.extend(crate::doc_figures::check_comparison_order(
+        pdf.parent().unwrap(),
+    ));
     let pages = pages(&pdf);
     assert!(pages.len() >= 3, "comparison: {} pages", pages.len());
     failures.extend(check_pdf("comparison", &pdf, &pages, &[], &dir));

@@ -371,3 +371,95 @@ fn figures_of_cms_colour_and_the_full_daylight_report_are_the_outputs() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// The parts of the comparison report in the order README.md describes
+/// them: a phrase of the README's description, then the heading that
+/// starts the part in comparison.pdf.
+const README_COMPARISON_ORDER: [(&str, &str); 8] = [
+    ("page 1 lists what differs", "What differs between the runs"),
+    ("names the two runs", "The two runs"),
+    ("starts the table of the", "Regressions"),
+    ("the traces of the worst", "Traces of the regressed cases"),
+    ("frequency x duty grid of FDI", "Across the grid"),
+    ("verdict flips with their causes", "Verdict flips"),
+    (
+        "a chart of FDI at the worst phase before and after",
+        "Before and after, case by case",
+    ),
+    ("the table of the other gated KPIs", "Every other gated KPI"),
+];
+
+/// The same for docs/campaigns.md's description of comparison.html.
+const CAMPAIGNS_COMPARISON_ORDER: [(&str, &str); 7] = [
+    (
+        "what differs between the runs",
+        ">What differs between the runs<",
+    ),
+    ("the two runs (camera", ">The two runs<"),
+    ("the regressions first", ">Regressions<"),
+    (
+        "the traces of the regressed cases",
+        ">Traces of the regressed cases<",
+    ),
+    ("across the frequency x duty grid", ">Across the grid<"),
+    ("verdict flips with their causes", ">Verdict flips<"),
+    ("a chart per gated KPI", ">Before and after, case by case<"),
+];
+
+/// Each phrase found in `text` after the one before it; one line per
+/// phrase missing or out of order.
+fn in_order(what: &str, text: &str, phrases: &[&str]) -> Vec<String> {
+    let mut from = 0;
+    let mut failures = Vec::new();
+    for p in phrases {
+        match text[from..].find(p) {
+            Some(at) => from += at + p.len(),
+            None if text.contains(p) => failures.push(format!("{what}: `{p}` comes too early")),
+            None => failures.push(format!("{what}: no `{p}`")),
+        }
+    }
+    failures
+}
+
+/// The comparison report in `dir` (comparison.pdf and comparison.html)
+/// has its parts in the order README.md and docs/campaigns.md give.
+pub fn check_comparison_order(dir: &Path) -> Vec<String> {
+    let mut failures = Vec::new();
+    let (readme, _) = normalised("README.md");
+    let (campaigns, _) = normalised("docs/campaigns.md");
+    let pdf = pdf_text(&dir.join("comparison.pdf"));
+    let html = std::fs::read_to_string(dir.join("comparison.html")).unwrap();
+    for (doc, doc_text, out, out_text, order) in [
+        (
+            "README.md",
+            &readme,
+            "comparison.pdf",
+            &pdf,
+            &README_COMPARISON_ORDER[..],
+        ),
+        (
+            "docs/campaigns.md",
+            &campaigns,
+            "comparison.html",
+            &html,
+            &CAMPAIGNS_COMPARISON_ORDER[..],
+        ),
+    ] {
+        let said: Vec<&str> = order.iter().map(|(said, _)| *said).collect();
+        let shown: Vec<&str> = order.iter().map(|(_, shown)| *shown).collect();
+        failures.extend(in_order(doc, doc_text, &said));
+        failures.extend(in_order(out, out_text, &shown));
+    }
+    failures
+}
+
+#[test]
+fn the_order_check_finds_parts_out_of_order() {
+    let text = "alpha beta gamma";
+    assert!(in_order("t", text, &["alpha", "gamma"]).is_empty());
+    assert_eq!(
+        in_order("t", text, &["gamma", "alpha"]),
+        ["t: `alpha` comes too early"]
+    );
+    assert_eq!(in_order("t", text, &["delta"]), ["t: no `delta`"]);
+}
