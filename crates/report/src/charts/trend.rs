@@ -11,8 +11,34 @@ use super::{ChartError, FONT, FONT_FULL_WIDTH, SERIES_COLOURS};
 pub type TrendSeries = (String, Vec<Option<f64>>);
 
 /// Series drawn in colour and named in the legend; the others are drawn
-/// grey, unnamed, so a plan of many cases still reads.
+/// grey under them and counted in one legend entry, so a plan of many
+/// cases still reads.
 const NAMED: usize = 6;
+
+/// Which series are named: the `NAMED` whose values move most over the
+/// runs (largest minus smallest), ties in the given order. A reader looks
+/// at a trend chart for what changed; the first cases of a plan may be
+/// the ones that never move.
+fn named(series: &[TrendSeries]) -> Vec<bool> {
+    let movement = |values: &[Option<f64>]| {
+        let finite = values.iter().flatten().filter(|v| v.is_finite());
+        let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+        if lo.is_finite() {
+            hi - lo
+        } else {
+            f64::NEG_INFINITY
+        }
+    };
+    let mut order: Vec<usize> = (0..series.len()).collect();
+    order.sort_by(|&a, &b| movement(&series[b].1).total_cmp(&movement(&series[a].1)));
+    let mut named = vec![false; series.len()];
+    for &k in order.iter().take(NAMED) {
+        named[k] = true;
+    }
+    named
+}
 
 /// A limit of the plotted KPI, drawn as a dashed line across the runs:
 /// its value and its legend (`"limit >= 0.1"`).
@@ -100,13 +126,26 @@ pub fn trend_svg(
             c.draw_series(dashed(limit_colour, (-0.5, n as f64 - 0.5), l.0))
                 .map_err(|e| err(&e))?;
         }
-        let mut entries: Vec<(String, RGBColor, bool)> = Vec::new();
-        for (k, (name, values)) in series.iter().enumerate().rev() {
-            let colour = if k < NAMED {
-                SERIES_COLOURS[k % SERIES_COLOURS.len()]
+        let named = named(series);
+        let grey = RGBColor(190, 190, 190);
+        // Colours in the given order of the named series; grey lines are
+        // drawn first, so that a named line is never hidden under one.
+        let mut colours = Vec::with_capacity(series.len());
+        let mut next = 0;
+        for &n in &named {
+            colours.push(if n {
+                next += 1;
+                SERIES_COLOURS[(next - 1) % SERIES_COLOURS.len()]
             } else {
-                RGBColor(190, 190, 190)
-            };
+                grey
+            });
+        }
+        let mut draw_order: Vec<usize> = (0..series.len()).filter(|&k| !named[k]).collect();
+        draw_order.extend((0..series.len()).filter(|&k| named[k]));
+        let mut entries: Vec<(String, RGBColor, bool)> = Vec::new();
+        for k in draw_order {
+            let (name, values) = &series[k];
+            let colour = colours[k];
             // A gap (no value) breaks the line.
             let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
             for (i, v) in values.iter().enumerate() {
@@ -118,14 +157,19 @@ pub fn trend_svg(
             for (j, run) in runs.into_iter().filter(|r| !r.is_empty()).enumerate() {
                 c.draw_series(LineSeries::new(run.clone(), colour.stroke_width(2)))
                     .map_err(|e| err(&e))?;
-                if k < NAMED && j == 0 {
+                if named[k] && j == 0 {
                     entries.push((name.clone(), colour, false));
                 }
                 c.draw_series(run.into_iter().map(|p| Circle::new(p, 3, colour.filled())))
                     .map_err(|e| err(&e))?;
             }
         }
-        entries.reverse();
+        // The legend lists the named series in the given order.
+        entries.sort_by_key(|e| series.iter().position(|s| s.0 == e.0));
+        let others = named.iter().filter(|&&n| !n).count();
+        if others > 0 {
+            entries.push((format!("{others} others, in grey"), grey, false));
+        }
         entries.extend(limits.iter().map(|l| (l.1.clone(), limit_colour, true)));
         draw_legend(&legend, entries).map_err(|e| err(&e))?;
         canvas.present().map_err(|e| err(&e))?;
@@ -223,6 +267,23 @@ mod tests {
         }
         // Nine dots: four of case-a (one gap), five of case-b.
         assert_eq!(svg.matches("<circle").count(), 9, "{svg}");
+    }
+
+    #[test]
+    fn the_series_that_move_most_are_named_and_the_others_counted() {
+        let labels = vec!["a".to_string(), "b".to_string()];
+        // Eight series; the last two move most, the first two not at all.
+        let series: Vec<TrendSeries> = (0..8)
+            .map(|k| (format!("s{k}"), vec![Some(1.0), Some(1.0 + f64::from(k))]))
+            .collect();
+        let svg = trend_svg("t", ("run", "y"), &labels, &series, &[]).unwrap();
+        for k in 2..8 {
+            assert!(svg.contains(&format!("\ns{k}\n")), "s{k} not named");
+        }
+        assert!(!svg.contains("\ns0\n") && !svg.contains("\ns1\n"), "{svg}");
+        assert!(svg.contains("\n2 others, in grey\n"), "{svg}");
+        // Named in the given order.
+        assert!(svg.find("\ns2\n") < svg.find("\ns7\n"));
     }
 
     #[test]
