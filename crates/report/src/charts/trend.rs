@@ -127,19 +127,9 @@ pub fn trend_svg(
                 .map_err(|e| err(&e))?;
         }
         let named = named(series);
-        let grey = RGBColor(190, 190, 190);
-        // Colours in the given order of the named series; grey lines are
-        // drawn first, so that a named line is never hidden under one.
-        let mut colours = Vec::with_capacity(series.len());
-        let mut next = 0;
-        for &n in &named {
-            colours.push(if n {
-                next += 1;
-                SERIES_COLOURS[(next - 1) % SERIES_COLOURS.len()]
-            } else {
-                grey
-            });
-        }
+        let colours = colours(&named);
+        // Grey lines are drawn first, so that a named line is never hidden
+        // under one.
         let mut draw_order: Vec<usize> = (0..series.len()).filter(|&k| !named[k]).collect();
         draw_order.extend((0..series.len()).filter(|&k| named[k]));
         let mut entries: Vec<(String, RGBColor, bool)> = Vec::new();
@@ -168,13 +158,33 @@ pub fn trend_svg(
         entries.sort_by_key(|e| series.iter().position(|s| s.0 == e.0));
         let others = named.iter().filter(|&&n| !n).count();
         if others > 0 {
-            entries.push((format!("{others} others, in grey"), grey, false));
+            entries.push((format!("{others} others, in grey"), GREY, false));
         }
         entries.extend(limits.iter().map(|l| (l.1.clone(), limit_colour, true)));
         draw_legend(&legend, entries).map_err(|e| err(&e))?;
         canvas.present().map_err(|e| err(&e))?;
     }
     Ok(svg)
+}
+
+/// The colour of the series that are not named.
+const GREY: RGBColor = RGBColor(190, 190, 190);
+
+/// Each series' colour: the chart colours in order for the named ones,
+/// grey for the others.
+fn colours(named: &[bool]) -> Vec<RGBColor> {
+    let mut next = 0;
+    named
+        .iter()
+        .map(|&n| {
+            if n {
+                next += 1;
+                SERIES_COLOURS[(next - 1) % SERIES_COLOURS.len()]
+            } else {
+                GREY
+            }
+        })
+        .collect()
 }
 
 /// The legend column: each entry's line (dashed for a limit) and name,
