@@ -1,5 +1,5 @@
 //! Arguments that several subcommands share: the LED's PWM drive and the
-//! ideal camera (`simulate`, `render`), the report detail (`plan`,
+//! ideal camera (`simulate`, `render`), the report flags (`plan`,
 //! `merge`) and the report date (`plan`, `merge`, `sign`).
 
 use clap::{Args, ValueEnum};
@@ -26,6 +26,46 @@ impl From<DetailArg> for crate::model::Detail {
             DetailArg::Standard => Self::Standard,
             DetailArg::Full => Self::Full,
         }
+    }
+}
+
+/// The report flags `plan` and `merge` share: where the report goes,
+/// its date, what it shows and how the run is recorded.
+#[derive(Args, Debug)]
+pub(super) struct ReportArgs {
+    /// Output directory [default: reports/<plan-id>/].
+    #[arg(long)]
+    pub(super) out: Option<std::path::PathBuf>,
+    /// Report date, YYYY-MM-DD [default: $SOURCE_DATE_EPOCH, else today].
+    #[arg(long)]
+    pub(super) date: Option<String>,
+    /// Replace a signed report in the output directory.
+    #[arg(long)]
+    pub(super) force: bool,
+    /// Print no summary table and no progress.
+    #[arg(long, short)]
+    pub(super) quiet: bool,
+    /// List every case in the summary table; without it a run of more
+    /// than 50 cases lists its failing cases only (at most 50).
+    #[arg(long)]
+    pub(super) all_cases: bool,
+    /// How much of each case the report shows: `summary` (no case pages),
+    /// `standard` (a page for each failing case; not judged cases one row
+    /// each in a table, passing cases one line each in the appendix) or
+    /// `full` (a page for every case).
+    #[arg(long, value_enum, default_value_t = DetailArg::Standard)]
+    pub(super) detail: DetailArg,
+    #[command(flatten)]
+    pub(super) limits: LimitArgs,
+    #[command(flatten)]
+    pub(super) record: super::campaign::RecordArgs,
+}
+
+impl ReportArgs {
+    /// The limits of `--max-memory` and `--max-report`, for the report
+    /// `--detail` asks for.
+    pub(super) fn limits(&self) -> crate::plan::ResourceLimits {
+        self.limits.limits(matches!(self.detail, DetailArg::Full))
     }
 }
 

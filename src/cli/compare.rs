@@ -17,6 +17,7 @@ use crate::campaign::compare::{
 };
 use crate::campaign::query::{self, Filter, RunRow};
 use crate::campaign::{CampaignError, Database};
+use crate::report::export::ComparisonJunit;
 
 /// `ledflicker compare` arguments.
 #[derive(Args, Debug)]
@@ -435,70 +436,48 @@ fn noise_line(c: &Comparison) -> String {
     format!("noise of the gated KPIs: {}\n", parts.join("; "))
 }
 
-/// JUnit XML: one suite, one test case per case compared, failed with its
-/// regressed KPIs.
+/// JUnit XML (`report::export::comparison_junit_xml`): one test case per
+/// case compared, failed with its regressed KPIs.
 fn junit(c: &Comparison) -> Result<String, quick_junit::SerializeError> {
-    use quick_junit::{NonSuccessKind, Report, TestCase, TestCaseStatus, TestSuite};
-    let mut suite = TestSuite::new(format!("ledflicker compare {} {}", c.a.id, c.b.id));
-    // The set-up first: what differs, and whether the runs are the same
-    // test. A CI reading only the failures sees an unaccepted difference.
-    let differences: Vec<String> = c.differences.iter().map(ToString::to_string).collect();
-    for (i, d) in differences.iter().enumerate() {
-        suite.add_property(quick_junit::Property::new(
-            format!("difference.{}", i + 1),
-            d.as_str(),
-        ));
-    }
-    let setup = match &c.comparability {
-        Comparability::Not { why, .. } => {
-            let mut s = TestCaseStatus::non_success(NonSuccessKind::Failure);
-            s.set_message(format!("not comparable: {why}"));
-            s
-        }
-        _ => TestCaseStatus::success(),
-    };
-    let mut case = TestCase::new("set-up", setup);
-    if !differences.is_empty() {
-        case.set_system_out(differences.join("\n"));
-    }
-    suite.add_test_case(case);
     let mut order: Vec<&str> = Vec::new();
     for k in &c.kpis {
         if order.last() != Some(&k.case.as_str()) {
             order.push(&k.case);
         }
     }
-    for case in order {
-        let bad: Vec<String> = c
-            .kpis
-            .iter()
-            .filter(|k| k.case == case && k.regressed)
-            .map(|k| {
-                format!(
-                    "{} {}: {} -> {} (noise sd {}{})",
-                    k.roi,
-                    k.metric,
-                    value(k.a),
-                    value(k.b),
-                    value(k.sigma),
-                    if k.by_pool {
-                        "; named with its metric's pooled change"
-                    } else {
-                        ""
-                    }
-                )
-            })
-            .collect();
-        let status = if bad.is_empty() {
-            TestCaseStatus::success()
-        } else {
-            let mut s = TestCaseStatus::non_success(NonSuccessKind::Failure);
-            s.set_message(format!("regressed: {}", bad.join("; ")));
-            s
-        };
-        suite.add_test_case(TestCase::new(case, status));
-    }
-    let mut report = Report::new("ledflicker compare");
-    report.add_test_suite(suite);
-    report.to_string()
+    let cases = order
+        .into_iter()
+        .map(|case| {
+            let bad: Vec<String> = c
+                .kpis
+                .iter()
+                .filter(|k| k.case == case && k.regressed)
+                .map(|k| {
+                    format!(
+                        "{} {}: {} -> {} (noise sd {}{})",
+                        k.roi,
+                        k.metric,
+                        value(k.a),
+                        value(k.b),
+                        value(k.sigma),
+                        if k.by_pool {
+                            "; named with its metric's pooled change"
+                        } else {
+                            ""
+                        }
+                    )
+                })
+                .collect();
+            (case.to_string(), bad)
+        })
+        .collect();
+    crate::report::export::comparison_junit_xml(&ComparisonJunit {
+        suite: format!("ledflicker compare {} {}", c.a.id, c.b.id),
+        differences: c.differences.iter().map(ToString::to_string).collect(),
+        not_comparable: match &c.comparability {
+            Comparability::Not { why, .. } => Some(why.clone()),
+            _ => None,
+        },
+        cases,
+    })
 }

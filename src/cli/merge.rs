@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::args::{DetailArg, report_date};
+use super::args::{ReportArgs, report_date};
 use super::{ExitCode, Failure};
 use crate::pipeline::{self, ReportOptions};
 use crate::report;
@@ -19,39 +19,19 @@ pub(super) struct MergeArgs {
     /// them such as 'shards/*' (`*` and `?` in the last path component).
     #[arg(required = true)]
     shards: Vec<String>,
-    /// Output directory [default: reports/<plan-id>/].
-    #[arg(long)]
-    out: Option<PathBuf>,
     /// The plan, when it is no longer where the shards read it [default:
     /// the shards' plan path, as given, else as an absolute path].
     #[arg(long)]
     plan: Option<PathBuf>,
-    /// Report date, YYYY-MM-DD [default: $SOURCE_DATE_EPOCH, else today].
-    #[arg(long)]
-    date: Option<String>,
-    /// Replace a signed report in the output directory.
-    #[arg(long)]
-    force: bool,
-    /// Print no summary table.
-    #[arg(long, short)]
-    quiet: bool,
-    /// List every case in the summary table (as for `plan`).
-    #[arg(long)]
-    all_cases: bool,
-    /// How much of each case the report shows (as for `plan`).
-    #[arg(long, value_enum, default_value_t = DetailArg::Standard)]
-    detail: DetailArg,
     #[command(flatten)]
-    limits: super::args::LimitArgs,
-    #[command(flatten)]
-    record: super::campaign::RecordArgs,
+    report: ReportArgs,
 }
 
 /// Checks the shards, then writes the report of the whole plan.
 pub(super) fn merge(a: MergeArgs) -> Result<ExitCode, Failure> {
-    let date = report_date(a.date.as_deref())?;
+    let date = report_date(a.report.date.as_deref())?;
     let m = crate::shard::merge::gather(&a.shards, a.plan.as_deref())?;
-    let limits = a.limits.limits(matches!(a.detail, DetailArg::Full));
+    let limits = a.report.limits();
     if let Some(message) =
         crate::plan::WorkEstimate::merge_too_large(&m.plan, m.largest_shard(), limits)
     {
@@ -64,11 +44,12 @@ pub(super) fn merge(a: MergeArgs) -> Result<ExitCode, Failure> {
         .into());
     }
     let out = a
+        .report
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("reports").join(&m.plan.id));
-    a.record.check_outside(&out)?;
-    let generation = pipeline::begin_output(&out, a.force)?;
+    a.report.record.check_outside(&out)?;
+    let generation = pipeline::begin_output(&out, a.report.force)?;
     // The cases go from the shards to the store one shard at a time, and
     // the report stage reads them back from it, as `plan`'s does.
     let key = crate::store::RunKey {
@@ -92,8 +73,8 @@ pub(super) fn merge(a: MergeArgs) -> Result<ExitCode, Failure> {
         generation,
         ReportOptions {
             date,
-            force: a.force,
-            detail: a.detail.into(),
+            force: a.report.force,
+            detail: a.report.detail.into(),
             signing: None,
             golden: None,
             resume_hint: None,
@@ -104,13 +85,13 @@ pub(super) fn merge(a: MergeArgs) -> Result<ExitCode, Failure> {
         eprintln!("{warning}");
     }
     super::campaign::record_finished(
-        &a.record,
+        &a.report.record,
         &outcome.model,
         &outcome.dir,
         crate::campaign::record::Source::Merge,
         None,
     );
-    if !a.quiet {
+    if !a.report.quiet {
         outln!(
             "merged {} shards ({} cases) of plan `{}`",
             m.shards,
@@ -119,7 +100,7 @@ pub(super) fn merge(a: MergeArgs) -> Result<ExitCode, Failure> {
         )?;
         out!(
             "{}",
-            report::terminal::summary(&outcome.model, &outcome.dir, a.all_cases)
+            report::terminal::summary(&outcome.model, &outcome.dir, a.report.all_cases)
         )?;
     }
     Ok(super::plan::exit_code(outcome.status()))

@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use super::args::{DetailArg, report_date};
+use super::args::{ReportArgs, report_date};
 use super::sign::signing;
 use super::{ExitCode, Failure};
 use crate::backend::PlanBackend;
@@ -30,31 +30,11 @@ use crate::report;
 pub(super) struct PlanArgs {
     /// Plan file, or a plan name from test-plans/ (e.g. `daylight`).
     plan: String,
-    /// Output directory [default: reports/<plan-id>/].
-    #[arg(long)]
-    out: Option<PathBuf>,
+    #[command(flatten)]
+    report: ReportArgs,
     /// Worker threads [default: one per core]. Results do not depend on it.
     #[arg(long)]
     threads: Option<usize>,
-    /// Report date, YYYY-MM-DD [default: $SOURCE_DATE_EPOCH, else today].
-    #[arg(long)]
-    date: Option<String>,
-    /// Replace a signed report in the output directory.
-    #[arg(long)]
-    force: bool,
-    /// Print no summary table and no progress.
-    #[arg(long, short)]
-    quiet: bool,
-    /// List every case in the summary table; without it a run of more
-    /// than 50 cases lists its failing cases only (at most 50).
-    #[arg(long)]
-    all_cases: bool,
-    /// How much of each case the report shows: `summary` (no case pages),
-    /// `standard` (a page for each failing case; not judged cases one row
-    /// each in a table, passing cases one line each in the appendix) or
-    /// `full` (a page for every case).
-    #[arg(long, value_enum, default_value_t = DetailArg::Standard)]
-    detail: DetailArg,
     /// Sign the report with this private key (PKCS#8 PEM, from `ledflicker keygen`).
     #[arg(long, requires = "signer")]
     sign_key: Option<PathBuf>,
@@ -90,10 +70,6 @@ pub(super) struct PlanArgs {
     /// the plan's `[report]` one by one (docs/plan-format.md).
     #[arg(long, value_name = "FILE")]
     profile: Option<PathBuf>,
-    #[command(flatten)]
-    limits: super::args::LimitArgs,
-    #[command(flatten)]
-    record: super::campaign::RecordArgs,
     /// Print the cases and every line the light source (`[source]`) would
     /// be sent, with the planned times; connect to nothing, run nothing.
     #[arg(long, conflicts_with_all = ["shard", "resume"])]
@@ -124,7 +100,7 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<ExitCode, Failure> {
     let out = args
         .resume
         .clone()
-        .or_else(|| args.out.clone())
+        .or_else(|| args.report.out.clone())
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
     let (generation, options) = prepare(&args, &out, date)?;
     let (backend, inputs, generation) = set_up(&args, &plan, generation, &out)?;
@@ -147,9 +123,9 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<ExitCode, Failure> {
         options,
         resume_hint: Some(&resume_hint),
     };
-    let bar = case_bar(0, args.quiet);
+    let bar = case_bar(0, args.report.quiet);
     let outcome = pipeline::run_plan(run, generation, &run_progress(&bar, &plan, &args), &|p| {
-        show_progress(stage.get_or_init(|| report_spinner(args.quiet)), p)
+        show_progress(stage.get_or_init(|| report_spinner(args.report.quiet)), p)
     });
     let outcome = match outcome {
         Ok(outcome) => outcome,
@@ -175,14 +151,14 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<ExitCode, Failure> {
 /// `--shard K/N`: this shard's cases into a shard directory, no report.
 fn shard(args: &PlanArgs, plan: &Plan, spec: &str) -> Result<ExitCode, Failure> {
     let spec = crate::shard::ShardSpec::parse(spec, &|k| std::env::var(k).ok())?;
-    super::shard::check_share(plan, spec, args.limits.limits(false))?;
+    super::shard::check_share(plan, spec, args.report.limits.limits(false))?;
     super::shard::run_shard(&super::shard::ShardRun {
         plan,
         spec,
-        out: args.out.as_deref().unwrap_or(Path::new(".")),
+        out: args.report.out.as_deref().unwrap_or(Path::new(".")),
         threads: args.threads,
-        force: args.force,
-        quiet: args.quiet,
+        force: args.report.force,
+        quiet: args.report.quiet,
     })
 }
 
@@ -194,10 +170,10 @@ fn prepare(
     out: &Path,
     date: String,
 ) -> Result<(crate::outdir::Generation, ReportOptions), Failure> {
-    args.record.check_outside(out)?;
+    args.report.record.check_outside(out)?;
     let generation = match &args.resume {
-        None => pipeline::begin_output(out, args.force)?,
-        Some(dir) => pipeline::resume_output(dir, args.force)?,
+        None => pipeline::begin_output(out, args.report.force)?,
+        Some(dir) => pipeline::resume_output(dir, args.report.force)?,
     };
     let golden = golden(args)?;
     let signing = signing(
@@ -210,8 +186,8 @@ fn prepare(
     )?;
     let options = ReportOptions {
         date,
-        force: args.force,
-        detail: args.detail.into(),
+        force: args.report.force,
+        detail: args.report.detail.into(),
         signing,
         golden,
         resume_hint: None,
@@ -238,7 +214,7 @@ fn set_up(
     let stop = |failure: Failure, generation| {
         Err(keep_for_resume(failure, resuming, generation, args, out))
     };
-    let mut backend = match build_backend(plan, args.quiet) {
+    let mut backend = match build_backend(plan, args.report.quiet) {
         Ok(backend) => backend,
         Err(e) => return stop(e, generation),
     };
@@ -283,7 +259,7 @@ fn finish(
     outcome: &Outcome,
     total: crate::timings::Guard,
 ) -> Result<ExitCode, Failure> {
-    if let Some(s) = outcome.signed.as_ref().filter(|_| !args.quiet) {
+    if let Some(s) = outcome.signed.as_ref().filter(|_| !args.report.quiet) {
         outln!(
             "signed by {} (certificate SHA-256 {})",
             s.signer,
@@ -294,14 +270,14 @@ fn finish(
         eprintln!("{warning}");
     }
     super::campaign::record_finished(
-        &args.record,
+        &args.report.record,
         &outcome.model,
         &outcome.dir,
         crate::campaign::record::Source::Plan,
         outcome.signed.as_ref().map(|s| s.signer.as_str()),
     );
-    if !args.quiet {
-        print_summary(&outcome.model, &outcome.dir, args.all_cases)?;
+    if !args.report.quiet {
+        print_summary(&outcome.model, &outcome.dir, args.report.all_cases)?;
     }
     let kept = outcome
         .model
@@ -342,7 +318,7 @@ fn load(args: &PlanArgs) -> Result<(Plan, String), Failure> {
     let limits = if args.shard.is_some() {
         plan::ResourceLimits::unbounded()
     } else {
-        args.limits.limits(matches!(args.detail, DetailArg::Full))
+        args.report.limits()
     };
     let mut plan = crate::pipeline::load_plan(&args.plan, limits)?;
     eprint!("{}", plan.warnings_text());
@@ -351,7 +327,7 @@ fn load(args: &PlanArgs) -> Result<(Plan, String), Failure> {
         plan.report = std::mem::take(&mut plan.report).overridden_by(profile);
     }
     drop(t);
-    let date = report_date(args.date.as_deref())?;
+    let date = report_date(args.report.date.as_deref())?;
     if args.threads == Some(0) {
         return Err(UsageError("--threads must be at least 1".into()).into());
     }
@@ -430,7 +406,7 @@ fn run_progress<'a>(
     // Its length comes with `Started`: the run stage expands the plan.
     bar.set_message(plan.id.clone());
     move |p: RunProgress| match p {
-        RunProgress::Resumed { kept, total } if !args.quiet => eprintln!(
+        RunProgress::Resumed { kept, total } if !args.report.quiet => eprintln!(
             "resumed: {kept} of {total} cases kept from the partial store (judged again from their data); {} to run",
             total - kept
         ),

@@ -1,5 +1,6 @@
 //! Exports of the report model for other tools: JUnit XML for CI pipelines
-//! and a CSV summary for spreadsheets.
+//! (a run's, and a comparison of two runs') and a CSV summary for
+//! spreadsheets.
 //!
 //! Part of the report stage; both are pure functions of
 //! [`Results`](crate::model::Results), written next to results.json.
@@ -319,6 +320,62 @@ pub fn write_junit_xml(
     }
     out.write_all(&frame.as_bytes()[end..])?;
     Ok(())
+}
+
+/// Two runs compared, as their JUnit XML shows them: `compare`'s
+/// junit.xml.
+#[derive(Debug, Clone, Default)]
+pub struct ComparisonJunit {
+    /// The suite's name, e.g. `ledflicker compare 3 7`.
+    pub suite: String,
+    /// What differs between the runs' set-ups, one line each.
+    pub differences: Vec<String>,
+    /// Why the runs may not be compared, when they may not.
+    pub not_comparable: Option<String>,
+    /// Every case compared, in order, with what regressed in it (empty:
+    /// nothing).
+    pub cases: Vec<(String, Vec<String>)>,
+}
+
+/// JUnit XML of a run comparison: one suite, a `set-up` test case first
+/// (failed when the runs may not be compared; the differences as its
+/// output and as properties, so a CI reading only the failures sees an
+/// unaccepted difference), then one test case per case compared, failed
+/// with its regressions.
+pub fn comparison_junit_xml(c: &ComparisonJunit) -> Result<String, quick_junit::SerializeError> {
+    let mut suite = TestSuite::new(c.suite.as_str());
+    for (i, d) in c.differences.iter().enumerate() {
+        suite.add_property(quick_junit::Property::new(
+            format!("difference.{}", i + 1),
+            d.as_str(),
+        ));
+    }
+    let setup = match &c.not_comparable {
+        Some(why) => {
+            let mut s = TestCaseStatus::non_success(NonSuccessKind::Failure);
+            s.set_message(format!("not comparable: {why}"));
+            s
+        }
+        None => TestCaseStatus::success(),
+    };
+    let mut case = TestCase::new("set-up", setup);
+    if !c.differences.is_empty() {
+        case.set_system_out(c.differences.join("\n"));
+    }
+    suite.add_test_case(case);
+    for (case, bad) in &c.cases {
+        let status = if bad.is_empty() {
+            TestCaseStatus::success()
+        } else {
+            let mut s = TestCaseStatus::non_success(NonSuccessKind::Failure);
+            s.set_message(format!("regressed: {}", bad.join("; ")));
+            s
+        };
+        suite.add_test_case(TestCase::new(case.as_str(), status));
+    }
+    let mut report = Report::new("ledflicker compare");
+    report.add_test_suite(suite);
+    report.to_string()
 }
 
 /// The end tag of junit.xml's suite, as quick_junit indents it.

@@ -8,8 +8,10 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+use ledflicker_results::comparison::{self, Cases, Direction, Lead, Lookup, Pair, Tolerance};
+
 use super::ReportError;
-use crate::model::Results;
+use crate::model::{CaseInfo, Results};
 
 /// Absolute tolerance per metric, in the metric's units (FDI: a ratio;
 /// Percent Flicker: percentage points).
@@ -74,10 +76,7 @@ pub struct Drift {
 impl Drift {
     /// |current - golden|, when both are finite.
     pub fn delta(&self) -> Option<f64> {
-        match (self.golden, self.current) {
-            (Some(a), Some(b)) if a.is_finite() && b.is_finite() => Some((b - a).abs()),
-            _ => None,
-        }
+        comparison::delta(self.golden, self.current).map(f64::abs)
     }
 }
 
@@ -187,56 +186,94 @@ fn metric_value(roi: &crate::model::RoiInfo, metric: &str) -> Option<f64> {
     }
 }
 
+/// The golden results.json's cases, for the comparison engine: by id,
+/// in id order (the order the missing cases are named in).
+struct ById<'r>(BTreeMap<&'r str, &'r CaseInfo>);
+
+impl Cases for ById<'_> {
+    type Case = CaseInfo;
+    fn each(&self, f: &mut dyn FnMut(&str, &CaseInfo)) {
+        self.0.iter().for_each(|(id, c)| f(id, c));
+    }
+    fn verdict<'c>(&self, case: &'c CaseInfo) -> &'c str {
+        case.verdict.as_str()
+    }
+}
+
+impl Lookup for ById<'_> {
+    fn get(&self, id: &str) -> Option<&CaseInfo> {
+        self.0.get(id).copied()
+    }
+}
+
+/// The current run's cases, in its own order (read one at a time when
+/// they are spilled).
+struct InOrder<'r>(&'r Results);
+
+impl Cases for InOrder<'_> {
+    type Case = CaseInfo;
+    fn each(&self, f: &mut dyn FnMut(&str, &CaseInfo)) {
+        self.0.cases.iter().for_each(|c| f(&c.id, &c));
+    }
+    fn verdict<'c>(&self, case: &'c CaseInfo) -> &'c str {
+        case.verdict.as_str()
+    }
+}
+
 /// Compares `current` with `golden` (a results.json, see [`load`]).
 pub fn compare(golden: &Results, current: &Results, tol: &Tolerances) -> Comparison {
     let mut out = Comparison::default();
-    let golden_cases: BTreeMap<String, std::borrow::Cow<'_, crate::model::CaseInfo>> =
-        golden.cases.iter().map(|c| (c.id.clone(), c)).collect();
-    let mut seen = std::collections::BTreeSet::new();
-    for case in &current.cases {
-        seen.insert(case.id.clone());
-        let Some(g) = golden_cases.get(case.id.as_str()) else {
-            out.added.push(case.id.clone());
-            continue;
-        };
-        if g.verdict != case.verdict {
-            out.verdict_changes.push((
-                case.id.clone(),
-                g.verdict.as_str().to_string(),
-                case.verdict.as_str().to_string(),
-            ));
-        }
-        for roi in &case.rois {
-            let groi = g.rois.iter().find(|r| r.name == roi.name);
-            for (metric, &tolerance) in &tol.0 {
-                let current_v = metric_value(roi, metric);
-                let golden_v = groi.and_then(|r| metric_value(r, metric));
-                let present_now = roi.metrics.contains_key(metric);
-                let present_then = groi.is_some_and(|r| r.metrics.contains_key(metric));
-                if !present_now && !present_then {
-                    continue;
-                }
-                let within = match (golden_v, current_v) {
-                    (Some(a), Some(b)) if a.is_infinite() || b.is_infinite() => a == b,
-                    (Some(a), Some(b)) => (a - b).abs() <= tolerance,
-                    (None, None) => present_now == present_then,
-                    _ => false,
-                };
-                out.values.push(Drift {
-                    case: case.id.clone(),
-                    roi: roi.name.clone(),
-                    metric: metric.clone(),
-                    golden: golden_v,
-                    current: current_v,
-                    tolerance,
-                    within,
-                });
+    let golden_cases: Vec<_> = golden.cases.iter().collect();
+    let by_id = ById(golden_cases.iter().map(|c| (c.id.as_str(), &**c)).collect());
+    // Every case is compared whatever its conditions: a golden run is
+    // the same plan by construction.
+    let flips = comparison::pair(
+        &InOrder(current),
+        &by_id,
+        Lead::B,
+        |_, _| true,
+        |p| match p {
+            Pair::Matched { id, lead, other } => out.values.extend(drifts(id, other, lead, tol)),
+            Pair::OnlyLead(id) => out.added.push(id.to_string()),
+            Pair::OnlyOther(id) => out.missing.push(id.to_string()),
+            Pair::Differs(_) => {}
+        },
+    );
+    out.verdict_changes = flips.into_iter().map(|f| (f.case, f.from, f.to)).collect();
+    out
+}
+
+/// Every toleranced metric of every ROI of `case`, golden (`g`) against
+/// current.
+fn drifts(id: &str, g: &CaseInfo, case: &CaseInfo, tol: &Tolerances) -> Vec<Drift> {
+    let mut out = Vec::new();
+    for roi in &case.rois {
+        let groi = g.rois.iter().find(|r| r.name == roi.name);
+        for (metric, &tolerance) in &tol.0 {
+            let current_v = metric_value(roi, metric);
+            let golden_v = groi.and_then(|r| metric_value(r, metric));
+            let present_now = roi.metrics.contains_key(metric);
+            let present_then = groi.is_some_and(|r| r.metrics.contains_key(metric));
+            if !present_now && !present_then {
+                continue;
             }
-        }
-    }
-    for id in golden_cases.keys() {
-        if !seen.contains(id) {
-            out.missing.push(id.to_string());
+            let within = match (golden_v, current_v) {
+                (Some(a), Some(b)) if a.is_infinite() || b.is_infinite() => a == b,
+                (Some(a), Some(b)) => {
+                    !Tolerance::fixed(tolerance).exceeded(Direction::Either, a, b)
+                }
+                (None, None) => present_now == present_then,
+                _ => false,
+            };
+            out.push(Drift {
+                case: id.to_string(),
+                roi: roi.name.clone(),
+                metric: metric.clone(),
+                golden: golden_v,
+                current: current_v,
+                tolerance,
+                within,
+            });
         }
     }
     out

@@ -17,6 +17,7 @@
 pub mod advise;
 pub mod analysis;
 pub mod cases;
+pub mod comparison;
 pub mod exit;
 pub mod inputs;
 pub mod model;

@@ -17,6 +17,8 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use ledflicker_results::comparison::{self, Cases, Direction, Lead, Lookup, Pair, Tolerance};
+
 use super::flips::limit_change;
 pub use super::flips::{Flip, FlipCause};
 use super::noise::sigma_of;
@@ -152,7 +154,7 @@ pub struct Kpi {
 impl Kpi {
     /// `b - a`, when both are defined and finite.
     pub fn delta(&self) -> Option<f64> {
-        Some(self.b? - self.a?).filter(|d| d.is_finite())
+        comparison::delta(self.a, self.b)
     }
 
     /// The change in standard deviations of the difference (signed, worse
@@ -352,6 +354,27 @@ impl Comparison {
 /// Relative tolerance under which two case conditions are the same.
 const SAME_CONDITION: f64 = 1e-9;
 
+/// A recorded run's cases, for the comparison engine: in plan order.
+impl Cases for RunData {
+    type Case = CaseData;
+    fn each(&self, f: &mut dyn FnMut(&str, &CaseData)) {
+        for id in &self.order {
+            if let Some(c) = self.cases.get(id) {
+                f(id, c);
+            }
+        }
+    }
+    fn verdict<'c>(&self, case: &'c CaseData) -> &'c str {
+        &case.verdict
+    }
+}
+
+impl Lookup for RunData {
+    fn get(&self, id: &str) -> Option<&CaseData> {
+        self.cases.get(id)
+    }
+}
+
 fn same_conditions(a: &CaseData, b: &CaseData) -> bool {
     let same = |x: f64, y: f64| (x - y).abs() <= SAME_CONDITION * x.abs().max(y.abs()).max(1.0);
     same(a.light_lux, b.light_lux) && same(a.frequency_hz, b.frequency_hz) && same(a.duty, b.duty)
@@ -367,29 +390,26 @@ pub fn compare(a: &RunData, b: &RunData, repeats: &Repeats, opts: &GateOptions) 
         _ => Vec::new(),
     };
     let mut kpis = Vec::new();
-    let mut flips = Vec::new();
     let mut unmatched = Vec::new();
     let mut matched = 0usize;
-    for id in &a.order {
-        let (Some(ca), Some(cb)) = (a.cases.get(id), b.cases.get(id)) else {
-            unmatched.push(id.clone());
-            continue;
-        };
-        if !same_conditions(ca, cb) {
-            unmatched.push(format!("{id} (its conditions differ)"));
-            continue;
+    let flips = comparison::pair(a, b, Lead::A, same_conditions, |p| match p {
+        Pair::Matched { id, lead, other } => {
+            matched += 1;
+            case_kpis(id, lead, other, repeats, opts, &mut kpis, &mut spreads);
         }
-        matched += 1;
-        if ca.verdict != cb.verdict {
-            flips.push(Flip {
-                case: id.clone(),
-                from: ca.verdict.clone(),
-                to: cb.verdict.clone(),
-                cause: FlipCause::WithinNoise,
-            });
-        }
-        case_kpis(id, ca, cb, repeats, opts, &mut kpis, &mut spreads);
-    }
+        Pair::Differs(id) => unmatched.push(format!("{id} (its conditions differ)")),
+        Pair::OnlyLead(id) | Pair::OnlyOther(id) => unmatched.push(id.to_string()),
+    });
+    // The causes are settled below, once the regressions are known.
+    let mut flips: Vec<Flip> = flips
+        .into_iter()
+        .map(|f| Flip {
+            case: f.case,
+            from: f.from,
+            to: f.to,
+            cause: FlipCause::WithinNoise,
+        })
+        .collect();
     let excess = tails_by_metric(&kpis, &spreads);
     for (kpi, sp) in kpis.iter_mut().zip(&spreads) {
         if let Some(sp) = sp {
@@ -397,12 +417,6 @@ pub fn compare(a: &RunData, b: &RunData, repeats: &Repeats, opts: &GateOptions) 
             kpi.source = Source::Repeats(effective_df(sp.df, sp.residuals.len(), tails), tails);
         }
     }
-    unmatched.extend(
-        b.order
-            .iter()
-            .filter(|id| !a.cases.contains_key(*id))
-            .cloned(),
-    );
     // Half the false-alarm budget for single KPIs (Bonferroni over them),
     // half for the pooled scores (Bonferroni over the metrics): a union
     // bound keeps the whole comparison's rate at most `alpha`.
@@ -764,9 +778,12 @@ fn regressed(kpi: &Kpi, case_b: Option<&CaseData>) -> bool {
     };
     match (kpi.a, kpi.b) {
         (Some(a), Some(b)) if a.is_finite() && b.is_finite() => {
-            let change = (b - a) * f64::from(kpi.worse);
             let rounding = NUMERIC_FLOOR * a.abs().max(b.abs()).max(1.0);
-            change > kpi.floor && change > kpi.k * kpi.sigma.unwrap_or(0.0) + rounding
+            let tolerance = Tolerance {
+                floor: kpi.floor,
+                noise: kpi.k * kpi.sigma.unwrap_or(0.0) + rounding,
+            };
+            tolerance.exceeded(Direction::of_sign(kpi.worse), a, b)
         }
         // Unbounded towards worse in B, not in A.
         (a, Some(b)) if b.is_infinite() => {

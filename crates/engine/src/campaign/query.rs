@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use super::repeats::{Key, Repeats};
 use super::setup::Setup;
-use super::sql::{Mismatch, Row, Value, values};
+use super::sql::{Mismatch, Query, Row, Value, values};
 use super::{CampaignError, Database};
 
 /// One recorded run, as `history` lists it (`--json`: these fields).

@@ -6,7 +6,7 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use super::setup::{CaseFacts, Setup};
-use super::sql::{Tx, values};
+use super::sql::{Query, Tx, values};
 use super::{CampaignError, Database, noise};
 use ledflicker_core::model::{CaseInfo, Results};
 

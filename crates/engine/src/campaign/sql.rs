@@ -180,24 +180,30 @@ pub(crate) fn dollar_placeholders(sql: &str) -> String {
     out
 }
 
-impl Database {
+/// Where statements that return rows run: the database, or a write
+/// transaction on it. Each says how it gets the rows; reading them into
+/// values, and the one-row case, are written once here.
+pub(crate) trait Query {
+    /// The file, or the server's URL with its password hidden, as
+    /// messages name it.
+    fn location(&self) -> &Path;
+
+    /// The rows `sql` gives.
+    fn rows(&self, sql: &str, params: &[Value]) -> Result<Vec<Row>, CampaignError>;
+
     /// Runs `sql` and reads each row with `read`.
-    pub(crate) fn query_map<T>(
+    fn query_map<T>(
         &self,
         sql: &str,
         params: &[Value],
         read: impl FnMut(&Row) -> Result<T, Mismatch>,
     ) -> Result<Vec<T>, CampaignError> {
-        let rows = match self {
-            Database::Sqlite(db) => sqlite_rows(&db.conn, &db.path, sql, params)?,
-            #[cfg(feature = "postgres")]
-            Database::Postgres(db) => db.rows(sql, params)?,
-        };
-        read_rows(self.path(), sql, &rows, read)
+        let rows = self.rows(sql, params)?;
+        read_rows(self.location(), sql, &rows, read)
     }
 
     /// The one row `sql` gives, read with `read`; `None` when it gives none.
-    pub(crate) fn query_row<T>(
+    fn query_row<T>(
         &self,
         sql: &str,
         params: &[Value],
@@ -205,7 +211,37 @@ impl Database {
     ) -> Result<Option<T>, CampaignError> {
         Ok(self.query_map(sql, params, read)?.into_iter().next())
     }
+}
 
+impl Query for Database {
+    fn location(&self) -> &Path {
+        self.path()
+    }
+
+    fn rows(&self, sql: &str, params: &[Value]) -> Result<Vec<Row>, CampaignError> {
+        match self {
+            Database::Sqlite(db) => sqlite_rows(&db.conn, &db.path, sql, params),
+            #[cfg(feature = "postgres")]
+            Database::Postgres(db) => db.rows(sql, params),
+        }
+    }
+}
+
+impl Query for Tx<'_> {
+    fn location(&self) -> &Path {
+        self.path
+    }
+
+    fn rows(&self, sql: &str, params: &[Value]) -> Result<Vec<Row>, CampaignError> {
+        match &self.guard {
+            Guard::Sqlite(tx) => sqlite_rows(tx, self.path, sql, params),
+            #[cfg(feature = "postgres")]
+            Guard::Server(tx) => tx.rows(sql, params),
+        }
+    }
+}
+
+impl Database {
     /// Runs `f` in one write transaction: all its statements are
     /// committed, or (on an error, a panic, or a process killed
     /// meanwhile) none.
@@ -260,32 +296,6 @@ impl<'a> Tx<'a> {
     /// The file, or the server's URL with its password hidden.
     pub(crate) fn path(&self) -> &Path {
         self.path
-    }
-
-    /// Runs `sql` in the transaction and reads each row with `read`.
-    pub(crate) fn query_map<T>(
-        &self,
-        sql: &str,
-        params: &[Value],
-        read: impl FnMut(&Row) -> Result<T, Mismatch>,
-    ) -> Result<Vec<T>, CampaignError> {
-        let rows = match &self.guard {
-            Guard::Sqlite(tx) => sqlite_rows(tx, self.path, sql, params)?,
-            #[cfg(feature = "postgres")]
-            Guard::Server(tx) => tx.rows(sql, params)?,
-        };
-        read_rows(self.path, sql, &rows, read)
-    }
-
-    /// The one row `sql` gives in the transaction, read with `read`;
-    /// `None` when it gives none.
-    pub(crate) fn query_row<T>(
-        &self,
-        sql: &str,
-        params: &[Value],
-        read: impl FnMut(&Row) -> Result<T, Mismatch>,
-    ) -> Result<Option<T>, CampaignError> {
-        Ok(self.query_map(sql, params, read)?.into_iter().next())
     }
 
     /// Runs a statement that returns no rows, in the transaction.

@@ -373,13 +373,11 @@ mod tests {
 
     fn thresholds() -> Thresholds {
         Thresholds {
-            fdi_2018_min: Some(0.1),
-            percent_flicker_max: Some(10.0),
-            fmi_max: None,
-            fdi_p2020_min: None,
-            mmp_min: None,
-            visibility_max: None,
-            delta_uv_max: None,
+            limits: Limits {
+                fdi_2018_min: Some(0.1),
+                percent_flicker_max: Some(10.0),
+                ..Limits::default()
+            },
             light_levels: Vec::new(),
             mitigation_min_hz: 90.0,
             mitigation_max_hz: None,
@@ -526,7 +524,10 @@ mod tests {
         );
         // Only FDI (2018) set and no OFF segment: nothing applies, so info.
         let t = Thresholds {
-            percent_flicker_max: None,
+            limits: Limits {
+                percent_flicker_max: None,
+                ..thresholds().limits
+            },
             ..thresholds()
         };
         let e = eval(unknown, &m, None, &t);
@@ -550,11 +551,12 @@ mod tests {
         use Segment::*;
         let segs = [Off, Off, Pwm, Pwm, Pwm, Pwm];
         let t = Thresholds {
-            fdi_2018_min: None,
-            percent_flicker_max: None,
-            fmi_max: Some(0.1),
-            fdi_p2020_min: Some(0.95),
-            mmp_min: Some(0.9),
+            limits: Limits {
+                fmi_max: Some(0.1),
+                fdi_p2020_min: Some(0.95),
+                mmp_min: Some(0.9),
+                ..Limits::default()
+            },
             ..thresholds()
         };
         // Light to 0 DN in one frame of four: FMI 1, FDI 3/4, MMP 0.

@@ -379,26 +379,17 @@ pub struct LevelLimits {
     pub limits: Limits,
 }
 
-/// Pass criteria. A case whose frequency lies outside the mitigation range
-/// is informational.
+/// Pass criteria: the global [`Limits`] of `[thresholds]`, the overrides
+/// per light level, the mitigation range and the verdict basis. A case
+/// whose frequency lies outside the mitigation range is informational.
+/// The global limits read as fields of the thresholds themselves
+/// (`thresholds.fdi_2018_min`, through `Deref`), as results.json has them.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Thresholds {
-    /// FDI (2018) must be >= this (Deegan 2018: the light appears OFF below 0.1).
-    pub fdi_2018_min: Option<f64>,
-    /// Percent Flicker must be <= this.
-    pub percent_flicker_max: Option<f64>,
-    /// IEEE P2020 FMI must be <= this.
-    pub fmi_max: Option<f64>,
-    /// IEEE P2020 FDI must be >= this.
-    pub fdi_p2020_min: Option<f64>,
-    /// IEEE P2020 MMP must be >= this.
-    pub mmp_min: Option<f64>,
-    /// The visibility index must be <= this; needs `[display]`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub visibility_max: Option<f64>,
-    /// Δu′v′ must be <= this; needs `scene.led-chromaticity-xy`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub delta_uv_max: Option<f64>,
+    /// The limits set in `[thresholds]` itself, over the defaults; in
+    /// results.json its keys are the thresholds' own.
+    #[serde(flatten)]
+    pub limits: Limits,
     /// Per light level overrides (`[[thresholds.light-level]]`), in plan order.
     pub light_levels: Vec<LevelLimits>,
     /// Lowest frequency (Hz) at which the camera claims mitigation.
@@ -409,18 +400,17 @@ pub struct Thresholds {
     pub basis: VerdictBasis,
 }
 
+impl std::ops::Deref for Thresholds {
+    type Target = Limits;
+    fn deref(&self) -> &Limits {
+        &self.limits
+    }
+}
+
 impl Thresholds {
     /// The global limits of `[thresholds]`.
     pub fn global(&self) -> Limits {
-        Limits {
-            fdi_2018_min: self.fdi_2018_min,
-            percent_flicker_max: self.percent_flicker_max,
-            fmi_max: self.fmi_max,
-            fdi_p2020_min: self.fdi_p2020_min,
-            mmp_min: self.mmp_min,
-            visibility_max: self.visibility_max,
-            delta_uv_max: self.delta_uv_max,
-        }
+        self.limits
     }
 
     /// The limits of a case at `light_lux` (`None`: unknown): the level's

@@ -17,29 +17,15 @@ use crate::plan::{LevelLimits, Limits, Thresholds, VerdictBasis};
 /// frequency in the mitigation range, verdicts on the worst phase.
 fn defaults() -> Thresholds {
     Thresholds {
-        fdi_2018_min: Some(0.1),
-        percent_flicker_max: None,
-        fmi_max: None,
-        fdi_p2020_min: None,
-        mmp_min: None,
-        visibility_max: None,
-        delta_uv_max: None,
+        limits: Limits {
+            fdi_2018_min: Some(0.1),
+            ..Limits::default()
+        },
         light_levels: Vec::new(),
         mitigation_min_hz: 0.0,
         mitigation_max_hz: None,
         basis: VerdictBasis::WorstPhase,
     }
-}
-
-/// The limit keys of a table, checked. `prefix` is the table's key path.
-struct RawLimits {
-    fdi_2018_min: Option<f64>,
-    percent_flicker_max: Option<f64>,
-    fmi_max: Option<f64>,
-    fdi_p2020_min: Option<f64>,
-    mmp_min: Option<f64>,
-    visibility_max: Option<f64>,
-    delta_uv_max: Option<f64>,
 }
 
 /// Checks one limit: finite, and inside `range` when given.
@@ -90,7 +76,9 @@ fn warn_fraction_of_percent(c: &mut Checker<'_>, key: &str, v: Option<f64>) {
     }
 }
 
-fn limits(c: &mut Checker<'_>, raw: RawLimits, prefix: &str, ok: &mut bool) -> Limits {
+/// The limit keys of a table as written (`raw`), checked. `prefix` is the
+/// table's key path.
+fn limits(c: &mut Checker<'_>, raw: Limits, prefix: &str, ok: &mut bool) -> Limits {
     let k = |name: &str| format!("{prefix}.{name}");
     let pf_key = k("percent-flicker-max");
     let share = Some((0.0, 1.0));
@@ -173,7 +161,7 @@ fn level(
     );
     let lim = limits(
         c,
-        RawLimits {
+        Limits {
             fdi_2018_min: raw.fdi_2018_min,
             percent_flicker_max: raw.percent_flicker_max,
             fmi_max: raw.fmi_max,
@@ -238,7 +226,7 @@ pub(super) fn thresholds(
     let mut ok = true;
     let global = limits(
         c,
-        RawLimits {
+        Limits {
             fdi_2018_min: t.fdi_2018_min,
             percent_flicker_max: t.percent_flicker_max,
             fmi_max: t.fmi_max,
@@ -250,14 +238,7 @@ pub(super) fn thresholds(
         "thresholds",
         &mut ok,
     );
-    let global = global.over(th.global());
-    th.fdi_2018_min = global.fdi_2018_min;
-    th.percent_flicker_max = global.percent_flicker_max;
-    th.fmi_max = global.fmi_max;
-    th.fdi_p2020_min = global.fdi_p2020_min;
-    th.mmp_min = global.mmp_min;
-    th.visibility_max = global.visibility_max;
-    th.delta_uv_max = global.delta_uv_max;
+    th.limits = global.over(th.global());
     let mut seen = Vec::new();
     for (i, raw) in t.light_level.into_iter().enumerate() {
         if let Some(l) = level(c, raw, i, known_lux, &mut seen, &mut ok) {
