@@ -406,11 +406,15 @@ impl Store {
         const CHUNK: usize = 256;
         let positions: Vec<usize> = self.positions()?.into_iter().collect();
         for chunk in positions.chunks(CHUNK) {
-            let stored = self.read_stored(chunk)?;
+            let stored = self.read_rows(chunk)?;
+            // Decoded on the workers too: inflating and decoding a chunk on
+            // this thread took longer than judging it.
             let judged: Vec<(usize, Result<Encoded, String>, bool)> = stored
                 .into_par_iter()
-                .map(|(idx, case, row)| {
-                    let judged = judge(idx, case).map(Encoded::new);
+                .map(|(idx, row)| {
+                    let judged = record::decode(&row.bytes)
+                        .and_then(|case| judge(idx, case))
+                        .map(Encoded::new);
                     // A case whose judgement gives back the very row stored
                     // (its record, its columns and its metrics) is left in
                     // place: written again it would be the same bytes, and
@@ -435,12 +439,8 @@ impl Store {
         Ok(positions.len())
     }
 
-    /// The stored cases at `positions`, decoded, each with its row as
-    /// stored.
-    fn read_stored(
-        &self,
-        positions: &[usize],
-    ) -> Result<Vec<(usize, CaseResult, StoredRow)>, StoreError> {
+    /// The rows of the stored cases at `positions`, as stored.
+    fn read_rows(&self, positions: &[usize]) -> Result<Vec<(usize, StoredRow)>, StoreError> {
         let sql = sqlite(&self.path);
         let mut q = self
             .conn
@@ -472,12 +472,7 @@ impl Store {
                 .map_err(&sql)?
                 .collect::<Result<_, _>>()
                 .map_err(&sql)?;
-            let case = record::decode(&row.bytes).map_err(|message| StoreError::Record {
-                path: self.path.clone(),
-                idx,
-                message,
-            })?;
-            out.push((idx, case, row));
+            out.push((idx, row));
         }
         Ok(out)
     }

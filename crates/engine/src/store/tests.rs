@@ -151,7 +151,7 @@ fn a_resumed_store_judges_its_cases_again_so_a_forged_verdict_does_not_survive()
         crate::shard::check::evaluate_again(&plan, stored)
     };
     assert_eq!(store.rejudge(&judge).unwrap(), 1);
-    let back = store.read_stored(&[idx]).unwrap().remove(0).1;
+    let back = record::decode(&store.read_rows(&[idx]).unwrap().remove(0).1.bytes).unwrap();
     assert_eq!(back.verdict, genuine.verdict);
     assert_eq!(back.checks, genuine.checks);
     // The store's own columns follow the record.
