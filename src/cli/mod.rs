@@ -1,6 +1,6 @@
 //! Command-line interface: `plan`, `merge`, `plans`, `validate`, `simulate`, `advise`,
 //! `bench`, `linetime`, `render`, `rig`, `roi`, `bands`, `calibrate`, `light`, `keygen`, `sign`,
-//! `verify`, `import`, `history` and `compare`, one module each (`linetime`, `bands` and `calibrate` share
+//! `verify`, `import`, `history`, `compare` and `export`, one module each (`linetime`, `bands` and `calibrate` share
 //! `calibrate`; `keygen`, `sign` and `verify` share `sign`; `import` and `history`
 //! share `campaign`; `plan --shard`
 //! is `shard`). This module holds the clap `Command` list, the exit codes
@@ -37,6 +37,7 @@ mod campaign;
 pub mod compare;
 mod compare_report;
 mod endtoend;
+mod export;
 mod failure;
 mod light;
 mod manual;
@@ -118,6 +119,10 @@ enum Command {
     /// full resolution) and print them as a table; with --detect CAPTURE,
     /// propose LED ROIs from the capture's ON -> OFF step as `[[roi]]` blocks.
     Roi(roi::RoiArgs),
+    /// Write one case's trace CSV and frames from a report directory's
+    /// case store (cases.sqlite), as a `--detail full` run writes them: a
+    /// large run's report writes them for its listed cases only.
+    Export(export::ExportArgs),
     /// Estimate a PWM frequency from the band spacing of rolling-shutter
     /// frames with a known line time; prints JSON. Exit code 7 when the
     /// frames give no confident estimate.
@@ -214,6 +219,7 @@ fn run(cli: Cli, version: &'static str) -> Result<ExitCode, Failure> {
         Command::Render(args) => render::render(args),
         Command::Rig(args) => rig::rig(args),
         Command::Roi(args) => roi::roi(args),
+        Command::Export(args) => export::export(args),
         Command::Bands(args) => calibrate::bands(args),
         Command::Calibrate(args) => calibrate::calibrate(args),
         Command::Light(args) => light::light(args),

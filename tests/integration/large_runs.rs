@@ -120,3 +120,159 @@ fn a_spilled_model_writes_what_the_same_model_in_memory_writes() {
     }
     assert_eq!(spilled.cases.read_error(), None);
 }
+
+/// The benchmark sweep of 11 frequencies x 10 duties at 40 and 2000 lux
+/// (220 cases, more than a report lists) with a 5 ms exposure, whose low
+/// duties fail, as a plan file in `dir`.
+fn lean_sweep_plan(dir: &Path) -> std::path::PathBuf {
+    let text = ledflicker::bench::sweep_plan(11)
+        .replace("exposure-ms = 11.111", "exposure-ms = 5.0")
+        .replace("levels-lux = [2000.0]", "levels-lux = [40.0, 2000.0]");
+    assert!(text.contains("exposure-ms = 5.0") && text.contains("[40.0, 2000.0]"));
+    let path = dir.join("sweep-220.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The names of the files in `dir`, sorted; none when it is missing.
+fn names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map(|d| {
+            d.map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+#[test]
+fn a_sweep_at_the_default_detail_writes_its_listed_cases_and_export_gives_the_rest_as_full_does() {
+    let dir = crate::scratch("lean-sweep");
+    let plan = lean_sweep_plan(&dir);
+    let plan = plan.to_str().unwrap();
+    for (out, detail) in [("std", "standard"), ("full", "full")] {
+        let o = crate::ledflicker_in(
+            &[
+                "plan",
+                plan,
+                "--out",
+                out,
+                "--detail",
+                detail,
+                "-q",
+                "--date",
+                "2026-01-01",
+                "--max-memory",
+                "4GB",
+            ],
+            &dir,
+        );
+        assert!(
+            matches!(o.status.code(), Some(0 | 1)),
+            "{}",
+            crate::text(&o)
+        );
+    }
+    let (std, full) = (dir.join("std"), dir.join("full"));
+
+    // results.json holds every case; the listed ones whole, the others as
+    // summary rows that name the store.
+    let text = std::fs::read_to_string(std.join("results.json")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let cases = json["cases"].as_array().unwrap();
+    assert_eq!(cases.len(), 220);
+    let (rows, whole): (Vec<_>, Vec<_>) =
+        cases.iter().partition(|c| c.get("full_record").is_some());
+    assert!(!rows.is_empty() && !whole.is_empty(), "{} rows", rows.len());
+    assert!(
+        whole.len() <= model::listing::LISTED_CASES_MAX + 1,
+        "{}",
+        whole.len()
+    );
+    for row in &rows {
+        assert_eq!(row["full_record"], "cases.sqlite");
+        assert!(row.get("trace").is_none() && row.get("sample_frame").is_none());
+        assert!(row["rois"][0]["metrics"].get("fdi_2018").is_some(), "{row}");
+    }
+    // The trace CSVs and frames are the whole cases', and only theirs.
+    let id = |c: &serde_json::Value| c["id"].as_str().unwrap().to_string();
+    let mut traces: Vec<String> = whole.iter().map(|c| format!("{}.csv", id(c))).collect();
+    traces.extend(
+        whole
+            .iter()
+            .filter(|c| c.get("worst_phase").is_some())
+            .map(|c| format!("{}-worst-phase.csv", id(c))),
+    );
+    traces.sort();
+    assert_eq!(names(&std.join("traces")), traces);
+    for name in names(&std.join("frames")) {
+        let case = name.trim_end_matches(".png").trim_end_matches("-view");
+        let case = case.trim_end_matches("-worst-phase");
+        assert!(whole.iter().any(|c| id(c) == case), "{name}");
+    }
+    assert!(names(&std.join("frames")).len() < names(&full.join("frames")).len());
+    // The store is the record of every case, as at full detail.
+    assert_eq!(
+        std::fs::read(std.join("cases.sqlite")).unwrap(),
+        std::fs::read(full.join("cases.sqlite")).unwrap()
+    );
+    // A model read back holds every case, rows told from whole cases.
+    let back = model::read_results(&text).unwrap();
+    assert_eq!(back.cases.len(), 220);
+    assert!(back.cases.has_rows());
+    assert!(!back.cases.is_detailed(&id(rows[0])));
+    assert!(back.cases.is_detailed(&id(whole[0])));
+    assert_eq!(serde_json::to_string_pretty(&back).unwrap(), text);
+
+    // `export` writes a row's files byte for byte as the full run did.
+    let case = id(rows[0]);
+    let o = crate::ledflicker_in(
+        &["export", "std", "--case", &case, "--out", "exported"],
+        &dir,
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", crate::text(&o));
+    let exported = dir.join("exported");
+    let files = [
+        format!("traces/{case}.csv"),
+        format!("frames/{case}.png"),
+        format!("frames/{case}-view.png"),
+    ];
+    for f in &files {
+        let (a, b) = (exported.join(f), full.join(f));
+        assert!(b.is_file() && !std.join(f).exists(), "{f}");
+        assert!(
+            std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap(),
+            "{f} differs"
+        );
+    }
+    // A whole case's export is the file the report wrote.
+    let listed = id(whole[0]);
+    let o = crate::ledflicker_in(
+        &["export", "std", "--case", &listed, "--out", "again"],
+        &dir,
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", crate::text(&o));
+    let f = format!("traces/{listed}.csv");
+    assert_eq!(
+        std::fs::read(dir.join("again").join(&f)).unwrap(),
+        std::fs::read(std.join(&f)).unwrap()
+    );
+
+    // An unknown case and a directory without a store are refused.
+    let typo = format!("{}x", &case[..case.len() - 1]);
+    let o = crate::ledflicker_in(&["export", "std", "--case", &typo], &dir);
+    assert_eq!(o.status.code(), Some(2), "{}", crate::text(&o));
+    assert!(
+        crate::stderr(&o).contains(&format!("did you mean `{case}`?")),
+        "{}",
+        crate::stderr(&o)
+    );
+    let o = crate::ledflicker_in(&["export", "exported", "--case", &case], &dir);
+    assert_eq!(o.status.code(), Some(2), "{}", crate::text(&o));
+    assert!(
+        crate::stderr(&o).contains("holds no case store"),
+        "{}",
+        crate::stderr(&o)
+    );
+}

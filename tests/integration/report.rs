@@ -311,7 +311,7 @@ fn results_json_reads_back_typed_field_for_field() {
         assert!(typed.report.is_some() && !typed.cases.is_empty());
     }
     // A damaged file is refused, naming what is wrong.
-    let e = ledflicker::model::read_results(r#"{"schema": "ledflicker.results/4", "cases": 3}"#)
+    let e = ledflicker::model::read_results(r#"{"schema": "ledflicker.results/5", "cases": 3}"#)
         .unwrap_err();
     assert!(e.contains("not a readable"), "{e}");
     let e = ledflicker::model::read_results(r#"{"schema": "other/1"}"#).unwrap_err();

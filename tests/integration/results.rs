@@ -81,7 +81,7 @@ fn results_do_not_depend_on_the_thread_count() {
 fn results_json_keeps_its_contract() {
     let (_, _, model) = run("test-plans/daylight.toml", 2);
     let json = serde_json::to_value(&model).unwrap();
-    assert_eq!(json["schema"], "ledflicker.results/4");
+    assert_eq!(json["schema"], "ledflicker.results/5");
     for key in ["id", "title", "path", "sha256"] {
         assert!(json["plan"][key].is_string(), "plan.{key}");
     }

@@ -26,9 +26,12 @@ use rusqlite::{Connection, OptionalExtension, params};
 use ledflicker_core::runner::{CaseReadError, CaseResult, CaseSource};
 
 mod record;
+mod same;
+
+use same::StoredRow;
 
 /// Schema of the store, in its `run` table under `schema`.
-pub const SCHEMA: &str = "ledflicker.store/2";
+pub const SCHEMA: &str = "ledflicker.store/3";
 /// The finished store's file name in a report directory.
 pub const FILE: &str = "cases.sqlite";
 /// The store's file name while its run works.
@@ -403,42 +406,73 @@ impl Store {
         const CHUNK: usize = 256;
         let positions: Vec<usize> = self.positions()?.into_iter().collect();
         for chunk in positions.chunks(CHUNK) {
-            let stored = self.read_stored(chunk)?;
-            let judged: Vec<(usize, Result<Encoded, String>)> = stored
+            let stored = self.read_rows(chunk)?;
+            // Decoded on the workers too: inflating and decoding a chunk on
+            // this thread took longer than judging it.
+            let judged: Vec<(usize, Result<Encoded, String>, bool)> = stored
                 .into_par_iter()
-                .map(|(idx, case)| (idx, judge(idx, case).map(Encoded::new)))
+                .map(|(idx, row)| {
+                    let judged = record::decode(&row.bytes)
+                        .and_then(|case| judge(idx, case))
+                        .map(Encoded::new);
+                    // A case whose judgement gives back the very row stored
+                    // (its record, its columns and its metrics) is left in
+                    // place: written again it would be the same bytes, and
+                    // rewriting every stored case made a resumed run
+                    // slower than a fresh one.
+                    let same = matches!(&judged, Ok(Encoded(Ok(new))) if new.same_as(&row));
+                    (idx, judged, same)
+                })
                 .collect();
-            for (idx, judged) in judged {
+            for (idx, judged, same) in judged {
                 let encoded = judged.map_err(|message| StoreError::Record {
                     path: self.path.clone(),
                     idx,
                     message,
                 })?;
-                self.write_case(idx, encoded, true)?;
+                if !same {
+                    self.write_case(idx, encoded, true)?;
+                }
             }
         }
         self.commit()?;
         Ok(positions.len())
     }
 
-    /// The stored cases at `positions`, decoded.
-    fn read_stored(&self, positions: &[usize]) -> Result<Vec<(usize, CaseResult)>, StoreError> {
+    /// The rows of the stored cases at `positions`, as stored.
+    fn read_rows(&self, positions: &[usize]) -> Result<Vec<(usize, StoredRow)>, StoreError> {
         let sql = sqlite(&self.path);
         let mut q = self
             .conn
-            .prepare_cached("SELECT result FROM cases WHERE idx = ?1")
+            .prepare_cached(
+                "SELECT id, light_lux, frequency_hz, duty, verdict, result FROM cases WHERE idx = ?1",
+            )
+            .map_err(&sql)?;
+        let mut m = self
+            .conn
+            .prepare_cached("SELECT roi, metric, value FROM roi_metrics WHERE idx = ?1")
             .map_err(&sql)?;
         let mut out = Vec::with_capacity(positions.len());
         for &idx in positions {
-            let bytes: Vec<u8> = q
-                .query_row(params![idx as i64], |r| r.get("result"))
+            let mut row = q
+                .query_row(params![idx as i64], |r| {
+                    Ok(StoredRow {
+                        id: r.get("id")?,
+                        conditions: [r.get("light_lux")?, r.get("frequency_hz")?, r.get("duty")?],
+                        verdict: r.get("verdict")?,
+                        bytes: r.get("result")?,
+                        metrics: Vec::new(),
+                    })
+                })
                 .map_err(&sql)?;
-            let case = record::decode(&bytes).map_err(|message| StoreError::Record {
-                path: self.path.clone(),
-                idx,
-                message,
-            })?;
-            out.push((idx, case));
+            row.metrics = m
+                .query_map(params![idx as i64], |r| {
+                    Ok((r.get("roi")?, r.get("metric")?, r.get("value")?))
+                })
+                .map_err(&sql)?
+                .collect::<Result<_, _>>()
+                .map_err(&sql)?;
+            out.push((idx, row));
         }
         Ok(out)
     }
@@ -626,6 +660,20 @@ impl StoredCases {
             path: path.to_path_buf(),
             len: usize::try_from(count).unwrap_or(0),
         })
+    }
+
+    /// Every case id, in case order (`ledflicker export` finds a case by
+    /// it).
+    pub fn ids(&self) -> Result<Vec<String>, StoreError> {
+        let sql = sqlite(&self.path);
+        let conn = self.conn.lock().unwrap_or_else(|p| p.into_inner());
+        let mut q = conn
+            .prepare("SELECT id FROM cases ORDER BY idx")
+            .map_err(&sql)?;
+        let ids = q
+            .query_map([], |r| r.get::<_, String>("id"))
+            .map_err(&sql)?;
+        ids.collect::<Result<_, _>>().map_err(&sql)
     }
 
     fn read_range(&self, range: std::ops::Range<usize>) -> Result<Vec<CaseResult>, StoreError> {

@@ -37,7 +37,11 @@ pub fn worst_phase_files(
     views: &std::collections::BTreeMap<String, Vec<u8>>,
 ) -> Result<Vec<(String, Vec<u8>)>, ReportError> {
     let mut files = Vec::new();
-    for c in model.cases.resident() {
+    for c in model
+        .cases
+        .resident()
+        .filter(|c| model.cases.is_detailed(&c.id))
+    {
         let Some(frame) = c.worst_phase.as_ref().and_then(|w| w.rendered.as_ref()) else {
             continue;
         };

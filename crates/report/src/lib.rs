@@ -221,11 +221,10 @@ fn write_case_files(
         true => Some(StagedDir::begin(dir, document::FRAMES_DIR, reuse)?),
         false => None,
     };
-    crate::model::for_each_chunk(cases, |first, chunk| {
+    for_each_detailed_chunk(model, cases, |chunk| {
         let made: Vec<CaseFiles> = chunk
             .par_iter()
-            .enumerate()
-            .map(|(k, r)| case_files(model.cases.get(first + k).as_deref(), r, doc))
+            .map(|(k, r)| case_files(model.cases.get(*k).as_deref(), r, doc))
             .collect::<Result<_, ReportError>>()?;
         for files in made {
             for (name, bytes) in &files.traces {
@@ -255,6 +254,67 @@ fn write_case_files(
             Ok(())
         }
     }
+}
+
+/// Calls `f` with the cases results.json holds whole (every case, unless
+/// the report lists only some: [`crate::model::Cases::is_detailed`]), a
+/// chunk at a time, each with its position. Only those are read from the
+/// store: the others' traces and frames stay in it, for `ledflicker
+/// export`.
+fn for_each_detailed_chunk(
+    model: &Results,
+    cases: &dyn CaseSource,
+    mut f: impl FnMut(Vec<(usize, CaseResult)>) -> Result<(), ReportError>,
+) -> Result<(), ReportError> {
+    if !model.cases.has_rows() {
+        return crate::model::for_each_chunk(cases, |first, chunk| {
+            f(chunk
+                .into_iter()
+                .enumerate()
+                .map(|(k, r)| (first + k, r))
+                .collect())
+        });
+    }
+    let wanted: Vec<usize> = model
+        .cases
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| model.cases.is_detailed(&c.id))
+        .map(|(k, _)| k)
+        .collect();
+    for block in wanted.chunks(ledflicker_results::cases::CHUNK) {
+        let mut chunk = Vec::with_capacity(block.len());
+        for &k in block {
+            chunk.extend(cases.read(k..k + 1)?.into_iter().map(|r| (k, r)));
+        }
+        f(chunk)?;
+    }
+    Ok(())
+}
+
+/// The cases a report at `detail` writes whole (their entry in
+/// results.json, trace CSV and frames): every case when it lists every
+/// case or pages every one (`None`), else the listed cases and those of
+/// the ROI map (the first case with a frame; every one of a capture).
+pub fn detailed_cases(
+    model: &Results,
+    listing: &crate::model::listing::Listing,
+    detail: Detail,
+) -> Option<std::collections::BTreeSet<String>> {
+    if detail == Detail::Full || listing.unlisted == 0 {
+        return None;
+    }
+    let each_capture = model.method.backend == crate::model::BackendName::Captured;
+    let mut framed = 0;
+    let mut ids = listing.listed.clone();
+    for c in &model.cases {
+        let map = c.sample_frame.is_some() && (each_capture || framed == 0);
+        framed += usize::from(c.sample_frame.is_some());
+        if map {
+            ids.insert(c.id.clone());
+        }
+    }
+    Some(ids)
 }
 
 /// One case's files for traces/ and frames/.
@@ -403,6 +463,9 @@ pub fn write_report(
         profile: document::profile::meta(&options.profile),
     });
     document::profile::write_files(dir, &options.profile)?;
+    let listing = crate::model::listing::listing(&model, options.detail);
+    let detailed = detailed_cases(&model, &listing, options.detail);
+    model.cases.set_detailed(detailed);
     // One model, shared by the PDF, the HTML and results.json: the
     // document's model is results.json as written.
     let layout_doc = document::Document::with_pictures(

@@ -144,7 +144,9 @@ fn stage(
             stored.case = case.clone();
             crate::shard::check::evaluate_again(plan, stored)
         };
+        let t = ledflicker_core::timings::span("resume: stored cases judged again");
         let kept = store.rejudge(&judge)?;
+        drop(t);
         on_progress(RunProgress::Resumed {
             kept,
             total: cases.len(),

@@ -151,7 +151,7 @@ fn a_resumed_store_judges_its_cases_again_so_a_forged_verdict_does_not_survive()
         crate::shard::check::evaluate_again(&plan, stored)
     };
     assert_eq!(store.rejudge(&judge).unwrap(), 1);
-    let back = store.read_stored(&[idx]).unwrap().remove(0).1;
+    let back = record::decode(&store.read_rows(&[idx]).unwrap().remove(0).1.bytes).unwrap();
     assert_eq!(back.verdict, genuine.verdict);
     assert_eq!(back.checks, genuine.checks);
     // The store's own columns follow the record.
@@ -164,6 +164,45 @@ fn a_resumed_store_judges_its_cases_again_so_a_forged_verdict_does_not_survive()
         )
         .unwrap();
     assert_eq!(verdict, "pass");
+}
+
+#[test]
+fn a_resumed_store_leaves_a_case_judged_as_stored_in_place_and_rewrites_a_forged_column() {
+    let plan = ledflicker_core::plan::find_and_load("daylight").unwrap();
+    let cases = ledflicker_core::plan::expand_cases(&plan);
+    let results = results();
+    let dir = tempfile::tempdir().unwrap();
+    let mut store = Store::create(dir.path(), &key()).unwrap();
+    for (i, r) in results.iter().enumerate() {
+        store.put(i, r.clone()).unwrap();
+    }
+    store.close().unwrap();
+    // The record kept, the verdict column of case 1 edited.
+    let conn = Connection::open(dir.path().join(PARTIAL)).unwrap();
+    conn.execute("UPDATE cases SET verdict = 'info' WHERE idx = 1", [])
+        .unwrap();
+    drop(conn);
+    let (mut store, _) = Store::resume(dir.path(), &key()).unwrap();
+    let before = store.conn.total_changes();
+    let judge = |i: usize, mut stored: CaseResult| {
+        stored.case = cases[i].clone();
+        crate::shard::check::evaluate_again(&plan, stored)
+    };
+    assert_eq!(store.rejudge(&judge).unwrap(), 3);
+    // Case 1 deleted and inserted again (its row and its metrics' rows);
+    // cases 0 and 2, judged as stored, not written at all.
+    let metrics = results[1].metrics.len() * 7;
+    let changed = store.conn.total_changes() - before;
+    assert!(
+        changed > 0 && changed <= 2 * (1 + metrics as u64),
+        "{changed} rows changed"
+    );
+    let verdict: String = store
+        .conn
+        .query_row("SELECT verdict FROM cases WHERE idx = 1", [], |r| r.get(0))
+        .unwrap();
+    assert_eq!(verdict, results[1].verdict.as_str());
+    assert_eq!(read_cases(&store.finish().unwrap()).unwrap(), results);
 }
 
 #[test]

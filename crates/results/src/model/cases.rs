@@ -27,6 +27,9 @@ use super::{CaseInfo, Detail};
 #[derive(Clone, Default)]
 pub struct Cases {
     repr: Repr,
+    /// The cases results.json holds whole; the others are summary rows
+    /// ([`super::row`]). `None`: every case whole.
+    detailed: Option<Arc<std::collections::BTreeSet<String>>>,
 }
 
 #[derive(Clone)]
@@ -244,6 +247,7 @@ impl From<Vec<CaseInfo>> for Cases {
     fn from(v: Vec<CaseInfo>) -> Cases {
         Cases {
             repr: Repr::Memory(v),
+            detailed: None,
         }
     }
 }
@@ -347,9 +351,18 @@ impl<'a> IntoIterator for &'a Cases {
 impl Serialize for Cases {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::{Error, SerializeSeq};
+        struct Row<'a>(&'a CaseInfo);
+        impl Serialize for Row<'_> {
+            fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                super::row::serialize_row(self.0, s)
+            }
+        }
         let mut seq = s.serialize_seq(Some(self.len()))?;
         for c in self {
-            seq.serialize_element(&*c)?;
+            match self.is_detailed(&c.id) {
+                true => seq.serialize_element(&*c)?,
+                false => seq.serialize_element(&Row(&c))?,
+            }
         }
         if let Some(why) = self.read_error() {
             return Err(S::Error::custom(why));
@@ -360,7 +373,61 @@ impl Serialize for Cases {
 
 impl<'de> Deserialize<'de> for Cases {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Cases, D::Error> {
-        Vec::<CaseInfo>::deserialize(d).map(Cases::from)
+        use super::row::Entry;
+        use serde::de::Error;
+        // Each entry is told by its `full_record` key, then read as what it
+        // is, so that an error names the field of a whole case or a row
+        // (an untagged enum would only say that neither fits).
+        let values = Vec::<serde_json::Value>::deserialize(d)?;
+        let entries = values
+            .into_iter()
+            .enumerate()
+            .map(|(i, v)| {
+                let entry = match v.get("full_record").is_some() {
+                    true => serde_json::from_value(v).map(Entry::Row),
+                    false => serde_json::from_value(v).map(Entry::Full),
+                };
+                entry.map_err(|e| D::Error::custom(format!("case {}: {e}", i + 1)))
+            })
+            .collect::<Result<Vec<Entry>, D::Error>>()?;
+        let rows = entries.iter().any(|e| matches!(e, Entry::Row(_)));
+        let detailed = rows.then(|| {
+            let whole = entries.iter().filter_map(|e| match e {
+                Entry::Full(c) => Some(c.id.clone()),
+                Entry::Row(_) => None,
+            });
+            Arc::new(whole.collect())
+        });
+        let cases: Vec<CaseInfo> = entries
+            .into_iter()
+            .map(|e| match e {
+                Entry::Full(c) => *c,
+                Entry::Row(r) => r.into_case(),
+            })
+            .collect();
+        Ok(Cases {
+            detailed,
+            ..Cases::from(cases)
+        })
+    }
+}
+
+impl Cases {
+    /// Whether results.json holds case `id` whole, rather than as a
+    /// summary row whose full record is in the case store.
+    pub fn is_detailed(&self, id: &str) -> bool {
+        self.detailed.as_ref().is_none_or(|d| d.contains(id))
+    }
+
+    /// Whether some case is a summary row.
+    pub fn has_rows(&self) -> bool {
+        self.detailed.as_ref().is_some_and(|d| d.len() < self.len())
+    }
+
+    /// Writes only the cases `ids` whole to results.json, every other as
+    /// its summary row; `None` writes every case whole.
+    pub fn set_detailed(&mut self, ids: Option<std::collections::BTreeSet<String>>) {
+        self.detailed = ids.map(Arc::new);
     }
 }
 
@@ -500,6 +567,9 @@ impl CasesBuilder {
                 }
             }
         };
-        Ok(Cases { repr })
+        Ok(Cases {
+            repr,
+            detailed: None,
+        })
     }
 }

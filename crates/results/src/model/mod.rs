@@ -4,7 +4,7 @@
 //! this model and imports nothing else of the pipeline; the types it shows
 //! from lower modules are re-exported here (docs/architecture.md).
 //!
-//! Contract `ledflicker.results/4` (see docs/changes.md; fields may be added,
+//! Contract `ledflicker.results/5` (see docs/changes.md; fields may be added,
 //! never renamed):
 //! `schema`, `plan {id, title, path, sha256}`, `verdict`, and `cases[]` with
 //! `id, light_lux, frequency_hz, duty, verdict` and
@@ -35,6 +35,7 @@ pub mod limits;
 pub mod listing;
 pub mod method;
 pub mod plane;
+pub mod row;
 
 use std::collections::BTreeMap;
 
@@ -63,7 +64,7 @@ pub use crate::trace::{
 pub use cases::{Cases, CasesBuilder};
 
 /// Schema id of results.json.
-pub const RESULTS_SCHEMA: &str = "ledflicker.results/4";
+pub const RESULTS_SCHEMA: &str = "ledflicker.results/5";
 
 /// Top of results.json.
 #[derive(Debug, Clone, Serialize, Deserialize)]
