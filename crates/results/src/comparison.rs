@@ -248,7 +248,7 @@ mod tests {
             from: "pass".into(),
             to: "fail".into(),
         };
-        assert_eq!(flips, [flip.clone()]);
+        assert_eq!(flips, std::slice::from_ref(&flip));
         let (by_b, flips) = names(&b, &a, Lead::B);
         assert_eq!(by_b, ["l5", "~3", "=2", "=1", "o4"]);
         // A's verdict first, whichever side leads.
