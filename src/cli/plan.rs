@@ -32,6 +32,8 @@ pub(super) struct PlanArgs {
     plan: String,
     #[command(flatten)]
     report: ReportArgs,
+    #[command(flatten)]
+    record: super::campaign::RecordArgs,
     /// Worker threads [default: one per core]. Results do not depend on it.
     #[arg(long)]
     threads: Option<usize>,
@@ -179,7 +181,7 @@ fn prepare(
     out: &Path,
     date: String,
 ) -> Result<(crate::outdir::Generation, ReportOptions), Failure> {
-    args.report.record.check_outside(out)?;
+    args.record.check_outside(out)?;
     let generation = match &args.resume {
         None => pipeline::begin_output(out, args.report.force)?,
         Some(dir) => pipeline::resume_output(dir, args.report.force)?,
@@ -279,7 +281,7 @@ fn finish(
         eprintln!("{warning}");
     }
     super::campaign::record_finished(
-        &args.report.record,
+        &args.record,
         &outcome.model,
         &outcome.dir,
         crate::campaign::record::Source::Plan,
