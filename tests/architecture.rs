@@ -26,7 +26,7 @@ const CRATES: [(&str, &[&str]); 11] = [
         "error", "interrupt", "render", "capture", "inputs", "backend", "runner",
     ]),
     ("crates/analysis", &["calibrate", "analysis", "advise"]),
-    ("crates/results", &["exit", "outdir", "inputs", "analysis", "advise", "cases", "model"]),
+    ("crates/results", &["exit", "comparison", "outdir", "inputs", "analysis", "advise", "cases", "model"]),
     ("crates/core", &[]),
     ("crates/report", &[]),
     ("crates/signoff", &[]),

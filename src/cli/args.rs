@@ -30,7 +30,9 @@ impl From<DetailArg> for crate::model::Detail {
 }
 
 /// The report flags `plan` and `merge` share: where the report goes,
-/// its date, what it shows and how the run is recorded.
+/// its date, what it shows and the work it may take. (The recording
+/// flags, `campaign::RecordArgs`, sit beside it: the recording module
+/// reads the report date from here.)
 #[derive(Args, Debug)]
 pub(super) struct ReportArgs {
     /// Output directory [default: reports/<plan-id>/].
@@ -57,8 +59,6 @@ pub(super) struct ReportArgs {
     pub(super) detail: DetailArg,
     #[command(flatten)]
     pub(super) limits: LimitArgs,
-    #[command(flatten)]
-    pub(super) record: super::campaign::RecordArgs,
 }
 
 impl ReportArgs {

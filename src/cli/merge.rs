@@ -25,6 +25,8 @@ pub(super) struct MergeArgs {
     plan: Option<PathBuf>,
     #[command(flatten)]
     report: ReportArgs,
+    #[command(flatten)]
+    record: super::campaign::RecordArgs,
 }
 
 /// Checks the shards, then writes the report of the whole plan.
@@ -48,7 +50,7 @@ pub(super) fn merge(a: MergeArgs) -> Result<ExitCode, Failure> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("reports").join(&m.plan.id));
-    a.report.record.check_outside(&out)?;
+    a.record.check_outside(&out)?;
     let generation = pipeline::begin_output(&out, a.report.force)?;
     // The cases go from the shards to the store one shard at a time, and
     // the report stage reads them back from it, as `plan`'s does.
@@ -85,7 +87,7 @@ pub(super) fn merge(a: MergeArgs) -> Result<ExitCode, Failure> {
         eprintln!("{warning}");
     }
     super::campaign::record_finished(
-        &a.report.record,
+        &a.record,
         &outcome.model,
         &outcome.dir,
         crate::campaign::record::Source::Merge,

@@ -32,6 +32,8 @@ pub(super) struct PlanArgs {
     plan: String,
     #[command(flatten)]
     report: ReportArgs,
+    #[command(flatten)]
+    record: super::campaign::RecordArgs,
     /// Worker threads [default: one per core]. Results do not depend on it.
     #[arg(long)]
     threads: Option<usize>,
@@ -104,6 +106,22 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<ExitCode, Failure> {
         .unwrap_or_else(|| PathBuf::from("reports").join(&plan.id));
     let (generation, options) = prepare(&args, &out, date)?;
     let (backend, inputs, generation) = set_up(&args, &plan, generation, &out)?;
+    let outcome = run_and_report(&args, &out, &plan, &backend, inputs, options, generation)?;
+    finish(&args, &outcome, total)
+}
+
+/// The run and report stages ([`pipeline::run_plan`]) with their progress
+/// on the terminal; a run that stopped with cases stored keeps them for
+/// `--resume`.
+fn run_and_report(
+    args: &PlanArgs,
+    out: &Path,
+    plan: &Plan,
+    backend: &PlanBackend,
+    inputs: Vec<crate::inputs::InputFile>,
+    options: ReportOptions,
+    generation: crate::outdir::Generation,
+) -> Result<Outcome, Failure> {
     // Made on the report stage's first progress: it ticks from its start.
     let stage = std::sync::OnceLock::new();
     let resume_hint = |stored: usize| {
@@ -115,8 +133,8 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<ExitCode, Failure> {
         )
     };
     let run = pipeline::PlanRun {
-        plan: &plan,
-        backend: &backend,
+        plan,
+        backend,
         inputs,
         threads: args.threads,
         resume: args.resume.is_some(),
@@ -124,28 +142,21 @@ pub(super) fn run_plan(args: PlanArgs) -> Result<ExitCode, Failure> {
         resume_hint: Some(&resume_hint),
     };
     let bar = case_bar(0, args.report.quiet);
-    let outcome = pipeline::run_plan(run, generation, &run_progress(&bar, &plan, &args), &|p| {
+    let progress = run_progress(&bar, plan, args);
+    let outcome = pipeline::run_plan(run, generation, &progress, &|p| {
         show_progress(stage.get_or_init(|| report_spinner(args.report.quiet)), p)
     });
-    let outcome = match outcome {
-        Ok(outcome) => outcome,
+    match outcome {
+        Ok(outcome) => Ok(outcome),
         Err(PlanRunError::Stopped(run)) => {
-            let pipeline::StoppedRun {
-                stopped,
-                generation,
-            } = *run;
-            let failure = stopped.error.into();
-            return Err(keep_for_resume(
-                failure,
-                stopped.stored,
-                generation,
-                &args,
-                &out,
-            ));
+            let (error, kept) = run.keep_for_resume();
+            if let Some(kept) = kept {
+                say_kept(&kept, args, out);
+            }
+            Err(error.into())
         }
-        Err(PlanRunError::Report(e)) => return Err(e.into()),
-    };
-    finish(&args, &outcome, total)
+        Err(PlanRunError::Report(e)) => Err(e.into()),
+    }
 }
 
 /// `--shard K/N`: this shard's cases into a shard directory, no report.
@@ -170,7 +181,7 @@ fn prepare(
     out: &Path,
     date: String,
 ) -> Result<(crate::outdir::Generation, ReportOptions), Failure> {
-    args.report.record.check_outside(out)?;
+    args.record.check_outside(out)?;
     let generation = match &args.resume {
         None => pipeline::begin_output(out, args.report.force)?,
         Some(dir) => pipeline::resume_output(dir, args.report.force)?,
@@ -270,7 +281,7 @@ fn finish(
         eprintln!("{warning}");
     }
     super::campaign::record_finished(
-        &args.report.record,
+        &args.record,
         &outcome.model,
         &outcome.dir,
         crate::campaign::record::Source::Plan,
@@ -385,15 +396,19 @@ fn keep_for_resume(
     out: &Path,
 ) -> Failure {
     if stored {
-        let kept = generation.keep_for_resume();
-        eprintln!(
-            "the cases stored so far are kept in `{}`; continue the run with `ledflicker plan {} --resume {}`",
-            kept.display(),
-            args.plan,
-            out.display()
-        );
+        say_kept(&generation.keep_for_resume(), args, out);
     }
     failure
+}
+
+/// Where the cases of a stopped run are kept, and how to continue it.
+fn say_kept(kept: &Path, args: &PlanArgs, out: &Path) {
+    eprintln!(
+        "the cases stored so far are kept in `{}`; continue the run with `ledflicker plan {} --resume {}`",
+        kept.display(),
+        args.plan,
+        out.display()
+    );
 }
 
 /// The run stage's progress on `bar`, and the number of cases a resumed

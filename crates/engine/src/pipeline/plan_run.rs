@@ -3,6 +3,8 @@
 //! report stage ([`super::report`]). `ledflicker plan` and the Python
 //! package call this one function, so a report is the same whoever asks.
 
+use std::path::PathBuf;
+
 use ledflicker_core::backend::{Backend, PlanBackend};
 use ledflicker_core::model::InputFile;
 use ledflicker_core::outdir::Generation;
@@ -41,6 +43,19 @@ pub struct StoppedRun {
     pub stopped: Stopped,
     /// The new generation, not committed.
     pub generation: Generation,
+}
+
+impl StoppedRun {
+    /// Keeps the generation's case store for a resumed run when it holds
+    /// cases (else the generation is dropped, which removes it): why the
+    /// run stopped, and where its cases are kept.
+    pub fn keep_for_resume(self) -> (super::RunStageError, Option<PathBuf>) {
+        let kept = self
+            .stopped
+            .stored
+            .then(|| self.generation.keep_for_resume());
+        (self.stopped.error, kept)
+    }
 }
 
 /// Why [`run_plan`] gave no report.
