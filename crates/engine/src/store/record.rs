@@ -254,15 +254,18 @@ mod tests {
         for cut in [0, 1, bytes.len() / 2, bytes.len() - 1] {
             assert!(decode(&bytes[..cut]).is_err(), "cut at {cut}");
         }
-        let mut record: Record = ciborium::from_reader(bytes.as_slice()).unwrap();
+        let cbor = miniz_oxide::inflate::decompress_to_vec(&bytes).unwrap();
+        let mut record: Record = ciborium::from_reader(cbor.as_slice()).unwrap();
         record.segments.0[0] = b'x';
         let mut bad = Vec::new();
         ciborium::into_writer(&record, &mut bad).unwrap();
+        let bad = miniz_oxide::deflate::compress_to_vec(&bad, DEFLATE_LEVEL);
         let e = decode(&bad).unwrap_err();
         assert!(e.contains("segment byte 120"), "{e}");
         record.segments.0.pop();
         let mut short = Vec::new();
         ciborium::into_writer(&record, &mut short).unwrap();
+        let short = miniz_oxide::deflate::compress_to_vec(&short, DEFLATE_LEVEL);
         let e = decode(&short).unwrap_err();
         assert!(e.contains("segments"), "{e}");
     }

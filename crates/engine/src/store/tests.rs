@@ -179,7 +179,7 @@ fn a_resumed_store_leaves_a_case_judged_as_stored_in_place_and_rewrites_a_forged
     store.close().unwrap();
     // The record kept, the verdict column of case 1 edited.
     let conn = Connection::open(dir.path().join(PARTIAL)).unwrap();
-    conn.execute("UPDATE cases SET verdict = 'info' WHERE idx = 1", [])
+    conn.execute("UPDATE cases SET verdict = 'forged' WHERE idx = 1", [])
         .unwrap();
     drop(conn);
     let (mut store, _) = Store::resume(dir.path(), &key()).unwrap();
