@@ -80,25 +80,29 @@ fn p2020_samples_fail_test_vid2_on_fmi_and_mmp_in_every_output() {
     );
     assert!(row.contains("1.000"), "{row}");
     // Each capture's darkest PWM frame, read again from the video, whole,
-    // and the ROI map of the method on each that shows anything: the ROIs
-    // seen in place. test_vid2's is black (the lamps were off for its whole
-    // exposure), so it has no map.
+    // and the ROI map of the method on each capture's frame where the lamp
+    // is lit (these videos have no ON segment: the brightest PWM frame),
+    // test_vid2's too, whose darkest frame is black.
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     for case in ["test_vid1", "test_vid2", "test_vid3"] {
         let frame = image::open(out.join(format!("frames/{case}.png"))).unwrap();
         assert_eq!((frame.width(), frame.height()), (1280, 800), "{case}");
-        assert_eq!(
-            j["cases"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .find(|c| c["id"] == case)
-                .unwrap()["sample_frame"]["path"],
-            format!("frames/{case}.png")
-        );
+        let c = j["cases"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["id"] == case)
+            .unwrap();
+        assert_eq!(c["sample_frame"]["path"], format!("frames/{case}.png"));
+        let lit = &c["capture"]["lit_frame"];
+        assert_eq!(lit["segment"], "pwm", "{case}: {lit}");
+        let lit = lit["frame"].as_u64().unwrap();
+        assert_ne!(Some(lit), c["sample_frame"]["frame"].as_u64(), "{case}");
+        let caption =
+            format!("ROIs on frame {lit} of case {case} (its PWM frame of highest LED-ROI luma");
+        assert!(html.contains(&caption), "{caption}");
     }
-    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
-    assert_eq!(html.matches("<figcaption>ROIs on frame").count(), 2);
-    assert!(!html.contains("ROIs on frame 106 of case test_vid2"));
+    assert_eq!(html.matches("<figcaption>ROIs on frame").count(), 3);
     let header = stdout.lines().find(|l| l.starts_with("case")).unwrap();
     for col in ["roi", "FMI", "FDI P2020", "MMP", "criterion"] {
         assert!(header.contains(col), "{header}");

@@ -333,6 +333,7 @@ pub fn run_case(
         not_checked: eval.not_checked,
         sample_frame: None,
         p2020: p2020s,
+        lit_frame: None,
     })
 }
 
@@ -378,7 +379,9 @@ pub fn render_sample_frames(
     })
 }
 
-/// Renders one case's darkest PWM frame into its result, where the backend can.
+/// Renders one case's darkest PWM frame into its result, and its capture's
+/// lit frame ([`ledflicker_plan::trace::LitFrame`]) when it names one,
+/// where the backend can.
 pub fn render_sample_frame(
     plan: &Plan,
     result: &mut CaseResult,
@@ -388,6 +391,16 @@ pub fn render_sample_frame(
         && let Some(rendered) = backend.render_frame(&result.case, frame)
     {
         result.sample_frame = Some(rendered?);
+    }
+    let lit = result
+        .acquisition
+        .capture
+        .as_ref()
+        .and_then(|c| c.lit_frame);
+    if let Some(lit) = lit
+        && let Some(rendered) = backend.render_frame(&result.case, lit.frame)
+    {
+        result.lit_frame = Some(rendered?);
     }
     Ok(())
 }

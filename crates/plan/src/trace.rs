@@ -393,6 +393,42 @@ pub struct CaptureSummary {
     /// report directory; absent when it was removed after the analysis.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub kept: Option<String>,
+    /// The frame the ROI set-up figure shows, one where the lamp is lit;
+    /// absent when the backend shows no frame of the capture.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lit_frame: Option<LitFrame>,
+}
+
+/// A frame of a capture where the lamp is lit: the ROIs drawn on it show
+/// where the lamp is, which a frame where the lamp is dark cannot.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LitFrame {
+    /// Frame number.
+    pub frame: u64,
+    /// The segment it is in: `on` or `pwm`.
+    pub segment: Segment,
+}
+
+impl LitFrame {
+    /// The frame of `acq` where ROI `led` is brightest in the ON segment
+    /// (the lamp is lit there by design), else in the PWM segment; the first
+    /// of equals. None without such a frame or ROI.
+    pub fn of(acq: &Acquisition, led: usize) -> Option<LitFrame> {
+        let luma = &acq.rois.get(led)?.luma;
+        let brightest = |segment: Segment| {
+            acq.frames
+                .iter()
+                .zip(luma)
+                .filter(|(f, _)| f.segment == segment)
+                .rev()
+                .max_by(|a, b| a.1.total_cmp(b.1))
+                .map(|(f, _)| LitFrame {
+                    frame: f.index,
+                    segment,
+                })
+        };
+        brightest(Segment::On).or_else(|| brightest(Segment::Pwm))
+    }
 }
 
 /// The camera settings of a `[recorder]` for one case: what was set, and
@@ -576,5 +612,56 @@ words! {
         Csv = "csv",
         /// None: the capture cannot be timed.
         None = "none",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An acquisition of one ROI with these segments and luma.
+    fn acquisition(frames: &[(Segment, f64)]) -> Acquisition {
+        Acquisition {
+            frames: (0u64..)
+                .zip(frames)
+                .map(|(index, &(segment, _))| FrameInfo {
+                    index: index + 10,
+                    time_s: index as f64 / 30.0,
+                    segment,
+                })
+                .collect(),
+            rois: vec![RoiTrace {
+                name: "led".into(),
+                luma: frames.iter().map(|f| f.1).collect(),
+                phase_envelope: None,
+                rgb: None,
+            }],
+            saturation_dn: 250.0,
+            capture: None,
+        }
+    }
+
+    #[test]
+    fn the_lit_frame_is_the_brightest_on_frame_else_the_brightest_pwm_frame() {
+        use Segment::{Off, On, Pwm};
+        let with_on = acquisition(&[(Off, 5.0), (On, 90.0), (On, 91.0), (Pwm, 200.0)]);
+        assert_eq!(
+            LitFrame::of(&with_on, 0),
+            Some(LitFrame {
+                frame: 12,
+                segment: On
+            })
+        );
+        // The first of equals, in frame order.
+        let pwm_only = acquisition(&[(Off, 5.0), (Pwm, 0.0), (Pwm, 80.0), (Pwm, 80.0)]);
+        assert_eq!(
+            LitFrame::of(&pwm_only, 0),
+            Some(LitFrame {
+                frame: 12,
+                segment: Pwm
+            })
+        );
+        assert_eq!(LitFrame::of(&pwm_only, 1), None);
+        assert_eq!(LitFrame::of(&acquisition(&[(Off, 5.0)]), 0), None);
     }
 }

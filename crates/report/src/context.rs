@@ -129,19 +129,41 @@ fn matrices(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec<Value> {
 }
 
 /// The ROI maps ([`super::document::roi_map_chart_path`]), in case order:
-/// `{case, frame, chart}`, where `chart` is what `chart_for` makes of the
-/// map's chart path and `frame` the frame number shown.
+/// `{case, frame, which, chart}`, where `chart` is what `chart_for` makes
+/// of the map's chart path, `frame` the frame number shown and `which`
+/// says which frame of the case it is.
 fn roi_maps(doc: &Document, chart_for: impl Fn(&str) -> Value) -> Vec<Value> {
+    use crate::model::Segment;
+    let captured = doc.results.method.backend == crate::model::BackendName::Captured;
     // The mapped cases are among those the model keeps in memory.
     doc.results
         .cases
         .resident()
         .filter_map(|c| {
             let path = super::document::roi_map_chart_path(&c.id);
+            // A capture's map shows its lit frame, as the chart's job
+            // ([`super::document::ChartJobs`]) draws it.
+            let lit = c
+                .capture
+                .as_ref()
+                .and_then(|s| s.lit_frame)
+                .filter(|_| captured);
+            let (frame, which) = match lit {
+                Some(l) if l.segment == Segment::On => (
+                    Some(l.frame),
+                    "its ON-segment frame of highest LED-ROI luma",
+                ),
+                Some(l) => (Some(l.frame), "its PWM frame of highest LED-ROI luma"),
+                None => (
+                    c.sample_frame.as_ref().map(|f| f.frame),
+                    "its PWM frame of lowest LED-ROI luma",
+                ),
+            };
             doc.charts.contains_key(&path).then(|| {
                 minijinja::context! {
                     case => c.id.clone(),
-                    frame => c.sample_frame.as_ref().map(|f| f.frame),
+                    frame => frame,
+                    which => which,
                     chart => chart_for(&path),
                 }
             })

@@ -29,6 +29,11 @@ pub struct CaseResult {
     pub sample_frame: Option<RenderedFrame>,
     /// IEEE P2020 KPIs per plan ROI, in plan order.
     pub p2020: Vec<P2020Metrics>,
+    /// A picture of the capture's frame where the lamp is lit
+    /// (`CaptureSummary::lit_frame`), for the ROI set-up figure, when the
+    /// sample frame was asked for and the backend can render it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lit_frame: Option<RenderedFrame>,
 }
 
 /// Why a run's stored cases could not be read back.

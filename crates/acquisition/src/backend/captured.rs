@@ -18,7 +18,7 @@ use super::{Acquisition, Backend, BackendError, FrameInfo, RoiTrace};
 use crate::capture::{self, CaptureError, CaptureTrace, ColourTransfer, ReadOptions, RoiRect};
 use ledflicker_metrics::metrics::flicker::Segment;
 use ledflicker_plan::plan::{CaptureConfig, Plan, Roi, RoiKind, SegmentSpec, Span, TestCase};
-use ledflicker_plan::trace::RenderedFrame;
+use ledflicker_plan::trace::{LitFrame, RenderedFrame};
 
 /// Turns the plan's ROIs into pixel rectangles.
 pub fn roi_rects(rois: &[Roi]) -> Vec<RoiRect> {
@@ -265,6 +265,7 @@ impl Captured {
         let paths: Vec<&Path> = cap.cases.iter().map(|c| c.source.as_path()).collect();
         let traces = capture::read_captures(&paths, &rects, &names, &opts)?;
         let detection = Detection::for_plan(plan);
+        let led = plan.rois.iter().position(|r| r.kind == RoiKind::Led);
         let seeks: Vec<_> = traces
             .iter()
             .map(|t| {
@@ -292,6 +293,7 @@ impl Captured {
                     light_source: None,
                     camera: None,
                     kept: None,
+                    lit_frame: led.and_then(|led| LitFrame::of(&acq, led)),
                 });
                 Ok((c.id.clone(), acq))
             })

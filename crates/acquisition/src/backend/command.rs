@@ -587,6 +587,9 @@ impl Backend for CommandRig {
                 light_source,
                 camera,
                 kept,
+                // The recording may be gone after the analysis: no frame of
+                // it is shown.
+                lit_frame: None,
             });
             Ok(acq)
         })();

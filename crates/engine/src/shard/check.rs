@@ -432,6 +432,7 @@ pub fn evaluate_again(plan: &Plan, shard: CaseResult) -> Result<CaseResult, Stri
         return Err("its traces give a metric that is not a finite number".to_string());
     }
     fresh.sample_frame = shard.sample_frame;
+    fresh.lit_frame = shard.lit_frame;
     Ok(fresh)
 }
 

@@ -227,6 +227,7 @@ mod tests {
                     255.0,
                 )),
                 p2020: Vec::new(),
+                lit_frame: None,
             },
             capture_signal: Vec::new(),
         }

@@ -22,6 +22,7 @@ use super::{
     roi_map_chart_path, trace_chart_path, uv_chart_path, worst_phase_chart_path,
     worst_phase_image_path, zoom_chart_path,
 };
+use crate::model::frame::Stretch;
 use crate::model::listing::listing;
 use crate::model::{CaseInfo, CaseResult, Results, RoiKind};
 
@@ -145,9 +146,9 @@ impl<'a> ChartJobs<'a> {
                 });
             }
         }
-        for (r, frame, info) in roi_map_cases(model, results, &cases) {
+        for (r, frame, info, stretch) in roi_map_cases(model, results, &cases) {
             jobs.add(roi_map_chart_path(&r.case.id), move || {
-                charts::roi_map_svg(frame, &info.rois, &info.stretch)
+                charts::roi_map_svg(frame, &info.rois, &stretch)
             });
         }
         for (i, lux) in model.light_levels().into_iter().enumerate() {
@@ -266,12 +267,13 @@ fn shows_anything(frame: &crate::model::RenderedFrame) -> bool {
     lit as f64 > LIT_SHARE * f64::from(frame.width) * f64::from(frame.height)
 }
 
-/// The cases whose frame the ROI map shows, with that frame and its view:
-/// each capture's whose frame shows anything (else the brightest one); of a
-/// simulated run, whose frames all show the same
-/// scene, one: the case whose sample frame (its darkest PWM frame) is
-/// brightest, so that the lamp is lit in it (a 100 % duty case is lit in
-/// every frame), the first of them in plan order.
+/// The cases whose frame the ROI map shows, with that frame, its view and
+/// its display stretch. Of a captured run, each capture's frame where the
+/// lamp is lit (its `lit_frame`; else its sample frame), those that show
+/// anything (else the brightest one). Of a simulated run, whose frames all
+/// show the same scene, one: the case whose sample frame (its darkest PWM
+/// frame) is brightest, so that the lamp is lit in it (a 100 % duty case
+/// is lit in every frame), the first of them in plan order.
 fn roi_map_cases<'a>(
     model: &Results,
     results: &'a [CaseResult],
@@ -280,31 +282,33 @@ fn roi_map_cases<'a>(
     &'a CaseResult,
     &'a crate::model::RenderedFrame,
     &'a crate::model::SampleFrameInfo,
+    Stretch,
 )> {
+    let captured = model.method.backend == crate::model::BackendName::Captured;
     let framed = results.iter().filter_map(|r| {
         let case = cases.get(r.case.id.as_str())?;
+        let info = case.sample_frame.as_ref()?;
         let lit = case
             .rois
             .iter()
             .find(|roi| roi.kind == RoiKind::Led)
             .map_or(0.0, |roi| roi.levels.min);
-        Some((
-            r,
-            r.sample_frame.as_ref()?,
-            case.sample_frame.as_ref()?,
-            lit,
-        ))
+        let (frame, stretch) = match (captured, &r.lit_frame) {
+            (true, Some(f)) => (f, Stretch::of_frame(f)),
+            _ => (r.sample_frame.as_ref()?, info.stretch),
+        };
+        Some((r, frame, info, stretch, lit))
     });
     let brightest = |framed: Vec<_>| -> Vec<_> {
         framed
             .into_iter()
             .rev()
-            .max_by(|a: &(_, _, _, f64), b| a.3.total_cmp(&b.3))
+            .max_by(|a: &(_, _, _, _, f64), b| a.4.total_cmp(&b.4))
             .into_iter()
             .collect()
     };
     let framed: Vec<_> = framed.collect();
-    let framed = if model.method.backend == crate::model::BackendName::Captured {
+    let framed = if captured {
         let lit: Vec<_> = framed
             .iter()
             .filter(|f| shows_anything(f.1))
@@ -318,7 +322,10 @@ fn roi_map_cases<'a>(
     } else {
         brightest(framed)
     };
-    framed.into_iter().map(|(r, f, i, _)| (r, f, i)).collect()
+    framed
+        .into_iter()
+        .map(|(r, f, i, s, _)| (r, f, i, s))
+        .collect()
 }
 
 #[cfg(test)]
