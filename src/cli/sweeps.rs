@@ -3,7 +3,7 @@
 //! (every output, default detail): wall time, peak memory and the run
 //! stage's rate, beside the simulator's own rate with no store and no
 //! report, so that a reader sees whether the store or the report limits a
-//! sweep (docs/speed.md, "Sweeps").
+//! sweep (docs/speed.md, "Where the time goes").
 
 use std::path::Path;
 use std::time::{Duration, Instant};

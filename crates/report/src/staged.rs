@@ -190,8 +190,8 @@ impl EarlierDir {
 /// Rewriting an unchanged file costs a new inode and, when the old report
 /// is removed, a freed one; on ext4 without a journal each new inode is
 /// searched for past the inodes freed in the last minutes, so a report
-/// re-run in place got slower run after run (docs/speed.md, "Re-runs in
-/// place link their unchanged files"). A file with other links (a user's
+/// re-run in place got slower run after run (docs/speed.md, "Where the
+/// time goes"). A file with other links (a user's
 /// hard-linked copy of the report, say) is never shared. The file is read
 /// and checked through one handle, and the link is kept only if it names
 /// that same file, unchanged, with the one new link: a file replaced or
