@@ -18,6 +18,13 @@ const EXAMPLES: &[(&str, &[&str])] = &[
         ],
     ),
     (
+        "export",
+        &[
+            "ledflicker export reports/sweep-23k --case 2000lux-55hz-10pct",
+            "ledflicker export reports/sweep-23k --case 40lux-50hz-5pct --out one-case",
+        ],
+    ),
+    (
         "plan",
         &[
             "ledflicker plan daylight --out reports/daylight",

@@ -495,6 +495,8 @@ fn csv_traces_from_other_tools_are_measured() {
     let json = run_plan(&plan, &dir);
     let case = &json["cases"][0];
     assert_eq!(case["capture"]["timestamps"], "csv");
+    // A trace has no frame to show, so no lit frame is named.
+    assert!(case["capture"].get("lit_frame").is_none(), "{case}");
     assert_eq!(
         case["capture"]["segments"]["off"],
         serde_json::json!([0, 5])

@@ -175,6 +175,18 @@ fn a_sweep_at_the_default_detail_writes_its_listed_cases_and_export_gives_the_re
         );
     }
     let (std, full) = (dir.join("std"), dir.join("full"));
+    // The ROI map shows the same case, the one whose lamp is brightest,
+    // whether the other cases are written whole or not.
+    let maps = |d: &Path| -> Vec<String> {
+        let mut m: Vec<String> = names(&d.join("charts"))
+            .into_iter()
+            .filter(|n| n.starts_with("rois-"))
+            .collect();
+        m.sort();
+        m
+    };
+    assert_eq!(maps(&std), maps(&full));
+    assert_eq!(maps(&full).len(), 1, "{:?}", maps(&full));
 
     // results.json holds every case; the listed ones whole, the others as
     // summary rows that name the store.

@@ -295,7 +295,7 @@ fn for_each_detailed_chunk(
 /// The cases a report at `detail` writes whole (their entry in
 /// results.json, trace CSV and frames): every case when it lists every
 /// case or pages every one (`None`), else the listed cases and those of
-/// the ROI map (the first case with a frame; every one of a capture).
+/// the ROI map ([`map_cases`]).
 pub fn detailed_cases(
     model: &Results,
     listing: &crate::model::listing::Listing,
@@ -304,17 +304,33 @@ pub fn detailed_cases(
     if detail == Detail::Full || listing.unlisted == 0 {
         return None;
     }
-    let each_capture = model.method.backend == crate::model::BackendName::Captured;
-    let mut framed = 0;
     let mut ids = listing.listed.clone();
+    ids.extend(map_cases(model));
+    Some(ids)
+}
+
+/// The ROI map's cases, as the figure picks them (`document::jobs`):
+/// every capture's case with a frame, or the one case whose LED ROI is
+/// brightest in its sample frame, the first of equals in plan order.
+fn map_cases(model: &Results) -> std::collections::BTreeSet<String> {
+    let each_capture = model.method.backend == crate::model::BackendName::Captured;
+    let mut ids = std::collections::BTreeSet::new();
+    let mut brightest: Option<(f64, String)> = None;
     for c in &model.cases {
-        let map = c.sample_frame.is_some() && (each_capture || framed == 0);
-        framed += usize::from(c.sample_frame.is_some());
-        if map {
+        if c.sample_frame.is_none() {
+            continue;
+        }
+        if each_capture {
             ids.insert(c.id.clone());
+            continue;
+        }
+        let lit = c.sample_frame_led_level();
+        if brightest.as_ref().is_none_or(|(best, _)| lit > *best) {
+            brightest = Some((lit, c.id.clone()));
         }
     }
-    Some(ids)
+    ids.extend(brightest.map(|(_, id)| id));
+    ids
 }
 
 /// One case's files for traces/ and frames/.
@@ -544,8 +560,7 @@ fn write_documents(
 /// The run's cases whose pictures the document shows: every case of a run
 /// within [`crate::model::listing::EVERY_CASE_LISTED_MAX`], else the cases with
 /// a page (only a case page shows a case's charts and frame), and those of
-/// the ROI map (the first case with a frame; every one of a capture), in
-/// case order.
+/// the ROI map ([`map_cases`]), in case order.
 fn shown_cases(
     model: &Results,
     listing: &crate::model::listing::Listing,
@@ -554,13 +569,10 @@ fn shown_cases(
     if listing.unlisted == 0 {
         return Ok(cases.read(0..cases.len())?);
     }
-    let each_capture = model.method.backend == crate::model::BackendName::Captured;
-    let mut framed = 0;
+    let map = map_cases(model);
     let mut shown = Vec::new();
     for (k, c) in model.cases.iter().enumerate() {
-        let map = c.sample_frame.is_some() && (each_capture || framed == 0);
-        framed += usize::from(c.sample_frame.is_some());
-        if map || listing.pages.contains(&c.id) {
+        if map.contains(&c.id) || listing.pages.contains(&c.id) {
             shown.extend(cases.read(k..k + 1)?);
         }
     }

@@ -293,7 +293,10 @@ impl Captured {
                     light_source: None,
                     camera: None,
                     kept: None,
-                    lit_frame: led.and_then(|led| LitFrame::of(&acq, led)),
+                    // A CSV trace has no frame to show.
+                    lit_frame: led
+                        .filter(|_| capture::source_kind(&c.source) != capture::SourceKind::Csv)
+                        .and_then(|led| LitFrame::of(&acq, led)),
                 });
                 Ok((c.id.clone(), acq))
             })

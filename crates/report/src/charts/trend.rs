@@ -16,7 +16,8 @@ pub type TrendSeries = (String, Vec<Option<f64>>);
 const NAMED: usize = 6;
 
 /// Which series are named: the `NAMED` whose values move most over the
-/// runs (largest minus smallest), ties in the given order. A reader looks
+/// runs (largest minus smallest), ties in the given order; of them only
+/// those that move, unless none does. A reader looks
 /// at a trend chart for what changed; the first cases of a plan may be
 /// the ones that never move.
 fn named(series: &[TrendSeries]) -> Vec<bool> {
@@ -33,9 +34,12 @@ fn named(series: &[TrendSeries]) -> Vec<bool> {
     };
     let mut order: Vec<usize> = (0..series.len()).collect();
     order.sort_by(|&a, &b| movement(&series[b].1).total_cmp(&movement(&series[a].1)));
+    // A line that never moves is named only when none moves: naming it
+    // beside the lines that do would say it changed.
+    let any_moves = order.first().is_some_and(|&k| movement(&series[k].1) > 0.0);
     let mut named = vec![false; series.len()];
     for &k in order.iter().take(NAMED) {
-        named[k] = true;
+        named[k] = !any_moves || movement(&series[k].1) > 0.0;
     }
     named
 }
@@ -251,7 +255,10 @@ mod tests {
                 "case-a".to_string(),
                 vec![Some(1.0), Some(1.1), None, Some(0.2), Some(0.2)],
             ),
-            ("case-b".to_string(), vec![Some(0.5); 5]),
+            (
+                "case-b".to_string(),
+                vec![Some(0.5), Some(0.5), Some(0.5), Some(0.5), Some(0.6)],
+            ),
         ];
         let limits = [(0.1, "limit >= 0.1".to_string())];
         let svg = trend_svg(
@@ -294,6 +301,25 @@ mod tests {
         assert!(svg.contains("\n2 others, in grey\n"), "{svg}");
         // Named in the given order.
         assert!(svg.find("\ns2\n") < svg.find("\ns7\n"));
+    }
+
+    #[test]
+    fn a_line_that_does_not_move_is_not_named_beside_lines_that_do() {
+        let labels = vec!["a".to_string(), "b".to_string()];
+        let series: Vec<TrendSeries> = vec![
+            ("flat1".to_string(), vec![Some(1.0), Some(1.0)]),
+            ("moves".to_string(), vec![Some(1.0), Some(2.0)]),
+            ("flat2".to_string(), vec![Some(3.0), Some(3.0)]),
+        ];
+        let svg = trend_svg("t", ("run", "y"), &labels, &series, &[]).unwrap();
+        assert!(svg.contains("\nmoves\n") && svg.contains("\n2 others, in grey\n"));
+        assert!(
+            !svg.contains("\nflat1\n") && !svg.contains("\nflat2\n"),
+            "{svg}"
+        );
+        // None moves: the first ones are named, as there is nothing else.
+        let svg = trend_svg("t", ("run", "y"), &labels, &series[..1], &[]).unwrap();
+        assert!(svg.contains("\nflat1\n"), "{svg}");
     }
 
     #[test]

@@ -288,22 +288,22 @@ fn roi_map_cases<'a>(
     let framed = results.iter().filter_map(|r| {
         let case = cases.get(r.case.id.as_str())?;
         let info = case.sample_frame.as_ref()?;
-        let lit = case
-            .rois
-            .iter()
-            .find(|roi| roi.kind == RoiKind::Led)
-            .map_or(0.0, |roi| roi.levels.min);
+        let lit = case.sample_frame_led_level();
         let (frame, stretch) = match (captured, &r.lit_frame) {
             (true, Some(f)) => (f, Stretch::of_frame(f)),
             _ => (r.sample_frame.as_ref()?, info.stretch),
         };
         Some((r, frame, info, stretch, lit))
     });
+    // The first of equals in plan order, whatever order the report holds
+    // its cases in (a large run's are its listed cases, worst first).
     let brightest = |framed: Vec<_>| -> Vec<_> {
         framed
             .into_iter()
-            .rev()
-            .max_by(|a: &(_, _, _, _, f64), b| a.4.total_cmp(&b.4))
+            .max_by(|a: &(&CaseResult, _, _, _, f64), b| {
+                a.4.total_cmp(&b.4)
+                    .then(b.0.case.index.cmp(&a.0.case.index))
+            })
             .into_iter()
             .collect()
     };

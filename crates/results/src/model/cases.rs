@@ -437,9 +437,9 @@ impl Cases {
 /// in memory whole. A larger one is spilled, keeping in memory the cases
 /// that can still be listed (best [`LISTED_CASES_MAX`] so far by the
 /// listing's order) or paged (best [`CASE_PAGES_MAX`] of those the detail
-/// pages), every case with a worst-phase run, and the first case with a
-/// sample frame (every one with `every_framed`: a capture's, one per file)
-/// for the report's ROI map. Of the cases in memory
+/// pages), every case with a worst-phase run, and the case whose sample
+/// frame is brightest (every one with `every_framed`: a capture's, one per
+/// file) for the report's ROI map. Of the cases in memory
 /// only those that can still get a page keep the data of their charts
 /// (their phase folds' bins): a case pushed out never comes back, since
 /// the cases kept only get worse.
@@ -520,8 +520,20 @@ impl CasesBuilder {
             if detail.shows_case(c.verdict.as_str()) {
                 paged.push(i);
             }
-            if c.sample_frame.is_some() && (self.every_framed || framed.is_empty()) {
-                framed.push(i);
+            // The ROI map's case: every framed one of a capture, else the
+            // brightest so far, the first of equals (as the figure picks).
+            if c.sample_frame.is_some() {
+                let brighter = || {
+                    framed.first().is_none_or(|b| {
+                        c.sample_frame_led_level() > resident[b].sample_frame_led_level()
+                    })
+                };
+                if self.every_framed {
+                    framed.push(i);
+                } else if brighter() {
+                    framed.clear();
+                    framed.push(i);
+                }
             }
             resident.insert(i, c);
         }

@@ -379,6 +379,16 @@ pub struct CaseInfo {
 }
 
 impl CaseInfo {
+    /// How lit the case's sample frame is, which picks the ROI map's case
+    /// of a simulated run: its first LED ROI's lowest level (the sample
+    /// frame is the darkest PWM frame), 0 without an LED ROI.
+    pub fn sample_frame_led_level(&self) -> f64 {
+        self.rois
+            .iter()
+            .find(|roi| roi.kind == RoiKind::Led)
+            .map_or(0.0, |roi| roi.levels.min)
+    }
+
     /// The LED ROI that stands for the case (the terminal summary's `roi`): the one whose checks come closest
     /// to failing, or fail worst (margins compared smallest first, so a tie on
     /// one limit is broken by the next); without checks, the one with the
