@@ -387,19 +387,24 @@ pub fn render_sample_frame(
     result: &mut CaseResult,
     backend: &dyn Backend,
 ) -> Result<(), RunError> {
-    if let Some(frame) = darkest_pwm_frame(plan, result)
-        && let Some(rendered) = backend.render_frame(&result.case, frame)
-    {
-        result.sample_frame = Some(rendered?);
-    }
     let lit = result
         .acquisition
         .capture
         .as_ref()
         .and_then(|c| c.lit_frame);
-    if let Some(lit) = lit
-        && let Some(rendered) = backend.render_frame(&result.case, lit.frame)
-    {
+    // A captured frame is a seek in its own FFmpeg process: the two run
+    // at once, which hides each one's start-up behind the other's decode.
+    let (sample, lit) = rayon::join(
+        || {
+            darkest_pwm_frame(plan, result)
+                .and_then(|frame| backend.render_frame(&result.case, frame))
+        },
+        || lit.and_then(|lit| backend.render_frame(&result.case, lit.frame)),
+    );
+    if let Some(rendered) = sample {
+        result.sample_frame = Some(rendered?);
+    }
+    if let Some(rendered) = lit {
         result.lit_frame = Some(rendered?);
     }
     Ok(())

@@ -309,28 +309,18 @@ pub fn detailed_cases(
     Some(ids)
 }
 
-/// The ROI map's cases, as the figure picks them (`document::jobs`):
-/// every capture's case with a frame, or the one case whose LED ROI is
-/// brightest in its sample frame, the first of equals in plan order.
+/// The ROI map's cases (`Cases::map_cases`): every capture's case with a
+/// frame, or the one simulated case whose LED ROI is brightest in its
+/// sample frame. The builder keeps them in memory, so no spilled case is
+/// read back.
 fn map_cases(model: &Results) -> std::collections::BTreeSet<String> {
     let each_capture = model.method.backend == crate::model::BackendName::Captured;
-    let mut ids = std::collections::BTreeSet::new();
-    let mut brightest: Option<(f64, String)> = None;
-    for c in &model.cases {
-        if c.sample_frame.is_none() {
-            continue;
-        }
-        if each_capture {
-            ids.insert(c.id.clone());
-            continue;
-        }
-        let lit = c.sample_frame_led_level();
-        if brightest.as_ref().is_none_or(|(best, _)| lit > *best) {
-            brightest = Some((lit, c.id.clone()));
-        }
-    }
-    ids.extend(brightest.map(|(_, id)| id));
-    ids
+    model
+        .cases
+        .map_cases(each_capture)
+        .into_iter()
+        .filter_map(|i| model.cases.get(i).map(|c| c.id.clone()))
+        .collect()
 }
 
 /// One case's files for traces/ and frames/.

@@ -544,7 +544,8 @@ impl Plan {
 /// says why). The capture readers, a layer above the plan, provide one
 /// (`capture::frame_size`); with it, validation checks that a captured
 /// plan's ROIs lie on every capture's frame.
-pub type FrameSize<'a> = &'a dyn Fn(&Path) -> Option<(u32, u32)>;
+/// Called from several threads at once: a plan's videos are probed together.
+pub type FrameSize<'a> = &'a (dyn Fn(&Path) -> Option<(u32, u32)> + Sync);
 
 /// Where a plan comes from.
 #[derive(Debug, Clone, PartialEq)]

@@ -268,12 +268,12 @@ fn shows_anything(frame: &crate::model::RenderedFrame) -> bool {
 }
 
 /// The cases whose frame the ROI map shows, with that frame, its view and
-/// its display stretch. Of a captured run, each capture's frame where the
-/// lamp is lit (its `lit_frame`; else its sample frame), those that show
-/// anything (else the brightest one). Of a simulated run, whose frames all
-/// show the same scene, one: the case whose sample frame (its darkest PWM
-/// frame) is brightest, so that the lamp is lit in it (a 100 % duty case
-/// is lit in every frame), the first of them in plan order.
+/// its display stretch: those of `Cases::map_cases`. Of a captured run,
+/// each capture's frame where the lamp is lit (its `lit_frame`; else its
+/// sample frame), those that show anything (else the brightest one, by the
+/// same rule). Of a simulated run, whose frames all show the same scene,
+/// the one case whose sample frame (its darkest PWM frame) is brightest,
+/// so that the lamp is lit in it.
 fn roi_map_cases<'a>(
     model: &Results,
     results: &'a [CaseResult],
@@ -285,43 +285,38 @@ fn roi_map_cases<'a>(
     Stretch,
 )> {
     let captured = model.method.backend == crate::model::BackendName::Captured;
-    let framed = results.iter().filter_map(|r| {
-        let case = cases.get(r.case.id.as_str())?;
-        let info = case.sample_frame.as_ref()?;
-        let lit = case.sample_frame_led_level();
-        let (frame, stretch) = match (captured, &r.lit_frame) {
-            (true, Some(f)) => (f, Stretch::of_frame(f)),
-            _ => (r.sample_frame.as_ref()?, info.stretch),
-        };
-        Some((r, frame, info, stretch, lit))
-    });
-    // The first of equals in plan order, whatever order the report holds
-    // its cases in (a large run's are its listed cases, worst first).
-    let brightest = |framed: Vec<_>| -> Vec<_> {
-        framed
-            .into_iter()
-            .max_by(|a: &(&CaseResult, _, _, _, f64), b| {
-                a.4.total_cmp(&b.4)
-                    .then(b.0.case.index.cmp(&a.0.case.index))
-            })
-            .into_iter()
-            .collect()
-    };
-    let framed: Vec<_> = framed.collect();
-    let framed = if captured {
-        let lit: Vec<_> = framed
-            .iter()
-            .filter(|f| shows_anything(f.1))
-            .cloned()
-            .collect();
-        if lit.is_empty() {
-            brightest(framed)
-        } else {
-            lit
+    let chosen: std::collections::BTreeSet<String> = model
+        .cases
+        .map_cases(captured)
+        .into_iter()
+        .filter_map(|i| model.cases.get(i).map(|c| c.id.clone()))
+        .collect();
+    let mut framed: Vec<_> = results
+        .iter()
+        .filter(|r| chosen.contains(&r.case.id))
+        .filter_map(|r| {
+            let case = cases.get(r.case.id.as_str())?;
+            let info = case.sample_frame.as_ref()?;
+            let (frame, stretch) = match (captured, &r.lit_frame) {
+                (true, Some(f)) => (f, Stretch::of_frame(f)),
+                _ => (r.sample_frame.as_ref()?, info.stretch),
+            };
+            Some((r, frame, info, stretch, case.sample_frame_led_level()))
+        })
+        .collect();
+    // In plan order, whatever order the report holds its cases in (a
+    // large run's are its listed cases, worst first).
+    framed.sort_by_key(|f| f.0.case.index);
+    if captured && !framed.iter().any(|f| shows_anything(f.1)) {
+        let mut brightest = crate::model::MapChoice::new(false);
+        for (k, f) in framed.iter().enumerate() {
+            brightest.offer_level(k, f.4);
         }
-    } else {
-        brightest(framed)
-    };
+        let keep = brightest.positions();
+        framed = keep.into_iter().map(|k| framed[k]).collect();
+    } else if captured {
+        framed.retain(|f| shows_anything(f.1));
+    }
     framed
         .into_iter()
         .map(|(r, f, i, s, _)| (r, f, i, s))

@@ -30,6 +30,60 @@ pub struct Cases {
     /// The cases results.json holds whole; the others are summary rows
     /// ([`super::row`]). `None`: every case whole.
     detailed: Option<Arc<std::collections::BTreeSet<String>>>,
+    /// The ROI map's cases as [`CasesBuilder`] chose them, while it saw
+    /// every case; `None` for cases that did not come through it.
+    map: Option<MapChoice>,
+}
+
+/// The cases the report's ROI map shows (docs/report.md), chosen as the
+/// cases go by in plan order: every case with a sample frame when
+/// `every_framed` (a captured run: one case per file), else the one case
+/// whose sample frame is brightest ([`CaseInfo::sample_frame_led_level`]),
+/// the first of equals. This is the one place the rule is written:
+/// [`CasesBuilder`] keeps these cases in memory, and the report's figure
+/// and its list of shown cases read the same choice ([`Cases::map_cases`]).
+#[derive(Clone, Debug)]
+pub struct MapChoice {
+    every_framed: bool,
+    /// Positions and sample-frame levels of the cases chosen so far.
+    chosen: Vec<(usize, f64)>,
+}
+
+impl MapChoice {
+    /// No case chosen yet.
+    pub fn new(every_framed: bool) -> MapChoice {
+        MapChoice {
+            every_framed,
+            chosen: Vec::new(),
+        }
+    }
+
+    /// Offers the case at position `i`, after every case before it.
+    pub fn offer(&mut self, i: usize, c: &CaseInfo) {
+        if c.sample_frame.is_some() {
+            self.offer_level(i, c.sample_frame_led_level());
+        }
+    }
+
+    /// Offers position `i` with a frame whose LED ROI's level is `level`.
+    pub fn offer_level(&mut self, i: usize, level: f64) {
+        if self.every_framed {
+            self.chosen.push((i, level));
+        } else if self.chosen.first().is_none_or(|&(_, best)| level > best) {
+            self.chosen.clear();
+            self.chosen.push((i, level));
+        }
+    }
+
+    /// Whether position `i` is chosen.
+    pub fn contains(&self, i: usize) -> bool {
+        self.chosen.iter().any(|&(k, _)| k == i)
+    }
+
+    /// The chosen positions, in plan order.
+    pub fn positions(&self) -> Vec<usize> {
+        self.chosen.iter().map(|&(k, _)| k).collect()
+    }
 }
 
 #[derive(Clone)]
@@ -179,8 +233,24 @@ impl Cases {
         }
     }
 
+    /// Positions of the ROI map's cases ([`MapChoice`]): the builder's
+    /// choice when it made one by the same rule, else chosen now, over
+    /// every case.
+    pub fn map_cases(&self, every_framed: bool) -> Vec<usize> {
+        if let Some(map) = self.map.as_ref().filter(|m| m.every_framed == every_framed) {
+            return map.positions();
+        }
+        let mut choice = MapChoice::new(every_framed);
+        for (i, c) in self.iter().enumerate() {
+            choice.offer(i, &c);
+        }
+        choice.positions()
+    }
+
     /// Every case in memory, to change: a spilled run is read back whole.
     pub fn to_mut(&mut self) -> &mut Vec<CaseInfo> {
+        // A change may move the ROI map's choice.
+        self.map = None;
         if self.is_spilled() {
             let all: Vec<CaseInfo> = self.iter().map(Cow::into_owned).collect();
             self.repr = Repr::Memory(all);
@@ -248,6 +318,7 @@ impl From<Vec<CaseInfo>> for Cases {
         Cases {
             repr: Repr::Memory(v),
             detailed: None,
+            map: None,
         }
     }
 }
@@ -445,9 +516,10 @@ impl Cases {
 /// the cases kept only get worse.
 pub struct CasesBuilder {
     detail: Detail,
-    every_framed: bool,
-    /// Positions of the cases kept for the ROI map.
-    framed: Vec<usize>,
+    /// The cases kept for the ROI map.
+    map: MapChoice,
+    /// Cases seen so far.
+    seen: usize,
     repr: Building,
 }
 
@@ -484,8 +556,8 @@ impl CasesBuilder {
         };
         Ok(CasesBuilder {
             detail,
-            every_framed,
-            framed: Vec::new(),
+            map: MapChoice::new(every_framed),
+            seen: 0,
             repr,
         })
     }
@@ -493,7 +565,11 @@ impl CasesBuilder {
     /// Appends the next cases, in order.
     pub fn extend(&mut self, cases: Vec<CaseInfo>) -> std::io::Result<()> {
         let detail = self.detail;
-        let framed = &mut self.framed;
+        let map = &mut self.map;
+        for (k, c) in cases.iter().enumerate() {
+            map.offer(self.seen + k, c);
+        }
+        self.seen += cases.len();
         let Building::Spilling {
             out,
             starts,
@@ -520,21 +596,6 @@ impl CasesBuilder {
             if detail.shows_case(c.verdict.as_str()) {
                 paged.push(i);
             }
-            // The ROI map's case: every framed one of a capture, else the
-            // brightest so far, the first of equals (as the figure picks).
-            if c.sample_frame.is_some() {
-                let brighter = || {
-                    framed.first().is_none_or(|b| {
-                        c.sample_frame_led_level() > resident[b].sample_frame_led_level()
-                    })
-                };
-                if self.every_framed {
-                    framed.push(i);
-                } else if brighter() {
-                    framed.clear();
-                    framed.push(i);
-                }
-            }
             resident.insert(i, c);
         }
         let by_rank = |&a: &usize, &b: &usize| {
@@ -550,7 +611,7 @@ impl CasesBuilder {
             if !page {
                 super::listing::drop_chart_data(c);
             }
-            page || listed.contains(i) || c.worst_phase.is_some() || framed.contains(i)
+            page || listed.contains(i) || c.worst_phase.is_some() || map.contains(*i)
         });
         Ok(())
     }
@@ -582,6 +643,7 @@ impl CasesBuilder {
         Ok(Cases {
             repr,
             detailed: None,
+            map: Some(self.map),
         })
     }
 }

@@ -61,7 +61,7 @@ pub use crate::trace::{
     SegmentMethod, SegmentsFound, StepKind, StepSource, TRACE_COLUMNS, TimestampSource,
 };
 
-pub use cases::{Cases, CasesBuilder};
+pub use cases::{Cases, CasesBuilder, MapChoice};
 
 /// Schema id of results.json.
 pub const RESULTS_SCHEMA: &str = "ledflicker.results/5";

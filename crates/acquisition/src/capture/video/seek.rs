@@ -57,6 +57,11 @@ pub(in crate::capture) fn read_frame_seeking(
         } else {
             VideoRange::Limited
         },
+        // A seek decodes a key frame's group, at most a few hundred frames,
+        // and several seeks run at once (a case's sample and lit frames,
+        // cases in parallel): frame threading would add its CPU and its
+        // start-up delay, and no pixel changes with it.
+        decoder_threads: Some(1),
         ..*opts
     };
     let trace = Decoder::start_at(path, layout, &opts, Some(at_s))?.read(

@@ -180,6 +180,9 @@ fn fits_sensor(c: &mut Checker<'_>, roi: &Roi, i: usize, cam: &CameraConfig) -> 
     ok
 }
 
+/// Captures whose frame size is read at the same time.
+const PROBED_AT_ONCE: usize = 8;
+
 /// Reports each ROI that does not lie on the frame of every capture of
 /// `cases`, whose frame sizes `read` takes from a header or a probe,
 /// never by decoding. A capture whose size cannot be read now is left to
@@ -190,13 +193,30 @@ pub(super) fn fit_captures(
     cases: &[CaptureCase],
     read: FrameSize<'_>,
 ) {
-    let mut frames: Vec<(&Path, (u32, u32), &str)> = Vec::new();
+    let mut sources: Vec<(&Path, &str)> = Vec::new();
     for case in cases {
-        if frames.iter().any(|(p, ..)| *p == case.source.as_path()) {
-            continue;
+        if !sources.iter().any(|(p, _)| *p == case.source.as_path()) {
+            sources.push((&case.source, &case.id));
         }
-        if let Some(size) = read(&case.source) {
-            frames.push((&case.source, size, &case.id));
+    }
+    // Each video's size comes from an ffprobe process: probed together,
+    // a plan of several videos waits for one probe, not one after another.
+    let mut frames: Vec<(&Path, (u32, u32), &str)> = Vec::new();
+    for group in sources.chunks(PROBED_AT_ONCE) {
+        let sizes: Vec<Option<(u32, u32)>> = std::thread::scope(|s| {
+            let probes: Vec<_> = group
+                .iter()
+                .map(|&(p, _)| s.spawn(move || read(p)))
+                .collect();
+            probes
+                .into_iter()
+                .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                .collect()
+        });
+        for (&(source, id), size) in group.iter().zip(sizes) {
+            if let Some(size) = size {
+                frames.push((source, size, id));
+            }
         }
     }
     for (i, roi) in rois.iter().enumerate() {
