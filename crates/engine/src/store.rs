@@ -28,8 +28,6 @@ use ledflicker_core::runner::{CaseReadError, CaseResult, CaseSource};
 mod record;
 mod same;
 
-use same::StoredRow;
-
 /// Schema of the store, in its `run` table under `schema`.
 pub const SCHEMA: &str = "ledflicker.store/3";
 /// The finished store's file name in a report directory.
@@ -409,72 +407,35 @@ impl Store {
             let stored = self.read_rows(chunk)?;
             // Decoded on the workers too: inflating and decoding a chunk on
             // this thread took longer than judging it.
-            let judged: Vec<(usize, Result<Encoded, String>, bool)> = stored
+            let judged: Vec<(usize, Result<Option<Encoded>, String>)> = stored
                 .into_par_iter()
                 .map(|(idx, row)| {
-                    let judged = record::decode(&row.bytes)
-                        .and_then(|case| judge(idx, case))
-                        .map(Encoded::new);
-                    // A case whose judgement gives back the very row stored
-                    // (its record, its columns and its metrics) is left in
-                    // place: written again it would be the same bytes, and
-                    // rewriting every stored case made a resumed run
-                    // slower than a fresh one.
-                    let same = matches!(&judged, Ok(Encoded(Ok(new))) if new.same_as(&row));
-                    (idx, judged, same)
+                    let judged = record::decode_plain(&row.bytes).and_then(|(case, plain)| {
+                        let judged = Row::plain(judge(idx, case)?)?;
+                        // A case whose judgement gives back the very row
+                        // stored (its record, as inflated, its columns and
+                        // its metrics) is left in place: rewriting every
+                        // stored case made a resumed run slower than a
+                        // fresh one, and deflating each judgement again
+                        // only to compare it cost as much as running it.
+                        Ok((!judged.same_as(&row, &plain)).then(|| Encoded(Ok(judged.deflated()))))
+                    });
+                    (idx, judged)
                 })
                 .collect();
-            for (idx, judged, same) in judged {
-                let encoded = judged.map_err(|message| StoreError::Record {
+            for (idx, judged) in judged {
+                let judged = judged.map_err(|message| StoreError::Record {
                     path: self.path.clone(),
                     idx,
                     message,
                 })?;
-                if !same {
+                if let Some(encoded) = judged {
                     self.write_case(idx, encoded, true)?;
                 }
             }
         }
         self.commit()?;
         Ok(positions.len())
-    }
-
-    /// The rows of the stored cases at `positions`, as stored.
-    fn read_rows(&self, positions: &[usize]) -> Result<Vec<(usize, StoredRow)>, StoreError> {
-        let sql = sqlite(&self.path);
-        let mut q = self
-            .conn
-            .prepare_cached(
-                "SELECT id, light_lux, frequency_hz, duty, verdict, result FROM cases WHERE idx = ?1",
-            )
-            .map_err(&sql)?;
-        let mut m = self
-            .conn
-            .prepare_cached("SELECT roi, metric, value FROM roi_metrics WHERE idx = ?1")
-            .map_err(&sql)?;
-        let mut out = Vec::with_capacity(positions.len());
-        for &idx in positions {
-            let mut row = q
-                .query_row(params![idx as i64], |r| {
-                    Ok(StoredRow {
-                        id: r.get("id")?,
-                        conditions: [r.get("light_lux")?, r.get("frequency_hz")?, r.get("duty")?],
-                        verdict: r.get("verdict")?,
-                        bytes: r.get("result")?,
-                        metrics: Vec::new(),
-                    })
-                })
-                .map_err(&sql)?;
-            row.metrics = m
-                .query_map(params![idx as i64], |r| {
-                    Ok((r.get("roi")?, r.get("metric")?, r.get("value")?))
-                })
-                .map_err(&sql)?
-                .collect::<Result<_, _>>()
-                .map_err(&sql)?;
-            out.push((idx, row));
-        }
-        Ok(out)
     }
 
     /// Commits what is pending: after an interruption, so that a resumed
@@ -528,12 +489,19 @@ impl Encoded {
     /// Encodes `result`: the work of storing a case that needs no
     /// database, so that a run's workers can do it in parallel.
     pub fn new(result: CaseResult) -> Encoded {
+        Encoded(Row::plain(result).map(Row::deflated))
+    }
+}
+
+impl Row {
+    /// The row of `result`, its `bytes` the record not yet deflated.
+    fn plain(result: CaseResult) -> Result<Row, String> {
         let metrics = roi_metrics(&result);
         let c = &result.case;
         let (id, light_lux, frequency_hz, duty) =
             (c.id.clone(), c.light_lux, c.frequency_hz, c.duty);
         let verdict = result.verdict.as_str();
-        Encoded(record::encode(result).map(|bytes| Row {
+        record::encode_plain(result).map(|bytes| Row {
             id,
             light_lux,
             frequency_hz,
@@ -541,7 +509,15 @@ impl Encoded {
             verdict,
             bytes,
             metrics,
-        }))
+        })
+    }
+
+    /// The row with its record deflated, as the store holds it.
+    fn deflated(self) -> Row {
+        Row {
+            bytes: record::deflate(&self.bytes),
+            ..self
+        }
     }
 }
 

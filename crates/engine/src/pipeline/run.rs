@@ -130,6 +130,7 @@ fn stage(
     let cases = plan::expand_cases(plan);
     let key = run_key(plan, run.backend, run.inputs, cases.len());
     let (mut store, done) = if run.resume {
+        let _t = ledflicker_core::timings::span("resume: partial store opened");
         Store::resume(run.dir, &key)?
     } else {
         (Store::create(run.dir, &key)?, Default::default())
@@ -190,6 +191,7 @@ fn stage(
             stored: stored && store.close().is_ok(),
         });
     }
+    let _t = ledflicker_core::timings::span("case store finished");
     let path = store.finish()?;
     Ok(StoredCases::open(&path)?)
 }

@@ -32,7 +32,14 @@ struct Record {
 }
 
 /// Encodes `result` as the store's `result` column.
+#[cfg(test)]
 pub(super) fn encode(result: CaseResult) -> Result<Vec<u8>, String> {
+    encode_plain(result).map(|plain| deflate(&plain))
+}
+
+/// The record of `result` before it is deflated: what [`decode_plain`]
+/// gives back of a stored record.
+pub(super) fn encode_plain(result: CaseResult) -> Result<Vec<u8>, String> {
     let mut case = ShardCase::from_result(result);
     let acquisition = &mut case.result.acquisition;
     let frames = std::mem::take(&mut acquisition.frames);
@@ -51,7 +58,12 @@ pub(super) fn encode(result: CaseResult) -> Result<Vec<u8>, String> {
     };
     let mut bytes = Vec::new();
     ciborium::into_writer(&record, &mut bytes).map_err(|e| format!("cannot encode: {e}"))?;
-    Ok(miniz_oxide::deflate::compress_to_vec(&bytes, DEFLATE_LEVEL))
+    Ok(bytes)
+}
+
+/// A plain record ([`encode_plain`]) as the `result` column holds it.
+pub(super) fn deflate(plain: &[u8]) -> Vec<u8> {
+    miniz_oxide::deflate::compress_to_vec(plain, DEFLATE_LEVEL)
 }
 
 /// The deflate level of a record. A simulated trace repeats a few values
@@ -68,10 +80,20 @@ const INFLATED_MAX: usize = 1 << 30;
 
 /// Decodes the store's `result` column.
 pub(super) fn decode(bytes: &[u8]) -> Result<CaseResult, String> {
+    decode_plain(bytes).map(|(result, _)| result)
+}
+
+/// Decodes the store's `result` column, with the plain record it inflated
+/// to.
+pub(super) fn decode_plain(bytes: &[u8]) -> Result<(CaseResult, Vec<u8>), String> {
     let bytes = miniz_oxide::inflate::decompress_to_vec_with_limit(bytes, INFLATED_MAX)
         .map_err(|e| format!("cannot inflate: {e}"))?;
-    let record: Record =
-        ciborium::from_reader(bytes.as_slice()).map_err(|e| format!("cannot decode: {e}"))?;
+    let result = decode_record(&bytes)?;
+    Ok((result, bytes))
+}
+
+fn decode_record(bytes: &[u8]) -> Result<CaseResult, String> {
+    let record: Record = ciborium::from_reader(bytes).map_err(|e| format!("cannot decode: {e}"))?;
     let Record {
         mut case,
         time_s,
