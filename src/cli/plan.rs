@@ -150,8 +150,10 @@ fn run_and_report(
         Ok(outcome) => Ok(outcome),
         Err(PlanRunError::Stopped(run)) => {
             let (error, kept) = run.keep_for_resume();
-            if let Some(kept) = kept {
-                say_kept(&kept, args, out);
+            match (kept, error.store_refused()) {
+                (Some(kept), Some(refused)) => say_refused(&kept, refused, args),
+                (Some(kept), None) => say_kept(&kept, args, out),
+                (None, _) => {}
             }
             Err(error.into())
         }
@@ -408,6 +410,22 @@ fn say_kept(kept: &Path, args: &PlanArgs, out: &Path) {
         kept.display(),
         args.plan,
         out.display()
+    );
+}
+
+/// Where the cases of a store that `--resume` refused are kept, and what
+/// to do instead: resuming it again would fail the same way.
+fn say_refused(kept: &Path, refused: &crate::store::StoreError, args: &PlanArgs) {
+    let what = match refused {
+        crate::store::StoreError::Mismatch { .. } => {
+            "they are another run's (below): resume them with the plan that made them, or"
+        }
+        _ => "one cannot be read (below):",
+    };
+    eprintln!(
+        "the stored cases are left as they were in `{}`; {what} run `ledflicker plan {}` without `--resume` to start afresh",
+        kept.display(),
+        args.plan,
     );
 }
 

@@ -219,6 +219,13 @@ fn resume_refuses_another_plan_and_a_directory_with_nothing_to_resume() {
         "{}",
         stderr(&o)
     );
+    // Resuming again with this plan would fail the same way: the advice
+    // is to use the plan that made the store, or start afresh.
+    assert!(
+        stderr(&o).contains("another run's") && !stderr(&o).contains("continue the run with"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// A simulated sweep of 40 small cases whose report stage (the PDF) is

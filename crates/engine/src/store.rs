@@ -69,6 +69,15 @@ CREATE TABLE roi_metrics (
 ) WITHOUT ROWID;
 ";
 
+/// A case of a store, as an error names it: by its id where known, and
+/// its position in the plan's case order (from 0).
+fn case_name(idx: usize, id: &str) -> String {
+    match id {
+        "" => format!("at position {idx}"),
+        id => format!("`{id}` (position {idx})"),
+    }
+}
+
 /// What identifies a run: a store is resumed only by a run of the same
 /// plan, inputs, tool and backend.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -112,12 +121,14 @@ pub enum StoreError {
         source: rusqlite::Error,
     },
     /// A case could not be encoded or decoded.
-    #[error("case store `{}`: case {idx}: {message}", path.display())]
+    #[error("case store `{}`: case {}: {message}", path.display(), case_name(*idx, id))]
     Record {
         /// The store file.
         path: PathBuf,
         /// The case's index.
         idx: usize,
+        /// The case's id, where the store names it (else empty).
+        id: String,
         /// What is wrong.
         message: String,
     },
@@ -217,6 +228,16 @@ impl Store {
                 });
             }
         }
+        // Metric rows of no stored case (a case row deleted by hand) are
+        // no case's data; left in place, they would collide with that
+        // case's metrics when it is run, and every resume would fail.
+        store
+            .conn
+            .execute(
+                "DELETE FROM roi_metrics WHERE idx NOT IN (SELECT idx FROM cases)",
+                [],
+            )
+            .map_err(sqlite(&store.path))?;
         let done = store.positions()?;
         Ok((store, done))
     }
@@ -343,6 +364,7 @@ impl Store {
         let row = case.0.map_err(|message| StoreError::Record {
             path: self.path.clone(),
             idx,
+            id: String::new(),
             message,
         })?;
         let sql = sqlite(&self.path);
@@ -407,7 +429,7 @@ impl Store {
             let stored = self.read_rows(chunk)?;
             // Decoded on the workers too: inflating and decoding a chunk on
             // this thread took longer than judging it.
-            let judged: Vec<(usize, Result<Option<Encoded>, String>)> = stored
+            let judged: Vec<(usize, String, Result<Option<Encoded>, String>)> = stored
                 .into_par_iter()
                 .map(|(idx, row)| {
                     let judged = record::decode_plain(&row.bytes).and_then(|(case, plain)| {
@@ -420,13 +442,14 @@ impl Store {
                         // only to compare it cost as much as running it.
                         Ok((!judged.same_as(&row, &plain)).then(|| Encoded(Ok(judged.deflated()))))
                     });
-                    (idx, judged)
+                    (idx, row.id, judged)
                 })
                 .collect();
-            for (idx, judged) in judged {
+            for (idx, id, judged) in judged {
                 let judged = judged.map_err(|message| StoreError::Record {
                     path: self.path.clone(),
                     idx,
+                    id,
                     message,
                 })?;
                 if let Some(encoded) = judged {
@@ -678,12 +701,14 @@ impl StoredCases {
                 return Err(StoreError::Record {
                     path: path.to_path_buf(),
                     idx: want,
+                    id: String::new(),
                     message: "missing".to_string(),
                 });
             }
             let case = record::decode(&bytes).map_err(|message| StoreError::Record {
                 path: path.to_path_buf(),
                 idx: want,
+                id: String::new(),
                 message,
             })?;
             cases.push(case);
@@ -692,6 +717,7 @@ impl StoredCases {
             return Err(StoreError::Record {
                 path: path.to_path_buf(),
                 idx: range.start + cases.len(),
+                id: String::new(),
                 message: "missing".to_string(),
             });
         }

@@ -354,6 +354,7 @@ fn tool_failures() -> Vec<(Failure, i32)> {
             crate::store::StoreError::Record {
                 path: path(),
                 idx: 3,
+                id: String::new(),
                 message: "cannot decode".into(),
             }
             .into(),

@@ -73,6 +73,20 @@ pub enum RunStageError {
     },
 }
 
+impl RunStageError {
+    /// Why another `--resume` of the same store would fail the same way:
+    /// the store is another run's, or holds a case that cannot be read.
+    pub fn store_refused(&self) -> Option<&StoreError> {
+        match self {
+            RunStageError::Store(e @ (StoreError::Mismatch { .. } | StoreError::Record { .. })) => {
+                Some(e)
+            }
+            RunStageError::Store(_) | RunStageError::Run(_) => None,
+            RunStageError::Cases { source, .. } => source.store_refused(),
+        }
+    }
+}
+
 /// A stopped run stage, and whether its store holds cases worth resuming.
 #[derive(Debug)]
 pub struct Stopped {

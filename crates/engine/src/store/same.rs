@@ -63,22 +63,39 @@ impl Store {
                  WHERE idx BETWEEN ?1 AND ?2 ORDER BY idx",
             )
             .map_err(&sql)?;
-        let mut out: Vec<(usize, StoredRow)> = q
+        // The record is read as any value, so that one stored as another
+        // type (text, a number) is named with its case, not as a column.
+        let rows: Vec<(usize, StoredRow, Option<Vec<u8>>)> = q
             .query_map(span, |r| {
+                let bytes = match r.get_ref("result")? {
+                    rusqlite::types::ValueRef::Blob(b) => Some(b.to_vec()),
+                    _ => None,
+                };
                 Ok((
                     r.get::<_, i64>("idx")? as usize,
                     StoredRow {
                         id: r.get("id")?,
                         conditions: [r.get("light_lux")?, r.get("frequency_hz")?, r.get("duty")?],
                         verdict: r.get("verdict")?,
-                        bytes: r.get("result")?,
+                        bytes: Vec::new(),
                         metrics: Vec::new(),
                     },
+                    bytes,
                 ))
             })
             .map_err(&sql)?
             .collect::<Result<_, _>>()
             .map_err(&sql)?;
+        let mut out = Vec::with_capacity(rows.len());
+        for (idx, mut row, bytes) in rows {
+            row.bytes = bytes.ok_or_else(|| StoreError::Record {
+                path: self.path.clone(),
+                idx,
+                id: row.id.clone(),
+                message: "its record (the `result` column) is not a BLOB".to_string(),
+            })?;
+            out.push((idx, row));
+        }
         let mut m = self
             .conn
             .prepare_cached(

@@ -235,3 +235,53 @@ fn a_case_that_fails_halfway_is_not_stored_in_part() {
     let (_, done) = Store::resume(dir.path(), &key()).unwrap();
     assert_eq!(done.into_iter().collect::<Vec<_>>(), [0]);
 }
+
+#[test]
+fn a_case_row_deleted_by_hand_is_run_again_and_a_record_of_another_type_is_named() {
+    let plan = ledflicker_core::plan::find_and_load("daylight").unwrap();
+    let cases = ledflicker_core::plan::expand_cases(&plan);
+    let results = results();
+    let dir = tempfile::tempdir().unwrap();
+    let mut store = Store::create(dir.path(), &key()).unwrap();
+    for (i, r) in results.iter().enumerate() {
+        store.put(i, r.clone()).unwrap();
+    }
+    store.close().unwrap();
+    // Case 1's row deleted, its metric rows left behind, as a client that
+    // does not enforce foreign keys (sqlite3's default) leaves them.
+    let conn = Connection::open(dir.path().join(PARTIAL)).unwrap();
+    conn.execute_batch("PRAGMA foreign_keys = OFF; DELETE FROM cases WHERE idx = 1")
+        .unwrap();
+    drop(conn);
+    let (mut store, done) = Store::resume(dir.path(), &key()).unwrap();
+    assert_eq!(done.into_iter().collect::<Vec<_>>(), [0, 2]);
+    let judge = |i: usize, mut stored: CaseResult| {
+        stored.case = cases[i].clone();
+        crate::shard::check::evaluate_again(&plan, stored)
+    };
+    assert_eq!(store.rejudge(&judge).unwrap(), 2);
+    // The case is run again: its metric rows no longer collide.
+    store.put(1, results[1].clone()).unwrap();
+    assert_eq!(read_cases(&store.finish().unwrap()).unwrap(), results);
+
+    // A record stored as text is named by its case.
+    let dir = tempfile::tempdir().unwrap();
+    let mut store = Store::create(dir.path(), &key()).unwrap();
+    for (i, r) in results.iter().enumerate() {
+        store.put(i, r.clone()).unwrap();
+    }
+    store.close().unwrap();
+    let conn = Connection::open(dir.path().join(PARTIAL)).unwrap();
+    conn.execute("UPDATE cases SET result = 'hello' WHERE idx = 2", [])
+        .unwrap();
+    drop(conn);
+    let (mut store, _) = Store::resume(dir.path(), &key()).unwrap();
+    let e = store.rejudge(&judge).err().unwrap();
+    assert!(matches!(e, StoreError::Record { idx: 2, .. }), "{e:?}");
+    let message = e.to_string();
+    assert!(
+        message.contains(&format!("`{}` (position 2)", results[2].case.id))
+            && message.contains("not a BLOB"),
+        "{message}"
+    );
+}
