@@ -11,6 +11,17 @@ fn results() -> Vec<CaseResult> {
     results
 }
 
+/// A partial store (a run stopped) holding every case of `results`.
+fn partial_store_of(results: &[CaseResult]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let mut store = Store::create(dir.path(), &key()).unwrap();
+    for (i, r) in results.iter().enumerate() {
+        store.put(i, r.clone()).unwrap();
+    }
+    store.close().unwrap();
+    dir
+}
+
 fn key() -> RunKey {
     RunKey {
         plan_id: "daylight".into(),
@@ -171,12 +182,7 @@ fn a_resumed_store_leaves_a_case_judged_as_stored_in_place_and_rewrites_a_forged
     let plan = ledflicker_core::plan::find_and_load("daylight").unwrap();
     let cases = ledflicker_core::plan::expand_cases(&plan);
     let results = results();
-    let dir = tempfile::tempdir().unwrap();
-    let mut store = Store::create(dir.path(), &key()).unwrap();
-    for (i, r) in results.iter().enumerate() {
-        store.put(i, r.clone()).unwrap();
-    }
-    store.close().unwrap();
+    let dir = partial_store_of(&results);
     // The record kept, the verdict column of case 1 edited.
     let conn = Connection::open(dir.path().join(PARTIAL)).unwrap();
     conn.execute("UPDATE cases SET verdict = 'forged' WHERE idx = 1", [])
@@ -241,12 +247,7 @@ fn a_case_row_deleted_by_hand_is_run_again_and_a_record_of_another_type_is_named
     let plan = ledflicker_core::plan::find_and_load("daylight").unwrap();
     let cases = ledflicker_core::plan::expand_cases(&plan);
     let results = results();
-    let dir = tempfile::tempdir().unwrap();
-    let mut store = Store::create(dir.path(), &key()).unwrap();
-    for (i, r) in results.iter().enumerate() {
-        store.put(i, r.clone()).unwrap();
-    }
-    store.close().unwrap();
+    let dir = partial_store_of(&results);
     // Case 1's row deleted, its metric rows left behind, as a client that
     // does not enforce foreign keys (sqlite3's default) leaves them.
     let conn = Connection::open(dir.path().join(PARTIAL)).unwrap();
@@ -265,12 +266,7 @@ fn a_case_row_deleted_by_hand_is_run_again_and_a_record_of_another_type_is_named
     assert_eq!(read_cases(&store.finish().unwrap()).unwrap(), results);
 
     // A record stored as text is named by its case.
-    let dir = tempfile::tempdir().unwrap();
-    let mut store = Store::create(dir.path(), &key()).unwrap();
-    for (i, r) in results.iter().enumerate() {
-        store.put(i, r.clone()).unwrap();
-    }
-    store.close().unwrap();
+    let dir = partial_store_of(&results);
     let conn = Connection::open(dir.path().join(PARTIAL)).unwrap();
     conn.execute("UPDATE cases SET result = 'hello' WHERE idx = 2", [])
         .unwrap();
