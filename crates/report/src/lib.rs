@@ -313,7 +313,7 @@ pub fn detailed_cases(
 /// frame, or the one simulated case whose LED ROI is brightest in its
 /// sample frame. The builder keeps them in memory, so no spilled case is
 /// read back.
-fn map_cases(model: &Results) -> std::collections::BTreeSet<String> {
+pub(crate) fn map_cases(model: &Results) -> std::collections::BTreeSet<String> {
     let each_capture = model.method.backend == crate::model::BackendName::Captured;
     model
         .cases

@@ -268,7 +268,7 @@ fn shows_anything(frame: &crate::model::RenderedFrame) -> bool {
 }
 
 /// The cases whose frame the ROI map shows, with that frame, its view and
-/// its display stretch: those of `Cases::map_cases`. Of a captured run,
+/// its display stretch: those of [`crate::map_cases`]. Of a captured run,
 /// each capture's frame where the lamp is lit (its `lit_frame`; else its
 /// sample frame), those that show anything (else the brightest one, by the
 /// same rule). Of a simulated run, whose frames all show the same scene,
@@ -285,12 +285,7 @@ fn roi_map_cases<'a>(
     Stretch,
 )> {
     let captured = model.method.backend == crate::model::BackendName::Captured;
-    let chosen: std::collections::BTreeSet<String> = model
-        .cases
-        .map_cases(captured)
-        .into_iter()
-        .filter_map(|i| model.cases.get(i).map(|c| c.id.clone()))
-        .collect();
+    let chosen = crate::map_cases(model);
     let mut framed: Vec<_> = results
         .iter()
         .filter(|r| chosen.contains(&r.case.id))
