@@ -58,8 +58,27 @@ fn a_spilled_model_writes_what_the_same_model_in_memory_writes() {
     assert!(resident < results.len() / 2, "{resident} cases in memory");
 
     // What results.json says of every case, and what is computed from all
-    // of them.
-    assert_eq!(json(&spilled.cases), json(&memory.cases));
+    // of them. The banding KPIs of a case are worked out only if the report
+    // can detail it, so only the cases in memory have them.
+    let held: std::collections::BTreeSet<&str> =
+        spilled.cases.resident().map(|c| c.id.as_str()).collect();
+    let listed = listing(&spilled, Detail::Standard).listed;
+    assert!(listed.iter().all(|id| held.contains(id.as_str())));
+    assert_eq!(spilled.cases.len(), memory.cases.len());
+    let mut unbanded = 0;
+    for (a, b) in spilled.cases.iter().zip(memory.cases.iter()) {
+        let mut b = b.into_owned();
+        assert!(b.banding.is_some(), "{}: a rolling shutter's KPIs", b.id);
+        if !held.contains(b.id.as_str()) {
+            b.banding = None;
+            unbanded += 1;
+        }
+        assert_eq!(json(&a), json(&b));
+    }
+    assert!(
+        unbanded > results.len() / 2,
+        "{unbanded} cases left unbanded"
+    );
     assert_eq!(json(&spilled.counts), json(&memory.counts));
     assert_eq!(spilled.verdict, memory.verdict);
     assert_eq!(json(&spilled.conditions), json(&memory.conditions));

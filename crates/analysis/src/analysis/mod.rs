@@ -214,20 +214,19 @@ pub struct CaseAnalysis {
 /// whose PWM frequency is unknown (0) takes its apparent frequency from the
 /// spectrum of its LED trace.
 pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
+    let mut a = analyse_case_deferred(plan, r);
+    a.banding = case_banding(plan, r.case.frequency_hz, r.case.duty);
+    a
+}
+
+/// [`analyse_case`] without the banding KPIs (`banding` is `None`): the
+/// band estimator fits every row of the sensor, the costliest analysis of
+/// a simulated case, and a large run lists only some of its cases, so
+/// their KPIs come later, from [`case_banding`].
+pub fn analyse_case_deferred(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
     let cam: &CameraConfig = &plan.dut.camera;
-    // The PWM the trace was made with: the simulator drives the LED off
-    // its own clock (`pwm-clock-offset-ppm`) with its first rising edge
-    // at `pwm-delay-ms`; a capture's PWM is the case's frequency, at a
-    // phase nobody knows.
+    let (f, delay_s) = case_pwm(plan, r.case.frequency_hz);
     let simulated = plan.dut.backend == BackendKind::Simulator;
-    let (f, delay_s) = if simulated {
-        (
-            r.case.frequency_hz * (1.0 + plan.scene.pwm_clock_offset_ppm * 1e-6),
-            cam.pwm_delay_s,
-        )
-    } else {
-        (r.case.frequency_hz, 0.0)
-    };
     let known = (f > 0.0).then_some(f);
     let shutter = cam.exposure_timing();
     let pwm_frames: Vec<usize> = r
@@ -295,9 +294,6 @@ pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
         .map(|a| a.hazard_class)
         .max()
         .unwrap_or(HazardClass::Steady);
-    let banding = PwmDrive::new(f, r.case.duty, cam.pwm_delay_s)
-        .ok()
-        .and_then(|pwm| banding::banding(&shutter, &pwm, cam.sensor_rows));
     let (fps, capture_s) = (sampling.fps(), sampling.capture_s());
     let mut beat = match known {
         Some(f) => apparent::beat(f, fps, capture_s),
@@ -320,11 +316,37 @@ pub fn analyse_case(plan: &Plan, r: &CaseResult) -> CaseAnalysis {
         beat,
         hazard_class,
         drive: drive::drive_flicker(f, r.case.duty),
-        banding,
+        banding: None,
         rois,
         timing,
         worst_phase: worst_phase::worst_phase_run(plan, r),
     }
+}
+
+/// The PWM frequency and first rising edge (seconds) that a case of
+/// `frequency_hz` was made with: the simulator drives the LED off its own
+/// clock (`pwm-clock-offset-ppm`) with its first rising edge at
+/// `pwm-delay-ms`; a capture's PWM is the case's frequency, at a phase
+/// nobody knows.
+fn case_pwm(plan: &Plan, frequency_hz: f64) -> (f64, f64) {
+    if plan.dut.backend == BackendKind::Simulator {
+        (
+            frequency_hz * (1.0 + plan.scene.pwm_clock_offset_ppm * 1e-6),
+            plan.dut.camera.pwm_delay_s,
+        )
+    } else {
+        (frequency_hz, 0.0)
+    }
+}
+
+/// The banding KPIs of a case of `frequency_hz` and `duty` (rolling
+/// shutter only), as [`analyse_case`] gives them.
+pub fn case_banding(plan: &Plan, frequency_hz: f64, duty: f64) -> Option<Banding> {
+    let cam = &plan.dut.camera;
+    let (f, _) = case_pwm(plan, frequency_hz);
+    PwmDrive::new(f, duty, cam.pwm_delay_s)
+        .ok()
+        .and_then(|pwm| banding::banding(&cam.exposure_timing(), &pwm, cam.sensor_rows))
 }
 
 /// How a capture's frame times were used, for the beat's note: the rate

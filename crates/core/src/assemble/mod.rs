@@ -138,7 +138,14 @@ fn build(
                 }
                 cases.extend(infos).map_err(spill_error)
             })?;
-            cases.finish().map_err(spill_error)
+            let mut cases = cases.finish().map_err(spill_error)?;
+            // Banding KPIs are read only from the cases a report details,
+            // which are all among those held in memory.
+            let held: Vec<&mut CaseInfo> = cases.resident_mut().collect();
+            held.into_par_iter().for_each(|c| {
+                c.banding = analysis::case_banding(plan, c.frequency_hz, c.duty);
+            });
+            Ok::<_, CaseReadError>(cases)
         },
         || {
             rayon::join(
@@ -206,7 +213,7 @@ fn analysed_case(plan: &Plan, r: &CaseResult) -> CaseInfo {
             .as_ref()
             .map(|f| frame::sample_frame_info(&r.case.id, f, &plan.rois))
     };
-    let (mut a, sample_frame) = rayon::join(|| analysis::analyse_case(plan, r), frame);
+    let (mut a, sample_frame) = rayon::join(|| analysis::analyse_case_deferred(plan, r), frame);
     let rois = roi_infos(plan, r, std::mem::take(&mut a.rois));
     let mut case = case_info(plan, r, a, sample_frame, rois);
     if let Some(s) = &r.acquisition.capture {
