@@ -29,7 +29,7 @@ mod record;
 mod same;
 
 /// Schema of the store, in its `run` table under `schema`.
-pub const SCHEMA: &str = "ledflicker.store/3";
+pub const SCHEMA: &str = "ledflicker.store/4";
 /// The finished store's file name in a report directory.
 pub const FILE: &str = "cases.sqlite";
 /// The store's file name while its run works.

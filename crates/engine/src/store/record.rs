@@ -2,19 +2,20 @@
 //! per-frame data packed in columns, deflated (docs/store.md, "The case
 //! record").
 //!
-//! A case's frames and luma traces are most of its bytes. As CBOR structs
-//! each frame repeats its three field names and each double is tried at
-//! half and single width before it is written; packed, a frame is nine
-//! bytes of time and segment and a luma value is eight, copied. The store
-//! encodes every case of a run and the report stage decodes each several
-//! times, so for small cases this is most of what the store costs.
+//! A case's frames, luma traces and rendered frames are most of its bytes.
+//! As CBOR structs each frame repeats its three field names, each run of a
+//! rendered frame its two, and each double is tried at half and single
+//! width before it is written; packed, a frame is nine bytes of time and
+//! segment, a luma value eight and a run twelve, copied. The store encodes
+//! every case of a run and the report stage (and a resume) decodes each,
+//! so for small cases this is most of what the store costs.
 
 use serde::de::{self, Deserializer, Visitor};
 use serde::{Deserialize, Serialize, Serializer};
 
 use crate::shard::record::ShardCase;
 use ledflicker_core::runner::CaseResult;
-use ledflicker_core::trace::{FrameInfo, Segment};
+use ledflicker_core::trace::{FrameInfo, RenderedFrame, Run, Segment};
 
 /// A case as the store holds it.
 #[derive(Serialize, Deserialize)]
@@ -29,6 +30,85 @@ struct Record {
     index: Option<Vec<u64>>,
     /// Each ROI's luma, in ROI order.
     luma: Vec<Doubles>,
+    /// The sample frame.
+    sample_frame: Option<Frame>,
+    /// The lit frame of a captured case.
+    lit_frame: Option<Frame>,
+}
+
+/// A rendered frame, its runs packed.
+#[derive(Serialize, Deserialize)]
+struct Frame {
+    index: u64,
+    width: u32,
+    full_scale_dn: f64,
+    /// Runs in each row, top to bottom: a little-endian u32 each.
+    row_runs: Bytes,
+    /// Every run, row by row, left to right: its pixels (a little-endian
+    /// u32), then its value (a little-endian double).
+    runs: Bytes,
+}
+
+/// Bytes of one packed run.
+const RUN_BYTES: usize = 12;
+
+impl Frame {
+    fn pack(frame: &RenderedFrame) -> Frame {
+        let mut row_runs = Vec::with_capacity(4 * frame.height as usize);
+        let mut runs = Vec::new();
+        for y in 0..frame.height {
+            let row = frame.runs(y);
+            row_runs.extend_from_slice(&(row.len() as u32).to_le_bytes());
+            for r in row {
+                runs.extend_from_slice(&r.len.to_le_bytes());
+                runs.extend_from_slice(&r.value.to_le_bytes());
+            }
+        }
+        Frame {
+            index: frame.index,
+            width: frame.width,
+            full_scale_dn: frame.full_scale_dn,
+            row_runs: Bytes(row_runs),
+            runs: Bytes(runs),
+        }
+    }
+
+    fn unpack(self) -> Result<RenderedFrame, String> {
+        let counts = self.row_runs.0.chunks_exact(4);
+        if !counts.remainder().is_empty() {
+            return Err(format!(
+                "cannot decode: a frame's run counts take {} bytes, not a multiple of 4",
+                self.row_runs.0.len()
+            ));
+        }
+        let counts: Vec<usize> = counts.map(|b| le_u32(b) as usize).collect();
+        let total = counts.iter().try_fold(0usize, |a, &n| a.checked_add(n));
+        if total.and_then(|n| n.checked_mul(RUN_BYTES)) != Some(self.runs.0.len()) {
+            return Err(format!(
+                "cannot decode: a frame's rows hold {} runs but its runs take {} bytes",
+                total.map_or_else(|| "too many".to_string(), |n| n.to_string()),
+                self.runs.0.len()
+            ));
+        }
+        let mut packed = self.runs.0.chunks_exact(RUN_BYTES).map(|b| Run {
+            len: le_u32(&b[..4]),
+            value: f64::from_le_bytes(b[4..].try_into().unwrap_or_default()),
+        });
+        let rows = counts
+            .iter()
+            .map(|&n| packed.by_ref().take(n).collect())
+            .collect();
+        Ok(RenderedFrame::from_runs(
+            self.index,
+            self.width,
+            self.full_scale_dn,
+            rows,
+        ))
+    }
+}
+
+fn le_u32(b: &[u8]) -> u32 {
+    u32::from_le_bytes(b.try_into().unwrap_or_default())
 }
 
 /// Encodes `result` as the store's `result` column.
@@ -41,6 +121,8 @@ pub(super) fn encode(result: CaseResult) -> Result<Vec<u8>, String> {
 /// gives back of a stored record.
 pub(super) fn encode_plain(result: CaseResult) -> Result<Vec<u8>, String> {
     let mut case = ShardCase::from_result(result);
+    let sample_frame = case.result.sample_frame.take().map(|f| Frame::pack(&f));
+    let lit_frame = case.result.lit_frame.take().map(|f| Frame::pack(&f));
     let acquisition = &mut case.result.acquisition;
     let frames = std::mem::take(&mut acquisition.frames);
     let numbered = frames.iter().zip(0u64..).all(|(f, i)| f.index == i);
@@ -55,6 +137,8 @@ pub(super) fn encode_plain(result: CaseResult) -> Result<Vec<u8>, String> {
         index: (!numbered).then(|| frames.iter().map(|f| f.index).collect()),
         luma,
         case,
+        sample_frame,
+        lit_frame,
     };
     let mut bytes = Vec::new();
     ciborium::into_writer(&record, &mut bytes).map_err(|e| format!("cannot encode: {e}"))?;
@@ -100,6 +184,8 @@ fn decode_record(bytes: &[u8]) -> Result<CaseResult, String> {
         segments,
         index,
         luma,
+        sample_frame,
+        lit_frame,
     } = record;
     let n = time_s.0.len();
     if segments.0.len() != n || index.as_ref().is_some_and(|i| i.len() != n) {
@@ -132,6 +218,8 @@ fn decode_record(bytes: &[u8]) -> Result<CaseResult, String> {
     for (roi, luma) in acquisition.rois.iter_mut().zip(luma) {
         roi.luma = luma.0;
     }
+    case.result.sample_frame = sample_frame.map(Frame::unpack).transpose()?;
+    case.result.lit_frame = lit_frame.map(Frame::unpack).transpose()?;
     Ok(case.into_result())
 }
 
@@ -268,6 +356,80 @@ mod tests {
             }
             assert_eq!(format!("{:?}", case.metrics), format!("{:?}", back.metrics));
         }
+    }
+
+    /// A frame with an empty row, runs past its width, NaN and signed
+    /// zeros: every run of every row comes back bit for bit.
+    fn odd_frame(index: u64) -> RenderedFrame {
+        let run = |len, value| Run { len, value };
+        let rows = vec![
+            vec![run(3, -0.0), run(u32::MAX, f64::NAN)],
+            vec![],
+            vec![
+                run(1, f64::MIN_POSITIVE / 3.0),
+                run(2, 255.0),
+                run(9, 1e300),
+            ],
+        ];
+        RenderedFrame::from_runs(index, 6, 4095.0, rows)
+    }
+
+    fn runs_bits(f: &RenderedFrame) -> Vec<Vec<(u32, u64)>> {
+        (0..f.height)
+            .map(|y| {
+                f.runs(y)
+                    .iter()
+                    .map(|r| (r.len, r.value.to_bits()))
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_record_gives_back_its_rendered_frames_run_for_run() {
+        let mut case = odd_case();
+        case.sample_frame = Some(odd_frame(41));
+        case.lit_frame = Some(odd_frame(u64::MAX));
+        let back = decode(&encode(case.clone()).unwrap()).unwrap();
+        for (a, b) in [
+            (&case.sample_frame, &back.sample_frame),
+            (&case.lit_frame, &back.lit_frame),
+        ] {
+            let (a, b) = (a.as_ref().unwrap(), b.as_ref().unwrap());
+            assert_eq!((a.index, a.width, a.height), (b.index, b.width, b.height));
+            assert_eq!(a.full_scale_dn.to_bits(), b.full_scale_dn.to_bits());
+            assert_eq!(runs_bits(a), runs_bits(b));
+        }
+        case.lit_frame = None;
+        let back = decode(&encode(case).unwrap()).unwrap();
+        assert!(back.sample_frame.is_some() && back.lit_frame.is_none());
+    }
+
+    #[test]
+    fn a_frame_whose_runs_do_not_match_its_rows_is_an_error() {
+        let mut case = odd_case();
+        case.sample_frame = Some(odd_frame(0));
+        let cbor = miniz_oxide::inflate::decompress_to_vec(&encode(case).unwrap()).unwrap();
+        let record: Record = ciborium::from_reader(cbor.as_slice()).unwrap();
+        let frame = record.sample_frame.as_ref().unwrap();
+        assert_eq!(frame.runs.0.len(), 5 * RUN_BYTES);
+        let damaged = |edit: &dyn Fn(&mut Frame)| {
+            let mut record: Record = ciborium::from_reader(cbor.as_slice()).unwrap();
+            edit(record.sample_frame.as_mut().unwrap());
+            let mut bytes = Vec::new();
+            ciborium::into_writer(&record, &mut bytes).unwrap();
+            decode(&deflate(&bytes)).unwrap_err()
+        };
+        let e = damaged(&|f| {
+            f.runs.0.pop();
+        });
+        assert!(e.contains("5 runs but its runs take 59 bytes"), "{e}");
+        let e = damaged(&|f| f.row_runs.0[0] = 9);
+        assert!(e.contains("12 runs"), "{e}");
+        let e = damaged(&|f| f.row_runs.0.truncate(5));
+        assert!(e.contains("not a multiple of 4"), "{e}");
+        let e = damaged(&|f| f.row_runs.0[..4].copy_from_slice(&u32::MAX.to_le_bytes()));
+        assert!(e.contains("runs take 60 bytes"), "{e}");
     }
 
     #[test]
