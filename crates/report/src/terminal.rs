@@ -114,59 +114,69 @@ pub fn overall_line(model: &Results) -> String {
 /// sweep's table belongs in summary.csv and the report, not the terminal.
 pub const LISTED_CASES: usize = 50;
 
-/// The cases the table lists: all of them up to [`LISTED_CASES`] (or with
-/// `all`); else the failing ones, at most [`LISTED_CASES`], and how many
-/// are left out.
-fn listed(model: &Results, all: bool) -> (Vec<Cow<'_, crate::model::CaseInfo>>, usize) {
-    if all || model.cases.len() <= LISTED_CASES {
-        return (model.cases.iter().collect(), 0);
+/// What the table takes from the cases, in one pass over them (a large
+/// run reads its cases back from its spill file for each pass): the cases
+/// it lists (all of them up to [`LISTED_CASES`], or with `all`; else the
+/// failing ones, at most [`LISTED_CASES`]), how many are left out, the
+/// widths of the id and ROI columns, and whether any case is a capture
+/// with detected segments or has colour figures.
+struct Listed<'a> {
+    cases: Vec<Cow<'a, crate::model::CaseInfo>>,
+    left_out: usize,
+    id_w: usize,
+    roi_w: usize,
+    detected: bool,
+    coloured: bool,
+}
+
+/// `*` marks a captured case whose segments were detected from the luma.
+fn detected(c: &crate::model::CaseInfo) -> bool {
+    c.capture
+        .as_ref()
+        .is_some_and(|s| s.segments.method == SegmentMethod::Detected)
+}
+
+fn listed(model: &Results, all: bool) -> Listed<'_> {
+    let every = all || model.cases.len() <= LISTED_CASES;
+    let mut l = Listed {
+        cases: Vec::new(),
+        left_out: 0,
+        id_w: 4,
+        roi_w: 3,
+        detected: false,
+        coloured: false,
+    };
+    for c in model.cases.iter() {
+        l.id_w = l.id_w.max(c.id.len());
+        l.roi_w = (c.rois.iter().map(|r| r.name.len())).fold(l.roi_w, usize::max);
+        l.detected |= detected(&c);
+        l.coloured |= (c.rois.iter()).any(|r| r.metrics.contains_key(COLOUR_COLUMN.1));
+        if every || (c.verdict == Verdict::Fail && l.cases.len() < LISTED_CASES) {
+            l.cases.push(c);
+        }
     }
-    let shown: Vec<_> = model
-        .cases
-        .iter()
-        .filter(|c| c.verdict == Verdict::Fail)
-        .take(LISTED_CASES)
-        .collect();
-    let left = model.cases.len() - shown.len();
-    (shown, left)
+    l.left_out = model.cases.len() - l.cases.len();
+    l
 }
 
 /// The whole summary: table, legend, overall line, basis and report paths.
 /// A run of more than [`LISTED_CASES`] cases lists its failing cases only
 /// (at most that many), unless `all`.
 pub fn summary(model: &Results, out: &Path, all: bool) -> String {
-    let (cases, left_out) = listed(model, all);
-    let id_w = model
-        .cases
-        .iter()
-        .map(|c| c.id.len())
-        .max()
-        .unwrap_or(4)
-        .max(4);
-    let roi_w = model
-        .cases
-        .iter()
-        .filter_map(|c| c.rois.iter().map(|r| r.name.len()).max())
-        .max()
-        .unwrap_or(3)
-        .max(3);
-    // `*` marks a captured case whose segments were detected from the luma.
-    let detected = |c: &crate::model::CaseInfo| {
-        c.capture
-            .as_ref()
-            .is_some_and(|s| s.segments.method == SegmentMethod::Detected)
-    };
-    let id_w = id_w + usize::from(model.cases.iter().any(|c| detected(&c)));
+    let Listed {
+        cases,
+        left_out,
+        id_w,
+        roi_w,
+        detected: any_detected,
+        coloured,
+    } = listed(model, all);
+    let id_w = id_w + usize::from(any_detected);
     let mut s = String::new();
     let _ = write!(s, "{:<id_w$}  {:<7}  {:<roi_w$}", "case", "verdict", "roi");
     // The visibility column appears with `[display]` only, so a plan
     // without a monitor prints the table it always did.
     let visibility = model.display.is_some().then_some(VISIBILITY_COLUMN);
-    let coloured = model.cases.iter().any(|c| {
-        c.rois
-            .iter()
-            .any(|r| r.metrics.contains_key(COLOUR_COLUMN.1))
-    });
     let colour = coloured.then_some(COLOUR_COLUMN);
     let columns: Vec<(&str, &str, usize)> = COLUMNS
         .into_iter()
