@@ -35,6 +35,7 @@
 use std::ops::Range;
 
 use super::pwm::{PwmDrive, wrap_unit};
+use super::remainder::rem;
 use super::shutter::Shutter;
 
 /// Frames per chunk: large enough to amortise the per-row set-up, small
@@ -207,7 +208,7 @@ impl Batch<'_> {
             }
             None => {
                 for (i, w) in whole.iter_mut().enumerate() {
-                    *w = (((first + i as u64) as f64 * f) % fps) / fps;
+                    *w = rem((first + i as u64) as f64 * f, fps) / fps;
                 }
             }
         }
@@ -221,9 +222,9 @@ impl Batch<'_> {
         let f = self.pwm.frequency_hz();
         let fps = self.shutter.fps;
         let mut chains = [0.0; LANES];
-        for (j, rem) in chains.iter_mut().enumerate() {
+        for (j, chain) in chains.iter_mut().enumerate() {
             // Frames past the range are stepped but never read.
-            *rem = ((start + j as u64) as f64 * f) % fps;
+            *chain = rem((start + j as u64) as f64 * f, fps);
         }
         let mut whole = [0.0f64; CHUNK];
         for (c, acc) in out.chunks_mut(CHUNK).enumerate() {

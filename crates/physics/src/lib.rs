@@ -14,6 +14,7 @@ pub mod envelope;
 pub mod extremes;
 pub mod hdr;
 pub mod pwm;
+pub mod remainder;
 pub mod sensor;
 pub mod shutter;
 

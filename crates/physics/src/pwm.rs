@@ -63,8 +63,8 @@ impl PwmDrive {
     pub fn phase_at(&self, frame: u64, fps: f64, offset_s: f64) -> f64 {
         let f = self.frequency_hz;
         // (frame * f) is exact while it stays below 2^53 for integer-valued
-        // f; `%` on f64 is the exact IEEE remainder.
-        let whole = ((frame as f64 * f) % fps) / fps;
+        // f; `rem` is the exact IEEE remainder.
+        let whole = crate::remainder::rem(frame as f64 * f, fps) / fps;
         let rest = (offset_s - self.first_rise_s) * f;
         wrap_unit(whole + wrap_unit(rest))
     }

@@ -10,6 +10,7 @@
 pub use ledflicker_results::analysis::phase_fold::PhaseCoverage;
 
 use ledflicker_physics::pwm::wrap_unit;
+use ledflicker_physics::remainder::rem;
 
 /// Bins of the phase circle. With an exposure of `w` PWM cycles the ROI
 /// mean changes by at most `2 / w` of its range per cycle, so a sample
@@ -60,7 +61,7 @@ pub fn fold_times(
 }
 
 fn frame_phase(n: u64, frequency_hz: f64, fps: f64, offset: f64) -> f64 {
-    wrap_unit(((n as f64 * frequency_hz) % fps) / fps + offset)
+    wrap_unit(rem(n as f64 * frequency_hz, fps) / fps + offset)
 }
 
 fn bin_of(phase: f64, bins: usize) -> usize {
@@ -90,7 +91,7 @@ pub fn frames_to_cover(
     for n in 0..max_frames {
         // f / fps = p / n exactly: frame n repeats frame 0's phase, and so
         // does every later frame repeat an earlier one. Nothing new will come.
-        if n > 0 && (n as f64 * frequency_hz) % fps == 0.0 {
+        if n > 0 && rem(n as f64 * frequency_hz, fps) == 0.0 {
             return None;
         }
         let b = bin_of(frame_phase(n, frequency_hz, fps, phase0), bins);
