@@ -150,14 +150,10 @@ fn stage(
         (Store::create(run.dir, &key)?, Default::default())
     };
     if run.resume {
-        // The stored cases are data: each is judged again from its
-        // acquisition, as the plan's own case at its position.
-        let judge = |idx: usize, mut stored: CaseResult| {
-            let case = cases.get(idx).ok_or_else(|| {
-                format!("position {idx} is beyond the plan's {} cases", cases.len())
-            })?;
-            stored.case = case.clone();
-            crate::shard::check::evaluate_again(plan, stored)
+        // The stored cases are data: each is checked as the plan's own case
+        // at its position and judged again from its acquisition.
+        let judge = |idx: usize, stored: CaseResult| {
+            crate::shard::check::stored_case(plan, &cases, idx, stored)
         };
         let t = ledflicker_core::timings::span("resume: stored cases judged again");
         let kept = store.rejudge(&judge)?;

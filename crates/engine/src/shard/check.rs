@@ -13,7 +13,7 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 
 use super::ShardSpec;
-use super::record::{self, ShardCase};
+use super::record;
 use ledflicker_core::backend::sim::Simulator;
 use ledflicker_core::backend::{Acquisition, Backend, BackendError, RenderedFrame};
 use ledflicker_core::error::UsageError;
@@ -60,17 +60,49 @@ pub fn shard_cases(
             };
             let fail =
                 |why: String| UsageError(format!("`{}`, {name}: {why}{hint}", path.display()));
-            check_case(plan, all, &c).map_err(fail)?;
+            check_case(plan, all, &c.result, Pictures::Shard).map_err(fail)?;
             evaluate_again(plan, c.result).map_err(fail)
         })
         .collect()
 }
 
-/// Everything of one case that `merge` keeps as data, checked: it is a
-/// case of this plan, with the plan's ROIs, and frames, traces and picture
-/// that this plan's backend can have produced.
-fn check_case(plan: &Plan, all: &[TestCase], c: &ShardCase) -> Result<(), String> {
-    let r = &c.result;
+/// A case of a partial store, for `plan --resume`: checked as `merge`
+/// checks a shard's case, with the pictures a plan run renders, then
+/// evaluated again. `idx` is its position in the store.
+pub fn stored_case(
+    plan: &Plan,
+    all: &[TestCase],
+    idx: usize,
+    stored: CaseResult,
+) -> Result<CaseResult, String> {
+    if stored.case.index != idx {
+        return Err(format!(
+            "stored at position {idx}, it holds the plan's case {} (`{}`)",
+            stored.case.index, stored.case.id
+        ));
+    }
+    check_case(plan, all, &stored, Pictures::Run)?;
+    evaluate_again(plan, stored)
+}
+
+/// The pictures a case can hold: a shard's (`plan --shard` renders the
+/// simulator's sample frame only) or a plan run's (the sample frame wherever
+/// the backend can render it, and a capture's lit frame).
+#[derive(Clone, Copy)]
+enum Pictures {
+    Shard,
+    Run,
+}
+
+/// Everything of one case that `merge` or a resume keeps as data, checked:
+/// it is a case of this plan, with the plan's ROIs, and frames, traces and
+/// pictures that this plan's backend can have produced.
+fn check_case(
+    plan: &Plan,
+    all: &[TestCase],
+    r: &CaseResult,
+    pictures: Pictures,
+) -> Result<(), String> {
     let i = r.case.index;
     let want = all
         .get(i)
@@ -97,17 +129,72 @@ fn check_case(plan: &Plan, all: &[TestCase], c: &ShardCase) -> Result<(), String
         BackendKind::Simulator => check_simulated(plan, r)?,
         BackendKind::Captured | BackendKind::Command => check_captured(plan, r)?,
     }
-    // `plan` renders the darkest PWM frame wherever the backend can: the
-    // simulator always can, the others never.
+    match pictures {
+        Pictures::Shard => check_shard_pictures(plan, r),
+        Pictures::Run => check_run_pictures(plan, r),
+    }
+}
+
+fn frame_name(f: Option<u64>) -> String {
+    f.map_or("none".to_string(), |k| format!("frame {k}"))
+}
+
+/// `plan --shard` renders the darkest PWM frame of a simulated case, and
+/// no picture of a capture or a rig.
+fn check_shard_pictures(plan: &Plan, r: &CaseResult) -> Result<(), String> {
     let darkest = runner::darkest_pwm_frame(plan, r);
     let rendered = r.sample_frame.as_ref().map(|f| f.index);
     let expected = darkest.filter(|_| plan.dut.backend == BackendKind::Simulator);
-    if rendered != expected {
-        let frame = |f: Option<u64>| f.map_or("none".to_string(), |k| format!("frame {k}"));
+    if rendered != expected || r.lit_frame.is_some() {
         return Err(format!(
-            "the sample frame is {}, but `plan` renders {} (the darkest PWM frame of the LED ROI, simulated cases only)",
-            frame(rendered),
-            frame(expected)
+            "the sample frame is {}, but `plan` renders {} (the darkest PWM frame of the LED ROI, simulated cases only), and no lit frame",
+            frame_name(rendered),
+            frame_name(expected)
+        ));
+    }
+    Ok(())
+}
+
+/// A plan run renders the darkest PWM frame of the first LED ROI wherever
+/// its backend can (the simulator always; its size is the camera's,
+/// checked with the simulated data), and a capture's lit frame, the frame
+/// its capture summary names. A picture of a capture or a rig is whole, and
+/// a case's two pictures are the same size.
+fn check_run_pictures(plan: &Plan, r: &CaseResult) -> Result<(), String> {
+    let simulated = plan.dut.backend == BackendKind::Simulator;
+    let darkest = runner::darkest_pwm_frame(plan, r);
+    let rendered = r.sample_frame.as_ref().map(|f| f.index);
+    if (rendered.is_some() || simulated) && rendered != darkest {
+        return Err(format!(
+            "the sample frame is {}, but `plan` renders {} (the darkest PWM frame of the LED ROI)",
+            frame_name(rendered),
+            frame_name(darkest)
+        ));
+    }
+    let named = (r.acquisition.capture.as_ref())
+        .and_then(|c| c.lit_frame)
+        .map(|l| l.frame);
+    let lit = r.lit_frame.as_ref().map(|f| f.index);
+    if lit.is_some() && lit != named {
+        return Err(format!(
+            "the lit frame is {}, but the capture summary names {}",
+            frame_name(lit),
+            frame_name(named)
+        ));
+    }
+    if simulated {
+        return Ok(());
+    }
+    let pictures = [("sample", &r.sample_frame), ("lit", &r.lit_frame)];
+    for (what, f) in pictures.iter().filter_map(|(w, f)| Some((w, f.as_ref()?))) {
+        check_picture(f, what, f.width, f.height, f.full_scale_dn)?;
+    }
+    if let (Some(a), Some(b)) = (&r.sample_frame, &r.lit_frame)
+        && (a.width, a.height, a.full_scale_dn) != (b.width, b.height, b.full_scale_dn)
+    {
+        return Err(format!(
+            "the sample frame is {} x {} px at full scale {} DN, the lit frame {} x {} px at {} DN",
+            a.width, a.height, a.full_scale_dn, b.width, b.height, b.full_scale_dn
         ));
     }
     Ok(())
@@ -233,35 +320,48 @@ fn check_simulated(plan: &Plan, r: &CaseResult) -> Result<(), String> {
         ));
     }
     if let Some(f) = &r.sample_frame {
-        check_picture(f, cam.sensor_columns, cam.sensor_rows, cam.full_scale_dn)?;
+        check_picture(
+            f,
+            "sample",
+            cam.sensor_columns,
+            cam.sensor_rows,
+            cam.full_scale_dn,
+        )?;
     }
     Ok(())
 }
 
-/// A whole picture of `width` x `height` finite pixels at full scale
-/// `full_scale_dn`.
+/// A whole picture (the `what` frame) of `width` x `height` finite pixels
+/// at full scale `full_scale_dn`, every row as wide as the frame.
 fn check_picture(
     f: &RenderedFrame,
+    what: &str,
     width: u32,
     height: u32,
     full_scale_dn: f64,
 ) -> Result<(), String> {
     if (f.width, f.height) != (width, height) || f.full_scale_dn != full_scale_dn {
         return Err(format!(
-            "the sample frame is {} x {} px at full scale {} DN, the plan's camera {width} x {height} px at {full_scale_dn} DN",
+            "the {what} frame is {} x {} px at full scale {} DN, the plan's camera {width} x {height} px at {full_scale_dn} DN",
             f.width, f.height, f.full_scale_dn
         ));
     }
+    if !(full_scale_dn.is_finite() && full_scale_dn > 0.0) {
+        return Err(format!(
+            "the {what} frame's full scale {full_scale_dn} DN is not a positive number"
+        ));
+    }
     for y in 0..f.height {
-        let mut pixels = 0u64;
-        let mut finite = true;
-        f.for_each_run(y, |value, len| {
-            pixels += len;
-            finite &= value.is_finite();
-        });
-        if !finite || pixels != u64::from(width) {
+        let runs = f.runs(y);
+        let pixels: u64 = runs.iter().map(|r| u64::from(r.len)).sum();
+        if pixels != u64::from(width) {
             return Err(format!(
-                "row {y} of the sample frame has pixels that are not finite numbers"
+                "row {y} of the {what} frame holds {pixels} pixels, not its width {width}"
+            ));
+        }
+        if runs.iter().any(|r| r.len > 0 && !r.value.is_finite()) {
+            return Err(format!(
+                "row {y} of the {what} frame has pixels that are not finite numbers"
             ));
         }
     }

@@ -195,11 +195,19 @@ fn decode_record(bytes: &[u8]) -> Result<CaseResult, String> {
         ));
     }
     let acquisition = &mut case.result.acquisition;
-    if luma.len() != acquisition.rois.len() || luma.iter().any(|l| l.0.len() != n) {
+    if luma.len() != acquisition.rois.len() {
         return Err(format!(
-            "cannot decode: {} luma traces for {} ROIs of {n} frames",
+            "cannot decode: {} luma traces for {} ROIs",
             luma.len(),
             acquisition.rois.len()
+        ));
+    }
+    let mut rois = acquisition.rois.iter().zip(&luma);
+    if let Some((roi, l)) = rois.find(|(_, l)| l.0.len() != n) {
+        return Err(format!(
+            "cannot decode: the luma trace of ROI `{}` holds {} values for {n} frames",
+            roi.name,
+            l.0.len()
         ));
     }
     acquisition.frames = time_s
@@ -452,5 +460,16 @@ mod tests {
         let short = miniz_oxide::deflate::compress_to_vec(&short, DEFLATE_LEVEL);
         let e = decode(&short).unwrap_err();
         assert!(e.contains("segments"), "{e}");
+        let mut record: Record = ciborium::from_reader(cbor.as_slice()).unwrap();
+        record.luma[1].0.pop();
+        let mut cut = Vec::new();
+        ciborium::into_writer(&record, &mut cut).unwrap();
+        let e = decode(&deflate(&cut)).unwrap_err();
+        let (roi, n) = (&odd_case().acquisition.rois[1].name, record.time_s.0.len());
+        let want = format!(
+            "the luma trace of ROI `{roi}` holds {} values for {n} frames",
+            n - 1
+        );
+        assert!(e.contains(&want), "{e}");
     }
 }

@@ -281,3 +281,69 @@ fn a_case_row_deleted_by_hand_is_run_again_and_a_record_of_another_type_is_named
         "{message}"
     );
 }
+
+/// `frame` with row 0's last run one pixel shorter.
+fn short_row(
+    frame: &ledflicker_core::trace::RenderedFrame,
+) -> ledflicker_core::trace::RenderedFrame {
+    let mut rows: Vec<Vec<_>> = (0..frame.height).map(|y| frame.runs(y).to_vec()).collect();
+    rows[0].last_mut().unwrap().len -= 1;
+    ledflicker_core::trace::RenderedFrame::from_runs(
+        frame.index,
+        frame.width,
+        frame.full_scale_dn,
+        rows,
+    )
+}
+
+#[test]
+fn a_resume_refuses_a_stored_picture_the_run_cannot_have_made_and_a_case_at_another_position() {
+    let plan = ledflicker_core::plan::find_and_load("daylight").unwrap();
+    let cases = ledflicker_core::plan::expand_cases(&plan);
+    let results = results();
+    let judge =
+        |i: usize, stored: CaseResult| crate::shard::check::stored_case(&plan, &cases, i, stored);
+    let genuine = results[0].clone();
+    let frame = genuine.sample_frame.clone().unwrap();
+    assert!(judge(0, genuine.clone()).is_ok());
+
+    let mut forged = genuine.clone();
+    forged.sample_frame = Some(short_row(&frame));
+    let e = judge(0, forged).unwrap_err();
+    assert!(
+        e.contains("row 0 of the sample frame holds 1279 pixels, not its width 1280"),
+        "{e}"
+    );
+
+    let mut forged = genuine.clone();
+    let mut other = frame.clone();
+    other.index += 1;
+    forged.sample_frame = Some(other);
+    let e = judge(0, forged).unwrap_err();
+    assert!(
+        e.contains(&format!("the sample frame is frame {}", frame.index + 1)),
+        "{e}"
+    );
+
+    let mut forged = genuine.clone();
+    forged.lit_frame = Some(frame.clone());
+    let e = judge(0, forged).unwrap_err();
+    assert!(e.contains("the lit frame is frame"), "{e}");
+
+    let e = judge(1, genuine.clone()).unwrap_err();
+    assert!(
+        e.contains("stored at position 1, it holds the plan's case 0"),
+        "{e}"
+    );
+
+    // Through the store: the resume stops, naming the case.
+    let mut forged = genuine;
+    forged.sample_frame = Some(short_row(&frame));
+    let dir = partial_store_of(&[forged]);
+    let (mut store, _) = Store::resume(dir.path(), &key()).unwrap();
+    let e = store.rejudge(&judge).unwrap_err().to_string();
+    assert!(
+        e.contains(&results[0].case.id) && e.contains("1279 pixels"),
+        "{e}"
+    );
+}
