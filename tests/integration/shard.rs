@@ -203,6 +203,19 @@ fn captured_plan_shards_by_capture_and_merges_byte_for_byte() {
     assert_eq!(ran, [0, 1, 2]);
 }
 
+/// Video captures carry a sample frame and a lit frame each, rendered in
+/// the shards as in a single run; the merge checks them and keeps them.
+#[test]
+fn the_p2020_video_plan_in_three_shards_merges_to_the_single_run_byte_for_byte() {
+    let dir = scratch("shard-p2020");
+    single_and_merged("test-plans/p2020-samples.toml", 3, root(), &dir, &[]);
+    for f in ["frames/test_vid1.png", "frames/test_vid1-view.png"] {
+        let (a, b) = (dir.join("single").join(f), dir.join("merged").join(f));
+        assert!(a.is_file(), "{f}");
+        assert_eq!(std::fs::read(a).unwrap(), std::fs::read(b).unwrap(), "{f}");
+    }
+}
+
 /// Three shards of the small plan, for the refusal tests.
 fn three_shards(name: &str) -> (PathBuf, Vec<PathBuf>) {
     let dir = scratch(name);

@@ -16,6 +16,7 @@ use super::ShardSpec;
 use super::record;
 use ledflicker_core::backend::sim::Simulator;
 use ledflicker_core::backend::{Acquisition, Backend, BackendError, RenderedFrame};
+use ledflicker_core::capture;
 use ledflicker_core::error::UsageError;
 use ledflicker_core::metrics::flicker::Segment;
 use ledflicker_core::plan::{BackendKind, Plan, TestCase};
@@ -60,15 +61,14 @@ pub fn shard_cases(
             };
             let fail =
                 |why: String| UsageError(format!("`{}`, {name}: {why}{hint}", path.display()));
-            check_case(plan, all, &c.result, Pictures::Shard).map_err(fail)?;
+            check_case(plan, all, &c.result).map_err(fail)?;
             evaluate_again(plan, c.result).map_err(fail)
         })
         .collect()
 }
 
 /// A case of a partial store, for `plan --resume`: checked as `merge`
-/// checks a shard's case, with the pictures a plan run renders, then
-/// evaluated again. `idx` is its position in the store.
+/// checks a shard's case, then evaluated again. `idx` is its position in the store.
 pub fn stored_case(
     plan: &Plan,
     all: &[TestCase],
@@ -81,28 +81,14 @@ pub fn stored_case(
             stored.case.index, stored.case.id
         ));
     }
-    check_case(plan, all, &stored, Pictures::Run)?;
+    check_case(plan, all, &stored)?;
     evaluate_again(plan, stored)
-}
-
-/// The pictures a case can hold: a shard's (`plan --shard` renders the
-/// simulator's sample frame only) or a plan run's (the sample frame wherever
-/// the backend can render it, and a capture's lit frame).
-#[derive(Clone, Copy)]
-enum Pictures {
-    Shard,
-    Run,
 }
 
 /// Everything of one case that `merge` or a resume keeps as data, checked:
 /// it is a case of this plan, with the plan's ROIs, and frames, traces and
 /// pictures that this plan's backend can have produced.
-fn check_case(
-    plan: &Plan,
-    all: &[TestCase],
-    r: &CaseResult,
-    pictures: Pictures,
-) -> Result<(), String> {
+fn check_case(plan: &Plan, all: &[TestCase], r: &CaseResult) -> Result<(), String> {
     let i = r.case.index;
     let want = all
         .get(i)
@@ -129,65 +115,56 @@ fn check_case(
         BackendKind::Simulator => check_simulated(plan, r)?,
         BackendKind::Captured | BackendKind::Command => check_captured(plan, r)?,
     }
-    match pictures {
-        Pictures::Shard => check_shard_pictures(plan, r),
-        Pictures::Run => check_run_pictures(plan, r),
-    }
+    check_pictures(plan, r)
 }
 
 fn frame_name(f: Option<u64>) -> String {
     f.map_or("none".to_string(), |k| format!("frame {k}"))
 }
 
-/// `plan --shard` renders the darkest PWM frame of a simulated case, and
-/// no picture of a capture or a rig.
-fn check_shard_pictures(plan: &Plan, r: &CaseResult) -> Result<(), String> {
-    let darkest = runner::darkest_pwm_frame(plan, r);
-    let rendered = r.sample_frame.as_ref().map(|f| f.index);
-    let expected = darkest.filter(|_| plan.dut.backend == BackendKind::Simulator);
-    if rendered != expected || r.lit_frame.is_some() {
-        return Err(format!(
-            "the sample frame is {}, but `plan` renders {} (the darkest PWM frame of the LED ROI, simulated cases only), and no lit frame",
-            frame_name(rendered),
-            frame_name(expected)
-        ));
+/// A run (whole or a shard) renders the darkest PWM frame of the first LED
+/// ROI wherever its backend can render a frame: the simulator always (of
+/// the camera's size, checked with the simulated data), a capture but for
+/// a CSV trace, a rig never. It renders a capture's lit frame, the frame
+/// its capture summary names, the same way. A picture of a capture is
+/// whole, and a case's two pictures are the same size.
+fn check_pictures(plan: &Plan, r: &CaseResult) -> Result<(), String> {
+    let capture = r.acquisition.capture.as_ref();
+    let renders = match plan.dut.backend {
+        BackendKind::Simulator => true,
+        BackendKind::Captured => capture.is_some_and(|c| {
+            capture::source_kind(Path::new(&c.source)) != capture::SourceKind::Csv
+        }),
+        BackendKind::Command => false,
+    };
+    let (sample, lit) = match renders {
+        true => (
+            runner::darkest_pwm_frame(plan, r),
+            capture.and_then(|c| c.lit_frame).map(|l| l.frame),
+        ),
+        false => (None, None),
+    };
+    let pictures = [
+        ("sample", &r.sample_frame, sample),
+        ("lit", &r.lit_frame, lit),
+    ];
+    for (what, picture, expected) in pictures {
+        let held = picture.as_ref().map(|f| f.index);
+        if held != expected {
+            return Err(format!(
+                "the {what} frame is {}, but `plan` renders {} (the darkest PWM frame of the LED ROI, and a capture's lit frame, where the backend renders frames)",
+                frame_name(held),
+                frame_name(expected)
+            ));
+        }
     }
-    Ok(())
-}
-
-/// A plan run renders the darkest PWM frame of the first LED ROI wherever
-/// its backend can (the simulator always; its size is the camera's,
-/// checked with the simulated data), and a capture's lit frame, the frame
-/// its capture summary names. A picture of a capture or a rig is whole, and
-/// a case's two pictures are the same size.
-fn check_run_pictures(plan: &Plan, r: &CaseResult) -> Result<(), String> {
-    let simulated = plan.dut.backend == BackendKind::Simulator;
-    let darkest = runner::darkest_pwm_frame(plan, r);
-    let rendered = r.sample_frame.as_ref().map(|f| f.index);
-    if (rendered.is_some() || simulated) && rendered != darkest {
-        return Err(format!(
-            "the sample frame is {}, but `plan` renders {} (the darkest PWM frame of the LED ROI)",
-            frame_name(rendered),
-            frame_name(darkest)
-        ));
-    }
-    let named = (r.acquisition.capture.as_ref())
-        .and_then(|c| c.lit_frame)
-        .map(|l| l.frame);
-    let lit = r.lit_frame.as_ref().map(|f| f.index);
-    if lit.is_some() && lit != named {
-        return Err(format!(
-            "the lit frame is {}, but the capture summary names {}",
-            frame_name(lit),
-            frame_name(named)
-        ));
-    }
-    if simulated {
+    if plan.dut.backend == BackendKind::Simulator {
         return Ok(());
     }
-    let pictures = [("sample", &r.sample_frame), ("lit", &r.lit_frame)];
-    for (what, f) in pictures.iter().filter_map(|(w, f)| Some((w, f.as_ref()?))) {
-        check_picture(f, what, f.width, f.height, f.full_scale_dn)?;
+    for (what, picture, _) in pictures {
+        if let Some(f) = picture {
+            check_picture(f, what, f.width, f.height, f.full_scale_dn)?;
+        }
     }
     if let (Some(a), Some(b)) = (&r.sample_frame, &r.lit_frame)
         && (a.width, a.height, a.full_scale_dn) != (b.width, b.height, b.full_scale_dn)
