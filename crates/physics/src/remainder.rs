@@ -71,21 +71,7 @@ fn split(a: f64) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A small, seeded generator (xorshift64*), so that a failure repeats.
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> u64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-        }
-        fn unit(&mut self) -> f64 {
-            (self.next() >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
+    use crate::sensor::Rng;
 
     fn same(x: f64, y: f64) {
         let (a, b) = (rem(x, y), x % y);
@@ -97,20 +83,20 @@ mod tests {
 
     #[test]
     fn frame_phases_match_fmod_bit_for_bit() {
-        let mut rng = Rng(0x5eed);
+        let mut rng = Rng::new(0x5eed);
         for _ in 0..300_000 {
             // Frame n of a capture at fps, a PWM of f Hz: the phases the
             // analyses form, at the frequencies and rates plans use.
-            let n = rng.next() % 200_000;
-            let f = 10.0 + rng.unit() * 20_000.0;
+            let n = rng.next_u64() % 200_000;
+            let f = 10.0 + rng.uniform() * 20_000.0;
             let fps = [
                 24.0,
                 29.97,
                 30.0,
                 60.0,
                 1000.0 / 33.0,
-                5.0 + rng.unit() * 995.0,
-            ][(rng.next() % 6) as usize];
+                5.0 + rng.uniform() * 995.0,
+            ][(rng.next_u64() % 6) as usize];
             same(n as f64 * f, fps);
             same(n as f64 * f.round(), fps);
         }
@@ -118,13 +104,13 @@ mod tests {
 
     #[test]
     fn near_multiples_signs_and_specials_match_fmod() {
-        let mut rng = Rng(42);
+        let mut rng = Rng::new(42);
         for _ in 0..300_000 {
             // x a few ulps either side of a multiple of y: where the
             // division rounds across a whole number.
-            let y = (rng.unit() - 0.5) * 2f64.powi((rng.next() % 80) as i32 - 40);
-            let k = (rng.next() % (1 << 40)) as f64;
-            let ulps = (rng.next() % 9) as i64 - 4;
+            let y = (rng.uniform() - 0.5) * 2f64.powi((rng.next_u64() % 80) as i32 - 40);
+            let k = (rng.next_u64() % (1 << 40)) as f64;
+            let ulps = (rng.next_u64() % 9) as i64 - 4;
             let x = f64::from_bits(((k * y).abs().to_bits() as i64 + ulps) as u64);
             same(x, y);
             same(-x, y);
