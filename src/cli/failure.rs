@@ -331,12 +331,16 @@ fn run_stage(e: &crate::pipeline::RunStageError) -> ExitCode {
     }
 }
 
+/// A store that is another run's, or holds a case that cannot be read or
+/// checked, is input the run refuses, as `merge` refuses such a shard.
 fn store(e: &crate::store::StoreError) -> ExitCode {
     match e {
-        crate::store::StoreError::Mismatch { .. } => ExitCode::Invalid,
-        crate::store::StoreError::Sqlite { .. }
-        | crate::store::StoreError::Record { .. }
-        | crate::store::StoreError::Io { .. } => ExitCode::Internal,
+        crate::store::StoreError::Mismatch { .. } | crate::store::StoreError::Record { .. } => {
+            ExitCode::Invalid
+        }
+        crate::store::StoreError::Sqlite { .. } | crate::store::StoreError::Io { .. } => {
+            ExitCode::Internal
+        }
     }
 }
 

@@ -358,7 +358,7 @@ fn tool_failures() -> Vec<(Failure, i32)> {
                 message: "cannot decode".into(),
             }
             .into(),
-            3,
+            2,
         ),
         (
             crate::pipeline::RunStageError::Cases {

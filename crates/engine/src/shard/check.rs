@@ -145,14 +145,24 @@ fn check_pictures(plan: &Plan, r: &CaseResult) -> Result<(), String> {
         false => (None, None),
     };
     let pictures = [
-        ("sample", &r.sample_frame, sample),
-        ("lit", &r.lit_frame, lit),
+        (
+            "sample",
+            &r.sample_frame,
+            sample,
+            "the darkest PWM frame of the LED ROI",
+        ),
+        (
+            "lit",
+            &r.lit_frame,
+            lit,
+            "the frame the capture summary names",
+        ),
     ];
-    for (what, picture, expected) in pictures {
+    for (what, picture, expected, rule) in pictures {
         let held = picture.as_ref().map(|f| f.index);
         if held != expected {
             return Err(format!(
-                "the {what} frame is {}, but `plan` renders {} (the darkest PWM frame of the LED ROI, and a capture's lit frame, where the backend renders frames)",
+                "the {what} frame is {}, but `plan` renders {} ({rule}, where the backend renders frames)",
                 frame_name(held),
                 frame_name(expected)
             ));
@@ -161,7 +171,7 @@ fn check_pictures(plan: &Plan, r: &CaseResult) -> Result<(), String> {
     if plan.dut.backend == BackendKind::Simulator {
         return Ok(());
     }
-    for (what, picture, _) in pictures {
+    for (what, picture, _, _) in pictures {
         if let Some(f) = picture {
             check_picture(f, what, f.width, f.height, f.full_scale_dn)?;
         }
