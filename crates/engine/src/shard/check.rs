@@ -68,7 +68,8 @@ pub fn shard_cases(
 }
 
 /// A case of a partial store, for `plan --resume`: checked as `merge`
-/// checks a shard's case, then evaluated again. `idx` is its position in the store.
+/// checks a shard's case, then evaluated again. `idx` is its position in
+/// the store.
 pub fn stored_case(
     plan: &Plan,
     all: &[TestCase],
@@ -137,12 +138,13 @@ fn check_pictures(plan: &Plan, r: &CaseResult) -> Result<(), String> {
         }),
         BackendKind::Command => false,
     };
-    let (sample, lit) = match renders {
-        true => (
+    let (sample, lit) = if renders {
+        (
             runner::darkest_pwm_frame(plan, r),
             capture.and_then(|c| c.lit_frame).map(|l| l.frame),
-        ),
-        false => (None, None),
+        )
+    } else {
+        (None, None)
     };
     let pictures = [
         (
