@@ -135,10 +135,12 @@ fn a_resumed_store_judges_its_cases_again_so_a_forged_verdict_does_not_survive()
         .iter()
         .position(|c| c.id == "2000lux-90hz-50pct")
         .unwrap();
-    let genuine =
+    // As the run stores it: with its sample frame.
+    let mut genuine =
         ledflicker_core::runner::run(&plan, &cases[idx..=idx], &backend, Some(1), &|_| {})
             .unwrap()
             .remove(0);
+    ledflicker_core::runner::render_sample_frame(&plan, &mut genuine, &backend).unwrap();
     assert_eq!(
         genuine.verdict,
         ledflicker_core::metrics::verdict::Verdict::Pass
@@ -157,10 +159,8 @@ fn a_resumed_store_judges_its_cases_again_so_a_forged_verdict_does_not_survive()
     store.close().unwrap();
     let (mut store, done) = Store::resume(dir.path(), &key()).unwrap();
     assert_eq!(done.into_iter().collect::<Vec<_>>(), [idx]);
-    let judge = |i: usize, mut stored: CaseResult| {
-        stored.case = cases[i].clone();
-        crate::shard::check::evaluate_again(&plan, stored)
-    };
+    let judge =
+        |i: usize, stored: CaseResult| crate::shard::check::stored_case(&plan, &cases, i, stored);
     assert_eq!(store.rejudge(&judge).unwrap(), 1);
     let back = record::decode(&store.read_rows(&[idx]).unwrap().remove(0).1.bytes).unwrap();
     assert_eq!(back.verdict, genuine.verdict);
@@ -190,10 +190,8 @@ fn a_resumed_store_leaves_a_case_judged_as_stored_in_place_and_rewrites_a_forged
     drop(conn);
     let (mut store, _) = Store::resume(dir.path(), &key()).unwrap();
     let before = store.conn.total_changes();
-    let judge = |i: usize, mut stored: CaseResult| {
-        stored.case = cases[i].clone();
-        crate::shard::check::evaluate_again(&plan, stored)
-    };
+    let judge =
+        |i: usize, stored: CaseResult| crate::shard::check::stored_case(&plan, &cases, i, stored);
     assert_eq!(store.rejudge(&judge).unwrap(), 3);
     // Case 1 deleted and inserted again (its row and its metrics' rows);
     // cases 0 and 2, judged as stored, not written at all.
@@ -256,10 +254,8 @@ fn a_case_row_deleted_by_hand_is_run_again_and_a_record_of_another_type_is_named
     drop(conn);
     let (mut store, done) = Store::resume(dir.path(), &key()).unwrap();
     assert_eq!(done.into_iter().collect::<Vec<_>>(), [0, 2]);
-    let judge = |i: usize, mut stored: CaseResult| {
-        stored.case = cases[i].clone();
-        crate::shard::check::evaluate_again(&plan, stored)
-    };
+    let judge =
+        |i: usize, stored: CaseResult| crate::shard::check::stored_case(&plan, &cases, i, stored);
     assert_eq!(store.rejudge(&judge).unwrap(), 2);
     // The case is run again: its metric rows no longer collide.
     store.put(1, results[1].clone()).unwrap();
