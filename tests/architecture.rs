@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 #[rustfmt::skip]
 const CRATES: [(&str, &[&str]); 11] = [
     ("crates/physics", &[]),
-    ("crates/plan", &["util", "timings", "trace", "plan"]),
+    ("crates/plan", &["util", "image_io", "timings", "trace", "plan"]),
     ("crates/metrics", &[]),
     ("crates/acquisition", &[
         "error", "interrupt", "render", "capture", "inputs", "backend", "runner",

@@ -119,12 +119,18 @@ fn write_frames(
         }
         let name = format!("frame_{k:06}.png");
         let (tmp, path) = (dir.join(format!(".{name}.tmp")), dir.join(&name));
-        img.save_with_format(&tmp, image::ImageFormat::Png)
-            .and_then(|()| std::fs::rename(&tmp, &path).map_err(image::ImageError::IoError))
-            .map_err(|e| {
-                let _ = std::fs::remove_file(&tmp);
-                format!("cannot write `{}`: {e}", path.display())
-            })?;
+        ledflicker_plan::image_io::encode_png(
+            img.as_raw(),
+            spec.width,
+            spec.height,
+            image::ExtendedColorType::L8,
+        )
+        .and_then(|png| std::fs::write(&tmp, png).map_err(image::ImageError::IoError))
+        .and_then(|()| std::fs::rename(&tmp, &path).map_err(image::ImageError::IoError))
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            format!("cannot write `{}`: {e}", path.display())
+        })?;
         written.push(path);
     }
     Ok(total)

@@ -4,4 +4,5 @@
 //! of a case against its plan's limits.
 #![warn(missing_docs)]
 
+pub mod fft;
 pub mod metrics;

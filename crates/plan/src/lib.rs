@@ -5,6 +5,7 @@
 //! them all (atomic writes, checked input files, number formatting).
 #![warn(missing_docs)]
 
+pub mod image_io;
 pub mod plan;
 pub mod timings;
 pub mod trace;

@@ -459,7 +459,7 @@ impl Document {
                 path: path.clone(),
                 source,
             })?;
-            let img = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
+            let img = ledflicker_plan::image_io::decode_png(&bytes)
                 .map_err(|e| ReportError::Invalid {
                     path: path.clone(),
                     message: format!("not a readable PNG: {e}"),

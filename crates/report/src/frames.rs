@@ -2,9 +2,8 @@
 //! annotated views (display stretch, ROIs, 4x crop; [`view`]) that the HTML
 //! and PDF show.
 
-use std::io::Cursor;
-
-use image::{DynamicImage, ImageBuffer, ImageFormat, Luma};
+use image::{DynamicImage, ExtendedColorType, ImageBuffer, Luma};
+use ledflicker_plan::image_io::{encode_png, png_bytes as encode_png_image};
 
 use super::ReportError;
 use crate::model::RenderedFrame;
@@ -22,11 +21,8 @@ pub fn view_png(
     stretch: &Stretch,
 ) -> Result<Vec<u8>, ReportError> {
     let img = view::stretched_view(frame, rois, stretch);
-    let mut out = Cursor::new(Vec::new());
-    DynamicImage::ImageRgb8(img)
-        .write_to(&mut out, ImageFormat::Png)
-        .map_err(image_err)?;
-    Ok(out.into_inner())
+    let (w, h) = img.dimensions();
+    encode_png(img.as_raw(), w, h, ExtendedColorType::Rgb8).map_err(image_err)
 }
 
 /// Each worst-phase frame of the model (full size) and its annotated view
@@ -90,11 +86,7 @@ pub fn png_bytes(frame: &RenderedFrame) -> Result<Vec<u8>, ReportError> {
         template: "sample frame PNG".to_string(),
         message: format!("the luma values do not fill {w} x {h} pixels"),
     })?;
-    let mut out = Cursor::new(Vec::new());
-    image
-        .write_to(&mut out, ImageFormat::Png)
-        .map_err(image_err)?;
-    Ok(out.into_inner())
+    encode_png_image(&image).map_err(image_err)
 }
 
 /// A nearest-neighbour copy at most `max_width` wide.

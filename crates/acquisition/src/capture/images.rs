@@ -91,8 +91,7 @@ pub(super) fn read_files(
             other => other,
         })?;
         reader.limits(frame_limits());
-        let img = reader
-            .decode()
+        let img = ledflicker_plan::image_io::decode(reader)
             .map_err(|e| err(format!("corrupt or unsupported image: {e}")))?;
         let (w, h, colour) = (img.width(), img.height(), img.color());
         match first {

@@ -277,9 +277,7 @@ pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>, CaptureError> {
 
 /// An image decoder on the frame file `path` ([`open_file`]): the format
 /// from the file name, corrected by the file's first bytes.
-pub fn image_reader(
-    path: &Path,
-) -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>, CaptureError> {
+pub fn image_reader(path: &Path) -> Result<ledflicker_plan::image_io::FileReader, CaptureError> {
     let file = open_file(path)?;
     let mut reader = image::ImageReader::new(std::io::BufReader::new(file));
     if let Ok(format) = image::ImageFormat::from_path(path) {

@@ -7,9 +7,8 @@
 //! spectrum of a trace gives the same number from the data alone, which is
 //! what a captured video offers.
 
+use ledflicker_metrics::fft::{self, Complex};
 pub use ledflicker_results::analysis::apparent::{ApparentMethod, Beat, SpectrumError};
-use rustfft::FftPlanner;
-use rustfft::num_complex::Complex;
 
 /// Apparent frequency in Hz (`0..=fps/2`) of a PWM at `frequency_hz` seen at
 /// `fps` frames per second: `|f - fps * round(f / fps)|`.
@@ -229,23 +228,13 @@ pub fn dominant_frequency_hz(x: &[f64], fps: f64) -> Result<f64, SpectrumError> 
         .chain(std::iter::repeat(Complex::new(0.0, 0.0)))
         .take(len)
         .collect();
-    FFT_PLANNER
-        .with(|p| p.borrow_mut().plan_fft_forward(len))
-        .process(&mut buf);
+    fft::forward(&mut buf);
     let mag: Vec<f64> = buf[..=len / 2].iter().map(|c| c.norm()).collect();
     let bin_hz = fps / len as f64;
     // Skip the main lobe around DC: below 1.5 resolution bins of the data.
     let min_hz = 1.5 * fps / n as f64;
     let first = ((min_hz / bin_hz).ceil() as usize).max(1);
     spectrum_peak_hz(&mag, first, bin_hz, min_hz, fps)
-}
-
-thread_local! {
-    /// The spectrum's FFT planner: it keeps the plan of each length, so
-    /// that each trace does not plan its FFT again (the same plan, so the
-    /// same numbers).
-    static FFT_PLANNER: std::cell::RefCell<FftPlanner<f64>> =
-        std::cell::RefCell::new(FftPlanner::new());
 }
 
 /// The frequency of the largest magnitude at or above bin `first` of a

@@ -6,8 +6,7 @@
 //! ([`ledflicker_metrics::metrics::visibility`]). Undefined figures are `None` with
 //! the reason: the output never shows NaN.
 
-use rustfft::FftPlanner;
-use rustfft::num_complex::Complex;
+use ledflicker_metrics::fft::{self, Complex};
 use serde::Serialize;
 
 use super::drive::{Ieee1789Region, low_risk_limit_percent, noel_limit_percent, region};
@@ -169,7 +168,7 @@ pub fn fundamental(x: &[f64], rate_hz: f64) -> Result<f64, String> {
             Complex::new((v - mean) * w, 0.0)
         })
         .collect();
-    FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+    fft::forward(&mut buf);
     let mag: Vec<f64> = buf[..n / 2 + 1].iter().map(|c| c.norm()).collect();
     let Some((k, &peak)) = mag
         .iter()

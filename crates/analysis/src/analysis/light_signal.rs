@@ -3,8 +3,7 @@
 //! areas, the fundamental's period measured on the waveform itself, and
 //! the components the SVM sums when the record is not one periodic light.
 
-use rustfft::FftPlanner;
-use rustfft::num_complex::Complex;
+use ledflicker_metrics::fft::{self, Complex};
 
 /// The band limit of Percent Flicker and the Flicker Index unless given:
 /// an oscilloscope's noise reaches its full bandwidth (MHz), and read off
@@ -85,11 +84,6 @@ pub fn band_limited(x: &[f64], rate_hz: f64, bandwidth_hz: f64) -> Option<Vec<f6
 /// The first `n` outputs of the valid part of `padded * kernel`, by FFT.
 fn convolve_fft(padded: &[f64], kernel: &[f64], n: usize) -> Vec<f64> {
     let size = (padded.len() + kernel.len()).next_power_of_two();
-    let mut planner = FftPlanner::new();
-    let (fwd, inv) = (
-        planner.plan_fft_forward(size),
-        planner.plan_fft_inverse(size),
-    );
     let spread = |v: &[f64]| {
         let mut b = vec![Complex::new(0.0, 0.0); size];
         for (o, &x) in b.iter_mut().zip(v) {
@@ -98,12 +92,12 @@ fn convolve_fft(padded: &[f64], kernel: &[f64], n: usize) -> Vec<f64> {
         b
     };
     let (mut a, mut k) = (spread(padded), spread(kernel));
-    fwd.process(&mut a);
-    fwd.process(&mut k);
+    fft::forward(&mut a);
+    fft::forward(&mut k);
     for (p, q) in a.iter_mut().zip(&k) {
         *p *= q;
     }
-    inv.process(&mut a);
+    fft::inverse(&mut a);
     let last = kernel.len() - 1;
     (0..n).map(|i| a[i + last].re / size as f64).collect()
 }
@@ -215,7 +209,7 @@ pub fn lobe_components(x: &[f64], rate_hz: f64, mean: f64) -> Vec<(f64, f64)> {
         .enumerate()
         .map(|(i, &v)| Complex::new((v - mean) * w(i), 0.0))
         .collect();
-    FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+    fft::forward(&mut buf);
     let half = n.div_ceil(2);
     let power: Vec<f64> = buf[..half].iter().map(|c| c.norm_sqr()).collect();
     let window_power: f64 = (0..n).map(|i| w(i).powi(2)).sum();

@@ -28,8 +28,7 @@
 //!    ("JPEG and video sources"), or when the relative uncertainty exceeds
 //!    [`MAX_RELATIVE_SIGMA`].
 
-use rustfft::FftPlanner;
-use rustfft::num_complex::Complex;
+use ledflicker_metrics::fft::{self, Complex};
 use serde::Serialize;
 
 use super::gram::{harmonic_gram, trend_sums};
@@ -360,13 +359,6 @@ fn estimate_profiles(profiles: &[Vec<f64>]) -> Result<BandEstimate, NoConfidence
     })
 }
 
-thread_local! {
-    /// The periodogram's FFT planner: it keeps the plan of each length, so
-    /// that each estimate does not plan its FFT again.
-    static FFT_PLANNER: std::cell::RefCell<FftPlanner<f64>> =
-        std::cell::RefCell::new(FftPlanner::new());
-}
-
 /// Least-squares periodic models of a set of equally long row profiles.
 struct PeriodicFit<'a> {
     profiles: &'a [Vec<f64>],
@@ -460,7 +452,6 @@ impl<'a> PeriodicFit<'a> {
         let (n, big_n) = (self.n, self.padded);
         let frames = self.profiles.len();
         let mut power = vec![0.0; big_n / 2 + 1];
-        let fft = FFT_PLANNER.with(|p| p.borrow_mut().plan_fft_forward(big_n));
         let mut buf = vec![Complex::new(0.0, 0.0); big_n];
         for p in self.profiles {
             let d = detrend(p);
@@ -468,7 +459,7 @@ impl<'a> PeriodicFit<'a> {
             for (b, &v) in buf.iter_mut().zip(&d) {
                 b.re = v;
             }
-            fft.process(&mut buf);
+            fft::forward(&mut buf);
             for (k, pw) in power.iter_mut().enumerate() {
                 // Sum of squares a sinusoid at bin k explains: 2 |Y|^2 / n.
                 *pw += 2.0 * buf[k].norm_sqr() / n as f64;

@@ -308,7 +308,7 @@ fn read_still(path: &Path, roi: Option<RoiRect>) -> Result<(ReadOut, bool), Fram
         other => FrameError::Capture(other),
     })?;
     let jpeg = reader.format() == Some(image::ImageFormat::Jpeg);
-    let img = reader.decode().map_err(|e| err(e.to_string()))?;
+    let img = ledflicker_plan::image_io::decode(reader).map_err(|e| err(e.to_string()))?;
     let (w, h) = (img.width(), img.height());
     let roi = checked_roi(path, roi, w, h)?;
     let cols = strip_columns(&roi);

@@ -452,9 +452,9 @@ pub fn write_case(case: &RecoveryCase, path: &Path) -> Result<(), String> {
         .iter()
         .map(|v| v.round().clamp(0.0, 255.0) as u8)
         .collect();
-    image::ImageBuffer::<image::Luma<u8>, _>::from_raw(fr.width, fr.height, data)
-        .ok_or("frame size mismatch")?
-        .save(path)
+    let img = image::ImageBuffer::<image::Luma<u8>, _>::from_raw(fr.width, fr.height, data)
+        .ok_or("frame size mismatch")?;
+    ledflicker_plan::image_io::save(&image::DynamicImage::ImageLuma8(img), path)
         .map_err(|e| format!("cannot write `{}`: {e}", path.display()))
 }
 

@@ -12,6 +12,7 @@ use std::path::Path;
 
 use ledflicker_physics::sensor::Rng;
 use ledflicker_physics::{PwmDrive, Shutter, ShutterModel};
+use ledflicker_plan::image_io::save;
 
 /// A synthetic frame: camera, light and degradations.
 #[derive(Debug, Clone, PartialEq)]
@@ -139,7 +140,7 @@ impl SynthFrame {
             let data: Vec<u16> = px.iter().map(|v| v.round() as u16).collect();
             let img = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, data)
                 .ok_or("frame size mismatch")?;
-            return img.save(path).map_err(err);
+            return save(&image::DynamicImage::ImageLuma16(img), path).map_err(err);
         }
         let data: Vec<u8> = px.iter().map(|v| v.round() as u8).collect();
         let img = image::ImageBuffer::<image::Luma<u8>, _>::from_raw(w, h, data)
@@ -153,7 +154,7 @@ impl SynthFrame {
             );
             return enc.encode_image(&img).map_err(err);
         }
-        img.save(path).map_err(err)
+        save(&image::DynamicImage::ImageLuma8(img), path).map_err(err)
     }
 }
 

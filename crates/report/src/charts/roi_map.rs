@@ -35,13 +35,16 @@ pub fn roi_map_svg(
 ) -> Result<String, ChartError> {
     let picture = crate::frames::view::stretched_frame(frame, stretch, ROI_MAP_WIDTH);
     let (w, h) = picture.dimensions();
-    let mut png = std::io::Cursor::new(Vec::new());
-    image::DynamicImage::ImageRgb8(picture)
-        .write_to(&mut png, image::ImageFormat::Png)
-        .map_err(|e| ChartError {
-            chart: "ROI map".to_string(),
-            message: e.to_string(),
-        })?;
+    let png = ledflicker_plan::image_io::encode_png(
+        picture.as_raw(),
+        w,
+        h,
+        image::ExtendedColorType::Rgb8,
+    )
+    .map_err(|e| ChartError {
+        chart: "ROI map".to_string(),
+        message: e.to_string(),
+    })?;
     let scale = f64::from(w) / f64::from(frame.width.max(1));
     let fs = font_px(w);
     let mut svg = String::new();
@@ -49,7 +52,7 @@ pub fn roi_map_svg(
         svg,
         "<svg width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" xmlns=\"http://www.w3.org/2000/svg\" xmlns:xlink=\"http://www.w3.org/1999/xlink\">\n\
          <image x=\"0\" y=\"0\" width=\"{w}\" height=\"{h}\" xlink:href=\"data:image/png;base64,{}\"/>\n",
-        crate::frames::base64(&png.into_inner())
+        crate::frames::base64(&png)
     );
     for roi in rois {
         let colour = if roi.kind == RoiKind::Led {

@@ -226,9 +226,8 @@ pub fn outside(overlays: &[Overlay], (width, height): (u32, u32)) -> Vec<String>
 
 /// `img` as PNG bytes.
 pub fn png(img: &image::RgbImage) -> Result<Vec<u8>, image::ImageError> {
-    let mut out = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::Png)?;
-    Ok(out.into_inner())
+    let (w, h) = img.dimensions();
+    ledflicker_plan::image_io::encode_png(img.as_raw(), w, h, image::ExtendedColorType::Rgb8)
 }
 
 /// File in an output directory listing what `ledflicker roi` wrote there,

@@ -19,7 +19,7 @@
 //!    of IEC 61000-4-15. 1 is the threshold of irritability IEC
 //!    61000-4-15 calibrates its Pst to.
 
-use rustfft::num_complex::Complex;
+use crate::fft::Complex;
 use std::f64::consts::PI;
 
 /// The filters' settling time left out of the statistics, s: the 0.05 Hz

@@ -9,8 +9,7 @@
 //! stroboscopic effect, pooled by a Minkowski sum with exponent 3.7:
 //! `SVM = (sum_m (C_m / T(f_m))^3.7)^(1/3.7)`; 1 is the threshold.
 
-use rustfft::FftPlanner;
-use rustfft::num_complex::Complex;
+use crate::fft::{self, Complex};
 
 use super::POOLING_EXPONENT;
 
@@ -111,7 +110,7 @@ pub fn components(samples: &[f64], rate_hz: f64) -> Result<Vec<(f64, f64)>, SvmE
         return Err(SvmError::NoLight(mean));
     }
     let mut buffer: Vec<Complex<f64>> = samples.iter().map(|&x| Complex::new(x, 0.0)).collect();
-    FftPlanner::new().plan_fft_forward(n).process(&mut buffer);
+    fft::forward(&mut buffer);
     // Components below the Nyquist bin only: at `2k = N` the transform
     // holds the cosine alone, and `rate >= 4 kHz` puts it at or above the
     // 2 kHz the SVM stops at.
