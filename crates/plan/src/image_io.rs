@@ -21,6 +21,11 @@ pub fn decode(reader: FileReader) -> ImageResult<DynamicImage> {
     reader.decode()
 }
 
+/// A frame file's width and height, from its header alone.
+pub fn dimensions(reader: FileReader) -> ImageResult<(u32, u32)> {
+    reader.into_dimensions()
+}
+
 /// Writes `img` to `path`, in the format its extension names (`png`,
 /// `tif`/`tiff`, `jpg`/`jpeg` at `image`'s default quality).
 pub fn save(img: &DynamicImage, path: &Path) -> ImageResult<()> {
@@ -90,6 +95,8 @@ mod tests {
             save(&img, &path).unwrap();
             let reader = ImageReader::open(&path).unwrap();
             assert_eq!(decode(reader).unwrap(), img, "{name}");
+            let reader = ImageReader::open(&path).unwrap();
+            assert_eq!(dimensions(reader).unwrap(), (6, 4), "{name}");
         }
         assert!(decode_png(b"not a png").is_err());
     }

@@ -35,7 +35,7 @@ pub(super) fn read_dir(
 /// The frame size (width, height) of the image `file`, from its header
 /// alone; `None` when it cannot be read (the read says why).
 pub(super) fn frame_size(file: &Path) -> Option<(u32, u32)> {
-    image_reader(file).ok()?.into_dimensions().ok()
+    ledflicker_plan::image_io::dimensions(image_reader(file).ok()?).ok()
 }
 
 /// The frame files of the directory `dir`: its `.png`, `.tif` and `.tiff`
