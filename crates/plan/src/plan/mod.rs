@@ -732,10 +732,8 @@ fn parse_inner(
     let index = spans::SpanIndex::build(text).map_err(syntax)?;
     let deserializer = toml::Deserializer::parse(text).map_err(syntax)?;
     let mut unknown = Vec::new();
-    let raw: raw::RawPlan = serde_ignored::deserialize(deserializer, |p| {
-        unknown.push(spans::path_string(&p));
-    })
-    .map_err(syntax)?;
+    let raw: raw::RawPlan =
+        spans::deserialize_noting_unknown(deserializer, &mut unknown).map_err(syntax)?;
     let mut diags: Vec<Diagnostic> = unknown
         .into_iter()
         .map(|key| Diagnostic {

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 use super::check::Checker;
 use super::raw::RawReportFile;
-use super::spans::{SpanIndex, path_string, unknown_key_hint};
+use super::spans::{SpanIndex, unknown_key_hint};
 use super::{Diagnostic, PlanError};
 
 /// The report's sections, in the order the report has them; `sections`
@@ -133,7 +133,7 @@ pub fn load_report_profile(path: &Path) -> Result<ReportProfile, PlanError> {
     let de = toml::Deserializer::parse(&text).map_err(syntax)?;
     let mut unknown = Vec::new();
     let raw: RawReportFile =
-        serde_ignored::deserialize(de, |p| unknown.push(path_string(&p))).map_err(syntax)?;
+        super::spans::deserialize_noting_unknown(de, &mut unknown).map_err(syntax)?;
     let mut diags: Vec<Diagnostic> = Vec::new();
     let mut warnings = Vec::new();
     let mut c = Checker::new(&index, &mut diags, &mut warnings);

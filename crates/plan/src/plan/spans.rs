@@ -68,6 +68,22 @@ fn index_value(value: &DeValue<'_>, path: &str, out: &mut HashMap<String, usize>
     }
 }
 
+/// Deserialises a TOML file's raw table, adding to `unknown` each key no
+/// field takes ([`path_string`]).
+///
+/// serde_ignored's deserialiser is generic over its callback, and so is
+/// every raw type's deserialisation through it: a closure of its own at
+/// each file kind (plan, DUT profile, report profile) compiled the raw
+/// types they share (the camera, the report table) once per kind. One
+/// callback type, a `dyn` one, compiles them once.
+pub fn deserialize_noting_unknown<'de, T: serde::Deserialize<'de>>(
+    de: toml::Deserializer<'de>,
+    unknown: &mut Vec<String>,
+) -> Result<T, toml::de::Error> {
+    let mut note = |p: serde_ignored::Path<'_>| unknown.push(path_string(&p));
+    serde_ignored::deserialize(de, &mut note as &mut dyn FnMut(serde_ignored::Path<'_>))
+}
+
 /// Formats a serde_ignored path in the same style as [`SpanIndex`] keys.
 pub fn path_string(path: &serde_ignored::Path<'_>) -> String {
     use serde_ignored::Path;

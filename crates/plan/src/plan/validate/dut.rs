@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use super::camera;
 use crate::plan::check::Checker;
 use crate::plan::raw::{RawDut, RawProfile};
-use crate::plan::spans::{SpanIndex, path_string, unknown_key_hint};
+use crate::plan::spans::{SpanIndex, deserialize_noting_unknown, unknown_key_hint};
 use crate::plan::{BackendKind, CameraConfig, Dut, ShutterKind};
 
 /// Validates `[dut]`, which is required. `is_sim` is false for the
@@ -110,7 +110,7 @@ fn load_profile(c: &mut Checker<'_>, name: &str, plan_path: &Path) -> Option<Cam
     let parsed = SpanIndex::build(&text).and_then(|index| {
         let de = toml::Deserializer::parse(&text)?;
         let mut unknown = Vec::new();
-        let raw: RawProfile = serde_ignored::deserialize(de, |p| unknown.push(path_string(&p)))?;
+        let raw: RawProfile = deserialize_noting_unknown(de, &mut unknown)?;
         Ok((index, raw, unknown))
     });
     let (index, raw, unknown) = match parsed {
