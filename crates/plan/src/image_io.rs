@@ -10,8 +10,11 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
 
+use image::codecs::jpeg::JpegEncoder;
 use image::codecs::png::{PngDecoder, PngEncoder};
-use image::{DynamicImage, ExtendedColorType, ImageEncoder, ImageReader, ImageResult};
+use image::{
+    DynamicImage, ExtendedColorType, ImageDecoder, ImageEncoder, ImageReader, ImageResult, Limits,
+};
 
 /// A frame file's decoder, as [`ImageReader`] sets it up.
 pub type FileReader = ImageReader<BufReader<File>>;
@@ -27,9 +30,28 @@ pub fn dimensions(reader: FileReader) -> ImageResult<(u32, u32)> {
 }
 
 /// Writes `img` to `path`, in the format its extension names (`png`,
-/// `tif`/`tiff`, `jpg`/`jpeg` at `image`'s default quality).
+/// `tif`/`tiff`, `jpg`/`jpeg` at `image`'s default quality), its pixels as
+/// they are: a format that cannot hold them (16-bit grey in a JPEG) is an
+/// error, not a conversion.
 pub fn save(img: &DynamicImage, path: &Path) -> ImageResult<()> {
-    img.save(path)
+    image::save_buffer(path, img.as_bytes(), img.width(), img.height(), img.color())
+}
+
+/// Writes 8-bit grey `pixels` (`width` x `height`, rows top down) to
+/// `path` as a JPEG of `quality` (1 to 100).
+pub fn save_jpeg_grey(
+    pixels: &[u8],
+    (width, height): (u32, u32),
+    path: &Path,
+    quality: u8,
+) -> ImageResult<()> {
+    let file = std::io::BufWriter::new(File::create(path)?);
+    JpegEncoder::new_with_quality(file, quality).write_image(
+        pixels,
+        width,
+        height,
+        ExtendedColorType::L8,
+    )
 }
 
 /// `img` as the bytes of a PNG file, with `image`'s default compression
@@ -56,9 +78,13 @@ pub fn encode_png(
     Ok(out)
 }
 
-/// Decodes the bytes of a PNG file.
+/// Decodes the bytes of a PNG file, within `image`'s default limits (a
+/// picture of more than 512 MiB is refused), as `ImageReader` decodes.
 pub fn decode_png(bytes: &[u8]) -> ImageResult<DynamicImage> {
-    DynamicImage::from_decoder(PngDecoder::new(std::io::Cursor::new(bytes))?)
+    let mut limits = Limits::default();
+    let decoder = PngDecoder::with_limits(std::io::Cursor::new(bytes), limits.clone())?;
+    limits.reserve(decoder.total_bytes())?;
+    DynamicImage::from_decoder(decoder)
 }
 
 #[cfg(test)]
@@ -99,5 +125,52 @@ mod tests {
             assert_eq!(dimensions(reader).unwrap(), (6, 4), "{name}");
         }
         assert!(decode_png(b"not a png").is_err());
+        let grey16 = DynamicImage::ImageLuma16(ImageBuffer::new(2, 2));
+        let jpeg = dir.path().join("f.jpg");
+        assert!(save(&grey16, &jpeg).is_err(), "16-bit grey is no JPEG");
+        save_jpeg_grey(&[0, 64, 128, 255], (2, 2), &jpeg, 90).unwrap();
+        let reader = ImageReader::open(&jpeg)
+            .unwrap()
+            .with_guessed_format()
+            .unwrap();
+        assert_eq!(dimensions(reader).unwrap(), (2, 2));
+    }
+
+    /// A PNG whose header claims a picture of gigabytes is refused before
+    /// anything is allocated for it, as `ImageReader` refuses it.
+    #[test]
+    fn a_png_beyond_the_default_limits_is_refused() {
+        let small = encode_png(&[0; 4], 2, 2, ExtendedColorType::L8).unwrap();
+        // The IHDR chunk: length (4), type (4), width, height, then 5 bytes
+        // of depth and types, and its CRC over type and data.
+        let mut png = small.clone();
+        png[16..20].copy_from_slice(&40_000u32.to_be_bytes());
+        png[20..24].copy_from_slice(&40_000u32.to_be_bytes());
+        png[24] = 16;
+        png[25] = 6;
+        let crc = crc32(&png[12..29]);
+        png[29..33].copy_from_slice(&crc.to_be_bytes());
+        let e = decode_png(&png).unwrap_err();
+        assert!(
+            matches!(e, image::ImageError::Limits(_)),
+            "a 12.8 GB picture: {e}"
+        );
+        assert!(decode_png(&small).is_ok());
+    }
+
+    /// CRC-32 of PNG chunks (ISO 3309, polynomial 0xEDB88320).
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = !0u32;
+        for &b in bytes {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 == 1 {
+                    (c >> 1) ^ 0xEDB8_8320
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
     }
 }

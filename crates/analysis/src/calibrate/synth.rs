@@ -12,7 +12,7 @@ use std::path::Path;
 
 use ledflicker_physics::sensor::Rng;
 use ledflicker_physics::{PwmDrive, Shutter, ShutterModel};
-use ledflicker_plan::image_io::save;
+use ledflicker_plan::image_io::{save, save_jpeg_grey};
 
 /// A synthetic frame: camera, light and degradations.
 #[derive(Debug, Clone, PartialEq)]
@@ -143,17 +143,14 @@ impl SynthFrame {
             return save(&image::DynamicImage::ImageLuma16(img), path).map_err(err);
         }
         let data: Vec<u8> = px.iter().map(|v| v.round() as u8).collect();
+        if ext == "jpg" || ext == "jpeg" {
+            if data.len() != w as usize * h as usize {
+                return Err("frame size mismatch".to_string());
+            }
+            return save_jpeg_grey(&data, (w, h), path, jpeg_quality).map_err(err);
+        }
         let img = image::ImageBuffer::<image::Luma<u8>, _>::from_raw(w, h, data)
             .ok_or("frame size mismatch")?;
-        if ext == "jpg" || ext == "jpeg" {
-            let file = std::fs::File::create(path)
-                .map_err(|e| format!("cannot write `{}`: {e}", path.display()))?;
-            let mut enc = image::codecs::jpeg::JpegEncoder::new_with_quality(
-                std::io::BufWriter::new(file),
-                jpeg_quality,
-            );
-            return enc.encode_image(&img).map_err(err);
-        }
         save(&image::DynamicImage::ImageLuma8(img), path).map_err(err)
     }
 }
