@@ -16,13 +16,22 @@ use rustfft::{Fft, FftDirection, FftPlanner};
 /// Planned FFTs by length and direction (`true` forward).
 type Plans = HashMap<(usize, bool), Arc<dyn Fft<f64>>>;
 
+/// Longest transform whose plan is kept, and most plans kept a thread:
+/// the analyses transform a few lengths over and over (a case's trace,
+/// padded to a power of two), while a length of its own per record (the
+/// `light` command, the Python package on any array) must not hold
+/// memory: a plan of 2^18 points is about 15 MB. At most 16 plans of at
+/// most 2^16 points, a few MB a thread.
+const KEPT_LEN_MAX: usize = 1 << 16;
+const KEPT_PLANS_MAX: usize = 16;
+
 thread_local! {
-    /// The FFTs this thread has planned, by length and direction. Each is
-    /// planned by a new planner: rustfft's SIMD planner builds a length
-    /// from the smaller lengths it planned before, so one long-lived
-    /// planner would make a transform's last bits depend on what the
-    /// thread transformed earlier (a length of 4,320 after one of 1,080
-    /// differs in about 1e-12), and so on the thread a case ran on.
+    /// The FFTs this thread has planned and kept, by length and direction.
+    /// Each is planned by a new planner: rustfft's SIMD planner builds a
+    /// length from the smaller lengths it planned before, so one
+    /// long-lived planner would make a transform's last bits depend on
+    /// what the thread transformed earlier (a length of 4,320 after one of
+    /// 1,080 differs in about 1e-12), and so on the thread a case ran on.
     static PLANS: RefCell<Plans> = RefCell::new(HashMap::new());
 }
 
@@ -42,15 +51,20 @@ fn transform(buf: &mut [Complex<f64>], direction: FftDirection) {
     if buf.is_empty() {
         return;
     }
-    let key = (buf.len(), direction == FftDirection::Forward);
-    let fft = PLANS.with(|plans| {
-        Arc::clone(
-            plans
-                .borrow_mut()
-                .entry(key)
-                .or_insert_with(|| FftPlanner::new().plan_fft(key.0, direction)),
-        )
-    });
+    let len = buf.len();
+    let plan = || FftPlanner::new().plan_fft(len, direction);
+    let fft = if len <= KEPT_LEN_MAX {
+        PLANS.with(|plans| {
+            let mut plans = plans.borrow_mut();
+            let key = (len, direction == FftDirection::Forward);
+            if !plans.contains_key(&key) && plans.len() >= KEPT_PLANS_MAX {
+                plans.clear();
+            }
+            Arc::clone(plans.entry(key).or_insert_with(plan))
+        })
+    } else {
+        plan()
+    };
     fft.process(buf);
 }
 
@@ -129,6 +143,26 @@ mod tests {
                 (a.re.to_bits(), a.im.to_bits()),
                 (c.re.to_bits(), c.im.to_bits())
             );
+        }
+    }
+
+    /// Lengths past what is kept, and more lengths than are kept, give the
+    /// bits of a new planner's transform, and the thread keeps at most
+    /// [`KEPT_PLANS_MAX`] plans.
+    #[test]
+    fn plans_not_kept_give_the_same_bits_and_the_kept_ones_are_bounded() {
+        let lengths = (0..40)
+            .map(|k| 1000 + 37 * k)
+            .chain([KEPT_LEN_MAX + 1, 70_000]);
+        for n in lengths {
+            let x: Vec<Complex<f64>> = (0..n)
+                .map(|i| Complex::new((i as f64 * 0.01).sin(), 0.0))
+                .collect();
+            let (mut a, mut b) = (x.clone(), x);
+            forward(&mut a);
+            FftPlanner::new().plan_fft_forward(n).process(&mut b);
+            assert!(a.iter().zip(&b).all(|(p, q)| p == q), "n = {n}");
+            assert!(PLANS.with(|p| p.borrow().len()) <= KEPT_PLANS_MAX);
         }
     }
 
