@@ -39,6 +39,27 @@ pub fn frame_banding(frame: &RenderedFrame, rois: &[RoiBox]) -> Option<FrameBand
     crate::analysis::banding::frame_banding(frame, x..x.saturating_add(w))
 }
 
+/// A spilled case's stand-in for [`sample_frame_info`]: its files and
+/// frame number only. Only a case kept in memory is written whole, and
+/// that one gets [`sample_frame_info`] once the cases kept are known; the
+/// stand-in only says that the case has a sample frame (which the ROI
+/// map's choice reads), without working out its stretch and banding.
+pub fn sample_frame_pending(case_id: &str, frame: &RenderedFrame) -> SampleFrameInfo {
+    SampleFrameInfo {
+        path: frame_path(case_id),
+        frame: frame.index,
+        view: view_path(case_id),
+        stretch: Stretch {
+            low_dn: 0.0,
+            high_dn: 1.0,
+        },
+        rois: Vec::new(),
+        crop_px: None,
+        banding: None,
+        caption: String::new(),
+    }
+}
+
 /// What results.json says of a case's sample frame: its files, the
 /// display stretch, the ROIs as drawn, the crop, the banding of this very
 /// frame and the caption that states them.

@@ -125,10 +125,15 @@ fn build(
             let every_framed = plan.dut.backend == BackendKind::Captured;
             let mut cases =
                 CasesBuilder::new(source.len(), detail, every_framed).map_err(spill_error)?;
+            // A spilled run's sample frames are described once the cases
+            // kept in memory, the only ones written whole, are known.
+            let spills = cases.spills();
             let counts = &mut counts;
             crate::runner::for_each_chunk(source, |_, chunk| {
-                let infos: Vec<CaseInfo> =
-                    chunk.par_iter().map(|r| analysed_case(plan, r)).collect();
+                let infos: Vec<CaseInfo> = chunk
+                    .par_iter()
+                    .map(|r| analysed_case(plan, r, !spills))
+                    .collect();
                 for c in &infos {
                     match c.verdict {
                         Verdict::Pass => counts.pass += 1,
@@ -145,6 +150,9 @@ fn build(
             held.into_par_iter().for_each(|c| {
                 c.banding = analysis::case_banding(plan, c.frequency_hz, c.duty);
             });
+            if spills {
+                describe_held_sample_frames(plan, source, &mut cases)?;
+            }
             Ok::<_, CaseReadError>(cases)
         },
         || {
@@ -205,13 +213,49 @@ fn spill_error(e: std::io::Error) -> CaseReadError {
     format!("the spill file of the run's cases (in the temporary directory): {e}").into()
 }
 
-/// One case of the model: its analyses (and its sample frame's, beside
-/// them), its ROIs, and for a captured or rig case what was read.
-fn analysed_case(plan: &Plan, r: &CaseResult) -> CaseInfo {
-    let frame = || {
-        r.sample_frame
+/// The sample frames of a spilled run's cases kept in memory, described
+/// whole ([`frame::sample_frame_info`]) from the frames read again from
+/// `source`: the cases were analysed with a stand-in
+/// ([`frame::sample_frame_pending`]).
+fn describe_held_sample_frames(
+    plan: &Plan,
+    source: &dyn CaseSource,
+    cases: &mut Cases,
+) -> Result<(), CaseReadError> {
+    use rayon::prelude::*;
+    let held: Vec<(usize, &mut CaseInfo)> = cases
+        .resident_at_mut()
+        .filter(|(_, c)| c.sample_frame.is_some())
+        .collect();
+    held.into_par_iter().try_for_each(|(i, c)| {
+        let read = source.read(i..i + 1)?;
+        let r = read.first().filter(|r| r.case.id == c.id).ok_or_else(|| {
+            format!(
+                "case {} ({}) is not at its place when read again",
+                i + 1,
+                c.id
+            )
+        })?;
+        c.sample_frame = r
+            .sample_frame
             .as_ref()
-            .map(|f| frame::sample_frame_info(&r.case.id, f, &plan.rois))
+            .map(|f| frame::sample_frame_info(&c.id, f, &plan.rois));
+        Ok(())
+    })
+}
+
+/// One case of the model: its analyses (and its sample frame's, beside
+/// them, or a stand-in without `frame_info`), its ROIs, and for a captured
+/// or rig case what was read.
+fn analysed_case(plan: &Plan, r: &CaseResult, frame_info: bool) -> CaseInfo {
+    let frame = || {
+        r.sample_frame.as_ref().map(|f| {
+            if frame_info {
+                frame::sample_frame_info(&r.case.id, f, &plan.rois)
+            } else {
+                frame::sample_frame_pending(&r.case.id, f)
+            }
+        })
     };
     let (mut a, sample_frame) = rayon::join(|| analysis::analyse_case_deferred(plan, r), frame);
     let rois = roi_infos(plan, r, std::mem::take(&mut a.rois));

@@ -233,6 +233,15 @@ impl Cases {
         }
     }
 
+    /// The cases held in memory with their positions in the run, to
+    /// change what only the report reads.
+    pub fn resident_at_mut(&mut self) -> Box<dyn Iterator<Item = (usize, &mut CaseInfo)> + '_> {
+        match &mut self.repr {
+            Repr::Memory(v) => Box::new(v.iter_mut().enumerate()),
+            Repr::Spilled { resident, .. } => Box::new(resident.iter_mut().map(|(&i, c)| (i, c))),
+        }
+    }
+
     /// Positions of the ROI map's cases ([`MapChoice`]): the builder's
     /// choice when it made one by the same rule, else chosen now, over
     /// every case.
@@ -560,6 +569,12 @@ impl CasesBuilder {
             seen: 0,
             repr,
         })
+    }
+
+    /// Whether the cases are spilled: only some are kept in memory, and
+    /// of the others only their summary rows are ever read.
+    pub fn spills(&self) -> bool {
+        matches!(self.repr, Building::Spilling { .. })
     }
 
     /// Appends the next cases, in order.
