@@ -16,13 +16,16 @@ use rustfft::{Fft, FftDirection, FftPlanner};
 /// Planned FFTs by length and direction (`true` forward).
 type Plans = HashMap<(usize, bool), Arc<dyn Fft<f64>>>;
 
-/// Longest transform whose plan is kept, and most plans kept a thread:
-/// the analyses transform a few lengths over and over (a case's trace,
-/// padded to a power of two), while a length of its own per record (the
-/// `light` command, the Python package on any array) must not hold
-/// memory: a plan of 2^18 points is about 15 MB. At most 16 plans of at
-/// most 2^16 points, a few MB a thread.
+/// Which plans a thread keeps, and how many: the analyses transform a few
+/// lengths over and over (a case's trace or a frame's row profiles, padded
+/// to a power of two), while a length of its own per record (the `light`
+/// command, the Python package on any array) must not hold memory: a plan
+/// of a few 10^5 points of no simple form is about 15 MB. So a plan is
+/// kept for a length up to 2^16, or a power of two up to 2^20 (the
+/// padded lengths, a plan of 2^20 points about 16 MB of twiddles), and a
+/// thread keeps at most 16.
 const KEPT_LEN_MAX: usize = 1 << 16;
+const KEPT_POWER_OF_TWO_MAX: usize = 1 << 20;
 const KEPT_PLANS_MAX: usize = 16;
 
 thread_local! {
@@ -53,7 +56,8 @@ fn transform(buf: &mut [Complex<f64>], direction: FftDirection) {
     }
     let len = buf.len();
     let plan = || FftPlanner::new().plan_fft(len, direction);
-    let fft = if len <= KEPT_LEN_MAX {
+    let kept = len <= KEPT_LEN_MAX || (len.is_power_of_two() && len <= KEPT_POWER_OF_TWO_MAX);
+    let fft = if kept {
         PLANS.with(|plans| {
             let mut plans = plans.borrow_mut();
             let key = (len, direction == FftDirection::Forward);
@@ -153,7 +157,7 @@ mod tests {
     fn plans_not_kept_give_the_same_bits_and_the_kept_ones_are_bounded() {
         let lengths = (0..40)
             .map(|k| 1000 + 37 * k)
-            .chain([KEPT_LEN_MAX + 1, 70_000]);
+            .chain([KEPT_LEN_MAX + 1, 70_000, 1 << 17]);
         for n in lengths {
             let x: Vec<Complex<f64>> = (0..n)
                 .map(|i| Complex::new((i as f64 * 0.01).sin(), 0.0))

@@ -227,10 +227,7 @@ impl Cases {
     /// The cases held in memory, to change what only the report reads
     /// (every case when none is spilled).
     pub fn resident_mut(&mut self) -> Box<dyn Iterator<Item = &mut CaseInfo> + '_> {
-        match &mut self.repr {
-            Repr::Memory(v) => Box::new(v.iter_mut()),
-            Repr::Spilled { resident, .. } => Box::new(resident.values_mut()),
-        }
+        Box::new(self.resident_at_mut().map(|(_, c)| c))
     }
 
     /// The cases held in memory with their positions in the run, to
