@@ -34,7 +34,23 @@ pub fn dimensions(reader: FileReader) -> ImageResult<(u32, u32)> {
 /// they are: a format that cannot hold them (16-bit grey in a JPEG) is an
 /// error, not a conversion.
 pub fn save(img: &DynamicImage, path: &Path) -> ImageResult<()> {
-    image::save_buffer(path, img.as_bytes(), img.width(), img.height(), img.color())
+    let (pixels, (w, h)) = (img.as_bytes(), (img.width(), img.height()));
+    fits(pixels, w, h, img.color().into())?;
+    image::save_buffer(path, pixels, w, h, img.color())
+}
+
+/// An error, where `image`'s encoders would panic, when `pixels` are not
+/// exactly a `width` x `height` picture of `color`.
+fn fits(pixels: &[u8], width: u32, height: u32, color: ExtendedColorType) -> ImageResult<()> {
+    let want = u64::from(width) * u64::from(height) * u64::from(color.bits_per_pixel()) / 8;
+    if want == pixels.len() as u64 {
+        return Ok(());
+    }
+    Err(image::ImageError::Parameter(
+        image::error::ParameterError::from_kind(
+            image::error::ParameterErrorKind::DimensionMismatch,
+        ),
+    ))
 }
 
 /// Writes 8-bit grey `pixels` (`width` x `height`, rows top down) to
@@ -45,6 +61,7 @@ pub fn save_jpeg_grey(
     path: &Path,
     quality: u8,
 ) -> ImageResult<()> {
+    fits(pixels, width, height, ExtendedColorType::L8)?;
     let file = std::io::BufWriter::new(File::create(path)?);
     JpegEncoder::new_with_quality(file, quality).write_image(
         pixels,
@@ -73,6 +90,7 @@ pub fn encode_png(
     height: u32,
     color: ExtendedColorType,
 ) -> ImageResult<Vec<u8>> {
+    fits(pixels, width, height, color)?;
     let mut out = Vec::new();
     PngEncoder::new(&mut out).write_image(pixels, width, height, color)?;
     Ok(out)
@@ -125,6 +143,13 @@ mod tests {
             assert_eq!(dimensions(reader).unwrap(), (6, 4), "{name}");
         }
         assert!(decode_png(b"not a png").is_err());
+        // Pixels that are not the picture named are an error, not a panic,
+        // and no file is made for them.
+        let short = dir.path().join("short.jpg");
+        assert!(save_jpeg_grey(&[0; 3], (2, 2), &short, 90).is_err());
+        assert!(!short.exists());
+        assert!(encode_png(&[0; 5], 2, 2, ExtendedColorType::L8).is_err());
+        assert!(encode_png(&[0; 7], 2, 2, ExtendedColorType::L16).is_err());
         let grey16 = DynamicImage::ImageLuma16(ImageBuffer::new(2, 2));
         let jpeg = dir.path().join("f.jpg");
         assert!(save(&grey16, &jpeg).is_err(), "16-bit grey is no JPEG");

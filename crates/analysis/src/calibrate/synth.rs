@@ -144,9 +144,6 @@ impl SynthFrame {
         }
         let data: Vec<u8> = px.iter().map(|v| v.round() as u8).collect();
         if ext == "jpg" || ext == "jpeg" {
-            if data.len() != w as usize * h as usize {
-                return Err("frame size mismatch".to_string());
-            }
             return save_jpeg_grey(&data, (w, h), path, jpeg_quality).map_err(err);
         }
         let img = image::ImageBuffer::<image::Luma<u8>, _>::from_raw(w, h, data)
