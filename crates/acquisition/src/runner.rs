@@ -98,7 +98,8 @@ impl CaseSink for InOrder {
 /// How [`run_streaming`] runs.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct RunOptions {
-    /// Worker threads (default: rayon's, one per core).
+    /// Worker threads (default: rayon's, one per core, or more where the
+    /// backend's cases wait on other processes: [`Backend::cases_at_once`]).
     pub threads: Option<usize>,
     /// Render each case's sample frame in its worker ([`render_sample_frame`]).
     pub sample_frames: bool,
@@ -144,7 +145,11 @@ pub fn run_streaming<S: CaseSink>(
 ) -> Result<(), S::Error> {
     use std::sync::mpsc::RecvTimeoutError;
     on_event(RunEvent::Started { total: cases.len() });
-    let pool = match options.threads {
+    let threads = options.threads.or_else(|| {
+        let at_once = backend.cases_at_once()?.min(cases.len());
+        (at_once > rayon::current_num_threads()).then_some(at_once)
+    });
+    let pool = match threads {
         None => None,
         Some(n) => Some(
             rayon::ThreadPoolBuilder::new()
@@ -392,20 +397,26 @@ pub fn render_sample_frame(
         .capture
         .as_ref()
         .and_then(|c| c.lit_frame);
-    // A captured frame is a seek in its own FFmpeg process: the two run
-    // at once, which hides each one's start-up behind the other's decode.
-    let (sample, lit) = rayon::join(
-        || {
-            darkest_pwm_frame(plan, result)
-                .and_then(|frame| backend.render_frame(&result.case, frame))
-        },
-        || lit.and_then(|lit| backend.render_frame(&result.case, lit.frame)),
-    );
-    if let Some(rendered) = sample {
-        result.sample_frame = Some(rendered?);
+    // Both frames in one request: a captured video's are then sought in
+    // one FFmpeg process, which pays its start-up once.
+    let sample = darkest_pwm_frame(plan, result);
+    let lit = lit.map(|lit| lit.frame);
+    let wanted: Vec<u64> = sample
+        .into_iter()
+        .chain(lit.filter(|&l| Some(l) != sample))
+        .collect();
+    let mut rendered = backend.render_frames(&result.case, &wanted).into_iter();
+    let sample_frame = sample.and_then(|_| rendered.next().flatten()).transpose()?;
+    let lit_frame = match (lit, sample) {
+        (Some(l), Some(s)) if l == s => sample_frame.clone(),
+        (Some(_), _) => rendered.next().flatten().transpose()?,
+        (None, _) => None,
+    };
+    if sample_frame.is_some() {
+        result.sample_frame = sample_frame;
     }
-    if let Some(rendered) = lit {
-        result.lit_frame = Some(rendered?);
+    if lit_frame.is_some() {
+        result.lit_frame = lit_frame;
     }
     Ok(())
 }
@@ -547,6 +558,76 @@ mod tests {
                 (_, RunError::BadTrace { .. }) => {}
                 _ => panic!("a malformed trace is RunError::BadTrace: {e:?}"),
             }
+        }
+    }
+
+    /// A backend whose cases wait on other processes: each acquisition
+    /// waits (at most a few seconds) until `want` cases are in it at once.
+    struct Waiting {
+        inner: Fake,
+        want: usize,
+        in_flight: std::sync::Mutex<usize>,
+        most: std::sync::Mutex<usize>,
+        changed: std::sync::Condvar,
+    }
+
+    impl Backend for Waiting {
+        fn id(&self) -> &str {
+            "waiting"
+        }
+
+        fn cases_at_once(&self) -> Option<usize> {
+            Some(self.want)
+        }
+
+        fn acquire(&self, case: &TestCase) -> Result<Acquisition, BackendError> {
+            let n = {
+                let mut n = self.in_flight.lock().unwrap();
+                *n += 1;
+                *n
+            };
+            let mut most = self.most.lock().unwrap();
+            *most = (*most).max(n);
+            self.changed.notify_all();
+            // Until `want` were in at once (they may have left since).
+            let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
+            while *most < self.want && std::time::Instant::now() < deadline {
+                most = self
+                    .changed
+                    .wait_timeout(most, std::time::Duration::from_millis(50))
+                    .unwrap()
+                    .0;
+            }
+            drop(most);
+            let acq = self.inner.acquire(case);
+            *self.in_flight.lock().unwrap() -= 1;
+            acq
+        }
+    }
+
+    /// With no thread count set, a backend that asks for more cases at once
+    /// than there are cores gets them.
+    #[test]
+    fn a_backend_whose_cases_wait_runs_as_many_as_it_asks() {
+        let plan = plan();
+        let cases = ledflicker_plan::plan::expand_cases(&plan);
+        let cores = rayon::current_num_threads();
+        {
+            let (threads, want, expect) = (None, cores + 2, cores + 2);
+            let backend = Waiting {
+                inner: Fake {
+                    rois: plan.rois.len(),
+                    fault: Fault::None,
+                },
+                want,
+                in_flight: std::sync::Mutex::new(0),
+                most: std::sync::Mutex::new(0),
+                changed: std::sync::Condvar::new(),
+            };
+            let results = run(&plan, &cases[..cores + 2], &backend, threads, &|_| {}).unwrap();
+            assert_eq!(results.len(), cores + 2);
+            let most = *backend.most.lock().unwrap();
+            assert_eq!(most, expect, "threads {threads:?}, asked for {want}");
         }
     }
 }

@@ -1,6 +1,7 @@
-//! A video frame read by seeking (`capture::read_video_frame_seeking`) is
+//! A video frame read by seeking (`capture::read_video_frames_seeking`) is
 //! the frame a read from the start hands over, pixel for pixel, or the
-//! seek says it landed elsewhere. Checked on the P2020 sample videos (one
+//! seek says it landed elsewhere; alone or with other frames in one
+//! process. Checked on the P2020 sample videos (one
 //! of them seeks to the wrong key frame near its start) and on videos made
 //! here from them: B-frames, and a file whose timeline starts at 10 s.
 
@@ -10,7 +11,7 @@ use std::process::Command;
 
 use ledflicker_acquisition::capture::{
     self, ColourTransfer, FrameSeek, FrameSink, GreyFrame, LumaWeights, ReadOptions, RoiRect,
-    VideoDecode, VideoRange,
+    SeekTo, VideoDecode, VideoRange,
 };
 
 fn reference(name: &str) -> PathBuf {
@@ -87,30 +88,61 @@ fn check(path: &Path, decode: VideoDecode, frames: &[u64]) -> usize {
         ..Keep::default()
     };
     capture::read_grey_frames(path, &opts, &mut whole).unwrap();
-    let mut landed = 0;
-    for &k in frames {
-        let i = k as usize;
-        let means: Vec<f64> = trace.luma.iter().map(|roi| roi[i]).collect();
+    let means: Vec<Vec<f64>> = frames
+        .iter()
+        .map(|&k| trace.luma.iter().map(|roi| roi[k as usize]).collect())
+        .collect();
+    let wanted: Vec<SeekTo<'_>> = frames
+        .iter()
+        .zip(&means)
+        .map(|(&k, means)| {
+            let i = k as usize;
+            SeekTo {
+                frame: k,
+                at_s: origin + (trace.time_s[i - 1] + trace.time_s[i]) / 2.0,
+                means,
+            }
+        })
+        .collect();
+    let seek = |frames: &[SeekTo<'_>], sink: &mut Keep| {
         let seek = FrameSeek {
-            at_s: origin + (trace.time_s[i - 1] + trace.time_s[i]) / 2.0,
             size: trace.frame_size,
             video,
             rois: &rects,
-            means: &means,
+            frames,
         };
+        capture::read_video_frames_seeking(path, &opts, &seek, sink).unwrap()
+    };
+    // All at once, in one process, and each alone.
+    let mut together = Keep {
+        want: frames.to_vec(),
+        ..Keep::default()
+    };
+    let landed_together = seek(&wanted, &mut together);
+    let mut landed = 0;
+    for (i, (one_seek, &k)) in wanted.iter().zip(frames).enumerate() {
         let mut one = Keep {
             want: vec![k],
             ..Keep::default()
         };
-        let ok = capture::read_video_frame_seeking(path, &opts, k, &seek, &mut one).unwrap();
+        let ok = seek(std::slice::from_ref(one_seek), &mut one) == [true];
+        assert_eq!(
+            ok,
+            landed_together[i],
+            "{}: frame {k} lands alone: {ok}, with the others: {}",
+            path.display(),
+            landed_together[i]
+        );
         if ok {
             landed += 1;
-            assert_eq!(
-                one.pictures.get(&k),
-                whole.pictures.get(&k),
-                "{}: frame {k} by seeking differs from the read from the start",
-                path.display()
-            );
+            for (how, got) in [("alone", &one), ("with the others", &together)] {
+                assert_eq!(
+                    got.pictures.get(&k),
+                    whole.pictures.get(&k),
+                    "{}: frame {k} by seeking {how} differs from the read from the start",
+                    path.display()
+                );
+            }
         }
     }
     landed

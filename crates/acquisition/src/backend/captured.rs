@@ -340,6 +340,14 @@ impl Backend for Captured {
             })
     }
 
+    /// A case's frames come from its own FFmpeg process, so a case waits
+    /// on a pipe while it is rendered: one case per video, up to
+    /// [`capture::AT_ONCE`], as the captures were read.
+    fn cases_at_once(&self) -> Option<usize> {
+        let videos = self.sources.values().filter(|s| s.seek.is_some()).count();
+        (videos > 0).then_some(videos.min(capture::AT_ONCE))
+    }
+
     /// Frame `frame` of the case's capture, read again (frames are not kept
     /// while the traces are made): the sample frame the report shows, with
     /// its ROIs, as the simulator's rendered frame is. None for a CSV trace.
@@ -348,96 +356,156 @@ impl Backend for Captured {
         case: &TestCase,
         frame: u64,
     ) -> Option<Result<RenderedFrame, BackendError>> {
-        let source = self.sources.get(&case.id)?;
+        self.render_frames(case, &[frame]).pop().flatten()
+    }
+
+    /// The frames of a video are read by seeking, all in one FFmpeg process;
+    /// a frame that cannot be sought, or whose seek lands elsewhere, is
+    /// read from the start.
+    fn render_frames(
+        &self,
+        case: &TestCase,
+        frames: &[u64],
+    ) -> Vec<Option<Result<RenderedFrame, BackendError>>> {
+        let Some(source) = self.sources.get(&case.id) else {
+            return frames.iter().map(|_| None).collect();
+        };
         let (path, opts) = (&source.path, &source.opts);
         // A CSV trace holds ROI means, not a picture.
         if capture::source_kind(path) == capture::SourceKind::Csv {
-            return None;
+            return frames.iter().map(|_| None).collect();
         }
         let error = |message: String| BackendError {
             backend: "captured".to_string(),
             case: case.id.clone(),
             message,
         };
-        let mut grab = Grab {
-            want: frame,
-            picture: None,
-        };
-        let full_scale_dn = match self.seek(case, source, frame, &mut grab) {
-            Ok(true) => 255.0,
-            Ok(false) => {
-                grab.picture = None;
-                match capture::read_grey_frame(path, opts, frame, &mut grab) {
-                    Ok(full_scale_dn) => full_scale_dn,
-                    Err(e) => return Some(Err(error(e.to_string()))),
-                }
+        let mut grab = Grab::default();
+        let landed = match self.seek(case, source, frames, &mut grab) {
+            Ok(landed) => landed,
+            Err(e) => {
+                return frames
+                    .iter()
+                    .map(|_| Some(Err(error(e.to_string()))))
+                    .collect();
             }
-            Err(e) => return Some(Err(error(e.to_string()))),
         };
-        Some(match grab.picture {
-            Some((width, height, luma)) => Ok(RenderedFrame::from_pixels(
-                frame,
-                width,
-                height,
-                &luma,
-                full_scale_dn,
-            )),
-            None => Err(error(format!(
-                "frame {frame} is not in `{}` on a second read",
-                path.display()
-            ))),
-        })
+        // Moved out, not copied (a frame can be tens of megabytes); a frame
+        // asked for twice is read from the start the second time.
+        let sought: Vec<_> = frames
+            .iter()
+            .zip(landed)
+            .map(|(frame, landed)| landed.then(|| grab.pictures.remove(frame)).flatten())
+            .collect();
+        frames
+            .par_iter()
+            .zip(sought)
+            .map(|(&frame, sought)| {
+                let (picture, full_scale_dn) = match sought {
+                    Some(picture) => (Some(picture), 255.0),
+                    None => {
+                        let mut one = Grab::default();
+                        let wanted = (&mut one, frame);
+                        match capture::read_grey_frame(path, opts, frame, &mut Only(wanted)) {
+                            Ok(full_scale_dn) => (one.pictures.remove(&frame), full_scale_dn),
+                            Err(e) => return Some(Err(error(e.to_string()))),
+                        }
+                    }
+                };
+                Some(match picture {
+                    Some((width, height, luma)) => Ok(RenderedFrame::from_pixels(
+                        frame,
+                        width,
+                        height,
+                        &luma,
+                        full_scale_dn,
+                    )),
+                    None => Err(error(format!(
+                        "frame {frame} is not in `{}` on a second read",
+                        path.display()
+                    ))),
+                })
+            })
+            .collect()
     }
 }
 
 impl Captured {
-    /// Reads frame `frame` of `case`'s video into `grab` by seeking, and
-    /// says whether the frame that came is the one wanted (its ROI means
-    /// are the trace's). False without a seek to make: frame 0 (as cheap
-    /// from the start), a frame outside the segments (no means to check
-    /// by), a capture that is not a video with times.
+    /// Reads `frames` of `case`'s video into `grab` by seeking, in one
+    /// process, and says for each whether the frame that came is the one
+    /// wanted (its ROI means are the trace's). False for a frame with no
+    /// seek to make: frame 0 (as cheap from the start), a frame outside the
+    /// segments (no means to check by), a capture that is not a video with
+    /// times.
     fn seek(
         &self,
         case: &TestCase,
         source: &Source,
-        frame: u64,
+        frames: &[u64],
         grab: &mut Grab,
-    ) -> Result<bool, CaptureError> {
+    ) -> Result<Vec<bool>, CaptureError> {
+        let mut landed = vec![false; frames.len()];
         let Some((times, size, video)) = &source.seek else {
-            return Ok(false);
+            return Ok(landed);
         };
         let (Some(origin), Some(acq)) = (video.origin_s, self.acquisitions.get(&case.id)) else {
-            return Ok(false);
+            return Ok(landed);
         };
-        let k = frame as usize;
-        let (Some(&before), Some(&at), Some(row)) = (
-            k.checked_sub(1).and_then(|b| times.get(b)),
-            times.get(k),
-            acq.frames.iter().position(|f| f.index == frame),
-        ) else {
-            return Ok(false);
-        };
-        let means: Vec<f64> = acq.rois.iter().map(|r| r.luma[row]).collect();
+        let means: Vec<Vec<f64>> = frames
+            .iter()
+            .map(|&frame| {
+                let row = acq.frames.iter().position(|f| f.index == frame);
+                row.map_or_else(Vec::new, |row| {
+                    acq.rois.iter().map(|r| r.luma[row]).collect()
+                })
+            })
+            .collect();
+        let mut sought = Vec::new();
+        let mut at = Vec::new();
+        for (i, (&frame, means)) in frames.iter().zip(&means).enumerate() {
+            let k = frame as usize;
+            let (Some(&before), Some(&time)) =
+                (k.checked_sub(1).and_then(|b| times.get(b)), times.get(k))
+            else {
+                continue;
+            };
+            if means.is_empty() {
+                continue;
+            }
+            sought.push(capture::SeekTo {
+                frame,
+                at_s: origin + (before + time) / 2.0,
+                means,
+            });
+            at.push(i);
+        }
+        if sought.is_empty() {
+            return Ok(landed);
+        }
         let seek = capture::FrameSeek {
-            at_s: origin + (before + at) / 2.0,
             size: *size,
             video: *video,
             rois: &self.rects,
-            means: &means,
+            frames: &sought,
         };
-        capture::read_video_frame_seeking(&source.path, &source.opts, frame, &seek, grab)
+        let got = capture::read_video_frames_seeking(&source.path, &source.opts, &seek, grab)?;
+        for (i, ok) in at.into_iter().zip(got) {
+            landed[i] = ok;
+        }
+        Ok(landed)
     }
 }
 
-/// Keeps one frame of a capture, whole, as grey levels.
+/// Keeps frames of a capture, whole, as grey levels: the first picture
+/// handed over under each number.
+#[derive(Default)]
 struct Grab {
-    want: u64,
-    picture: Option<(u32, u32, Vec<f64>)>,
+    pictures: std::collections::BTreeMap<u64, (u32, u32, Vec<f64>)>,
 }
 
 impl capture::FrameSink for Grab {
     fn frame(&mut self, f: &capture::GreyFrame<'_>) {
-        if f.index != self.want || self.picture.is_some() {
+        if self.pictures.contains_key(&f.index) {
             return;
         }
         let (w, h) = (f.width(), f.height());
@@ -447,6 +515,18 @@ impl capture::FrameSink for Grab {
             f.row(y, &mut row);
             luma.extend(row.iter().map(|&v| f64::from(v)));
         }
-        self.picture = Some((w, h, luma));
+        self.pictures.insert(f.index, (w, h, luma));
+    }
+}
+
+/// Hands only frame `.1` to the grab `.0`.
+struct Only<'g>((&'g mut Grab, u64));
+
+impl capture::FrameSink for Only<'_> {
+    fn frame(&mut self, f: &capture::GreyFrame<'_>) {
+        let (grab, want) = &mut self.0;
+        if f.index == *want {
+            grab.frame(f);
+        }
     }
 }

@@ -110,4 +110,16 @@ impl Backend for PlanBackend {
     ) -> Option<Result<RenderedFrame, BackendError>> {
         self.inner().render_frame(case, frame)
     }
+
+    fn cases_at_once(&self) -> Option<usize> {
+        self.inner().cases_at_once()
+    }
+
+    fn render_frames(
+        &self,
+        case: &TestCase,
+        frames: &[u64],
+    ) -> Vec<Option<Result<RenderedFrame, BackendError>>> {
+        self.inner().render_frames(case, frames)
+    }
 }

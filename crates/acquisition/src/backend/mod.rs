@@ -47,4 +47,25 @@ pub trait Backend: Send + Sync {
     ) -> Option<Result<RenderedFrame, BackendError>> {
         None
     }
+    /// How many cases are worth running at once when the run sets no thread
+    /// count; `None`: one per core. A backend whose cases wait on other
+    /// processes (a video's frames sought by FFmpeg) says more, so that the
+    /// cores are busy while a case waits.
+    fn cases_at_once(&self) -> Option<usize> {
+        None
+    }
+    /// [`Backend::render_frame`] for each of `frames` of `case`, in that
+    /// order, in parallel. A backend that reads several frames of a case
+    /// more cheaply together (a video, seeking in one process) does so.
+    fn render_frames(
+        &self,
+        case: &TestCase,
+        frames: &[u64],
+    ) -> Vec<Option<Result<RenderedFrame, BackendError>>> {
+        use rayon::prelude::*;
+        frames
+            .par_iter()
+            .map(|&frame| self.render_frame(case, frame))
+            .collect()
+    }
 }

@@ -108,12 +108,17 @@ impl Layout {
     /// The filter graph from the first video stream to `[out]`: crop each
     /// tile (no copy), stack the tiles, then `suffix`.
     pub(super) fn filter(&self, suffix: &str) -> String {
+        self.filter_from("[0:v:0]", suffix)
+    }
+
+    /// [`Layout::filter`] from the stream labelled `input` (with brackets).
+    pub(super) fn filter_from(&self, input: &str, suffix: &str) -> String {
         let crop = |t: &RoiRect| format!("crop={}:{}:{}:{}", t.width, t.height, t.x, t.y);
         if let [tile] = self.tiles.as_slice() {
-            return format!("[0:v:0]{}{suffix}[out]", crop(tile));
+            return format!("{input}{}{suffix}[out]", crop(tile));
         }
         let n = self.tiles.len();
-        let mut g = format!("[0:v:0]split={n}");
+        let mut g = format!("{input}split={n}");
         (0..n).for_each(|i| g.push_str(&format!("[s{i}]")));
         for (i, t) in self.tiles.iter().enumerate() {
             g.push_str(&format!(";[s{i}]{}[c{i}]", crop(t)));

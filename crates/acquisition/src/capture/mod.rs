@@ -18,6 +18,7 @@ mod csv_trace;
 mod grey;
 mod images;
 mod layout;
+mod mp4;
 mod probe;
 mod progress;
 mod schedule;
@@ -33,7 +34,7 @@ use std::path::{Path, PathBuf};
 
 pub use csv_trace::MAX_CSV_LUMA_DN;
 pub use progress::{decode_progress_text, frames_decoded};
-pub use schedule::read_captures;
+pub use schedule::{AT_ONCE, read_captures};
 pub use video::ffmpeg_available;
 pub use waveform::{Column, Waveform, read_waveform, sample_rate};
 
@@ -324,8 +325,9 @@ pub fn source_kind(path: &Path) -> SourceKind {
 }
 
 /// The frame size (width, height in pixels) of the capture at `path`,
-/// read from the first frame's header (an image, a Y4M header) or
-/// ffprobe's stream facts, without decoding a frame; `None` for a CSV
+/// read from the first frame's header (an image, a Y4M header), an MP4 or
+/// MOV file's sample description, or ffprobe's stream facts, without
+/// decoding a frame; `None` for a CSV
 /// trace, which has no frame, and for a capture that cannot be read now
 /// (its read at run time says why). Plan validation checks ROIs with it
 /// ([`ledflicker_plan::plan::FrameSize`]).
@@ -344,7 +346,7 @@ fn frame_size_on_disk(path: &Path) -> Option<(u32, u32)> {
         SourceKind::ImageDir => images::frame_size(images::frame_files(path).ok()?.first()?),
         SourceKind::Image => images::frame_size(path),
         SourceKind::Y4m => y4m::frame_size(path),
-        SourceKind::Video => probe::frame_size(path),
+        SourceKind::Video => mp4::frame_size(path).or_else(|| probe::frame_size(path)),
         SourceKind::Csv => None,
     }
 }
@@ -602,17 +604,25 @@ pub fn read_grey_frame(
     })
 }
 
-/// Where a video's frame is, so that it can be read by seeking.
+/// Where a video's frames are, so that they can be read by seeking.
 pub struct FrameSeek<'a> {
-    /// Where ffmpeg's `-ss` goes: halfway between the frame's presentation
-    /// time and the one before it, on the file's timeline, seconds.
-    pub at_s: f64,
     /// Frame width and height, pixels.
     pub size: (u32, u32),
     /// How the video was read.
     pub video: VideoRead,
     /// The ROIs, frame coordinates.
     pub rois: &'a [RoiRect],
+    /// The frames wanted.
+    pub frames: &'a [SeekTo<'a>],
+}
+
+/// One frame wanted by [`FrameSeek`].
+pub struct SeekTo<'a> {
+    /// Frame number, 0-based.
+    pub frame: u64,
+    /// Where ffmpeg's `-ss` goes: halfway between the frame's presentation
+    /// time and the one before it, on the file's timeline, seconds.
+    pub at_s: f64,
     /// The frame's ROI means as the trace holds them, DN.
     pub means: &'a [f64],
 }
@@ -622,40 +632,42 @@ pub struct FrameSeek<'a> {
 /// sums; this only absorbs the order they are added in.
 const SEEK_MEANS_TOLERANCE_DN: f64 = 1e-9;
 
-/// Hands frame `frame` of the video at `path`, whole, to `sink`, decoding
-/// from the key frame before it rather than from the start, and returns
-/// true when the frame that came has `seek.means` in every ROI. False (a
-/// file whose index sends the seek elsewhere, or no ROI to check by): the
-/// frame `sink` got, if any, is not the one wanted, and the caller reads it
-/// from the start ([`read_grey_frame`]).
-pub fn read_video_frame_seeking(
+/// Hands each frame of `seek.frames` of the video at `path`, whole, to
+/// `sink`, decoding it from the key frame before it rather than from the
+/// start (all of them in one FFmpeg process), and says for each whether the
+/// frame that came has its `means` in every ROI. False (a file whose index
+/// sends the seek elsewhere, or no ROI to check by): the frame `sink` got
+/// under that number, if any, is not the one wanted, and the caller reads
+/// it from the start ([`read_grey_frame`]).
+pub fn read_video_frames_seeking(
     path: &Path,
     opts: &ReadOptions,
-    frame: u64,
     seek: &FrameSeek<'_>,
     sink: &mut dyn FrameSink,
-) -> Result<bool, CaptureError> {
-    if seek.rois.is_empty() || seek.rois.len() != seek.means.len() {
-        return Ok(false);
+) -> Result<Vec<bool>, CaptureError> {
+    if seek.rois.is_empty() || seek.frames.is_empty() {
+        return Ok(vec![false; seek.frames.len()]);
     }
-    with_built_in(path, |path| {
+    let seeks: Vec<(u64, f64)> = seek.frames.iter().map(|s| (s.frame, s.at_s)).collect();
+    let got = with_built_in(path, |path| {
         let (w, h) = seek.size;
-        let got = video::read_frame_seeking(
-            path,
-            opts,
-            (frame, seek.at_s),
-            (w, h, seek.video),
-            seek.rois,
-            sink,
-        )?;
-        Ok(got.is_some_and(|got| {
-            got.len() == seek.means.len()
+        video::read_frames_seeking(path, opts, &seeks, (w, h, seek.video), seek.rois, sink)
+    })?;
+    let landed = |s: &SeekTo<'_>, got: Option<Vec<f64>>| {
+        got.is_some_and(|got| {
+            got.len() == s.means.len()
                 && got
                     .iter()
-                    .zip(seek.means)
+                    .zip(s.means)
                     .all(|(a, b)| (a - b).abs() <= SEEK_MEANS_TOLERANCE_DN)
-        }))
-    })
+        })
+    };
+    Ok(seek
+        .frames
+        .iter()
+        .zip(got)
+        .map(|(s, got)| landed(s, got))
+        .collect())
 }
 
 fn read_grey_frames_on_disk(

@@ -12,25 +12,30 @@ use super::super::{
 };
 use super::Decoder;
 
-/// Hands one frame of `path`, whole, to `sink` as frame `frame`, decoding
-/// from the key frame before it rather than from the start: ffmpeg's
-/// accurate seek (`-ss`, an input option) goes to `at_s` on the file's
-/// timeline, decodes from the key frame before it and drops the frames
-/// before `at_s`. The caller puts `at_s` halfway between the frame's
-/// presentation time and the one before it. Returns the ROI means of the
-/// frame it landed on (`rois` in frame coordinates), for the caller to
-/// check against the trace: a file whose index sends a seek to another
-/// key frame lands on another frame. None when nothing came.
-pub(in crate::capture) fn read_frame_seeking(
+/// Hands frames of `path`, whole, to `sink`, each decoded from the key
+/// frame before it rather than from the start: for each `(frame, at_s)` of
+/// `seeks`, ffmpeg's accurate seek (`-ss`, an input option) goes to `at_s`
+/// on the file's timeline, decodes from the key frame before it and drops
+/// the frames before `at_s`, and the first frame left goes to `sink` as
+/// `frame`. The caller puts `at_s` halfway between the frame's
+/// presentation time and the one before it. All seeks run in one ffmpeg
+/// process. Returns, for each seek, the ROI means of the frame it landed on
+/// (`rois` in frame coordinates), for the caller to check against the
+/// trace: a file whose index sends a seek to another key frame lands on
+/// another frame; None where nothing came.
+pub(in crate::capture) fn read_frames_seeking(
     path: &Path,
     opts: &ReadOptions,
-    (frame, at_s): (u64, f64),
+    seeks: &[(u64, f64)],
     (width, height, video): (u32, u32, VideoRead),
     rois: &[RoiRect],
     sink: &mut dyn FrameSink,
-) -> Result<Option<Vec<f64>>, CaptureError> {
+) -> Result<Vec<Option<Vec<f64>>>, CaptureError> {
     drop(open_file(path)?);
-    check_rois(path, frame, rois, width, height)?;
+    let Some(&(first, _)) = seeks.first() else {
+        return Ok(Vec::new());
+    };
+    check_rois(path, first, rois, width, height)?;
     let whole = RoiRect {
         x: 0,
         y: 0,
@@ -50,7 +55,12 @@ pub(in crate::capture) fn read_frame_seeking(
         packet_times: Vec::new(),
         seek_origin_s: None,
     };
-    let mut relabel = Relabel { sink, frame };
+    let frames: Vec<u64> = seeks.iter().map(|&(frame, _)| frame).collect();
+    let times: Vec<f64> = seeks.iter().map(|&(_, at_s)| at_s).collect();
+    let mut relabel = Relabel {
+        sink,
+        frames: &frames,
+    };
     let opts = ReadOptions {
         range: if video.full_range {
             VideoRange::Full
@@ -58,35 +68,39 @@ pub(in crate::capture) fn read_frame_seeking(
             VideoRange::Limited
         },
         // A seek decodes a key frame's group, at most a few hundred frames,
-        // and several seeks run at once (a case's sample and lit frames,
-        // cases in parallel): frame threading would add its CPU and its
-        // start-up delay, and no pixel changes with it.
+        // and several seeks run at once (cases in parallel): frame
+        // threading would add its CPU and its start-up delay, and no pixel
+        // changes with it.
         decoder_threads: Some(1),
         ..*opts
     };
-    let trace = Decoder::start_at(path, layout, &opts, Some(at_s))?.read(
+    let last = seeks.len() as u64 - 1;
+    let trace = Decoder::start_seeking(path, layout, &opts, &times)?.read(
         path,
         probe,
         &opts,
         STALL,
-        Some((&mut relabel, Some(0))),
+        Some((&mut relabel, Some(last))),
     )?;
-    Ok(trace.luma.iter().map(|roi| roi.first().copied()).collect())
+    Ok((0..seeks.len())
+        .map(|k| trace.luma.iter().map(|roi| roi.get(k).copied()).collect())
+        .collect())
 }
 
-/// Hands the first frame a seek gives to `sink` as frame `frame`.
+/// Hands the `k`th frame the seeks give to `sink` as frame `frames[k]`.
 struct Relabel<'s> {
     sink: &'s mut dyn FrameSink,
-    frame: u64,
+    frames: &'s [u64],
 }
 
 impl FrameSink for Relabel<'_> {
     fn frame(&mut self, f: &GreyFrame<'_>) {
-        if f.index == 0 {
-            self.sink.frame(&GreyFrame {
-                index: self.frame,
-                ..*f
-            });
-        }
+        let Some(&frame) = usize::try_from(f.index)
+            .ok()
+            .and_then(|k| self.frames.get(k))
+        else {
+            return;
+        };
+        self.sink.frame(&GreyFrame { index: frame, ..*f });
     }
 }
