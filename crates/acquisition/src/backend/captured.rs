@@ -236,6 +236,17 @@ pub struct Captured {
     rects: Vec<RoiRect>,
 }
 
+/// Most bytes a case's shown frames hold while it is rendered, per pixel of
+/// its frame: two frames (the sample and the lit frame), each read as grey
+/// levels (8 bytes a pixel) and kept as runs of equal values (at most 16
+/// bytes a pixel, for a frame whose neighbours all differ).
+const FRAME_BYTES_PER_PIXEL: u64 = 2 * (8 + 16);
+
+/// Most bytes the cases a captured run has in flight beyond one per core
+/// may hold in frames ([`Backend::cases_at_once`]): 64 MB, one extra case
+/// of 1280 x 800 frames.
+const EXTRA_FRAMES_BYTES: u64 = 64 << 20;
+
 /// A case's capture, to read one frame of it again.
 #[derive(Debug)]
 struct Source {
@@ -341,11 +352,20 @@ impl Backend for Captured {
     }
 
     /// A case's frames come from its own FFmpeg process, so a case waits
-    /// on a pipe while it is rendered: one case per video, up to
-    /// [`capture::AT_ONCE`], as the captures were read.
+    /// on a pipe while it is rendered: more cases than cores keep the cores
+    /// busy, one per video up to [`capture::AT_ONCE`], as far as
+    /// [`EXTRA_FRAMES_BYTES`] lets the extra cases hold their frames.
     fn cases_at_once(&self) -> Option<usize> {
-        let videos = self.sources.values().filter(|s| s.seek.is_some()).count();
-        (videos > 0).then_some(videos.min(capture::AT_ONCE))
+        let videos = self.sources.values().filter_map(|s| s.seek.as_ref());
+        let (count, pixels) = videos.fold((0usize, 0u64), |(n, most), (_, (w, h), _)| {
+            (n + 1, most.max(u64::from(*w) * u64::from(*h)))
+        });
+        let per_case = (pixels * FRAME_BYTES_PER_PIXEL).max(1);
+        let extra = usize::try_from(EXTRA_FRAMES_BYTES / per_case).unwrap_or(usize::MAX);
+        let at_once = count
+            .min(capture::AT_ONCE)
+            .min(rayon::current_num_threads().saturating_add(extra));
+        (count > 0).then_some(at_once)
     }
 
     /// Frame `frame` of the case's capture, read again (frames are not kept
@@ -528,5 +548,62 @@ impl capture::FrameSink for Only<'_> {
         if f.index == *want {
             grab.frame(f);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A captured backend of `videos` videos of `w` x `h` pixels.
+    fn of_videos(videos: usize, (w, h): (u32, u32)) -> Captured {
+        let opts = ReadOptions {
+            luma: capture::LumaWeights::Bt601,
+            video_decode: capture::VideoDecode::Rgb,
+            range: capture::VideoRange::Auto,
+            colour_transfer: capture::ColourTransfer::Linear,
+            fps: None,
+            decoder_threads: None,
+        };
+        let video = capture::VideoRead {
+            origin_s: Some(0.0),
+            full_range: false,
+        };
+        let sources = (0..videos)
+            .map(|i| {
+                let source = Source {
+                    path: format!("v{i}.mp4").into(),
+                    opts,
+                    seek: Some((vec![0.0, 0.1], (w, h), video)),
+                };
+                (format!("case{i}"), source)
+            })
+            .collect();
+        Captured {
+            acquisitions: HashMap::new(),
+            sources,
+            rects: Vec::new(),
+        }
+    }
+
+    /// One case per video, at most 8, and no more beyond one per core than
+    /// 64 MB of frames allow: one more for 1280 x 800 frames, none for 4K.
+    #[test]
+    fn a_captured_run_takes_a_case_per_video_as_far_as_memory_allows() {
+        let cores = rayon::current_num_threads();
+        assert_eq!(of_videos(0, (1280, 800)).cases_at_once(), None);
+        assert_eq!(of_videos(3, (64, 48)).cases_at_once(), Some(3));
+        assert_eq!(
+            of_videos(20, (64, 48)).cases_at_once(),
+            Some(capture::AT_ONCE)
+        );
+        assert_eq!(
+            of_videos(20, (1280, 800)).cases_at_once(),
+            Some((cores + 1).min(capture::AT_ONCE))
+        );
+        assert_eq!(
+            of_videos(20, (3840, 2160)).cases_at_once(),
+            Some(cores.min(capture::AT_ONCE))
+        );
     }
 }
