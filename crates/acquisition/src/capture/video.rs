@@ -374,7 +374,10 @@ fn spawn_ffmpeg(
         if let Some(n) = threads {
             cmd.arg("-threads").arg(n.to_string());
         }
-        cmd.arg("-i").arg(path);
+        // Frames as stored, whatever rotation the file tags them with for
+        // display: ffprobe's width and height, which the ROIs are checked
+        // against, are the stored picture's.
+        cmd.arg("-noautorotate").arg("-i").arg(path);
     };
     if seeks.is_empty() {
         input(&mut cmd, None);
@@ -656,6 +659,45 @@ mod tests {
         let mut beyond = keep(1000);
         read_until(&path, &opts, &mut beyond, 1000).unwrap();
         assert_eq!((beyond.seen, beyond.picture.len()), (369, 0));
+    }
+
+    /// A file tagged to be shown rotated (as phones write them) is read as
+    /// stored, the size ffprobe gives: the same ROI means and the same
+    /// whole frames as the untagged file.
+    #[test]
+    fn a_video_tagged_with_a_rotation_is_read_as_stored() {
+        assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
+        let dir = tempfile::tempdir().unwrap();
+        let rotated = dir.path().join("rotated.mp4");
+        let status = Command::new("ffmpeg")
+            .args(["-nostdin", "-v", "error", "-i"])
+            .arg(sample_video())
+            .args(["-c", "copy", "-metadata:s:v:0", "rotate=90"])
+            .arg(&rotated)
+            .status()
+            .unwrap();
+        assert!(status.success(), "ffmpeg could not tag the copy");
+        let p = probe(&rotated).unwrap();
+        assert_eq!((p.width, p.height), (1280, 800));
+        let rois = [
+            rect(10, 10, 20, 2),
+            rect(1200, 700, 40, 30),
+            rect(450, 240, 30, 20),
+        ];
+        let opts = rgb_opts();
+        let read = |path: &Path| probe_and_read(path, &rois, &opts).unwrap();
+        let (stored, tagged) = (read(&sample_video()), read(&rotated));
+        assert!(tagged.luma == stored.luma, "the ROI means differ");
+        assert_eq!(tagged.frame_size, (1280, 800));
+        let keep = || Keep {
+            want: 200,
+            seen: 0,
+            picture: Vec::new(),
+        };
+        let (mut a, mut b) = (keep(), keep());
+        read_until(&sample_video(), &opts, &mut a, 200).unwrap();
+        read_until(&rotated, &opts, &mut b, 200).unwrap();
+        assert!(a.picture == b.picture, "frame 200 differs");
     }
 
     /// ffmpeg started before the probe reads the same trace as ffmpeg
