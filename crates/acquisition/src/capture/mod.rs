@@ -715,6 +715,13 @@ pub(crate) fn limited_to_full_lut(bits: u32) -> Vec<u32> {
 mod tests {
     use super::*;
 
+    /// A P2020 sample video of the repository's reference data.
+    pub(super) fn p2020_sample(name: &str) -> PathBuf {
+        Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+            .join("reference-data/p2020-flicker-videos")
+            .join(name)
+    }
+
     #[test]
     fn bt601_grey_matches_opencv_fixed_point_on_corners() {
         let w = LumaWeights::Bt601;
