@@ -18,7 +18,7 @@ use super::{Acquisition, Backend, BackendError, FrameInfo, RoiTrace};
 use crate::capture::{self, CaptureError, CaptureTrace, ColourTransfer, ReadOptions, RoiRect};
 use ledflicker_metrics::metrics::flicker::Segment;
 use ledflicker_plan::plan::{CaptureConfig, Plan, Roi, RoiKind, SegmentSpec, Span, TestCase};
-use ledflicker_plan::trace::{LitFrame, RenderedFrame};
+use ledflicker_plan::trace::{LitFrame, RenderedFrame, Run};
 
 /// Turns the plan's ROIs into pixel rectangles.
 pub fn roi_rects(rois: &[Roi]) -> Vec<RoiRect> {
@@ -237,10 +237,10 @@ pub struct Captured {
 }
 
 /// Most bytes a case's shown frames hold while it is rendered, per pixel of
-/// its frame: two frames (the sample and the lit frame), each read as grey
-/// levels (8 bytes a pixel) and kept as runs of equal values (at most 16
-/// bytes a pixel, for a frame whose neighbours all differ).
-const FRAME_BYTES_PER_PIXEL: u64 = 2 * (8 + 16);
+/// its frame: two frames (the sample and the lit frame), each kept as runs
+/// of equal grey levels (at most 16 bytes a pixel, for a frame whose
+/// neighbours all differ).
+const FRAME_BYTES_PER_PIXEL: u64 = 2 * 16;
 
 /// Most bytes the cases a captured run has in flight beyond one per core
 /// may hold in frames ([`Backend::cases_at_once`]): 64 MB, one extra case
@@ -421,30 +421,26 @@ impl Backend for Captured {
             .par_iter()
             .zip(sought)
             .map(|(&frame, sought)| {
-                let (picture, full_scale_dn) = match sought {
-                    Some(picture) => (Some(picture), 255.0),
+                let picture = match sought {
+                    Some(picture) => Some(picture),
                     None => {
                         let mut one = Grab::default();
                         let wanted = (&mut one, frame);
                         match capture::read_grey_frame(path, opts, frame, &mut Only(wanted)) {
-                            Ok(full_scale_dn) => (one.pictures.remove(&frame), full_scale_dn),
+                            Ok(full_scale_dn) => one.pictures.remove(&frame).map(|mut picture| {
+                                picture.full_scale_dn = full_scale_dn;
+                                picture
+                            }),
                             Err(e) => return Some(Err(error(e.to_string()))),
                         }
                     }
                 };
-                Some(match picture {
-                    Some((width, height, luma)) => Ok(RenderedFrame::from_pixels(
-                        frame,
-                        width,
-                        height,
-                        &luma,
-                        full_scale_dn,
-                    )),
-                    None => Err(error(format!(
+                Some(picture.ok_or_else(|| {
+                    error(format!(
                         "frame {frame} is not in `{}` on a second read",
                         path.display()
-                    ))),
-                })
+                    ))
+                }))
             })
             .collect()
     }
@@ -516,11 +512,12 @@ impl Captured {
     }
 }
 
-/// Keeps frames of a capture, whole, as grey levels: the first picture
-/// handed over under each number.
+/// Keeps frames of a capture, whole, as runs of equal grey levels (never
+/// a value per pixel: a captured frame is mostly runs): the first picture
+/// handed over under each number, as 8-bit output until told otherwise.
 #[derive(Default)]
 struct Grab {
-    pictures: std::collections::BTreeMap<u64, (u32, u32, Vec<f64>)>,
+    pictures: std::collections::BTreeMap<u64, RenderedFrame>,
 }
 
 impl capture::FrameSink for Grab {
@@ -528,14 +525,22 @@ impl capture::FrameSink for Grab {
         if self.pictures.contains_key(&f.index) {
             return;
         }
-        let (w, h) = (f.width(), f.height());
-        let mut row = vec![0u32; w as usize];
-        let mut luma = Vec::with_capacity(w as usize * h as usize);
-        for y in 0..h {
-            f.row(y, &mut row);
-            luma.extend(row.iter().map(|&v| f64::from(v)));
-        }
-        self.pictures.insert(f.index, (w, h, luma));
+        let mut row = vec![0u32; f.width() as usize];
+        let rows = (0..f.height())
+            .map(|y| {
+                f.row(y, &mut row);
+                let mut runs: Vec<Run> = Vec::new();
+                for value in row.iter().map(|&v| f64::from(v)) {
+                    match runs.last_mut() {
+                        Some(r) if r.value.to_bits() == value.to_bits() => r.len += 1,
+                        _ => runs.push(Run { len: 1, value }),
+                    }
+                }
+                runs
+            })
+            .collect();
+        let picture = RenderedFrame::from_runs(f.index, f.width(), 255.0, rows);
+        self.pictures.insert(f.index, picture);
     }
 }
 
