@@ -243,7 +243,7 @@ pub struct Captured {
 const FRAME_BYTES_PER_PIXEL: u64 = 2 * 16;
 
 /// Most bytes the cases a captured run has in flight beyond one per core
-/// may hold in frames ([`Backend::cases_at_once`]): 64 MB, one extra case
+/// may hold in frames ([`Backend::cases_at_once`]): 64 MB, two extra cases
 /// of 1280 x 800 frames.
 const EXTRA_FRAMES_BYTES: u64 = 64 << 20;
 
@@ -592,7 +592,8 @@ mod tests {
     }
 
     /// One case per video, at most 8, and no more beyond one per core than
-    /// 64 MB of frames allow: one more for 1280 x 800 frames, none for 4K.
+    /// 64 MB of frames allow: two more for 1280 x 800 frames, one for
+    /// 1920 x 1080, none for 3840 x 2160.
     #[test]
     fn a_captured_run_takes_a_case_per_video_as_far_as_memory_allows() {
         let cores = rayon::current_num_threads();
@@ -604,6 +605,10 @@ mod tests {
         );
         assert_eq!(
             of_videos(20, (1280, 800)).cases_at_once(),
+            Some((cores + 2).min(capture::AT_ONCE))
+        );
+        assert_eq!(
+            of_videos(20, (1920, 1080)).cases_at_once(),
             Some((cores + 1).min(capture::AT_ONCE))
         );
         assert_eq!(
