@@ -624,7 +624,8 @@ mod tests {
                 most: std::sync::Mutex::new(0),
                 changed: std::sync::Condvar::new(),
             };
-            let results = run(&plan, &cases[..cores + 2], &backend, threads, &|_| {}).unwrap();
+            let cases: Vec<TestCase> = cases.iter().cycle().take(cores + 2).cloned().collect();
+            let results = run(&plan, &cases, &backend, threads, &|_| {}).unwrap();
             assert_eq!(results.len(), cores + 2);
             let most = *backend.most.lock().unwrap();
             assert_eq!(most, expect, "threads {threads:?}, asked for {want}");

@@ -247,6 +247,20 @@ const FRAME_BYTES_PER_PIXEL: u64 = 2 * 16;
 /// of 1280 x 800 frames.
 const EXTRA_FRAMES_BYTES: u64 = 64 << 20;
 
+/// Cases of `videos` videos of at most `pixels` pixels a frame worth
+/// running at once on `cores` cores: one per video, at most
+/// [`capture::AT_ONCE`], and beyond one per core only as many as
+/// [`EXTRA_FRAMES_BYTES`] of frames allow. (A worker hands on a finished
+/// case deflated for the store, so the queue between the workers and the
+/// store holds no frames as runs.)
+fn cases_at_once(videos: usize, pixels: u64, cores: usize) -> usize {
+    let per_case = (pixels * FRAME_BYTES_PER_PIXEL).max(1);
+    let extra = usize::try_from(EXTRA_FRAMES_BYTES / per_case).unwrap_or(usize::MAX);
+    videos
+        .min(capture::AT_ONCE)
+        .min(cores.saturating_add(extra))
+}
+
 /// A case's capture, to read one frame of it again.
 #[derive(Debug)]
 struct Source {
@@ -353,19 +367,24 @@ impl Backend for Captured {
 
     /// A case's frames come from its own FFmpeg process, so a case waits
     /// on a pipe while it is rendered: more cases than cores keep the cores
-    /// busy, one per video up to [`capture::AT_ONCE`], as far as
-    /// [`EXTRA_FRAMES_BYTES`] lets the extra cases hold their frames.
+    /// busy ([`cases_at_once`]). Only when every case is a video: the
+    /// extra cases' frames are counted at the videos' size.
     fn cases_at_once(&self) -> Option<usize> {
-        let videos = self.sources.values().filter_map(|s| s.seek.as_ref());
-        let (count, pixels) = videos.fold((0usize, 0u64), |(n, most), (_, (w, h), _)| {
-            (n + 1, most.max(u64::from(*w) * u64::from(*h)))
-        });
-        let per_case = (pixels * FRAME_BYTES_PER_PIXEL).max(1);
-        let extra = usize::try_from(EXTRA_FRAMES_BYTES / per_case).unwrap_or(usize::MAX);
-        let at_once = count
-            .min(capture::AT_ONCE)
-            .min(rayon::current_num_threads().saturating_add(extra));
-        (count > 0).then_some(at_once)
+        let videos: Vec<_> = self.sources.values().map(|s| s.seek.as_ref()).collect();
+        if videos.is_empty() || videos.iter().any(Option::is_none) {
+            return None;
+        }
+        let pixels = videos
+            .iter()
+            .flatten()
+            .map(|(_, (w, h), _)| u64::from(*w) * u64::from(*h))
+            .max()
+            .unwrap_or(0);
+        Some(cases_at_once(
+            videos.len(),
+            pixels,
+            rayon::current_num_threads(),
+        ))
     }
 
     /// Frame `frame` of the case's capture, read again (frames are not kept
@@ -417,6 +436,9 @@ impl Backend for Captured {
             .zip(landed)
             .map(|(frame, landed)| landed.then(|| grab.pictures.remove(frame)).flatten())
             .collect();
+        // The frames of seeks that landed elsewhere go before any is read
+        // again from the start.
+        drop(grab);
         frames
             .par_iter()
             .zip(sought)
@@ -536,6 +558,9 @@ impl capture::FrameSink for Grab {
                         _ => runs.push(Run { len: 1, value }),
                     }
                 }
+                // At most the 16 bytes of a run per pixel, not a doubled
+                // vector's spare room.
+                runs.shrink_to_fit();
                 runs
             })
             .collect();
@@ -593,27 +618,27 @@ mod tests {
 
     /// One case per video, at most 8, and no more beyond one per core than
     /// 64 MB of frames allow: two more for 1280 x 800 frames, one for
-    /// 1920 x 1080, none for 3840 x 2160.
+    /// 1920 x 1080, none for 3840 x 2160; a plan with a capture that is
+    /// not a video keeps one per core.
     #[test]
     fn a_captured_run_takes_a_case_per_video_as_far_as_memory_allows() {
-        let cores = rayon::current_num_threads();
+        let px = |w: u64, h: u64| w * h;
+        assert_eq!(cases_at_once(3, px(64, 48), 2), 3);
+        assert_eq!(cases_at_once(20, px(64, 48), 2), capture::AT_ONCE);
+        assert_eq!(cases_at_once(20, px(1280, 800), 2), 4);
+        assert_eq!(cases_at_once(20, px(1920, 1080), 2), 3);
+        assert_eq!(cases_at_once(20, px(3840, 2160), 2), 2);
+        assert_eq!(cases_at_once(20, px(3840, 2160), 12), capture::AT_ONCE);
         assert_eq!(of_videos(0, (1280, 800)).cases_at_once(), None);
-        assert_eq!(of_videos(3, (64, 48)).cases_at_once(), Some(3));
+        let cores = rayon::current_num_threads();
         assert_eq!(
-            of_videos(20, (64, 48)).cases_at_once(),
-            Some(capture::AT_ONCE)
+            of_videos(3, (64, 48)).cases_at_once(),
+            Some(cases_at_once(3, px(64, 48), cores))
         );
-        assert_eq!(
-            of_videos(20, (1280, 800)).cases_at_once(),
-            Some((cores + 2).min(capture::AT_ONCE))
-        );
-        assert_eq!(
-            of_videos(20, (1920, 1080)).cases_at_once(),
-            Some((cores + 1).min(capture::AT_ONCE))
-        );
-        assert_eq!(
-            of_videos(20, (3840, 2160)).cases_at_once(),
-            Some(cores.min(capture::AT_ONCE))
-        );
+        let mut mixed = of_videos(3, (64, 48));
+        if let Some(s) = mixed.sources.get_mut("case0") {
+            s.seek = None;
+        }
+        assert_eq!(mixed.cases_at_once(), None);
     }
 }

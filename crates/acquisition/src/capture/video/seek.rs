@@ -22,7 +22,7 @@ use super::Decoder;
 /// process. Returns, for each seek, the ROI means of the frame it landed on
 /// (`rois` in frame coordinates), for the caller to check against the
 /// trace: a file whose index sends a seek to another key frame lands on
-/// another frame; None where nothing came.
+/// another frame; None for every seek when fewer frames came than seeks.
 pub(in crate::capture) fn read_frames_seeking(
     path: &Path,
     opts: &ReadOptions,
@@ -82,6 +82,12 @@ pub(in crate::capture) fn read_frames_seeking(
         STALL,
         Some((&mut relabel, Some(last))),
     )?;
+    // Each input gives one frame. Fewer frames means an input gave none,
+    // and a later input's frame came under an earlier one's number: none
+    // is trusted then (the caller reads them from the start).
+    if trace.luma.first().map_or(0, Vec::len) != seeks.len() {
+        return Ok(vec![None; seeks.len()]);
+    }
     Ok((0..seeks.len())
         .map(|k| trace.luma.iter().map(|roi| roi.get(k).copied()).collect())
         .collect())

@@ -120,14 +120,36 @@ fn a_video_tagged_with_a_rotation_is_read_as_stored() {
     assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
     let dir = tempfile::tempdir().unwrap();
     let rotated = dir.path().join("rotated.mp4");
-    let status = Command::new("ffmpeg")
-        .args(["-nostdin", "-v", "error", "-i"])
-        .arg(sample_video())
-        .args(["-c", "copy", "-metadata:s:v:0", "rotate=90"])
-        .arg(&rotated)
-        .status()
-        .unwrap();
-    assert!(status.success(), "ffmpeg could not tag the copy");
+    // FFmpeg 5 tags a stream copy through its `rotate` metadata; FFmpeg 6
+    // and later through the input option `-display_rotation`.
+    let tag = |before: &[&str], after: &[&str]| {
+        Command::new("ffmpeg")
+            .args(["-nostdin", "-v", "error", "-y"])
+            .args(before)
+            .arg("-i")
+            .arg(sample_video())
+            .args(["-c", "copy"])
+            .args(after)
+            .arg(&rotated)
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    let rotation = || {
+        let out = Command::new("ffprobe")
+            .args(["-v", "error", "-select_streams", "v:0"])
+            .args(["-show_entries", "stream_side_data=rotation"])
+            .args(["-of", "default=noprint_wrappers=1"])
+            .arg(&rotated)
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&out.stdout).contains("rotation=")
+    };
+    let tagged = (tag(&[], &["-metadata:s:v:0", "rotate=90"]) && rotation())
+        || (tag(&["-display_rotation", "90"], &[]) && rotation());
+    assert!(
+        tagged,
+        "ffmpeg could not make a copy tagged with a rotation"
+    );
     let p = probe(&rotated).unwrap();
     assert_eq!((p.width, p.height), (1280, 800));
     let rois = [
