@@ -220,3 +220,54 @@ fn a_seek_lands_in_videos_with_b_frames_and_a_late_start() {
         frames.len()
     );
 }
+
+/// A seek that brings no frame (past the end) makes the frames after it
+/// come under the wrong numbers: none of the seeks is trusted, even when
+/// the frame that came under the first number has that number's means.
+#[test]
+fn a_seek_that_brings_no_frame_leaves_every_frame_to_a_read_from_the_start() {
+    let path = reference("test_vid3.mp4");
+    let rects = rois();
+    let names: Vec<String> = (0..rects.len()).map(|i| format!("roi{i}")).collect();
+    let opts = opts(VideoDecode::Rgb);
+    let trace = capture::read_captures(&[path.as_path()], &rects, &names, &opts)
+        .unwrap()
+        .remove(0);
+    let video = trace.video.expect("a video says how it was read");
+    let origin = video
+        .origin_s
+        .expect("a video with times has a seek origin");
+    let k = 300;
+    let means: Vec<f64> = trace.luma.iter().map(|roi| roi[k]).collect();
+    let at = origin + (trace.time_s[k - 1] + trace.time_s[k]) / 2.0;
+    // Both entries carry frame 300's means: the past-the-end seek's would
+    // pass the means check if frame 300 came under its number.
+    let wanted = [
+        SeekTo {
+            frame: 10,
+            at_s: origin + 1000.0,
+            means: &means,
+        },
+        SeekTo {
+            frame: k as u64,
+            at_s: at,
+            means: &means,
+        },
+    ];
+    let seek = FrameSeek {
+        size: trace.frame_size,
+        video,
+        rois: &rects,
+        frames: &wanted,
+    };
+    let mut sink = Keep::default();
+    let landed = capture::read_video_frames_seeking(&path, &opts, &seek, &mut sink).unwrap();
+    assert_eq!(landed, [false, false]);
+    // Alone, the second seek lands.
+    let alone = FrameSeek {
+        frames: &wanted[1..],
+        ..seek
+    };
+    let landed = capture::read_video_frames_seeking(&path, &opts, &alone, &mut sink).unwrap();
+    assert_eq!(landed, [true]);
+}
