@@ -6,11 +6,14 @@
 //! wall time each, before anything else can start); the ISO base media
 //! file format (ISO/IEC 14496-12) states the size in the first video
 //! track's sample description, a few hundred bytes into the `moov` box.
-//! Anything this reader does not recognise (not an ISO file, no video
-//! track, a box that does not fit) gives `None`, and the caller asks
-//! ffprobe. The run reads the size again from ffprobe and checks the ROIs
-//! against that, so a file whose header disagrees with its stream is still
-//! refused with the run's own message.
+//! A muxer may write a size there that is not the stream's (ffprobe and
+//! the decoder go by the stream), so the size is taken only where the
+//! stream's own statement agrees: for H.264, the sequence parameter set in
+//! the same sample description. Anything else (another codec, not an ISO
+//! file, no video track, a box that does not fit, sizes that disagree)
+//! gives `None`, and the caller asks ffprobe.
+
+mod sps;
 
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
@@ -117,13 +120,33 @@ fn video_size(moov: &[u8]) -> Option<(u32, u32)> {
             let stbl = child(child(mdia, b"minf")?, b"stbl")?;
             // stsd: version and flags (4), entry_count (4), then the entries.
             let stsd = child(stbl, b"stsd")?;
-            let (_, entry) = boxes(stsd.get(8..)?).next()?;
+            let (kind, entry) = boxes(stsd.get(8..)?).next()?;
             // A visual sample entry: reserved (6), data_reference_index (2),
             // pre_defined and reserved (16), then width and height (2 each).
             let width = u16::from_be_bytes(entry.get(24..26)?.try_into().ok()?);
             let height = u16::from_be_bytes(entry.get(26..28)?.try_into().ok()?);
-            (width > 0 && height > 0).then_some((u32::from(width), u32::from(height)))
+            let size = (u32::from(width), u32::from(height));
+            (stream_size(&kind, entry)? == size).then_some(size)
         })
+}
+
+/// The picture size the stream itself states, from the sample entry's
+/// decoder configuration: for H.264 (`avc1`, `avc3`), the first sequence
+/// parameter set of its `avcC` box (ISO/IEC 14496-15). None for other
+/// codecs: their size is left to ffprobe.
+fn stream_size(kind: &[u8; 4], entry: &[u8]) -> Option<(u32, u32)> {
+    if !matches!(kind, b"avc1" | b"avc3") {
+        return None;
+    }
+    // The visual sample entry's fields take 78 bytes; its boxes follow.
+    let avcc = child(entry.get(78..)?, b"avcC")?;
+    // configurationVersion, profile, compatibility, level, lengthSizeMinusOne
+    // (1 each), then the number of sequence parameter sets (low 5 bits).
+    if avcc.get(5)? & 0x1f == 0 {
+        return None;
+    }
+    let len = usize::from(u16::from_be_bytes(avcc.get(6..8)?.try_into().ok()?));
+    sps::picture_size(avcc.get(8..8 + len)?)
 }
 
 #[cfg(test)]
@@ -140,9 +163,59 @@ mod tests {
         b
     }
 
+    /// Writes Exp-Golomb codes and bits, most significant first.
+    #[derive(Default)]
+    struct Writer(Vec<bool>);
+
+    impl Writer {
+        fn bits(&mut self, v: u32, n: u32) {
+            (0..n).rev().for_each(|i| self.0.push((v >> i) & 1 == 1));
+        }
+
+        fn ue(&mut self, v: u32) {
+            let n = 32 - (v + 1).leading_zeros();
+            self.bits(0, n - 1);
+            self.bits(v + 1, n);
+        }
+
+        fn bytes(mut self) -> Vec<u8> {
+            self.0.push(true); // rbsp_stop_one_bit
+            self.0
+                .chunks(8)
+                .map(|c| {
+                    c.iter()
+                        .enumerate()
+                        .fold(0u8, |b, (i, &x)| b | (u8::from(x) << (7 - i)))
+                })
+                .collect()
+        }
+    }
+
+    /// A Baseline-profile sequence parameter set for `w` x `h` pictures
+    /// (even sizes), cropped from whole macroblocks at the right and bottom.
+    fn sps(w: u32, h: u32) -> Vec<u8> {
+        let mut b = Writer::default();
+        b.bits(66, 8);
+        b.bits(0, 8);
+        b.bits(30, 8);
+        [0, 0, 2, 1].into_iter().for_each(|v| b.ue(v)); // id, frame_num, poc type 2, refs
+        b.bits(0, 1); // gaps
+        let (mbs_w, mbs_h) = (w.div_ceil(16), h.div_ceil(16));
+        b.ue(mbs_w - 1);
+        b.ue(mbs_h - 1);
+        b.bits(0b11, 2); // frame_mbs_only, direct_8x8_inference
+        let (right, bottom) = ((16 * mbs_w - w) / 2, (16 * mbs_h - h) / 2);
+        b.bits(u32::from(right + bottom > 0), 1);
+        if right + bottom > 0 {
+            [0, right, 0, bottom].into_iter().for_each(|v| b.ue(v));
+        }
+        b.bits(0, 1); // no VUI
+        [vec![0x67], b.bytes()].concat()
+    }
+
     /// A `moov` with one track of handler `handler` whose sample entry
-    /// states `w` x `h`.
-    fn moov(handler: &[u8; 4], w: u16, h: u16) -> Vec<u8> {
+    /// states `w` x `h` and whose stream states `stream`.
+    fn moov(handler: &[u8; 4], (w, h): (u16, u16), stream: (u32, u32)) -> Vec<u8> {
         let mut hdlr = vec![0u8; 8];
         hdlr.extend_from_slice(handler);
         hdlr.extend_from_slice(&[0u8; 12]);
@@ -150,6 +223,12 @@ mod tests {
         entry.extend_from_slice(&w.to_be_bytes());
         entry.extend_from_slice(&h.to_be_bytes());
         entry.extend_from_slice(&[0u8; 50]);
+        let nal = sps(stream.0, stream.1);
+        let mut avcc = vec![1, 66, 0, 30, 0xff, 0xe1];
+        avcc.extend_from_slice(&u16::try_from(nal.len()).unwrap().to_be_bytes());
+        avcc.extend_from_slice(&nal);
+        avcc.push(0); // no picture parameter set
+        entry.extend(boxed(b"avcC", &avcc));
         let mut stsd = vec![0, 0, 0, 0, 0, 0, 0, 1];
         stsd.extend(boxed(b"avc1", &entry));
         let stbl = boxed(b"stbl", &boxed(b"stsd", &stsd));
@@ -166,24 +245,31 @@ mod tests {
     }
 
     #[test]
-    fn the_first_video_tracks_sample_entry_gives_the_size() {
+    fn the_size_is_taken_where_the_header_and_the_stream_agree() {
         let ftyp = boxed(b"ftyp", b"isom\0\0\x02\0");
         let mdat = boxed(b"mdat", &[7u8; 100]);
-        let file = [ftyp.clone(), mdat.clone(), moov(b"vide", 1280, 800)].concat();
+        let at = |w: u16, h: u16| moov(b"vide", (w, h), (u32::from(w), u32::from(h)));
+        let file = [ftyp.clone(), mdat.clone(), at(1280, 800)].concat();
         assert_eq!(size_of_file(&file), Some((1280, 800)));
-        // moov before mdat (a "fast start" file).
-        let file = [ftyp.clone(), moov(b"vide", 640, 480), mdat.clone()].concat();
-        assert_eq!(size_of_file(&file), Some((640, 480)));
+        // moov before mdat (a "fast start" file); cropped macroblocks.
+        let file = [ftyp.clone(), at(642, 362), mdat.clone()].concat();
+        assert_eq!(size_of_file(&file), Some((642, 362)));
         // A sound track is not the video.
-        let file = [ftyp.clone(), moov(b"soun", 640, 480), mdat].concat();
-        assert_eq!(size_of_file(&file), None);
+        let sound = moov(b"soun", (640, 480), (640, 480));
+        assert_eq!(size_of_file(&[ftyp.clone(), sound].concat()), None);
+        // A header that states another size than its stream, either way.
+        for stream in [(640, 496), (640, 464), (642, 480)] {
+            let file = [ftyp.clone(), moov(b"vide", (640, 480), stream)].concat();
+            assert_eq!(size_of_file(&file), None, "stream {stream:?}");
+        }
     }
 
-    /// The header's size is ffprobe's, on the real P2020 recordings and on
-    /// files FFmpeg writes: H.264 with the `moov` at the end and at the
-    /// start, MPEG-4 Part 2, Motion JPEG in a QuickTime file, sizes that
-    /// are not multiples of 16; and the files FFmpeg reads but this reader
-    /// does not (Matroska, AVI) give None, so ffprobe answers for them.
+    /// Where the header reader answers, it gives ffprobe's size: on the real
+    /// P2020 recordings and on H.264 files FFmpeg writes (the `moov` at the
+    /// end and at the start, sizes that are not whole macroblocks, 4:4:4,
+    /// 4:2:2, grey, 10-bit, interlaced, scaling matrices). It answers for
+    /// every H.264 MP4 or MOV, and for nothing else: MPEG-4 Part 2, Motion
+    /// JPEG, Matroska and AVI are left to ffprobe.
     #[test]
     fn the_header_agrees_with_ffprobe() {
         // Like the integration tests: fail, never skip, without ffmpeg.
@@ -191,48 +277,59 @@ mod tests {
             super::super::ffmpeg_available(),
             "this test needs `ffmpeg` and `ffprobe` (scripts/test.sh installs them)"
         );
-        let data = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-            .join("reference-data/p2020-flicker-videos");
-        let mut iso: Vec<std::path::PathBuf> = (1..=3)
-            .map(|i| data.join(format!("test_vid{i}.mp4")))
+        let mut h264: Vec<std::path::PathBuf> = (1..=3)
+            .map(|i| super::super::tests::p2020_sample(&format!("test_vid{i}.mp4")))
             .collect();
         let dir = tempfile::tempdir().unwrap();
-        let made = [
-            ("h264-end.mp4", "libx264", "642x362", &[][..]),
+        // Codec, pixel format, further options.
+        type How = (&'static str, &'static str, &'static [&'static str]);
+        let x264 =
+            |pix: &'static str, extra: &'static [&'static str]| -> How { ("libx264", pix, extra) };
+        let made: [(&str, &str, How); 12] = [
+            ("end.mp4", "642x362", x264("yuv420p", &[])),
             (
-                "h264-start.mp4",
-                "libx264",
+                "start.mp4",
                 "1282x722",
-                &["-movflags", "+faststart"][..],
+                x264("yuv420p", &["-movflags", "+faststart"]),
             ),
-            ("mpeg4.mp4", "mpeg4", "320x240", &[][..]),
-            ("mjpeg.mov", "mjpeg", "200x150", &[][..]),
-            ("ffv1.mkv", "ffv1", "64x48", &[][..]),
-            ("mpeg4.avi", "mpeg4", "64x48", &[][..]),
+            ("hd.mov", "1920x1080", x264("yuv420p", &[])),
+            ("444.mp4", "322x242", x264("yuv444p", &[])),
+            ("422.mp4", "322x242", x264("yuv422p", &[])),
+            ("grey.mp4", "322x242", x264("gray", &[])),
+            ("10bit.mp4", "322x242", x264("yuv420p10le", &[])),
+            (
+                "fields.mp4",
+                "640x480",
+                x264("yuv420p", &["-flags", "+ildct+ilme"]),
+            ),
+            (
+                "cqm.mp4",
+                "322x242",
+                x264("yuv420p", &["-x264-params", "cqm=jvt"]),
+            ),
+            ("mpeg4.mp4", "320x240", ("mpeg4", "yuv420p", &[])),
+            ("mjpeg.mov", "200x150", ("mjpeg", "yuvj420p", &[])),
+            ("ffv1.mkv", "64x48", ("ffv1", "yuv420p", &[])),
         ];
-        for (name, codec, size, extra) in made {
+        let mut other = Vec::new();
+        for (name, size, (codec, pix, extra)) in made {
             let out = dir.path().join(name);
             let status = std::process::Command::new("ffmpeg")
                 .args(["-nostdin", "-v", "error", "-f", "lavfi", "-i"])
                 .arg(format!("testsrc=size={size}:rate=10:duration=0.5"))
-                .args(["-c:v", codec, "-pix_fmt"])
-                .arg(if codec == "mjpeg" {
-                    "yuvj420p"
-                } else {
-                    "yuv420p"
-                })
+                .args(["-c:v", codec, "-pix_fmt", pix])
                 .args(extra)
                 .arg(&out)
                 .status()
                 .unwrap();
             assert!(status.success(), "ffmpeg could not write {name}");
-            if name.ends_with(".mkv") || name.ends_with(".avi") {
-                assert_eq!(frame_size(&out), None, "{name}");
+            if codec == "libx264" {
+                h264.push(out)
             } else {
-                iso.push(out);
+                other.push(out)
             }
         }
-        for path in &iso {
+        for path in &h264 {
             let ours = frame_size(path);
             assert!(ours.is_some(), "{}", path.display());
             assert_eq!(
@@ -242,12 +339,38 @@ mod tests {
                 path.display()
             );
         }
+        for path in &other {
+            assert_eq!(frame_size(path), None, "{}", path.display());
+        }
+    }
+
+    /// A file whose sample entry states another size than its stream (as a
+    /// careless muxer writes) is left to ffprobe, whichever way it is off.
+    #[test]
+    fn a_header_that_disagrees_with_its_stream_is_left_to_ffprobe() {
+        assert!(super::super::ffmpeg_available(), "this test needs `ffmpeg`");
+        let path = super::super::tests::p2020_sample("test_vid3.mp4");
+        let bytes = std::fs::read(&path).unwrap();
+        // The sample entry, not the `avc1` brand of `ftyp`: its body starts
+        // with six reserved zero bytes.
+        let at = bytes
+            .windows(10)
+            .position(|w| w == b"avc1\0\0\0\0\0\0")
+            .unwrap();
+        // The entry's body starts after its type; its height is at 26..28.
+        for height in [784u16, 816] {
+            let mut edited = bytes.clone();
+            edited[at + 4 + 26..at + 4 + 28].copy_from_slice(&height.to_be_bytes());
+            assert_eq!(size_of_file(&edited), None, "height {height}");
+        }
+        assert_eq!(size_of_file(&bytes), Some((1280, 800)));
     }
 
     #[test]
     fn what_is_not_a_whole_iso_header_gives_none() {
         let ftyp = boxed(b"ftyp", b"isom\0\0\x02\0");
-        let whole = [ftyp.clone(), moov(b"vide", 1280, 800)].concat();
+        let whole = [ftyp.clone(), moov(b"vide", (1280, 800), (1280, 800))].concat();
+        assert_eq!(size_of_file(&whole), Some((1280, 800)));
         // Cut anywhere inside the moov box.
         for cut in ftyp.len()..whole.len() {
             assert_eq!(size_of_file(&whole[..cut]), None, "cut at {cut}");
@@ -256,11 +379,14 @@ mod tests {
         assert_eq!(size_of_file(&[0x1a, 0x45, 0xdf, 0xa3, 0, 0, 0, 0]), None);
         assert_eq!(size_of_file(b"time,roi\n0,1\n"), None);
         assert_eq!(size_of_file(b""), None);
-        // A box claiming more than the file holds, and a zero-size sample entry.
+        // A box claiming more than the file holds.
         let mut lying = whole.clone();
         lying[ftyp.len()..ftyp.len() + 4].copy_from_slice(&u32::MAX.to_be_bytes());
         assert_eq!(size_of_file(&lying), None);
-        let file = [ftyp, moov(b"vide", 0, 800)].concat();
-        assert_eq!(size_of_file(&file), None);
+        // Garbage in place of the parameter set, of every length: no panic.
+        for n in 0..64u8 {
+            let nal: Vec<u8> = (0..n).map(|i| i.wrapping_mul(37) ^ 0x5a).collect();
+            let _ = sps::picture_size(&[&[0x67][..], &nal].concat());
+        }
     }
 }
