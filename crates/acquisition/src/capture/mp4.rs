@@ -35,7 +35,41 @@ pub(super) fn frame_size(path: &Path) -> Option<(u32, u32)> {
     let mut file = File::open(path).ok()?;
     let len = file.metadata().ok()?.len();
     let moov = find_top_level(&mut file, len, *b"moov")?;
-    video_size(&moov)
+    let video = video_size(&moov)?;
+    // A stream may carry parameter sets in its samples too, and a decoder
+    // (and ffprobe) goes by those: the first sample's must agree as well.
+    let (offset, bytes) = video.first_sample;
+    if bytes > SAMPLE_MAX || offset.checked_add(bytes)? > len {
+        return None;
+    }
+    file.seek(SeekFrom::Start(offset)).ok()?;
+    let mut sample = vec![0u8; usize::try_from(bytes).ok()?];
+    file.read_exact(&mut sample).ok()?;
+    let mut rest = sample.as_slice();
+    while !rest.is_empty() {
+        let (head, body) = rest.split_at_checked(video.length_bytes)?;
+        let n = head.iter().fold(0usize, |n, &b| (n << 8) | usize::from(b));
+        let (nal, after) = body.split_at_checked(n)?;
+        if nal.first().is_some_and(|b| b & 0x1f == 7) && sps::picture_size(nal)? != video.size {
+            return None;
+        }
+        rest = after;
+    }
+    Some(video.size)
+}
+
+/// Largest first sample read, bytes: a key frame of an 8K stream is a few
+/// megabytes.
+const SAMPLE_MAX: u64 = 16 << 20;
+
+/// What the header says of the first video track.
+struct Video {
+    /// The size its sample description and parameter sets agree on.
+    size: (u32, u32),
+    /// Where its first sample is: file offset and length, bytes.
+    first_sample: (u64, u64),
+    /// Bytes of each NAL unit's length in a sample (1, 2 or 4).
+    length_bytes: usize,
 }
 
 /// The body of the first top-level box of type `want`, read whole.
@@ -107,46 +141,89 @@ fn child<'a>(body: &'a [u8], want: &[u8; 4]) -> Option<&'a [u8]> {
 }
 
 /// Width and height in the first sample entry of the first track of `moov`
-/// whose handler is `vide`.
-fn video_size(moov: &[u8]) -> Option<(u32, u32)> {
-    boxes(moov)
+/// whose handler is `vide`, where its H.264 parameter sets state the same;
+/// and where its first sample is.
+fn video_size(moov: &[u8]) -> Option<Video> {
+    let mdia = boxes(moov)
         .filter(|(k, _)| k == b"trak")
         .filter_map(|(_, trak)| child(trak, b"mdia"))
         .find(|mdia| {
             // hdlr: version and flags (4), pre_defined (4), handler_type (4).
             child(mdia, b"hdlr").and_then(|h| h.get(8..12)) == Some(b"vide")
-        })
-        .and_then(|mdia| {
-            let stbl = child(child(mdia, b"minf")?, b"stbl")?;
-            // stsd: version and flags (4), entry_count (4), then the entries.
-            let stsd = child(stbl, b"stsd")?;
-            let (kind, entry) = boxes(stsd.get(8..)?).next()?;
-            // A visual sample entry: reserved (6), data_reference_index (2),
-            // pre_defined and reserved (16), then width and height (2 each).
-            let width = u16::from_be_bytes(entry.get(24..26)?.try_into().ok()?);
-            let height = u16::from_be_bytes(entry.get(26..28)?.try_into().ok()?);
-            let size = (u32::from(width), u32::from(height));
-            (stream_size(&kind, entry)? == size).then_some(size)
-        })
+        })?;
+    let stbl = child(child(mdia, b"minf")?, b"stbl")?;
+    // stsd: version and flags (4), entry_count (4), then the entries.
+    let stsd = child(stbl, b"stsd")?;
+    let (kind, entry) = boxes(stsd.get(8..)?).next()?;
+    // A visual sample entry: reserved (6), data_reference_index (2),
+    // pre_defined and reserved (16), then width and height (2 each).
+    let width = u16::from_be_bytes(entry.get(24..26)?.try_into().ok()?);
+    let height = u16::from_be_bytes(entry.get(26..28)?.try_into().ok()?);
+    let size = (u32::from(width), u32::from(height));
+    let (stated, length_bytes) = stream_size(&kind, entry)?;
+    (stated == size).then_some(Video {
+        size,
+        first_sample: first_sample(stbl)?,
+        length_bytes,
+    })
+}
+
+/// File offset and length of the first sample of the track of `stbl`:
+/// the first chunk's offset (`stco` or `co64`) and the first sample's size
+/// (`stsz`). None without one (a fragmented file's samples are in its
+/// fragments).
+fn first_sample(stbl: &[u8]) -> Option<(u64, u64)> {
+    // stsz: version and flags (4), sample_size (4), sample_count (4), then
+    // each sample's size when sample_size is 0.
+    let stsz = child(stbl, b"stsz")?;
+    let be32 = |b: &[u8], at: usize| Some(u32::from_be_bytes(b.get(at..at + 4)?.try_into().ok()?));
+    if be32(stsz, 8)? == 0 {
+        return None;
+    }
+    let bytes = match be32(stsz, 4)? {
+        0 => be32(stsz, 12)?,
+        all => all,
+    };
+    // stco / co64: version and flags (4), entry_count (4), then offsets.
+    let offset = match child(stbl, b"stco") {
+        Some(stco) => u64::from(be32(stco, 8)?),
+        None => u64::from_be_bytes(child(stbl, b"co64")?.get(8..16)?.try_into().ok()?),
+    };
+    Some((offset, u64::from(bytes)))
 }
 
 /// The picture size the stream itself states, from the sample entry's
-/// decoder configuration: for H.264 (`avc1`, `avc3`), the first sequence
-/// parameter set of its `avcC` box (ISO/IEC 14496-15). None for other
+/// decoder configuration, and the bytes of a NAL unit's length in its
+/// samples: for H.264 (`avc1`, `avc3`), the sequence parameter sets of its
+/// `avcC` box (ISO/IEC 14496-15), which must all agree. None for other
 /// codecs: their size is left to ffprobe.
-fn stream_size(kind: &[u8; 4], entry: &[u8]) -> Option<(u32, u32)> {
+fn stream_size(kind: &[u8; 4], entry: &[u8]) -> Option<((u32, u32), usize)> {
     if !matches!(kind, b"avc1" | b"avc3") {
         return None;
     }
     // The visual sample entry's fields take 78 bytes; its boxes follow.
     let avcc = child(entry.get(78..)?, b"avcC")?;
     // configurationVersion, profile, compatibility, level, lengthSizeMinusOne
-    // (1 each), then the number of sequence parameter sets (low 5 bits).
-    if avcc.get(5)? & 0x1f == 0 {
+    // (low 2 bits), then the number of sequence parameter sets (low 5 bits),
+    // each after its 2-byte length.
+    let length_bytes = usize::from(avcc.get(4)? & 3) + 1;
+    if length_bytes == 3 {
         return None;
     }
-    let len = usize::from(u16::from_be_bytes(avcc.get(6..8)?.try_into().ok()?));
-    sps::picture_size(avcc.get(8..8 + len)?)
+    let mut rest = avcc.get(6..)?;
+    let mut size = None;
+    for _ in 0..avcc.get(5)? & 0x1f {
+        let (len, after) = rest.split_at_checked(2)?;
+        let len = usize::from(u16::from_be_bytes(len.try_into().ok()?));
+        let (nal, after) = after.split_at_checked(len)?;
+        let this = sps::picture_size(nal)?;
+        if size.is_some_and(|s| s != this) {
+            return None;
+        }
+        size = Some(this);
+        rest = after;
+    }
+    Some((size?, length_bytes))
 }
 
 #[cfg(test)]
@@ -214,8 +291,14 @@ mod tests {
     }
 
     /// A `moov` with one track of handler `handler` whose sample entry
-    /// states `w` x `h` and whose stream states `stream`.
-    fn moov(handler: &[u8; 4], (w, h): (u16, u16), stream: (u32, u32)) -> Vec<u8> {
+    /// states `w` x `h` and its stream `stream`, and whose first sample of
+    /// `bytes` bytes is at file offset `at`.
+    fn moov(
+        handler: &[u8; 4],
+        (w, h): (u16, u16),
+        stream: (u32, u32),
+        (at, bytes): (u32, u32),
+    ) -> Vec<u8> {
         let mut hdlr = vec![0u8; 8];
         hdlr.extend_from_slice(handler);
         hdlr.extend_from_slice(&[0u8; 12]);
@@ -231,10 +314,53 @@ mod tests {
         entry.extend(boxed(b"avcC", &avcc));
         let mut stsd = vec![0, 0, 0, 0, 0, 0, 0, 1];
         stsd.extend(boxed(b"avc1", &entry));
-        let stbl = boxed(b"stbl", &boxed(b"stsd", &stsd));
+        let stsz = [[0u8; 4], bytes.to_be_bytes(), 1u32.to_be_bytes()].concat();
+        let stco = [[0u8; 4], 1u32.to_be_bytes(), at.to_be_bytes()].concat();
+        let stbl = boxed(
+            b"stbl",
+            &[
+                boxed(b"stsd", &stsd),
+                boxed(b"stsz", &stsz),
+                boxed(b"stco", &stco),
+            ]
+            .concat(),
+        );
         let minf = boxed(b"minf", &stbl);
         let mdia = boxed(b"mdia", &[boxed(b"hdlr", &hdlr), minf].concat());
         boxed(b"moov", &boxed(b"trak", &mdia))
+    }
+
+    /// An MP4 file: `ftyp`, then an `mdat` holding one sample of the NAL
+    /// units `nals` (each after its 4-byte length) and the `moov` of
+    /// [`moov`], or the `moov` first when `fast_start`.
+    fn mp4(
+        handler: &[u8; 4],
+        header: (u16, u16),
+        stream: (u32, u32),
+        nals: &[Vec<u8>],
+        fast_start: bool,
+    ) -> Vec<u8> {
+        let ftyp = boxed(b"ftyp", b"isom\0\0\x02\0");
+        let sample: Vec<u8> = nals
+            .iter()
+            .flat_map(|n| {
+                [
+                    u32::try_from(n.len()).unwrap().to_be_bytes().to_vec(),
+                    n.clone(),
+                ]
+                .concat()
+            })
+            .collect();
+        let bytes = u32::try_from(sample.len()).unwrap();
+        let moov_len = moov(handler, header, stream, (0, bytes)).len();
+        let at = ftyp.len() + if fast_start { moov_len } else { 0 } + 8;
+        let moov = moov(handler, header, stream, (u32::try_from(at).unwrap(), bytes));
+        let mdat = boxed(b"mdat", &sample);
+        if fast_start {
+            [ftyp, moov, mdat].concat()
+        } else {
+            [ftyp, mdat, moov].concat()
+        }
     }
 
     fn size_of_file(bytes: &[u8]) -> Option<(u32, u32)> {
@@ -246,22 +372,57 @@ mod tests {
 
     #[test]
     fn the_size_is_taken_where_the_header_and_the_stream_agree() {
-        let ftyp = boxed(b"ftyp", b"isom\0\0\x02\0");
-        let mdat = boxed(b"mdat", &[7u8; 100]);
-        let at = |w: u16, h: u16| moov(b"vide", (w, h), (u32::from(w), u32::from(h)));
-        let file = [ftyp.clone(), mdat.clone(), at(1280, 800)].concat();
-        assert_eq!(size_of_file(&file), Some((1280, 800)));
+        let slice = vec![0x65, 0x88, 0x84, 0x00];
+        let at = |w: u16, h: u16, fast_start| {
+            let stream = (u32::from(w), u32::from(h));
+            mp4(
+                b"vide",
+                (w, h),
+                stream,
+                std::slice::from_ref(&slice),
+                fast_start,
+            )
+        };
+        assert_eq!(size_of_file(&at(1280, 800, false)), Some((1280, 800)));
         // moov before mdat (a "fast start" file); cropped macroblocks.
-        let file = [ftyp.clone(), at(642, 362), mdat.clone()].concat();
-        assert_eq!(size_of_file(&file), Some((642, 362)));
+        assert_eq!(size_of_file(&at(642, 362, true)), Some((642, 362)));
         // A sound track is not the video.
-        let sound = moov(b"soun", (640, 480), (640, 480));
-        assert_eq!(size_of_file(&[ftyp.clone(), sound].concat()), None);
+        let sound = mp4(
+            b"soun",
+            (640, 480),
+            (640, 480),
+            std::slice::from_ref(&slice),
+            false,
+        );
+        assert_eq!(size_of_file(&sound), None);
         // A header that states another size than its stream, either way.
         for stream in [(640, 496), (640, 464), (642, 480)] {
-            let file = [ftyp.clone(), moov(b"vide", (640, 480), stream)].concat();
+            let file = mp4(
+                b"vide",
+                (640, 480),
+                stream,
+                std::slice::from_ref(&slice),
+                false,
+            );
             assert_eq!(size_of_file(&file), None, "stream {stream:?}");
         }
+        // Parameter sets in the first sample: they must agree too.
+        let same = mp4(
+            b"vide",
+            (640, 480),
+            (640, 480),
+            &[sps(640, 480), slice.clone()],
+            false,
+        );
+        assert_eq!(size_of_file(&same), Some((640, 480)));
+        let other = mp4(
+            b"vide",
+            (640, 480),
+            (640, 480),
+            &[sps(624, 352), slice.clone()],
+            false,
+        );
+        assert_eq!(size_of_file(&other), None);
     }
 
     /// Where the header reader answers, it gives ffprobe's size: on the real
@@ -368,10 +529,11 @@ mod tests {
 
     #[test]
     fn what_is_not_a_whole_iso_header_gives_none() {
-        let ftyp = boxed(b"ftyp", b"isom\0\0\x02\0");
-        let whole = [ftyp.clone(), moov(b"vide", (1280, 800), (1280, 800))].concat();
+        let slice = vec![0x65, 0x88, 0x84, 0x00];
+        let whole = mp4(b"vide", (1280, 800), (1280, 800), &[slice], true);
         assert_eq!(size_of_file(&whole), Some((1280, 800)));
-        // Cut anywhere inside the moov box.
+        // Cut anywhere after the ftyp box: in the moov, or in the sample.
+        let ftyp = boxed(b"ftyp", b"isom\0\0\x02\0");
         for cut in ftyp.len()..whole.len() {
             assert_eq!(size_of_file(&whole[..cut]), None, "cut at {cut}");
         }

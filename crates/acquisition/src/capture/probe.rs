@@ -188,7 +188,7 @@ pub(super) fn probe(path: &Path) -> Result<Probe, CaptureError> {
 
 /// The frame size (width, height) of the first video stream of `path`,
 /// from the stream's header alone: no packet is listed or decoded. `None`
-/// when ffprobe cannot run or finds no video stream.
+/// when ffprobe cannot run, finds no video stream or lists it at 0 x 0.
 pub(super) fn frame_size(path: &Path) -> Option<(u32, u32)> {
     let out = run_ffprobe(path, "stream=width,height", SIZE_STALL).ok()?;
     if !out.status.success() {
@@ -204,7 +204,8 @@ pub(super) fn frame_size(path: &Path) -> Option<(u32, u32)> {
                 .ok()
         })
     };
-    Some((get("width")?, get("height")?))
+    // A damaged file's stream can be listed at 0 x 0: left to the run.
+    Some((get("width")?, get("height")?)).filter(|&(w, h)| w > 0 && h > 0)
 }
 
 /// The earliest packet presentation time in `text`, in time-base units.
