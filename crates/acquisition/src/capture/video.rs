@@ -375,9 +375,12 @@ fn spawn_ffmpeg(
             cmd.arg("-threads").arg(n.to_string());
         }
         // Frames as stored, whatever rotation the file tags them with for
-        // display: ffprobe's width and height, which the ROIs are checked
-        // against, are the stored picture's.
-        cmd.arg("-noautorotate").arg("-i").arg(path);
+        // display, and cropped exactly as the stream says (FFmpeg's H.264
+        // decoder otherwise keeps up to 31 columns of a left crop to align
+        // its rows): ffprobe's width and height, which the ROIs are checked
+        // against, are the picture's so read.
+        cmd.args(["-noautorotate", "-flags", "unaligned", "-i"])
+            .arg(path);
     };
     if seeks.is_empty() {
         input(&mut cmd, None);

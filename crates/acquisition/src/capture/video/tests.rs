@@ -173,6 +173,73 @@ fn a_video_tagged_with_a_rotation_is_read_as_stored() {
     assert!(a.picture == b.picture, "frame 200 differs");
 }
 
+/// A stream cropped from the left is read as cropped: ffprobe's width,
+/// and ROI means equal to the uncropped file's 14 columns to the right
+/// (on a picture that changes from column to column).
+#[test]
+fn a_stream_cropped_from_the_left_is_read_as_cropped() {
+    assert!(ffmpeg_available(), "this test needs `ffmpeg` and `ffprobe`");
+    let dir = tempfile::tempdir().unwrap();
+    let (whole, cropped) = (dir.path().join("whole.mp4"), dir.path().join("cropped.mp4"));
+    let ffmpeg = |args: &[&str], out: &Path| {
+        let status = Command::new("ffmpeg")
+            .args(["-nostdin", "-v", "error"])
+            .args(args)
+            .arg(out)
+            .status()
+            .unwrap();
+        assert!(status.success(), "ffmpeg could not write {}", out.display());
+    };
+    ffmpeg(
+        &[
+            "-f",
+            "lavfi",
+            "-i",
+            "testsrc2=size=320x240:rate=10:duration=1",
+        ]
+        .into_iter()
+        .chain(["-c:v", "libx264", "-pix_fmt", "yuv420p"])
+        .collect::<Vec<_>>(),
+        &whole,
+    );
+    let whole_arg = whole.to_string_lossy().into_owned();
+    ffmpeg(
+        &[
+            "-i",
+            &whole_arg,
+            "-c",
+            "copy",
+            "-bsf:v",
+            "h264_metadata=crop_left=14",
+        ],
+        &cropped,
+    );
+    let p = probe(&cropped).unwrap();
+    assert_eq!((p.width, p.height), (306, 240));
+    let rois = [
+        rect(0, 10, 20, 2),
+        rect(100, 100, 30, 20),
+        rect(280, 200, 26, 30),
+    ];
+    let moved: Vec<RoiRect> = rois
+        .iter()
+        .map(|r| rect(r.x + 14, r.y, r.width, r.height))
+        .collect();
+    let opts = rgb_opts();
+    let left = probe_and_read(&cropped, &rois, &opts).unwrap();
+    let shifted = probe_and_read(&whole, &moved, &opts).unwrap();
+    let unshifted = probe_and_read(&whole, &rois, &opts).unwrap();
+    assert_eq!(left.frame_size, (306, 240));
+    assert!(
+        shifted.luma != unshifted.luma,
+        "the picture does not change across columns"
+    );
+    assert!(
+        left.luma == shifted.luma,
+        "the ROI means are not the cropped picture's"
+    );
+}
+
 /// ffmpeg started before the probe reads the same trace as ffmpeg
 /// started after it, whether its layout is kept (inner ROIs) or not (a
 /// ROI at the frame's corner); an ROI outside the frame is the same
