@@ -24,7 +24,7 @@ Writes reference-data/p2020-flicker-videos/expected_p2020.csv (per video and
 ROI: fmi, fdi, mmp, x_off, sat), expected_grey_<video>.csv (per-frame ROI
 means, for decoder comparisons) and expected_tiff_rois.csv (ROI means of
 test.tiff, an LZW-compressed RGB frame). Usage:
-  pip install numpy opencv-python-headless
+  pip install numpy 'opencv-python-headless<5'   # OpenCV 4's 14-bit grey weights
   python3 scripts/p2020_reference.py
 """
 import csv
