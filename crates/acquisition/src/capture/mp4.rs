@@ -8,10 +8,12 @@
 //! track's sample description, a few hundred bytes into the `moov` box.
 //! A muxer may write a size there that is not the stream's (ffprobe and
 //! the decoder go by the stream), so the size is taken only where the
-//! stream's own statement agrees: for H.264, the sequence parameter set in
-//! the same sample description. Anything else (another codec, not an ISO
-//! file, no video track, a box that does not fit, sizes that disagree)
-//! gives `None`, and the caller asks ffprobe.
+//! stream's own statement agrees: for H.264, the sequence parameter sets in
+//! the same sample description and in the first sample. Anything else
+//! (another codec, not an ISO file, no video track, a layout in which
+//! FFmpeg might read another track or sample description, a box that does
+//! not fit, sizes that disagree) gives `None`, and the caller asks
+//! ffprobe.
 
 mod sps;
 
@@ -140,20 +142,41 @@ fn child<'a>(body: &'a [u8], want: &[u8; 4]) -> Option<&'a [u8]> {
     boxes(body).find(|(k, _)| k == want).map(|(_, b)| b)
 }
 
-/// Width and height in the first sample entry of the first track of `moov`
-/// whose handler is `vide`, where its H.264 parameter sets state the same;
-/// and where its first sample is.
+/// Width and height in the sample entry of the video track of `moov`,
+/// where its H.264 parameter sets state the same; and where its first
+/// sample is.
+///
+/// Only a plain layout is read, so that the track is surely the stream
+/// FFmpeg calls `v:0` and the entry surely the one its samples use: every
+/// track but one is sound (FFmpeg makes a track of any other handler a
+/// video stream when its sample entry is a video codec's), that one's
+/// handler is `vide`, it has one sample entry, and the file is not
+/// fragmented (no `mvex`: its samples are in fragments the header does
+/// not describe).
 fn video_size(moov: &[u8]) -> Option<Video> {
-    let mdia = boxes(moov)
+    if child(moov, b"mvex").is_some() {
+        return None;
+    }
+    // hdlr: version and flags (4), pre_defined (4), handler_type (4).
+    let handler = |mdia: &[u8]| {
+        child(mdia, b"hdlr")
+            .and_then(|h| h.get(8..12))
+            .map(<[u8]>::to_vec)
+    };
+    let mut not_sound = boxes(moov)
         .filter(|(k, _)| k == b"trak")
-        .filter_map(|(_, trak)| child(trak, b"mdia"))
-        .find(|mdia| {
-            // hdlr: version and flags (4), pre_defined (4), handler_type (4).
-            child(mdia, b"hdlr").and_then(|h| h.get(8..12)) == Some(b"vide")
-        })?;
+        .map(|(_, trak)| child(trak, b"mdia"))
+        .filter(|mdia| mdia.and_then(handler).as_deref() != Some(b"soun"));
+    let mdia = not_sound.next()??;
+    if not_sound.next().is_some() || handler(mdia).as_deref() != Some(b"vide") {
+        return None;
+    }
     let stbl = child(child(mdia, b"minf")?, b"stbl")?;
     // stsd: version and flags (4), entry_count (4), then the entries.
     let stsd = child(stbl, b"stsd")?;
+    if stsd.get(4..8)? != 1u32.to_be_bytes() {
+        return None;
+    }
     let (kind, entry) = boxes(stsd.get(8..)?).next()?;
     // A visual sample entry: reserved (6), data_reference_index (2),
     // pre_defined and reserved (16), then width and height (2 each).
@@ -271,11 +294,36 @@ mod tests {
     /// A Baseline-profile sequence parameter set for `w` x `h` pictures
     /// (even sizes), cropped from whole macroblocks at the right and bottom.
     fn sps(w: u32, h: u32) -> Vec<u8> {
+        sps_of(66, None, (w, h))
+    }
+
+    /// A sequence parameter set of profile `profile` (with 4:2:0 chroma
+    /// fields where FFmpeg reads them) and, with `poc_cycle`, picture order
+    /// count type 1 with that many reference frame offsets.
+    fn sps_of(profile: u32, poc_cycle: Option<u32>, (w, h): (u32, u32)) -> Vec<u8> {
         let mut b = Writer::default();
-        b.bits(66, 8);
+        b.bits(profile, 8);
         b.bits(0, 8);
         b.bits(30, 8);
-        [0, 0, 2, 1].into_iter().for_each(|v| b.ue(v)); // id, frame_num, poc type 2, refs
+        b.ue(0); // seq_parameter_set_id
+        if matches!(
+            profile,
+            100 | 110 | 122 | 244 | 44 | 83 | 86 | 118 | 128 | 138 | 144
+        ) {
+            [1, 0, 0].into_iter().for_each(|v| b.ue(v)); // 4:2:0, 8-bit luma and chroma
+            b.bits(0, 2); // no transform bypass, no scaling matrix
+        }
+        b.ue(0); // log2_max_frame_num_minus4
+        match poc_cycle {
+            None => b.ue(2),
+            Some(n) => {
+                b.ue(1);
+                b.bits(0, 1); // delta_pic_order_always_zero_flag
+                [0, 0, n].into_iter().for_each(|v| b.ue(v)); // two offsets, the cycle's length
+                (0..n).for_each(|_| b.ue(0)); // offset_for_ref_frame
+            }
+        }
+        b.ue(1); // max_num_ref_frames
         b.bits(0, 1); // gaps
         let (mbs_w, mbs_h) = (w.div_ceil(16), h.div_ceil(16));
         b.ue(mbs_w - 1);
@@ -295,25 +343,41 @@ mod tests {
     /// `bytes` bytes is at file offset `at`.
     fn moov(
         handler: &[u8; 4],
-        (w, h): (u16, u16),
+        header: (u16, u16),
         stream: (u32, u32),
-        (at, bytes): (u32, u32),
+        first_sample: (u32, u32),
     ) -> Vec<u8> {
+        boxed(b"moov", &trak(handler, &[(header, stream)], first_sample))
+    }
+
+    /// An `avc1` sample entry: the size its header states, its stream's size.
+    type Entry = ((u16, u16), (u32, u32));
+
+    /// A track of handler `handler` with one `avc1` sample entry per
+    /// `entries` item (the size its header states, its stream's size),
+    /// whose first sample of `bytes` bytes is at file offset `at`.
+    fn trak(handler: &[u8; 4], entries: &[Entry], (at, bytes): (u32, u32)) -> Vec<u8> {
         let mut hdlr = vec![0u8; 8];
         hdlr.extend_from_slice(handler);
         hdlr.extend_from_slice(&[0u8; 12]);
-        let mut entry = vec![0u8; 24];
-        entry.extend_from_slice(&w.to_be_bytes());
-        entry.extend_from_slice(&h.to_be_bytes());
-        entry.extend_from_slice(&[0u8; 50]);
-        let nal = sps(stream.0, stream.1);
-        let mut avcc = vec![1, 66, 0, 30, 0xff, 0xe1];
-        avcc.extend_from_slice(&u16::try_from(nal.len()).unwrap().to_be_bytes());
-        avcc.extend_from_slice(&nal);
-        avcc.push(0); // no picture parameter set
-        entry.extend(boxed(b"avcC", &avcc));
-        let mut stsd = vec![0, 0, 0, 0, 0, 0, 0, 1];
-        stsd.extend(boxed(b"avc1", &entry));
+        let mut stsd = [
+            [0u8; 4],
+            u32::try_from(entries.len()).unwrap().to_be_bytes(),
+        ]
+        .concat();
+        for &((w, h), stream) in entries {
+            let mut entry = vec![0u8; 24];
+            entry.extend_from_slice(&w.to_be_bytes());
+            entry.extend_from_slice(&h.to_be_bytes());
+            entry.extend_from_slice(&[0u8; 50]);
+            let nal = sps(stream.0, stream.1);
+            let mut avcc = vec![1, 66, 0, 30, 0xff, 0xe1];
+            avcc.extend_from_slice(&u16::try_from(nal.len()).unwrap().to_be_bytes());
+            avcc.extend_from_slice(&nal);
+            avcc.push(0); // no picture parameter set
+            entry.extend(boxed(b"avcC", &avcc));
+            stsd.extend(boxed(b"avc1", &entry));
+        }
         let stsz = [[0u8; 4], bytes.to_be_bytes(), 1u32.to_be_bytes()].concat();
         let stco = [[0u8; 4], 1u32.to_be_bytes(), at.to_be_bytes()].concat();
         let stbl = boxed(
@@ -327,7 +391,7 @@ mod tests {
         );
         let minf = boxed(b"minf", &stbl);
         let mdia = boxed(b"mdia", &[boxed(b"hdlr", &hdlr), minf].concat());
-        boxed(b"moov", &boxed(b"trak", &mdia))
+        boxed(b"trak", &mdia)
     }
 
     /// An MP4 file: `ftyp`, then an `mdat` holding one sample of the NAL
@@ -525,6 +589,84 @@ mod tests {
             assert_eq!(size_of_file(&edited), None, "height {height}");
         }
         assert_eq!(size_of_file(&bytes), Some((1280, 800)));
+    }
+
+    /// Where FFmpeg could read another stream or another sample entry than
+    /// the header reader would, the size is left to ffprobe.
+    #[test]
+    fn only_a_plain_layout_is_read() {
+        let ftyp = boxed(b"ftyp", b"isom\0\0\x02\0");
+        let sample = [4u32.to_be_bytes().to_vec(), vec![0x65, 0x88, 0x84, 0x00]].concat();
+        let first = (
+            u32::try_from(ftyp.len() + 8).unwrap(),
+            u32::try_from(sample.len()).unwrap(),
+        );
+        let file = |traks: &[&Vec<u8>], extra: &[u8]| {
+            let moov = [
+                traks.iter().copied().flatten().copied().collect(),
+                extra.to_vec(),
+            ]
+            .concat();
+            [ftyp.clone(), boxed(b"mdat", &sample), boxed(b"moov", &moov)].concat()
+        };
+        let vga = ((640, 480), (640, 480));
+        let qvga = ((320, 240), (320, 240));
+        let video = trak(b"vide", &[vga], first);
+        assert_eq!(size_of_file(&file(&[&video], &[])), Some((640, 480)));
+        // Sound tracks never become video streams.
+        let sound = trak(b"soun", &[qvga], first);
+        assert_eq!(
+            size_of_file(&file(&[&sound, &video], &[])),
+            Some((640, 480))
+        );
+        assert_eq!(
+            size_of_file(&file(&[&video, &sound], &[])),
+            Some((640, 480))
+        );
+        // FFmpeg makes an `avc1` track of another handler a video stream,
+        // which may come first; a second video track is as unclear.
+        for other in [b"auxv", b"vide", b"meta"] {
+            let other = trak(other, &[qvga], first);
+            assert_eq!(size_of_file(&file(&[&other, &video], &[])), None);
+            assert_eq!(size_of_file(&file(&[&video, &other], &[])), None);
+        }
+        assert_eq!(
+            size_of_file(&file(&[&trak(b"auxv", &[vga], first)], &[])),
+            None
+        );
+        // Two sample entries: the samples may use the second.
+        assert_eq!(
+            size_of_file(&file(&[&trak(b"vide", &[qvga, vga], first)], &[])),
+            None
+        );
+        // A fragmented file, even with samples in its `moov`.
+        assert_eq!(size_of_file(&file(&[&video], &boxed(b"mvex", &[]))), None);
+    }
+
+    /// The chroma fields are read for FFmpeg's list of profiles, and a set
+    /// FFmpeg refuses or would read otherwise gives no size.
+    #[test]
+    fn parameter_sets_are_read_as_ffmpeg_reads_them() {
+        let size = (642, 362);
+        for profile in [66, 77, 100, 110, 122, 244, 144] {
+            assert_eq!(
+                sps::picture_size(&sps_of(profile, None, size)),
+                Some((642, 362)),
+                "profile {profile}"
+            );
+        }
+        for profile in [134, 135, 139] {
+            assert_eq!(
+                sps::picture_size(&sps_of(profile, None, size)),
+                None,
+                "profile {profile}"
+            );
+        }
+        assert_eq!(
+            sps::picture_size(&sps_of(100, Some(255), size)),
+            Some((642, 362))
+        );
+        assert_eq!(sps::picture_size(&sps_of(100, Some(256), size)), None);
     }
 
     #[test]

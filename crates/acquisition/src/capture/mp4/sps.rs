@@ -75,9 +75,16 @@ pub(super) fn picture_size(nal: &[u8]) -> Option<(u32, u32)> {
     b.ue()?; // seq_parameter_set_id
     let mut chroma_format = 1;
     let mut separate_planes = false;
+    // The profiles whose sets carry the chroma format, as FFmpeg reads them:
+    // it also counts 144 (the withdrawn High 4:4:4) and not 134, 135 and
+    // 139 (MFC and multi-resolution profiles, which the standard lists). A
+    // set of those three would be read unlike FFmpeg, so it is not read.
+    if matches!(profile, 134 | 135 | 139) {
+        return None;
+    }
     if matches!(
         profile,
-        100 | 110 | 122 | 244 | 44 | 83 | 86 | 118 | 128 | 138 | 139 | 134 | 135
+        100 | 110 | 122 | 244 | 44 | 83 | 86 | 118 | 128 | 138 | 144
     ) {
         chroma_format = b.ue()?;
         if chroma_format > 3 {
@@ -107,7 +114,13 @@ pub(super) fn picture_size(nal: &[u8]) -> Option<(u32, u32)> {
             b.bit()?; // delta_pic_order_always_zero_flag
             b.se()?; // offset_for_non_ref_pic
             b.se()?; // offset_for_top_to_bottom_field
-            for _ in 0..b.ue()?.min(255) {
+            // num_ref_frames_in_pic_order_cnt_cycle: 0-255; FFmpeg refuses
+            // a set with more.
+            let cycle = b.ue()?;
+            if cycle > 255 {
+                return None;
+            }
+            for _ in 0..cycle {
                 b.se()?; // offset_for_ref_frame
             }
         }
