@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use ledflicker_acquisition::capture::{
-    self, ColourTransfer, FrameSeek, FrameSink, GreyFrame, LumaWeights, ReadOptions, RoiRect,
-    SeekTo, VideoDecode, VideoRange,
+    self, CaptureTrace, ColourTransfer, FrameSeek, FrameSink, GreyFrame, LumaWeights, ReadOptions,
+    RoiRect, SeekTo, VideoDecode, VideoRange,
 };
 
 fn reference(name: &str) -> PathBuf {
@@ -72,17 +72,28 @@ impl FrameSink for Keep {
 
 /// Seeks to every frame in `frames` of `path` and checks each one that
 /// lands against the read from the start; returns how many landed.
-fn check(path: &Path, decode: VideoDecode, frames: &[u64]) -> usize {
+/// The trace of the video at `path` over [`rois`], read from the start,
+/// and the time its seeks count from.
+fn read_trace(path: &Path, opts: &ReadOptions) -> (CaptureTrace, f64) {
     let rects = rois();
     let names: Vec<String> = (0..rects.len()).map(|i| format!("roi{i}")).collect();
-    let opts = opts(decode);
-    let trace = capture::read_captures(&[path], &rects, &names, &opts)
+    let trace = capture::read_captures(&[path], &rects, &names, opts)
         .unwrap()
         .remove(0);
-    let video = trace.video.expect("a video says how it was read");
-    let origin = video
+    let origin = trace
+        .video
+        .as_ref()
+        .expect("a video says how it was read")
         .origin_s
         .expect("a video with times has a seek origin");
+    (trace, origin)
+}
+
+fn check(path: &Path, decode: VideoDecode, frames: &[u64]) -> usize {
+    let rects = rois();
+    let opts = opts(decode);
+    let (trace, origin) = read_trace(path, &opts);
+    let video = trace.video.unwrap();
     let mut whole = Keep {
         want: frames.to_vec(),
         ..Keep::default()
@@ -228,15 +239,9 @@ fn a_seek_lands_in_videos_with_b_frames_and_a_late_start() {
 fn a_seek_that_brings_no_frame_leaves_every_frame_to_a_read_from_the_start() {
     let path = reference("test_vid3.mp4");
     let rects = rois();
-    let names: Vec<String> = (0..rects.len()).map(|i| format!("roi{i}")).collect();
     let opts = opts(VideoDecode::Rgb);
-    let trace = capture::read_captures(&[path.as_path()], &rects, &names, &opts)
-        .unwrap()
-        .remove(0);
-    let video = trace.video.expect("a video says how it was read");
-    let origin = video
-        .origin_s
-        .expect("a video with times has a seek origin");
+    let (trace, origin) = read_trace(&path, &opts);
+    let video = trace.video.unwrap();
     let k = 300;
     let means: Vec<f64> = trace.luma.iter().map(|roi| roi[k]).collect();
     let at = origin + (trace.time_s[k - 1] + trace.time_s[k]) / 2.0;
