@@ -163,14 +163,25 @@ fn video_size(moov: &[u8]) -> Option<Video> {
             .and_then(|h| h.get(8..12))
             .map(<[u8]>::to_vec)
     };
-    let mut not_sound = boxes(moov)
-        .filter(|(k, _)| k == b"trak")
-        .map(|(_, trak)| child(trak, b"mdia"))
-        .filter(|mdia| mdia.and_then(handler).as_deref() != Some(b"soun"));
-    let mdia = not_sound.next()??;
-    if not_sound.next().is_some() || handler(mdia).as_deref() != Some(b"vide") {
-        return None;
+    // FFmpeg numbers its streams as it meets them: a cover picture (`covr`,
+    // in a `udta` or `meta` box) met before the video track is `v:0`.
+    let mut video = None;
+    for (kind, body) in boxes(moov) {
+        match &kind {
+            b"udta" | b"meta" if video.is_none() => return None,
+            b"trak" => {
+                let mdia = child(body, b"mdia")?;
+                if handler(mdia).as_deref() == Some(b"soun") {
+                    continue;
+                }
+                if video.replace(mdia).is_some() || handler(mdia).as_deref() != Some(b"vide") {
+                    return None;
+                }
+            }
+            _ => {}
+        }
     }
+    let mdia = video?;
     let stbl = child(child(mdia, b"minf")?, b"stbl")?;
     // stsd: version and flags (4), entry_count (4), then the entries.
     let stsd = child(stbl, b"stsd")?;
@@ -601,46 +612,42 @@ mod tests {
             u32::try_from(ftyp.len() + 8).unwrap(),
             u32::try_from(sample.len()).unwrap(),
         );
-        let file = |traks: &[&Vec<u8>], extra: &[u8]| {
-            let moov = [
-                traks.iter().copied().flatten().copied().collect(),
-                extra.to_vec(),
-            ]
-            .concat();
+        // A file whose `moov` holds the boxes `children`, in this order.
+        let file = |children: &[&Vec<u8>]| {
+            let moov: Vec<u8> = children.iter().copied().flatten().copied().collect();
             [ftyp.clone(), boxed(b"mdat", &sample), boxed(b"moov", &moov)].concat()
         };
         let vga = ((640, 480), (640, 480));
         let qvga = ((320, 240), (320, 240));
         let video = trak(b"vide", &[vga], first);
-        assert_eq!(size_of_file(&file(&[&video], &[])), Some((640, 480)));
+        assert_eq!(size_of_file(&file(&[&video])), Some((640, 480)));
         // Sound tracks never become video streams.
         let sound = trak(b"soun", &[qvga], first);
-        assert_eq!(
-            size_of_file(&file(&[&sound, &video], &[])),
-            Some((640, 480))
-        );
-        assert_eq!(
-            size_of_file(&file(&[&video, &sound], &[])),
-            Some((640, 480))
-        );
+        assert_eq!(size_of_file(&file(&[&sound, &video])), Some((640, 480)));
+        assert_eq!(size_of_file(&file(&[&video, &sound])), Some((640, 480)));
         // FFmpeg makes an `avc1` track of another handler a video stream,
         // which may come first; a second video track is as unclear.
         for other in [b"auxv", b"vide", b"meta"] {
             let other = trak(other, &[qvga], first);
-            assert_eq!(size_of_file(&file(&[&other, &video], &[])), None);
-            assert_eq!(size_of_file(&file(&[&video, &other], &[])), None);
+            assert_eq!(size_of_file(&file(&[&other, &video])), None);
+            assert_eq!(size_of_file(&file(&[&video, &other])), None);
         }
-        assert_eq!(
-            size_of_file(&file(&[&trak(b"auxv", &[vga], first)], &[])),
-            None
-        );
+        assert_eq!(size_of_file(&file(&[&trak(b"auxv", &[vga], first)])), None);
         // Two sample entries: the samples may use the second.
         assert_eq!(
-            size_of_file(&file(&[&trak(b"vide", &[qvga, vga], first)], &[])),
+            size_of_file(&file(&[&trak(b"vide", &[qvga, vga], first)])),
             None
         );
         // A fragmented file, even with samples in its `moov`.
-        assert_eq!(size_of_file(&file(&[&video], &boxed(b"mvex", &[]))), None);
+        assert_eq!(size_of_file(&file(&[&video, &boxed(b"mvex", &[])])), None);
+        // User data or metadata (where a cover picture lives, a stream of
+        // its own to FFmpeg) before the video track, not after it.
+        for kind in [b"udta", b"meta"] {
+            let data = boxed(kind, &boxed(b"covr", &[]));
+            assert_eq!(size_of_file(&file(&[&data, &video])), None);
+            assert_eq!(size_of_file(&file(&[&sound, &data, &video])), None);
+            assert_eq!(size_of_file(&file(&[&video, &data])), Some((640, 480)));
+        }
     }
 
     /// The chroma fields are read for FFmpeg's list of profiles, and a set
