@@ -150,19 +150,13 @@ fn child<'a>(body: &'a [u8], want: &[u8; 4]) -> Option<&'a [u8]> {
 /// FFmpeg calls `v:0` and the entry surely the one its samples use: every
 /// track but one is sound (FFmpeg makes a track of any other handler a
 /// video stream when its sample entry is a video codec's), that one's
-/// handler is `vide`, it has one sample entry, and the file is not
-/// fragmented (no `mvex`: its samples are in fragments the header does
-/// not describe).
+/// handler is `vide`, it has one sample entry, no user data or metadata
+/// comes before it, and the file is not fragmented (no `mvex`: its samples
+/// are in fragments the header does not describe).
 fn video_size(moov: &[u8]) -> Option<Video> {
     if child(moov, b"mvex").is_some() {
         return None;
     }
-    // hdlr: version and flags (4), pre_defined (4), handler_type (4).
-    let handler = |mdia: &[u8]| {
-        child(mdia, b"hdlr")
-            .and_then(|h| h.get(8..12))
-            .map(<[u8]>::to_vec)
-    };
     // FFmpeg numbers its streams as it meets them: a cover picture (`covr`,
     // in a `udta` or `meta` box) met before the video track is `v:0`.
     let mut video = None;
@@ -171,10 +165,10 @@ fn video_size(moov: &[u8]) -> Option<Video> {
             b"udta" | b"meta" if video.is_none() => return None,
             b"trak" => {
                 let mdia = child(body, b"mdia")?;
-                if handler(mdia).as_deref() == Some(b"soun") {
+                if handler(mdia) == Some(b"soun") {
                     continue;
                 }
-                if video.replace(mdia).is_some() || handler(mdia).as_deref() != Some(b"vide") {
+                if video.replace(mdia).is_some() || handler(mdia) != Some(b"vide") {
                     return None;
                 }
             }
@@ -200,6 +194,12 @@ fn video_size(moov: &[u8]) -> Option<Video> {
         first_sample: first_sample(stbl)?,
         length_bytes,
     })
+}
+
+/// The handler type of the track of `mdia`: `vide`, `soun` and so on.
+fn handler(mdia: &[u8]) -> Option<&[u8]> {
+    // hdlr: version and flags (4), pre_defined (4), handler_type (4).
+    child(mdia, b"hdlr")?.get(8..12)
 }
 
 /// File offset and length of the first sample of the track of `stbl`:
