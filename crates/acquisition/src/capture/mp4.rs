@@ -29,10 +29,11 @@ const MOOV_MAX: u64 = 64 << 20;
 /// handful (`ftyp`, `moov`, `mdat`, maybe `free`, `uuid`, fragments).
 const TOP_LEVEL_MAX: usize = 4096;
 
-/// Width and height of the first video track of the ISO base media file
-/// at `path`, from its sample description; `None` when the file is not one
+/// Width and height of the video track of the ISO base media file at
+/// `path`, from its sample description; `None` when the file is not one
 /// (its first box is not `ftyp`, or QuickTime's `wide`, `free`, `mdat`,
-/// `moov`) or its header cannot be read.
+/// `moov`), its header cannot be read, or its layout is not the plain one
+/// [`video_size`] reads.
 pub(super) fn frame_size(path: &Path) -> Option<(u32, u32)> {
     let mut file = File::open(path).ok()?;
     let len = file.metadata().ok()?.len();
@@ -64,7 +65,7 @@ pub(super) fn frame_size(path: &Path) -> Option<(u32, u32)> {
 /// megabytes.
 const SAMPLE_MAX: u64 = 16 << 20;
 
-/// What the header says of the first video track.
+/// What the header says of the video track.
 struct Video {
     /// The size its sample description and parameter sets agree on.
     size: (u32, u32),

@@ -199,8 +199,9 @@ pub(super) fn fit_captures(
             sources.push((&case.source, &case.id));
         }
     }
-    // Each video's size comes from an ffprobe process: probed together,
-    // a plan of several videos waits for one probe, not one after another.
+    // A video's size may take an ffprobe process (where its header alone
+    // does not settle it): read together, a plan of several videos waits
+    // for one probe, not one after another.
     let mut frames: Vec<(&Path, (u32, u32), &str)> = Vec::new();
     for group in sources.chunks(PROBED_AT_ONCE) {
         let sizes: Vec<Option<(u32, u32)>> = std::thread::scope(|s| {
